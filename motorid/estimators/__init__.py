@@ -1,0 +1,30 @@
+"""Recursive estimators behind one filterpy-style interface, and their registry.
+
+>>> from motorid.estimators import create
+>>> est = create("hammerstein-rls", na=4, nb=4, degree=3, lam=0.99)
+"""
+
+from motorid.estimators.arx import ARXRLS
+from motorid.estimators.base import BatchResult, Estimator
+from motorid.estimators.basis import Basis, BasisFunction, basis_from_spec, dead_zone, polynomial, power, sign
+from motorid.estimators.hammerstein import HammersteinRLS
+from motorid.estimators.registry import ENTRY_POINT_GROUP, available, create, register, unregister
+
+__all__ = [
+    "ARXRLS",
+    "ENTRY_POINT_GROUP",
+    "Basis",
+    "BasisFunction",
+    "BatchResult",
+    "Estimator",
+    "HammersteinRLS",
+    "available",
+    "basis_from_spec",
+    "create",
+    "dead_zone",
+    "polynomial",
+    "power",
+    "register",
+    "sign",
+    "unregister",
+]

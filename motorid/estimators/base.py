@@ -1,0 +1,329 @@
+"""The one interface every motorid estimator follows.
+
+The conventions are filterpy's: a recursive estimator is a Kalman-type filter with
+an estimate ``x`` and its covariance ``P``; :meth:`Estimator.predict` applies the
+time update and :meth:`Estimator.update` the measurement update. Unlike filterpy,
+``x`` is a 1-D array of shape ``(n,)`` and the output is a scalar, so ``y``
+(innovation), ``S`` (innovation variance) and the likelihoods are floats.
+
+Inside a sample loop::
+
+    y_hat = est.predict(u_t)   # time update with this sample's input [V]
+    est.update(y_t)            # measurement update with the measured output (None skips)
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+import pandas as pd
+from numpy.typing import ArrayLike
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class BatchResult:
+    """Per-sample arrays returned by :meth:`Estimator.batch_filter`.
+
+    Attributes
+    ----------
+    x : ndarray, shape (N, n)
+        Posterior estimate after each sample.
+    P_diag : ndarray, shape (N, n)
+        Diagonal of the posterior covariance after each sample.
+    y_hat : ndarray, shape (N,)
+        Prior (one-step-ahead) prediction of the output, in the output's unit.
+    innovation : ndarray, shape (N,)
+        ``z - y_hat``; NaN where the measurement was skipped.
+    S : ndarray, shape (N,)
+        Innovation variance, in the output's unit squared.
+    names : tuple of str
+        Name of each entry of ``x``.
+    """
+
+    x: np.ndarray
+    P_diag: np.ndarray
+    y_hat: np.ndarray
+    innovation: np.ndarray
+    S: np.ndarray
+    names: tuple[str, ...]
+
+    def __len__(self) -> int:
+        return len(self.y_hat)
+
+    def to_frame(self) -> pd.DataFrame:
+        """The result as a DataFrame: ``y_hat``, ``innovation``, ``S``, one column per
+        estimate and ``var_<name>`` per covariance diagonal entry."""
+        columns: dict[str, np.ndarray] = {
+            "y_hat": self.y_hat,
+            "innovation": self.innovation,
+            "S": self.S,
+        }
+        for i, name in enumerate(self.names):
+            columns[name] = self.x[:, i]
+        for i, name in enumerate(self.names):
+            columns[f"var_{name}"] = self.P_diag[:, i]
+        return pd.DataFrame(columns)
+
+
+def as_float_vector(value: ArrayLike, name: str) -> np.ndarray:
+    """``value`` as a 1-D float array; a ValueError naming ``name`` otherwise."""
+    try:
+        array = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a 1-D array of numbers: {exc}") from None
+    if array.ndim != 1:
+        raise ValueError(f"{name} must be 1-D, got shape {array.shape}")
+    return array
+
+
+def first_bad_index(values: np.ndarray) -> int | None:
+    """Index of the first non-finite entry of ``values``, or None."""
+    bad = np.flatnonzero(~np.isfinite(values))
+    return int(bad[0]) if bad.size else None
+
+
+def measurement_array(z: ArrayLike | Sequence[float | None], n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Split a measurement record into values and a mask of the samples present.
+
+    ``None`` entries (as in filterpy's ``batch_filter``) mark skipped samples; the
+    returned value there is NaN and the mask False.
+    """
+    if isinstance(z, np.ndarray) and z.dtype != object:
+        values = as_float_vector(z, "z")
+        present = np.ones(values.shape, dtype=bool)
+    else:
+        items = list(z)  # type: ignore[arg-type]
+        present = np.array([item is not None for item in items], dtype=bool)
+        try:
+            values = np.array([np.nan if item is None else item for item in items], dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"z must hold numbers or None: {exc}") from None
+    if values.shape != (n,):
+        raise ValueError(f"z must have the length of u ({n}), got shape {values.shape}")
+    return values, present
+
+
+class Estimator(ABC):
+    """Base class of every recursive estimator of a single-input single-output drive.
+
+    Subclasses implement :meth:`predict`, :meth:`update`, :attr:`params`,
+    :meth:`simulate` and :meth:`reset`, keep the attributes below current, and may
+    override :meth:`batch_filter` with a compiled path that gives the same numbers
+    as the sample loop.
+
+    Attributes
+    ----------
+    x : ndarray, shape (n,)
+        Current estimate.
+    P : ndarray, shape (n, n)
+        Covariance of ``x``, kept symmetric positive definite.
+    x_prior, P_prior : ndarray
+        Estimate and covariance after the last :meth:`predict`.
+    x_post, P_post : ndarray
+        Estimate and covariance after the last :meth:`update`. Each step makes new
+        arrays and never changes these in place, so they may be the same objects
+        as ``x`` and ``P``; copy before changing one in place.
+    y : float
+        Innovation ``z - y_hat`` of the last update (0.0 when it was skipped).
+    S : float
+        Innovation variance of the last update, in the output's unit squared.
+    K : ndarray, shape (n,)
+        Gain of the last update.
+    z : float or None
+        Last measurement given to :meth:`update`.
+    sample_index : int
+        Number of samples (calls of :meth:`predict`) processed since :meth:`reset`.
+    """
+
+    #: name under which the estimator is registered (``motorid.estimators.create``)
+    name: ClassVar[str] = ""
+    #: True where a NaN measurement is skipped with a warning instead of raising
+    skips_nan_measurements: ClassVar[bool] = False
+
+    x: np.ndarray
+    P: np.ndarray
+    x_prior: np.ndarray
+    P_prior: np.ndarray
+    x_post: np.ndarray
+    P_post: np.ndarray
+    y: float
+    S: float
+    K: np.ndarray
+    z: float | None
+    sample_index: int
+
+    # ------------------------------------------------------------------ contract
+    @abstractmethod
+    def predict(self, u: float) -> float:
+        """Time update with this sample's input ``u`` [V]; returns the predicted output."""
+
+    @abstractmethod
+    def update(self, z: float | None) -> None:
+        """Measurement update with the measured output ``z``; ``None`` skips it."""
+
+    @property
+    @abstractmethod
+    def params(self) -> dict[str, Any]:
+        """Named estimates (floats or 1-D arrays), e.g. ``a``, ``b``, ``gamma``."""
+
+    @property
+    @abstractmethod
+    def state_names(self) -> tuple[str, ...]:
+        """Name of each entry of ``x``, e.g. ``("a1", "a2", "b0", ...)``."""
+
+    @abstractmethod
+    def simulate(self, u: ArrayLike) -> np.ndarray:
+        """Free-run output of the identified model driven by the input record ``u`` [V]."""
+
+    @abstractmethod
+    def reset(self) -> None:
+        """Return to the initial estimate, covariance and (empty) signal history."""
+
+    # ------------------------------------------------------------------ shared
+    @property
+    def dim_x(self) -> int:
+        """Number of estimated quantities."""
+        return len(self.x)
+
+    @property
+    def log_likelihood(self) -> float:
+        """Log-likelihood of the last innovation, ``-(y^2/S + log(2 pi S)) / 2``."""
+        if self.S <= 0.0:
+            return math.log(np.finfo(float).tiny)
+        return -0.5 * (self.y * self.y / self.S + math.log(2.0 * math.pi * self.S))
+
+    @property
+    def likelihood(self) -> float:
+        """Likelihood of the last innovation, floored at the smallest positive float."""
+        return max(math.exp(self.log_likelihood), np.finfo(float).tiny)
+
+    @property
+    def mahalanobis(self) -> float:
+        """Mahalanobis distance of the last innovation, ``|y| / sqrt(S)``."""
+        if self.S <= 0.0:
+            return 0.0
+        return abs(self.y) / math.sqrt(self.S)
+
+    def check_input(self, u: float) -> float:
+        """``u`` as a float, or a ValueError naming the sample when it is not finite."""
+        try:
+            value = float(u)
+        except (TypeError, ValueError):
+            raise ValueError(f"u at sample {self.sample_index} must be a number, got {u!r}") from None
+        if not math.isfinite(value):
+            raise ValueError(f"u at sample {self.sample_index} is {value}: the input must be finite")
+        return value
+
+    def check_measurement(self, z: float) -> float | None:
+        """``z`` as a float; a non-finite value raises, or is skipped with a warning
+        (returning None) where the estimator :attr:`skips_nan_measurements`."""
+        try:
+            value = float(z)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"z at sample {self.sample_index - 1} must be a number or None, got {z!r}"
+            ) from None
+        if math.isnan(value) and self.skips_nan_measurements:
+            logger.warning("z at sample %d is NaN: measurement skipped", self.sample_index - 1)
+            return None
+        if not math.isfinite(value):
+            raise ValueError(
+                f"z at sample {self.sample_index - 1} is {value}: the measurement must be finite"
+            )
+        return value
+
+    def check_record(
+        self, u: ArrayLike, z: ArrayLike | Sequence[float | None]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Validate a whole record before anything is changed.
+
+        Returns ``(u, z, present)`` with ``z`` NaN and ``present`` False where the
+        measurement is skipped.
+        """
+        u_arr = as_float_vector(u, "u")
+        bad = first_bad_index(u_arr)
+        if bad is not None:
+            raise ValueError(f"u[{bad}] = {u_arr[bad]} is not finite: the input must be finite")
+        z_arr, present = measurement_array(z, len(u_arr))
+        nan_z = present & np.isnan(z_arr)
+        if self.skips_nan_measurements:
+            if nan_z.any():
+                logger.warning("%d NaN measurements skipped", int(nan_z.sum()))
+            present = present & ~nan_z
+        bad = first_bad_index(np.where(present, z_arr, 0.0))
+        if bad is not None:
+            raise ValueError(f"z[{bad}] = {z_arr[bad]} is not finite: the measurement must be finite")
+        return u_arr, z_arr, present
+
+    def batch_filter(
+        self,
+        u: ArrayLike,
+        z: ArrayLike | Sequence[float | None],
+        saver: Any = None,
+    ) -> BatchResult:
+        """Run the estimator over a whole record, one :meth:`predict` and one
+        :meth:`update` per sample, continuing from the current state.
+
+        Parameters
+        ----------
+        u : array_like, shape (N,)
+            Input record [V].
+        z : array_like, shape (N,)
+            Measured output; ``None`` entries are skipped, as in filterpy.
+        saver : filterpy.common.Saver, optional
+            Called with ``save()`` after every sample.
+
+        Returns
+        -------
+        BatchResult
+            Per-sample estimates, covariance diagonals, predictions, innovations.
+
+        Raises
+        ------
+        ValueError
+            When ``u`` or ``z`` holds a non-finite value (naming its index) or
+            their lengths differ; nothing has been changed then.
+        """
+        u_arr, z_arr, present = self.check_record(u, z)
+        n_samples, n = len(u_arr), self.dim_x
+        x_hist = np.empty((n_samples, n))
+        p_diag = np.empty((n_samples, n))
+        y_hat = np.empty(n_samples)
+        innovation = np.full(n_samples, np.nan)
+        s_hist = np.empty(n_samples)
+        for t in range(n_samples):
+            y_hat[t] = self.predict(u_arr[t])
+            self.update(z_arr[t] if present[t] else None)
+            if present[t]:
+                innovation[t] = self.y
+            x_hist[t] = self.x
+            p_diag[t] = np.diag(self.P)
+            s_hist[t] = self.S
+            if saver is not None:
+                saver.save()
+        return BatchResult(x_hist, p_diag, y_hat, innovation, s_hist, self.state_names)
+
+    def __repr__(self) -> str:
+        lines = [f"{type(self).__name__} object"]
+        for attr in ("x", "P", "x_prior", "P_prior", "x_post", "P_post", "K", "y", "S", "z"):
+            lines.append(_pretty(attr, getattr(self, attr, None)))
+        lines.append(_pretty("sample_index", self.sample_index))
+        lines.append(_pretty("log-likelihood", self.log_likelihood))
+        lines.append(_pretty("mahalanobis", self.mahalanobis))
+        return "\n".join(lines)
+
+
+def _pretty(label: str, value: Any) -> str:
+    """filterpy's ``pretty_str`` layout: ``label = value`` with arrays on new lines."""
+    if isinstance(value, np.ndarray):
+        text = np.array2string(value, precision=6, suppress_small=True)
+        return f"{label} = " + ("\n" + text if "\n" in text else text)
+    return f"{label} = {value}"

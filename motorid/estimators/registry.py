@@ -1,0 +1,102 @@
+"""The estimator registry: built-in names, names registered at run time, and plugins.
+
+A package adds an estimator without touching motorid by declaring an entry point in
+the group ``motorid.estimators``, e.g. in its ``pyproject.toml``::
+
+    [project.entry-points."motorid.estimators"]
+    my-estimator = "my_package.module:MyEstimator"
+
+The entry point names a class (or any factory) whose call with keyword arguments
+returns an :class:`~motorid.estimators.base.Estimator`.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from importlib.metadata import entry_points
+from typing import Any
+
+from motorid.estimators.arx import ARXRLS
+from motorid.estimators.base import Estimator
+from motorid.estimators.hammerstein import HammersteinRLS
+
+logger = logging.getLogger(__name__)
+
+ENTRY_POINT_GROUP = "motorid.estimators"
+
+EstimatorFactory = Callable[..., Estimator]
+
+_BUILT_IN: dict[str, EstimatorFactory] = {
+    ARXRLS.name: ARXRLS,
+    HammersteinRLS.name: HammersteinRLS,
+}
+_REGISTERED: dict[str, EstimatorFactory] = {}
+
+
+def register(name: str, factory: EstimatorFactory, *, replace: bool = False) -> None:
+    """Register ``factory`` under ``name`` for this process.
+
+    Raises
+    ------
+    ValueError
+        When the name is empty or taken (unless ``replace``), or the factory is not callable.
+    """
+    if not isinstance(name, str) or not name.strip():
+        raise ValueError(f"name must be a non-empty string, got {name!r}")
+    if not callable(factory):
+        raise ValueError(f"factory for {name!r} must be callable, got {factory!r}")
+    if not replace and name in _factories():
+        raise ValueError(f"estimator name {name!r} is taken; pass replace=True to override it")
+    _REGISTERED[name] = factory
+
+
+def unregister(name: str) -> None:
+    """Forget a name registered with :func:`register` (built-ins and plugins stay)."""
+    if name not in _REGISTERED:
+        raise ValueError(f"{name!r} was not registered with register()")
+    del _REGISTERED[name]
+
+
+def _plugins() -> dict[str, EstimatorFactory | None]:
+    """Entry points of the group, loaded lazily; a plugin that fails to load is
+    logged and left out."""
+    found: dict[str, EstimatorFactory | None] = {}
+    for ep in entry_points(group=ENTRY_POINT_GROUP):
+        if ep.name in _BUILT_IN:
+            continue
+        try:
+            found[ep.name] = ep.load()
+        except Exception as exc:  # a broken plugin must not break the library
+            logger.warning("estimator plugin %r (%s) failed to load: %s", ep.name, ep.value, exc)
+    return found
+
+
+def _factories() -> dict[str, EstimatorFactory]:
+    merged: dict[str, EstimatorFactory] = dict(_BUILT_IN)
+    merged.update({name: f for name, f in _plugins().items() if f is not None})
+    merged.update(_REGISTERED)
+    return merged
+
+
+def available() -> list[str]:
+    """Sorted names of every estimator that :func:`create` can build."""
+    return sorted(_factories())
+
+
+def create(name: str, **kwargs: Any) -> Estimator:
+    """Build the estimator registered as ``name`` with keyword arguments ``kwargs``.
+
+    Raises
+    ------
+    ValueError
+        For an unknown name (listing the known ones), or when the factory does
+        not return an :class:`Estimator`.
+    """
+    factories = _factories()
+    if name not in factories:
+        raise ValueError(f"unknown estimator {name!r}; available: {', '.join(sorted(factories))}")
+    estimator = factories[name](**kwargs)
+    if not isinstance(estimator, Estimator):
+        raise ValueError(f"estimator {name!r} built a {type(estimator).__name__}, not a motorid Estimator")
+    return estimator
