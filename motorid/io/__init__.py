@@ -1,0 +1,42 @@
+"""DAQ backends and the online identification loop.
+
+- :class:`SimulatedDAQ`: the simulated rig in process (the default backend).
+- :class:`ModbusDAQ`: a rig behind Modbus TCP or RTU (a PLC, or our rig server).
+- :class:`RigServer`: the simulated rig served over real Modbus (pymodbus).
+- :class:`RegisterMap`: where the rig's signals live in the Modbus registers.
+- :func:`run_online`: excite, measure, feed estimators, record to CSV as it goes.
+"""
+
+from .base import (
+    DAQ,
+    DAQConnectionError,
+    DAQError,
+    DAQValueError,
+    Plant,
+    RigFaultError,
+    Sample,
+)
+from .modbus import ModbusDAQ
+from .online import RunRecorder, run_online
+from .registers import STATUS_BITS, Register, RegisterMap
+from .rig_server import RigServer, rig_map_toml
+from .simulated import SimulatedDAQ
+
+__all__ = [
+    "DAQ",
+    "STATUS_BITS",
+    "DAQConnectionError",
+    "DAQError",
+    "DAQValueError",
+    "ModbusDAQ",
+    "Plant",
+    "Register",
+    "RegisterMap",
+    "RigFaultError",
+    "RigServer",
+    "RunRecorder",
+    "Sample",
+    "SimulatedDAQ",
+    "rig_map_toml",
+    "run_online",
+]

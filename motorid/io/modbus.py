@@ -1,0 +1,343 @@
+"""DAQ backend for a rig behind a Modbus device (a PLC, or :class:`motorid.io.RigServer`).
+
+Each sample the client writes the voltage command and an incremented
+heartbeat in one request, and reads status, sequence counter and speed in
+one request (with the default map; a map with gaps costs one request per
+contiguous run). Timeouts are short and suited to the sample time, with no
+retries: a lost link raises :class:`~motorid.io.base.DAQConnectionError`
+within one timeout, and the next call tries to reconnect.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from pathlib import Path
+from typing import Any
+from urllib.parse import parse_qs, urlparse
+
+from .base import DAQ, DAQConnectionError, DAQError, DAQValueError, RigFaultError, Sample
+from .registers import STATUS_BITS, STATUS_CLEAR, STATUS_FAULTS, Register, RegisterMap, WordOrder
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["ModbusDAQ", "contiguous_runs", "describe_status"]
+
+
+def describe_status(status: int) -> str:
+    """Names of the bits set in a status word, e.g. ``"watchdog|clamped"`` (``"ok"`` for 0)."""
+    names = [name for name, bit in STATUS_BITS.items() if status & bit]
+    unknown = status & ~sum(STATUS_BITS.values())
+    if unknown:
+        names.append(f"0x{unknown:04x}")
+    return "|".join(names) if names else "ok"
+
+
+def contiguous_runs(registers: list[Register]) -> list[tuple[int, list[Register]]]:
+    """Group registers into runs of adjacent addresses, each readable in one request.
+
+    Returns
+    -------
+    list of (address, registers)
+        Start address of each run and the registers in it, in address order.
+    """
+    runs: list[tuple[int, list[Register]]] = []
+    end = -1
+    for reg in sorted(registers, key=lambda r: r.address):
+        if runs and reg.address == end:
+            runs[-1][1].append(reg)
+        else:
+            runs.append((reg.address, [reg]))
+        end = reg.address + reg.count
+    return runs
+
+
+class ModbusDAQ(DAQ):
+    """DAQ backend speaking Modbus TCP or Modbus RTU (pymodbus client).
+
+    Parameters
+    ----------
+    host : str
+        Host name or address of a Modbus TCP server (ignored with ``serial_port``).
+    port : int
+        TCP port.
+    serial_port : str, optional
+        Serial device (e.g. ``/dev/ttyUSB0``) for Modbus RTU instead of TCP.
+        Needs ``pyserial``.
+    baudrate, parity, stopbits, bytesize :
+        Serial line settings (RTU only).
+    register_map : RegisterMap or path, optional
+        Where the signals live; a path is read as TOML. Default:
+        :meth:`RegisterMap.default` with ``word_order``.
+    word_order : {"ABCD", "CDAB"}
+        Word order of float32 values in the default map.
+    dt : float
+        Sample time of the rig [s].
+    timeout : float, optional
+        Time to wait for an answer [s]. Default: ``max(2.5 * dt, 0.05)``. No
+        retries: a missing answer raises at once.
+    u_max : float
+        Rating of the drive [V]; commands are clamped to ``[-u_max, u_max]``.
+    clear_faults_on_open : bool
+        On :meth:`open`, acknowledge faults latched before this connection
+        (they are logged as a warning). Faults raised while open are never
+        acknowledged silently: :meth:`read` raises :class:`RigFaultError`.
+
+    Examples
+    --------
+    >>> with ModbusDAQ("127.0.0.1", 5020, dt=0.04) as daq:   # doctest: +SKIP
+    ...     daq.write(2.0)
+    ...     s = daq.read()
+    """
+
+    def __init__(
+        self,
+        host: str = "127.0.0.1",
+        port: int = 502,
+        *,
+        serial_port: str | None = None,
+        baudrate: int = 115200,
+        parity: str = "N",
+        stopbits: int = 1,
+        bytesize: int = 8,
+        register_map: RegisterMap | str | Path | None = None,
+        word_order: WordOrder = "ABCD",
+        dt: float = 0.04,
+        timeout: float | None = None,
+        u_max: float = 12.0,
+        clear_faults_on_open: bool = True,
+    ) -> None:
+        super().__init__(u_max=u_max)
+        if not (math.isfinite(dt) and dt > 0):
+            raise ValueError(f"ModbusDAQ: dt must be a positive sample time [s], got {dt!r}")
+        if timeout is None:
+            timeout = max(2.5 * dt, 0.05)
+        if not (math.isfinite(timeout) and timeout > 0):
+            raise ValueError(f"ModbusDAQ: timeout must be a positive time [s], got {timeout!r}")
+        if register_map is None:
+            register_map = RegisterMap.default(word_order)
+        elif not isinstance(register_map, RegisterMap):
+            register_map = RegisterMap.from_toml(register_map)
+        self.register_map = register_map
+        self.host = host
+        self.port = int(port)
+        self.serial_port = serial_port
+        self.serial_settings = {
+            "baudrate": int(baudrate), "parity": parity,
+            "stopbits": int(stopbits), "bytesize": int(bytesize),
+        }
+        self._dt = float(dt)
+        self.timeout = float(timeout)
+        self.clear_faults_on_open = clear_faults_on_open
+        #: Number of times the link was re-established after a loss.
+        self.reconnect_count = 0
+        self._client: Any = None
+        self._link_lost = False
+        self._heartbeat = 0
+        self._seq = 0
+        self._seq_raw: int | None = None
+        self._clamped_for_next = False
+        m = register_map
+        self._read_runs = contiguous_runs([m["status"], m["sequence"], m["speed"]])
+        self._write_runs = contiguous_runs([m["voltage_command"], m["heartbeat"]])
+
+    # -- construction from a URL ---------------------------------------------
+    @classmethod
+    def from_url(cls, url: str, **kwargs: Any) -> ModbusDAQ:
+        """Build from ``modbus://HOST:PORT`` or ``modbus-rtu:///dev/ttyX?baudrate=N``.
+
+        Keyword arguments are passed on (``dt``, ``register_map``, ...). Query
+        parameters of the URL (``baudrate``, ``parity``, ``word_order``,
+        ``timeout``, ``dt``) fill in those not given.
+        """
+        parsed = urlparse(url)
+        query = {k: v[-1] for k, v in parse_qs(parsed.query).items()}
+        for key, conv in (("baudrate", int), ("timeout", float), ("dt", float),
+                          ("parity", str), ("word_order", str)):
+            if key in query and key not in kwargs:
+                kwargs[key] = conv(query.pop(key))
+        if query:
+            raise ValueError(f"{url!r}: unknown query parameter(s) {sorted(query)}")
+        if parsed.scheme in ("modbus", "modbus-tcp"):
+            if not parsed.hostname:
+                raise ValueError(f"{url!r}: expected modbus://HOST:PORT")
+            return cls(parsed.hostname, parsed.port or 502, **kwargs)
+        if parsed.scheme == "modbus-rtu":
+            if not parsed.path:
+                raise ValueError(f"{url!r}: expected modbus-rtu:///dev/DEVICE")
+            return cls(serial_port=parsed.path, **kwargs)
+        raise ValueError(f"{url!r}: scheme must be modbus://, modbus-tcp:// or modbus-rtu://")
+
+    @property
+    def endpoint(self) -> str:
+        """Human-readable description of the link, used in messages."""
+        if self.serial_port:
+            return f"Modbus RTU {self.serial_port} (device {self.register_map.device_id})"
+        return f"Modbus TCP {self.host}:{self.port}"
+
+    def __repr__(self) -> str:
+        return f"ModbusDAQ({self.endpoint}, dt={self._dt!r}, timeout={self.timeout!r})"
+
+    @property
+    def dt(self) -> float:
+        """Sample time [s]."""
+        return self._dt
+
+    # -- link ------------------------------------------------------------------
+    def _make_client(self) -> Any:
+        if self.serial_port:
+            try:
+                import serial  # noqa: F401  (pymodbus needs pyserial for RTU)
+            except ImportError:
+                raise DAQError(
+                    f"{self.endpoint}: Modbus RTU needs pyserial (pip install pyserial)"
+                ) from None
+            from pymodbus.client import ModbusSerialClient
+
+            return ModbusSerialClient(
+                self.serial_port, timeout=self.timeout, retries=0, **self.serial_settings
+            )
+        from pymodbus.client import ModbusTcpClient
+
+        return ModbusTcpClient(self.host, port=self.port, timeout=self.timeout, retries=0)
+
+    def _open(self) -> None:
+        self._client = self._make_client()
+        if not self._client.connect():
+            self._client.close()
+            raise DAQConnectionError(f"{self.endpoint}: cannot connect (is the rig server running?)")
+        self._link_lost = False
+        try:
+            status, seq_raw, _ = self._read_words()
+        except Exception:
+            self._client.close()
+            raise
+        # sequence numbers count from this connection: the first sample is seq 1
+        self._seq, self._seq_raw = 0, seq_raw
+        if status & STATUS_FAULTS and self.clear_faults_on_open:
+            logger.warning(
+                "%s: rig reported latched fault(s) %s from before this connection; acknowledged",
+                self.endpoint, describe_status(status),
+            )
+            self.reset_faults()
+
+    def _close(self) -> None:
+        if self._client is not None:
+            self._client.close()
+
+    def _execute(self, what: str, call: Any, *args: Any, **kwargs: Any) -> Any:
+        """Run one pymodbus request; turn every failure into a clear DAQ error."""
+        from pymodbus.exceptions import ModbusException
+
+        if self._client is None:
+            raise DAQError(f"{self.endpoint}: the DAQ is not open (call open() first)")
+        reconnecting = self._link_lost
+        try:
+            response = call(*args, device_id=self.register_map.device_id, **kwargs)
+        except (ModbusException, OSError) as exc:
+            self._client.close()  # drop any late answer; the next call reconnects
+            self._link_lost = True
+            raise DAQConnectionError(
+                f"{self.endpoint}: link lost while {what} (no answer within "
+                f"{self.timeout:g} s or connection refused): {exc}"
+            ) from exc
+        if reconnecting:
+            self._link_lost = False
+            self.reconnect_count += 1
+            self._seq_raw = None
+            logger.warning("%s: link re-established (reconnect #%d)", self.endpoint,
+                           self.reconnect_count)
+        if response.isError():
+            raise DAQError(
+                f"{self.endpoint}: device refused {what}: {response} "
+                "(does the register map match the device?)"
+            )
+        return response
+
+    def _read_words(self) -> tuple[int, int, float]:
+        values: dict[str, float] = {}
+        for address, regs in self._read_runs:
+            count = sum(r.count for r in regs)
+            rr = self._execute(
+                f"reading registers {address}..{address + count - 1}",
+                self._client.read_holding_registers, address, count=count,
+            )
+            words = list(rr.registers)
+            if len(words) != count:
+                raise DAQValueError(
+                    f"{self.endpoint}: asked for {count} registers at {address}, got {len(words)}"
+                )
+            offset = 0
+            for reg in regs:
+                values[reg.name] = reg.decode(words[offset:offset + reg.count])
+                offset += reg.count
+        return int(values["status"]), int(values["sequence"]), values["speed"]
+
+    def reset_faults(self) -> None:
+        """Acknowledge latched faults of the rig (writes 0 to the status register)."""
+        reg = self.register_map["status"]
+        self._execute("clearing the status word", self._client.write_registers,
+                      reg.address, reg.encode(STATUS_CLEAR))
+
+    # -- samples ---------------------------------------------------------------
+    def _write(self, u: float) -> None:
+        m = self.register_map
+        heartbeat = (self._heartbeat + 1) & 0xFFFF
+        words = {
+            "voltage_command": m["voltage_command"].encode(u),
+            "heartbeat": m["heartbeat"].encode(heartbeat),
+        }
+        for address, regs in self._write_runs:  # voltage before heartbeat when split
+            payload = [w for reg in regs for w in words[reg.name]]
+            self._execute(f"writing the command {u:.4g} V", self._client.write_registers,
+                          address, payload)
+        self._heartbeat = heartbeat
+        self._clamped_for_next = self._last_clamped
+
+    def read(self) -> Sample:
+        """Read status, sequence counter and speed from the rig.
+
+        Returns
+        -------
+        Sample
+            ``t = seq * dt`` [s], ``seq`` unwrapped from the 16-bit counter,
+            ``y`` the measured speed [rad/s], ``u`` the last command sent [V].
+
+        Raises
+        ------
+        DAQConnectionError
+            No answer within :attr:`timeout`, or the connection was refused.
+        DAQValueError
+            The speed register holds NaN/inf or a value outside its range.
+        RigFaultError
+            The rig's status word has a fault bit set (e.g. the watchdog tripped).
+        """
+        if not self._is_open:
+            raise DAQError(f"{self.endpoint}: the DAQ is not open (call open() first)")
+        status, seq_raw, y = self._read_words()
+        if status & STATUS_FAULTS:
+            raise RigFaultError(
+                f"{self.endpoint}: rig reports fault {describe_status(status)} "
+                f"(status word 0x{status:04x}); the rig holds 0 V. "
+                "Acknowledge with reset_faults() once the cause is fixed.",
+                status,
+            )
+        try:
+            self.register_map["speed"].check(y, where=f"{self.endpoint}: ")
+        except ValueError as exc:
+            raise DAQValueError(str(exc)) from None
+        if self._seq_raw is None:
+            # first read after a reconnect: the rig's counter may have restarted;
+            # keep ours monotonic
+            self._seq += 1
+        else:
+            self._seq += (seq_raw - self._seq_raw) & 0xFFFF
+        self._seq_raw = seq_raw
+        return Sample(
+            t=self._seq * self._dt,
+            seq=self._seq,
+            y=float(y),
+            u=self._u,
+            clamped=self._clamped_for_next or bool(status & STATUS_BITS["clamped"]),
+            status=status,
+        )

@@ -1,0 +1,287 @@
+"""The online identification loop: excite the rig, feed every estimator, record as it goes."""
+
+from __future__ import annotations
+
+import csv
+import logging
+import math
+import signal
+import sys
+import threading
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Any, Protocol
+
+import numpy as np
+import pandas as pd
+from tqdm import tqdm
+
+from .base import DAQ, Sample
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["OnlineEstimator", "RunRecorder", "run_online"]
+
+Excitation = Sequence[float] | np.ndarray | Callable[[float], float]
+
+
+class OnlineEstimator(Protocol):
+    """What the loop needs from an estimator (every ``motorid.estimators`` one fits)."""
+
+    params: Mapping[str, Any]
+
+    def predict(self, u: float) -> Any:
+        """Time update with this sample's input [V]; return the predicted output [rad/s]."""
+        ...
+
+    def update(self, y: float) -> None:
+        """Measurement update with the measured output [rad/s]."""
+        ...
+
+
+def flatten_params(prefix: str, params: Mapping[str, Any]) -> dict[str, float]:
+    """Flatten an estimator's ``params`` to columns.
+
+    Scalars become ``prefix.name``; arrays become ``prefix.name1``,
+    ``prefix.name2``, ... (1-based, in C order), so ``{"a": [0.9, -0.1]}``
+    gives ``hammerstein-rls.a1`` and ``hammerstein-rls.a2``.
+    """
+    out: dict[str, float] = {}
+    for name, value in params.items():
+        arr = np.asarray(value, dtype=float)
+        if arr.ndim == 0:
+            out[f"{prefix}.{name}"] = float(arr)
+        else:
+            for i, v in enumerate(arr.ravel(), start=1):
+                out[f"{prefix}.{name}{i}"] = float(v)
+    return out
+
+
+def name_estimators(estimators: Mapping[str, Any] | Iterable[Any] | None) -> dict[str, Any]:
+    """Give each estimator a column prefix.
+
+    A mapping keeps its keys. For a sequence, the prefix is the estimator's
+    ``name`` attribute when it has one, else its class name in lower case;
+    repeats get ``-2``, ``-3``, ...
+    """
+    if estimators is None:
+        return {}
+    if isinstance(estimators, Mapping):
+        named = dict(estimators)
+    else:
+        named = {}
+        for est in estimators:
+            base = str(getattr(est, "name", None) or type(est).__name__.lower())
+            name, i = base, 1
+            while name in named:
+                i += 1
+                name = f"{base}-{i}"
+            named[name] = est
+    for name, est in named.items():
+        for attr in ("predict", "update"):
+            if not callable(getattr(est, attr, None)):
+                raise TypeError(f"run_online: estimator {name!r} has no {attr}() method")
+        if "," in name or "\n" in name:
+            raise ValueError(f"run_online: estimator name {name!r} must not hold ',' or a newline")
+    return named
+
+
+class RunRecorder:
+    """Append-only CSV recording of an online run, readable at every moment.
+
+    The header is written with the first row (the parameter columns are
+    known only once the estimators have produced them). Rows are flushed to
+    the operating system every ``flush_every`` rows, so a crash or Ctrl-C
+    loses at most the rows since the last flush (none with the default 1).
+
+    Parameters
+    ----------
+    path : path or None
+        CSV file to write; None keeps the rows in memory only.
+    flush_every : int
+        Flush after this many rows.
+    """
+
+    def __init__(self, path: str | Path | None, flush_every: int = 1) -> None:
+        if flush_every < 1:
+            raise ValueError(f"flush_every must be >= 1, got {flush_every!r}")
+        self.path = None if path is None else Path(path)
+        self.flush_every = int(flush_every)
+        self.rows: list[dict[str, float]] = []
+        self.columns: list[str] | None = None
+        self._fh: Any = None
+        self._writer: Any = None
+        if self.path is not None:
+            self.path.parent.mkdir(parents=True, exist_ok=True)
+            self._fh = self.path.open("w", newline="", encoding="utf-8")
+
+    def append(self, row: dict[str, float]) -> None:
+        """Record one row (written to disk at once, flushed every ``flush_every``)."""
+        if self.columns is None:
+            self.columns = list(row)
+            if self._fh is not None:
+                self._writer = csv.writer(self._fh, lineterminator="\n")
+                self._writer.writerow(self.columns)
+        self.rows.append(row)
+        if self._writer is not None:
+            self._writer.writerow([_format(row.get(c, math.nan)) for c in self.columns])
+            if len(self.rows) % self.flush_every == 0:
+                self._fh.flush()
+
+    def close(self) -> None:
+        """Flush and close the file; the recording stays readable."""
+        if self._fh is not None and not self._fh.closed:
+            self._fh.flush()
+            self._fh.close()
+
+    def frame(self, dt: float) -> pd.DataFrame:
+        """The rows so far as a DataFrame with ``attrs["dt"]`` and ``attrs["units"]``."""
+        df = pd.DataFrame(self.rows, columns=self.columns or ["t", "seq", "u", "y", "clamped"])
+        df.attrs["dt"] = dt
+        df.attrs["units"] = {"t": "s", "u": "V", "y": "rad/s"}
+        return df
+
+
+def _format(value: float) -> str:
+    return repr(float(value))
+
+
+def _command_for(excitation: Excitation, k: int, t: float) -> float:
+    if callable(excitation):
+        u = float(excitation(t))
+    else:
+        u = float(excitation[k])
+    if not math.isfinite(u):
+        raise ValueError(f"run_online: excitation gave {u!r} V at sample {k} (t = {t:.6g} s)")
+    return u
+
+
+@contextmanager
+def _sigterm_as_interrupt() -> Any:
+    """Within the block, SIGTERM raises KeyboardInterrupt (main thread only)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def _terminate(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt(f"signal {signum}")
+
+    previous = signal.signal(signal.SIGTERM, _terminate)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def run_online(
+    daq: DAQ,
+    estimators: Mapping[str, OnlineEstimator] | Iterable[OnlineEstimator] | None,
+    excitation: Excitation,
+    duration: float | None,
+    out: str | Path | None = None,
+    progress: bool = True,
+    *,
+    flush_every: int = 1,
+) -> pd.DataFrame:
+    """Run online identification on a DAQ: excite, measure, estimate, record.
+
+    Each sample ``k`` the loop commands ``u_k`` (held for one sample), reads
+    the speed ``y_k`` measured at the end of that sample, and feeds every
+    estimator ``y_hat = est.predict(u_k); est.update(y_k)``. A row per
+    sample is appended to ``out`` as it is taken.
+
+    Parameters
+    ----------
+    daq : DAQ
+        The rig (opened here if it is not open; always closed on return).
+    estimators : mapping of name to estimator, or sequence of estimators
+        Each has ``predict(u)``, ``update(y)`` and ``params``. The name is
+        the column prefix (``hammerstein-rls.a1``).
+    excitation : array of float or callable
+        Input command [V] per sample, or a function of time ``t`` [s] (the
+        start of the sample it is applied in) returning volts.
+    duration : float or None
+        Length of the run [s]; ``round(duration / daq.dt)`` samples. None
+        with an array excitation runs the whole array.
+    out : path, optional
+        CSV file the recording is appended to while the loop runs.
+    progress : bool
+        Show a tqdm progress bar on stderr.
+    flush_every : int
+        Flush the CSV every this many samples (1: every sample).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``t`` [s] (time stamp of the measurement), ``seq``, ``u``
+        [V] (command applied, after clamping), ``y`` [rad/s], ``clamped``,
+        then for each estimator ``NAME.y_hat`` and its flattened ``params``
+        after the update. ``attrs["dt"]`` and ``attrs["units"]`` are set.
+
+    Raises
+    ------
+    DAQError
+        The rig failed (lost link, invalid reading, fault). The loop stops,
+        commands 0 V where it can, closes the DAQ, and re-raises; the CSV
+        holds every sample taken before the failure (a note on the exception
+        says how many and where).
+    KeyboardInterrupt
+        Ctrl-C or SIGTERM: the same clean-up, then re-raised.
+    """
+    named = name_estimators(estimators)
+    dt = float(daq.dt)
+    if duration is None:
+        if callable(excitation):
+            raise ValueError("run_online: duration is required with a callable excitation")
+        n = len(excitation)
+    else:
+        if not (math.isfinite(duration) and duration > 0):
+            raise ValueError(f"run_online: duration must be a positive time [s], got {duration!r}")
+        n = round(duration / dt)
+        if n < 1:
+            raise ValueError(f"run_online: duration {duration!r} s is shorter than one sample "
+                             f"({dt!r} s)")
+    if not callable(excitation):
+        if np.ndim(excitation) != 1:
+            raise ValueError(f"run_online: excitation must be 1-D volts per sample, got shape "
+                             f"{np.shape(excitation)}")
+        if len(excitation) < n:
+            raise ValueError(f"run_online: excitation has {len(excitation)} samples, the run "
+                             f"needs {n} ({duration} s at dt = {dt} s)")
+
+    recorder = RunRecorder(out, flush_every=flush_every)
+    bar = tqdm(total=n, file=sys.stderr, disable=not progress, unit="sample",
+               desc="online", dynamic_ncols=True)
+    try:
+        with _sigterm_as_interrupt():
+            daq.open()
+            daq.write(_command_for(excitation, 0, 0.0))
+            for k in range(n):
+                sample: Sample = daq.read()
+                row: dict[str, float] = {
+                    "t": sample.t, "seq": float(sample.seq), "u": sample.u, "y": sample.y,
+                    "clamped": float(sample.clamped),
+                }
+                for name, est in named.items():
+                    y_hat = est.predict(sample.u)
+                    est.update(sample.y)
+                    row[f"{name}.y_hat"] = float(np.asarray(y_hat, dtype=float).ravel()[0])
+                    row.update(flatten_params(name, getattr(est, "params", {})))
+                recorder.append(row)
+                bar.update()
+                if k + 1 < n:
+                    daq.write(_command_for(excitation, k + 1, (k + 1) * dt))
+    except BaseException as exc:
+        where = f" in {recorder.path}" if recorder.path is not None else ""
+        msg = f"run_online stopped after {len(recorder.rows)} of {n} samples (recorded{where})"
+        logger.error("%s: %s: %s", msg, type(exc).__name__, exc)
+        exc.add_note(msg)
+        raise
+    finally:
+        bar.close()
+        try:
+            daq.close()  # commands 0 V where it can
+        finally:
+            recorder.close()
+    return recorder.frame(dt)

@@ -1,0 +1,438 @@
+"""A Modbus rig server: the simulated rig behind real Modbus (pymodbus server).
+
+The server's holding registers are the rig (see :mod:`motorid.io.registers`
+for the map). In lock-step mode (the default) a client's write that changes
+the heartbeat advances the plant one sample with the voltage command then in
+the register, so a client that writes command and heartbeat each sample gets
+exactly the run a :class:`~motorid.io.SimulatedDAQ` would give. In real-time
+mode the plant advances once per ``dt`` of wall-clock time whatever the
+client does.
+
+Like a PLC, the server has a watchdog: once a heartbeat has been seen, when
+it stalls for more than ``watchdog_periods`` sample periods (3 by default),
+the server forces the voltage to 0 V and latches the ``watchdog`` bit of the
+status word. A client acknowledges latched faults by writing 0 to ``status``.
+
+Run it in a background thread (tests, notebooks)::
+
+    with RigServer(paper_rig(), port=5020, seed=1) as rig:
+        ...                           # talk to 127.0.0.1:5020
+
+or in the foreground (the ``motorid rig serve`` command)::
+
+    RigServer(paper_rig(), port=5020).serve_forever()
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import math
+import threading
+from pathlib import Path
+from typing import Any
+
+from .base import Plant
+from .registers import STATUS_BITS, STATUS_CLEAR, STATUS_FAULTS, RegisterMap, WordOrder
+from .simulated import default_plant
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["RigServer", "rig_map_toml"]
+
+_READONLY = ("sequence", "speed")
+
+
+def rig_map_toml(register_map: RegisterMap | str | Path | None = None,
+                 word_order: WordOrder = "ABCD") -> str:
+    """The register map a rig server uses, as TOML text (``motorid rig map``).
+
+    Parameters
+    ----------
+    register_map : RegisterMap or path, optional
+        A map, or a TOML file to read one from. Default: the built-in map.
+    word_order : {"ABCD", "CDAB"}
+        Word order of float32 values in the built-in map.
+
+    Returns
+    -------
+    str
+        TOML text readable by :meth:`RegisterMap.from_toml`.
+    """
+    if register_map is None:
+        register_map = RegisterMap.default(word_order)
+    elif not isinstance(register_map, RegisterMap):
+        register_map = RegisterMap.from_toml(register_map)
+    return register_map.to_toml()
+
+
+class RigServer:
+    """Modbus TCP (or RTU) server hosting a simulated rig.
+
+    Parameters
+    ----------
+    plant : Plant, optional
+        The simulated rig (``dt``, ``reset(seed)``, ``step(u)``). Default:
+        ``motorid.plants.paper_rig()``.
+    host : str
+        Address to bind (TCP). ``127.0.0.1`` by default: only this machine
+        can reach the rig. Use ``0.0.0.0`` deliberately to expose it.
+    port : int
+        TCP port; 0 picks a free one (read it back from :attr:`port`).
+    serial_port : str, optional
+        Serve Modbus RTU on this serial device instead of TCP (needs pyserial).
+    baudrate : int
+        Serial speed (RTU only).
+    register_map : RegisterMap or path, optional
+        Register layout; a path is read as TOML. Default: the built-in map.
+    word_order : {"ABCD", "CDAB"}
+        Word order of float32 values in the built-in map.
+    lockstep : bool
+        True: each heartbeat change advances the plant one sample. False:
+        the plant advances once per ``dt`` of wall-clock time.
+    seed : int, optional
+        Seed for ``plant.reset`` at start.
+    watchdog_periods : float or None
+        Heartbeat stall, in sample periods, after which the voltage is
+        forced to 0 V and the watchdog fault is latched. None disables the
+        watchdog.
+    u_max : float
+        Rating of the drive [V]; the rig clamps commands to it and sets the
+        ``clamped`` status bit.
+
+    Attributes
+    ----------
+    voltage : float
+        Voltage applied to the plant [V] (after clamping and faults).
+    speed : float
+        Last measured speed published [rad/s].
+    seq : int
+        Samples the plant has advanced since start (not wrapped).
+    status : int
+        Status word (:data:`~motorid.io.registers.STATUS_BITS`).
+    watchdog_trips : int
+        Number of times the watchdog tripped.
+    """
+
+    def __init__(
+        self,
+        plant: Plant | None = None,
+        *,
+        host: str = "127.0.0.1",
+        port: int = 5020,
+        serial_port: str | None = None,
+        baudrate: int = 115200,
+        register_map: RegisterMap | str | Path | None = None,
+        word_order: WordOrder = "ABCD",
+        lockstep: bool = True,
+        seed: int | None = None,
+        watchdog_periods: float | None = 3.0,
+        u_max: float = 12.0,
+    ) -> None:
+        if register_map is None:
+            register_map = RegisterMap.default(word_order)
+        elif not isinstance(register_map, RegisterMap):
+            register_map = RegisterMap.from_toml(register_map)
+        if watchdog_periods is not None and not watchdog_periods > 0:
+            raise ValueError(f"watchdog_periods must be > 0 or None, got {watchdog_periods!r}")
+        if not (math.isfinite(u_max) and u_max > 0):
+            raise ValueError(f"u_max must be a finite positive voltage [V], got {u_max!r}")
+        self.plant = default_plant() if plant is None else plant
+        self.dt = float(self.plant.dt)
+        self.host = host
+        self.port = int(port)
+        self.serial_port = serial_port
+        self.baudrate = int(baudrate)
+        self.register_map = register_map
+        self.lockstep = bool(lockstep)
+        self.seed = seed
+        self.watchdog_periods = watchdog_periods
+        self.u_max = float(u_max)
+
+        self.voltage = 0.0
+        self.speed = 0.0
+        self.seq = 0
+        self.status = 0
+        self.watchdog_trips = 0
+
+        self._base, n = register_map.span
+        self._words = [0] * n
+        self._heartbeat: int | None = None
+        self._last_heartbeat_time = 0.0
+        self._armed = False
+        self._thread: threading.Thread | None = None
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._stop_event: asyncio.Event | None = None
+        self._ready = threading.Event()
+        self._error: BaseException | None = None
+        self._server: Any = None
+
+    def __repr__(self) -> str:
+        where = f"RTU {self.serial_port}" if self.serial_port else f"{self.host}:{self.port}"
+        mode = "lock-step" if self.lockstep else "real-time"
+        return f"RigServer({where}, dt={self.dt!r}, {mode})"
+
+    @property
+    def url(self) -> str:
+        """``modbus://HOST:PORT`` (or ``modbus-rtu://DEVICE``) of the running server."""
+        if self.serial_port:
+            return f"modbus-rtu://{self.serial_port}"
+        return f"modbus://{self.host}:{self.port}"
+
+    # -- register words ----------------------------------------------------------
+    def _set(self, name: str, value: float) -> None:
+        reg = self.register_map[name]
+        i = reg.address - self._base
+        self._words[i:i + reg.count] = reg.encode(value)
+
+    def _get(self, name: str, words: list[int] | None = None) -> float:
+        reg = self.register_map[name]
+        i = reg.address - self._base
+        return reg.decode((self._words if words is None else words)[i:i + reg.count])
+
+    def _publish(self) -> None:
+        self._set("status", self.status)
+        self._set("sequence", self.seq & 0xFFFF)
+        reg = self.register_map["speed"]
+        try:
+            self._set("speed", self.speed)
+        except ValueError:  # does not fit a scaled integer: publish the limit, flag it
+            raw_limit = 32767 if reg.type == "int16" else 65535
+            limit = (raw_limit if self.speed > 0 else (-32768 if reg.type == "int16" else 0))
+            self._set("speed", limit * reg.scale)
+            self.status |= STATUS_BITS["plant"]
+            self._set("status", self.status)
+        if not math.isfinite(self.speed):
+            if not self.status & STATUS_BITS["plant"]:
+                logger.error("rig: plant produced speed %r at sample %d", self.speed, self.seq)
+            self.status |= STATUS_BITS["plant"]
+            self._set("status", self.status)
+
+    def _apply_command(self, u: float) -> float:
+        """Voltage the rig applies for command ``u`` [V]: clamped, 0 V when faulted."""
+        self.status &= ~STATUS_BITS["clamped"]
+        if self.status & STATUS_FAULTS:
+            return 0.0
+        if not math.isfinite(u):
+            logger.error("rig: invalid voltage command %r; holding 0 V", u)
+            self.status |= STATUS_BITS["command"]
+            return 0.0
+        if abs(u) > self.u_max:
+            self.status |= STATUS_BITS["clamped"]
+            return math.copysign(self.u_max, u)
+        return u
+
+    def _advance(self) -> None:
+        """Advance the plant one sample with the applied voltage and publish."""
+        self.speed = float(self.plant.step(self.voltage))
+        self.seq += 1
+        self._publish()
+
+    async def _on_access(
+        self,
+        func_code: int,
+        start_address: int,
+        address: int,
+        count: int,
+        registers: list[int],
+        set_values: list[int] | list[bool] | None,
+    ) -> None:
+        """pymodbus SimDevice action: our words are the truth; sync them both ways."""
+        if set_values is not None:
+            words = list(self._words)
+            first = address - self._base
+            words[first:first + count] = [int(v) for v in set_values]
+            status_reg = self.register_map["status"]
+            si = status_reg.address - self._base
+            if first <= si < first + count:
+                if words[si] == STATUS_CLEAR and self.status & STATUS_FAULTS:
+                    logger.info("rig: faults %d acknowledged by the client", self.status)
+                    self.status &= ~STATUS_FAULTS
+            hb_reg = self.register_map["heartbeat"]
+            hi = hb_reg.address - self._base
+            heartbeat = words[hi]
+            beat = first <= hi < first + count and heartbeat != self._heartbeat
+            vreg = self.register_map["voltage_command"]
+            vi = vreg.address - self._base
+            if first < vi + vreg.count and vi < first + count:  # the command was written
+                self.voltage = self._apply_command(self._get("voltage_command", words))
+            elif self.status & STATUS_FAULTS:
+                self.voltage = 0.0
+            self._words = words
+            self._set("voltage_command", self.voltage)
+            if beat:
+                self._heartbeat = heartbeat
+                self._last_heartbeat_time = asyncio.get_running_loop().time()
+                self._armed = self.watchdog_periods is not None
+                if self.lockstep:
+                    self._advance()
+            self._publish()
+            set_values[:] = self._words[first:first + count]  # what pymodbus stores
+        offset = self._base - start_address
+        registers[offset:offset + len(self._words)] = self._words
+        return None
+
+    # -- background tasks ---------------------------------------------------------------
+    async def _watchdog(self) -> None:
+        assert self.watchdog_periods is not None
+        limit = self.watchdog_periods * self.dt
+        loop = asyncio.get_running_loop()
+        while True:
+            await asyncio.sleep(min(self.dt / 2, limit / 3))
+            if self._armed and loop.time() - self._last_heartbeat_time > limit:
+                self._armed = False
+                self.watchdog_trips += 1
+                level = logging.WARNING if self.voltage else logging.INFO
+                logger.log(level, "rig: heartbeat stalled for more than %g sample periods "
+                           "(%.3g s) at %.4g V: voltage forced to 0 V, watchdog fault latched",
+                           self.watchdog_periods, limit, self.voltage)
+                self.voltage = 0.0
+                self.status |= STATUS_BITS["watchdog"]
+                self._set("voltage_command", 0.0)
+                self._publish()
+
+    async def _clock(self) -> None:
+        loop = asyncio.get_running_loop()
+        t0 = loop.time()
+        k = 0
+        while True:
+            k += 1
+            await asyncio.sleep(max(0.0, t0 + k * self.dt - loop.time()))
+            self._advance()
+
+    async def _serve(self) -> None:
+        from pymodbus.framer import FramerType
+        from pymodbus.server import ModbusSerialServer, ModbusTcpServer
+        from pymodbus.simulator import DataType, SimData, SimDevice
+
+        blocks = [
+            SimData(reg.address, count=reg.count, values=0, datatype=DataType.REGISTERS,
+                    readonly=name in _READONLY)
+            for name, reg in self.register_map.registers.items()
+        ]
+        device = SimDevice(self.register_map.device_id, simdata=blocks, action=self._on_access)
+        if self.serial_port:
+            server = ModbusSerialServer(device, framer=FramerType.RTU, port=self.serial_port,
+                                        baudrate=self.baudrate, timeout=max(self.dt, 0.05))
+        else:
+            server = ModbusTcpServer(device, address=(self.host, self.port))
+        await server.serve_forever(background=True)  # raises if it cannot listen
+        if not self.serial_port:
+            self.port = server.transport.sockets[0].getsockname()[1]
+        self._server = server
+        self._stop_event = asyncio.Event()
+        tasks = []
+        if self.watchdog_periods is not None:
+            tasks.append(asyncio.create_task(self._watchdog()))
+        if not self.lockstep:
+            tasks.append(asyncio.create_task(self._clock()))
+        logger.info("rig server listening on %s (%s)", self.url,
+                    "lock-step" if self.lockstep else "real-time")
+        self._ready.set()
+        try:
+            await self._stop_event.wait()
+        finally:
+            for task in tasks:
+                task.cancel()
+            await server.shutdown()
+            logger.info("rig server on %s stopped", self.url)
+
+    def _reset_plant(self) -> None:
+        self.plant.reset(seed=self.seed)
+        self.plant.step(0.0)  # compile/warm up outside the first request's timeout
+        self.plant.reset(seed=self.seed)
+        self.voltage = self.speed = 0.0
+        self.seq = self.status = 0
+        self._heartbeat = None
+        self._armed = False
+        self._words = [0] * len(self._words)
+        self._publish()
+
+    def _run_thread(self) -> None:
+        try:
+            asyncio.run(self._run_main())
+        except BaseException as exc:  # reported to start() or logged
+            self._error = exc
+            if self._ready.is_set():
+                logger.exception("rig server on %s failed", self.url)
+        finally:
+            self._ready.set()
+
+    async def _run_main(self) -> None:
+        self._loop = asyncio.get_running_loop()
+        await self._serve()
+
+    # -- public control ------------------------------------------------------------------
+    def start(self, timeout: float = 10.0) -> RigServer:
+        """Start serving in a background thread; return once the server listens.
+
+        Raises
+        ------
+        RuntimeError
+            Already running, or the server could not start (port in use, ...).
+        """
+        if self._thread is not None and self._thread.is_alive():
+            raise RuntimeError(f"{self!r} is already running")
+        self._reset_plant()
+        self._ready.clear()
+        self._error = None
+        self._thread = threading.Thread(target=self._run_thread, name=f"rig-server-{self.port}",
+                                        daemon=True)
+        self._thread.start()
+        if not self._ready.wait(timeout):
+            raise RuntimeError(f"{self!r} did not start within {timeout} s")
+        if self._error is not None:
+            self._thread.join(timeout)
+            raise RuntimeError(f"{self!r} could not start: {self._error}") from self._error
+        return self
+
+    def stop(self, timeout: float = 10.0) -> None:
+        """Stop serving: close every connection and the listener, join the thread."""
+        thread, loop, event = self._thread, self._loop, self._stop_event
+        if thread is None:
+            return
+        if loop is not None and event is not None and thread.is_alive():
+            loop.call_soon_threadsafe(event.set)
+        thread.join(timeout)
+        if thread.is_alive():
+            raise RuntimeError(f"{self!r} did not stop within {timeout} s")
+        self._thread = None
+        self._loop = None
+        self._stop_event = None
+
+    @property
+    def running(self) -> bool:
+        """True while the server thread is serving."""
+        return self._thread is not None and self._thread.is_alive()
+
+    def __enter__(self) -> RigServer:
+        return self.start()
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.stop()
+
+    def serve_forever(self) -> None:
+        """Serve in the calling thread until KeyboardInterrupt or SIGTERM.
+
+        SIGTERM is handled like Ctrl-C (when called from the main thread), so
+        the listener is closed cleanly either way.
+        """
+        import signal
+
+        previous = None
+        if threading.current_thread() is threading.main_thread():
+            def _terminate(signum: int, frame: object) -> None:
+                raise KeyboardInterrupt
+            previous = signal.signal(signal.SIGTERM, _terminate)
+        self.start()
+        try:
+            while self.running:
+                self._thread.join(0.5)  # type: ignore[union-attr]
+        except KeyboardInterrupt:
+            logger.info("rig server on %s: interrupted", self.url)
+        finally:
+            self.stop()
+            if previous is not None:
+                signal.signal(signal.SIGTERM, previous)
+        if self._error is not None:
+            raise RuntimeError(f"{self!r} failed: {self._error}") from self._error
