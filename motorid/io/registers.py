@@ -123,6 +123,8 @@ class Register:
             raise ValueError(f"{where}: min {self.min!r} must not exceed max {self.max!r}")
         if self.address + self.count - 1 > 65535:
             raise ValueError(f"{where}: address {self.address} + size runs past 65535")
+        if self.type != "float32":  # one word: the order is meaningless, keep maps comparable
+            object.__setattr__(self, "word_order", "ABCD")
 
     @property
     def count(self) -> int:

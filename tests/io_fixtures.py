@@ -1,0 +1,180 @@
+"""Shared pieces of the io tests: a small test plant, free ports, server fixtures, a
+third-party (pyModbusTCP) PLC stand-in."""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import shutil
+import socket
+import subprocess
+import time
+from collections.abc import Callable, Iterator
+
+import numpy as np
+import pytest
+
+from motorid.io import RegisterMap, RigServer
+
+
+class FirstOrderPlant:
+    """A first-order speed response with measurement noise (stand-in for the rig).
+
+    ``omega[k+1] = a omega[k] + (1 - a) K u[k]``, ``a = exp(-dt / tau)``, measured
+    with Gaussian noise of standard deviation ``noise`` [rad/s].
+    """
+
+    def __init__(self, dt: float = 0.04, tau: float = 0.3, gain: float = 10.0,
+                 noise: float = 0.01) -> None:
+        self.dt, self.tau, self.gain, self.noise = dt, tau, gain, noise
+        self.reset()
+
+    def reset(self, seed: int | None = None) -> None:
+        self.rng = np.random.default_rng(seed)
+        self.omega = 0.0
+
+    def step(self, u: float) -> float:
+        a = math.exp(-self.dt / self.tau)
+        self.omega = a * self.omega + (1.0 - a) * self.gain * u
+        return self.omega + self.noise * self.rng.standard_normal()
+
+    @property
+    def state(self) -> dict[str, float]:
+        return {"omega": self.omega}
+
+
+def make_plant() -> object:
+    """The paper's rig when motorid.plants provides it, else the first-order stand-in."""
+    try:
+        from motorid.plants import paper_rig
+    except ImportError:
+        return FirstOrderPlant()
+    return paper_rig()
+
+
+def free_port() -> int:
+    """A TCP port on 127.0.0.1 that was free a moment ago."""
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def wait_for(condition: Callable[[], bool], timeout: float = 20.0, what: str = "") -> None:
+    """Poll ``condition`` until true; fail the test (not a timing check) after ``timeout``."""
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            pytest.fail(f"gave up waiting for {what or condition} after {timeout} s")
+        time.sleep(0.005)
+
+
+@pytest.fixture
+def rig_factory() -> Iterator[Callable[..., RigServer]]:
+    """Start rig servers on 127.0.0.1 (free port unless given); stop them all after the test.
+
+    The watchdog is relaxed to 100 sample periods so a busy machine does not
+    trip it; the watchdog test asks for the real setting.
+    """
+    servers: list[RigServer] = []
+
+    def start(plant: object | None = None, **kw: object) -> RigServer:
+        kw.setdefault("port", 0)
+        kw.setdefault("seed", 7)
+        kw.setdefault("watchdog_periods", 100.0)
+        server = RigServer(FirstOrderPlant() if plant is None else plant, **kw)  # type: ignore[arg-type]
+        servers.append(server)
+        return server.start()
+
+    yield start
+    for server in servers:
+        server.stop()
+
+
+@pytest.fixture
+def rig_server(rig_factory: Callable[..., RigServer]) -> RigServer:
+    """One rig server (first-order plant, lock-step, seed 7) on 127.0.0.1."""
+    return rig_factory()
+
+
+class PlcDataHandler:
+    """Factory of a pyModbusTCP data handler that acts as a small lock-step PLC.
+
+    Written only against pyModbusTCP's public API: a write that changes the
+    heartbeat steps the plant with the voltage in the registers and publishes
+    speed and sequence, as our rig server does, so ModbusDAQ can run against an
+    implementation we did not write.
+    """
+
+    @staticmethod
+    def build(plant: FirstOrderPlant, register_map: RegisterMap) -> object:
+        from pyModbusTCP.server import DataHandler
+
+        m = register_map
+
+        class _Handler(DataHandler):
+            heartbeat: int | None = None
+            seq = 0
+
+            def write_h_regs(self, address, words_l, srv_info):
+                result = super().write_h_regs(address, words_l, srv_info)
+                hb = m["heartbeat"]
+                if address <= hb.address < address + len(words_l):
+                    beat = words_l[hb.address - address]
+                    if beat != self.heartbeat:
+                        self.heartbeat = beat
+                        vr = m["voltage_command"]
+                        words = self.data_bank.get_holding_registers(vr.address, vr.count)
+                        y = plant.step(vr.decode(words))
+                        self.seq += 1
+                        bank = self.data_bank
+                        bank.set_holding_registers(m["speed"].address, m["speed"].encode(y))
+                        bank.set_holding_registers(m["sequence"].address, [self.seq & 0xFFFF])
+                return result
+
+        return _Handler()
+
+
+@contextlib.contextmanager
+def pymodbustcp_server(data_hdl: object | None = None) -> Iterator[tuple[object, int]]:
+    """A pyModbusTCP ModbusServer on 127.0.0.1 (free port), stopped afterwards."""
+    from pyModbusTCP.server import ModbusServer
+
+    for _ in range(5):  # the free port may be taken between probe and bind
+        port = free_port()
+        server = ModbusServer("127.0.0.1", port, no_block=True, data_hdl=data_hdl)
+        try:
+            server.start()
+            break
+        except ModbusServer.NetworkError:
+            continue
+    else:
+        pytest.fail("could not start a pyModbusTCP server on 127.0.0.1")
+    try:
+        yield server, port
+    finally:
+        server.stop()
+
+
+@contextlib.contextmanager
+def pty_pair() -> Iterator[tuple[str, str]]:
+    """Two linked pseudo-terminals made by socat; skips the test when socat is absent."""
+    socat = shutil.which("socat")
+    if socat is None:
+        pytest.skip("socat is not installed (apt-get install socat): no serial line for RTU")
+    proc = subprocess.Popen(
+        [socat, "-d", "-d", "pty,raw,echo=0", "pty,raw,echo=0"],
+        stderr=subprocess.PIPE, text=True,
+    )
+    try:
+        ptys: list[str] = []
+        assert proc.stderr is not None
+        while len(ptys) < 2:
+            line = proc.stderr.readline()
+            if not line:
+                pytest.fail(f"socat exited early (code {proc.poll()})")
+            if "PTY is" in line:
+                ptys.append(line.strip().split("PTY is ")[-1])
+        yield ptys[0], ptys[1]
+    finally:
+        proc.terminate()
+        proc.wait(10)
