@@ -1,5 +1,5 @@
-"""Shared pieces of the io tests: a small test plant, free ports, server fixtures, a
-third-party (pyModbusTCP) PLC stand-in."""
+"""Shared pieces of the io tests: a small test plant, free ports, a third-party
+(pyModbusTCP) PLC stand-in, a serial line made by socat."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from collections.abc import Callable, Iterator
 import numpy as np
 import pytest
 
-from motorid.io import RegisterMap, RigServer
+from motorid.io import RegisterMap
 
 
 class FirstOrderPlant:
@@ -66,34 +66,6 @@ def wait_for(condition: Callable[[], bool], timeout: float = 20.0, what: str = "
         if time.monotonic() > deadline:
             pytest.fail(f"gave up waiting for {what or condition} after {timeout} s")
         time.sleep(0.005)
-
-
-@pytest.fixture
-def rig_factory() -> Iterator[Callable[..., RigServer]]:
-    """Start rig servers on 127.0.0.1 (free port unless given); stop them all after the test.
-
-    The watchdog is relaxed to 100 sample periods so a busy machine does not
-    trip it; the watchdog test asks for the real setting.
-    """
-    servers: list[RigServer] = []
-
-    def start(plant: object | None = None, **kw: object) -> RigServer:
-        kw.setdefault("port", 0)
-        kw.setdefault("seed", 7)
-        kw.setdefault("watchdog_periods", 100.0)
-        server = RigServer(FirstOrderPlant() if plant is None else plant, **kw)  # type: ignore[arg-type]
-        servers.append(server)
-        return server.start()
-
-    yield start
-    for server in servers:
-        server.stop()
-
-
-@pytest.fixture
-def rig_server(rig_factory: Callable[..., RigServer]) -> RigServer:
-    """One rig server (first-order plant, lock-step, seed 7) on 127.0.0.1."""
-    return rig_factory()
 
 
 class PlcDataHandler:

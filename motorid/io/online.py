@@ -108,7 +108,7 @@ class RunRecorder:
             raise ValueError(f"flush_every must be >= 1, got {flush_every!r}")
         self.path = None if path is None else Path(path)
         self.flush_every = int(flush_every)
-        self.rows: list[dict[str, float]] = []
+        self.rows: list[dict[str, float | int]] = []
         self.columns: list[str] | None = None
         self._fh: Any = None
         self._writer: Any = None
@@ -116,7 +116,7 @@ class RunRecorder:
             self.path.parent.mkdir(parents=True, exist_ok=True)
             self._fh = self.path.open("w", newline="", encoding="utf-8")
 
-    def append(self, row: dict[str, float]) -> None:
+    def append(self, row: dict[str, float | int]) -> None:
         """Record one row (written to disk at once, flushed every ``flush_every``)."""
         if self.columns is None:
             self.columns = list(row)
@@ -140,10 +140,13 @@ class RunRecorder:
         df = pd.DataFrame(self.rows, columns=self.columns or ["t", "seq", "u", "y", "clamped"])
         df.attrs["dt"] = dt
         df.attrs["units"] = {"t": "s", "u": "V", "y": "rad/s"}
+        df.attrs["timing"] = "u[k] is held over [t[k], t[k]+dt); y is measured at t[k]+dt"
         return df
 
 
 def _format(value: float) -> str:
+    if isinstance(value, int):
+        return str(value)
     return repr(float(value))
 
 
@@ -214,10 +217,13 @@ def run_online(
     Returns
     -------
     pandas.DataFrame
-        Columns ``t`` [s] (time stamp of the measurement), ``seq``, ``u``
-        [V] (command applied, after clamping), ``y`` [rad/s], ``clamped``,
+        Columns ``t`` [s], ``seq``, ``u`` [V] (command applied, after
+        clamping), ``y`` [rad/s], ``clamped``,
         then for each estimator ``NAME.y_hat`` and its flattened ``params``
-        after the update. ``attrs["dt"]`` and ``attrs["units"]`` are set.
+        after the update. Timing as in ``TwoMassRig.simulate``: ``u`` is held
+        over ``[t, t + dt)`` and ``y`` is measured at ``t + dt`` (the sample's
+        time stamp). ``attrs["dt"]``, ``attrs["units"]`` and
+        ``attrs["timing"]`` are set.
 
     Raises
     ------
@@ -259,9 +265,9 @@ def run_online(
             daq.write(_command_for(excitation, 0, 0.0))
             for k in range(n):
                 sample: Sample = daq.read()
-                row: dict[str, float] = {
-                    "t": sample.t, "seq": float(sample.seq), "u": sample.u, "y": sample.y,
-                    "clamped": float(sample.clamped),
+                row: dict[str, float | int] = {
+                    "t": sample.t - dt, "seq": sample.seq, "u": sample.u, "y": sample.y,
+                    "clamped": int(sample.clamped),
                 }
                 for name, est in named.items():
                     y_hat = est.predict(sample.u)
