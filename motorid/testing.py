@@ -160,6 +160,7 @@ def check_batch_equals_loop(factory: EstimatorFactory, u: np.ndarray, y: np.ndar
     for label, got, want in (
         ("y_hat", result.y_hat, predictions),
         ("x", result.x, x_hist),
+        ("final x", batch.x, loop.x),
         ("final P", batch.P, loop.P),
         ("final x_prior", batch.x_prior, loop.x_prior),
         ("final P_prior", batch.P_prior, loop.P_prior),

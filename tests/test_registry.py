@@ -1,0 +1,153 @@
+"""The registry, plugins through entry-point metadata, and the conformance suite on
+every registered estimator (and on broken ones, which it must reject)."""
+
+from __future__ import annotations
+
+import importlib
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+from filterpy.common import Saver
+
+from motorid import testing
+from motorid.estimators import ARXRLS, HammersteinRLS, available, create, register, unregister
+from motorid.testing import check_estimator, conformance_record
+
+#: keyword arguments that build a small instance of each registered estimator
+SMALL = {
+    "arx-rls": {"na": 2, "nb": 2, "lam": 0.99},
+    "hammerstein-rls": {"na": 2, "nb": 2, "degree": 3, "lam": 0.99},
+}
+
+
+def test_built_ins_are_available_and_created_by_name():
+    assert {"arx-rls", "hammerstein-rls"} <= set(available())
+    assert isinstance(create("arx-rls", na=1, nb=1), ARXRLS)
+    est = create("hammerstein-rls", na=4, nb=4, degree=3, lam=0.99)
+    assert isinstance(est, HammersteinRLS) and est.dim_x == 4 + 5 * 3
+
+
+def test_unknown_name_lists_what_is_available():
+    with pytest.raises(ValueError, match=r"unknown estimator 'kalman'.*arx-rls"):
+        create("kalman")
+
+
+@pytest.mark.parametrize("name", available())
+def test_every_registered_estimator_passes_the_conformance_suite(name):
+    passed = check_estimator(lambda: create(name, **SMALL.get(name, {})))
+    assert "check_batch_equals_loop" in passed and len(passed) == 10
+
+
+@pytest.mark.parametrize("gamma_method", ["paper", "svd"])
+@pytest.mark.parametrize("basis", [None, "u,sign", "dead_zone:0.5,u^3"])
+def test_hammerstein_variants_pass_the_conformance_suite(basis, gamma_method):
+    check_estimator(lambda: HammersteinRLS(2, 2, basis=basis, gamma_method=gamma_method, lam=0.98))
+
+
+class _DriftingBatch(ARXRLS):
+    """Broken: its batch path disagrees with its sample loop."""
+
+    def batch_filter(self, u, z, saver=None):
+        result = super().batch_filter(u, z, saver)
+        self.x = self.x + 1e-3
+        return result
+
+
+class _TouchesPOnBadInput(ARXRLS):
+    """Broken: changes P before it checks the input."""
+
+    def predict(self, u):
+        self.P = self.P * 1.001
+        return super().predict(u)
+
+
+class _AsymmetricP(ARXRLS):
+    """Broken: loses the symmetry of P."""
+
+    def batch_filter(self, u, z, saver=None):
+        result = super().batch_filter(u, z, saver)
+        self.P = self.P + np.triu(np.full_like(self.P, 1e-9), 1)
+        return result
+
+
+@pytest.mark.parametrize(
+    ("broken", "check"),
+    [
+        (_DriftingBatch, "check_batch_equals_loop"),
+        (_TouchesPOnBadInput, "check_bad_input"),
+        (_AsymmetricP, "check_covariance"),
+    ],
+)
+def test_the_conformance_suite_rejects_broken_estimators(broken, check):
+    """Each check fails on the estimator broken its way (and so does the whole suite)."""
+    u, y = conformance_record()
+    with pytest.raises(AssertionError, match=check):
+        getattr(testing, check)(lambda: broken(2, 2, lam=0.99), u, y)
+    with pytest.raises(AssertionError):
+        check_estimator(lambda: broken(2, 2, lam=0.99))
+
+
+def test_saver_records_every_attribute_and_property():
+    est = create("hammerstein-rls", na=2, nb=2, degree=2)
+    u, y = conformance_record(50)
+    saver = Saver(est)
+    est.batch_filter(u, y, saver=saver)
+    saver.to_array()
+    assert saver.x.shape == (50, est.dim_x)
+    assert saver.P.shape == (50, est.dim_x, est.dim_x)
+    assert len(saver.params) == 50 and saver.params[-1]["gamma"].shape == (2,)
+    assert np.all(np.asarray(saver.log_likelihood) < 0)
+
+
+def test_register_at_run_time():
+    register("my-arx", lambda **kw: ARXRLS(1, 1, **kw))
+    try:
+        assert "my-arx" in available()
+        assert create("my-arx", lam=0.9).lam == 0.9
+        with pytest.raises(ValueError, match="taken"):
+            register("arx-rls", ARXRLS)
+    finally:
+        unregister("my-arx")
+    assert "my-arx" not in available()
+
+
+def test_a_plugin_registered_through_entry_point_metadata(tmp_path, monkeypatch, caplog):
+    """An installed distribution declaring the entry point group is found by name,
+    built by create() and passes the conformance suite; a broken one is logged and left out."""
+    package = tmp_path / "motorid_demo_plugin"
+    package.mkdir()
+    (package / "__init__.py").write_text(
+        textwrap.dedent(
+            '''
+            from motorid.estimators import ARXRLS
+
+            class FirstOrderRLS(ARXRLS):
+                """A first-order ARX model as a third-party estimator."""
+                name = "first-order-rls"
+
+                def __init__(self, lam=1.0):
+                    super().__init__(1, 1, lam=lam, direct_term=False)
+            '''
+        )
+    )
+    dist = tmp_path / "motorid_demo_plugin-1.0.dist-info"
+    dist.mkdir()
+    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: motorid-demo-plugin\nVersion: 1.0\n")
+    (dist / "entry_points.txt").write_text(
+        "[motorid.estimators]\n"
+        "first-order-rls = motorid_demo_plugin:FirstOrderRLS\n"
+        "broken-plugin = motorid_demo_plugin:DoesNotExist\n"
+    )
+    monkeypatch.syspath_prepend(str(tmp_path))
+    importlib.invalidate_caches()
+    try:
+        assert "first-order-rls" in available()
+        assert "broken-plugin" not in available()
+        assert "broken-plugin" in caplog.text
+        est = create("first-order-rls", lam=0.97)
+        assert type(est).__name__ == "FirstOrderRLS" and est.lam == 0.97
+        check_estimator(lambda: create("first-order-rls", lam=0.99))
+    finally:
+        sys.modules.pop("motorid_demo_plugin", None)
