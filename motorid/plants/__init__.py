@@ -1,0 +1,40 @@
+"""Plants: the two-mass DC motor rig, its nonlinear effects, sensors and excitation signals.
+
+>>> from motorid.plants import paper_rig
+>>> rig = paper_rig()
+>>> y = rig.step(3.0)          # one 40 ms sample at 3 V; measured load speed [rad/s]
+"""
+
+from motorid.plants.amplifier import Amplifier
+from motorid.plants.friction import (
+    AsymmetricFriction,
+    CoulombFriction,
+    Friction,
+    LuGreFriction,
+    StaticFriction,
+    StribeckFriction,
+    ViscousFriction,
+    friction_from_dict,
+)
+from motorid.plants.rig import RECORD_UNITS, TwoMassRig, paper_rig, steady_state_speed
+from motorid.plants.sensors import ADConverter, Encoder, Tachogenerator, measure_speed
+
+__all__ = [
+    "RECORD_UNITS",
+    "ADConverter",
+    "Amplifier",
+    "AsymmetricFriction",
+    "CoulombFriction",
+    "Encoder",
+    "Friction",
+    "LuGreFriction",
+    "StaticFriction",
+    "StribeckFriction",
+    "Tachogenerator",
+    "TwoMassRig",
+    "ViscousFriction",
+    "friction_from_dict",
+    "measure_speed",
+    "paper_rig",
+    "steady_state_speed",
+]

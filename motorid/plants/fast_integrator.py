@@ -1,0 +1,328 @@
+"""Fast fixed-step integrator of the two-mass drive (numba, the product path).
+
+Method: exponential integration of the linear part with the nonlinear torques
+held over each internal step (first-order exponential Euler), plus hybrid
+stick/slip switching.
+
+The linear part, eqs. (1)-(7), with state ``x = [i_a, ω_m, ω_L, δ, θ_L]``
+(δ = θ_m - θ_L the shaft twist) and input ``w = [v_a, τ_m, τ_L]``::
+
+    L_a di_a/dt  = v_a - R_a i_a - K_m ω_m
+    J_m dω_m/dt  = K_m i_a - T_s - B_m ω_m + τ_m
+    J_L dω_L/dt  = T_s - B_L ω_L + τ_L
+    dδ/dt        = ω_m - ω_L,        dθ_L/dt = ω_L
+    T_s          = k_s δ + B_s (ω_m - ω_L)
+
+is advanced exactly over one internal step h by ``x+ = Φ x + Γ w`` with
+``[Φ Γ] = expm([[A, B], [0, 0]] h)``. The extra torques τ collect what is not
+linear: the static friction laws (eqs. 8, 9, 11) evaluated at the start of the
+step, the LuGre torque, the load disturbance -T_d and the backlash offset.
+
+Modes. There is one (Φ, Γ) pair per mode ``stuck_m + 2 stuck_L + 4 gap``:
+
+- A mass with static friction whose speed is exactly 0 is *stuck* while the
+  torque on it, T_net, lies in ``[-T_break-, T_break+]``; its speed row is
+  removed from A, so its speed stays exactly 0.0 (no creep). Otherwise it
+  slips in the direction sgn(T_net), against the kinetic friction at 0±.
+- A slipping mass whose speed changes sign during a step is stopped at exactly
+  0 at the end of the step; the stick test of the next step decides whether it
+  sticks or reverses. Events are thus resolved to one internal step h.
+- Backlash of half-width b: for |δ| < b the shaft transmits nothing (gap mode,
+  no shaft coupling in A); in contact T_s = k_s (δ - b sgn δ) + B_s (ω_m - ω_L),
+  i.e. the linear law plus the constant offset ``k_s b sgn δ`` carried in τ.
+
+With every nonlinearity off the method is exact for a zero-order-hold input
+(to rounding). With Coulomb friction and dead zone the only errors are the
+event times, resolved to h.
+
+Everything here is compiled with ``numba.njit(cache=True)``, including the
+amplifier (:func:`armature_voltage`) and the tacho + A/D chain
+(:func:`tacho_reading`), kept in this one module so the on-disk cache of the
+kernels never holds a stale copy of them; ``advance_sample``
+is the one implementation shared by :func:`step_kernel` (one call per sample
+for online loops) and :func:`simulate_kernel` (a whole record in one call).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+#: Length of the full state vector [i_a, ω_m, ω_L, δ, θ_L, z_m, z_L].
+N_STATE = 7
+#: Number of linear states advanced by Φ.
+N_LINEAR = 5
+#: Columns of one output row: [y, v_a, i_a, ω_m, ω_L, δ, θ_L, z_m, z_L].
+N_OUT = 9
+
+# indices into the packed parameter vector
+P_K = 0
+P_KS = 1
+P_BS = 2
+P_BACKLASH = 3
+P_H = 4
+P_NSUB = 5
+P_AMP_GAIN = 6
+P_DEAD_ZONE = 7
+P_VMAX = 8
+P_TACHO_GAIN = 9
+P_TACHO_NOISE = 10
+P_ADC_BITS = 11
+P_ADC_VMIN = 12
+P_ADC_VMAX = 13
+P_BREAK_POS_M = 14
+P_BREAK_NEG_M = 15
+P_BREAK_POS_L = 16
+P_BREAK_NEG_L = 17
+N_PARAMS = 18
+
+
+@numba.njit(cache=True)
+def armature_voltage(u: float, gain: float, dead_zone: float, v_max: float) -> float:
+    """Armature voltage v_a [V] for one command ``u`` [V] (compiled; the one implementation)."""
+    v = gain * u
+    if v > v_max:
+        v = v_max
+    elif v < -v_max:
+        v = -v_max
+    if abs(v) <= dead_zone:
+        return 0.0
+    return v - dead_zone if v > 0.0 else v + dead_zone
+
+
+@numba.njit(cache=True)
+def tacho_reading(
+    omega: float,
+    noise: float,
+    gain: float,
+    noise_std: float,
+    bits: int,
+    v_min: float,
+    v_max: float,
+) -> float:
+    """Measured speed y [rad/s] for true load speed ``omega`` [rad/s].
+
+    ``noise`` is a standard normal draw, scaled by ``noise_std`` [V]. Compiled;
+    the one implementation of the tacho + A/D chain.
+    """
+    v = gain * omega + noise_std * noise
+    if bits > 0:
+        levels = 2.0**bits
+        q = (v_max - v_min) / levels
+        code = np.floor((v - v_min) / q + 0.5)
+        if code < 0.0:
+            code = 0.0
+        elif code > levels - 1.0:
+            code = levels - 1.0
+        v = v_min + q * code
+    return v / gain
+
+
+@numba.njit(cache=True)
+def static_friction(fric: np.ndarray, side: int, omega: float, direction: float) -> float:
+    """Sum of the static friction laws on ``side`` [N m] for motion in ``direction``.
+
+    Row layout ``[side, α0..α5]`` (eq. 11): ``α0 + α1 exp(-α2|ω|)`` forwards,
+    ``-(α3 + α4 exp(-α5|ω|))`` backwards.
+    """
+    total = 0.0
+    aw = abs(omega)
+    for r in range(fric.shape[0]):
+        if fric[r, 0] != side:
+            continue
+        if direction > 0.0:
+            total += fric[r, 1] + fric[r, 2] * math.exp(-fric[r, 3] * aw)
+        elif direction < 0.0:
+            total -= fric[r, 4] + fric[r, 5] * math.exp(-fric[r, 6] * aw)
+    return total
+
+
+@numba.njit(cache=True)
+def _lugre_zdot(lug: np.ndarray, k: int, z: float, omega: float) -> float:
+    g = lug[k, 3] + (lug[k, 4] - lug[k, 3]) * math.exp(-((omega / lug[k, 5]) ** 2))
+    return omega - lug[k, 1] * abs(omega) * z / g
+
+
+@numba.njit(cache=True)
+def _lugre_advance(lug: np.ndarray, k: int, z: float, omega: float, h: float) -> float:
+    """Exact bristle update over h for ω held constant: z relaxes to g(ω) sgn(ω)/σ0."""
+    if omega == 0.0:
+        return z
+    g = lug[k, 3] + (lug[k, 4] - lug[k, 3]) * math.exp(-((omega / lug[k, 5]) ** 2))
+    rate = lug[k, 1] * abs(omega) / g
+    z_ss = omega / rate
+    return z_ss + (z - z_ss) * math.exp(-rate * h)
+
+
+@numba.njit(cache=True)
+def _substep(
+    x: np.ndarray,
+    v: float,
+    t_d: float,
+    phi: np.ndarray,
+    gam: np.ndarray,
+    p: np.ndarray,
+    fric: np.ndarray,
+    lug: np.ndarray,
+    xn: np.ndarray,
+) -> None:
+    K = p[P_K]
+    ks = p[P_KS]
+    bs = p[P_BS]
+    b = p[P_BACKLASH]
+    h = p[P_H]
+    i_a = x[0]
+    wm = x[1]
+    wl = x[2]
+    d = x[3]
+
+    # shaft: gap or contact (with the backlash offset k_s b sgn δ)
+    gap = 0
+    offset = 0.0
+    if b > 0.0:
+        if abs(d) < b:
+            gap = 1
+        else:
+            offset = ks * b if d > 0.0 else -ks * b
+    t_s = 0.0 if gap == 1 else ks * d + bs * (wm - wl) - offset
+
+    # LuGre torques σ0 z + σ1 dz/dt (σ2 is in the linear part)
+    f_lug_m = 0.0
+    f_lug_l = 0.0
+    if lug[0, 0] != 0.0:
+        f_lug_m = lug[0, 1] * x[5] + lug[0, 2] * _lugre_zdot(lug, 0, x[5], wm)
+    if lug[1, 0] != 0.0:
+        f_lug_l = lug[1, 1] * x[6] + lug[1, 2] * _lugre_zdot(lug, 1, x[6], wl)
+
+    tau_m = offset - f_lug_m
+    tau_l = -offset - t_d - f_lug_l
+
+    # motor mass: Karnopp stick test at exactly zero speed
+    bp = p[P_BREAK_POS_M]
+    bn = p[P_BREAK_NEG_M]
+    has_m = bp > 0.0 or bn > 0.0
+    stuck_m = 0
+    dir_m = 0.0
+    if wm != 0.0:
+        dir_m = 1.0 if wm > 0.0 else -1.0
+    elif has_m:
+        t_net = K * i_a - t_s - f_lug_m
+        if -bn <= t_net <= bp:
+            stuck_m = 1
+        else:
+            dir_m = 1.0 if t_net > 0.0 else -1.0
+    if stuck_m == 0 and dir_m != 0.0:
+        tau_m -= static_friction(fric, 0, wm, dir_m)
+
+    # load mass
+    bp = p[P_BREAK_POS_L]
+    bn = p[P_BREAK_NEG_L]
+    has_l = bp > 0.0 or bn > 0.0
+    stuck_l = 0
+    dir_l = 0.0
+    if wl != 0.0:
+        dir_l = 1.0 if wl > 0.0 else -1.0
+    elif has_l:
+        t_net = t_s - t_d - f_lug_l
+        if -bn <= t_net <= bp:
+            stuck_l = 1
+        else:
+            dir_l = 1.0 if t_net > 0.0 else -1.0
+    if stuck_l == 0 and dir_l != 0.0:
+        tau_l -= static_friction(fric, 1, wl, dir_l)
+
+    mode = stuck_m + 2 * stuck_l + 4 * gap
+    for r in range(N_LINEAR):
+        acc = gam[mode, r, 0] * v + gam[mode, r, 1] * tau_m + gam[mode, r, 2] * tau_l
+        for c in range(N_LINEAR):
+            acc += phi[mode, r, c] * x[c]
+        xn[r] = acc
+
+    # a stuck mass stays at exactly zero; a slipping mass that reverses stops at zero
+    if stuck_m == 1:
+        xn[1] = 0.0
+    elif has_m and dir_m * xn[1] < 0.0:
+        xn[1] = 0.0
+    if stuck_l == 1:
+        xn[2] = 0.0
+    elif has_l and dir_l * xn[2] < 0.0:
+        xn[2] = 0.0
+
+    if lug[0, 0] != 0.0:
+        x[5] = _lugre_advance(lug, 0, x[5], wm, h)
+    if lug[1, 0] != 0.0:
+        x[6] = _lugre_advance(lug, 1, x[6], wl, h)
+    for r in range(N_LINEAR):
+        x[r] = xn[r]
+
+
+@numba.njit(cache=True)
+def advance_sample(
+    x: np.ndarray,
+    u: float,
+    t_d: float,
+    noise: float,
+    phi: np.ndarray,
+    gam: np.ndarray,
+    p: np.ndarray,
+    fric: np.ndarray,
+    lug: np.ndarray,
+    out: np.ndarray,
+) -> float:
+    """Hold ``u`` [V] and ``t_d`` [N m] over one sample; update ``x`` in place.
+
+    Fills ``out`` with ``[y, v_a, i_a, ω_m, ω_L, δ, θ_L, z_m, z_L]`` at the end of
+    the sample and returns the measured load speed y [rad/s].
+    """
+    v = armature_voltage(u, p[P_AMP_GAIN], p[P_DEAD_ZONE], p[P_VMAX])
+    xn = np.empty(N_LINEAR)
+    for _ in range(int(p[P_NSUB])):
+        _substep(x, v, t_d, phi, gam, p, fric, lug, xn)
+    y = tacho_reading(
+        x[2], noise, p[P_TACHO_GAIN], p[P_TACHO_NOISE], int(p[P_ADC_BITS]),
+        p[P_ADC_VMIN], p[P_ADC_VMAX],
+    )  # fmt: skip
+    out[0] = y
+    out[1] = v
+    for k in range(N_STATE):
+        out[2 + k] = x[k]
+    return y
+
+
+@numba.njit(cache=True)
+def step_kernel(
+    x: np.ndarray,
+    u: float,
+    t_d: float,
+    noise: float,
+    phi: np.ndarray,
+    gam: np.ndarray,
+    p: np.ndarray,
+    fric: np.ndarray,
+    lug: np.ndarray,
+    out: np.ndarray,
+) -> float:
+    """One sample for online loops (one compiled call per sample)."""
+    return advance_sample(x, u, t_d, noise, phi, gam, p, fric, lug, out)
+
+
+@numba.njit(cache=True)
+def simulate_kernel(
+    x: np.ndarray,
+    u: np.ndarray,
+    t_d: np.ndarray,
+    noise: np.ndarray,
+    phi: np.ndarray,
+    gam: np.ndarray,
+    p: np.ndarray,
+    fric: np.ndarray,
+    lug: np.ndarray,
+) -> np.ndarray:
+    """A whole record: returns an (N, 9) array of output rows, one per sample."""
+    n = u.shape[0]
+    rows = np.empty((n, N_OUT))
+    for k in range(n):
+        advance_sample(x, u[k], t_d[k], noise[k], phi, gam, p, fric, lug, rows[k])
+    return rows
