@@ -37,7 +37,8 @@ class Recorder:
 
     @property
     def params(self) -> dict[str, object]:
-        return {"gain": 2.0, "a": np.array([self.last, -self.last])}
+        return {"gain": 2.0, "a": np.array([self.last, -self.last]), "basis": ("u", "u^3"),
+                "s": np.eye(2)}
 
 
 # -- SimulatedDAQ ------------------------------------------------------------------------
@@ -178,7 +179,8 @@ def test_run_online_records_every_sample(tmp_path):
     np.testing.assert_array_equal(df["u"], u)
     np.testing.assert_allclose(df["t"], np.arange(50) * 0.04, atol=1e-12)
     assert list(df.columns[:5]) == ["t", "seq", "u", "y", "clamped"]
-    assert {"echo.y_hat", "echo.gain", "echo.a1", "echo.a2"} <= set(df.columns)
+    assert {"echo.y_hat", "echo.gain", "echo.a1", "echo.a2", "echo.s4"} <= set(df.columns)
+    assert not any(c.startswith("echo.basis") for c in df.columns)
     assert est.u == list(u) and est.y == list(df["y"])
     assert df.attrs["dt"] == 0.04 and df.attrs["units"]["y"] == "rad/s"
     on_disk = pd.read_csv(out)

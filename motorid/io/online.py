@@ -45,11 +45,15 @@ def flatten_params(prefix: str, params: Mapping[str, Any]) -> dict[str, float]:
 
     Scalars become ``prefix.name``; arrays become ``prefix.name1``,
     ``prefix.name2``, ... (1-based, in C order), so ``{"a": [0.9, -0.1]}``
-    gives ``hammerstein-rls.a1`` and ``hammerstein-rls.a2``.
+    gives ``hammerstein-rls.a1`` and ``hammerstein-rls.a2``. Entries that are
+    not numbers (e.g. the names of a basis) are left out.
     """
     out: dict[str, float] = {}
     for name, value in params.items():
-        arr = np.asarray(value, dtype=float)
+        try:
+            arr = np.asarray(value, dtype=float)
+        except (TypeError, ValueError):  # labels such as basis names are not recorded
+            continue
         if arr.ndim == 0:
             out[f"{prefix}.{name}"] = float(arr)
         else:
