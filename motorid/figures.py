@@ -1,0 +1,129 @@
+"""PNG figures of an identification run, laid out like the paper's Figs. 8-15.
+
+Every function takes plain arrays (time [s], input [V], speeds [rad/s], estimate
+histories), shows speeds in rpm as the paper does, and writes one PNG file.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+from motorid.validation import RPM_PER_RAD_S
+
+DPI = 110
+
+
+def _save(fig: plt.Figure, path: str | Path) -> Path:
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=DPI)
+    plt.close(fig)
+    return path
+
+
+def plot_input_response(t: np.ndarray, u: np.ndarray, y: np.ndarray, path: str | Path) -> Path:
+    """Fig. 8: the test signal [V] (upper) and the measured speed [rpm] (lower)."""
+    fig, (ax_u, ax_y) = plt.subplots(2, 1, figsize=(9, 5), sharex=True, constrained_layout=True)
+    ax_u.plot(t, u, lw=0.8, color="tab:orange")
+    ax_u.set_ylabel("armature voltage u [V]")
+    ax_u.set_title("Input signal and system response")
+    ax_y.plot(t, y * RPM_PER_RAD_S, lw=0.8)
+    ax_y.set_ylabel("load speed y [rpm]")
+    ax_y.set_xlabel("time t [s]")
+    for ax in (ax_u, ax_y):
+        ax.grid(alpha=0.3)
+        ax.axhline(0.0, color="k", lw=0.5)
+    return _save(fig, path)
+
+
+def low_speed_window(y: np.ndarray, width: int, threshold: float, skip: int = 0) -> slice:
+    """The stretch of ``width`` samples after ``skip`` with the most samples below
+    ``threshold`` in |y| (ties: the earliest), for a close look at low speed."""
+    slow = (np.abs(y) < threshold).astype(float)
+    if len(y) - skip <= width:
+        return slice(skip, len(y))
+    counts = np.convolve(slow[skip:], np.ones(width), mode="valid")
+    start = skip + int(np.argmax(counts))
+    return slice(start, start + width)
+
+
+def plot_low_speed(
+    t: np.ndarray,
+    y: np.ndarray,
+    predictions: Mapping[str, np.ndarray],
+    window: slice,
+    path: str | Path,
+    title: str = "Measured and identified output at low speed",
+) -> Path:
+    """Figs. 9-11: measured (solid) and identified (dashed) output [rpm] in a
+    low-speed window, one panel per model."""
+    fig, axes = plt.subplots(
+        len(predictions), 1, figsize=(9, 2.6 * len(predictions)), sharex=True, constrained_layout=True
+    )
+    for ax, (label, y_hat) in zip(np.atleast_1d(axes), predictions.items(), strict=True):
+        ax.plot(t[window], y[window] * RPM_PER_RAD_S, "k-", lw=1.2, label="measured")
+        ax.plot(t[window], y_hat[window] * RPM_PER_RAD_S, "--", lw=1.2, color="tab:red", label=label)
+        ax.axhline(0.0, color="k", lw=0.5)
+        ax.set_ylabel("speed [rpm]")
+        ax.set_title(label)
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper right", fontsize=8)
+    np.atleast_1d(axes)[-1].set_xlabel("time t [s]")
+    fig.suptitle(title)
+    return _save(fig, path)
+
+
+def plot_identification_error(
+    t: np.ndarray, y: np.ndarray, predictions: Mapping[str, np.ndarray], path: str | Path
+) -> Path:
+    """Fig. 12: the identification error y - y_hat [rpm], one panel per model, on
+    one common scale."""
+    errors = {label: (y - y_hat) * RPM_PER_RAD_S for label, y_hat in predictions.items()}
+    limit = max(float(np.percentile(np.abs(e), 99.5)) for e in errors.values()) * 1.2
+    fig, axes = plt.subplots(
+        len(errors), 1, figsize=(9, 2.4 * len(errors)), sharex=True, constrained_layout=True
+    )
+    for ax, (label, err) in zip(np.atleast_1d(axes), errors.items(), strict=True):
+        ax.plot(t, err, lw=0.6)
+        ax.set_ylim(-limit, limit)
+        ax.set_ylabel("error [rpm]")
+        ax.set_title(f"identification error, {label}")
+        ax.grid(alpha=0.3)
+    np.atleast_1d(axes)[-1].set_xlabel("time t [s]")
+    return _save(fig, path)
+
+
+def plot_estimates(
+    t: np.ndarray,
+    groups: Sequence[tuple[str, Mapping[str, np.ndarray]]],
+    path: str | Path,
+    title: str,
+) -> Path:
+    """Figs. 13-15: parameter estimates converging, one panel per group
+    (e.g. coefficients of A, of B, of the nonlinearity)."""
+    fig, axes = plt.subplots(
+        len(groups), 1, figsize=(9, 2.6 * len(groups)), sharex=True, constrained_layout=True
+    )
+    for ax, (ylabel, series) in zip(np.atleast_1d(axes), groups, strict=True):
+        for name, values in series.items():
+            ax.plot(t, values, lw=1.0, label=name)
+        # scale to the settled estimates: the first tenth of the record is the start-up swing
+        settled = np.concatenate([np.asarray(v, dtype=float)[len(v) // 10 :] for v in series.values()])
+        settled = settled[np.isfinite(settled)]
+        if settled.size:
+            lo, hi = float(settled.min()), float(settled.max())
+            pad = 0.15 * (hi - lo) + 1e-12
+            ax.set_ylim(lo - pad, hi + pad)
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper right", fontsize=8, ncol=min(len(series), 5))
+    np.atleast_1d(axes)[-1].set_xlabel("time t [s]")
+    fig.suptitle(title)
+    return _save(fig, path)
