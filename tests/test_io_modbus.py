@@ -28,6 +28,7 @@ from pyModbusTCP.utils import decode_ieee, encode_ieee, long_list_to_word, word_
 from motorid.io import (
     STATUS_BITS,
     DAQConnectionError,
+    DAQError,
     DAQValueError,
     ModbusDAQ,
     RegisterMap,
@@ -237,6 +238,7 @@ def test_watchdog_zeroes_voltage_and_raises_fault_bit(rig_factory):
         daq.read()
     assert info.value.status & STATUS_BITS["watchdog"]
     daq.reset_faults()
+    daq.write(0.0)
     assert daq.read().status == 0
     daq.close()
 
@@ -317,3 +319,34 @@ def test_from_url():
     assert (rtu.serial_port, rtu.serial_settings["baudrate"]) == ("/dev/ttyUSB0", 9600)
     with pytest.raises(ValueError, match="scheme"):
         ModbusDAQ.from_url("http://x")
+
+
+def test_realtime_rig_paces_the_client(rig_factory):
+    server = rig_factory(plant=FirstOrderPlant(dt=0.01), lockstep=False)
+    df = run_online(daq_for(server), None, np.full(15, 2.0), None, progress=False)
+    assert len(df) == 15
+    assert (np.diff(df["seq"]) >= 1).all()  # never the same sample twice
+    assert df["y"].iloc[-1] > 0
+
+
+def test_stale_lockstep_read_is_a_clear_error(rig_server):
+    with daq_for(rig_server, timeout=0.1) as daq:
+        daq.write(1.0)
+        daq.read()
+        with pytest.raises(DAQError, match="no new sample"):
+            daq.read()  # nothing written: a lock-step rig does not advance
+
+
+def test_daq_from_url(rig_server):
+    from motorid.io import daq_from_url
+
+    assert isinstance(daq_from_url("sim", plant=FirstOrderPlant(), seed=1), SimulatedDAQ)
+    daq = daq_from_url(rig_server.url, dt=rig_server.dt, timeout=2.0)
+    assert isinstance(daq, ModbusDAQ)
+    with daq:
+        daq.write(1.0)
+        assert daq.read().seq == 1
+    with pytest.raises(ValueError, match="expected 'sim'"):
+        daq_from_url("tcp://x")
+    with pytest.raises(ValueError, match="seed"):
+        daq_from_url("modbus://127.0.0.1:5020", seed=3)

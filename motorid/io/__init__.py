@@ -5,6 +5,7 @@
 - :class:`RigServer`: the simulated rig served over real Modbus (pymodbus).
 - :class:`RegisterMap`: where the rig's signals live in the Modbus registers.
 - :func:`run_online`: excite, measure, feed estimators, record to CSV as it goes.
+- :func:`daq_from_url`: ``sim``, ``modbus://HOST:PORT`` or ``modbus-rtu:///dev/X``.
 """
 
 from .base import (
@@ -16,6 +17,7 @@ from .base import (
     RigFaultError,
     Sample,
 )
+from .daq_url import daq_from_url
 from .modbus import ModbusDAQ
 from .online import RunRecorder, run_online
 from .registers import STATUS_BITS, Register, RegisterMap
@@ -37,6 +39,7 @@ __all__ = [
     "RunRecorder",
     "Sample",
     "SimulatedDAQ",
+    "daq_from_url",
     "rig_map_toml",
     "run_online",
 ]

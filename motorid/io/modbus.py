@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import logging
 import math
+import time
 from pathlib import Path
 from typing import Any
 from urllib.parse import parse_qs, urlparse
@@ -82,6 +83,10 @@ class ModbusDAQ(DAQ):
         On :meth:`open`, acknowledge faults latched before this connection
         (they are logged as a warning). Faults raised while open are never
         acknowledged silently: :meth:`read` raises :class:`RigFaultError`.
+    wait_new_sample : bool
+        :meth:`read` waits until the rig's sequence counter has moved on, so
+        a loop is paced by a real-time rig and never sees a sample twice. A
+        lock-step rig advances on each :meth:`write`, so there is no wait.
 
     Examples
     --------
@@ -106,6 +111,7 @@ class ModbusDAQ(DAQ):
         timeout: float | None = None,
         u_max: float = 12.0,
         clear_faults_on_open: bool = True,
+        wait_new_sample: bool = True,
     ) -> None:
         super().__init__(u_max=u_max)
         if not (math.isfinite(dt) and dt > 0):
@@ -129,6 +135,9 @@ class ModbusDAQ(DAQ):
         self._dt = float(dt)
         self.timeout = float(timeout)
         self.clear_faults_on_open = clear_faults_on_open
+        self.wait_new_sample = wait_new_sample
+        #: Samples the rig took that this client never read (real-time rigs).
+        self.missed_samples = 0
         #: Number of times the link was re-established after a loss.
         self.reconnect_count = 0
         self._client: Any = None
@@ -314,14 +323,28 @@ class ModbusDAQ(DAQ):
         """
         if not self._is_open:
             raise DAQError(f"{self.endpoint}: the DAQ is not open (call open() first)")
-        status, seq_raw, y = self._read_words()
-        if status & STATUS_FAULTS:
-            raise RigFaultError(
-                f"{self.endpoint}: rig reports fault {describe_status(status)} "
-                f"(status word 0x{status:04x}); the rig holds 0 V. "
-                "Acknowledge with reset_faults() once the cause is fixed.",
-                status,
-            )
+        deadline = None
+        while True:
+            status, seq_raw, y = self._read_words()
+            if status & STATUS_FAULTS:
+                raise RigFaultError(
+                    f"{self.endpoint}: rig reports fault {describe_status(status)} "
+                    f"(status word 0x{status:04x}); the rig holds 0 V. "
+                    "Acknowledge with reset_faults() once the cause is fixed.",
+                    status,
+                )
+            if not self.wait_new_sample or self._seq_raw is None or seq_raw != self._seq_raw:
+                break
+            now = time.monotonic()
+            if deadline is None:
+                deadline = now + max(self.timeout, 2.0 * self._dt)
+            elif now > deadline:
+                raise DAQError(
+                    f"{self.endpoint}: the rig's sequence counter stayed at {seq_raw} for "
+                    f"{max(self.timeout, 2.0 * self._dt):g} s: no new sample (a lock-step "
+                    "rig advances only when a command is written)"
+                )
+            time.sleep(min(self._dt / 20.0, 0.002))
         try:
             self.register_map["speed"].check(y, where=f"{self.endpoint}: ")
         except ValueError as exc:
@@ -331,7 +354,13 @@ class ModbusDAQ(DAQ):
             # keep ours monotonic
             self._seq += 1
         else:
-            self._seq += (seq_raw - self._seq_raw) & 0xFFFF
+            step = (seq_raw - self._seq_raw) & 0xFFFF
+            if step > 1:
+                self.missed_samples += step - 1
+                logger.warning("%s: %d sample(s) of the rig were not read (client too slow "
+                               "for dt = %g s); %d missed so far", self.endpoint, step - 1,
+                               self._dt, self.missed_samples)
+            self._seq += step
         self._seq_raw = seq_raw
         return Sample(
             t=self._seq * self._dt,
