@@ -7,7 +7,10 @@ mocked. No assertion is about elapsed time: waits poll with a generous limit.
 from __future__ import annotations
 
 import math
+import signal
 import socket
+import subprocess
+import sys
 from collections.abc import Callable, Iterator
 
 import numpy as np
@@ -350,3 +353,47 @@ def test_daq_from_url(rig_server):
         daq_from_url("tcp://x")
     with pytest.raises(ValueError, match="seed"):
         daq_from_url("modbus://127.0.0.1:5020", seed=3)
+
+
+# -- a rig server in its own process: killed for real, stopped by SIGTERM ------------------------------
+def start_rig_process(port: int) -> subprocess.Popen:
+    code = ("import logging, sys; logging.basicConfig(level=logging.INFO);"
+            "from motorid.io import RigServer;"
+            f"RigServer(port={port}, seed=1, watchdog_periods=None).serve_forever()")
+    proc = subprocess.Popen([sys.executable, "-c", code], stderr=subprocess.PIPE, text=True)
+
+    def listening() -> bool:
+        if proc.poll() is not None:
+            pytest.fail(f"rig server process exited: {proc.stderr.read()}")
+        with socket.socket() as s:
+            return s.connect_ex(("127.0.0.1", port)) == 0
+
+    wait_for(listening, timeout=60, what="the rig server process to listen")
+    return proc
+
+
+def test_rig_process_killed_mid_run_and_sigterm(tmp_path):
+    pytest.importorskip("motorid.plants", reason="the default rig needs motorid.plants")
+    port = free_port()
+    proc = start_rig_process(port)
+    out = tmp_path / "sigkill.csv"
+
+    def excitation(t):
+        if round(t / 0.04) == 20:
+            proc.kill()
+            proc.wait(30)
+        return 2.0
+
+    try:
+        daq = ModbusDAQ("127.0.0.1", port, dt=0.04, timeout=2.0)
+        with pytest.raises(DAQConnectionError):
+            run_online(daq, None, excitation, 2.0, out=out, progress=False)
+    finally:
+        proc.kill()
+        proc.wait(30)
+    assert len(pd.read_csv(out)) == 20
+
+    proc = start_rig_process(port)
+    proc.send_signal(signal.SIGTERM)
+    assert proc.wait(30) == 0
+    assert "stopped" in proc.stderr.read()

@@ -164,6 +164,8 @@ class RigServer:
         self._loop: asyncio.AbstractEventLoop | None = None
         self._stop_event: asyncio.Event | None = None
         self._ready = threading.Event()
+        self._done = threading.Event()
+        self._done.set()
         self._error: BaseException | None = None
         self._server: Any = None
 
@@ -357,6 +359,7 @@ class RigServer:
                 logger.exception("rig server on %s failed", self.url)
         finally:
             self._ready.set()
+            self._done.set()
 
     async def _run_main(self) -> None:
         self._loop = asyncio.get_running_loop()
@@ -371,10 +374,11 @@ class RigServer:
         RuntimeError
             Already running, or the server could not start (port in use, ...).
         """
-        if self._thread is not None and self._thread.is_alive():
+        if self.running:
             raise RuntimeError(f"{self!r} is already running")
         self._reset_plant()
         self._ready.clear()
+        self._done.clear()
         self._error = None
         self._thread = threading.Thread(target=self._run_thread, name=f"rig-server-{self.port}",
                                         daemon=True)
@@ -382,7 +386,8 @@ class RigServer:
         if not self._ready.wait(timeout):
             raise RuntimeError(f"{self!r} did not start within {timeout} s")
         if self._error is not None:
-            self._thread.join(timeout)
+            self._done.wait(timeout)
+            self._thread = None
             raise RuntimeError(f"{self!r} could not start: {self._error}") from self._error
         return self
 
@@ -391,11 +396,13 @@ class RigServer:
         thread, loop, event = self._thread, self._loop, self._stop_event
         if thread is None:
             return
-        if loop is not None and event is not None and thread.is_alive():
+        # (our own event, not Thread.is_alive/join: a join interrupted by a signal
+        # can leave the thread marked stopped on Python < 3.13)
+        if loop is not None and event is not None and not self._done.is_set():
             loop.call_soon_threadsafe(event.set)
-        thread.join(timeout)
-        if thread.is_alive():
+        if not self._done.wait(timeout):
             raise RuntimeError(f"{self!r} did not stop within {timeout} s")
+        thread.join(timeout)
         self._thread = None
         self._loop = None
         self._stop_event = None
@@ -403,7 +410,7 @@ class RigServer:
     @property
     def running(self) -> bool:
         """True while the server thread is serving."""
-        return self._thread is not None and self._thread.is_alive()
+        return self._thread is not None and not self._done.is_set()
 
     def __enter__(self) -> RigServer:
         return self.start()
@@ -426,8 +433,8 @@ class RigServer:
             previous = signal.signal(signal.SIGTERM, _terminate)
         self.start()
         try:
-            while self.running:
-                self._thread.join(0.5)  # type: ignore[union-attr]
+            while not self._done.wait(0.5):
+                pass
         except KeyboardInterrupt:
             logger.info("rig server on %s: interrupted", self.url)
         finally:
