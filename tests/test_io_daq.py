@@ -268,3 +268,13 @@ def test_run_online_rejects_bad_arguments():
     with pytest.raises(ValueError, match="at sample 1"):
         run_online(daq, [], [1.0, float("nan")], None, progress=False)
     assert not daq.is_open
+
+
+def test_online_record_matches_the_rigs_offline_simulation():
+    plants = pytest.importorskip("motorid.plants", reason="needs motorid.plants")
+    u = np.repeat(np.linspace(-8.0, 8.0, 12), 10)
+    offline = plants.paper_rig().simulate(u, seed=21)
+    online = run_online(SimulatedDAQ(plants.paper_rig(), seed=21), None, u, None, progress=False)
+    np.testing.assert_allclose(online["t"], offline["t"], atol=1e-12)
+    np.testing.assert_array_equal(online["u"], offline["u"])
+    np.testing.assert_allclose(online["y"], offline["y"], rtol=1e-12, atol=1e-12)
