@@ -31,7 +31,7 @@ from __future__ import annotations
 import math
 import numbers
 from collections.abc import Iterable, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, field
 from typing import Any, ClassVar, Literal
 
 import numpy as np
@@ -63,10 +63,10 @@ def _direction_sign(omega: npt.ArrayLike, direction: float) -> np.ndarray:
 
 @dataclass(frozen=True)
 class Friction:
-    """Base class: a friction law acting on ``side`` of the drive."""
+    """Base class: a friction law acting on ``side`` of the drive (keyword-only)."""
 
     kind: ClassVar[str] = "friction"
-    side: Side = "both"
+    side: Side = field(default="both", kw_only=True)
 
     def __post_init__(self) -> None:
         _check_side(self.side)
@@ -93,7 +93,6 @@ class ViscousFriction(Friction):
 
     kind: ClassVar[str] = "viscous"
     B: float = 0.0
-    side: Side = "both"
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -160,7 +159,6 @@ class CoulombFriction(StaticFriction):
 
     kind: ClassVar[str] = "coulomb"
     alpha: float = 0.0
-    side: Side = "both"
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -191,7 +189,6 @@ class StribeckFriction(StaticFriction):
     alpha0: float = 0.0
     alpha1: float = 0.0
     alpha2: float = 0.0
-    side: Side = "both"
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -224,7 +221,6 @@ class AsymmetricFriction(StaticFriction):
     alpha3: float = 0.0
     alpha4: float = 0.0
     alpha5: float = 0.0
-    side: Side = "both"
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -278,7 +274,6 @@ class LuGreFriction(Friction):
     Fc: float = 0.0
     Fs: float = 0.0
     omega_s: float = 1.0
-    side: Side = "both"
 
     def __post_init__(self) -> None:
         super().__post_init__()

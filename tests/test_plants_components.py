@@ -1,0 +1,129 @@
+"""Friction laws, amplifier and sensor chain against the paper's equations."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from motorid.plants import (
+    ADConverter,
+    Amplifier,
+    AsymmetricFriction,
+    CoulombFriction,
+    Encoder,
+    LuGreFriction,
+    StribeckFriction,
+    Tachogenerator,
+    ViscousFriction,
+    friction_from_dict,
+    measure_speed,
+    paper_rig,
+    steady_state_speed,
+)
+
+speeds = st.floats(-300.0, 300.0, allow_nan=False)
+coef = st.floats(0.0, 0.05)
+
+
+@settings(max_examples=40, deadline=None)
+@given(w=speeds, a0=coef, a1=coef, a2=st.floats(0.0, 5.0))
+def test_coulomb_and_stribeck_follow_eqs_8_and_9(w, a0, a1, a2):
+    sgn = float(np.sign(w))  # eq. (10): sgn(0) = 0
+    assert CoulombFriction(alpha=a0).torque(w) == pytest.approx(a0 * sgn)
+    expected = a0 * sgn + a1 * math.exp(-a2 * abs(w)) * sgn
+    assert StribeckFriction(a0, a1, a2).torque(w) == pytest.approx(expected)
+
+
+@settings(max_examples=40, deadline=None)
+@given(w=speeds, a=st.tuples(coef, coef, st.floats(0, 5), coef, coef, st.floats(0, 5)))
+def test_asymmetric_follows_eq_11(w, a):
+    sgn1 = 1.0 if w >= 0 else 0.0
+    sgn2 = 0.0 if w >= 0 else -1.0
+    expected = (a[0] + a[1] * math.exp(-a[2] * abs(w))) * sgn1 + (
+        a[3] + a[4] * math.exp(-a[5] * abs(w))
+    ) * sgn2
+    assert AsymmetricFriction(*a).torque(w) == pytest.approx(expected)
+
+
+def test_breakaway_and_direction_at_zero_speed():
+    f = AsymmetricFriction(1e-3, 2e-3, 1.0, 3e-3, 1e-3, 1.0)
+    assert f.breakaway_positive == pytest.approx(3e-3)
+    assert f.breakaway_negative == pytest.approx(4e-3)
+    assert StribeckFriction(1e-3, 2e-3, 1.0).torque(0.0, direction=-1) == pytest.approx(-3e-3)
+    assert CoulombFriction(alpha=2e-3).torque(0.0) == 0.0
+
+
+def test_friction_dict_round_trip_and_sides():
+    laws = [
+        ViscousFriction(B=1e-5, side="motor"),
+        CoulombFriction(alpha=1e-3, side="load"),
+        StribeckFriction(1e-3, 1e-3, 2.0),
+        AsymmetricFriction(1e-3, 0.0, 0.0, 2e-3, 0.0, 0.0, side="motor"),
+        LuGreFriction(sigma0=2.0, sigma1=1e-3, sigma2=1e-5, Fc=1e-3, Fs=2e-3, omega_s=1.0),
+    ]
+    for law in laws:
+        assert friction_from_dict(law.to_dict()) == law
+    assert StribeckFriction().sides() == ("motor", "load")
+    with pytest.raises(ValueError, match="kind"):
+        friction_from_dict({"kind": "magic"})
+    with pytest.raises(ValueError, match="LuGre"):
+        paper_rig(friction=(laws[4], LuGreFriction(Fc=1e-3, Fs=1e-3, side="motor")))
+
+
+def test_asymmetric_friction_shows_in_the_rig():
+    """Asymmetric friction: the same |u| gives different |speed| in the two directions."""
+    fr = (AsymmetricFriction(2e-3, 0.0, 0.0, 8e-3, 0.0, 0.0, side="both"),)
+    rig = paper_rig(friction=fr)
+    fwd = steady_state_speed(rig, 3.0)
+    back = steady_state_speed(rig, -3.0)
+    assert fwd > -back > 0
+    df = rig.simulate(np.r_[np.full(40, 3.0), np.full(40, -3.0)],
+                      seed=0).replace(0, np.nan)  # fmt: skip
+    assert df["omega_l"].iloc[39] == pytest.approx(fwd, rel=1e-3)
+    assert df["omega_l"].iloc[-1] == pytest.approx(back, rel=1e-3)
+
+
+def test_lugre_reaches_its_steady_state_curve():
+    lugre = LuGreFriction(sigma0=2.0, sigma1=3e-3, sigma2=0.0, Fc=3e-3, Fs=4e-3, omega_s=2.0)
+    rig = paper_rig(friction=(lugre,))
+    for u in (2.0, 6.0, -4.0):
+        w = rig.simulate(np.full(60, u), seed=0)["omega_l"].iloc[-1]
+        assert w == pytest.approx(steady_state_speed(rig, u), rel=1e-4)
+    z = lugre.g(5.0) / lugre.sigma0
+    assert lugre.torque(z, 5.0) == pytest.approx(lugre.steady_state_torque(5.0))
+
+
+@settings(max_examples=50, deadline=None)
+@given(u=st.floats(-30, 30), d=st.floats(0, 2), vmax=st.floats(1, 24), g=st.floats(0.5, 2))
+def test_amplifier_dead_zone_and_saturation(u, d, vmax, g):
+    v = min(max(g * u, -vmax), vmax)
+    expected = 0.0 if abs(v) <= d else v - math.copysign(d, v)
+    assert Amplifier(gain=g, dead_zone=d, v_max=vmax)(u) == pytest.approx(expected, abs=1e-12)
+
+
+def test_tacho_and_adc_chain():
+    tacho = Tachogenerator(noise_std=0.0)
+    adc = ADConverter(bits=12, v_min=-10.0, v_max=10.0)
+    w = np.linspace(-400, 400, 2001)
+    y = measure_speed(w, 0.0, tacho, adc)
+    lsb_speed = adc.lsb / tacho.gain
+    inside = np.abs(tacho.gain * w) < 10.0 - adc.lsb
+    assert np.max(np.abs(y - w)[inside]) <= lsb_speed / 2 + 1e-12
+    assert len(np.unique(y)) <= 4096
+    assert y.max() <= 10.0 / tacho.gain and y.min() >= -10.0 / tacho.gain  # range clips
+    assert measure_speed([0.0], 0.0, tacho, adc)[0] == 0.0
+    # noise: standard deviation in speed equals noise_std / gain (large vs the lsb)
+    noisy = Tachogenerator(noise_std=0.05)
+    n = np.random.default_rng(0).standard_normal(20000)
+    y = measure_speed(np.full(20000, 50.0), n, noisy, adc)
+    assert np.std(y) == pytest.approx(0.05 / noisy.gain, rel=0.03)
+
+
+def test_encoder_counts():
+    enc = Encoder(counts_per_rev=4)
+    np.testing.assert_allclose(enc.measure([0.0, 1.0, 1.6, -0.1]), [0.0, 0.0, math.pi / 2,
+                                                                   -math.pi / 2])
