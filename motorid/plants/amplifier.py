@@ -16,19 +16,10 @@ import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
-import numba
 import numpy as np
 import numpy.typing as npt
 
-from motorid.plants.fast_integrator import armature_voltage
-
-
-@numba.njit(cache=True)
-def _armature_voltages(u: np.ndarray, gain: float, dead_zone: float, v_max: float) -> np.ndarray:
-    out = np.empty_like(u)
-    for k in range(u.size):
-        out[k] = armature_voltage(u[k], gain, dead_zone, v_max)
-    return out
+from motorid.plants.fast_integrator import armature_voltages
 
 
 @dataclass(frozen=True)
@@ -61,7 +52,7 @@ class Amplifier:
         """Armature voltage v_a [V] for command ``u`` [V]."""
         arr = np.asarray(u, dtype=float)
         flat = np.ascontiguousarray(arr.reshape(-1))
-        out = _armature_voltages(flat, self.gain, self.dead_zone, self.v_max)
+        out = armature_voltages(flat, self.gain, self.dead_zone, self.v_max)
         return out.reshape(arr.shape)
 
     def to_dict(self) -> dict[str, Any]:

@@ -121,6 +121,32 @@ def tacho_reading(
 
 
 @numba.njit(cache=True)
+def armature_voltages(u: np.ndarray, gain: float, dead_zone: float, v_max: float) -> np.ndarray:
+    """Vectorised :func:`armature_voltage`."""
+    out = np.empty_like(u)
+    for k in range(u.size):
+        out[k] = armature_voltage(u[k], gain, dead_zone, v_max)
+    return out
+
+
+@numba.njit(cache=True)
+def tacho_readings(
+    omega: np.ndarray,
+    noise: np.ndarray,
+    gain: float,
+    noise_std: float,
+    bits: int,
+    v_min: float,
+    v_max: float,
+) -> np.ndarray:
+    """Vectorised :func:`tacho_reading`."""
+    out = np.empty_like(omega)
+    for k in range(omega.size):
+        out[k] = tacho_reading(omega[k], noise[k], gain, noise_std, bits, v_min, v_max)
+    return out
+
+
+@numba.njit(cache=True)
 def static_friction(fric: np.ndarray, side: int, omega: float, direction: float) -> float:
     """Sum of the static friction laws on ``side`` [N m] for motion in ``direction``.
 

@@ -19,27 +19,10 @@ import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
-import numba
 import numpy as np
 import numpy.typing as npt
 
-from motorid.plants.fast_integrator import tacho_reading
-
-
-@numba.njit(cache=True)
-def _tacho_readings(
-    omega: np.ndarray,
-    noise: np.ndarray,
-    gain: float,
-    noise_std: float,
-    bits: int,
-    v_min: float,
-    v_max: float,
-) -> np.ndarray:
-    out = np.empty_like(omega)
-    for k in range(omega.size):
-        out[k] = tacho_reading(omega[k], noise[k], gain, noise_std, bits, v_min, v_max)
-    return out
+from motorid.plants.fast_integrator import tacho_readings
 
 
 def measure_speed(
@@ -48,7 +31,7 @@ def measure_speed(
     """Measured load speed [rad/s] for true speeds ``omega`` and standard normal ``noise``."""
     w = np.ascontiguousarray(np.asarray(omega, dtype=float).reshape(-1))
     n = np.ascontiguousarray(np.broadcast_to(np.asarray(noise, dtype=float), w.shape))
-    return _tacho_readings(w, n, tacho.gain, tacho.noise_std, int(adc.bits), adc.v_min, adc.v_max)
+    return tacho_readings(w, n, tacho.gain, tacho.noise_std, int(adc.bits), adc.v_min, adc.v_max)
 
 
 def _finite(name: str, value: float) -> None:
