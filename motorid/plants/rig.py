@@ -11,8 +11,10 @@ Model (paper, section 2 and 2.1), SI units throughout::
 with T_f the sum of the friction objects on each side (:mod:`.friction`), an
 amplifier with dead zone and saturation in front of the armature
 (:mod:`.amplifier`), optional backlash of half-width b in the shaft (T_s = 0 for
-|δ| < b, δ = θ_m - θ_L, else k_s (δ - b sgn δ) + B_s (ω_m - ω_L)) and the
-tachogenerator + A/D chain on the load speed (:mod:`.sensors`).
+|δ| < b, δ = θ_m - θ_L, else k_s (δ - b sgn δ) + B_s (ω_m - ω_L): the
+"dead-zone" backlash model, whose contact damping can briefly pull while the
+teeth separate) and the tachogenerator + A/D chain on the load speed
+(:mod:`.sensors`).
 
 Timing convention of a sample k (also of a record row): the command u[k] is held
 over ``[k dt, (k+1) dt)`` (zero-order hold) and ``y[k]`` and the true states are
