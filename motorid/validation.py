@@ -151,15 +151,26 @@ def compare_predictions(
         Index ``one_step`` and ``free_run``; columns of :class:`PredictionScores`.
     """
     u_arr, y_arr = as_float_vector(u, "u"), as_float_vector(y, "y")
+    predictions = {
+        "one_step": estimator.batch_filter(u_arr, y_arr).y_hat,
+        "free_run": estimator.simulate(u_arr),
+    }
+    return score_predictions(y_arr, predictions, low_speed_threshold, skip)
+
+
+def score_predictions(
+    y: ArrayLike, predictions: dict[str, np.ndarray], low_speed_threshold: float, skip: int = 0
+) -> pd.DataFrame:
+    """:func:`score` for several predictions of one measurement, leaving out the
+    first ``skip`` samples; one row per prediction."""
+    y_arr = as_float_vector(y, "y")
     if not 0 <= skip < len(y_arr):
         raise ValueError(f"skip must be in [0, {len(y_arr)}), got {skip}")
-    one_step = estimator.batch_filter(u_arr, y_arr).y_hat
-    free_run = estimator.simulate(u_arr)
     rows = {
-        "one_step": score(y_arr[skip:], one_step[skip:], low_speed_threshold),
-        "free_run": score(y_arr[skip:], free_run[skip:], low_speed_threshold),
+        name: vars(score(y_arr[skip:], np.asarray(y_hat)[skip:], low_speed_threshold))
+        for name, y_hat in predictions.items()
     }
-    return pd.DataFrame({name: vars(s) for name, s in rows.items()}).T
+    return pd.DataFrame(rows).T
 
 
 # --------------------------------------------------------------------------- residual analysis
