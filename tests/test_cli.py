@@ -1,0 +1,102 @@
+"""The motorid command, run in process: JSON on stdout, text on stderr, clear errors."""
+
+from __future__ import annotations
+
+import json
+import tomllib
+
+import pandas as pd
+import pytest
+
+from motorid.cli import main
+from motorid.records import read_record
+
+
+def run(capsys, *argv: str) -> tuple[int, dict | str, str]:
+    code = main(list(argv))
+    captured = capsys.readouterr()
+    try:
+        out = json.loads(captured.out)
+    except json.JSONDecodeError:
+        out = captured.out
+    return code, out, captured.err
+
+
+@pytest.fixture(scope="module")
+def record_csv(tmp_path_factory):
+    path = tmp_path_factory.mktemp("cli") / "rec.csv"
+    assert main(["simulate", "--out", str(path), "--duration", "60", "--seed", "2"]) == 0
+    return path
+
+
+def test_simulate_writes_a_readable_record(record_csv):
+    record = read_record(record_csv)
+    assert len(record) == 1500 and record.attrs["dt"] == pytest.approx(0.04)
+    assert {"t", "u", "y", "omega_m", "omega_l"} <= set(record.columns)
+
+
+def test_identify_reports_params_scores_and_residual_tests(capsys, record_csv, tmp_path):
+    code, out, err = run(
+        capsys, "identify", str(record_csv), "--estimator", "hammerstein-rls", "--na", "4", "--nb", "4",
+        "--basis", "u,sign", "--out", str(tmp_path), "--json",
+    )  # fmt: skip
+    assert code == 0
+    assert out["params"]["gamma"][0] == 1.0 and len(out["params"]["a"]) == 4
+    assert out["scores"]["one_step"]["fit_percent"] > 90
+    assert set(out["residual_tests"]) == {
+        "autocorrelation", "input_cross_correlation", "billings_e_eu", "billings_u2_e", "billings_u2_e2",
+    }  # fmt: skip
+    assert (tmp_path / "residual_tests.png").exists()
+    assert "residual test" in err
+
+
+def test_identify_errors_name_the_problem(capsys, record_csv, tmp_path):
+    code, _, err = run(capsys, "identify", str(record_csv), "--output", "speed")
+    assert code == 2 and "speed" in err
+    code, _, err = run(capsys, "identify", str(record_csv), "--estimator", "arx-rls", "--degree", "3")
+    assert code == 2 and "degree" in err
+    code, _, err = run(capsys, "identify", str(record_csv), "--estimator", "nope")
+    assert code == 2 and "unknown estimator 'nope'" in err
+    code, _, err = run(capsys, "identify", str(tmp_path / "missing.csv"))
+    assert code == 2 and "no such file" in err
+    broken = tmp_path / "broken.csv"
+    df = pd.read_csv(record_csv, comment="#")
+    df.loc[7, "u"] = float("nan")
+    df.to_csv(broken, index=False)
+    code, _, err = run(capsys, "identify", str(broken))
+    assert code == 2 and "'u'" in err and "7" in err
+
+
+def test_sweep_prints_tables_1_and_2(capsys, record_csv):
+    code, out, err = run(capsys, "sweep", str(record_csv), "--orders", "2-3", "--degrees", "2,3", "--json")
+    assert code == 0
+    assert [row["order"] for row in out["table1"]] == [2, 3]
+    assert [row["degree"] for row in out["table2"]] == [2, 3]
+    assert "Table 1" in err and "Table 2" in err
+
+
+def test_demo_writes_figures_tables_and_record(capsys, tmp_path):
+    code, out, err = run(capsys, "demo", "--out", str(tmp_path), "--duration", "40", "--json")
+    assert code == 0
+    assert len(out["figures"]) >= 6 and all((tmp_path / p.split("/")[-1]).exists() for p in out["figures"])
+    assert (tmp_path / "demo_record.csv").exists() and (tmp_path / "demo_table.csv").exists()
+    models = {row["model"] for row in out["table"]}
+    assert any(m.startswith("ARX-RLS") for m in models) and any("dead zone" in m for m in models)
+    assert "MSE [rpm^2]" in err
+
+
+def test_rig_map_is_toml(capsys):
+    code, out, _ = run(capsys, "rig", "map", "--word-order", "CDAB")
+    assert code == 0
+    registers = tomllib.loads(out)["registers"]
+    assert registers["voltage_command"]["word_order"] == "CDAB"
+
+
+def test_run_on_the_simulated_daq(capsys, tmp_path):
+    out_csv = tmp_path / "run.csv"
+    code, out, _ = run(
+        capsys, "run", "--estimator", "arx-rls", "--na", "2", "--nb", "2", "--duration", "4",
+        "--out", str(out_csv), "--json",
+    )  # fmt: skip
+    assert code == 0 and out["samples"] == 100
+    assert len(pd.read_csv(out_csv)) == 100
