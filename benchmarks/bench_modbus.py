@@ -50,8 +50,10 @@ def serve(queue: mp.Queue, stop: mp.Event) -> None:  # type: ignore[type-arg]
 
 def summary(name: str, loop_s: np.ndarray, total_s: float) -> float:
     rate = len(loop_s) / total_s
-    print(f"{name:<34s} {rate:9.0f} samples/s   median {np.median(loop_s) * 1e3:6.3f} ms"
-          f"   p99 {np.percentile(loop_s, 99) * 1e3:6.3f} ms")
+    print(
+        f"{name:<34s} {rate:9.0f} samples/s   median {np.median(loop_s) * 1e3:6.3f} ms"
+        f"   p99 {np.percentile(loop_s, 99) * 1e3:6.3f} ms"
+    )
     return rate
 
 
@@ -95,8 +97,7 @@ def bench_run_online(port: int, n: int, estimator: str) -> float:
     with tempfile.TemporaryDirectory() as tmp:
         daq = ModbusDAQ("127.0.0.1", port, dt=0.04, timeout=1.0)
         t0 = time.perf_counter()
-        run_online(daq, {estimator: create(estimator, **kw)}, u, None,
-                   out=f"{tmp}/run.csv", progress=False)
+        run_online(daq, {estimator: create(estimator, **kw)}, u, None, out=f"{tmp}/run.csv", progress=False)
         return n / (time.perf_counter() - t0)
 
 
@@ -128,8 +129,7 @@ def bench_pymodbustcp(port: int, n: int) -> tuple[float, np.ndarray]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--samples", type=int, default=5000, help="samples per measurement")
-    parser.add_argument("--estimator", default="hammerstein-rls",
-                        choices=["arx-rls", "hammerstein-rls"])
+    parser.add_argument("--estimator", default="hammerstein-rls", choices=["arx-rls", "hammerstein-rls"])
     args = parser.parse_args(argv)
 
     ctx = mp.get_context("spawn")
@@ -138,8 +138,7 @@ def main(argv: list[str] | None = None) -> int:
     proc.start()
     try:
         port = queue.get(timeout=60)
-        print(f"rig server (lock-step, separate process) on 127.0.0.1:{port}; "
-              f"{args.samples} samples each")
+        print(f"rig server (lock-step, separate process) on 127.0.0.1:{port}; {args.samples} samples each")
         total, loop = bench_motorid(port, args.samples, args.estimator)
         ours = summary(f"ModbusDAQ + {args.estimator}", loop, total)
         rate = bench_run_online(port, args.samples, args.estimator)

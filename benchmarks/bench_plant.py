@@ -47,17 +47,22 @@ def main() -> None:
         rig.step(v)
     per_step = (time.perf_counter() - t0) / n_online
 
-    print(f"plant benchmark: default rig, {duration:.0f} s record, dt = {rig.dt} s, "
-          f"{rig.substeps} internal steps per sample (h = {rig.h * 1e3:.3g} ms), "
-          f"{u.size} samples, {n_steps} internal steps")
-    print(f"  fast (numba, fixed step)       {fast:9.3f} s   "
-          f"({fast / n_steps * 1e9:.0f} ns per internal step; target <= 5 s)")
-    print(f"  reference (solve_ivp, events)  {ref:9.1f} s   "
-          f"(extrapolated from {ref_short:.2f} s for {n_ref} samples = "
-          f"{args.reference_seconds:g} s of record)")
+    print(
+        f"plant benchmark: default rig, {duration:.0f} s record, dt = {rig.dt} s, "
+        f"{rig.substeps} internal steps per sample (h = {rig.h * 1e3:.3g} ms), "
+        f"{u.size} samples, {n_steps} internal steps"
+    )
+    print(
+        f"  fast (numba, fixed step)       {fast:9.3f} s   "
+        f"({fast / n_steps * 1e9:.0f} ns per internal step; target <= 5 s)"
+    )
+    print(
+        f"  reference (solve_ivp, events)  {ref:9.1f} s   "
+        f"(extrapolated from {ref_short:.2f} s for {n_ref} samples = "
+        f"{args.reference_seconds:g} s of record)"
+    )
     print(f"  ratio reference / fast         {ref / fast:9.0f} x")
-    print(f"  online rig.step()              {per_step * 1e6:9.1f} us per sample "
-          f"(mean of {n_online} calls)")
+    print(f"  online rig.step()              {per_step * 1e6:9.1f} us per sample (mean of {n_online} calls)")
 
 
 if __name__ == "__main__":

@@ -76,7 +76,9 @@ def main() -> None:
     peer_rate = 1e6 / peer_us
     print("RLS, p = 19 (Hammerstein na=4, nb=4, degree=3), best of 3")
     print(f"{'figure':<44}{'motorid':>14}{'filterpy KF':>14}{'ratio':>10}")
-    print(f"{'batch_filter [samples/s]':<44}{batch_rate:>14,.0f}{peer_rate:>14,.0f}{batch_rate / peer_rate:>9.0f}x")
+    print(
+        f"{'batch_filter [samples/s]':<44}{batch_rate:>14,.0f}{peer_rate:>14,.0f}{batch_rate / peer_rate:>9.0f}x"
+    )
     print(f"{'predict+update per sample [us]':<44}{loop_us:>14.2f}{peer_us:>14.2f}{peer_us / loop_us:>9.1f}x")
     print("targets: batch >= 1,000,000 samples/s and >= 30x; per sample <= 10 us")
 

@@ -182,9 +182,7 @@ def read_record(
         nonpos = np.flatnonzero(steps <= 0.0)
         if nonpos.size:
             row = int(nonpos[0]) + 1
-            raise ValueError(
-                f"column 't' is not increasing at {where(row)}: {t[row]!r} after {t[row - 1]!r}"
-            )
+            raise ValueError(f"column 't' is not increasing at {where(row)}: {t[row]!r} after {t[row - 1]!r}")
         file_dt = attrs.get("dt")
         if dt is not None and file_dt is not None and not math.isclose(dt, file_dt, rel_tol=dt_rtol):
             raise ValueError(f"dt = {dt!r} was asked for but {os.fspath(path)} says dt = {file_dt!r}")

@@ -24,8 +24,7 @@ class FirstOrderPlant:
     with Gaussian noise of standard deviation ``noise`` [rad/s].
     """
 
-    def __init__(self, dt: float = 0.04, tau: float = 0.3, gain: float = 10.0,
-                 noise: float = 0.01) -> None:
+    def __init__(self, dt: float = 0.04, tau: float = 0.3, gain: float = 10.0, noise: float = 0.01) -> None:
         self.dt, self.tau, self.gain, self.noise = dt, tau, gain, noise
         self.reset()
 
@@ -135,7 +134,8 @@ def pty_pair() -> Iterator[tuple[str, str]]:
         pytest.skip("socat is not installed (apt-get install socat): no serial line for RTU")
     proc = subprocess.Popen(
         [socat, "-d", "-d", "pty,raw,echo=0", "pty,raw,echo=0"],
-        stderr=subprocess.PIPE, text=True,
+        stderr=subprocess.PIPE,
+        text=True,
     )
     try:
         ptys: list[str] = []

@@ -37,8 +37,7 @@ class Recorder:
 
     @property
     def params(self) -> dict[str, object]:
-        return {"gain": 2.0, "a": np.array([self.last, -self.last]), "basis": ("u", "u^3"),
-                "s": np.eye(2)}
+        return {"gain": 2.0, "a": np.array([self.last, -self.last]), "basis": ("u", "u^3"), "s": np.eye(2)}
 
 
 # -- SimulatedDAQ ------------------------------------------------------------------------
@@ -140,8 +139,7 @@ def test_map_toml_round_trip(tmp_path):
 def test_map_toml_with_scaled_integer(tmp_path):
     path = tmp_path / "plc.toml"
     path.write_text(
-        'device_id = 3\nword_order = "CDAB"\n'
-        "[registers.speed]\naddress = 10\ntype = \"int16\"\nscale = 0.1\n"
+        'device_id = 3\nword_order = "CDAB"\n[registers.speed]\naddress = 10\ntype = "int16"\nscale = 0.1\n'
     )
     m = RegisterMap.from_toml(path)
     assert m.device_id == 3
@@ -155,9 +153,9 @@ def test_map_toml_with_scaled_integer(tmp_path):
     [
         ("[registers.speed]\naddress = 3\n", "overlaps"),
         ("[registers.torque]\naddress = 30\n", "unknown register 'torque'"),
-        ("[registers.speed]\naddress = 10\ntype = \"int8\"\n", r"registers.speed.*type"),
-        ("word_order = \"BADC\"\n", "word_order"),
-        ("[registers.heartbeat]\naddress = 9\ntype = \"float32\"\n", "heartbeat"),
+        ('[registers.speed]\naddress = 10\ntype = "int8"\n', r"registers.speed.*type"),
+        ('word_order = "BADC"\n', "word_order"),
+        ('[registers.heartbeat]\naddress = 9\ntype = "float32"\n', "heartbeat"),
         ("[registers.speed]\nadress = 10\n", "unknown field"),
     ],
 )
@@ -173,8 +171,7 @@ def test_run_online_records_every_sample(tmp_path):
     out = tmp_path / "run.csv"
     est = Recorder()
     u = np.sin(np.arange(50) * 0.3) * 5
-    df = run_online(SimulatedDAQ(FirstOrderPlant(), seed=1), [est], u, duration=2.0,
-                    out=out, progress=False)
+    df = run_online(SimulatedDAQ(FirstOrderPlant(), seed=1), [est], u, duration=2.0, out=out, progress=False)
     assert len(df) == 50
     np.testing.assert_array_equal(df["u"], u)
     np.testing.assert_allclose(df["t"], np.arange(50) * 0.04, atol=1e-12)
@@ -197,8 +194,7 @@ def test_run_online_same_as_offline_simulation():
 
 
 def test_run_online_callable_excitation_and_clamp():
-    df = run_online(SimulatedDAQ(FirstOrderPlant(), seed=0), {}, lambda t: 100.0 * t, 1.0,
-                    progress=False)
+    df = run_online(SimulatedDAQ(FirstOrderPlant(), seed=0), {}, lambda t: 100.0 * t, 1.0, progress=False)
     assert df["u"].max() == 12.0
     assert df["clamped"].sum() > 0
 

@@ -75,8 +75,7 @@ def rig_server(rig_factory: Callable[..., RigServer]) -> RigServer:
 def daq_for(server: RigServer, **kw: object) -> ModbusDAQ:
     """A ModbusDAQ for a rig server, with a timeout generous enough for a busy machine."""
     kw.setdefault("timeout", 2.0)
-    return ModbusDAQ("127.0.0.1", server.port, dt=server.dt,
-                     register_map=server.register_map, **kw)  # type: ignore[arg-type]
+    return ModbusDAQ("127.0.0.1", server.port, dt=server.dt, register_map=server.register_map, **kw)  # type: ignore[arg-type]
 
 
 def quarter_volts(n: int, seed: int = 0, amplitude: float = 6.0) -> np.ndarray:
@@ -302,8 +301,7 @@ def test_rtu_over_a_serial_line():
     pytest.importorskip("serial", reason="pyserial not installed: pymodbus needs it for RTU")
     u = quarter_volts(30, seed=5)
     with pty_pair() as (rig_end, client_end):
-        server = RigServer(FirstOrderPlant(), serial_port=rig_end, seed=4,
-                           watchdog_periods=None).start()
+        server = RigServer(FirstOrderPlant(), serial_port=rig_end, seed=4, watchdog_periods=None).start()
         try:
             daq = ModbusDAQ(serial_port=client_end, baudrate=115200, dt=0.04, timeout=2.0)
             assert "RTU" in daq.endpoint
@@ -357,9 +355,11 @@ def test_daq_from_url(rig_server):
 
 # -- a rig server in its own process: killed for real, stopped by SIGTERM ------------------------------
 def start_rig_process(port: int) -> subprocess.Popen:
-    code = ("import logging, sys; logging.basicConfig(level=logging.INFO);"
-            "from motorid.io import RigServer;"
-            f"RigServer(port={port}, seed=1, watchdog_periods=None).serve_forever()")
+    code = (
+        "import logging, sys; logging.basicConfig(level=logging.INFO);"
+        "from motorid.io import RigServer;"
+        f"RigServer(port={port}, seed=1, watchdog_periods=None).serve_forever()"
+    )
     proc = subprocess.Popen([sys.executable, "-c", code], stderr=subprocess.PIPE, text=True)
 
     def listening() -> bool:

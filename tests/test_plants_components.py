@@ -125,5 +125,4 @@ def test_tacho_and_adc_chain():
 
 def test_encoder_counts():
     enc = Encoder(counts_per_rev=4)
-    np.testing.assert_allclose(enc.measure([0.0, 1.0, 1.6, -0.1]), [0.0, 0.0, math.pi / 2,
-                                                                   -math.pi / 2])
+    np.testing.assert_allclose(enc.measure([0.0, 1.0, 1.6, -0.1]), [0.0, 0.0, math.pi / 2, -math.pi / 2])

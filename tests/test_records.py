@@ -36,8 +36,7 @@ def test_round_trip_keeps_values_and_attrs(tmp_path, record):
 
 @settings(max_examples=20, deadline=None)
 @given(
-    values=st.lists(st.floats(allow_nan=False, allow_infinity=False, width=64), min_size=2,
-                    max_size=30),
+    values=st.lists(st.floats(allow_nan=False, allow_infinity=False, width=64), min_size=2, max_size=30),
     dt=st.sampled_from([0.001, 0.01, 0.04, 0.1]),
 )
 def test_round_trip_is_exact_for_any_floats(tmp_path_factory, values, dt):
@@ -78,8 +77,13 @@ def test_missing_column_is_named(tmp_path):
 
 @pytest.mark.parametrize(
     "cell, kind",
-    [("abc", "a non-numeric"), ("nan", "a NaN"), ("", "a NaN"), ("1.2.3", "a non-numeric"),
-     ("inf", "an infinite")],
+    [
+        ("abc", "a non-numeric"),
+        ("nan", "a NaN"),
+        ("", "a NaN"),
+        ("1.2.3", "a non-numeric"),
+        ("inf", "an infinite"),
+    ],
 )
 def test_bad_value_names_column_and_row(tmp_path, cell, kind):
     path = write_lines(tmp_path, ["t,u,y", "0,1,0", "0.04,1,0", f"0.08,1,{cell}", "0.12,1,0"])

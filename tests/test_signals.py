@@ -49,8 +49,12 @@ def test_two_sine_signal_has_quiet_stretches_around_zero():
 
 
 @settings(max_examples=20, deadline=None)
-@given(amplitude=st.floats(0.1, 12.0), hold=st.integers(1, 5), nbits=st.integers(3, 12),
-       seed=st.integers(0, 2**31))
+@given(
+    amplitude=st.floats(0.1, 12.0),
+    hold=st.integers(1, 5),
+    nbits=st.integers(3, 12),
+    seed=st.integers(0, 2**31),
+)
 def test_prbs_is_binary_and_holds(amplitude, hold, nbits, seed):
     _, u = prbs(duration=40.0, dt=0.04, amplitude=amplitude, hold=hold, nbits=nbits, seed=seed)
     assert set(np.unique(u)) <= {-amplitude, amplitude}
@@ -68,8 +72,7 @@ def test_prbs_is_maximum_length():
 
 def test_multisine_peak_and_spectrum():
     dt, duration = 0.04, 40.0
-    _, u = multisine(duration=duration, dt=dt, amplitude=2.0, f_min=0.1, f_max=2.0, n_freqs=10,
-                     seed=0)
+    _, u = multisine(duration=duration, dt=dt, amplitude=2.0, f_min=0.1, f_max=2.0, n_freqs=10, seed=0)
     assert np.max(np.abs(u)) == pytest.approx(2.0)
     spec = np.abs(np.fft.rfft(u))
     freqs = np.fft.rfftfreq(u.size, dt)

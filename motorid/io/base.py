@@ -261,7 +261,10 @@ class DAQ(ABC):
             if not self._last_clamped:
                 logger.warning(
                     "command %.4g V clamped to %.4g V (rating +/-%.4g V); %d clamp(s) so far",
-                    float(u), u_sent, self.u_max, self.clamp_count,
+                    float(u),
+                    u_sent,
+                    self.u_max,
+                    self.clamp_count,
                 )
         self._last_clamped = clamped
         self._write(u_sent)

@@ -57,13 +57,13 @@ def daq_from_url(
         return SimulatedDAQ(plant, dt=dt, realtime=realtime, seed=seed, u_max=u_max)
     if text.startswith(("modbus://", "modbus-tcp://", "modbus-rtu://")):
         if plant is not None or seed is not None or realtime:
-            raise ValueError(f"--daq {url}: plant, seed and realtime apply to --daq sim only "
-                             "(the rig server owns them)")
+            raise ValueError(
+                f"--daq {url}: plant, seed and realtime apply to --daq sim only (the rig server owns them)"
+            )
         kw: dict[str, Any] = {"u_max": u_max, "register_map": register_map}
         if dt is not None:
             kw["dt"] = dt
         if timeout is not None:
             kw["timeout"] = timeout
         return ModbusDAQ.from_url(text, **kw)
-    raise ValueError(f"--daq {url!r}: expected 'sim', 'modbus://HOST:PORT' or "
-                     "'modbus-rtu:///dev/DEVICE'")
+    raise ValueError(f"--daq {url!r}: expected 'sim', 'modbus://HOST:PORT' or 'modbus-rtu:///dev/DEVICE'")

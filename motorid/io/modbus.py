@@ -129,8 +129,10 @@ class ModbusDAQ(DAQ):
         self.port = int(port)
         self.serial_port = serial_port
         self.serial_settings = {
-            "baudrate": int(baudrate), "parity": parity,
-            "stopbits": int(stopbits), "bytesize": int(bytesize),
+            "baudrate": int(baudrate),
+            "parity": parity,
+            "stopbits": int(stopbits),
+            "bytesize": int(bytesize),
         }
         self._dt = float(dt)
         self.timeout = float(timeout)
@@ -161,8 +163,13 @@ class ModbusDAQ(DAQ):
         """
         parsed = urlparse(url)
         query = {k: v[-1] for k, v in parse_qs(parsed.query).items()}
-        for key, conv in (("baudrate", int), ("timeout", float), ("dt", float),
-                          ("parity", str), ("word_order", str)):
+        for key, conv in (
+            ("baudrate", int),
+            ("timeout", float),
+            ("dt", float),
+            ("parity", str),
+            ("word_order", str),
+        ):
             if key in query and key not in kwargs:
                 kwargs[key] = conv(query.pop(key))
         if query:
@@ -198,9 +205,7 @@ class ModbusDAQ(DAQ):
             try:
                 import serial  # noqa: F401  (pymodbus needs pyserial for RTU)
             except ImportError:
-                raise DAQError(
-                    f"{self.endpoint}: Modbus RTU needs pyserial (pip install pyserial)"
-                ) from None
+                raise DAQError(f"{self.endpoint}: Modbus RTU needs pyserial (pip install pyserial)") from None
             from pymodbus.client import ModbusSerialClient
 
             return ModbusSerialClient(
@@ -226,7 +231,8 @@ class ModbusDAQ(DAQ):
         if status & STATUS_FAULTS and self.clear_faults_on_open:
             logger.warning(
                 "%s: rig reported latched fault(s) %s from before this connection; acknowledged",
-                self.endpoint, describe_status(status),
+                self.endpoint,
+                describe_status(status),
             )
             self.reset_faults()
 
@@ -254,8 +260,7 @@ class ModbusDAQ(DAQ):
             self._link_lost = False
             self.reconnect_count += 1
             self._seq_raw = None
-            logger.warning("%s: link re-established (reconnect #%d)", self.endpoint,
-                           self.reconnect_count)
+            logger.warning("%s: link re-established (reconnect #%d)", self.endpoint, self.reconnect_count)
         if response.isError():
             raise DAQError(
                 f"{self.endpoint}: device refused {what}: {response} "
@@ -269,7 +274,9 @@ class ModbusDAQ(DAQ):
             count = sum(r.count for r in regs)
             rr = self._execute(
                 f"reading registers {address}..{address + count - 1}",
-                self._client.read_holding_registers, address, count=count,
+                self._client.read_holding_registers,
+                address,
+                count=count,
             )
             words = list(rr.registers)
             if len(words) != count:
@@ -278,15 +285,16 @@ class ModbusDAQ(DAQ):
                 )
             offset = 0
             for reg in regs:
-                values[reg.name] = reg.decode(words[offset:offset + reg.count])
+                values[reg.name] = reg.decode(words[offset : offset + reg.count])
                 offset += reg.count
         return int(values["status"]), int(values["sequence"]), values["speed"]
 
     def reset_faults(self) -> None:
         """Acknowledge latched faults of the rig (writes 0 to the status register)."""
         reg = self.register_map["status"]
-        self._execute("clearing the status word", self._client.write_registers,
-                      reg.address, reg.encode(STATUS_CLEAR))
+        self._execute(
+            "clearing the status word", self._client.write_registers, reg.address, reg.encode(STATUS_CLEAR)
+        )
 
     # -- samples ---------------------------------------------------------------
     def _write(self, u: float) -> None:
@@ -298,8 +306,7 @@ class ModbusDAQ(DAQ):
         }
         for address, regs in self._write_runs:  # voltage before heartbeat when split
             payload = [w for reg in regs for w in words[reg.name]]
-            self._execute(f"writing the command {u:.4g} V", self._client.write_registers,
-                          address, payload)
+            self._execute(f"writing the command {u:.4g} V", self._client.write_registers, address, payload)
         self._heartbeat = heartbeat
         self._clamped_for_next = self._last_clamped
 
@@ -357,9 +364,14 @@ class ModbusDAQ(DAQ):
             step = (seq_raw - self._seq_raw) & 0xFFFF
             if step > 1:
                 self.missed_samples += step - 1
-                logger.warning("%s: %d sample(s) of the rig were not read (client too slow "
-                               "for dt = %g s); %d missed so far", self.endpoint, step - 1,
-                               self._dt, self.missed_samples)
+                logger.warning(
+                    "%s: %d sample(s) of the rig were not read (client too slow "
+                    "for dt = %g s); %d missed so far",
+                    self.endpoint,
+                    step - 1,
+                    self._dt,
+                    self.missed_samples,
+                )
             self._seq += step
         self._seq_raw = seq_raw
         return Sample(

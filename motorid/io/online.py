@@ -250,19 +250,22 @@ def run_online(
             raise ValueError(f"run_online: duration must be a positive time [s], got {duration!r}")
         n = round(duration / dt)
         if n < 1:
-            raise ValueError(f"run_online: duration {duration!r} s is shorter than one sample "
-                             f"({dt!r} s)")
+            raise ValueError(f"run_online: duration {duration!r} s is shorter than one sample ({dt!r} s)")
     if not callable(excitation):
         if np.ndim(excitation) != 1:
-            raise ValueError(f"run_online: excitation must be 1-D volts per sample, got shape "
-                             f"{np.shape(excitation)}")
+            raise ValueError(
+                f"run_online: excitation must be 1-D volts per sample, got shape {np.shape(excitation)}"
+            )
         if len(excitation) < n:
-            raise ValueError(f"run_online: excitation has {len(excitation)} samples, the run "
-                             f"needs {n} ({duration} s at dt = {dt} s)")
+            raise ValueError(
+                f"run_online: excitation has {len(excitation)} samples, the run "
+                f"needs {n} ({duration} s at dt = {dt} s)"
+            )
 
     recorder = RunRecorder(out, flush_every=flush_every)
-    bar = tqdm(total=n, file=sys.stderr, disable=not progress, unit="sample",
-               desc="online", dynamic_ncols=True)
+    bar = tqdm(
+        total=n, file=sys.stderr, disable=not progress, unit="sample", desc="online", dynamic_ncols=True
+    )
     try:
         with _sigterm_as_interrupt():
             daq.open()
@@ -270,7 +273,10 @@ def run_online(
             for k in range(n):
                 sample: Sample = daq.read()
                 row: dict[str, float | int] = {
-                    "t": sample.t - dt, "seq": sample.seq, "u": sample.u, "y": sample.y,
+                    "t": sample.t - dt,
+                    "seq": sample.seq,
+                    "u": sample.u,
+                    "y": sample.y,
                     "clamped": int(sample.clamped),
                 }
                 for name, est in named.items():

@@ -61,10 +61,10 @@ REGISTER_NAMES = ("voltage_command", "heartbeat", "status", "sequence", "speed")
 
 #: Bits of the status word.
 STATUS_BITS: dict[str, int] = {
-    "watchdog": 1 << 0,   # heartbeat stalled: voltage forced to 0 V (latched)
-    "clamped": 1 << 1,    # the rig clamped the last command to its rating
-    "plant": 1 << 2,      # the plant produced an invalid speed (latched)
-    "command": 1 << 3,    # the voltage command was NaN or infinite: 0 V held (latched)
+    "watchdog": 1 << 0,  # heartbeat stalled: voltage forced to 0 V (latched)
+    "clamped": 1 << 1,  # the rig clamped the last command to its rating
+    "plant": 1 << 2,  # the plant produced an invalid speed (latched)
+    "command": 1 << 3,  # the voltage command was NaN or infinite: 0 V held (latched)
 }
 #: Status bits that are faults (latched until the client writes 0 to ``status``).
 STATUS_FAULTS = STATUS_BITS["watchdog"] | STATUS_BITS["plant"] | STATUS_BITS["command"]
@@ -179,13 +179,15 @@ class Register:
 
 def _default_registers(word_order: WordOrder) -> dict[str, Register]:
     return {
-        "voltage_command": Register("voltage_command", 0, "float32", word_order=word_order,
-                                    unit="V", min=-1000.0, max=1000.0),
+        "voltage_command": Register(
+            "voltage_command", 0, "float32", word_order=word_order, unit="V", min=-1000.0, max=1000.0
+        ),
         "heartbeat": Register("heartbeat", 2, "uint16"),
         "status": Register("status", 3, "uint16"),
         "sequence": Register("sequence", 4, "uint16"),
-        "speed": Register("speed", 5, "float32", word_order=word_order, unit="rad/s",
-                          min=-5000.0, max=5000.0),
+        "speed": Register(
+            "speed", 5, "float32", word_order=word_order, unit="rad/s", min=-5000.0, max=5000.0
+        ),
     }
 
 
@@ -220,9 +222,7 @@ class RegisterMap:
         for reg in self.registers.values():
             for a in range(reg.address, reg.address + reg.count):
                 if a in used:
-                    raise ValueError(
-                        f"register map: {reg.name!r} overlaps {used[a]!r} at address {a}"
-                    )
+                    raise ValueError(f"register map: {reg.name!r} overlaps {used[a]!r} at address {a}")
                 used[a] = reg.name
 
     def __getitem__(self, name: str) -> Register:

@@ -43,8 +43,7 @@ __all__ = ["RigServer", "rig_map_toml"]
 _READONLY = ("sequence", "speed")
 
 
-def rig_map_toml(register_map: RegisterMap | str | Path | None = None,
-                 word_order: WordOrder = "ABCD") -> str:
+def rig_map_toml(register_map: RegisterMap | str | Path | None = None, word_order: WordOrder = "ABCD") -> str:
     """The register map a rig server uses, as TOML text (``motorid rig map``).
 
     Parameters
@@ -185,12 +184,12 @@ class RigServer:
     def _set(self, name: str, value: float) -> None:
         reg = self.register_map[name]
         i = reg.address - self._base
-        self._words[i:i + reg.count] = reg.encode(value)
+        self._words[i : i + reg.count] = reg.encode(value)
 
     def _get(self, name: str, words: list[int] | None = None) -> float:
         reg = self.register_map[name]
         i = reg.address - self._base
-        return reg.decode((self._words if words is None else words)[i:i + reg.count])
+        return reg.decode((self._words if words is None else words)[i : i + reg.count])
 
     def _publish(self) -> None:
         self._set("status", self.status)
@@ -200,7 +199,7 @@ class RigServer:
             self._set("speed", self.speed)
         except ValueError:  # does not fit a scaled integer: publish the limit, flag it
             raw_limit = 32767 if reg.type == "int16" else 65535
-            limit = (raw_limit if self.speed > 0 else (-32768 if reg.type == "int16" else 0))
+            limit = raw_limit if self.speed > 0 else (-32768 if reg.type == "int16" else 0)
             self._set("speed", limit * reg.scale)
             self.status |= STATUS_BITS["plant"]
             self._set("status", self.status)
@@ -243,7 +242,7 @@ class RigServer:
         if set_values is not None:
             words = list(self._words)
             first = address - self._base
-            words[first:first + count] = [int(v) for v in set_values]
+            words[first : first + count] = [int(v) for v in set_values]
             status_reg = self.register_map["status"]
             si = status_reg.address - self._base
             if first <= si < first + count:
@@ -269,9 +268,9 @@ class RigServer:
                 if self.lockstep:
                     self._advance()
             self._publish()
-            set_values[:] = self._words[first:first + count]  # what pymodbus stores
+            set_values[:] = self._words[first : first + count]  # what pymodbus stores
         offset = self._base - start_address
-        registers[offset:offset + len(self._words)] = self._words
+        registers[offset : offset + len(self._words)] = self._words
         return None
 
     # -- background tasks ---------------------------------------------------------------
@@ -285,9 +284,14 @@ class RigServer:
                 self._armed = False
                 self.watchdog_trips += 1
                 level = logging.WARNING if self.voltage else logging.INFO
-                logger.log(level, "rig: heartbeat stalled for more than %g sample periods "
-                           "(%.3g s) at %.4g V: voltage forced to 0 V, watchdog fault latched",
-                           self.watchdog_periods, limit, self.voltage)
+                logger.log(
+                    level,
+                    "rig: heartbeat stalled for more than %g sample periods "
+                    "(%.3g s) at %.4g V: voltage forced to 0 V, watchdog fault latched",
+                    self.watchdog_periods,
+                    limit,
+                    self.voltage,
+                )
                 self.voltage = 0.0
                 self.status |= STATUS_BITS["watchdog"]
                 self._set("voltage_command", 0.0)
@@ -308,14 +312,24 @@ class RigServer:
         from pymodbus.simulator import DataType, SimData, SimDevice
 
         blocks = [
-            SimData(reg.address, count=reg.count, values=0, datatype=DataType.REGISTERS,
-                    readonly=name in _READONLY)
+            SimData(
+                reg.address,
+                count=reg.count,
+                values=0,
+                datatype=DataType.REGISTERS,
+                readonly=name in _READONLY,
+            )
             for name, reg in self.register_map.registers.items()
         ]
         device = SimDevice(self.register_map.device_id, simdata=blocks, action=self._on_access)
         if self.serial_port:
-            server = ModbusSerialServer(device, framer=FramerType.RTU, port=self.serial_port,
-                                        baudrate=self.baudrate, timeout=max(self.dt, 0.05))
+            server = ModbusSerialServer(
+                device,
+                framer=FramerType.RTU,
+                port=self.serial_port,
+                baudrate=self.baudrate,
+                timeout=max(self.dt, 0.05),
+            )
         else:
             server = ModbusTcpServer(device, address=(self.host, self.port))
         await server.serve_forever(background=True)  # raises if it cannot listen
@@ -328,8 +342,9 @@ class RigServer:
             tasks.append(asyncio.create_task(self._watchdog()))
         if not self.lockstep:
             tasks.append(asyncio.create_task(self._clock()))
-        logger.info("rig server listening on %s (%s)", self.url,
-                    "lock-step" if self.lockstep else "real-time")
+        logger.info(
+            "rig server listening on %s (%s)", self.url, "lock-step" if self.lockstep else "real-time"
+        )
         self._ready.set()
         try:
             await self._stop_event.wait()
@@ -380,8 +395,7 @@ class RigServer:
         self._ready.clear()
         self._done.clear()
         self._error = None
-        self._thread = threading.Thread(target=self._run_thread, name=f"rig-server-{self.port}",
-                                        daemon=True)
+        self._thread = threading.Thread(target=self._run_thread, name=f"rig-server-{self.port}", daemon=True)
         self._thread.start()
         if not self._ready.wait(timeout):
             raise RuntimeError(f"{self!r} did not start within {timeout} s")
@@ -428,8 +442,10 @@ class RigServer:
 
         previous = None
         if threading.current_thread() is threading.main_thread():
+
             def _terminate(signum: int, frame: object) -> None:
                 raise KeyboardInterrupt
+
             previous = signal.signal(signal.SIGTERM, _terminate)
         self.start()
         try:

@@ -39,9 +39,7 @@ def steps_per_sample(plant_dt: float, dt: float | None) -> int:
     ratio = float(dt) / float(plant_dt)
     n = round(ratio)
     if n < 1 or abs(ratio - n) > 1e-9 * max(1.0, ratio):
-        raise ValueError(
-            f"dt={dt!r} s must be a whole multiple of the plant's sample time {plant_dt!r} s"
-        )
+        raise ValueError(f"dt={dt!r} s must be a whole multiple of the plant's sample time {plant_dt!r} s")
     return n
 
 

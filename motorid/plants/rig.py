@@ -463,9 +463,7 @@ class TwoMassRig:
         df.attrs["rig"] = self.to_dict()
         df.attrs["integrator"] = integrator
         df.attrs["seed"] = seed
-        df.attrs["timing"] = (
-            "u[k] is held over [t[k], t[k]+dt); y and the true states are at t[k]+dt"
-        )
+        df.attrs["timing"] = "u[k] is held over [t[k], t[k]+dt); y and the true states are at t[k]+dt"
         return df
 
     # ---------------------------------------------------------- description
@@ -586,9 +584,7 @@ def steady_state_speed(rig: TwoMassRig, u: float) -> float:
         total = 0.0
         for f in rig.friction:
             if isinstance(f, LuGreFriction):
-                total += float(f.steady_state_torque(w)) * len(f.sides()) - f.sigma2 * w * len(
-                    f.sides()
-                )
+                total += float(f.steady_state_torque(w)) * len(f.sides()) - f.sigma2 * w * len(f.sides())
             elif hasattr(f, "coefficients"):
                 total += float(f.torque(w)) * len(f.sides())
         return total

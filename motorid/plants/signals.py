@@ -103,8 +103,7 @@ def two_sine_signal(
         env = np.convolve(np.pad(env, (n_ramp, n_ramp), mode="edge"), kernel, mode="same")
         env = env[n_ramp:-n_ramp]
     carrier = sum(
-        a * np.sin(2.0 * math.pi * f * t + p)
-        for a, f, p in zip(amplitudes, frequencies, phases, strict=True)
+        a * np.sin(2.0 * math.pi * f * t + p) for a, f, p in zip(amplitudes, frequencies, phases, strict=True)
     )
     return t, env * carrier
 
