@@ -189,10 +189,15 @@ class CorrelationTest:
     values : ndarray
         Normalised correlation at each lag, in [-1, 1].
     band : float
-        Half-width of the confidence band, ``z / sqrt(N)``.
+        Half-width of the per-lag confidence band, ``z_(1-a/2) / sqrt(N)``
+        (what MATLAB's ``resid`` draws), a = 1 - confidence.
+    simultaneous_band : float
+        Half-width of the band that holds at every lag at once,
+        ``z_(1-a/(2 m)) / sqrt(N)`` for m lags (Bonferroni).
     passed : bool
-        True when no more lags fall outside the band than chance allows
-        (the band's level times the number of lags, rounded up).
+        True when every lag stays inside the simultaneous band: a white,
+        independent residual fails with probability at most a, whatever the
+        number of lags, and one strong lag is enough to fail.
     """
 
     name: str
@@ -200,6 +205,7 @@ class CorrelationTest:
     lags: np.ndarray
     values: np.ndarray
     band: float
+    simultaneous_band: float
     passed: bool
 
     @property
@@ -238,6 +244,10 @@ def residual_tests(
     * r_(u^2)'e(tau) = E[(u^2)'(t) e(t+tau)], all tau;
     * r_(u^2)'(e^2)'(tau) = E[(u^2)'(t) (e^2)'(t+tau)], all tau.
 
+    Each test passes when its correlations stay inside the simultaneous band
+    (see :class:`CorrelationTest`); the figure shows the per-lag band shaded and
+    the simultaneous band dashed.
+
     Parameters
     ----------
     u : array_like
@@ -268,8 +278,8 @@ def residual_tests(
         raise ValueError(f"max_lag must be in [1, N/4) = [1, {N // 4}), got {max_lag}")
     if not 0.5 < confidence < 1.0:
         raise ValueError(f"confidence must be in (0.5, 1), got {confidence}")
-    band = float(norm.ppf(0.5 + confidence / 2.0)) / math.sqrt(N)
-    allowed = 1.0 - confidence
+    alpha = 1.0 - confidence
+    band = float(norm.ppf(1.0 - alpha / 2.0)) / math.sqrt(N)
     e0 = e_arr - e_arr.mean()
     u0 = u_arr - u_arr.mean()
     u2 = u_arr**2 - np.mean(u_arr**2)
@@ -289,10 +299,9 @@ def residual_tests(
     ]
     tests = []
     for name, formula, lags, values in specs:
-        outside = int(np.sum(np.abs(values) > band))
-        tests.append(
-            CorrelationTest(name, formula, lags, values, band, outside <= math.ceil(allowed * len(lags)))
-        )
+        simultaneous = float(norm.ppf(1.0 - alpha / (2.0 * len(lags)))) / math.sqrt(N)
+        passed = bool(np.max(np.abs(values)) <= simultaneous)
+        tests.append(CorrelationTest(name, formula, lags, values, band, simultaneous, passed))
     return tests
 
 
@@ -305,7 +314,9 @@ def plot_residual_tests(tests: list[CorrelationTest], path: str, title: str = "R
 
     fig, axes = plt.subplots(len(tests), 1, figsize=(8, 2.0 * len(tests)), constrained_layout=True)
     for ax, test in zip(np.atleast_1d(axes), tests, strict=True):
-        ax.axhspan(-test.band, test.band, color="tab:blue", alpha=0.15, label="confidence band")
+        ax.axhspan(-test.band, test.band, color="tab:blue", alpha=0.15, label="per-lag band")
+        for level in (-test.simultaneous_band, test.simultaneous_band):
+            ax.axhline(level, color="tab:red", lw=0.8, ls="--")
         ax.stem(test.lags, test.values, basefmt=" ")
         verdict = "pass" if test.passed else "FAIL"
         ax.set_title(f"{test.formula}: {verdict} ({test.fraction_outside:.0%} of lags outside)", fontsize=9)

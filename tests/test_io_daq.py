@@ -14,6 +14,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from io_fixtures import FirstOrderPlant
 
+from motorid import plants
 from motorid.io import DAQError, Register, RegisterMap, SimulatedDAQ, rig_map_toml, run_online
 
 
@@ -267,7 +268,6 @@ def test_run_online_rejects_bad_arguments():
 
 
 def test_online_record_matches_the_rigs_offline_simulation():
-    plants = pytest.importorskip("motorid.plants", reason="needs motorid.plants")
     u = np.repeat(np.linspace(-8.0, 8.0, 12), 10)
     offline = plants.paper_rig().simulate(u, seed=21)
     online = run_online(SimulatedDAQ(plants.paper_rig(), seed=21), None, u, None, progress=False)

@@ -28,6 +28,7 @@ from io_fixtures import (
 from pyModbusTCP.client import ModbusClient
 from pyModbusTCP.utils import decode_ieee, encode_ieee, long_list_to_word, word_list_to_long
 
+from motorid import estimators
 from motorid.io import (
     STATUS_BITS,
     DAQConnectionError,
@@ -278,7 +279,6 @@ def test_scaled_integer_speed_out_of_range_is_flagged(rig_factory):
 
 # -- same identification through the simulated DAQ and through Modbus --------------------------------
 def test_same_estimates_simulated_and_modbus(rig_factory, tmp_path):
-    estimators = pytest.importorskip("motorid.estimators")
     u = quarter_volts(200, seed=3)
 
     def run(daq):
@@ -294,6 +294,11 @@ def test_same_estimates_simulated_and_modbus(rig_factory, tmp_path):
     params = [c for c in sim.columns if c.startswith("arx-rls.")]
     assert len(params) >= 5
     np.testing.assert_allclose(mb[params].iloc[-1], sim[params].iloc[-1], rtol=1e-3, atol=1e-6)
+    # exactly the estimates of the simulated record with its speed quantised to float32
+    ref = estimators.create("arx-rls", na=2, nb=2, lam=0.99)
+    ref.batch_filter(sim["u"].to_numpy(), sim["y"].to_numpy().astype(np.float32).astype(float))
+    estimates = [c for c in params if c != "arx-rls.y_hat"]
+    np.testing.assert_allclose(mb[estimates].iloc[-1].to_numpy(), ref.x, rtol=1e-12, atol=0)
 
 
 # -- Modbus RTU over a serial line (a socat pseudo-terminal pair) ----------------------------------------
@@ -355,12 +360,21 @@ def test_daq_from_url(rig_server):
 
 # -- a rig server in its own process: killed for real, stopped by SIGTERM ------------------------------
 def start_rig_process(port: int) -> subprocess.Popen:
-    code = (
-        "import logging, sys; logging.basicConfig(level=logging.INFO);"
-        "from motorid.io import RigServer;"
-        f"RigServer(port={port}, seed=1, watchdog_periods=None).serve_forever()"
-    )
-    proc = subprocess.Popen([sys.executable, "-c", code], stderr=subprocess.PIPE, text=True)
+    # the real command line: motorid -v rig serve ...
+    argv = [
+        "-m",
+        "motorid.cli",
+        "-v",
+        "rig",
+        "serve",
+        "--port",
+        str(port),
+        "--seed",
+        "1",
+        "--watchdog-periods",
+        "0",
+    ]
+    proc = subprocess.Popen([sys.executable, *argv], stderr=subprocess.PIPE, text=True)
 
     def listening() -> bool:
         if proc.poll() is not None:
@@ -373,7 +387,6 @@ def start_rig_process(port: int) -> subprocess.Popen:
 
 
 def test_rig_process_killed_mid_run_and_sigterm(tmp_path):
-    pytest.importorskip("motorid.plants", reason="the default rig needs motorid.plants")
     port = free_port()
     proc = start_rig_process(port)
     out = tmp_path / "sigkill.csv"
