@@ -38,9 +38,10 @@ event times, resolved to h.
 Everything here is compiled with ``numba.njit(cache=True)``, including the
 amplifier (:func:`armature_voltage`) and the tacho + A/D chain
 (:func:`tacho_reading`), kept in this one module so the on-disk cache of the
-kernels never holds a stale copy of them; ``advance_sample``
-is the one implementation shared by :func:`step_kernel` (one call per sample
-for online loops) and :func:`simulate_kernel` (a whole record in one call).
+kernels never holds a stale copy of them. :func:`advance_sample` is the one
+implementation of a sample: called once per sample by online loops
+(``TwoMassRig.step``) and in a loop by :func:`simulate_kernel` (a whole record
+in one call).
 """
 
 from __future__ import annotations
@@ -315,23 +316,6 @@ def advance_sample(
     for k in range(N_STATE):
         out[2 + k] = x[k]
     return y
-
-
-@numba.njit(cache=True)
-def step_kernel(
-    x: np.ndarray,
-    u: float,
-    t_d: float,
-    noise: float,
-    phi: np.ndarray,
-    gam: np.ndarray,
-    p: np.ndarray,
-    fric: np.ndarray,
-    lug: np.ndarray,
-    out: np.ndarray,
-) -> float:
-    """One sample for online loops (one compiled call per sample)."""
-    return advance_sample(x, u, t_d, noise, phi, gam, p, fric, lug, out)
 
 
 @numba.njit(cache=True)

@@ -353,7 +353,7 @@ class TwoMassRig:
         object.__setattr__(self, "_noise_pos", self._noise_pos + 1)
         object.__setattr__(self, "_k", self._k + 1)
         phi, gam, p, fric, lug = self._compiled
-        return fi.step_kernel(self._x, u, t_d, noise, phi, gam, p, fric, lug, self._out)
+        return fi.advance_sample(self._x, u, t_d, noise, phi, gam, p, fric, lug, self._out)
 
     @property
     def state(self) -> dict[str, float]:
