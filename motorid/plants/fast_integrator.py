@@ -148,6 +148,25 @@ def tacho_readings(
 
 
 @numba.njit(cache=True)
+def _stick_or_slip(omega: float, t_net: float, break_pos: float, break_neg: float) -> tuple[int, float]:
+    """Karnopp's test for one mass: ``(stuck, direction)``.
+
+    A moving mass slips in the direction of its speed. A mass at exactly zero
+    speed stays stuck while the net driving torque ``t_net`` [N m] lies within
+    ``[-break_neg, break_pos]``, and otherwise breaks away in the direction of
+    ``t_net``. Without static friction (both limits 0) it is neither stuck nor
+    given a direction.
+    """
+    if omega != 0.0:
+        return 0, (1.0 if omega > 0.0 else -1.0)
+    if break_pos <= 0.0 and break_neg <= 0.0:
+        return 0, 0.0
+    if -break_neg <= t_net <= break_pos:
+        return 1, 0.0
+    return 0, (1.0 if t_net > 0.0 else -1.0)
+
+
+@numba.njit(cache=True)
 def static_friction(fric: np.ndarray, side: int, omega: float, direction: float) -> float:
     """Sum of the static friction laws on ``side`` [N m] for motion in ``direction``.
 
@@ -226,37 +245,13 @@ def _substep(
     tau_m = offset - f_lug_m
     tau_l = -offset - t_d - f_lug_l
 
-    # motor mass: Karnopp stick test at exactly zero speed
-    bp = p[P_BREAK_POS_M]
-    bn = p[P_BREAK_NEG_M]
-    has_m = bp > 0.0 or bn > 0.0
-    stuck_m = 0
-    dir_m = 0.0
-    if wm != 0.0:
-        dir_m = 1.0 if wm > 0.0 else -1.0
-    elif has_m:
-        t_net = K * i_a - t_s - f_lug_m
-        if -bn <= t_net <= bp:
-            stuck_m = 1
-        else:
-            dir_m = 1.0 if t_net > 0.0 else -1.0
+    # Karnopp stick test on each mass at exactly zero speed
+    has_m = p[P_BREAK_POS_M] > 0.0 or p[P_BREAK_NEG_M] > 0.0
+    stuck_m, dir_m = _stick_or_slip(wm, K * i_a - t_s - f_lug_m, p[P_BREAK_POS_M], p[P_BREAK_NEG_M])
     if stuck_m == 0 and dir_m != 0.0:
         tau_m -= static_friction(fric, 0, wm, dir_m)
-
-    # load mass
-    bp = p[P_BREAK_POS_L]
-    bn = p[P_BREAK_NEG_L]
-    has_l = bp > 0.0 or bn > 0.0
-    stuck_l = 0
-    dir_l = 0.0
-    if wl != 0.0:
-        dir_l = 1.0 if wl > 0.0 else -1.0
-    elif has_l:
-        t_net = t_s - t_d - f_lug_l
-        if -bn <= t_net <= bp:
-            stuck_l = 1
-        else:
-            dir_l = 1.0 if t_net > 0.0 else -1.0
+    has_l = p[P_BREAK_POS_L] > 0.0 or p[P_BREAK_NEG_L] > 0.0
+    stuck_l, dir_l = _stick_or_slip(wl, t_s - t_d - f_lug_l, p[P_BREAK_POS_L], p[P_BREAK_NEG_L])
     if stuck_l == 0 and dir_l != 0.0:
         tau_l -= static_friction(fric, 1, wl, dir_l)
 
