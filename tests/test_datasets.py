@@ -1,0 +1,118 @@
+"""motorid.datasets: the EMPS loader against the published reference, and its errors."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.io
+from emps_fixtures import emps_folder, force_error_percent, published_inverse_dynamics, requires_emps
+
+from motorid.datasets import DATA_ENV_VAR, EMPS_REFERENCE, emps_path, load_emps
+
+
+@requires_emps
+def test_estimation_set_columns_units_and_scaling():
+    record = load_emps(emps_folder())
+    raw = scipy.io.loadmat(emps_folder() / "DATA_EMPS.mat")
+    assert len(record) == 24841
+    assert list(record.columns) == ["t", "u", "force", "y", "reference"]
+    assert record.attrs["dt"] == pytest.approx(1e-3, rel=1e-4)
+    assert record.attrs["input_gain"] == pytest.approx(35.15065, rel=1e-6)
+    assert record.attrs["units"]["force"] == "N" and record.attrs["units"]["y"] == "m"
+    np.testing.assert_array_equal(record["y"].to_numpy(), raw["qm"].ravel())
+    np.testing.assert_allclose(record["force"], raw["gtau"].item() * raw["vir"].ravel())
+
+
+@requires_emps
+def test_validation_set_has_the_load_pulses():
+    record = load_emps(emps_folder(), which="validation")
+    assert "pulses" in record.columns
+    assert set(np.unique(record["pulses"])) == {0.0, 5.0}
+
+
+@requires_emps
+@pytest.mark.parametrize(
+    ("which", "published"),
+    [("estimation", EMPS_REFERENCE["force_error_estimation"]), ("validation", None)],
+)
+def test_published_reference_model_reproduced_from_the_loaded_record(which, published):
+    """M + Fv + Fc + offset by least squares on the loaded data gives the published model.
+
+    The parameters are fitted on the estimation set and applied unchanged to the
+    validation set, whose published force error is 5.98 %.
+    """
+    estimation = load_emps(emps_folder(), which="estimation")
+    qd, qdd, force = published_inverse_dynamics(
+        estimation["t"].to_numpy(), estimation["y"].to_numpy(), estimation["force"].to_numpy()
+    )
+    regressors = np.column_stack([qdd, qd, np.sign(qd), np.ones_like(qd)])
+    theta, *_ = np.linalg.lstsq(regressors, force, rcond=None)
+    mass, viscous, coulomb, offset = theta
+    assert mass == pytest.approx(EMPS_REFERENCE["mass"], rel=0.02)
+    assert viscous == pytest.approx(EMPS_REFERENCE["viscous"], rel=0.02)
+    assert coulomb == pytest.approx(EMPS_REFERENCE["coulomb"], rel=0.02)
+    assert offset == pytest.approx(EMPS_REFERENCE["offset"], rel=0.05)
+    record = load_emps(emps_folder(), which=which)
+    qd, qdd, force = published_inverse_dynamics(
+        record["t"].to_numpy(), record["y"].to_numpy(), record["force"].to_numpy()
+    )
+    error = force_error_percent(force, np.column_stack([qdd, qd, np.sign(qd), np.ones_like(qd)]) @ theta)
+    expected = published if published is not None else EMPS_REFERENCE["force_error_validation"]
+    assert error == pytest.approx(expected, abs=0.3)
+
+
+@requires_emps
+def test_environment_variable_names_the_data_root(monkeypatch):
+    monkeypatch.setenv(DATA_ENV_VAR, str(emps_folder().parent))
+    assert emps_path(which="validation").name == "DATA_EMPS_PULSES.mat"
+    assert len(load_emps()) == 24841
+
+
+def test_missing_file_names_where_it_looked(tmp_path):
+    with pytest.raises(FileNotFoundError, match=r"DATA_EMPS\.mat not found; looked at .*emps"):
+        load_emps(tmp_path)
+
+
+def test_no_path_and_no_environment_variable(monkeypatch):
+    monkeypatch.delenv(DATA_ENV_VAR, raising=False)
+    with pytest.raises(FileNotFoundError, match=DATA_ENV_VAR):
+        load_emps()
+
+
+def test_unknown_set_is_named():
+    with pytest.raises(ValueError, match="which must be one of"):
+        emps_path("anywhere", which="training")
+
+
+def _write(path, **overrides):
+    n = 20
+    data = {
+        "t": np.arange(n, dtype=float)[:, None] * 1e-3,
+        "qm": np.zeros((n, 1)),
+        "qg": np.zeros((n, 1)),
+        "vir": np.zeros((n, 1)),
+        "gtau": np.array([[35.0]]),
+        "kp": np.array([[160.0]]),
+        "kv": np.array([[243.0]]),
+    }
+    data.update(overrides)
+    scipy.io.savemat(path, {k: v for k, v in data.items() if v is not None})
+    return path
+
+
+def test_bad_files_name_the_variable_and_sample(tmp_path):
+    with pytest.raises(ValueError, match=r"lacks the variable.*vir"):
+        load_emps(_write(tmp_path / "a.mat", vir=None))
+    qm = np.zeros((20, 1))
+    qm[7] = np.nan
+    with pytest.raises(ValueError, match="variable qm is not finite at sample 7"):
+        load_emps(_write(tmp_path / "b.mat", qm=qm))
+    with pytest.raises(ValueError, match="variable qg has 19 samples, t has 20"):
+        load_emps(_write(tmp_path / "c.mat", qg=np.zeros((19, 1))))
+    t = np.arange(20, dtype=float)[:, None] * 1e-3
+    t[12] = t[11]
+    with pytest.raises(ValueError, match="t does not increase at sample 12"):
+        load_emps(_write(tmp_path / "d.mat", t=t))
+    (tmp_path / "e.mat").write_text("not a mat file")
+    with pytest.raises(ValueError, match="not a readable MATLAB file"):
+        load_emps(tmp_path / "e.mat")
