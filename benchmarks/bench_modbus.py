@@ -4,9 +4,10 @@ Each loop iteration is one sample of online identification: write the
 command (voltage + heartbeat), read the sample (status, sequence, speed),
 and update an estimator. The rig server (lock-step, the paper's rig) runs in
 a separate process, as a PLC would, so client and server do not share a
-GIL. Prints samples/s, the median and 99th percentile loop time, and the
-ratio against the same exchange made by a bare pyModbusTCP client (a peer
-implementation, no estimator, no checks) on the same server.
+GIL. Rows: samples/s, the median and 99th percentile loop time, each beside
+the same exchange made by a bare pyModbusTCP client (a peer implementation,
+no estimator, no checks) on the same server; and the whole ``run_online``
+loop with its CSV recording.
 
 Usage::
 
@@ -23,8 +24,10 @@ import sys
 import time
 
 import numpy as np
+from _table import Row, print_rows
 
 TARGET = 500.0
+TITLE = "Closed-loop Modbus TCP on 127.0.0.1, rig server (lock-step) in its own process"
 
 
 def serve(queue: mp.Queue, stop: mp.Event) -> None:  # type: ignore[type-arg]
@@ -46,15 +49,6 @@ def serve(queue: mp.Queue, stop: mp.Event) -> None:  # type: ignore[type-arg]
     queue.put(server.port)
     stop.wait()
     server.stop()
-
-
-def summary(name: str, loop_s: np.ndarray, total_s: float) -> float:
-    rate = len(loop_s) / total_s
-    print(
-        f"{name:<34s} {rate:9.0f} samples/s   median {np.median(loop_s) * 1e3:6.3f} ms"
-        f"   p99 {np.percentile(loop_s, 99) * 1e3:6.3f} ms"
-    )
-    return rate
 
 
 def bench_motorid(port: int, n: int, estimator: str) -> tuple[float, np.ndarray]:
@@ -126,29 +120,39 @@ def bench_pymodbustcp(port: int, n: int) -> tuple[float, np.ndarray]:
     return total, loop
 
 
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--samples", type=int, default=5000, help="samples per measurement")
-    parser.add_argument("--estimator", default="hammerstein-rls", choices=["arx-rls", "hammerstein-rls"])
-    args = parser.parse_args(argv)
-
+def measure(samples: int = 5000, estimator: str = "hammerstein-rls") -> list[Row]:
+    """Start the rig server process, measure ours and the peer on it, stop it."""
     ctx = mp.get_context("spawn")
     queue, stop = ctx.Queue(), ctx.Event()
     proc = ctx.Process(target=serve, args=(queue, stop), daemon=True)
     proc.start()
     try:
         port = queue.get(timeout=60)
-        print(f"rig server (lock-step, separate process) on 127.0.0.1:{port}; {args.samples} samples each")
-        total, loop = bench_motorid(port, args.samples, args.estimator)
-        ours = summary(f"ModbusDAQ + {args.estimator}", loop, total)
-        rate = bench_run_online(port, args.samples, args.estimator)
-        print(f"{'run_online, CSV flushed each sample':<34s} {rate:9.0f} samples/s")
-        total, loop = bench_pymodbustcp(port, args.samples)
-        peer = summary("pyModbusTCP client, no estimator", loop, total)
+        ours_total, ours_loop = bench_motorid(port, samples, estimator)
+        online_rate = bench_run_online(port, samples, estimator)
+        peer_total, peer_loop = bench_pymodbustcp(port, samples)
     finally:
         stop.set()
         proc.join(10)
-    print(f"ratio ours / pyModbusTCP: {ours / peer:.2f}")
+    peer = "pyModbusTCP client, no estimator"
+    return [
+        Row(f"Modbus TCP loop + {estimator}", samples / ours_total, samples / peer_total, "samples/s", peer, True),
+        Row("Modbus TCP loop time, median", float(np.median(ours_loop)) * 1e3,
+            float(np.median(peer_loop)) * 1e3, "ms", peer, False),
+        Row("Modbus TCP loop time, p99", float(np.percentile(ours_loop, 99)) * 1e3,
+            float(np.percentile(peer_loop, 99)) * 1e3, "ms", peer, False),
+        Row("run_online over Modbus, CSV flushed each sample", online_rate, None, "samples/s", "", True),
+    ]  # fmt: skip
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--samples", type=int, default=5000, help="samples per measurement")
+    parser.add_argument("--estimator", default="hammerstein-rls", choices=["arx-rls", "hammerstein-rls"])
+    args = parser.parse_args(argv)
+    rows = measure(args.samples, args.estimator)
+    print_rows(rows, f"{TITLE}; {args.samples} samples each")
+    ours = rows[0].ours
     verdict = "meets" if ours >= TARGET else "MISSES"
     print(f"target >= {TARGET:.0f} samples/s: {verdict} ({ours:.0f} samples/s)")
     return 0 if ours >= TARGET else 1

@@ -1,21 +1,40 @@
-"""RLS speed: motorid's compiled batch path and per-sample loop beside filterpy's
-KalmanFilter used as RLS, on the same regressors, in one process.
+"""RLS speed: motorid's compiled batch path and per-sample loop beside two peers on
+the same regressors, in one process.
 
-p = 19 parameters: Hammerstein na = 4, nb = 4, degree 3. Run: python benchmarks/bench_rls.py
+p = 19 parameters: Hammerstein na = 4, nb = 4, degree 3, lam = 0.99, P0 = 1e3 I.
+
+Peers, each fed the regressors phi(t) that motorid forms (taken from a motorid run,
+so all three solve one problem; each peer's final estimate is checked
+equal to ours to rounding before its time counts):
+
+- filterpy's ``KalmanFilter`` as RLS: F = I, alpha^2 = 1/lam, Q = 0, H = phi^T, R = 1;
+- SysIdentPy's ``RecursiveLeastSquares(lam=0.99, delta=1e-3)`` (its P0 = I/delta),
+  whose ``optimize(psi, y)`` runs the whole record at once, the counterpart of our
+  ``batch_filter``. SysIdentPy is in the ``bench`` extra only
+  (``pip install -e ".[bench]"``); without it that row has no peer.
+
+Run: ``python benchmarks/bench_rls.py``.
 Targets: batch >= 1,000,000 samples/s and >= 30x filterpy; predict+update <= 10 us.
 """
 
 from __future__ import annotations
 
+import logging
 import time
+from collections.abc import Callable
 
 import numpy as np
+from _table import Row, print_rows
 from filterpy.kalman import KalmanFilter
 
 from motorid.estimators import HammersteinRLS
 
+TITLE = "RLS, p = 19 (Hammerstein na=4, nb=4, degree=3), best of 3"
+LAM, DELTA = 0.99, 1e3
+logger = logging.getLogger(__name__)
 
-def best_of(repeats: int, func) -> float:
+
+def best_of(repeats: int, func: Callable[[], object]) -> float:
     """Smallest wall time of ``repeats`` runs [s] (the least disturbed by other load)."""
     times = []
     for _ in range(repeats):
@@ -25,12 +44,62 @@ def best_of(repeats: int, func) -> float:
     return min(times)
 
 
-def main() -> None:
+def make() -> HammersteinRLS:
+    return HammersteinRLS(4, 4, degree=3, lam=LAM, delta=DELTA)
+
+
+def regressors(u: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """The regressors phi(t) motorid forms on (u, y), one row per sample."""
+    phis = np.empty((len(u), make().dim_x))
+    ref = make()
+    for k in range(len(u)):
+        ref.predict(u[k])
+        phis[k] = ref.phi
+        ref.update(y[k])
+    return phis
+
+
+def filterpy_rls(phis: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """filterpy's KalmanFilter set up as RLS over the given regressors; the final estimate."""
+    p = phis.shape[1]
+    kf = KalmanFilter(dim_x=p, dim_z=1)
+    kf.P *= DELTA
+    kf.Q = np.zeros((p, p))
+    kf.alpha = 1.0 / np.sqrt(LAM)
+    for k in range(len(y)):
+        kf.predict()
+        kf.H = phis[k][None, :]
+        kf.update(y[k])
+    return kf.x.ravel()
+
+
+def sysidentpy_rls() -> Callable[[np.ndarray, np.ndarray], np.ndarray] | None:
+    """SysIdentPy's RecursiveLeastSquares as ``f(phis, y) -> theta``; None when not installed."""
+    try:
+        from sysidentpy.parameter_estimation import RecursiveLeastSquares
+    except ImportError:
+        return None
+
+    def run(phis: np.ndarray, y: np.ndarray) -> np.ndarray:
+        rls = RecursiveLeastSquares(lam=LAM, delta=1.0 / DELTA)
+        return rls.optimize(phis, y.reshape(-1, 1)).ravel()
+
+    return run
+
+
+def check_same_estimate(peer: str, theta: np.ndarray, ours: np.ndarray) -> None:
+    """The peer solved the same problem: its final estimate equals ours to rounding."""
+    gap = float(np.max(np.abs(theta - ours)))
+    if gap > 1e-9 * (1.0 + float(np.max(np.abs(ours)))):
+        raise AssertionError(f"{peer} and motorid disagree on the final estimate by {gap:.3g}")
+    logger.info("%s vs motorid final estimate: max |difference| %.2e", peer, gap)
+
+
+def measure() -> list[Row]:
     rng = np.random.default_rng(0)
     n_batch, n_loop, n_peer = 500_000, 50_000, 10_000
     u = rng.uniform(-1, 1, n_batch)
     y = rng.standard_normal(n_batch)
-    make = lambda: HammersteinRLS(4, 4, degree=3, lam=0.99)  # noqa: E731
     assert make().dim_x == 19
 
     warm = make()
@@ -49,39 +118,43 @@ def main() -> None:
 
     t_loop = best_of(3, loop)
 
-    # filterpy's KalmanFilter as RLS: F = I, alpha^2 = 1/lam, Q = 0, H = phi^T, R = 1,
-    # on the regressors motorid forms (taken from a motorid run, so both solve one problem)
-    phis = np.empty((n_peer, 19))
-    ref = make()
-    for k in range(n_peer):
-        ref.predict(u[k])
-        phis[k] = ref.phi
-        ref.update(y[k])
+    phis = regressors(u[:n_peer], y[:n_peer])
+    y_peer = y[:n_peer]
+    t_filterpy = best_of(3, lambda: filterpy_rls(phis, y_peer))
 
-    def peer() -> None:
-        kf = KalmanFilter(dim_x=19, dim_z=1)
-        kf.P *= 1e3
-        kf.Q = np.zeros((19, 19))
-        kf.alpha = 1.0 / np.sqrt(0.99)
-        for k in range(n_peer):
-            kf.predict()
-            kf.H = phis[k][None, :]
-            kf.update(y[k])
-
-    t_peer = best_of(3, peer)
+    ours_theta = make().batch_filter(u[:n_peer], y_peer).x[-1]
+    check_same_estimate("filterpy", filterpy_rls(phis, y_peer), ours_theta)
 
     batch_rate = n_batch / t_batch
     loop_us = t_loop / n_loop * 1e6
-    peer_us = t_peer / n_peer * 1e6
-    peer_rate = 1e6 / peer_us
-    print("RLS, p = 19 (Hammerstein na=4, nb=4, degree=3), best of 3")
-    print(f"{'figure':<44}{'motorid':>14}{'filterpy KF':>14}{'ratio':>10}")
-    print(
-        f"{'batch_filter [samples/s]':<44}{batch_rate:>14,.0f}{peer_rate:>14,.0f}{batch_rate / peer_rate:>9.0f}x"
+    filterpy_us = t_filterpy / n_peer * 1e6
+    rows = [
+        Row("RLS batch, p = 19", batch_rate, 1e6 / filterpy_us, "samples/s", "filterpy KalmanFilter", True),
+    ]
+    sysid = sysidentpy_rls()
+    if sysid is None:
+        rows.append(
+            Row("RLS batch, p = 19", batch_rate, None, "samples/s", "SysIdentPy (not installed)", True)
+        )
+    else:
+        check_same_estimate("SysIdentPy", sysid(phis, y_peer), ours_theta)
+        t_sysid = best_of(3, lambda: sysid(phis, y_peer))
+        rows.append(
+            Row("RLS batch, p = 19", batch_rate, n_peer / t_sysid, "samples/s", "SysIdentPy RLS", True)
+        )
+    rows.append(
+        Row(
+            "RLS predict+update per sample, p = 19",
+            loop_us,
+            filterpy_us,
+            "us",
+            "filterpy KalmanFilter",
+            False,
+        )
     )
-    print(f"{'predict+update per sample [us]':<44}{loop_us:>14.2f}{peer_us:>14.2f}{peer_us / loop_us:>9.1f}x")
-    print("targets: batch >= 1,000,000 samples/s and >= 30x; per sample <= 10 us")
+    return rows
 
 
 if __name__ == "__main__":
-    main()
+    print_rows(measure(), TITLE)
+    print("targets: batch >= 1,000,000 samples/s and >= 30x filterpy; per sample <= 10 us")
