@@ -91,7 +91,7 @@ def format_rows(rows: Sequence[Row], title: str) -> str:
     header = ["figure", "motorid", "peer", "unit", "peer name", "ours vs peer"]
     body = [
         [
-            row.figure,
+            row.figure.replace("|", "\\|"),  # a bare | would split the markdown cell
             _number(row.ours),
             _number(row.peer),
             row.unit + (" ↑" if row.higher_is_better else " ↓"),
