@@ -19,6 +19,7 @@ from typing import Any
 
 from motorid.estimators.arx import ARXRLS
 from motorid.estimators.base import Estimator
+from motorid.estimators.friction_kf import FrictionEKF, FrictionUKF
 from motorid.estimators.hammerstein import HammersteinRLS
 
 logger = logging.getLogger(__name__)
@@ -30,6 +31,8 @@ EstimatorFactory = Callable[..., Estimator]
 _BUILT_IN: dict[str, EstimatorFactory] = {
     ARXRLS.name: ARXRLS,
     HammersteinRLS.name: HammersteinRLS,
+    FrictionEKF.name: FrictionEKF,
+    FrictionUKF.name: FrictionUKF,
 }
 _REGISTERED: dict[str, EstimatorFactory] = {}
 

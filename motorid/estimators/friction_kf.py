@@ -1,0 +1,1044 @@
+"""Joint estimation of the drive's state and its friction: an extended and an unscented
+Kalman filter on the physical two-mass model, behind the one estimator interface.
+
+The model, its state, the treatment of zero speed and of the armature current are
+described in :mod:`motorid.estimators.friction_model`. Both filters use that one
+model; per sample k, with the command u[k] held over the sample (the rig's timing)::
+
+    predict:  v = amplifier(u)                          armature voltage [V]
+              x_prior = f_d(x, v)                       sub-stepped model, one sample
+              P_prior = F P F^T + Q                     EKF: F = d f_d / d x (analytic)
+                                                        UKF: unscented transform of f_d
+              y_hat   = ω_L(x_prior)                    predicted tacho reading [rad/s]
+    update:   S = H P_prior H^T + R,   K = P_prior H^T / S,   y = z - y_hat
+              x = x_prior + K y,   then friction parameters projected onto >= 0
+              P = (I - K H) P_prior (I - K H)^T + K R K^T      (EKF, Joseph form)
+              P = P_prior - K S K^T                             (UKF, filterpy)
+              P mirrored to exact symmetry; NIS = y^2 / S.
+
+H picks ω_L: the rig's output ``y`` is the tachogenerator on the load read through
+the A/D converter and scaled back to rad/s, so R is the tacho noise plus the
+quantisation, ``(σ_t/G_t)^2 + (q/G_t)^2/12``. A measured armature current can be
+given to :meth:`FrictionEKF.update` as well (a second, sequential scalar update;
+quasi-static: i_a = (v - K_m ω_m)/R_a).
+
+Consistency. With a correct model the normalised innovation squared
+``NIS = y^2/S`` is χ²(1): inside its two-sided 95 % band [0.00098, 5.02] on 95 % of
+samples. ``nis`` holds the last value and ``nis_mean`` its mean over the last
+``nis_window`` updates; a mean above ``divergence_nis`` marks the filter as
+diverged (``diverged``) and, with ``on_divergence="raise"`` (default), raises
+:class:`FilterDivergenceError` naming the sample. A covariance that stops being
+positive definite or a non-finite estimate always raises it.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Sequence
+from typing import Any, ClassVar, Literal
+
+import numpy as np
+from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
+from numba import njit
+from numpy.typing import ArrayLike
+
+from motorid.estimators import friction_model as fm
+from motorid.estimators.base import BatchResult, Estimator, as_float_vector, first_bad_index
+from motorid.estimators.rls import check_order, check_positive
+from motorid.plants.fast_integrator import armature_voltage, armature_voltages
+from motorid.plants.friction import CoulombFriction
+from motorid.plants.rig import TwoMassRig, paper_rig
+
+OnDivergence = Literal["raise", "warn", "ignore"]
+
+#: Units of the entries of ``params``.
+PARAM_UNITS: dict[str, str] = {
+    "coulomb": "N m",
+    "coulomb_std": "N m",
+    "viscous": "N m s/rad",
+    "viscous_std": "N m s/rad",
+    "coulomb_neg": "N m",
+    "coulomb_neg_std": "N m",
+    "stribeck": "N m",
+    "stribeck_std": "N m",
+}
+
+
+class FilterDivergenceError(RuntimeError):
+    """The filter no longer describes the data: its innovations are far larger than
+    its own covariance predicts, or the covariance broke down numerically.
+
+    Attributes
+    ----------
+    sample : int
+        Index of the sample at which it was detected.
+    nis_mean : float
+        Mean normalised innovation squared over the window at that sample (NaN for a
+        numerical breakdown).
+    """
+
+    def __init__(self, message: str, sample: int, nis_mean: float = math.nan):
+        super().__init__(message)
+        self.sample = sample
+        self.nis_mean = nis_mean
+
+
+# --------------------------------------------------------------------------- kernels
+@njit(cache=True)
+def ekf_predict(
+    x: np.ndarray, P: np.ndarray, v: float, c: np.ndarray, Q: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """EKF time update: ``(x_prior, P_prior, F)`` for armature voltage ``v`` [V]."""
+    n = x.shape[0]
+    F = np.empty((n, n))
+    x_prior = fm.propagate(x, v, c, F, True)
+    return x_prior, fm.covariance_predict(P, F, Q), F
+
+
+@njit(cache=True)
+def joseph_update(
+    x: np.ndarray, P: np.ndarray, h: np.ndarray, h0: float, z: float, r: float, lower: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
+    """Scalar measurement update ``z = h^T x + h0 + noise(r)``, Joseph form.
+
+    Returns ``(x_post, P_post, K, innovation, S)``; ``x_post`` is projected onto
+    ``x >= lower`` and ``P_post`` is mirrored to exact symmetry.
+    """
+    n = x.shape[0]
+    Ph = np.empty(n)
+    s = r
+    z_hat = h0
+    for i in range(n):
+        acc = 0.0
+        for k in range(n):
+            acc += P[i, k] * h[k]
+        Ph[i] = acc
+        s += h[i] * acc
+        z_hat += h[i] * x[i]
+    e = z - z_hat
+    K = Ph / s
+    x_post = np.empty(n)
+    for i in range(n):
+        x_post[i] = max(x[i] + K[i] * e, lower[i])
+    # (I - K h^T) P (I - K h^T)^T + r K K^T
+    IKH = np.empty((n, n))
+    for i in range(n):
+        for k in range(n):
+            IKH[i, k] = (1.0 if i == k else 0.0) - K[i] * h[k]
+    M = np.empty((n, n))
+    for i in range(n):
+        for k in range(n):
+            acc = 0.0
+            for m in range(n):
+                acc += IKH[i, m] * P[m, k]
+            M[i, k] = acc
+    P_post = np.empty((n, n))
+    for i in range(n):
+        for k in range(i, n):
+            acc = r * K[i] * K[k]
+            for m in range(n):
+                acc += M[i, m] * IKH[k, m]
+            P_post[i, k] = acc
+            P_post[k, i] = acc
+    return x_post, P_post, K, e, s
+
+
+@njit(cache=True)
+def is_positive_definite(P: np.ndarray) -> bool:
+    """True when the Cholesky factorisation of ``P`` succeeds (and P is finite)."""
+    n = P.shape[0]
+    L = np.zeros((n, n))
+    for j in range(n):
+        d = P[j, j]
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        if not d > 0.0:
+            return False
+        L[j, j] = math.sqrt(d)
+        for i in range(j + 1, n):
+            acc = P[i, j]
+            for k in range(j):
+                acc -= L[i, k] * L[j, k]
+            L[i, j] = acc / L[j, j]
+    return True
+
+
+@njit(cache=True)
+def push_nis(ring: np.ndarray, count: int, nis: float) -> tuple[int, float]:
+    """Store ``nis`` in the ring buffer of the window; returns the new count and the
+    mean over the window (NaN until it is full)."""
+    W = ring.shape[0]
+    ring[count % W] = nis
+    count += 1
+    if count < W:
+        return count, math.nan
+    acc = 0.0
+    for k in range(W):
+        acc += ring[k]
+    return count, acc / W
+
+
+#: codes of the batch kernel for what stopped or flagged it
+_OK, _NIS, _BREAKDOWN = 0, 1, 2
+
+
+@njit(cache=True)
+def ekf_batch(
+    v: np.ndarray,
+    z: np.ndarray,
+    present: np.ndarray,
+    cur: np.ndarray,
+    cur_present: np.ndarray,
+    x: np.ndarray,
+    P: np.ndarray,
+    c: np.ndarray,
+    Q: np.ndarray,
+    r: float,
+    r_cur: float,
+    h_speed: np.ndarray,
+    h_cur: np.ndarray,
+    cur_gain: float,
+    lower: np.ndarray,
+    ring: np.ndarray,
+    count: int,
+    threshold: float,
+    stop_on_nis: bool,
+):
+    """The sample loop of :func:`ekf_predict` and :func:`joseph_update` over a record.
+
+    Stops after the sample where the covariance breaks down, or where the windowed
+    NIS passes ``threshold`` when ``stop_on_nis``. Returns the per-sample arrays
+    (filled up to ``done`` samples) and the last sample's quantities.
+    """
+    N = v.shape[0]
+    n = x.shape[0]
+    X = np.empty((N, n))
+    P_diag = np.empty((N, n))
+    y_hat = np.empty(N)
+    innovation = np.full(N, np.nan)
+    S = np.empty(N)
+    NIS = np.full(N, np.nan)
+    x_prior = x.copy()
+    P_prior = P.copy()
+    F = np.eye(n)
+    K = np.zeros(n)
+    e = 0.0
+    s = 0.0
+    nis_mean = math.nan
+    flag_at = -1
+    flag = _OK
+    done = 0
+    for t in range(N):
+        x_prior, P_prior, F = ekf_predict(x, P, v[t], c, Q)
+        x = x_prior
+        P = P_prior
+        y_hat[t] = x_prior[1]
+        s = P_prior[1, 1] + r
+        if present[t]:
+            x, P, K, e, s = joseph_update(x, P, h_speed, 0.0, z[t], r, lower)
+            innovation[t] = e
+            NIS[t] = e * e / s
+            count, nis_mean = push_nis(ring, count, e * e / s)
+        else:
+            K = np.zeros(n)
+            e = 0.0
+        if cur_present[t]:
+            x, P, _, _, _ = joseph_update(x, P, h_cur, cur_gain * v[t], cur[t], r_cur, lower)
+        S[t] = s
+        X[t] = x
+        for i in range(n):
+            P_diag[t, i] = P[i, i]
+        done = t + 1
+        finite = True
+        for i in range(n):
+            if not math.isfinite(x[i]):
+                finite = False
+        if not finite or not is_positive_definite(P):
+            flag, flag_at = _BREAKDOWN, t
+            break
+        if nis_mean > threshold and flag == _OK:
+            flag, flag_at = _NIS, t
+            if stop_on_nis:
+                break
+    return (
+        X, P_diag, y_hat, innovation, S, NIS, x, P, x_prior, P_prior, F, K, e, s,
+        count, nis_mean, flag, flag_at, done,
+    )  # fmt: skip
+
+
+# --------------------------------------------------------------------------- the model's owner
+def _rig_coulomb(rig: TwoMassRig) -> float:
+    """Sum of the rig's Coulomb levels on both masses [N m] (0 without any)."""
+    return sum(f.alpha * len(f.sides()) for f in rig.friction if isinstance(f, CoulombFriction))
+
+
+def tacho_variance(rig: TwoMassRig) -> float:
+    """Variance [(rad/s)^2] of the rig's speed reading: tacho noise plus A/D quantisation."""
+    g = rig.tacho.gain
+    return (rig.tacho.noise_std / g) ** 2 + (rig.adc.lsb / g) ** 2 / 12.0
+
+
+class _FrictionFilter(Estimator):
+    """Shared part of :class:`FrictionEKF` and :class:`FrictionUKF`: parameters, model
+    set-up, ``params``, ``simulate``, consistency bookkeeping."""
+
+    skips_nan_measurements: ClassVar[bool] = True
+
+    def __init__(
+        self,
+        rig: TwoMassRig | None = None,
+        *,
+        friction_side: Literal["motor", "load"] = "motor",
+        asymmetric: bool = False,
+        stribeck: bool = False,
+        stribeck_decay: float = 0.1,
+        current_state: bool | None = None,
+        substeps: int | None = None,
+        coulomb0: float = 5e-3,
+        viscous0: float = 5e-5,
+        stribeck0: float = 0.0,
+        coulomb_std0: float = 5e-3,
+        viscous_std0: float = 5e-5,
+        stribeck_std0: float = 5e-3,
+        speed_std0: float = 1.0,
+        speed_noise: float = 0.05,
+        twist_noise: float = 1e-5,
+        current_noise: float = 1e-2,
+        coulomb_drift: float = 2e-5,
+        viscous_drift: float = 2e-7,
+        stribeck_drift: float = 2e-5,
+        R: float | None = None,
+        R_current: float = 1e-4,
+        nis_window: int = 50,
+        divergence_nis: float = 25.0,
+        on_divergence: OnDivergence = "warn",
+    ):
+        self.rig = rig
+        self.friction_side = friction_side
+        self.asymmetric = asymmetric
+        self.stribeck = stribeck
+        self.stribeck_decay = stribeck_decay
+        self.current_state = current_state
+        self.substeps = substeps
+        self.coulomb0 = coulomb0
+        self.viscous0 = viscous0
+        self.stribeck0 = stribeck0
+        self.coulomb_std0 = coulomb_std0
+        self.viscous_std0 = viscous_std0
+        self.stribeck_std0 = stribeck_std0
+        self.speed_std0 = speed_std0
+        self.speed_noise = speed_noise
+        self.twist_noise = twist_noise
+        self.current_noise = current_noise
+        self.coulomb_drift = coulomb_drift
+        self.viscous_drift = viscous_drift
+        self.stribeck_drift = stribeck_drift
+        self.R = R
+        self.R_current = R_current
+        self.nis_window = nis_window
+        self.divergence_nis = divergence_nis
+        self.on_divergence = on_divergence
+        self.reset()
+
+    @classmethod
+    def from_rig(cls, rig: TwoMassRig, **kwargs: Any) -> _FrictionFilter:
+        """A filter for the drive described by ``rig``.
+
+        The known constants are taken from ``rig``: R_a, L_a, K_m, J_m, J_L, k_s,
+        B_s, the constant load torque T_d, the sample time dt, the amplifier (gain,
+        dead zone, saturation) and, unless ``R`` is given, the measurement variance
+        of its tacho + A/D chain. Its friction laws and B_m, B_L are ignored: they
+        are what the filter estimates (``coulomb0`` and ``viscous0`` are the prior).
+
+        Parameters
+        ----------
+        rig : TwoMassRig
+        **kwargs
+            Any other constructor argument.
+        """
+        if not isinstance(rig, TwoMassRig):
+            raise ValueError(f"rig must be a TwoMassRig, got {type(rig).__name__}")
+        return cls(rig=rig, **kwargs)
+
+    # ------------------------------------------------------------------ set-up
+    def _configure(self) -> None:
+        """Validate the stored parameters (errors name the argument) and build the
+        compiled model's constants, Q, R and the initial estimate."""
+        rig = paper_rig() if self.rig is None else self.rig
+        if not isinstance(rig, TwoMassRig):
+            raise ValueError(f"rig must be a TwoMassRig or None, got {type(rig).__name__}")
+        if self.friction_side not in ("motor", "load"):
+            raise ValueError(f"friction_side must be 'motor' or 'load', got {self.friction_side!r}")
+        if self.on_divergence not in ("raise", "warn", "ignore"):
+            raise ValueError(f"on_divergence must be 'raise', 'warn' or 'ignore', got {self.on_divergence!r}")
+        for name in ("asymmetric", "stribeck"):
+            if not isinstance(getattr(self, name), bool | np.bool_):
+                raise ValueError(f"{name} must be True or False, got {getattr(self, name)!r}")
+        if self.current_state is not None and not isinstance(self.current_state, bool | np.bool_):
+            raise ValueError(f"current_state must be True, False or None, got {self.current_state!r}")
+        for name in (
+            "stribeck_decay", "coulomb_std0", "viscous_std0", "stribeck_std0", "speed_std0",
+            "speed_noise", "twist_noise", "current_noise", "coulomb_drift", "viscous_drift",
+            "stribeck_drift", "R_current", "divergence_nis",
+        ):  # fmt: skip
+            check_positive(name, getattr(self, name))
+        for name in ("coulomb0", "viscous0", "stribeck0"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | float | np.number) or not value >= 0:
+                raise ValueError(f"{name} must be a number >= 0, got {value!r}")
+            if not math.isfinite(value):
+                raise ValueError(f"{name} must be finite, got {value!r}")
+        r = tacho_variance(rig) if self.R is None else check_positive("R", self.R)
+        window = check_order("nis_window", self.nis_window, 1)
+
+        dt = rig.dt
+        current = dt < 10.0 * rig.L_a / rig.R_a if self.current_state is None else bool(self.current_state)
+        names, index = fm.state_layout(current, bool(self.asymmetric), bool(self.stribeck))
+        n = len(names)
+        constants = {
+            "J_m": rig.J_m, "J_l": rig.J_l, "K_m": rig.K_m, "R_a": rig.R_a, "L_a": rig.L_a,
+            "k_s": rig.k_s, "B_s": rig.B_s, "T_d": rig.T_d, "stribeck_decay": float(self.stribeck_decay),
+            "dt": dt, "friction_side": self.friction_side, "index": index,
+        }  # fmt: skip
+        x0 = np.zeros(n)
+        x0[index["coulomb"]] = self.coulomb0
+        x0[index["viscous"]] = self.viscous0
+        if self.asymmetric:
+            x0[index["coulomb_neg"]] = self.coulomb0
+        if self.stribeck:
+            x0[index["stribeck"]] = self.stribeck0
+        if self.substeps is None:
+            # Heun: keep h |lambda_max| <= 0.25, lambda from the model moving at 1 rad/s
+            probe = x0.copy()
+            probe[fm.I_OMEGA_M] = probe[fm.I_OMEGA_L] = 1.0
+            c_probe = fm.pack_constants(**constants, substeps=1)
+            substeps = max(1, math.ceil(dt * fm.stiffest_rate(c_probe, probe) / 0.25))
+        else:
+            substeps = check_order("substeps", self.substeps, 1)
+        self._c = fm.pack_constants(**constants, substeps=substeps)
+        self._names = names
+        self._index = index
+        self._rig = rig
+        self._r = float(r)
+        self._window = window
+        self.n_substeps = substeps
+        self.has_current_state = current
+
+        # initial covariance and process noise (per sample), both diagonal
+        p0 = np.zeros(n)
+        q = np.zeros(n)
+        p0[fm.I_OMEGA_M] = p0[fm.I_OMEGA_L] = self.speed_std0**2
+        q[fm.I_OMEGA_M] = q[fm.I_OMEGA_L] = self.speed_noise**2
+        # the twist that a speed difference builds over a sample
+        p0[fm.I_TWIST] = (self.speed_std0 * dt) ** 2
+        q[fm.I_TWIST] = self.twist_noise**2
+        if current:
+            p0[index["i_a"]] = (self.speed_std0 * rig.K_m / rig.R_a) ** 2 + self.current_noise**2
+            q[index["i_a"]] = self.current_noise**2
+        for key, std0, drift in (
+            ("coulomb", self.coulomb_std0, self.coulomb_drift),
+            ("viscous", self.viscous_std0, self.viscous_drift),
+            ("coulomb_neg", self.coulomb_std0, self.coulomb_drift),
+            ("stribeck", self.stribeck_std0, self.stribeck_drift),
+        ):
+            if index[key] >= 0:
+                p0[index[key]] = std0**2
+                q[index[key]] = drift**2 * dt
+        self.x0 = x0
+        self.P0 = np.diag(p0)
+        self.Q = np.diag(q)
+        self._lower = np.full(n, -np.inf)
+        for key in ("coulomb", "viscous", "coulomb_neg", "stribeck"):
+            if index[key] >= 0:
+                self._lower[index[key]] = 0.0
+        self._h_speed = np.zeros(n)
+        self._h_speed[fm.I_OMEGA_L] = 1.0
+        self._h_current = np.zeros(n)
+        if current:
+            self._h_current[index["i_a"]] = 1.0
+            self._current_gain = 0.0
+        else:
+            self._h_current[fm.I_OMEGA_M] = -rig.K_m / rig.R_a
+            self._current_gain = 1.0 / rig.R_a
+        amp = rig.amplifier
+        self._amp = (float(amp.gain), float(amp.dead_zone), float(amp.v_max))
+
+    def reset(self) -> None:
+        """Validate the parameters and return to the prior: drive at rest, friction at
+        ``coulomb0``, ``viscous0`` (...) with covariance ``P0``. Change a parameter
+        attribute, then call ``reset()`` for it to take effect."""
+        self._configure()
+        n = len(self._names)
+        self.x = self.x0.copy()
+        self.P = self.P0.copy()
+        self.x_prior, self.P_prior = self.x.copy(), self.P.copy()
+        self.x_post, self.P_post = self.x.copy(), self.P.copy()
+        self.F = np.eye(n)
+        self.K = np.zeros(n)
+        self.y = 0.0
+        self.S = 0.0
+        self.z = None
+        self.v = 0.0
+        self.nis = math.nan
+        self.nis_mean = math.nan
+        self.diverged = False
+        self.y_current = 0.0
+        self.S_current = 0.0
+        self.sample_index = 0
+        self._nis_ring = np.zeros(self._window)
+        self._nis_count = 0
+        self._pending = False
+
+    # ------------------------------------------------------------------ description
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        return self._names
+
+    @property
+    def dt(self) -> float:
+        """Sample time [s] (the rig's)."""
+        return float(self._rig.dt)
+
+    @property
+    def R_speed(self) -> float:
+        """Variance of the speed measurement in use [(rad/s)^2]."""
+        return self._r
+
+    @property
+    def params(self) -> dict[str, Any]:
+        """Friction estimates and their standard deviations.
+
+        ``coulomb`` [N m] (the forward level when ``asymmetric``), ``viscous``
+        [N m s/rad], with ``asymmetric`` ``coulomb_neg`` [N m], with ``stribeck``
+        ``stribeck`` [N m] (the excess α1 at zero speed); ``<name>_std`` is the square
+        root of the diagonal of P. Units in :data:`PARAM_UNITS`.
+        """
+        out: dict[str, Any] = {}
+        for key in ("coulomb", "viscous", "coulomb_neg", "stribeck"):
+            i = self._index[key]
+            if i >= 0:
+                out[key] = float(self.x[i])
+                out[f"{key}_std"] = float(math.sqrt(max(self.P[i, i], 0.0)))
+        return out
+
+    param_units: ClassVar[dict[str, str]] = PARAM_UNITS
+
+    def voltage(self, u: float) -> float:
+        """Armature voltage [V] for command ``u`` [V]: the rig's amplifier (known)."""
+        return float(armature_voltage(u, *self._amp))
+
+    def simulate(self, u: ArrayLike) -> np.ndarray:
+        """Free-run load speed [rad/s] of the model with the current friction estimates,
+        from rest, for the command record ``u`` [V] (sample timing as the rig's)."""
+        u_arr = as_float_vector(u, "u")
+        bad = first_bad_index(u_arr)
+        if bad is not None:
+            raise ValueError(f"u[{bad}] = {u_arr[bad]} is not finite: the input must be finite")
+        x0 = np.zeros(len(self._names))
+        for key in ("coulomb", "viscous", "coulomb_neg", "stribeck"):
+            i = self._index[key]
+            if i >= 0:
+                x0[i] = self.x[i]
+        v = armature_voltages(np.ascontiguousarray(u_arr), *self._amp)
+        return fm.free_run(v, x0, self._c)[:, fm.I_OMEGA_L].copy()
+
+    # ------------------------------------------------------------------ checks
+    def check_measurement(self, z: float) -> float | None:
+        """``z`` as a float; NaN is skipped with a RuntimeWarning naming the sample."""
+        try:
+            value = float(z)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"z at sample {self.sample_index - 1} must be a number or None, got {z!r}"
+            ) from None
+        if math.isnan(value):
+            warnings.warn(
+                f"z at sample {self.sample_index - 1} is NaN: measurement update skipped",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+            return None
+        if not math.isfinite(value):
+            raise ValueError(
+                f"z at sample {self.sample_index - 1} is {value}: the measurement must be finite"
+            )
+        return value
+
+    def _check_current(self, current: float | None) -> float | None:
+        if current is None:
+            return None
+        try:
+            value = float(current)
+        except (TypeError, ValueError):
+            raise ValueError(
+                f"current at sample {self.sample_index - 1} must be a number or None, got {current!r}"
+            ) from None
+        if math.isnan(value):
+            warnings.warn(
+                f"current at sample {self.sample_index - 1} is NaN: current update skipped",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+            return None
+        if not math.isfinite(value):
+            raise ValueError(f"current at sample {self.sample_index - 1} is {value}: it must be finite")
+        return value
+
+    def _warn_nan_record(self, z: Any) -> None:
+        """One RuntimeWarning naming the NaN measurements of a record."""
+        try:
+            values = np.asarray([np.nan if item is None else item for item in z], dtype=float)
+        except (TypeError, ValueError):
+            return  # check_record names the problem
+        nan = np.flatnonzero(np.isnan(values) & np.array([item is not None for item in z]))
+        if nan.size:
+            shown = ", ".join(str(int(k)) for k in nan[:5]) + (", ..." if nan.size > 5 else "")
+            warnings.warn(
+                f"z is NaN at {nan.size} sample(s) ({shown}): those measurement updates are skipped",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+
+    def _current_record(self, current: ArrayLike | None, n: int) -> tuple[np.ndarray, np.ndarray]:
+        if current is None:
+            return np.zeros(n), np.zeros(n, dtype=bool)
+        values = as_float_vector(current, "current")
+        if values.shape != (n,):
+            raise ValueError(f"current must have the length of u ({n}), got shape {values.shape}")
+        if np.isinf(values).any():
+            k = int(np.flatnonzero(np.isinf(values))[0])
+            raise ValueError(f"current[{k}] = {values[k]} is not finite")
+        nan = np.isnan(values)
+        if nan.any():
+            warnings.warn(
+                f"current is NaN at {int(nan.sum())} sample(s): those current updates are skipped",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+        return np.where(nan, 0.0, values), ~nan
+
+    # ------------------------------------------------------------------ consistency
+    def _record_nis(self, e: float, s: float) -> None:
+        self.nis = e * e / s
+        self._nis_count, self.nis_mean = push_nis(self._nis_ring, self._nis_count, self.nis)
+
+    def _check_health(self, sample: int) -> None:
+        """Raise on a numerical breakdown; flag (and raise or warn) on a NIS excursion."""
+        if not (np.all(np.isfinite(self.x)) and is_positive_definite(self.P)):
+            self.diverged = True
+            raise FilterDivergenceError(
+                f"{self.name} diverged at sample {sample}: the covariance P is no longer positive "
+                "definite or the estimate is not finite",
+                sample,
+            )
+        if self.nis_mean > self.divergence_nis:
+            self._flag_divergence(sample, self.nis_mean)
+
+    def _flag_divergence(self, sample: int, nis_mean: float) -> None:
+        first = not self.diverged
+        self.diverged = True
+        message = (
+            f"{self.name} diverged at sample {sample}: the mean normalised innovation squared over "
+            f"the last {self._window} updates is {nis_mean:.3g} (> divergence_nis = {self.divergence_nis:g}; "
+            "a consistent filter gives about 1). The model does not describe the data: check the rig "
+            "constants, the measurement variance R and the process noise"
+        )
+        if self.on_divergence == "raise":
+            raise FilterDivergenceError(message, sample, nis_mean)
+        if self.on_divergence == "warn" and first:
+            warnings.warn(message, RuntimeWarning, stacklevel=4)
+
+    def __repr__(self) -> str:
+        head = (
+            f"{type(self).__name__}(friction_side={self.friction_side!r}, asymmetric={self.asymmetric}, "
+            f"stribeck={self.stribeck}, current_state={self.has_current_state}, substeps={self.n_substeps}, "
+            f"dt={self.dt}, R={self._r:.4g})"
+        )
+        lines = [head, super().__repr__(), f"nis = {self.nis}", f"nis_mean = {self.nis_mean}"]
+        return "\n".join(lines)
+
+
+_PARAMETERS_DOC = """
+    Parameters
+    ----------
+    rig : TwoMassRig, optional
+        The known constants of the drive: R_a [Ω], L_a [H], K_m [N m/A], J_m, J_L
+        [kg m²], k_s [N m/rad], B_s [N m s/rad], T_d [N m], dt [s], the amplifier
+        and the tacho + A/D chain (for R). Default :func:`~motorid.plants.paper_rig`.
+        Its friction laws and B_m, B_L are not used: they are estimated.
+    friction_side : {"motor", "load"}
+        The mass the estimated friction acts on. With one speed sensor and a stiff
+        shaft only the total friction of the drive is observable; the estimate is
+        that total, placed on this mass.
+    asymmetric : bool
+        Estimate a separate backward Coulomb level ``coulomb_neg`` (eq. 11).
+    stribeck : bool
+        Estimate the Stribeck excess ``stribeck`` = α1 of eq. (9).
+    stribeck_decay : float
+        α2 [s/rad] of eq. (9), known, > 0.
+    current_state : bool, optional
+        Keep i_a in the state (True) or use its quasi-static value (False); None
+        (default) keeps it when dt < 10 L_a/R_a (see :mod:`.friction_model`).
+    substeps : int, optional
+        Heun sub-steps per sample; None chooses h |λ_max| <= 0.25 from the model's
+        stiffest eigenvalue (26 for the paper's rig; 1 ms steps).
+    coulomb0, viscous0, stribeck0 : float
+        Prior estimates [N m], [N m s/rad], [N m] (``coulomb_neg`` starts at ``coulomb0``).
+    coulomb_std0, viscous_std0, stribeck_std0 : float
+        Prior standard deviations, same units.
+    speed_std0 : float
+        Prior standard deviation of both speeds [rad/s] (the drive starts at rest).
+    speed_noise : float
+        Standard deviation [rad/s] of the random change of each speed per sample
+        (unmodelled torques, integration error).
+    twist_noise : float
+        The same for the shaft twist [rad].
+    current_noise : float
+        The same for i_a [A] when it is in the state.
+    coulomb_drift, viscous_drift, stribeck_drift : float
+        Random-walk intensities of the friction parameters [unit/√s]: per sample
+        their variance grows by ``drift² dt``.
+    R : float, optional
+        Variance of the speed measurement [(rad/s)²]; default from the rig's tacho
+        noise and A/D step, ``(σ_t/G_t)² + (q/G_t)²/12``.
+    R_current : float
+        Variance of a measured armature current [A²].
+    nis_window : int
+        Number of updates over which the NIS is averaged for the divergence test.
+    divergence_nis : float
+        Threshold of that mean; a consistent filter averages 1, so 25 means
+        innovations five times their predicted standard deviation.
+    on_divergence : {"raise", "warn", "ignore"}
+        What a NIS excursion does besides setting ``diverged``.
+"""
+
+
+class FrictionEKF(_FrictionFilter):
+    (
+        """Extended Kalman filter on the two-mass drive, learning its friction online.
+
+    filterpy's ``ExtendedKalmanFilter`` with the model of
+    :mod:`~motorid.estimators.friction_model` filled in: :meth:`predict` integrates
+    the nonlinear model over one sample (sub-stepped, compiled) and sets the
+    Jacobian ``F`` itself; :meth:`update` is filterpy's Joseph-form update with
+    ``H = [0, 1, 0, ...]`` (the load speed), followed by the projection of the
+    friction parameters onto >= 0. The equations are in :mod:`.friction_kf`; the
+    model, zero speed and the armature current in :mod:`.friction_model`.
+    """
+        + _PARAMETERS_DOC
+        + """
+    Attributes
+    ----------
+    x, P, x_prior, P_prior, x_post, P_post, F, K, y, S, z
+        As filterpy's ExtendedKalmanFilter (1-D x, scalar y and S).
+    nis : float
+        Normalised innovation squared y²/S of the last update (NaN when skipped).
+    nis_mean : float
+        Its mean over the last ``nis_window`` updates (NaN until that many).
+    diverged : bool
+        Set once the windowed NIS passed ``divergence_nis``.
+
+    Examples
+    --------
+    >>> from motorid.plants import paper_rig
+    >>> ekf = FrictionEKF.from_rig(paper_rig(), coulomb0=3e-3)
+    >>> result = ekf.batch_filter(df["u"], df["y"])          # doctest: +SKIP
+    >>> ekf.params["coulomb"], ekf.params["coulomb_std"]    # doctest: +SKIP
+    """
+    )
+
+    name = "friction-ekf"
+
+    def predict(self, u: float) -> float:
+        """Time update with the command ``u`` [V] held over the sample; returns the
+        predicted load speed [rad/s]. A sample still waiting for its update is
+        closed as skipped."""
+        u = self.check_input(u)
+        if self._pending:
+            self.update(None)
+        v = armature_voltage(u, *self._amp)
+        x_prior, P_prior, F = ekf_predict(self.x, self.P, v, self._c, self.Q)
+        self.v = v
+        self.F = F
+        self.x = self.x_prior = x_prior
+        self.P = self.P_prior = P_prior
+        self.S = float(P_prior[1, 1] + self._r)
+        self.sample_index += 1
+        self._pending = True
+        return float(x_prior[1])
+
+    def update(self, z: float | None, current: float | None = None) -> None:
+        """Measurement update with the measured load speed ``z`` [rad/s] and, where
+        measured, the armature current ``current`` [A].
+
+        ``None`` skips; NaN skips with a RuntimeWarning naming the sample.
+
+        Raises
+        ------
+        FilterDivergenceError
+            When P breaks down, or the windowed NIS passes ``divergence_nis`` with
+            ``on_divergence="raise"`` (the update has been applied).
+        """
+        if not self._pending:
+            raise RuntimeError("update() needs a predict(u) for this sample first")
+        value = None if z is None else self.check_measurement(z)
+        i_meas = self._check_current(current)
+        self._pending = False
+        if value is None:
+            self.z = None
+            self.y = 0.0
+            self.K = np.zeros(self.dim_x)
+            self.nis = math.nan
+        else:
+            self.z = value
+            self.x, self.P, self.K, e, s = joseph_update(
+                self.x, self.P, self._h_speed, 0.0, value, self._r, self._lower
+            )
+            self.y, self.S = float(e), float(s)
+            self._record_nis(self.y, self.S)
+        if i_meas is not None:
+            self.x, self.P, _, e, s = joseph_update(
+                self.x,
+                self.P,
+                self._h_current,
+                self._current_gain * self.v,
+                i_meas,
+                self.R_current,
+                self._lower,
+            )
+            self.y_current, self.S_current = float(e), float(s)
+        self.x_post, self.P_post = self.x, self.P
+        self._check_health(self.sample_index - 1)
+
+    def batch_filter(
+        self,
+        u: ArrayLike,
+        z: ArrayLike | Sequence[float | None],
+        saver: Any = None,
+        current: ArrayLike | None = None,
+    ) -> BatchResult:
+        """Run over a whole record (see :meth:`Estimator.batch_filter`); ``current``
+        [A] optionally adds the measured armature current (NaN: not measured).
+
+        Without a ``saver`` this is one compiled loop over the same kernels as
+        :meth:`predict` and :meth:`update` and gives the same numbers. The whole
+        record is validated first: a non-finite ``u`` raises ValueError naming its
+        index before anything changes; NaN in ``z`` is skipped with one warning.
+        """
+        if saver is not None:
+            if current is not None:
+                raise ValueError("current cannot be combined with saver; run the sample loop instead")
+            if not isinstance(z, np.ndarray):
+                z = list(z)
+            self._warn_nan_record(z)
+            return super().batch_filter(u, z, saver)
+        if not isinstance(z, np.ndarray):
+            z = list(z)
+        u_arr, z_arr, present = self.check_record(u, z)
+        cur, cur_present = self._current_record(current, len(u_arr))
+        self._warn_nan_record(z)
+        if self._pending:
+            self.update(None)
+        v = armature_voltages(np.ascontiguousarray(u_arr), *self._amp)
+        ring = self._nis_ring.copy()
+        already = self.diverged
+        (
+            X, P_diag, y_hat, innovation, S, NIS, x, P, x_prior, P_prior, F, K, e, s,
+            count, nis_mean, flag, flag_at, done,
+        ) = ekf_batch(
+            v, np.where(present, z_arr, 0.0), present, cur, cur_present, self.x.copy(), self.P.copy(),
+            self._c, self.Q, self._r, float(self.R_current), self._h_speed, self._h_current,
+            self._current_gain, self._lower, ring, self._nis_count, float(self.divergence_nis),
+            self.on_divergence == "raise",
+        )  # fmt: skip
+        if done:
+            last = done - 1
+            self.x, self.P = x, P
+            self.x_prior, self.P_prior = x_prior, P_prior
+            self.x_post, self.P_post = x, P
+            self.F, self.K = F, K
+            self.y, self.S = float(e), float(s)
+            self.z = float(z_arr[last]) if present[last] else None
+            self.v = float(v[last])
+            self.nis = float(NIS[last])
+            self.nis_mean = float(nis_mean)
+            self._nis_ring, self._nis_count = ring, int(count)
+            self.sample_index += done
+        if flag == _BREAKDOWN:
+            self._check_health(self.sample_index - 1)
+        elif flag == _NIS:
+            self.diverged = already
+            self._flag_divergence(self.sample_index - (done - flag_at), float(np.nan_to_num(nis_mean)))
+        return BatchResult(
+            X[:done], P_diag[:done], y_hat[:done], innovation[:done], S[:done], self.state_names
+        )
+
+
+class FrictionUKF(_FrictionFilter):
+    (
+        """Unscented Kalman filter on the same model as :class:`FrictionEKF`; needs no
+    Jacobian.
+
+    Built on filterpy's ``UnscentedKalmanFilter`` with Van der Merwe's scaled sigma
+    points: the 2n + 1 sigma points go through the same compiled sub-stepped model
+    (:func:`~motorid.estimators.friction_model.propagate`), so sigma points on either
+    side of zero speed each follow their own stick/slip path. After each update the
+    friction parameters are projected onto >= 0 and P is mirrored to exact
+    symmetry. Slower than the EKF (2n + 1 model runs per sample through Python).
+    """
+        + _PARAMETERS_DOC
+        + """    alpha, beta, kappa : float
+        Sigma-point spread and weights (filterpy's ``MerweScaledSigmaPoints``);
+        alpha = 1, kappa = 0 put the points at ±√n σ with no negative weight.
+
+    Attributes
+    ----------
+    ukf : filterpy.kalman.UnscentedKalmanFilter
+        The underlying filter (its x and P are this estimator's).
+    nis, nis_mean, diverged
+        As for :class:`FrictionEKF`.
+    """
+    )
+
+    name = "friction-ukf"
+
+    def __init__(
+        self,
+        rig: TwoMassRig | None = None,
+        *,
+        alpha: float = 1.0,
+        beta: float = 2.0,
+        kappa: float = 0.0,
+        **kwargs: Any,
+    ):
+        self.alpha = alpha
+        self.beta = beta
+        self.kappa = kappa
+        super().__init__(rig, **kwargs)
+
+    def reset(self) -> None:
+        check_positive("alpha", self.alpha)
+        for name in ("beta", "kappa"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+                raise ValueError(f"{name} must be a finite number, got {value!r}")
+        super().reset()
+        n = self.dim_x
+        points = MerweScaledSigmaPoints(
+            n, alpha=float(self.alpha), beta=float(self.beta), kappa=float(self.kappa)
+        )
+        c = self._c
+        empty = np.empty((0, 0))
+
+        def fx(x: np.ndarray, dt: float, v: float = 0.0) -> np.ndarray:
+            return fm.propagate(x, v, c, empty, False)
+
+        def hx(x: np.ndarray) -> np.ndarray:
+            return x[1:2]
+
+        ukf = UnscentedKalmanFilter(dim_x=n, dim_z=1, dt=self.dt, hx=hx, fx=fx, points=points)
+        ukf.x = self.x.copy()
+        ukf.P = self.P.copy()
+        ukf.Q = self.Q.copy()
+        ukf.R = np.array([[self._r]])
+        self.ukf = ukf
+
+    def predict(self, u: float) -> float:
+        """Time update with the command ``u`` [V]; returns the predicted load speed [rad/s]."""
+        u = self.check_input(u)
+        if self._pending:
+            self.update(None)
+        v = armature_voltage(u, *self._amp)
+        ukf = self.ukf
+        ukf.x, ukf.P = self.x.copy(), self.P.copy()
+        try:
+            ukf.predict(v=v)
+        except np.linalg.LinAlgError as exc:
+            self.diverged = True
+            raise FilterDivergenceError(
+                f"{self.name} diverged at sample {self.sample_index}: no sigma points ({exc})",
+                self.sample_index,
+            ) from None
+        P = ukf.P
+        P = 0.5 * (P + P.T)
+        self.v = v
+        self.x = self.x_prior = ukf.x.copy()
+        self.P = self.P_prior = P
+        self.S = float(P[1, 1] + self._r)
+        self.sample_index += 1
+        self._pending = True
+        return float(self.x[1])
+
+    def update(self, z: float | None, current: float | None = None) -> None:
+        """Measurement update with the load speed ``z`` [rad/s] and optionally the
+        armature current [A] (a joint two-dimensional update); None skips, NaN skips
+        with a RuntimeWarning."""
+        if not self._pending:
+            raise RuntimeError("update() needs a predict(u) for this sample first")
+        value = None if z is None else self.check_measurement(z)
+        i_meas = self._check_current(current)
+        self._pending = False
+        ukf = self.ukf
+        ukf.x, ukf.P = self.x.copy(), self.P.copy()
+        if value is None and i_meas is None:
+            self.z = None
+            self.y = 0.0
+            self.K = np.zeros(self.dim_x)
+            self.nis = math.nan
+            self.x_post, self.P_post = self.x, self.P
+            return
+        if value is not None and i_meas is None:
+            ukf.update(np.array([value]))
+        else:
+            h_cur, gain, v = self._h_current, self._current_gain, self.v
+
+            def current_of(x: np.ndarray) -> float:
+                return float(h_cur @ x + gain * v)
+
+            if value is None:
+                ukf.update(
+                    np.array([i_meas]), R=np.array([[self.R_current]]), hx=lambda x: np.array([current_of(x)])
+                )
+            else:
+                ukf.update(
+                    np.array([value, i_meas]),
+                    R=np.diag([self._r, self.R_current]),
+                    hx=lambda x: np.array([x[1], current_of(x)]),
+                )
+        x = np.maximum(ukf.x, self._lower)
+        P = 0.5 * (ukf.P + ukf.P.T)
+        ukf.x, ukf.P = x, P
+        self.x = self.x_post = x.copy()
+        self.P = self.P_post = P.copy()
+        if value is not None:
+            self.z = value
+            self.y = float(ukf.y[0])
+            self.S = float(ukf.S[0, 0])
+            self.K = np.array(ukf.K[:, 0], dtype=float)
+            self._record_nis(self.y, self.S)
+        else:
+            self.z = None
+            self.y = 0.0
+            self.K = np.zeros(self.dim_x)
+            self.nis = math.nan
+        if i_meas is not None:
+            self.y_current = float(ukf.y[-1])
+            self.S_current = float(ukf.S[-1, -1])
+        self._check_health(self.sample_index - 1)
+
+    def batch_filter(
+        self,
+        u: ArrayLike,
+        z: ArrayLike | Sequence[float | None],
+        saver: Any = None,
+    ) -> BatchResult:
+        """Run over a whole record, one :meth:`predict` and :meth:`update` per sample;
+        NaN measurements are skipped with one warning."""
+        if not isinstance(z, np.ndarray):
+            z = list(z)
+        self._warn_nan_record(z)
+        return super().batch_filter(u, z, saver)
+
+
+__all__ = ["PARAM_UNITS", "FilterDivergenceError", "FrictionEKF", "FrictionUKF", "tacho_variance"]
