@@ -40,14 +40,12 @@ from typing import Any, ClassVar, Literal
 
 import numpy as np
 from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
-from numba import njit
 from numpy.typing import ArrayLike
 
 from motorid.estimators import friction_model as fm
 from motorid.estimators.base import BatchResult, Estimator, as_float_vector, first_bad_index
 from motorid.estimators.rls import check_order, check_positive
 from motorid.plants.fast_integrator import armature_voltage, armature_voltages
-from motorid.plants.friction import CoulombFriction
 from motorid.plants.rig import TwoMassRig, paper_rig
 
 OnDivergence = Literal["raise", "warn", "ignore"]
@@ -84,195 +82,7 @@ class FilterDivergenceError(RuntimeError):
         self.nis_mean = nis_mean
 
 
-# --------------------------------------------------------------------------- kernels
-@njit(cache=True)
-def ekf_predict(
-    x: np.ndarray, P: np.ndarray, v: float, c: np.ndarray, Q: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """EKF time update: ``(x_prior, P_prior, F)`` for armature voltage ``v`` [V]."""
-    n = x.shape[0]
-    F = np.empty((n, n))
-    x_prior = fm.propagate(x, v, c, F, True)
-    return x_prior, fm.covariance_predict(P, F, Q), F
-
-
-@njit(cache=True)
-def joseph_update(
-    x: np.ndarray, P: np.ndarray, h: np.ndarray, h0: float, z: float, r: float, lower: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
-    """Scalar measurement update ``z = h^T x + h0 + noise(r)``, Joseph form.
-
-    Returns ``(x_post, P_post, K, innovation, S)``; ``x_post`` is projected onto
-    ``x >= lower`` and ``P_post`` is mirrored to exact symmetry.
-    """
-    n = x.shape[0]
-    Ph = np.empty(n)
-    s = r
-    z_hat = h0
-    for i in range(n):
-        acc = 0.0
-        for k in range(n):
-            acc += P[i, k] * h[k]
-        Ph[i] = acc
-        s += h[i] * acc
-        z_hat += h[i] * x[i]
-    e = z - z_hat
-    K = Ph / s
-    x_post = np.empty(n)
-    for i in range(n):
-        x_post[i] = max(x[i] + K[i] * e, lower[i])
-    # (I - K h^T) P (I - K h^T)^T + r K K^T
-    IKH = np.empty((n, n))
-    for i in range(n):
-        for k in range(n):
-            IKH[i, k] = (1.0 if i == k else 0.0) - K[i] * h[k]
-    M = np.empty((n, n))
-    for i in range(n):
-        for k in range(n):
-            acc = 0.0
-            for m in range(n):
-                acc += IKH[i, m] * P[m, k]
-            M[i, k] = acc
-    P_post = np.empty((n, n))
-    for i in range(n):
-        for k in range(i, n):
-            acc = r * K[i] * K[k]
-            for m in range(n):
-                acc += M[i, m] * IKH[k, m]
-            P_post[i, k] = acc
-            P_post[k, i] = acc
-    return x_post, P_post, K, e, s
-
-
-@njit(cache=True)
-def is_positive_definite(P: np.ndarray) -> bool:
-    """True when the Cholesky factorisation of ``P`` succeeds (and P is finite)."""
-    n = P.shape[0]
-    L = np.zeros((n, n))
-    for j in range(n):
-        d = P[j, j]
-        for k in range(j):
-            d -= L[j, k] * L[j, k]
-        if not d > 0.0:
-            return False
-        L[j, j] = math.sqrt(d)
-        for i in range(j + 1, n):
-            acc = P[i, j]
-            for k in range(j):
-                acc -= L[i, k] * L[j, k]
-            L[i, j] = acc / L[j, j]
-    return True
-
-
-@njit(cache=True)
-def push_nis(ring: np.ndarray, count: int, nis: float) -> tuple[int, float]:
-    """Store ``nis`` in the ring buffer of the window; returns the new count and the
-    mean over the window (NaN until it is full)."""
-    W = ring.shape[0]
-    ring[count % W] = nis
-    count += 1
-    if count < W:
-        return count, math.nan
-    acc = 0.0
-    for k in range(W):
-        acc += ring[k]
-    return count, acc / W
-
-
-#: codes of the batch kernel for what stopped or flagged it
-_OK, _NIS, _BREAKDOWN = 0, 1, 2
-
-
-@njit(cache=True)
-def ekf_batch(
-    v: np.ndarray,
-    z: np.ndarray,
-    present: np.ndarray,
-    cur: np.ndarray,
-    cur_present: np.ndarray,
-    x: np.ndarray,
-    P: np.ndarray,
-    c: np.ndarray,
-    Q: np.ndarray,
-    r: float,
-    r_cur: float,
-    h_speed: np.ndarray,
-    h_cur: np.ndarray,
-    cur_gain: float,
-    lower: np.ndarray,
-    ring: np.ndarray,
-    count: int,
-    threshold: float,
-    stop_on_nis: bool,
-):
-    """The sample loop of :func:`ekf_predict` and :func:`joseph_update` over a record.
-
-    Stops after the sample where the covariance breaks down, or where the windowed
-    NIS passes ``threshold`` when ``stop_on_nis``. Returns the per-sample arrays
-    (filled up to ``done`` samples) and the last sample's quantities.
-    """
-    N = v.shape[0]
-    n = x.shape[0]
-    X = np.empty((N, n))
-    P_diag = np.empty((N, n))
-    y_hat = np.empty(N)
-    innovation = np.full(N, np.nan)
-    S = np.empty(N)
-    NIS = np.full(N, np.nan)
-    x_prior = x.copy()
-    P_prior = P.copy()
-    F = np.eye(n)
-    K = np.zeros(n)
-    e = 0.0
-    s = 0.0
-    nis_mean = math.nan
-    flag_at = -1
-    flag = _OK
-    done = 0
-    for t in range(N):
-        x_prior, P_prior, F = ekf_predict(x, P, v[t], c, Q)
-        x = x_prior
-        P = P_prior
-        y_hat[t] = x_prior[1]
-        s = P_prior[1, 1] + r
-        if present[t]:
-            x, P, K, e, s = joseph_update(x, P, h_speed, 0.0, z[t], r, lower)
-            innovation[t] = e
-            NIS[t] = e * e / s
-            count, nis_mean = push_nis(ring, count, e * e / s)
-        else:
-            K = np.zeros(n)
-            e = 0.0
-        if cur_present[t]:
-            x, P, _, _, _ = joseph_update(x, P, h_cur, cur_gain * v[t], cur[t], r_cur, lower)
-        S[t] = s
-        X[t] = x
-        for i in range(n):
-            P_diag[t, i] = P[i, i]
-        done = t + 1
-        finite = True
-        for i in range(n):
-            if not math.isfinite(x[i]):
-                finite = False
-        if not finite or not is_positive_definite(P):
-            flag, flag_at = _BREAKDOWN, t
-            break
-        if nis_mean > threshold and flag == _OK:
-            flag, flag_at = _NIS, t
-            if stop_on_nis:
-                break
-    return (
-        X, P_diag, y_hat, innovation, S, NIS, x, P, x_prior, P_prior, F, K, e, s,
-        count, nis_mean, flag, flag_at, done,
-    )  # fmt: skip
-
-
 # --------------------------------------------------------------------------- the model's owner
-def _rig_coulomb(rig: TwoMassRig) -> float:
-    """Sum of the rig's Coulomb levels on both masses [N m] (0 without any)."""
-    return sum(f.alpha * len(f.sides()) for f in rig.friction if isinstance(f, CoulombFriction))
-
-
 def tacho_variance(rig: TwoMassRig) -> float:
     """Variance [(rad/s)^2] of the rig's speed reading: tacho noise plus A/D quantisation."""
     g = rig.tacho.gain
@@ -621,17 +431,20 @@ class _FrictionFilter(Estimator):
     # ------------------------------------------------------------------ consistency
     def _record_nis(self, e: float, s: float) -> None:
         self.nis = e * e / s
-        self._nis_count, self.nis_mean = push_nis(self._nis_ring, self._nis_count, self.nis)
+        self._nis_count, self.nis_mean = fm.push_nis(self._nis_ring, self._nis_count, self.nis)
+
+    def _breakdown(self, sample: int) -> None:
+        self.diverged = True
+        raise FilterDivergenceError(
+            f"{self.name} diverged at sample {sample}: the covariance P is no longer positive "
+            "definite or the estimate is not finite",
+            sample,
+        )
 
     def _check_health(self, sample: int) -> None:
         """Raise on a numerical breakdown; flag (and raise or warn) on a NIS excursion."""
-        if not (np.all(np.isfinite(self.x)) and is_positive_definite(self.P)):
-            self.diverged = True
-            raise FilterDivergenceError(
-                f"{self.name} diverged at sample {sample}: the covariance P is no longer positive "
-                "definite or the estimate is not finite",
-                sample,
-            )
+        if not fm.is_healthy(self.x, self.P):
+            self._breakdown(sample)
         if self.nis_mean > self.divergence_nis:
             self._flag_divergence(sample, self.nis_mean)
 
@@ -758,7 +571,7 @@ class FrictionEKF(_FrictionFilter):
         if self._pending:
             self.update(None)
         v = armature_voltage(u, *self._amp)
-        x_prior, P_prior, F = ekf_predict(self.x, self.P, v, self._c, self.Q)
+        x_prior, P_prior, F = fm.ekf_predict(self.x, self.P, v, self._c, self.Q)
         self.v = v
         self.F = F
         self.x = self.x_prior = x_prior
@@ -785,6 +598,7 @@ class FrictionEKF(_FrictionFilter):
         value = None if z is None else self.check_measurement(z)
         i_meas = self._check_current(current)
         self._pending = False
+        healthy = True
         if value is None:
             self.z = None
             self.y = 0.0
@@ -792,13 +606,15 @@ class FrictionEKF(_FrictionFilter):
             self.nis = math.nan
         else:
             self.z = value
-            self.x, self.P, self.K, e, s = joseph_update(
-                self.x, self.P, self._h_speed, 0.0, value, self._r, self._lower
+            x, P, K, e, s, count, nis_mean, healthy = fm.ekf_update_step(
+                self.x, self.P, self._h_speed, value, self._r, self._lower, self._nis_ring, self._nis_count
             )
+            self.x, self.P, self.K = x, P, K
             self.y, self.S = float(e), float(s)
-            self._record_nis(self.y, self.S)
+            self.nis = self.y * self.y / self.S
+            self._nis_count, self.nis_mean = count, nis_mean
         if i_meas is not None:
-            self.x, self.P, _, e, s = joseph_update(
+            self.x, self.P, _, e, s = fm.joseph_update(
                 self.x,
                 self.P,
                 self._h_current,
@@ -808,8 +624,14 @@ class FrictionEKF(_FrictionFilter):
                 self._lower,
             )
             self.y_current, self.S_current = float(e), float(s)
+            healthy = fm.is_healthy(self.x, self.P)
+        elif value is None:
+            healthy = fm.is_healthy(self.x, self.P)
         self.x_post, self.P_post = self.x, self.P
-        self._check_health(self.sample_index - 1)
+        if not healthy:
+            self._breakdown(self.sample_index - 1)
+        if self.nis_mean > self.divergence_nis:
+            self._flag_divergence(self.sample_index - 1, self.nis_mean)
 
     def batch_filter(
         self,
@@ -846,7 +668,7 @@ class FrictionEKF(_FrictionFilter):
         (
             X, P_diag, y_hat, innovation, S, NIS, x, P, x_prior, P_prior, F, K, e, s,
             count, nis_mean, flag, flag_at, done,
-        ) = ekf_batch(
+        ) = fm.ekf_batch(
             v, np.where(present, z_arr, 0.0), present, cur, cur_present, self.x.copy(), self.P.copy(),
             self._c, self.Q, self._r, float(self.R_current), self._h_speed, self._h_current,
             self._current_gain, self._lower, ring, self._nis_count, float(self.divergence_nis),
@@ -865,9 +687,9 @@ class FrictionEKF(_FrictionFilter):
             self.nis_mean = float(nis_mean)
             self._nis_ring, self._nis_count = ring, int(count)
             self.sample_index += done
-        if flag == _BREAKDOWN:
+        if flag == fm.FLAG_BREAKDOWN:
             self._check_health(self.sample_index - 1)
-        elif flag == _NIS:
+        elif flag == fm.FLAG_NIS:
             self.diverged = already
             self._flag_divergence(self.sample_index - (done - flag_at), float(np.nan_to_num(nis_mean)))
         return BatchResult(

@@ -4,6 +4,10 @@ state-space model, its analytic Jacobian and its sub-stepped discretisation.
 One implementation, compiled with numba, shared by
 :class:`~motorid.estimators.friction_kf.FrictionEKF` (which also uses the Jacobian)
 and :class:`~motorid.estimators.friction_kf.FrictionUKF` (which only uses the map).
+The EKF's compiled kernels (time update, Joseph-form update, the NIS window and the
+batch loop) live here too, beside the model they inline: numba's on-disk cache
+tracks only the file of the function it compiles, so keeping every compiled
+function in this one module means the cache can never hold a stale inlined copy.
 
 State
 -----
@@ -271,23 +275,18 @@ def _direction(x: np.ndarray, v: float, c: np.ndarray) -> tuple[float, bool]:
 
 
 @njit(cache=True)
-def _matmul(A: np.ndarray, B: np.ndarray, out: np.ndarray) -> None:
-    n = A.shape[0]
-    for i in range(n):
-        for k in range(n):
-            acc = 0.0
-            for m in range(n):
-                acc += A[i, m] * B[m, k]
-            out[i, k] = acc
-
-
-@njit(cache=True)
 def propagate(x: np.ndarray, v: float, c: np.ndarray, F: np.ndarray, want_jacobian: bool) -> np.ndarray:
     """The discrete model: ``x`` advanced over one sample with armature voltage ``v``
     held (module docstring). Returns the new state; with ``want_jacobian`` fills ``F``
     (n, n) with its exact derivative d x_next / d x, else leaves ``F`` alone.
+
+    Per Heun sub-step, with A1, A2 the Jacobians of f at the two stages,
+    ``F_k = I + h/2 (A1 + A2 (I + h A1))`` and ``F = F_k F``; a stop at zero zeroes
+    row j of F_k. The parameter rows of A are zero (random walks), so only the
+    first ``nd`` rows (the physical states) of F_k and F are formed.
     """
     n = x.shape[0]
+    nd = int(c[C_I_COULOMB])
     h = c[C_H]
     side = int(c[C_SIDE])
     xk = x.copy()
@@ -295,10 +294,10 @@ def propagate(x: np.ndarray, v: float, c: np.ndarray, F: np.ndarray, want_jacobi
     xn = np.empty(n)
     k1 = np.empty(n)
     k2 = np.empty(n)
-    A1 = np.empty((n, n))
-    A2 = np.empty((n, n))
-    Fk = np.empty((n, n))
-    tmp = np.empty((n, n))
+    A1 = np.zeros((n, n))
+    A2 = np.zeros((n, n))
+    Fk = np.empty((nd, n))
+    Fd = np.empty((nd, n))
     if want_jacobian:
         for i in range(n):
             for k in range(n):
@@ -315,16 +314,24 @@ def propagate(x: np.ndarray, v: float, c: np.ndarray, F: np.ndarray, want_jacobi
         if stop:
             xn[side] = 0.0
         if want_jacobian:
-            # Fk = I + h/2 (A1 + A2 (I + h A1))
-            _matmul(A2, A1, tmp)
-            for i in range(n):
+            for i in range(nd):
                 for k in range(n):
-                    Fk[i, k] = (1.0 if i == k else 0.0) + 0.5 * h * (A1[i, k] + A2[i, k] + h * tmp[i, k])
+                    acc = 0.0
+                    for m in range(nd):
+                        acc += A2[i, m] * A1[m, k]
+                    Fk[i, k] = (1.0 if i == k else 0.0) + 0.5 * h * (A1[i, k] + A2[i, k] + h * acc)
             if stop:
                 for k in range(n):
                     Fk[side, k] = 0.0
-            _matmul(Fk, F, tmp)
-            F[:, :] = tmp
+            for i in range(nd):
+                for k in range(n):
+                    acc = Fk[i, k] if k >= nd else 0.0
+                    for m in range(nd):
+                        acc += Fk[i, m] * F[m, k]
+                    Fd[i, k] = acc
+            for i in range(nd):
+                for k in range(n):
+                    F[i, k] = Fd[i, k]
         for i in range(n):
             xk[i] = xn[i]
     return xk
@@ -335,7 +342,12 @@ def covariance_predict(P: np.ndarray, F: np.ndarray, Q: np.ndarray) -> np.ndarra
     """``F P F^T + Q`` on one triangle, mirrored (exactly symmetric)."""
     n = P.shape[0]
     FP = np.empty((n, n))
-    _matmul(F, P, FP)
+    for i in range(n):
+        for k in range(n):
+            acc = 0.0
+            for m in range(n):
+                acc += F[i, m] * P[m, k]
+            FP[i, k] = acc
     out = np.empty((n, n))
     for i in range(n):
         for k in range(i, n):
@@ -361,11 +373,225 @@ def free_run(v: np.ndarray, x0: np.ndarray, c: np.ndarray) -> np.ndarray:
     return out
 
 
+# --------------------------------------------------------------------------- filter kernels
+@njit(cache=True)
+def ekf_predict(
+    x: np.ndarray, P: np.ndarray, v: float, c: np.ndarray, Q: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """EKF time update: ``(x_prior, P_prior, F)`` for armature voltage ``v`` [V]."""
+    n = x.shape[0]
+    F = np.empty((n, n))
+    x_prior = propagate(x, v, c, F, True)
+    return x_prior, covariance_predict(P, F, Q), F
+
+
+@njit(cache=True)
+def joseph_update(
+    x: np.ndarray, P: np.ndarray, h: np.ndarray, h0: float, z: float, r: float, lower: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
+    """Scalar measurement update ``z = h^T x + h0 + noise(r)``, Joseph form.
+
+    Returns ``(x_post, P_post, K, innovation, S)``; ``x_post`` is projected onto
+    ``x >= lower`` and ``P_post`` is mirrored to exact symmetry.
+    """
+    n = x.shape[0]
+    Ph = np.empty(n)
+    s = r
+    z_hat = h0
+    for i in range(n):
+        acc = 0.0
+        for k in range(n):
+            acc += P[i, k] * h[k]
+        Ph[i] = acc
+        s += h[i] * acc
+        z_hat += h[i] * x[i]
+    e = z - z_hat
+    K = Ph / s
+    x_post = np.empty(n)
+    for i in range(n):
+        x_post[i] = max(x[i] + K[i] * e, lower[i])
+    # (I - K h^T) P (I - K h^T)^T + r K K^T
+    IKH = np.empty((n, n))
+    for i in range(n):
+        for k in range(n):
+            IKH[i, k] = (1.0 if i == k else 0.0) - K[i] * h[k]
+    M = np.empty((n, n))
+    for i in range(n):
+        for k in range(n):
+            acc = 0.0
+            for m in range(n):
+                acc += IKH[i, m] * P[m, k]
+            M[i, k] = acc
+    P_post = np.empty((n, n))
+    for i in range(n):
+        for k in range(i, n):
+            acc = r * K[i] * K[k]
+            for m in range(n):
+                acc += M[i, m] * IKH[k, m]
+            P_post[i, k] = acc
+            P_post[k, i] = acc
+    return x_post, P_post, K, e, s
+
+
+@njit(cache=True)
+def is_positive_definite(P: np.ndarray) -> bool:
+    """True when the Cholesky factorisation of ``P`` succeeds (and P is finite)."""
+    n = P.shape[0]
+    L = np.zeros((n, n))
+    for j in range(n):
+        d = P[j, j]
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        if not d > 0.0:
+            return False
+        L[j, j] = math.sqrt(d)
+        for i in range(j + 1, n):
+            acc = P[i, j]
+            for k in range(j):
+                acc -= L[i, k] * L[j, k]
+            L[i, j] = acc / L[j, j]
+    return True
+
+
+@njit(cache=True)
+def push_nis(ring: np.ndarray, count: int, nis: float) -> tuple[int, float]:
+    """Store ``nis`` in the ring buffer of the window; returns the new count and the
+    mean over the window (NaN until it is full)."""
+    W = ring.shape[0]
+    ring[count % W] = nis
+    count += 1
+    if count < W:
+        return count, math.nan
+    acc = 0.0
+    for k in range(W):
+        acc += ring[k]
+    return count, acc / W
+
+
+@njit(cache=True)
+def ekf_update_step(
+    x: np.ndarray,
+    P: np.ndarray,
+    h: np.ndarray,
+    z: float,
+    r: float,
+    lower: np.ndarray,
+    ring: np.ndarray,
+    count: int,
+):
+    """Speed update of one sample: :func:`joseph_update` with ``h0 = 0``, the NIS
+    pushed into the window, and the health of the result.
+
+    Returns ``(x_post, P_post, K, innovation, S, count, nis_mean, healthy)``.
+    """
+    x_post, P_post, K, e, s = joseph_update(x, P, h, 0.0, z, r, lower)
+    count, nis_mean = push_nis(ring, count, e * e / s)
+    return x_post, P_post, K, e, s, count, nis_mean, is_healthy(x_post, P_post)
+
+
+@njit(cache=True)
+def is_healthy(x: np.ndarray, P: np.ndarray) -> bool:
+    """x finite and P positive definite."""
+    for i in range(x.shape[0]):
+        if not math.isfinite(x[i]):
+            return False
+    return is_positive_definite(P)
+
+
+#: codes of the batch kernel for what stopped or flagged it
+FLAG_OK, FLAG_NIS, FLAG_BREAKDOWN = 0, 1, 2
+
+
+@njit(cache=True)
+def ekf_batch(
+    v: np.ndarray,
+    z: np.ndarray,
+    present: np.ndarray,
+    cur: np.ndarray,
+    cur_present: np.ndarray,
+    x: np.ndarray,
+    P: np.ndarray,
+    c: np.ndarray,
+    Q: np.ndarray,
+    r: float,
+    r_cur: float,
+    h_speed: np.ndarray,
+    h_cur: np.ndarray,
+    cur_gain: float,
+    lower: np.ndarray,
+    ring: np.ndarray,
+    count: int,
+    threshold: float,
+    stop_on_nis: bool,
+):
+    """The sample loop of :func:`ekf_predict` and :func:`joseph_update` over a record.
+
+    Stops after the sample where the covariance breaks down, or where the windowed
+    NIS passes ``threshold`` when ``stop_on_nis``. Returns the per-sample arrays
+    (filled up to ``done`` samples) and the last sample's quantities.
+    """
+    N = v.shape[0]
+    n = x.shape[0]
+    X = np.empty((N, n))
+    P_diag = np.empty((N, n))
+    y_hat = np.empty(N)
+    innovation = np.full(N, np.nan)
+    S = np.empty(N)
+    NIS = np.full(N, np.nan)
+    x_prior = x.copy()
+    P_prior = P.copy()
+    F = np.eye(n)
+    K = np.zeros(n)
+    e = 0.0
+    s = 0.0
+    nis_mean = math.nan
+    flag_at = -1
+    flag = FLAG_OK
+    done = 0
+    for t in range(N):
+        x_prior, P_prior, F = ekf_predict(x, P, v[t], c, Q)
+        x = x_prior
+        P = P_prior
+        y_hat[t] = x_prior[1]
+        s = P_prior[1, 1] + r
+        healthy = True
+        if present[t]:
+            x, P, K, e, s, count, nis_mean, healthy = ekf_update_step(
+                x, P, h_speed, z[t], r, lower, ring, count
+            )
+            innovation[t] = e
+            NIS[t] = e * e / s
+        else:
+            K = np.zeros(n)
+            e = 0.0
+        if cur_present[t]:
+            x, P, _, _, _ = joseph_update(x, P, h_cur, cur_gain * v[t], cur[t], r_cur, lower)
+            healthy = is_healthy(x, P)
+        S[t] = s
+        X[t] = x
+        for i in range(n):
+            P_diag[t, i] = P[i, i]
+        done = t + 1
+        if not present[t] and not cur_present[t]:
+            healthy = is_healthy(x, P)
+        if not healthy:
+            flag, flag_at = FLAG_BREAKDOWN, t
+            break
+        if nis_mean > threshold and flag == FLAG_OK:
+            flag, flag_at = FLAG_NIS, t
+            if stop_on_nis:
+                break
+    return (
+        X, P_diag, y_hat, innovation, S, NIS, x, P, x_prior, P_prior, F, K, e, s,
+        count, nis_mean, flag, flag_at, done,
+    )  # fmt: skip
+
+
 def stiffest_rate(c: np.ndarray, x: np.ndarray, v: float = 0.0) -> float:
     """Largest |eigenvalue| [1/s] of the continuous Jacobian at ``x`` (moving forwards)."""
     n = x.shape[0]
-    f = np.empty(n)
-    A = np.empty((n, n))
+    f = np.zeros(n)
+    A = np.zeros((n, n))
     drift(x, v, c, 1.0, False, f, A)
     return float(np.max(np.abs(np.linalg.eigvals(A))))
 
