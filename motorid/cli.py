@@ -357,6 +357,67 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_doctor(args: argparse.Namespace) -> int:
+    """Find the missing effect: where model and measurement disagree, which effect, how much better."""
+    from motorid.diagnose import diagnose
+    from motorid.records import read_record
+
+    base = _effect_list(args.base, "--base")
+    candidates = _effect_list(args.candidates, "--candidates") if args.candidates else None
+    if not args.data.exists():
+        raise CommandError(f"no such file: {args.data}")
+    if args.dt is not None and not (math.isfinite(args.dt) and args.dt > 0):
+        raise CommandError(f"--dt must be finite and > 0 [s], got {args.dt!r}")
+    if not (math.isfinite(args.input_gain) and args.input_gain > 0):
+        raise CommandError(f"--input-gain must be finite and > 0, got {args.input_gain!r}")
+    # checks every column (NaN or text names the column and row) and dt against the time column
+    record = read_record(args.data, dt=args.dt, columns=[args.input, args.output], min_samples=20)
+    try:
+        diagnosis = diagnose(
+            record, dt=args.dt, input=args.input, output=args.output, output_kind=args.output_kind,
+            input_gain=args.input_gain, base=base, candidates=candidates,
+            holdout=args.holdout, max_steps=args.max_steps, progress=not args.json, timing=args.timing,
+        )  # fmt: skip
+    except ValueError as exc:
+        raise CommandError(str(exc)) from None
+    units = diagnosis.units
+    _say(f"motorid doctor on {args.data} ({len(record)} samples), base model: inertia, input gain"
+         + "".join(f", {b}" for b in diagnosis.settings["base"]))  # fmt: skip
+    _say(f"  located: {diagnosis.region.description}")
+    table = diagnosis.table()
+    if len(table):
+        with pd.option_context("display.width", 160, "display.max_columns", 12, "display.max_colwidth", 48):
+            _say(f"  gaps [{units['v']}] and force error [%] per step:")
+            _say(table.round(4).to_string())
+    for step in diagnosis.steps:
+        params = ", ".join(f"{k} = {v:.5g}" for k, v in step.params.items())
+        _say(f"  + {step.effect}: {params} (ΔBIC {step.evidence['delta_bic']:.1f})")
+    _say(
+        f"  gap {diagnosis.initial_gap['overall']:.4g} -> {diagnosis.final_gap['overall']:.4g} {units['v']}, "
+        f"force error {diagnosis.initial_gap['force_error_percent']:.2f} % -> "
+        f"{diagnosis.final_gap['force_error_percent']:.2f} %"
+    )
+    _say(f"  stopped: {diagnosis.stop_reason}")
+    figures = []
+    if args.out:
+        figures = diagnosis.write_figures(args.out)
+        table.to_csv(Path(args.out) / "doctor_table.csv")
+        _say(f"  wrote {len(figures)} figures and doctor_table.csv in {args.out}/")
+    if args.json:
+        _emit_json({**diagnosis.to_dict(), "figures": figures})
+    return 0
+
+
+def _effect_list(text: str, option: str) -> list[str]:
+    from motorid.diagnose import EFFECTS
+
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    for name in names:
+        if name not in EFFECTS:
+            raise CommandError(f"{option}: unknown effect {name!r}; known effects: {', '.join(EFFECTS)}")
+    return names
+
+
 # --------------------------------------------------------------------------- parser
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
@@ -420,6 +481,31 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--skip", type=int, default=50)
     p.add_argument("--json", action="store_true")
     p.set_defaults(func=cmd_sweep)
+
+    p = sub.add_parser("doctor", help="find the effect missing from a drive model and show the gap shrink")
+    p.add_argument("data", type=Path, help="record CSV")
+    p.add_argument("--input", default="u", metavar="COL", help="input column [V] (default: u)")
+    p.add_argument("--output", default="y", metavar="COL", help="output column (default: y)")
+    p.add_argument("--dt", type=float, help="sample time [s] (default: from the file)")
+    p.add_argument(
+        "--output-kind", choices=("velocity", "position"), default="velocity", help="what the output is"
+    )
+    p.add_argument(
+        "--input-gain", type=float, default=1.0, help="force or torque per input unit [N/V, N m/V]"
+    )
+    p.add_argument(
+        "--base", default="viscous_friction,offset", metavar="EFFECT,...",
+        help="effects already in the model (default: viscous_friction,offset)",
+    )  # fmt: skip
+    p.add_argument("--candidates", metavar="EFFECT,...", help="effects to try (default: all others)")
+    p.add_argument("--holdout", type=float, default=0.3, help="share of the record held out (default: 0.3)")
+    p.add_argument("--max-steps", type=int, default=3, help="most effects added (default: 3)")
+    p.add_argument(
+        "--timing", choices=("auto", "hold", "sampled"), default="auto", help="input/output timing"
+    )
+    p.add_argument("--out", help="folder for the figures and the table")
+    p.add_argument("--json", action="store_true", help="one JSON object on stdout")
+    p.set_defaults(func=cmd_doctor)
 
     rig = sub.add_parser("rig", help="the simulated rig behind Modbus").add_subparsers(
         dest="rig_command", required=True, metavar="RIG_COMMAND"

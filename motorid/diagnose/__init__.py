@@ -1,0 +1,33 @@
+"""Find the missing effect: locate where simulation and measurement disagree, name the
+missing physical effect, add it and show the gap shrink.
+
+>>> from motorid.diagnose import diagnose, EFFECTS
+>>> d = diagnose(record, base=("viscous_friction", "offset"))   # doctest: +SKIP
+>>> d.named, d.stop_reason                                      # doctest: +SKIP
+(['coulomb_friction'], 'no candidate passes the evidence threshold: ...')
+
+Modules: :mod:`.effects` (the effect library), :mod:`.model` (the rigid
+grey-box model, its fit and free-run simulation), :mod:`.kinematics`
+(zero-phase differentiation and decimation), :mod:`.locate`, :mod:`.workflow`
+(:func:`diagnose`, :class:`Diagnosis`), :mod:`.figures`, :mod:`.synthetic`
+(records with planted effects) and :mod:`.calibration` (false-alarm rate).
+"""
+
+from motorid.diagnose.effects import EFFECTS, Effect, get_effect
+from motorid.diagnose.locate import Region
+from motorid.diagnose.model import GreyBoxModel, fit_model
+from motorid.diagnose.workflow import DEFAULT_BASE, DEFAULT_THRESHOLD, Diagnosis, Step, diagnose
+
+__all__ = [
+    "DEFAULT_BASE",
+    "DEFAULT_THRESHOLD",
+    "EFFECTS",
+    "Diagnosis",
+    "Effect",
+    "GreyBoxModel",
+    "Region",
+    "Step",
+    "diagnose",
+    "fit_model",
+    "get_effect",
+]

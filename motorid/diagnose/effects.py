@@ -1,0 +1,346 @@
+"""The effect library: the physical effects the workflow can name and add to a model.
+
+The grey-box model is the torque (force) balance of a rigid drive::
+
+    J dw/dt = F_in(u) - Σ_e T_e(w)                                   [N m or N]
+    F_in(u) = g · B(D(S(u)))                                          (input path)
+
+with J the inertia [kg m² or kg], g the input gain [N m/V or N/V] and w the
+velocity [rad/s or m/s]. Below, "F" stands for the force unit of the model
+(N m or N, that of ``g u``), "v" for the velocity unit and "u" for the input
+unit (V).
+
+Each effect is a class with its name (the snake_case names of DESIGN.md), the
+parameters it adds (``linear``: enter the balance linearly, fitted by least
+squares; ``nonlinear``: a few shape parameters fitted by a bounded search),
+its signature (where it shows in the residual) and how it adds itself to the
+model: friction-type effects give regressor columns ``T_e(w) = Σ θ_i c_i(w)``;
+input-path effects transform the input.
+
+========================= ============================================= ==============================
+effect                    term                                          parameters [unit]
+========================= ============================================= ==============================
+``viscous_friction``      B w                                           viscous [F s/v]
+``coulomb_friction``      F_c sgn(w)                                    coulomb [F]
+``stribeck_friction``     F_s exp(-|w|/v_s) sgn(w)                      stribeck [F], stribeck_velocity [v]
+``asymmetric_friction``   ΔF_c |sgn w| + ΔF_v |w|                       coulomb_asymmetry [F],
+                          (so F_c± = F_c ± ΔF_c, B± = B ± ΔF_v)         viscous_asymmetry [F s/v]
+``quadratic_drag``        c w |w|                                       quadratic_drag [F s²/v²]
+``offset``                T_0 (also at rest)                            offset [F]
+``input_dead_zone``       D(u) = 0 for |u| <= d, u - d sgn(u) beyond    dead_zone [u]
+``input_saturation``      S(u) = clip(u, -u_s, u_s)                     saturation [u]
+``backlash``              B(F): the drive force is not transmitted      backlash_time [s]
+                          for τ_b after each reversal of its sign
+========================= ============================================= ==============================
+
+What ``backlash`` models: lost motion in a rigid drive seen from the measured
+side. After the drive force reverses, the driving side crosses the play
+before it pushes again; for a velocity record this is a dwell of τ_b during
+which the measured side coasts under friction alone (the driving side's
+momentum, small beside the load's, is not carried over). τ_b ≈ sqrt(4 b J_m
+/ |F|) for a play 2b and a driving inertia J_m; the effect reports τ_b, not b.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import ClassVar
+
+import numpy as np
+
+#: Position of each simulator parameter in the packed vector of the free-run kernel.
+SIM_PARAMS: tuple[str, ...] = (
+    "inertia",
+    "viscous",
+    "coulomb",
+    "stribeck",
+    "stribeck_velocity",
+    "coulomb_asymmetry",
+    "viscous_asymmetry",
+    "quadratic_drag",
+    "offset",
+)
+
+
+class Effect:
+    """One physical effect of the library (a stateless description).
+
+    Class attributes
+    ----------------
+    name : str
+        snake_case name (DESIGN.md); never renamed.
+    kind : {"friction", "input"}
+        ``friction``: adds torque columns to the balance; ``input``: transforms
+        the input path.
+    linear : tuple of str
+        Parameters that enter the balance linearly (least squares).
+    nonlinear : tuple of str
+        Shape parameters found by a bounded one-dimensional search.
+    units : dict
+        Parameter -> unit, with ``F`` the force unit, ``v`` the velocity unit
+        and ``u`` the input unit.
+    signature : str
+        Where the effect shows in the residual of a model that lacks it.
+    order : int
+        Position in the input path (input effects): saturation, then dead
+        zone, then backlash.
+    nonnegative : tuple of str
+        Parameters that are >= 0 for the effect to be physical (a fit with a
+        negative value is not this effect).
+    """
+
+    name: ClassVar[str] = ""
+    kind: ClassVar[str] = "friction"
+    linear: ClassVar[tuple[str, ...]] = ()
+    nonlinear: ClassVar[tuple[str, ...]] = ()
+    units: ClassVar[dict[str, str]] = {}
+    signature: ClassVar[str] = ""
+    order: ClassVar[int] = 0
+    nonnegative: ClassVar[tuple[str, ...]] = ()
+
+    def columns(self, w: np.ndarray, shape: dict[str, float]) -> np.ndarray:
+        """Regressor columns ``c_i(w)``, shape (N, len(linear)): the torque per unit parameter."""
+        return np.zeros((w.size, 0))
+
+    def transform(self, x: np.ndarray, dt: float, shape: dict[str, float]) -> np.ndarray:
+        """Input path: ``u`` (or the drive force, for backlash) after this effect."""
+        return x
+
+    def bounds(self, scale: dict[str, float]) -> dict[str, tuple[float, float]]:
+        """Search interval of each nonlinear parameter, from the record's scales.
+
+        ``scale`` holds ``w_max`` [v], ``w_noise`` [v], ``u_max`` [u] and ``dt`` [s].
+        """
+        return {}
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}()"
+
+
+class ViscousFriction(Effect):
+    """Viscous friction ``T = B w`` [F]: residual proportional to w, sign of w, largest at high |w|."""
+
+    name = "viscous_friction"
+    linear = ("viscous",)
+    units: ClassVar[dict[str, str]] = {"viscous": "F s/v"}
+    nonnegative = ("viscous",)
+    signature = "grows in proportion to w, sign follows sgn(w), largest at high |w|"
+
+    def columns(self, w: np.ndarray, shape: dict[str, float]) -> np.ndarray:
+        return w[:, None]
+
+
+class CoulombFriction(Effect):
+    """Coulomb friction ``T = F_c sgn(w)`` [F] (paper eq. 8)."""
+
+    name = "coulomb_friction"
+    linear = ("coulomb",)
+    units: ClassVar[dict[str, str]] = {"coulomb": "F"}
+    nonnegative = ("coulomb",)
+    signature = "constant level whose sign follows sgn(w); dominates at low |w| and holds a resting drive"
+
+    def columns(self, w: np.ndarray, shape: dict[str, float]) -> np.ndarray:
+        return np.sign(w)[:, None]
+
+
+class StribeckFriction(Effect):
+    """Stribeck excess ``T = F_s exp(-|w|/v_s) sgn(w)`` [F] (paper eq. 9, α1 and α2 = 1/v_s)."""
+
+    name = "stribeck_friction"
+    linear = ("stribeck",)
+    nonlinear = ("stribeck_velocity",)
+    units: ClassVar[dict[str, str]] = {"stribeck": "F", "stribeck_velocity": "v"}
+    nonnegative = ("stribeck",)
+    signature = "sign follows sgn(w), confined to |w| below a few v_s and decaying with |w|"
+
+    def columns(self, w: np.ndarray, shape: dict[str, float]) -> np.ndarray:
+        vs = shape["stribeck_velocity"]
+        return (np.sign(w) * np.exp(-np.abs(w) / vs))[:, None]
+
+    def bounds(self, scale: dict[str, float]) -> dict[str, tuple[float, float]]:
+        lo = max(2.0 * scale["w_noise"], 1e-3 * scale["w_max"])
+        return {"stribeck_velocity": (lo, 0.3 * scale["w_max"])}
+
+
+class AsymmetricFriction(Effect):
+    """Direction-dependent friction: ``T = ΔF_c |sgn w| + ΔF_v |w|`` [F] on top of B w + F_c sgn w.
+
+    Forwards the friction is ``(F_c + ΔF_c) + (B + ΔF_v) w``, backwards
+    ``-(F_c - ΔF_c) + (B - ΔF_v) w``. While the drive moves, ΔF_c is the same
+    column as a constant offset; the fit drops it when an offset is in the model.
+    """
+
+    name = "asymmetric_friction"
+    linear = ("coulomb_asymmetry", "viscous_asymmetry")
+    units: ClassVar[dict[str, str]] = {"coulomb_asymmetry": "F", "viscous_asymmetry": "F s/v"}
+    signature = "same sign in both directions of motion (even in w), growing with |w|"
+
+    def columns(self, w: np.ndarray, shape: dict[str, float]) -> np.ndarray:
+        return np.column_stack([np.abs(np.sign(w)), np.abs(w)])
+
+
+class QuadraticDrag(Effect):
+    """Quadratic drag ``T = c w |w|`` [F] (windage, fluid drag)."""
+
+    name = "quadratic_drag"
+    linear = ("quadratic_drag",)
+    units: ClassVar[dict[str, str]] = {"quadratic_drag": "F s²/v²"}
+    nonnegative = ("quadratic_drag",)
+    signature = "grows as w², sign follows sgn(w), concentrated at the highest |w|"
+
+    def columns(self, w: np.ndarray, shape: dict[str, float]) -> np.ndarray:
+        return (w * np.abs(w))[:, None]
+
+
+class Offset(Effect):
+    """Constant torque ``T = T_0`` [F] (gravity on a tilted axis, a biased amplifier), also at rest."""
+
+    name = "offset"
+    linear = ("offset",)
+    units: ClassVar[dict[str, str]] = {"offset": "F"}
+    signature = "constant, the same sign in both directions of motion and at rest"
+
+    def columns(self, w: np.ndarray, shape: dict[str, float]) -> np.ndarray:
+        return np.ones((w.size, 1))
+
+
+class InputDeadZone(Effect):
+    """Input dead zone ``D(u) = 0`` for ``|u| <= d``, else ``u - d sgn(u)`` (paper Fig. 4)."""
+
+    name = "input_dead_zone"
+    kind = "input"
+    nonlinear = ("dead_zone",)
+    units: ClassVar[dict[str, str]] = {"dead_zone": "u"}
+    signature = "at small |u| and wherever u drives: a force deficit whose sign follows sgn(u)"
+    order = 1
+
+    def transform(self, x: np.ndarray, dt: float, shape: dict[str, float]) -> np.ndarray:
+        d = shape["dead_zone"]
+        return np.where(np.abs(x) <= d, 0.0, x - d * np.sign(x))
+
+    def bounds(self, scale: dict[str, float]) -> dict[str, tuple[float, float]]:
+        return {"dead_zone": (1e-3 * scale["u_max"], 0.5 * scale["u_max"])}
+
+
+class InputSaturation(Effect):
+    """Input saturation ``S(u) = clip(u, -u_s, u_s)``."""
+
+    name = "input_saturation"
+    kind = "input"
+    nonlinear = ("saturation",)
+    units: ClassVar[dict[str, str]] = {"saturation": "u"}
+    signature = "at the largest |u| only, sign follows sgn(u): the drive gets less than commanded"
+    order = 0
+
+    def transform(self, x: np.ndarray, dt: float, shape: dict[str, float]) -> np.ndarray:
+        us = shape["saturation"]
+        return np.clip(x, -us, us)
+
+    def bounds(self, scale: dict[str, float]) -> dict[str, tuple[float, float]]:
+        return {"saturation": (0.2 * scale["u_max"], scale["u_max"])}
+
+
+class Backlash(Effect):
+    """Lost motion: the drive force is not transmitted for ``τ_b`` after each reversal of its sign.
+
+    See the module notes for what this models and how τ_b relates to the play.
+    """
+
+    name = "backlash"
+    kind = "input"
+    nonlinear = ("backlash_time",)
+    units: ClassVar[dict[str, str]] = {"backlash_time": "s"}
+    signature = "right after each reversal of the drive force: the measured side lags, sign follows the force"
+    order = 2
+
+    def transform(self, x: np.ndarray, dt: float, shape: dict[str, float]) -> np.ndarray:
+        tau = shape["backlash_time"]
+        return x * (time_since_reversal(x, dt) >= tau)
+
+    def bounds(self, scale: dict[str, float]) -> dict[str, tuple[float, float]]:
+        return {"backlash_time": (scale["dt"], max(2.0 * scale["dt"], min(50.0 * scale["dt"], 0.3)))}
+
+
+def time_since_reversal(x: np.ndarray, dt: float) -> np.ndarray:
+    """Time [s] since the last change of sign of ``x`` (zeros keep the previous sign).
+
+    Before the first sign is known the time counts from the start of the record.
+    """
+    x = np.asarray(x, dtype=float)
+    s = np.sign(x)
+    # carry the last non-zero sign forwards
+    idx = np.where(s != 0, np.arange(s.size), 0)
+    np.maximum.accumulate(idx, out=idx)
+    s = s[idx]
+    change = np.zeros(s.size, dtype=bool)
+    change[1:] = (s[1:] != s[:-1]) & (s[:-1] != 0)
+    last = np.where(change, np.arange(s.size), 0)
+    np.maximum.accumulate(last, out=last)
+    return (np.arange(s.size) - last) * dt
+
+
+_CLASSES: tuple[type[Effect], ...] = (
+    CoulombFriction,
+    StribeckFriction,
+    AsymmetricFriction,
+    ViscousFriction,
+    QuadraticDrag,
+    InputDeadZone,
+    InputSaturation,
+    Backlash,
+    Offset,
+)
+
+#: The library: effect name -> effect class.
+EFFECTS: dict[str, type[Effect]] = {cls.name: cls for cls in _CLASSES}
+
+
+def get_effect(name: str) -> Effect:
+    """The effect called ``name``; ValueError naming the known ones otherwise."""
+    try:
+        return EFFECTS[name]()
+    except KeyError:
+        raise ValueError(f"unknown effect {name!r}; known effects: {', '.join(EFFECTS)}") from None
+
+
+def unit_names(output_kind: str, linear_units: bool) -> dict[str, str]:
+    """The concrete units of F, v and u for a record (rotary or linear drive)."""
+    if linear_units:
+        return {"F": "N", "v": "m/s", "u": "V", "x": "m"}
+    return {"F": "N m", "v": "rad/s", "u": "V", "x": "rad"}
+
+
+def concrete_unit(template: str, units: dict[str, str]) -> str:
+    """``"F s/v"`` -> ``"N m s/(rad/s)"`` and similar."""
+    out = []
+    for token in template.replace("/", " / ").split():
+        base = token.rstrip("²")
+        power = token[len(base) :]
+        if base in units:
+            unit = units[base]
+            out.append(f"({unit}){power}" if (" " in unit or "/" in unit) and power else unit + power)
+        else:
+            out.append(token)
+    return " ".join(out).replace(" / ", "/")
+
+
+def is_finite_number(value: float) -> bool:
+    return isinstance(value, int | float) and math.isfinite(value)
+
+
+__all__ = [
+    "EFFECTS",
+    "SIM_PARAMS",
+    "AsymmetricFriction",
+    "Backlash",
+    "CoulombFriction",
+    "Effect",
+    "InputDeadZone",
+    "InputSaturation",
+    "Offset",
+    "QuadraticDrag",
+    "StribeckFriction",
+    "ViscousFriction",
+    "get_effect",
+    "time_since_reversal",
+]

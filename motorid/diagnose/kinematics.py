@@ -1,0 +1,198 @@
+"""Zero-phase kinematics and parallel decimation for inverse-dynamics fits.
+
+A record gives the input u [V] and either a velocity or a position. The torque
+balance of the rigid drive needs velocity w and acceleration a at the same
+instants as the force, with as little noise as the useful band allows. The
+recipe (Gautier's inverse dynamic identification model, the one the EMPS
+benchmark publishes its reference model with):
+
+1. low-pass the measured signal with a 4th-order Butterworth filter run forwards
+   and backwards (zero phase), cut-off ``f_c = 2.5 f_b``;
+2. differentiate by central differences::
+
+       w[k] = (q[k+1] - q[k-1]) / (2 dt)            (position records)
+       a[k] = (q[k+1] - 2 q[k] + q[k-1]) / dt²
+       a[k] = (w[k+1] - w[k-1]) / (2 dt)            (velocity records)
+
+3. build every column of the regression (force, acceleration, friction
+   signatures) at full rate and decimate each one the same way (parallel
+   decimation: an 8th-order Chebyshev low-pass at ``0.8 f_s / (2 n_d)``, zero
+   phase, then every ``n_d``-th sample), with ``n_d = floor(0.4 f_s / f_b)``
+   so the band kept is ``f_b``;
+4. drop the edge samples where the filters have not settled.
+
+The default band is ``f_b = min(40 Hz, f_s / 10)``: for EMPS (1 kHz) this is
+the published recipe (100 Hz cut-off, decimation by 10).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+import scipy.signal
+
+OutputKind = Literal["velocity", "position"]
+
+
+def default_band(dt: float) -> float:
+    """Default useful band f_b [Hz] for a sample time ``dt`` [s]: min(40, f_s/10)."""
+    return min(40.0, 0.1 / dt)
+
+
+def lowpass(x: np.ndarray, dt: float, cutoff: float, order: int = 4) -> np.ndarray:
+    """Zero-phase Butterworth low-pass of ``x`` (forward-backward, ``sosfiltfilt``).
+
+    Parameters
+    ----------
+    x : ndarray, shape (N,)
+        Signal sampled every ``dt`` [s].
+    dt : float
+        Sample time [s].
+    cutoff : float
+        -3 dB frequency of one pass [Hz]; clipped below the Nyquist frequency.
+    order : int
+        Filter order of one pass (the forward-backward pair doubles it).
+    """
+    nyquist = 0.5 / dt
+    wn = min(cutoff / nyquist, 0.95)
+    sos = scipy.signal.butter(order, wn, output="sos")
+    return scipy.signal.sosfiltfilt(sos, x)
+
+
+def decimation_factor(dt: float, band: float) -> int:
+    """``n_d = max(1, floor(0.4 f_s / f_b))``: keeps the band ``f_b`` [Hz] below 0.8 of the new Nyquist."""
+    return max(1, math.floor(0.4 / (dt * band) + 0.01))
+
+
+def decimate(x: np.ndarray, factor: int) -> np.ndarray:
+    """Parallel decimation of one column: zero-phase anti-alias filter, then ``x[::factor]``."""
+    if factor <= 1:
+        return np.asarray(x, dtype=float).copy()
+    return scipy.signal.decimate(np.asarray(x, dtype=float), factor, ftype="iir", zero_phase=True)
+
+
+@dataclass(frozen=True)
+class Kinematics:
+    """Filtered velocity and acceleration of a record, at full rate.
+
+    Attributes
+    ----------
+    dt : float
+        Sample time [s].
+    u : ndarray
+        Raw input [input units, e.g. V].
+    w_meas : ndarray
+        Measured velocity [rad/s or m/s]: the record's output for velocity
+        records, the central difference of the filtered position for position
+        records.
+    w : ndarray
+        Zero-phase low-passed velocity [rad/s or m/s].
+    a : ndarray
+        Acceleration [rad/s² or m/s²] by central differences.
+    valid : ndarray of bool
+        Samples away from the edges where the filters have settled.
+    band : float
+        Useful band f_b [Hz]; the Butterworth cut-off is 2.5 f_b.
+    factor : int
+        Decimation factor n_d.
+    noise : float
+        Estimated standard deviation of the noise on ``w`` [rad/s or m/s].
+    output_kind : {"velocity", "position"}
+    """
+
+    dt: float
+    u: np.ndarray
+    w_meas: np.ndarray
+    w: np.ndarray
+    a: np.ndarray
+    valid: np.ndarray
+    band: float
+    factor: int
+    noise: float
+    output_kind: str
+
+    @property
+    def n(self) -> int:
+        return int(self.u.size)
+
+    @property
+    def decimated_index(self) -> np.ndarray:
+        """Full-rate indices of the decimated samples that lie in the settled span."""
+        idx = np.arange(0, self.n, self.factor)
+        # the anti-alias filter of the decimation needs a few output samples to settle too
+        margin = 4
+        keep = self.valid[idx]
+        first = np.flatnonzero(keep)
+        if first.size == 0:
+            return idx[:0]
+        lo, hi = first[0] + margin, first[-1] - margin
+        keep[: max(lo, 0)] = False
+        keep[hi + 1 :] = False
+        return idx[keep]
+
+    def decimate(self, x: np.ndarray) -> np.ndarray:
+        """Parallel decimation of a full-rate column, at :attr:`decimated_index`."""
+        full = decimate(x, self.factor)
+        return full[self.decimated_index // self.factor]
+
+
+def kinematics(
+    u: np.ndarray,
+    y: np.ndarray,
+    dt: float,
+    output_kind: OutputKind = "velocity",
+    band: float | None = None,
+) -> Kinematics:
+    """Zero-phase velocity and acceleration of a record (see the module recipe).
+
+    Parameters
+    ----------
+    u : ndarray, shape (N,)
+        Input [V].
+    y : ndarray, shape (N,)
+        Measured velocity [rad/s or m/s] or position [rad or m].
+    dt : float
+        Sample time [s], > 0.
+    output_kind : {"velocity", "position"}
+    band : float, optional
+        Useful band f_b [Hz]; default :func:`default_band`.
+
+    Returns
+    -------
+    Kinematics
+    """
+    band = default_band(dt) if band is None else float(band)
+    cutoff = 2.5 * band
+    y = np.asarray(y, dtype=float)
+    n = y.size
+    if output_kind == "position":
+        q = lowpass(y, dt, cutoff)
+        w = np.gradient(q, dt)
+        a = np.empty_like(q)
+        a[1:-1] = (q[2:] - 2.0 * q[1:-1] + q[:-2]) / dt**2
+        a[0], a[-1] = a[1], a[-2]
+        w_meas = np.gradient(lowpass(y, dt, min(0.45 / dt, 5.0 * cutoff)), dt)
+    elif output_kind == "velocity":
+        w = lowpass(y, dt, cutoff)
+        a = np.gradient(w, dt)
+        w_meas = y.copy()
+    else:
+        raise ValueError(f"output_kind must be 'velocity' or 'position', got {output_kind!r}")
+    edge = math.ceil(5.0 / (cutoff * dt)) + 2
+    valid = np.zeros(n, dtype=bool)
+    valid[edge : n - edge] = True
+    # noise on the filtered velocity: what the filter leaves of the white part of w_meas
+    hf = w_meas - lowpass(w_meas, dt, min(0.45 / dt, 4.0 * cutoff))
+    keep = slice(edge, n - edge) if n > 2 * edge else slice(None)
+    sigma = float(np.std(hf[keep])) * math.sqrt(max(1.0 - min(8.0 * cutoff * dt, 0.9), 0.1)) ** -1
+    noise = sigma * math.sqrt(min(1.0, 2.0 * cutoff * dt))
+    return Kinematics(
+        dt=float(dt), u=np.asarray(u, dtype=float), w_meas=w_meas, w=w, a=a, valid=valid,
+        band=band, factor=decimation_factor(dt, band), noise=noise, output_kind=output_kind,
+    )  # fmt: skip
+
+
+__all__ = ["Kinematics", "decimate", "decimation_factor", "default_band", "kinematics", "lowpass"]

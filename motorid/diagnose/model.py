@@ -1,0 +1,394 @@
+"""The rigid grey-box drive model: its fit in the torque balance and its free-run simulation.
+
+Model (see :mod:`motorid.diagnose.effects` for the terms)::
+
+    J dw/dt = F_in(u) - Σ_e T_e(w)                                        [F]
+
+Fit (inverse dynamics, :class:`BalanceData`): with the force and the
+regressor columns decimated in parallel, least squares on the moving samples
+(|w| above the noise band: a resting drive's static friction is not a function
+of w) of::
+
+    F_in,d = J a_d + Σ_i θ_i c_i,d                                        (linear part)
+
+and, for effects with shape parameters (Stribeck velocity, dead zone,
+saturation level, backlash time), a coarse logarithmic grid refined by a
+bounded scalar search around the best point, each point solved by least
+squares (variable projection), coordinate-wise over the shape parameters.
+Columns that add no rank to those before them (the Coulomb asymmetry beside an
+offset) are dropped and their parameter reported as 0.
+
+Free run (:func:`simulate`): fixed step h = dt/n_sub, the input force held
+over each sample, semi-implicit Euler (the velocity-proportional terms
+implicit, so the step is stable for any h), and Karnopp's stick/slip rule: a
+drive at w = 0 stays there while the force lies between the friction levels at
+0- and 0+, and a step that would carry w through zero stops it at 0.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+import scipy.optimize
+
+from motorid.diagnose.effects import EFFECTS, SIM_PARAMS, Effect, get_effect
+from motorid.diagnose.kinematics import Kinematics
+
+
+# --------------------------------------------------------------------------- simulation kernel
+@numba.njit(cache=True)
+def _free_run(force: np.ndarray, dt: float, nsub: int, p: np.ndarray, w0: float) -> np.ndarray:
+    """Velocity at the end of each sample for the force held over it (packed params ``p``)."""
+    J, B, Fc, Fs, vs, dFc, dFv, cq, off = p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8]
+    n = force.size
+    out = np.empty(n)
+    h = dt / nsub
+    w = w0
+    static = abs(Fc + Fs) > 0.0
+    for k in range(n):
+        f = force[k]
+        for _ in range(nsub):
+            if w == 0.0:
+                up = Fc + Fs + dFc + off
+                dn = -(Fc + Fs) + dFc + off
+                fwd = f > up
+                bwd = f < dn
+                if fwd and bwd:
+                    s = 1.0 if f - up >= dn - f else -1.0
+                elif fwd:
+                    s = 1.0
+                elif bwd:
+                    s = -1.0
+                else:
+                    continue
+            else:
+                s = 1.0 if w > 0.0 else -1.0
+            aw = abs(w)
+            rest = s * (Fc + Fs * math.exp(-aw / vs)) + dFc + off
+            damp = B + dFv * s + cq * aw
+            den = 1.0 + h * damp / J
+            if den < 0.1:
+                den = 0.1
+            wn = (w + h / J * (f - rest)) / den
+            if (static or w == 0.0) and wn * s < 0.0:
+                wn = 0.0
+            w = wn
+        out[k] = w
+    return out
+
+
+# --------------------------------------------------------------------------- data
+@dataclass
+class BalanceData:
+    """The inverse-dynamics data of one record: decimated acceleration, velocity and masks.
+
+    Parameters
+    ----------
+    kin : Kinematics
+        Filtered velocity and acceleration at full rate.
+    input_gain : float
+        g: force per input unit [F/u].
+    rows : ndarray of bool, optional
+        Decimated samples used in fits (default: the moving ones).
+    """
+
+    kin: Kinematics
+    input_gain: float
+    idx: np.ndarray = field(init=False)
+    a: np.ndarray = field(init=False)
+    w: np.ndarray = field(init=False)
+    moving: np.ndarray = field(init=False)
+    w_threshold: float = field(init=False)
+    scale: dict[str, float] = field(init=False)
+    _cache: dict = field(init=False, default_factory=dict, repr=False)
+
+    def __post_init__(self) -> None:
+        kin = self.kin
+        self.idx = kin.decimated_index
+        self.a = kin.decimate(kin.a)
+        self.w = kin.w[self.idx]
+        w_max = float(np.max(np.abs(kin.w[kin.valid]))) if kin.valid.any() else 1.0
+        self.w_threshold = max(3.0 * kin.noise, 2e-3 * w_max)
+        # a decimated sample is "moving" when the full-rate speed stays above the threshold
+        slow = (np.abs(kin.w) < self.w_threshold).astype(float)
+        half = kin.factor
+        width = 2 * half + 1
+        near_slow = np.convolve(slow, np.ones(width), mode="same") > 0
+        self.moving = ~near_slow[self.idx]
+        u = kin.u[kin.valid] if kin.valid.any() else kin.u
+        self.scale = {
+            "w_max": w_max,
+            "w_noise": kin.noise,
+            "u_max": float(np.max(np.abs(u))) if u.size else 1.0,
+            "dt": kin.dt,
+        }
+
+    @property
+    def n(self) -> int:
+        return int(self.idx.size)
+
+    def decimated(self, key: str, column: np.ndarray) -> np.ndarray:
+        """Decimate a full-rate column (cached under ``key``)."""
+        if key not in self._cache:
+            if len(self._cache) > 256:
+                self._cache.clear()
+            self._cache[key] = self.kin.decimate(column)
+        return self._cache[key]
+
+    def balance_force(self, force: np.ndarray) -> np.ndarray:
+        """The force held over sample k taken at the output instant: ``(F[k] + F[k+1]) / 2``."""
+        out = np.empty_like(force)
+        out[:-1] = 0.5 * (force[:-1] + force[1:])
+        out[-1] = force[-1]
+        return out
+
+
+# --------------------------------------------------------------------------- model
+def _ordered(effects: tuple[str, ...]) -> tuple[str, ...]:
+    for name in effects:
+        get_effect(name)
+    names = list(dict.fromkeys(effects))
+    return tuple(sorted(names, key=list(EFFECTS).index))
+
+
+@dataclass
+class GreyBoxModel:
+    """Rigid drive with a set of effects and their parameter values.
+
+    Parameters
+    ----------
+    effects : tuple of str
+        Effect names (:data:`motorid.diagnose.EFFECTS`); inertia and input gain
+        are always part of the model.
+    params : dict
+        ``inertia`` [kg m² or kg], ``input_gain`` [F/u] and each effect's
+        parameters in SI units (see :mod:`motorid.diagnose.effects`).
+    """
+
+    effects: tuple[str, ...]
+    params: dict[str, float]
+
+    def __post_init__(self) -> None:
+        self.effects = _ordered(tuple(self.effects))
+
+    # ------------------------------------------------------------------ parts
+    @property
+    def input_effects(self) -> list[Effect]:
+        out = [get_effect(n) for n in self.effects if EFFECTS[n].kind == "input"]
+        return sorted(out, key=lambda e: e.order)
+
+    @property
+    def friction_effects(self) -> list[Effect]:
+        return [get_effect(n) for n in self.effects if EFFECTS[n].kind == "friction"]
+
+    def shape(self) -> dict[str, float]:
+        return {k: v for k, v in self.params.items()}
+
+    def input_force(self, u: np.ndarray, dt: float) -> np.ndarray:
+        """Force reaching the drive, F_in(u) [F], for the input held over each sample."""
+        shape = self.shape()
+        x = np.asarray(u, dtype=float)
+        for eff in self.input_effects:
+            if eff.name == "backlash":
+                continue
+            x = eff.transform(x, dt, shape)
+        force = self.params["input_gain"] * x
+        if "backlash" in self.effects:
+            force = get_effect("backlash").transform(force, dt, shape)
+        return force
+
+    def friction(self, w: np.ndarray) -> np.ndarray:
+        """Sum of the friction-type torques Σ T_e(w) [F] at velocity ``w`` (moving)."""
+        total = np.zeros_like(np.asarray(w, dtype=float))
+        shape = self.shape()
+        for eff in self.friction_effects:
+            cols = eff.columns(w, shape)
+            for j, name in enumerate(eff.linear):
+                total = total + self.params.get(name, 0.0) * cols[:, j]
+        return total
+
+    def packed(self) -> np.ndarray:
+        """Parameters in the layout of the free-run kernel (:data:`SIM_PARAMS`)."""
+        p = np.zeros(len(SIM_PARAMS))
+        for i, name in enumerate(SIM_PARAMS):
+            p[i] = float(self.params.get(name, 0.0))
+        if p[SIM_PARAMS.index("stribeck_velocity")] <= 0.0:
+            p[SIM_PARAMS.index("stribeck_velocity")] = 1.0
+        return p
+
+    def simulate(self, u: np.ndarray, dt: float, w0: float = 0.0, substeps: int | None = None) -> np.ndarray:
+        """Free-run velocity [v] at the end of each sample for the input ``u`` held over it.
+
+        Parameters
+        ----------
+        u : ndarray, shape (N,)
+            Input [u], zero-order hold.
+        dt : float
+            Sample time [s].
+        w0 : float
+            Velocity at the start [v].
+        substeps : int, optional
+            Steps per sample; default enough for 20 steps per mechanical time
+            constant J/B (1 to 50).
+        """
+        p = self.packed()
+        J, B = p[0], abs(p[1])
+        if not (math.isfinite(J) and J > 0.0 and np.all(np.isfinite(p))):
+            return np.full(np.asarray(u).size, np.nan)  # no physical free run without a positive inertia
+        if substeps is None:
+            substeps = int(min(50, max(1, math.ceil(20.0 * dt * B / J))))
+        force = np.ascontiguousarray(self.input_force(u, dt), dtype=float)
+        return _free_run(force, float(dt), int(substeps), p, float(w0))
+
+    def balance(self, data: BalanceData) -> tuple[np.ndarray, np.ndarray]:
+        """Measured and modelled force on the decimated samples: ``(F_in,d, J a_d + Σ T_e,d)``."""
+        kin = data.kin
+        f_in = data.kin.decimate(data.balance_force(self.input_force(kin.u, kin.dt)))
+        f_model = self.params["inertia"] * data.a + data.kin.decimate(self.friction(kin.w))
+        return f_in, f_model
+
+    def with_params(self, **changes: float) -> GreyBoxModel:
+        return GreyBoxModel(self.effects, {**self.params, **changes})
+
+    def describe(self) -> str:
+        return ", ".join(f"{k} = {v:.5g}" for k, v in self.params.items())
+
+
+# --------------------------------------------------------------------------- fit
+@dataclass
+class FitResult:
+    """A fitted model and its torque-balance residual on the fitted rows.
+
+    ``rss`` is in acceleration units (RSS of the balance / J²) [(v/s)²],
+    ``rss_force`` in force units [F²].
+    """
+
+    model: GreyBoxModel
+    rss: float
+    rss_force: float
+    n_rows: int
+    n_params: int
+    residual: np.ndarray  # on every decimated sample (F_in - F_model)
+
+
+def _linear_solve(
+    data: BalanceData, effects: tuple[str, ...], shape: dict[str, float], gain: float, rows: np.ndarray
+) -> tuple[dict[str, float], float, int, np.ndarray]:
+    kin = data.kin
+    x = np.asarray(kin.u, dtype=float)
+    input_effects = sorted(
+        (get_effect(n) for n in effects if EFFECTS[n].kind == "input"), key=lambda e: e.order
+    )
+    key_parts = []
+    for eff in input_effects:
+        if eff.name == "backlash":
+            continue
+        x = eff.transform(x, kin.dt, shape)
+        key_parts.append(f"{eff.name}={shape[eff.nonlinear[0]]:.12g}")
+    force = gain * x
+    if "backlash" in effects:
+        force = get_effect("backlash").transform(force, kin.dt, shape)
+        key_parts.append(f"backlash={shape['backlash_time']:.12g}")
+    target = data.decimated("F|" + "|".join(key_parts), data.balance_force(force))
+    names = ["inertia"]
+    cols = [data.a]
+    # an offset goes first, so a column that repeats it (the Coulomb asymmetry) is the one dropped
+    for name in sorted(effects, key=lambda n: n != "offset"):
+        eff = get_effect(name)
+        if eff.kind != "friction" or not eff.linear:
+            continue
+        key = name + "|" + "|".join(f"{p}={shape[p]:.12g}" for p in eff.nonlinear)
+        full = eff.columns(kin.w, shape)
+        for j, pname in enumerate(eff.linear):
+            names.append(pname)
+            cols.append(data.decimated(f"{key}|{j}", full[:, j]))
+    X = np.column_stack(cols)[rows]
+    y = target[rows]
+    norms = np.linalg.norm(X, axis=0)
+    norms[norms == 0.0] = 1.0
+    Xs = X / norms
+    keep: list[int] = []
+    for j in range(Xs.shape[1]):
+        if keep:
+            coef, *_ = np.linalg.lstsq(Xs[:, keep], Xs[:, j], rcond=None)
+            resid = Xs[:, j] - Xs[:, keep] @ coef
+        else:
+            resid = Xs[:, j]
+        if np.linalg.norm(resid) > 1e-3:
+            keep.append(j)
+    theta = np.zeros(Xs.shape[1])
+    if keep:
+        sol, *_ = np.linalg.lstsq(Xs[:, keep], y, rcond=None)
+        theta[keep] = sol / norms[keep]
+    full_X = np.column_stack(cols)
+    residual = target - full_X @ theta
+    rss = float(np.sum(residual[rows] ** 2))
+    return dict(zip(names, theta.tolist(), strict=True)), rss, len(keep), residual
+
+
+def fit_model(
+    data: BalanceData,
+    effects: tuple[str, ...],
+    rows: np.ndarray | None = None,
+    start: dict[str, float] | None = None,
+) -> FitResult:
+    """Fit a rigid model with ``effects`` to the torque balance of ``data``.
+
+    Parameters
+    ----------
+    data : BalanceData
+    effects : tuple of str
+        Effects in the model (besides inertia and input gain).
+    rows : ndarray of bool, optional
+        Decimated samples to fit on; default the moving samples.
+    start : dict, optional
+        Initial shape-parameter values (e.g. from a previous fit).
+
+    Returns
+    -------
+    FitResult
+        The model (all parameters in SI units), the residual sum of squares
+        [F²] on ``rows``, their number and the number of free parameters.
+    """
+    effects = _ordered(tuple(effects))
+    rows = data.moving if rows is None else rows & data.moving
+    gain = float(data.input_gain)
+    shaped = [(p, get_effect(n).bounds(data.scale)[p]) for n in effects for p in get_effect(n).nonlinear]
+    shape: dict[str, float] = {}
+    for p, (lo, hi) in shaped:
+        shape[p] = math.sqrt(lo * hi) if not start or p not in start else float(start[p])
+
+    def cost(p: str, value: float) -> float:
+        theta, rss, _, _ = _linear_solve(data, effects, {**shape, p: value}, gain, rows)
+        return _accel_rss(rss, theta["inertia"])
+
+    for _ in range(2 if len(shaped) > 1 else 1):
+        for p, (lo, hi) in shaped:
+            grid = np.geomspace(lo, hi, 17)
+            costs = [cost(p, v) for v in grid]
+            i = int(np.argmin(costs))
+            a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
+            res = scipy.optimize.minimize_scalar(
+                lambda z, p=p: cost(p, math.exp(z)),
+                bounds=(math.log(a), math.log(b)),
+                method="bounded",
+                options={"xatol": 1e-3},
+            )
+            shape[p] = math.exp(res.x) if res.fun <= costs[i] else float(grid[i])
+    theta, rss, k, residual = _linear_solve(data, effects, shape, gain, rows)
+    inertia = theta.pop("inertia")
+    params = {"inertia": inertia, "input_gain": gain, **theta, **shape}
+    model = GreyBoxModel(effects, params)
+    return FitResult(model, _accel_rss(rss, inertia), rss, int(rows.sum()), k + len(shaped), residual)
+
+
+def _accel_rss(rss: float, inertia: float) -> float:
+    """RSS of the balance divided by J² (acceleration units): an input path that starves the
+    drive of force cannot fit by shrinking every parameter with it; J <= 0 is no fit."""
+    return rss / inertia**2 if inertia > 0.0 and math.isfinite(inertia) else math.inf
+
+
+__all__ = ["BalanceData", "FitResult", "GreyBoxModel", "fit_model"]

@@ -1,0 +1,660 @@
+"""Find the missing effect: where a model and a measurement disagree, which effect is
+missing, and how much better the model is once it is added.
+
+The workflow (:func:`diagnose`):
+
+1. **Fit** the current rigid model (inertia, input gain, the ``base`` effects) to
+   the torque balance of the record (:mod:`.model`), simulate it free-run on the
+   measured input and compare with the measured velocity. Gaps: the RMS of
+   ``w_meas - w_sim`` overall and in the located region [v], and the force
+   error ``100 ||F_in - F_model|| / ||F_in||`` [%] on the decimated samples
+   (the EMPS figure of merit). The measured velocity is the zero-phase
+   low-passed one (for position records: the velocity derived from position).
+2. **Locate** where the torque-balance residual concentrates (:mod:`.locate`).
+3. **Name**: fit each candidate effect added to the current model and rank by
+   the evidence
+
+       ΔBIC = N_eff ln(RSS_0 / RSS_1) - Δk ln N_eff,
+       N_eff = N (1 - ρ) / (1 + ρ)
+
+   on the decimated moving samples (N of them, RSS the residual sum of squares
+   without and with the candidate, Δk the parameters it adds, ρ the lag-one
+   autocorrelation of the candidate's residual, so coloured residuals count
+   as fewer independent samples). Candidates with ΔBIC above ``threshold``
+   pass. Candidates that explain the torque balance alike (each removes at
+   least 80 % of what the best removes, as Coulomb friction and an input dead
+   zone do) are re-simulated free-run and the smallest output gap decides.
+4. **Add** a passing candidate only if (a) fitted on the training blocks it
+   lowers the torque-balance RMS error on held-out blocks (or on a second
+   record) by at least ``min_holdout_gain`` and (b) refitted on everything, its
+   free-run output gap is at least ``min_gap_shrink`` smaller; then refit and
+   repeat until no candidate passes, all are in the model or ``max_steps`` is
+   reached. :attr:`Diagnosis.stop_reason` says which.
+5. **Show**: the gaps before and after each step (:meth:`Diagnosis.table`) and
+   figures (:meth:`Diagnosis.write_figures`).
+
+The default ``threshold`` was calibrated on records with no hidden effect; see
+:mod:`motorid.diagnose.calibration` for the measured false-alarm rate.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+
+from motorid.diagnose.effects import EFFECTS, get_effect
+from motorid.diagnose.kinematics import Kinematics, kinematics
+from motorid.diagnose.locate import Region, features, locate
+from motorid.diagnose.model import BalanceData, FitResult, GreyBoxModel, fit_model
+
+logger = logging.getLogger(__name__)
+
+#: Default evidence threshold on ΔBIC (calibrated on no-effect records).
+DEFAULT_THRESHOLD = 10.0
+#: Share of the best candidate's RSS reduction above which two candidates are "alike".
+ALIKE = 0.8
+DEFAULT_BASE = ("viscous_friction", "offset")
+
+
+# --------------------------------------------------------------------------- prepared record
+@dataclass
+class Prepared:
+    """One record made ready: kinematics, balance data, features and the free-run start."""
+
+    kin: Kinematics
+    data: BalanceData
+    feats_full: dict[str, np.ndarray]
+    timing: str
+    units: dict[str, str]
+
+    @property
+    def feats_dec(self) -> dict[str, np.ndarray]:
+        return {k: v[self.data.idx] for k, v in self.feats_full.items()}
+
+    @property
+    def start(self) -> int:
+        valid = np.flatnonzero(self.kin.valid)
+        return int(valid[0]) if valid.size else 1
+
+    def simulate(self, model: GreyBoxModel) -> np.ndarray:
+        """Free-run velocity at every sample (NaN before the settled span)."""
+        i0 = max(self.start, 1)
+        out = np.full(self.kin.n, np.nan)
+        out[i0:] = model.simulate(self.kin.u[i0:], self.kin.dt, w0=float(self.kin.w[i0 - 1]))
+        return out
+
+
+def _column(record: pd.DataFrame, name: str, role: str) -> np.ndarray:
+    if not isinstance(name, str) or name not in record.columns:
+        raise ValueError(f"{role} column {name!r} is not in the record; columns are {list(record.columns)}")
+    values = pd.to_numeric(record[name], errors="coerce").to_numpy(dtype=float)
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        k = int(bad[0])
+        raise ValueError(f"column {name!r} is not finite at sample {k}: {record[name].iloc[k]!r}")
+    return values
+
+
+def _sample_time(record: pd.DataFrame, dt: float | None) -> float:
+    if dt is None:
+        dt = record.attrs.get("dt")
+    if dt is None and "t" in record.columns:
+        t = pd.to_numeric(record["t"], errors="coerce").to_numpy(dtype=float)
+        if t.size >= 2 and np.all(np.isfinite(t)):
+            dt = float(np.median(np.diff(t)))
+    if dt is None:
+        raise ValueError("dt is not given and the record has neither attrs['dt'] nor a 't' column")
+    if (
+        isinstance(dt, bool)
+        or not isinstance(dt, int | float | np.number)
+        or not math.isfinite(dt)
+        or dt <= 0
+    ):
+        raise ValueError(f"dt must be a finite number > 0 [s], got {dt!r}")
+    return float(dt)
+
+
+def _units(record: pd.DataFrame, output: str, output_kind: str) -> dict[str, str]:
+    unit = (record.attrs.get("units") or {}).get(output)
+    if output_kind == "position":
+        v = f"{unit}/s" if unit else "rad/s"
+    else:
+        v = unit or "rad/s"
+    linear = v.startswith("m/")
+    return {
+        "v": v,
+        "u": (record.attrs.get("units") or {}).get("u", "V"),
+        "s": "s",
+        "F": "N" if linear else "N m",
+    }
+
+
+def prepare(
+    record: pd.DataFrame,
+    dt: float | None = None,
+    input: str = "u",
+    output: str = "y",
+    output_kind: str = "velocity",
+    input_gain: float = 1.0,
+    timing: str = "hold",
+    band: float | None = None,
+) -> Prepared:
+    """Check a record and compute its kinematics and balance data.
+
+    ``timing="hold"``: ``y[k]`` is measured at the end of the interval over which
+    ``u[k]`` is held (motorid records); ``"sampled"``: ``y[k]`` is measured when
+    ``u[k]`` is computed and ``u[k]`` then held (a sampled controller, EMPS). The
+    second is brought to the first by pairing ``u[k]`` with ``y[k+1]``.
+    """
+    if not isinstance(record, pd.DataFrame):
+        raise ValueError(f"record must be a pandas DataFrame, got {type(record).__name__}")
+    if output_kind not in ("velocity", "position"):
+        raise ValueError(f"output_kind must be 'velocity' or 'position', got {output_kind!r}")
+    if timing not in ("hold", "sampled"):
+        raise ValueError(f"timing must be 'hold', 'sampled' or 'auto', got {timing!r}")
+    if isinstance(input_gain, bool) or not isinstance(input_gain, int | float | np.number):
+        raise ValueError(f"input_gain must be a number, got {input_gain!r}")
+    if not math.isfinite(input_gain) or input_gain <= 0:
+        raise ValueError(f"input_gain must be finite and > 0, got {input_gain!r}")
+    dt = _sample_time(record, dt)
+    u = _column(record, input, "input")
+    y = _column(record, output, "output")
+    if timing == "sampled":
+        u, y = u[:-1], y[1:]
+    kin = kinematics(u, y, dt, output_kind, band)  # type: ignore[arg-type]
+    if kin.decimated_index.size < 30:
+        raise ValueError(
+            f"the record is too short: {len(record)} samples give {kin.decimated_index.size} decimated "
+            f"samples after the filter edges (at least 30 needed; decimation factor {kin.factor})"
+        )
+    data = BalanceData(kin, float(input_gain))
+    feats = features(kin.w, kin.a, kin.u, dt, data.w_threshold)
+    return Prepared(kin, data, feats, timing, _units(record, output, output_kind))
+
+
+# --------------------------------------------------------------------------- measures
+def balance_residual(model: GreyBoxModel, data: BalanceData) -> tuple[np.ndarray, np.ndarray]:
+    """Force residual ``F_in - F_model`` on the decimated samples, and the commanded force ``g u``.
+
+    On samples near rest (not moving) static friction holds whatever force lies
+    between the model's friction levels at 0- and 0+: there the model force is
+    ``J a + clip(F_in - J a, T(0-), T(0+))``.
+    """
+    f_in, f_model = model.balance(data)
+    f_meas = data.decimated("F|", data.balance_force(data.input_gain * data.kin.u))
+    eps = max(1e-9, 1e-6 * data.scale["w_max"])
+    t_pos, t_neg = model.friction(np.array([eps, -eps]))
+    lo, hi = min(t_pos, t_neg), max(t_pos, t_neg)
+    rest = ~data.moving
+    ja = model.params["inertia"] * data.a[rest]
+    f_model = f_model.copy()
+    f_model[rest] = ja + np.clip(f_in[rest] - ja, lo, hi)
+    return f_in - f_model, f_meas
+
+
+def _rms(x: np.ndarray) -> float:
+    x = x[np.isfinite(x)]
+    return float(np.sqrt(np.mean(x**2))) if x.size else float("nan")
+
+
+def gaps(model: GreyBoxModel, prep: Prepared, region: Region | None) -> dict[str, float]:
+    """Output gap overall and in ``region`` [v] (free run) and force error [%]."""
+    w_sim = prep.simulate(model)
+    err = prep.kin.w - w_sim
+    valid = prep.kin.valid & np.isfinite(w_sim)
+    r, f_in = balance_residual(model, prep.data)
+    out = {
+        "overall": _rms(err[valid]),
+        "region": _rms(err[valid & region.mask(prep.feats_full)]) if region is not None else float("nan"),
+        "force_error_percent": 100.0 * float(np.linalg.norm(r) / max(np.linalg.norm(f_in), 1e-300)),
+    }
+    return out
+
+
+def _lag1(r: np.ndarray) -> float:
+    r = r - r.mean()
+    den = float(np.dot(r, r))
+    return float(np.dot(r[1:], r[:-1]) / den) if den > 0 and r.size > 2 else 0.0
+
+
+def evidence(rss0: float, rss1: float, n: int, dk: int, residual: np.ndarray) -> dict[str, float]:
+    """ΔBIC on the effective sample size (see the module notes)."""
+    rho = min(max(_lag1(residual), 0.0), 0.95)
+    n_eff = max(n * (1.0 - rho) / (1.0 + rho), 2.0)
+    ratio = rss0 / rss1 if rss1 > 0 else np.inf
+    dbic = n_eff * math.log(ratio) - max(dk, 0) * math.log(n_eff) if np.isfinite(ratio) else np.inf
+    return {
+        "delta_bic": float(dbic),
+        "n": int(n),
+        "n_eff": float(n_eff),
+        "rho": float(rho),
+        "rss_ratio": float(ratio),
+    }
+
+
+def holdout_rows(n: int, fraction: float, blocks: int = 10) -> np.ndarray:
+    """Held-out decimated rows: ``round(blocks * fraction)`` of ``blocks`` equal blocks, spread out."""
+    m = min(max(round(blocks * fraction), 1), blocks - 1)
+    chosen = np.unique(np.round(np.linspace(0, blocks - 1, m + 2)[1:-1]).astype(int))
+    block = np.minimum((np.arange(n) * blocks) // max(n, 1), blocks - 1)
+    return np.isin(block, chosen)
+
+
+# --------------------------------------------------------------------------- results
+@dataclass
+class Step:
+    """One accepted effect.
+
+    Attributes
+    ----------
+    effect : str
+        The effect's name.
+    params : dict
+        Its parameters (SI units) in the refitted model.
+    region : Region
+        Where the disagreement concentrated before it was added.
+    gap_before, gap_after : dict
+        ``overall`` and ``region`` output gap [v], ``force_error_percent`` [%].
+    evidence : dict
+        ΔBIC and its threshold, held-out errors [F], the candidate ranking.
+    model : GreyBoxModel
+        The refitted model after this step.
+    """
+
+    effect: str
+    params: dict[str, float]
+    region: Region
+    gap_before: dict[str, float]
+    gap_after: dict[str, float]
+    evidence: dict[str, Any]
+    model: GreyBoxModel
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "effect": self.effect,
+            "params": self.params,
+            "region": self.region.to_dict(),
+            "gap_before": self.gap_before,
+            "gap_after": self.gap_after,
+            "evidence": self.evidence,
+            "model_params": self.model.params,
+        }
+
+
+@dataclass
+class Diagnosis:
+    """What :func:`diagnose` found.
+
+    Attributes
+    ----------
+    initial_gap, final_gap : dict
+        ``overall`` output gap [v] (RMS of measured minus free-run velocity),
+        ``region`` (the same in the first located region) and
+        ``force_error_percent`` [%] (torque-balance error on the decimated samples).
+    steps : list of Step
+    stop_reason : str
+    model : GreyBoxModel
+        The final fitted model (``model.params``: inertia, input_gain, viscous, ...).
+    initial_model : GreyBoxModel
+    region : Region
+        The region located on the initial model's residual.
+    units : dict
+        Units of velocity (``v``), force (``F``) and input (``u``).
+    settings : dict
+        Options used (for :meth:`evaluate` on another record).
+    """
+
+    initial_gap: dict[str, float]
+    final_gap: dict[str, float]
+    steps: list[Step]
+    stop_reason: str
+    model: GreyBoxModel
+    initial_model: GreyBoxModel
+    region: Region
+    units: dict[str, str]
+    settings: dict[str, Any]
+    rejected: list[dict[str, Any]] = field(default_factory=list)
+    _prep: Prepared | None = field(default=None, repr=False)
+
+    @property
+    def named(self) -> list[str]:
+        """The effects added, in order."""
+        return [s.effect for s in self.steps]
+
+    @property
+    def models(self) -> list[tuple[str, GreyBoxModel]]:
+        """``(label, model)`` for the initial model and after each step."""
+        out = [("initial", self.initial_model)]
+        out += [(f"+{s.effect}", s.model) for s in self.steps]
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON shape of ``motorid doctor --json``."""
+        return {
+            "initial_gap": self.initial_gap,
+            "final_gap": self.final_gap,
+            "steps": [s.to_dict() for s in self.steps],
+            "stop_reason": self.stop_reason,
+            "region": self.region.to_dict(),
+            "model": {"effects": list(self.model.effects), "params": self.model.params},
+            "rejected": self.rejected,
+            "units": {
+                "gap": f"{self.units['v']} (RMS of measured minus free-run velocity"
+                + (
+                    "; velocity derived from position)" if self.settings["output_kind"] == "position" else ")"
+                ),
+                "force_error_percent": "%",
+                "force": self.units["F"],
+                "velocity": self.units["v"],
+                "input": self.units["u"],
+            },
+            "settings": self.settings,
+        }
+
+    def table(self) -> pd.DataFrame:
+        """Gap before and after each step, overall and in the step's region."""
+        rows = []
+        for s in self.steps:
+            rows.append(
+                {
+                    "effect": s.effect,
+                    "region": s.region.description,
+                    "gap_before": s.gap_before["overall"],
+                    "gap_after": s.gap_after["overall"],
+                    "region_gap_before": s.gap_before["region"],
+                    "region_gap_after": s.gap_after["region"],
+                    "force_error_before_percent": s.gap_before["force_error_percent"],
+                    "force_error_after_percent": s.gap_after["force_error_percent"],
+                    "delta_bic": s.evidence["delta_bic"],
+                }
+            )
+        df = pd.DataFrame(rows, columns=[
+            "effect", "region", "gap_before", "gap_after", "region_gap_before", "region_gap_after",
+            "force_error_before_percent", "force_error_after_percent", "delta_bic",
+        ])  # fmt: skip
+        df.index = pd.RangeIndex(1, len(df) + 1, name="step")
+        df.attrs["units"] = {"gap": self.units["v"], "force_error": "%"}
+        return df
+
+    def evaluate(self, record: pd.DataFrame, **overrides: Any) -> pd.DataFrame:
+        """Gaps of the initial model and of the model after each step on another record.
+
+        No refitting: the models found here are simulated on ``record``'s input
+        and their torque balance evaluated on its data. Column names, output
+        kind, input gain, timing and band are those of this diagnosis unless
+        overridden (``input=``, ``output=``, ``dt=`` ...).
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per model (``initial``, ``+effect``...), columns ``overall``
+            and ``region`` [v] (the region located on this record's initial
+            residual) and ``force_error_percent`` [%].
+        """
+        keys = ("input", "output", "output_kind", "input_gain", "timing", "band")
+        opts = {k: self.settings[k] for k in keys}
+        opts.update(overrides)
+        prep = prepare(record, **opts)
+        rows = {label: gaps(model, prep, self.region) for label, model in self.models}
+        df = pd.DataFrame.from_dict(rows, orient="index")
+        df.index.name = "model"
+        df.attrs["units"] = {
+            "overall": self.units["v"],
+            "region": self.units["v"],
+            "force_error_percent": "%",
+        }
+        return df
+
+    def write_figures(self, out_dir: str | Path) -> list[Path]:
+        """PNG figures: residual against speed before/after each step; simulation against measurement."""
+        from motorid.diagnose.figures import write_figures
+
+        if self._prep is None:
+            raise ValueError("this diagnosis holds no record data to plot")
+        return write_figures(self, self._prep, Path(out_dir))
+
+
+# --------------------------------------------------------------------------- workflow
+def _names(value: Sequence[str] | str | None, what: str) -> tuple[str, ...]:
+    if value is None:
+        return ()
+    if isinstance(value, str):
+        value = [v.strip() for v in value.split(",") if v.strip()]
+    out = []
+    for name in value:
+        if name not in EFFECTS:
+            raise ValueError(f"{what}: unknown effect {name!r}; known effects: {', '.join(EFFECTS)}")
+        out.append(name)
+    return tuple(dict.fromkeys(out))
+
+
+def diagnose(
+    record: pd.DataFrame,
+    dt: float | None = None,
+    input: str = "u",
+    output: str = "y",
+    output_kind: Literal["velocity", "position"] = "velocity",
+    input_gain: float = 1.0,
+    base: Sequence[str] | str = DEFAULT_BASE,
+    candidates: Sequence[str] | str | None = None,
+    holdout: float | pd.DataFrame = 0.3,
+    max_steps: int = 3,
+    progress: bool = False,
+    *,
+    threshold: float = DEFAULT_THRESHOLD,
+    min_holdout_gain: float = 0.01,
+    min_gap_shrink: float = 0.01,
+    timing: Literal["hold", "sampled", "auto"] = "auto",
+    band: float | None = None,
+) -> Diagnosis:
+    """Find the effects missing from a rigid drive model of ``record`` (see the module notes).
+
+    Parameters
+    ----------
+    record : pandas.DataFrame
+        The measurement; ``attrs["dt"]`` is used when ``dt`` is None.
+    dt : float, optional
+        Sample time [s], > 0; default from ``attrs["dt"]`` or the ``t`` column.
+    input, output : str
+        Column names of the input [V] and the output.
+    output_kind : {"velocity", "position"}
+        What the output is. Position records are differentiated (zero-phase
+        low-pass and central differences); their output gap is then measured
+        on the velocity derived from position, since a free-run position drifts.
+    input_gain : float
+        Force or torque per input unit g [N/V or N m/V], > 0, so the model's
+        parameters come out in N or N m. With the default 1 they are per input
+        unit (the torque balance fixes them only up to this scale).
+    base : sequence of str or comma-separated str
+        Effects already in the model (inertia and input gain always are).
+    candidates : sequence of str, optional
+        Effects to try; default every effect of the library not in ``base``.
+    holdout : float or DataFrame
+        Share of the record held out (in 10 interleaved blocks), in (0, 0.9),
+        or a second record for the held-out check.
+    max_steps : int
+        Most effects added, >= 0.
+    progress : bool
+        tqdm progress bar on stderr.
+    threshold : float
+        ΔBIC a candidate needs to pass.
+    min_holdout_gain, min_gap_shrink : float
+        Smallest relative improvement of the held-out torque-balance error and
+        of the free-run output gap for a candidate to be accepted.
+    timing : {"auto", "hold", "sampled"}
+        Input/output timing (:func:`prepare`); ``auto`` takes the one whose
+        base model fits the torque balance better.
+    band : float, optional
+        Useful band [Hz] (:mod:`.kinematics`).
+
+    Returns
+    -------
+    Diagnosis
+    """
+    from tqdm import tqdm
+
+    base_names = _names(base, "base")
+    if candidates is None:
+        cand_names = tuple(n for n in EFFECTS if n not in base_names)
+    else:
+        cand_names = tuple(n for n in _names(candidates, "candidates") if n not in base_names)
+    if isinstance(max_steps, bool) or not isinstance(max_steps, int | np.integer) or max_steps < 0:
+        raise ValueError(f"max_steps must be an integer >= 0, got {max_steps!r}")
+    if not isinstance(holdout, pd.DataFrame):
+        if isinstance(holdout, bool) or not isinstance(holdout, int | float) or not 0.0 < holdout < 0.9:
+            raise ValueError(f"holdout must be a fraction in (0, 0.9) or a DataFrame, got {holdout!r}")
+    if timing not in ("auto", "hold", "sampled"):
+        raise ValueError(f"timing must be 'auto', 'hold' or 'sampled', got {timing!r}")
+    if not math.isfinite(threshold):
+        raise ValueError(f"threshold must be finite, got {threshold!r}")
+
+    opts = {"dt": dt, "input": input, "output": output, "output_kind": output_kind,
+            "input_gain": input_gain, "band": band}  # fmt: skip
+    if timing == "auto":
+        preps = [prepare(record, timing=t, **opts) for t in ("hold", "sampled")]
+        scores = []
+        for p in preps:
+            fit = fit_model(p.data, base_names)
+            scores.append(
+                fit.rss / max(float(np.sum(p.data.kin.decimate(p.data.kin.u)[p.data.moving] ** 2)), 1e-300)
+            )
+        prep = preps[int(np.argmin(scores))]
+    else:
+        prep = prepare(record, timing=timing, **opts)
+    data = prep.data
+    settings = {**opts, "dt": prep.kin.dt, "timing": prep.timing, "band": prep.kin.band,
+                "base": list(base_names), "candidates": list(cand_names), "threshold": threshold,
+                "holdout": "record" if isinstance(holdout, pd.DataFrame) else holdout,
+                "max_steps": int(max_steps)}  # fmt: skip
+
+    if isinstance(holdout, pd.DataFrame):
+        other = prepare(holdout, **{**opts, "dt": None if dt is None else dt}, timing=prep.timing)
+        train = np.ones(data.n, dtype=bool)
+        held_data, held_rows = other.data, other.data.moving
+    else:
+        held = holdout_rows(data.n, float(holdout))
+        train, held_data, held_rows = ~held, data, held & data.moving
+
+    def held_error(effects: tuple[str, ...], start: dict[str, float] | None) -> float:
+        """RMS torque-balance residual / J [v/s] on the held-out rows, fitted on the training rows."""
+        fit = fit_model(data, effects, rows=train, start=start)
+        inertia = fit.model.params["inertia"]
+        if not inertia > 0:
+            return math.inf
+        r, _ = balance_residual(fit.model, held_data)
+        return _rms(r[held_rows]) / inertia
+
+    current = tuple(base_names)
+    fit0 = fit_model(data, current)
+    initial_model = fit0.model
+    r0, _ = balance_residual(initial_model, data)
+    first_region = locate(r0, prep.feats_dec, prep.units)
+    steps: list[Step] = []
+    rejected: list[dict[str, Any]] = []
+    stop_reason = f"max_steps = {max_steps} reached"
+    bar = tqdm(total=max_steps, desc="doctor", disable=not progress, unit="step")
+    for _ in range(max_steps):
+        remaining = [c for c in cand_names if c not in current]
+        if not remaining:
+            stop_reason = "every candidate effect is already in the model"
+            break
+        r_cur, _ = balance_residual(fit0.model, data)
+        region = first_region if not steps else locate(r_cur, prep.feats_dec, prep.units)
+        gap0 = gaps(fit0.model, prep, region)
+        ranking = []
+        for name in tqdm(remaining, desc="candidates", disable=not progress, leave=False):
+            fit = fit_model(data, (*current, name), start=fit0.model.params)
+            ev = evidence(
+                fit0.rss, fit.rss, fit.n_rows, fit.n_params - fit0.n_params, fit.residual[data.moving]
+            )
+            negative = [p for p in get_effect(name).nonnegative if fit.model.params[p] < 0.0]
+            if negative:  # fitted with the wrong sign: not this physical effect
+                ev["delta_bic"] = -math.inf
+                ev["note"] = f"{negative[0]} = {fit.model.params[negative[0]]:.4g} < 0 is not physical"
+            ranking.append({"effect": name, "fit": fit, **ev})
+        ranking.sort(key=lambda c: -c["delta_bic"])
+        table = [{k: v for k, v in c.items() if k != "fit"} for c in ranking]
+        passing = [c for c in ranking if c["delta_bic"] > threshold]
+        if not passing:
+            best = ranking[0]
+            stop_reason = (
+                f"no candidate passes the evidence threshold: the best, {best['effect']}, has "
+                f"ΔBIC = {best['delta_bic']:.1f} <= {threshold:g}"
+            )
+            break
+        # candidates alike in the torque balance: the free-run output gap decides
+        best = passing[0]
+        drop_best = fit0.rss - best["fit"].rss
+        alike = [c for c in passing if fit0.rss - c["fit"].rss >= ALIKE * drop_best]
+        for c in alike:
+            c["free_run_gap"] = gaps(c["fit"].model, prep, region)["overall"]
+        order = list(passing)
+        if len(alike) > 1:
+            pick = min(alike, key=lambda c: np.nan_to_num(c["free_run_gap"], nan=np.inf))
+            if pick["free_run_gap"] < 0.98 * best["free_run_gap"]:
+                order.remove(pick)
+                order.insert(0, pick)
+        accepted = None
+        reasons = []
+        base_held = held_error(current, fit0.model.params)
+        for c in order:
+            name = c["effect"]
+            cand_held = held_error((*current, name), c["fit"].model.params)
+            gap1 = gaps(c["fit"].model, prep, region)
+            ok_held = cand_held < (1.0 - min_holdout_gain) * base_held
+            ok_gap = gap1["overall"] < (1.0 - min_gap_shrink) * gap0["overall"]
+            record_c = {
+                "effect": name, "delta_bic": c["delta_bic"], "held_out_error_before": base_held,
+                "held_out_error_after": cand_held, "gap_before": gap0["overall"], "gap_after": gap1["overall"],
+            }  # fmt: skip
+            if ok_held and ok_gap:
+                accepted = (c, gap1, record_c)
+                break
+            why = []
+            if not ok_held:
+                why.append(f"held-out error {cand_held:.4g} vs {base_held:.4g} {prep.units['v']}/s")
+            if not ok_gap:
+                why.append(f"free-run gap {gap1['overall']:.4g} vs {gap0['overall']:.4g} {prep.units['v']}")
+            record_c["reason"] = "; ".join(why)
+            rejected.append({"step": len(steps) + 1, **record_c})
+            reasons.append(f"{name} ({record_c['reason']})")
+        if accepted is None:
+            stop_reason = "no candidate improves held-out data and shrinks the free-run gap: " + ", ".join(
+                reasons
+            )
+            break
+        c, gap1, record_c = accepted
+        fit1: FitResult = c["fit"]
+        eff = get_effect(c["effect"])
+        params = {p: fit1.model.params[p] for p in (*eff.linear, *eff.nonlinear)}
+        ev = {
+            "delta_bic": c["delta_bic"], "threshold": threshold, "n": c["n"], "n_eff": c["n_eff"],
+            "rss_ratio": c["rss_ratio"], "held_out_error_before": record_c["held_out_error_before"],
+            "held_out_error_after": record_c["held_out_error_after"],
+            "chosen_by": "free-run gap among alike candidates" if c is not passing[0] else "evidence",
+            "ranking": table,
+        }  # fmt: skip
+        steps.append(Step(c["effect"], params, region, gap0, gap1, ev, fit1.model))
+        logger.info("added %s: %s", c["effect"], params)
+        current = fit1.model.effects
+        fit0 = fit1
+        bar.update(1)
+    bar.close()
+    final_model = fit0.model
+    initial_gap = gaps(initial_model, prep, first_region)
+    final_gap = gaps(final_model, prep, first_region) if steps else dict(initial_gap)
+    return Diagnosis(
+        initial_gap=initial_gap, final_gap=final_gap, steps=steps, stop_reason=stop_reason,
+        model=final_model, initial_model=initial_model, region=first_region, units=prep.units,
+        settings=settings, rejected=rejected, _prep=prep,
+    )  # fmt: skip
+
+
+__all__ = ["DEFAULT_BASE", "DEFAULT_THRESHOLD", "Diagnosis", "Prepared", "Step", "diagnose", "prepare"]
