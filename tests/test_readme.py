@@ -1,0 +1,55 @@
+"""README.md stays true: its results table equals a fresh run of the demo, its figure
+exists, and its Python example runs."""
+
+from __future__ import annotations
+
+import importlib.util
+import re
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+README = ROOT / "README.md"
+
+
+@pytest.fixture(scope="module")
+def readme_results():
+    """scripts/readme_results.py, imported from its path (scripts/ is not a package)."""
+    spec = importlib.util.spec_from_file_location("readme_results", ROOT / "scripts" / "readme_results.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_readme_results_table_equals_a_fresh_demo_run(readme_results):
+    table = readme_results.results_table(readme_results.run_demo())
+    assert readme_results.readme_block(README.read_text(encoding="utf-8")) == table, (
+        "README.md's results table is stale: run python scripts/readme_results.py"
+    )
+
+
+def test_replace_block_rewrites_only_between_the_markers(readme_results):
+    begin, end = readme_results.BEGIN, readme_results.END
+    text = f"head\n{begin}\nold\n{end}\ntail\n"
+    assert readme_results.replace_block(text, "new") == f"head\n{begin}\nnew\n{end}\ntail\n"
+    with pytest.raises(ValueError, match="markers"):
+        readme_results.replace_block("no markers here", "new")
+
+
+def test_readme_figure_is_there():
+    text = README.read_text(encoding="utf-8")
+    for path in re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text):
+        figure = ROOT / path
+        assert figure.exists() and figure.stat().st_size > 10_000, path
+
+
+def test_readme_python_example_runs(tmp_path, monkeypatch):
+    text = README.read_text(encoding="utf-8")
+    blocks = re.findall(r"```python\n(.*?)```", text, flags=re.S)
+    example = next(b for b in blocks if "create(" in b and "simulate(" in b)
+    monkeypatch.chdir(tmp_path)
+    namespace: dict[str, object] = {}
+    exec(compile(example, "README.md", "exec"), namespace)
+    assert namespace["y_free"].shape == namespace["u"].shape  # type: ignore[attr-defined]
