@@ -282,7 +282,8 @@ def propagate(x: np.ndarray, v: float, c: np.ndarray, F: np.ndarray, want_jacobi
 
     Per Heun sub-step, with A1, A2 the Jacobians of f at the two stages,
     ``F_k = I + h/2 (A1 + A2 (I + h A1))`` and ``F = F_k F``; a stop at zero zeroes
-    row j of F_k. The parameter rows of A are zero (random walks), so only the
+    row j of F_k, and so does a stuck sub-step (a state a little off zero stops
+    within the sub-step as well). The parameter rows of A are zero (random walks), so only the
     first ``nd`` rows (the physical states) of F_k and F are formed.
     """
     n = x.shape[0]
@@ -320,7 +321,8 @@ def propagate(x: np.ndarray, v: float, c: np.ndarray, F: np.ndarray, want_jacobi
                     for m in range(nd):
                         acc += A2[i, m] * A1[m, k]
                     Fk[i, k] = (1.0 if i == k else 0.0) + 0.5 * h * (A1[i, k] + A2[i, k] + h * acc)
-            if stop:
+            if stop or stuck:
+                # stopped or held at exactly zero: nearby states end there too
                 for k in range(n):
                     Fk[side, k] = 0.0
             for i in range(nd):
