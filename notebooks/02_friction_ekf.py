@@ -39,6 +39,7 @@ import warnings
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
+from IPython.display import display
 
 from motorid.estimators import FrictionEKF, FrictionUKF
 from motorid.plants import CoulombFriction, StribeckFriction, paper_rig
@@ -56,7 +57,9 @@ CHI2_1_BAND = (0.000982, 5.0239)  # two-sided 95 % band of chi-square with 1 deg
 
 # %%
 TRUE = {"coulomb": 6e-3, "viscous": 3e-5}
-rig = paper_rig(friction=(CoulombFriction(alpha=TRUE["coulomb"], side="motor"),), B_m=TRUE["viscous"], B_l=0.0)
+rig = paper_rig(
+    friction=(CoulombFriction(alpha=TRUE["coulomb"], side="motor"),), B_m=TRUE["viscous"], B_l=0.0
+)
 t, u = two_sine_signal(60.0, rig.dt, seed=1)
 record = rig.simulate(u, seed=1)
 y = record["y"].to_numpy()
@@ -101,7 +104,7 @@ for name, (est, _) in results.items():
         )
 summary = pd.DataFrame(rows)
 print({name: f"{us:.0f} us/sample" for name, us in timings.items()})
-summary
+display(summary)
 
 # %%
 fig, axes = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
@@ -133,7 +136,7 @@ fig.tight_layout()
 # 95 % of samples.
 
 # %%
-for name, (est, res) in results.items():
+for name, (_, res) in results.items():
     nis = res.innovation**2 / res.S
     inside = np.mean((nis >= CHI2_1_BAND[0]) & (nis <= CHI2_1_BAND[1]))
     print(f"{name}: NIS inside its 95 % band on {100 * inside:.1f} % of samples, mean NIS {nis.mean():.2f}")
@@ -162,14 +165,16 @@ with warnings.catch_warnings(record=True) as caught:
 print("first warning:", str(caught[0].message) if caught else None)
 matched = FrictionEKF.from_rig(stribeck_rig, stribeck=True, stribeck_decay=0.5)
 res_matched = matched.batch_filter(u, y_stribeck)
-pd.DataFrame(
-    {
-        "model": ["Coulomb + viscous", "Coulomb + viscous + Stribeck"],
-        "mean NIS": [np.mean(r.innovation**2 / r.S) for r in (res_mismatched, res_matched)],
-        "coulomb [N m]": [mismatched.params["coulomb"], matched.params["coulomb"]],
-        "stribeck [N m]": [np.nan, matched.params["stribeck"]],
-        "viscous [N m s/rad]": [mismatched.params["viscous"], matched.params["viscous"]],
-    }
+display(
+    pd.DataFrame(
+        {
+            "model": ["Coulomb + viscous", "Coulomb + viscous + Stribeck"],
+            "mean NIS": [np.mean(r.innovation**2 / r.S) for r in (res_mismatched, res_matched)],
+            "coulomb [N m]": [mismatched.params["coulomb"], matched.params["coulomb"]],
+            "stribeck [N m]": [np.nan, matched.params["stribeck"]],
+            "viscous [N m s/rad]": [mismatched.params["viscous"], matched.params["viscous"]],
+        }
+    )
 )
 
 # %%
