@@ -19,16 +19,21 @@ model; per sample k, with the command u[k] held over the sample (the rig's timin
 H picks ω_L: the rig's output ``y`` is the tachogenerator on the load read through
 the A/D converter and scaled back to rad/s, so R is the tacho noise plus the
 quantisation, ``(σ_t/G_t)^2 + (q/G_t)^2/12``. A measured armature current can be
-given to :meth:`FrictionEKF.update` as well (a second, sequential scalar update;
-quasi-static: i_a = (v - K_m ω_m)/R_a).
+given to ``update`` as well (EKF: a second, sequential scalar update; UKF: one
+joint update), with ``i_a = (v - K_m ω_m)/R_a`` when the current is quasi-static.
 
 Consistency. With a correct model the normalised innovation squared
 ``NIS = y^2/S`` is χ²(1): inside its two-sided 95 % band [0.00098, 5.02] on 95 % of
 samples. ``nis`` holds the last value and ``nis_mean`` its mean over the last
 ``nis_window`` updates; a mean above ``divergence_nis`` marks the filter as
-diverged (``diverged``) and, with ``on_divergence="raise"`` (default), raises
-:class:`FilterDivergenceError` naming the sample. A covariance that stops being
-positive definite or a non-finite estimate always raises it.
+diverged (``diverged``) and, by ``on_divergence``, warns once naming the sample
+(``"warn"``, the default), raises :class:`FilterDivergenceError` naming the sample
+(``"raise"``: stop a run that no longer means anything) or only sets the flag
+(``"ignore"``). The default warns rather than raises because a registered
+estimator must run to the end on any record (the conformance suite feeds it data
+from another system) and a user may want to see how far a wrong model goes. A
+covariance that stops being positive definite or a non-finite estimate always
+raises it.
 """
 
 from __future__ import annotations
@@ -82,7 +87,7 @@ class FilterDivergenceError(RuntimeError):
         self.nis_mean = nis_mean
 
 
-# --------------------------------------------------------------------------- the model's owner
+# --------------------------------------------------------------------------- filters
 def tacho_variance(rig: TwoMassRig) -> float:
     """Variance [(rad/s)^2] of the rig's speed reading: tacho noise plus A/D quantisation."""
     g = rig.tacho.gain
@@ -472,7 +477,17 @@ class _FrictionFilter(Estimator):
         return "\n".join(lines)
 
 
-_PARAMETERS_DOC = """
+class FrictionEKF(_FrictionFilter):
+    """Extended Kalman filter on the two-mass drive, learning its friction online.
+
+    filterpy's ``ExtendedKalmanFilter`` with the model of
+    :mod:`~motorid.estimators.friction_model` filled in: :meth:`predict` integrates
+    the nonlinear model over one sample (sub-stepped, compiled) and sets the
+    Jacobian ``F`` itself; :meth:`update` is filterpy's Joseph-form update with
+    ``H = [0, 1, 0, ...]`` (the load speed), followed by the projection of the
+    friction parameters onto >= 0. The equations are in :mod:`.friction_kf`; the
+    model, zero speed and the armature current in :mod:`.friction_model`.
+
     Parameters
     ----------
     rig : TwoMassRig, optional
@@ -495,7 +510,7 @@ _PARAMETERS_DOC = """
         (default) keeps it when dt < 10 L_a/R_a (see :mod:`.friction_model`).
     substeps : int, optional
         Heun sub-steps per sample; None chooses h |λ_max| <= 0.25 from the model's
-        stiffest eigenvalue (26 for the paper's rig; 1 ms steps).
+        stiffest eigenvalue (26 for the paper's rig: 1.5 ms steps).
     coulomb0, viscous0, stribeck0 : float
         Prior estimates [N m], [N m s/rad], [N m] (``coulomb_neg`` starts at ``coulomb0``).
     coulomb_std0, viscous_std0, stribeck_std0 : float
@@ -522,35 +537,26 @@ _PARAMETERS_DOC = """
     divergence_nis : float
         Threshold of that mean; a consistent filter averages 1, so 25 means
         innovations five times their predicted standard deviation.
-    on_divergence : {"raise", "warn", "ignore"}
-        What a NIS excursion does besides setting ``diverged``.
-"""
+    on_divergence : {"warn", "raise", "ignore"}
+        What a NIS excursion does besides setting ``diverged``: warn once (default),
+        raise :class:`FilterDivergenceError`, or nothing.
 
-
-class FrictionEKF(_FrictionFilter):
-    (
-        """Extended Kalman filter on the two-mass drive, learning its friction online.
-
-    filterpy's ``ExtendedKalmanFilter`` with the model of
-    :mod:`~motorid.estimators.friction_model` filled in: :meth:`predict` integrates
-    the nonlinear model over one sample (sub-stepped, compiled) and sets the
-    Jacobian ``F`` itself; :meth:`update` is filterpy's Joseph-form update with
-    ``H = [0, 1, 0, ...]`` (the load speed), followed by the projection of the
-    friction parameters onto >= 0. The equations are in :mod:`.friction_kf`; the
-    model, zero speed and the armature current in :mod:`.friction_model`.
-    """
-        + _PARAMETERS_DOC
-        + """
     Attributes
     ----------
     x, P, x_prior, P_prior, x_post, P_post, F, K, y, S, z
         As filterpy's ExtendedKalmanFilter (1-D x, scalar y and S).
+    v : float
+        Armature voltage [V] of the last sample.
     nis : float
         Normalised innovation squared y²/S of the last update (NaN when skipped).
     nis_mean : float
         Its mean over the last ``nis_window`` updates (NaN until that many).
     diverged : bool
         Set once the windowed NIS passed ``divergence_nis``.
+    n_substeps : int
+        Heun sub-steps per sample in use.
+    has_current_state : bool
+        Whether i_a is in the state.
 
     Examples
     --------
@@ -559,7 +565,6 @@ class FrictionEKF(_FrictionFilter):
     >>> result = ekf.batch_filter(df["u"], df["y"])          # doctest: +SKIP
     >>> ekf.params["coulomb"], ekf.params["coulomb_std"]    # doctest: +SKIP
     """
-    )
 
     name = "friction-ekf"
 
@@ -667,7 +672,7 @@ class FrictionEKF(_FrictionFilter):
         already = self.diverged
         (
             X, P_diag, y_hat, innovation, S, NIS, x, P, x_prior, P_prior, F, K, e, s,
-            count, nis_mean, flag, flag_at, done,
+            count, nis_mean, flag, flag_at, flag_mean, done,
         ) = fm.ekf_batch(
             v, np.where(present, z_arr, 0.0), present, cur, cur_present, self.x.copy(), self.P.copy(),
             self._c, self.Q, self._r, float(self.R_current), self._h_speed, self._h_current,
@@ -691,15 +696,14 @@ class FrictionEKF(_FrictionFilter):
             self._check_health(self.sample_index - 1)
         elif flag == fm.FLAG_NIS:
             self.diverged = already
-            self._flag_divergence(self.sample_index - (done - flag_at), float(np.nan_to_num(nis_mean)))
+            self._flag_divergence(self.sample_index - (done - flag_at), float(flag_mean))
         return BatchResult(
             X[:done], P_diag[:done], y_hat[:done], innovation[:done], S[:done], self.state_names
         )
 
 
 class FrictionUKF(_FrictionFilter):
-    (
-        """Unscented Kalman filter on the same model as :class:`FrictionEKF`; needs no
+    """Unscented Kalman filter on the same model as :class:`FrictionEKF`; needs no
     Jacobian.
 
     Built on filterpy's ``UnscentedKalmanFilter`` with Van der Merwe's scaled sigma
@@ -708,9 +712,12 @@ class FrictionUKF(_FrictionFilter):
     side of zero speed each follow their own stick/slip path. After each update the
     friction parameters are projected onto >= 0 and P is mirrored to exact
     symmetry. Slower than the EKF (2n + 1 model runs per sample through Python).
-    """
-        + _PARAMETERS_DOC
-        + """    alpha, beta, kappa : float
+
+    Parameters
+    ----------
+    rig, friction_side, asymmetric, stribeck, ..., on_divergence
+        As for :class:`FrictionEKF` (keyword-only after ``rig``).
+    alpha, beta, kappa : float
         Sigma-point spread and weights (filterpy's ``MerweScaledSigmaPoints``);
         alpha = 1, kappa = 0 put the points at ±√n σ with no negative weight.
 
@@ -721,7 +728,6 @@ class FrictionUKF(_FrictionFilter):
     nis, nis_mean, diverged
         As for :class:`FrictionEKF`.
     """
-    )
 
     name = "friction-ukf"
 

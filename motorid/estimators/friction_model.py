@@ -548,6 +548,7 @@ def ekf_batch(
     s = 0.0
     nis_mean = math.nan
     flag_at = -1
+    flag_mean = math.nan
     flag = FLAG_OK
     done = 0
     for t in range(N):
@@ -580,12 +581,12 @@ def ekf_batch(
             flag, flag_at = FLAG_BREAKDOWN, t
             break
         if nis_mean > threshold and flag == FLAG_OK:
-            flag, flag_at = FLAG_NIS, t
+            flag, flag_at, flag_mean = FLAG_NIS, t, nis_mean
             if stop_on_nis:
                 break
     return (
         X, P_diag, y_hat, innovation, S, NIS, x, P, x_prior, P_prior, F, K, e, s,
-        count, nis_mean, flag, flag_at, done,
+        count, nis_mean, flag, flag_at, flag_mean, done,
     )  # fmt: skip
 
 
