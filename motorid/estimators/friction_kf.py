@@ -44,7 +44,6 @@ from collections.abc import Sequence
 from typing import Any, ClassVar, Literal
 
 import numpy as np
-from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 from numpy.typing import ArrayLike
 
 from motorid.estimators import friction_model as fm
@@ -752,6 +751,10 @@ class FrictionUKF(_FrictionFilter):
             if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
                 raise ValueError(f"{name} must be a finite number, got {value!r}")
         super().reset()
+        # imported here: filterpy.kalman pulls in scipy.stats, half a second that
+        # every user of motorid.estimators would otherwise pay at import
+        from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
+
         n = self.dim_x
         points = MerweScaledSigmaPoints(
             n, alpha=float(self.alpha), beta=float(self.beta), kappa=float(self.kappa)
