@@ -53,3 +53,15 @@ def test_readme_python_example_runs(tmp_path, monkeypatch):
     namespace: dict[str, object] = {}
     exec(compile(example, "README.md", "exec"), namespace)
     assert namespace["y_free"].shape == namespace["u"].shape  # type: ignore[attr-defined]
+
+
+def test_readme_friction_filter_example_runs_and_learns_the_friction(tmp_path, monkeypatch):
+    text = README.read_text(encoding="utf-8")
+    blocks = re.findall(r"```python\n(.*?)```", text, flags=re.S)
+    example = next(b for b in blocks if "FrictionEKF.from_rig" in b)
+    monkeypatch.chdir(tmp_path)
+    namespace: dict[str, object] = {}
+    exec(compile(example, "README.md", "exec"), namespace)
+    params = namespace["ekf"].params  # type: ignore[attr-defined]
+    assert params["coulomb"] == pytest.approx(6e-3, rel=0.01)
+    assert params["viscous"] == pytest.approx(3e-5, rel=0.02)
