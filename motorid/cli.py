@@ -501,7 +501,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--holdout", type=float, default=0.3, help="share of the record held out (default: 0.3)")
     p.add_argument("--max-steps", type=int, default=3, help="most effects added (default: 3)")
     p.add_argument(
-        "--timing", choices=("auto", "hold", "sampled"), default="auto", help="input/output timing"
+        "--timing", choices=("hold", "sampled", "auto"), default="hold", help="input/output timing"
     )
     p.add_argument("--out", help="folder for the figures and the table")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")

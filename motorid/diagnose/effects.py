@@ -87,6 +87,8 @@ class Effect:
     nonnegative : tuple of str
         Parameters that are >= 0 for the effect to be physical (a fit with a
         negative value is not this effect).
+    requires : tuple of str
+        Effects that must be in the model before this one is a candidate.
     """
 
     name: ClassVar[str] = ""
@@ -97,6 +99,7 @@ class Effect:
     signature: ClassVar[str] = ""
     order: ClassVar[int] = 0
     nonnegative: ClassVar[tuple[str, ...]] = ()
+    requires: ClassVar[tuple[str, ...]] = ()
 
     def columns(self, w: np.ndarray, shape: dict[str, float]) -> np.ndarray:
         """Regressor columns ``c_i(w)``, shape (N, len(linear)): the torque per unit parameter."""
@@ -109,7 +112,8 @@ class Effect:
     def bounds(self, scale: dict[str, float]) -> dict[str, tuple[float, float]]:
         """Search interval of each nonlinear parameter, from the record's scales.
 
-        ``scale`` holds ``w_max`` [v], ``w_noise`` [v], ``u_max`` [u] and ``dt`` [s].
+        ``scale`` holds ``w_max`` [v], ``w_noise`` [v], ``u_max`` [u], ``dt`` [s] and
+        ``dt_band`` [s], the decimated sample time.
         """
         return {}
 
@@ -168,11 +172,14 @@ class AsymmetricFriction(Effect):
     Forwards the friction is ``(F_c + ΔF_c) + (B + ΔF_v) w``, backwards
     ``-(F_c - ΔF_c) + (B - ΔF_v) w``. While the drive moves, ΔF_c is the same
     column as a constant offset; the fit drops it when an offset is in the model.
+    It refines a model's Coulomb and viscous friction, so it is a candidate only
+    once both are in the model.
     """
 
     name = "asymmetric_friction"
     linear = ("coulomb_asymmetry", "viscous_asymmetry")
     units: ClassVar[dict[str, str]] = {"coulomb_asymmetry": "F", "viscous_asymmetry": "F s/v"}
+    requires = ("coulomb_friction", "viscous_friction")
     signature = "same sign in both directions of motion (even in w), growing with |w|"
 
     def columns(self, w: np.ndarray, shape: dict[str, float]) -> np.ndarray:
@@ -255,16 +262,19 @@ class Backlash(Effect):
 
     def transform(self, x: np.ndarray, dt: float, shape: dict[str, float]) -> np.ndarray:
         tau = shape["backlash_time"]
-        return x * (time_since_reversal(x, dt) >= tau)
+        return x * (time_since_reversal(x, dt, before_first=math.inf) >= tau)
 
     def bounds(self, scale: dict[str, float]) -> dict[str, tuple[float, float]]:
-        return {"backlash_time": (scale["dt"], max(2.0 * scale["dt"], min(50.0 * scale["dt"], 0.3)))}
+        # a dwell shorter than the decimated sample time is below the band the balance resolves
+        lo = scale.get("dt_band", scale["dt"])
+        return {"backlash_time": (lo, max(2.0 * lo, min(50.0 * scale["dt"], 0.3)))}
 
 
-def time_since_reversal(x: np.ndarray, dt: float) -> np.ndarray:
+def time_since_reversal(x: np.ndarray, dt: float, before_first: float | None = None) -> np.ndarray:
     """Time [s] since the last change of sign of ``x`` (zeros keep the previous sign).
 
-    Before the first sign is known the time counts from the start of the record.
+    Before the first reversal the time counts from the start of the record, or
+    is ``before_first`` when given.
     """
     x = np.asarray(x, dtype=float)
     s = np.sign(x)
@@ -276,7 +286,11 @@ def time_since_reversal(x: np.ndarray, dt: float) -> np.ndarray:
     change[1:] = (s[1:] != s[:-1]) & (s[:-1] != 0)
     last = np.where(change, np.arange(s.size), 0)
     np.maximum.accumulate(last, out=last)
-    return (np.arange(s.size) - last) * dt
+    out = (np.arange(s.size) - last) * dt
+    if before_first is not None:
+        first = np.flatnonzero(change)
+        out[: first[0] if first.size else s.size] = before_first
+    return out
 
 
 _CLASSES: tuple[type[Effect], ...] = (

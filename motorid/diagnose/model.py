@@ -124,6 +124,7 @@ class BalanceData:
             "w_noise": kin.noise,
             "u_max": float(np.max(np.abs(u))) if u.size else 1.0,
             "dt": kin.dt,
+            "dt_band": kin.dt * kin.factor,
         }
 
     @property
@@ -219,7 +220,9 @@ class GreyBoxModel:
             p[SIM_PARAMS.index("stribeck_velocity")] = 1.0
         return p
 
-    def simulate(self, u: np.ndarray, dt: float, w0: float = 0.0, substeps: int | None = None) -> np.ndarray:
+    def simulate(
+        self, u: np.ndarray, dt: float, w0: float = 0.0, substeps: int | None = None, start: int = 0
+    ) -> np.ndarray:
         """Free-run velocity [v] at the end of each sample for the input ``u`` held over it.
 
         Parameters
@@ -233,14 +236,18 @@ class GreyBoxModel:
         substeps : int, optional
             Steps per sample; default enough for 20 steps per mechanical time
             constant J/B (1 to 50).
+        start : int
+            Start the free run at sample ``start`` (with ``w0``); the input path
+            (e.g. the backlash dwell) still sees the whole input. The result
+            has ``N - start`` samples.
         """
         p = self.packed()
         J, B = p[0], abs(p[1])
         if not (math.isfinite(J) and J > 0.0 and np.all(np.isfinite(p))):
-            return np.full(np.asarray(u).size, np.nan)  # no physical free run without a positive inertia
+            return np.full(np.asarray(u).size - start, np.nan)  # no free run without a positive inertia
         if substeps is None:
             substeps = int(min(50, max(1, math.ceil(20.0 * dt * B / J))))
-        force = np.ascontiguousarray(self.input_force(u, dt), dtype=float)
+        force = np.ascontiguousarray(self.input_force(u, dt)[start:], dtype=float)
         return _free_run(force, float(dt), int(substeps), p, float(w0))
 
     def balance(self, data: BalanceData) -> tuple[np.ndarray, np.ndarray]:
@@ -361,8 +368,12 @@ def fit_model(
     for p, (lo, hi) in shaped:
         shape[p] = math.sqrt(lo * hi) if not start or p not in start else float(start[p])
 
+    nonnegative = [p for n in effects if get_effect(n).nonlinear for p in get_effect(n).nonnegative]
+
     def cost(p: str, value: float) -> float:
         theta, rss, _, _ = _linear_solve(data, effects, {**shape, p: value}, gain, rows)
+        if any(theta[q] < 0.0 for q in nonnegative):
+            return math.inf  # the shape that needs a negative level is not the physical effect
         return _accel_rss(rss, theta["inertia"])
 
     for _ in range(2 if len(shaped) > 1 else 1):
@@ -370,9 +381,11 @@ def fit_model(
             grid = np.geomspace(lo, hi, 17)
             costs = [cost(p, v) for v in grid]
             i = int(np.argmin(costs))
+            if not np.isfinite(costs[i]):
+                continue
             a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
             res = scipy.optimize.minimize_scalar(
-                lambda z, p=p: cost(p, math.exp(z)),
+                lambda z, p=p: min(cost(p, math.exp(z)), 1e300),
                 bounds=(math.log(a), math.log(b)),
                 method="bounded",
                 options={"xatol": 1e-3},

@@ -87,7 +87,7 @@ class Prepared:
         """Free-run velocity at every sample (NaN before the settled span)."""
         i0 = max(self.start, 1)
         out = np.full(self.kin.n, np.nan)
-        out[i0:] = model.simulate(self.kin.u[i0:], self.kin.dt, w0=float(self.kin.w[i0 - 1]))
+        out[i0:] = model.simulate(self.kin.u, self.kin.dt, w0=float(self.kin.w[i0 - 1]), start=i0)
         return out
 
 
@@ -451,7 +451,7 @@ def diagnose(
     threshold: float = DEFAULT_THRESHOLD,
     min_holdout_gain: float = 0.01,
     min_gap_shrink: float = 0.01,
-    timing: Literal["hold", "sampled", "auto"] = "auto",
+    timing: Literal["hold", "sampled", "auto"] = "hold",
     band: float | None = None,
 ) -> Diagnosis:
     """Find the effects missing from a rigid drive model of ``record`` (see the module notes).
@@ -488,9 +488,10 @@ def diagnose(
     min_holdout_gain, min_gap_shrink : float
         Smallest relative improvement of the held-out torque-balance error and
         of the free-run output gap for a candidate to be accepted.
-    timing : {"auto", "hold", "sampled"}
+    timing : {"hold", "sampled", "auto"}
         Input/output timing (:func:`prepare`); ``auto`` takes the one whose
-        base model fits the torque balance better.
+        base model fits the torque balance better (a base model that lacks an
+        effect can mislead it, so the default is the motorid convention).
     band : float, optional
         Useful band [Hz] (:mod:`.kinematics`).
 
@@ -561,9 +562,11 @@ def diagnose(
     stop_reason = f"max_steps = {max_steps} reached"
     bar = tqdm(total=max_steps, desc="doctor", disable=not progress, unit="step")
     for _ in range(max_steps):
-        remaining = [c for c in cand_names if c not in current]
+        remaining = [
+            c for c in cand_names if c not in current and all(r in current for r in get_effect(c).requires)
+        ]
         if not remaining:
-            stop_reason = "every candidate effect is already in the model"
+            stop_reason = "every candidate effect is already in the model (or needs one that is not)"
             break
         r_cur, _ = balance_residual(fit0.model, data)
         region = first_region if not steps else locate(r_cur, prep.feats_dec, prep.units)

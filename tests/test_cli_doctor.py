@@ -1,0 +1,97 @@
+"""``motorid doctor``: one JSON object on stdout, text on stderr, figures, clear errors."""
+
+from __future__ import annotations
+
+import json
+
+import pandas as pd
+import pytest
+
+from motorid.cli import main
+from motorid.diagnose.synthetic import planted_record
+from motorid.records import write_record
+
+
+def run(capsys, *argv: str) -> tuple[int, dict | str, str]:
+    code = main(list(argv))
+    captured = capsys.readouterr()
+    try:
+        out = json.loads(captured.out)
+    except json.JSONDecodeError:
+        out = captured.out
+    return code, out, captured.err
+
+
+@pytest.fixture(scope="module")
+def planted():
+    return planted_record("coulomb_friction", 7, sizes={"coulomb": 8e-3})
+
+
+@pytest.fixture(scope="module")
+def record_csv(tmp_path_factory, planted):
+    path = tmp_path_factory.mktemp("doctor") / "rec.csv"
+    rec = planted.record.rename(columns={"u": "volts", "y": "speed"})
+    rec.attrs = dict(planted.record.attrs)
+    write_record(rec, path)
+    return path
+
+
+def test_doctor_json_names_the_hidden_effect(capsys, record_csv, planted, tmp_path):
+    code, out, err = run(
+        capsys, "doctor", str(record_csv), "--input", "volts", "--output", "speed", "--output-kind", "velocity",
+        "--input-gain", repr(planted.input_gain), "--base", "viscous_friction,offset", "--json",
+        "--out", str(tmp_path),
+    )  # fmt: skip
+    assert code == 0, err
+    assert {"initial_gap", "final_gap", "steps", "stop_reason"} <= set(out)
+    assert out["steps"][0]["effect"] == "coulomb_friction"
+    step = out["steps"][0]
+    assert {"effect", "params", "region", "gap_before", "gap_after", "evidence"} <= set(step)
+    assert step["params"]["coulomb"] == pytest.approx(8e-3, rel=0.15)
+    assert step["gap_after"]["region"] < step["gap_before"]["region"]
+    assert out["final_gap"]["overall"] < out["initial_gap"]["overall"]
+    assert isinstance(out["stop_reason"], str) and out["stop_reason"]
+    assert all((tmp_path / p.split("/")[-1]).exists() for p in out["figures"]) and len(out["figures"]) == 2
+    assert (tmp_path / "doctor_table.csv").exists()
+    assert "coulomb_friction" in err and "stopped:" in err
+
+
+def test_doctor_takes_dt_from_the_command_line(capsys, planted, tmp_path):
+    bare = tmp_path / "bare.csv"
+    planted.record[["u", "y"]].to_csv(bare, index=False)  # no time column, no attribute line
+    code, out, err = run(capsys, "doctor", str(bare), "--dt", "0.01", "--max-steps", "1", "--json")
+    assert code == 0, err
+    assert out["settings"]["dt"] == pytest.approx(0.01) and len(out["steps"]) <= 1
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["--output", "speed_rpm"], ["speed_rpm"]),
+        (["--input", "v"], ["'v'"]),
+        (["--base", "viscous_friction,coulomb"], ["--base", "'coulomb'"]),
+        (["--candidates", "friction"], ["--candidates", "'friction'"]),
+        (["--dt", "0"], ["--dt"]),
+        (["--dt", "-0.01"], ["--dt"]),
+        (["--input-gain", "-2"], ["--input-gain"]),
+        (["--holdout", "2"], ["holdout"]),
+    ],
+)
+def test_doctor_bad_arguments_exit_2_naming_the_problem(capsys, record_csv, args, words):
+    base = ["doctor", str(record_csv), "--input", "volts", "--output", "speed"]
+    if "--input" in args:
+        base = ["doctor", str(record_csv), "--output", "speed"]
+    code, out, err = run(capsys, *base, *args, "--json")
+    assert code == 2 and out == ""
+    assert all(w in err for w in words), err
+
+
+def test_doctor_names_a_nan_sample(capsys, record_csv, tmp_path):
+    broken = tmp_path / "broken.csv"
+    df = pd.read_csv(record_csv, comment="#")
+    df.loc[57, "speed"] = float("nan")
+    df.to_csv(broken, index=False)
+    code, _, err = run(capsys, "doctor", str(broken), "--input", "volts", "--output", "speed")
+    assert code == 2 and "'speed'" in err and "57" in err
+    code, _, err = run(capsys, "doctor", str(tmp_path / "missing.csv"))
+    assert code == 2 and "no such file" in err
