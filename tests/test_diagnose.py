@@ -27,7 +27,7 @@ from motorid.diagnose.effects import time_since_reversal
 from motorid.diagnose.kinematics import kinematics
 from motorid.diagnose.synthetic import BASE_FOR, planted_record
 
-EXAMPLES = 2
+EXAMPLES = 3
 SETTINGS = settings(
     max_examples=EXAMPLES, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow]
 )

@@ -8,6 +8,11 @@ rigid shaft). Whatever the workflow names there is a false alarm.
 Run ``python -m motorid.diagnose.calibration --seeds 100`` to measure the rate
 at the default threshold and print the quantiles of the best candidate's
 ΔBIC (what the threshold is calibrated against).
+
+Measured with ``--seeds 200 --first 5000`` (30 s records at 100 Hz): nothing
+named on 0 of 200 records, a false-alarm rate of 0 % (below 1.5 % with 95 %
+confidence); the best candidate's ΔBIC had median -5.5 and 99th percentile
+6.7, under the threshold of 10 before the held-out and free-run checks.
 """
 
 from __future__ import annotations

@@ -56,7 +56,8 @@ from motorid.diagnose.model import BalanceData, FitResult, GreyBoxModel, fit_mod
 
 logger = logging.getLogger(__name__)
 
-#: Default evidence threshold on ΔBIC (calibrated on no-effect records).
+#: Default evidence threshold on ΔBIC: above the 99th percentile (6.7) of the best candidate's
+#: ΔBIC on 200 no-effect records, where the workflow named nothing (:mod:`.calibration`).
 DEFAULT_THRESHOLD = 10.0
 #: Share of the best candidate's RSS reduction above which two candidates are "alike".
 ALIKE = 0.8
