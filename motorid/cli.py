@@ -501,7 +501,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--holdout", type=float, default=0.3, help="share of the record held out (default: 0.3)")
     p.add_argument("--max-steps", type=int, default=3, help="most effects added (default: 3)")
     p.add_argument(
-        "--timing", choices=("hold", "sampled", "auto"), default="hold", help="input/output timing"
+        "--timing",
+        choices=("hold", "sampled", "auto"),
+        default=None,
+        help="input/output timing: hold (y[k] at the end of the interval u[k] is held over; the "
+        "default, or the record's own), sampled (a controller reads y[k], then holds u[k]), auto",
     )
     p.add_argument("--out", help="folder for the figures and the table")
     p.add_argument("--json", action="store_true", help="one JSON object on stdout")

@@ -117,7 +117,9 @@ def load_emps(
         ``reference`` = position set-point ``qg`` [m], and in the validation set
         ``pulses`` [N], the 0/5 N force pulses added on the load. ``attrs`` carry
         ``dt`` [s] (mean sample interval), ``units``, ``input_gain`` (gtau [N/V]),
-        ``kp`` [1/s], ``kv`` [V/(m/s)], ``output_kind`` ("position") and ``source``.
+        ``kp`` [1/s], ``kv`` [V/(m/s)], ``output_kind`` ("position"), ``timing`` ("sampled": the
+        controller reads ``qm[k]``, then holds ``vir[k]`` over the next interval; see
+        :func:`motorid.diagnose.diagnose`) and ``source``.
 
     Raises
     ------
@@ -169,6 +171,7 @@ def load_emps(
         kp=scalars["kp"],
         kv=scalars["kv"],
         output_kind="position",
+        timing="sampled",
         source=f"EMPS {which} set ({file.name}), Janot, Gautier and Brunot 2019",
     )
     return frame

@@ -452,7 +452,7 @@ def diagnose(
     threshold: float = DEFAULT_THRESHOLD,
     min_holdout_gain: float = 0.01,
     min_gap_shrink: float = 0.01,
-    timing: Literal["hold", "sampled", "auto"] = "hold",
+    timing: Literal["hold", "sampled", "auto"] | None = None,
     band: float | None = None,
 ) -> Diagnosis:
     """Find the effects missing from a rigid drive model of ``record`` (see the module notes).
@@ -489,10 +489,13 @@ def diagnose(
     min_holdout_gain, min_gap_shrink : float
         Smallest relative improvement of the held-out torque-balance error and
         of the free-run output gap for a candidate to be accepted.
-    timing : {"hold", "sampled", "auto"}
+    timing : {"hold", "sampled", "auto"}, optional
         Input/output timing (:func:`prepare`); ``auto`` takes the one whose
         base model fits the torque balance better (a base model that lacks an
-        effect can mislead it, so the default is the motorid convention).
+        effect can mislead it). By default the record's ``attrs["timing"]``
+        (:func:`motorid.datasets.load_emps` sets ``"sampled"``: the controller
+        reads the position, then holds its output), else ``"hold"``, the
+        motorid convention of :mod:`motorid.plants`.
     band : float, optional
         Useful band [Hz] (:mod:`.kinematics`).
 
@@ -512,6 +515,8 @@ def diagnose(
     if not isinstance(holdout, pd.DataFrame):
         if isinstance(holdout, bool) or not isinstance(holdout, int | float) or not 0.0 < holdout < 0.9:
             raise ValueError(f"holdout must be a fraction in (0, 0.9) or a DataFrame, got {holdout!r}")
+    if timing is None:
+        timing = getattr(record, "attrs", {}).get("timing", "hold")
     if timing not in ("auto", "hold", "sampled"):
         raise ValueError(f"timing must be 'auto', 'hold' or 'sampled', got {timing!r}")
     if not math.isfinite(threshold):
