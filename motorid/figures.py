@@ -8,29 +8,40 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
-import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.figure import Figure
 
 from motorid.validation import RPM_PER_RAD_S
 
 DPI = 110
 
 
-def _save(fig: plt.Figure, path: str | Path) -> Path:
+def subplots(
+    nrows: int, ncols: int = 1, *, figsize: tuple[float, float], **kwargs: Any
+) -> tuple[Figure, Any]:
+    """A figure with constrained layout and its axes, outside pyplot.
+
+    The figure belongs to no pyplot backend, so writing PNG files neither changes
+    the backend of the caller (a notebook keeps its inline figures) nor leaves
+    figures open; ``kwargs`` go to :meth:`matplotlib.figure.Figure.subplots`.
+    """
+    fig = Figure(figsize=figsize, layout="constrained")
+    return fig, fig.subplots(nrows, ncols, **kwargs)
+
+
+def save(fig: Figure, path: str | Path) -> Path:
+    """Write ``fig`` as PNG at :data:`DPI`, creating the folder; returns the path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=DPI)
-    plt.close(fig)
     return path
 
 
 def plot_input_response(t: np.ndarray, u: np.ndarray, y: np.ndarray, path: str | Path) -> Path:
     """Fig. 8: the test signal [V] (upper) and the measured speed [rpm] (lower)."""
-    fig, (ax_u, ax_y) = plt.subplots(2, 1, figsize=(9, 5), sharex=True, constrained_layout=True)
+    fig, (ax_u, ax_y) = subplots(2, 1, figsize=(9, 5), sharex=True)
     ax_u.plot(t, u, lw=0.8, color="tab:orange")
     ax_u.set_ylabel("armature voltage u [V]")
     ax_u.set_title("Input signal and system response")
@@ -40,7 +51,7 @@ def plot_input_response(t: np.ndarray, u: np.ndarray, y: np.ndarray, path: str |
     for ax in (ax_u, ax_y):
         ax.grid(alpha=0.3)
         ax.axhline(0.0, color="k", lw=0.5)
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def low_speed_window(y: np.ndarray, width: int, threshold: float, skip: int = 0) -> slice:
@@ -64,9 +75,7 @@ def plot_low_speed(
 ) -> Path:
     """Figs. 9-11: measured (solid) and identified (dashed) output [rpm] in a
     low-speed window, one panel per model."""
-    fig, axes = plt.subplots(
-        len(predictions), 1, figsize=(9, 2.6 * len(predictions)), sharex=True, constrained_layout=True
-    )
+    fig, axes = subplots(len(predictions), 1, figsize=(9, 2.6 * len(predictions)), sharex=True)
     for ax, (label, y_hat) in zip(np.atleast_1d(axes), predictions.items(), strict=True):
         ax.plot(t[window], y[window] * RPM_PER_RAD_S, "k-", lw=1.2, label="measured")
         ax.plot(t[window], y_hat[window] * RPM_PER_RAD_S, "--", lw=1.2, color="tab:red", label=label)
@@ -77,7 +86,7 @@ def plot_low_speed(
         ax.legend(loc="upper right", fontsize=8)
     np.atleast_1d(axes)[-1].set_xlabel("time t [s]")
     fig.suptitle(title)
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def plot_identification_error(
@@ -87,9 +96,7 @@ def plot_identification_error(
     one common scale."""
     errors = {label: (y - y_hat) * RPM_PER_RAD_S for label, y_hat in predictions.items()}
     limit = max(float(np.percentile(np.abs(e), 99.5)) for e in errors.values()) * 1.2
-    fig, axes = plt.subplots(
-        len(errors), 1, figsize=(9, 2.4 * len(errors)), sharex=True, constrained_layout=True
-    )
+    fig, axes = subplots(len(errors), 1, figsize=(9, 2.4 * len(errors)), sharex=True)
     for ax, (label, err) in zip(np.atleast_1d(axes), errors.items(), strict=True):
         ax.plot(t, err, lw=0.6)
         ax.set_ylim(-limit, limit)
@@ -97,7 +104,7 @@ def plot_identification_error(
         ax.set_title(f"identification error, {label}")
         ax.grid(alpha=0.3)
     np.atleast_1d(axes)[-1].set_xlabel("time t [s]")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def plot_estimates(
@@ -108,9 +115,7 @@ def plot_estimates(
 ) -> Path:
     """Figs. 13-15: parameter estimates converging, one panel per group
     (e.g. coefficients of A, of B, of the nonlinearity)."""
-    fig, axes = plt.subplots(
-        len(groups), 1, figsize=(9, 2.6 * len(groups)), sharex=True, constrained_layout=True
-    )
+    fig, axes = subplots(len(groups), 1, figsize=(9, 2.6 * len(groups)), sharex=True)
     for ax, (ylabel, series) in zip(np.atleast_1d(axes), groups, strict=True):
         for name, values in series.items():
             ax.plot(t, values, lw=1.0, label=name)
@@ -126,4 +131,4 @@ def plot_estimates(
         ax.legend(loc="upper right", fontsize=8, ncol=min(len(series), 5))
     np.atleast_1d(axes)[-1].set_xlabel("time t [s]")
     fig.suptitle(title)
-    return _save(fig, path)
+    return save(fig, path)

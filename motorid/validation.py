@@ -307,12 +307,9 @@ def residual_tests(
 
 def plot_residual_tests(tests: list[CorrelationTest], path: str, title: str = "Residual analysis") -> None:
     """One PNG figure with a panel per test: correlation against lag, band shaded."""
-    import matplotlib
+    from motorid.figures import save, subplots
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(len(tests), 1, figsize=(8, 2.0 * len(tests)), constrained_layout=True)
+    fig, axes = subplots(len(tests), 1, figsize=(8, 2.0 * len(tests)))
     for ax, test in zip(np.atleast_1d(axes), tests, strict=True):
         ax.axhspan(-test.band, test.band, color="tab:blue", alpha=0.15, label="per-lag band")
         for level in (-test.simultaneous_band, test.simultaneous_band):
@@ -324,8 +321,7 @@ def plot_residual_tests(tests: list[CorrelationTest], path: str, title: str = "R
         ax.set_ylim(-1.05, 1.05)
     np.atleast_1d(axes)[-1].set_xlabel("lag tau [samples]")
     fig.suptitle(title)
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path)
 
 
 # --------------------------------------------------------------------------- the paper's experiment

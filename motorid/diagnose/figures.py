@@ -3,28 +3,16 @@ the free-run simulation of each model against the measurement."""
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-import matplotlib
-
-matplotlib.use("Agg")
-import itertools
-
-import matplotlib.pyplot as plt
 import numpy as np
+
+from motorid.figures import save, subplots
 
 if TYPE_CHECKING:
     from motorid.diagnose.workflow import Diagnosis, Prepared
-
-DPI = 110
-
-
-def _save(fig: plt.Figure, path: Path) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=DPI)
-    plt.close(fig)
-    return path
 
 
 def plot_residual_vs_speed(diagnosis: Diagnosis, prep: Prepared, path: Path) -> Path:
@@ -34,9 +22,7 @@ def plot_residual_vs_speed(diagnosis: Diagnosis, prep: Prepared, path: Path) -> 
     w = prep.data.w
     models = diagnosis.models
     pairs = list(itertools.pairwise(models)) or [(models[0], models[0])]
-    fig, axes = plt.subplots(
-        len(pairs), 1, figsize=(8, 3.2 * len(pairs)), squeeze=False, constrained_layout=True
-    )
+    fig, axes = subplots(len(pairs), 1, figsize=(8, 3.2 * len(pairs)), squeeze=False)
     for ax, ((lb, mb), (la, ma)) in zip(axes[:, 0], pairs, strict=True):
         rb, _ = balance_residual(mb, prep.data)
         ax.plot(w, rb, ".", ms=2.5, alpha=0.5, color="tab:red", label=f"before ({lb})")
@@ -49,14 +35,14 @@ def plot_residual_vs_speed(diagnosis: Diagnosis, prep: Prepared, path: Path) -> 
         ax.grid(alpha=0.3)
         ax.legend(loc="best", fontsize=8, markerscale=3)
     axes[0, 0].set_title("Torque-balance residual against speed")
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def plot_simulation(diagnosis: Diagnosis, prep: Prepared, path: Path) -> Path:
     """Measured velocity and the free-run simulation of the initial and final models."""
     kin = prep.kin
     t = np.arange(kin.n) * kin.dt
-    fig, (ax, ax_e) = plt.subplots(2, 1, figsize=(10, 6), sharex=True, constrained_layout=True)
+    fig, (ax, ax_e) = subplots(2, 1, figsize=(10, 6), sharex=True)
     ax.plot(t, kin.w, lw=1.0, color="k", label="measured")
     err_axes = []
     for label, model in (
@@ -72,7 +58,7 @@ def plot_simulation(diagnosis: Diagnosis, prep: Prepared, path: Path) -> Path:
     for a in (ax, ax_e):
         a.grid(alpha=0.3)
         a.legend(loc="upper right", fontsize=8)
-    return _save(fig, path)
+    return save(fig, path)
 
 
 def write_figures(diagnosis: Diagnosis, prep: Prepared, out_dir: Path) -> list[Path]:
