@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import logging
 import math
+import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -225,20 +226,28 @@ class Estimator(ABC):
     def check_measurement(self, z: float) -> float | None:
         """``z`` as a float; a non-finite value raises, or is skipped with a warning
         (returning None) where the estimator :attr:`skips_nan_measurements`."""
+        return self.check_measured_value("z", z)
+
+    def check_measured_value(self, name: str, value: Any) -> float | None:
+        """A measured signal ``name`` at the current sample as a float.
+
+        NaN is skipped with a RuntimeWarning naming the signal and the sample (None is
+        returned) where the estimator :attr:`skips_nan_measurements`; any other
+        non-finite or non-numeric value raises ValueError naming them.
+        """
+        sample = self.sample_index - 1
         try:
-            value = float(z)
+            number = float(value)
         except (TypeError, ValueError):
-            raise ValueError(
-                f"z at sample {self.sample_index - 1} must be a number or None, got {z!r}"
-            ) from None
-        if math.isnan(value) and self.skips_nan_measurements:
-            logger.warning("z at sample %d is NaN: measurement skipped", self.sample_index - 1)
-            return None
-        if not math.isfinite(value):
-            raise ValueError(
-                f"z at sample {self.sample_index - 1} is {value}: the measurement must be finite"
+            raise ValueError(f"{name} at sample {sample} must be a number or None, got {value!r}") from None
+        if math.isnan(number) and self.skips_nan_measurements:
+            warnings.warn(
+                f"{name} at sample {sample} is NaN: {name} update skipped", RuntimeWarning, stacklevel=4
             )
-        return value
+            return None
+        if not math.isfinite(number):
+            raise ValueError(f"{name} at sample {sample} is {number}: the measurement must be finite")
+        return number
 
     def check_record(
         self, u: ArrayLike, z: ArrayLike | Sequence[float | None]

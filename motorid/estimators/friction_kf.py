@@ -358,46 +358,8 @@ class _FrictionFilter(Estimator):
         return fm.free_run(v, x0, self._c)[:, fm.I_OMEGA_L].copy()
 
     # ------------------------------------------------------------------ checks
-    def check_measurement(self, z: float) -> float | None:
-        """``z`` as a float; NaN is skipped with a RuntimeWarning naming the sample."""
-        try:
-            value = float(z)
-        except (TypeError, ValueError):
-            raise ValueError(
-                f"z at sample {self.sample_index - 1} must be a number or None, got {z!r}"
-            ) from None
-        if math.isnan(value):
-            warnings.warn(
-                f"z at sample {self.sample_index - 1} is NaN: measurement update skipped",
-                RuntimeWarning,
-                stacklevel=3,
-            )
-            return None
-        if not math.isfinite(value):
-            raise ValueError(
-                f"z at sample {self.sample_index - 1} is {value}: the measurement must be finite"
-            )
-        return value
-
     def _check_current(self, current: float | None) -> float | None:
-        if current is None:
-            return None
-        try:
-            value = float(current)
-        except (TypeError, ValueError):
-            raise ValueError(
-                f"current at sample {self.sample_index - 1} must be a number or None, got {current!r}"
-            ) from None
-        if math.isnan(value):
-            warnings.warn(
-                f"current at sample {self.sample_index - 1} is NaN: current update skipped",
-                RuntimeWarning,
-                stacklevel=3,
-            )
-            return None
-        if not math.isfinite(value):
-            raise ValueError(f"current at sample {self.sample_index - 1} is {value}: it must be finite")
-        return value
+        return None if current is None else self.check_measured_value("current", current)
 
     def _warn_nan_record(self, z: Any) -> None:
         """One RuntimeWarning naming the NaN measurements of a record."""
