@@ -16,7 +16,7 @@ $(STAMP): pyproject.toml
 	touch $(STAMP)
 
 test: $(STAMP)
-	$(BIN)/ruff check motorid tests benchmarks scripts
+	$(BIN)/ruff check motorid tests benchmarks scripts notebooks
 	$(BIN)/python -m pytest -q
 
 demo: $(STAMP)
@@ -31,8 +31,8 @@ bench: $(BENCH_STAMP)
 	$(BIN)/python benchmarks/run_all.py
 
 lint: $(STAMP)
-	$(BIN)/ruff check motorid tests benchmarks scripts
-	$(BIN)/ruff format --check motorid tests benchmarks scripts
+	$(BIN)/ruff check motorid tests benchmarks scripts notebooks
+	$(BIN)/ruff format --check motorid tests benchmarks scripts notebooks
 
 clean:
 	rm -rf $(VENV) out .pytest_cache .hypothesis
