@@ -13,7 +13,8 @@ motorid, whichever way the unit points.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 __all__ = ["Row", "format_rows", "print_rows"]
@@ -123,3 +124,13 @@ def format_rows(rows: Sequence[Row], title: str) -> str:
 def print_rows(rows: list[Row], title: str) -> None:
     """Print ``rows`` as an aligned markdown table under ``title``."""
     print(format_rows(rows, title), flush=True)
+
+
+def best_of(repeats: int, func: Callable[[], object]) -> float:
+    """Smallest wall time of ``repeats`` runs [s] (the least disturbed by other load)."""
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        func()
+        times.append(time.perf_counter() - start)
+    return min(times)

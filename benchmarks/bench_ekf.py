@@ -19,11 +19,9 @@ from __future__ import annotations
 
 import logging
 import math
-import time
-from collections.abc import Callable
 
 import numpy as np
-from _table import Row, print_rows
+from _table import Row, best_of, print_rows
 from filterpy.kalman import ExtendedKalmanFilter, MerweScaledSigmaPoints, UnscentedKalmanFilter
 
 from motorid.estimators import FrictionEKF, FrictionUKF
@@ -32,16 +30,6 @@ from motorid.plants.signals import two_sine_signal
 
 TITLE = "Friction EKF / UKF, n = 5 (paper rig, dt = 40 ms, 26 sub-steps), best of 3"
 logger = logging.getLogger(__name__)
-
-
-def best_of(repeats: int, func: Callable[[], object]) -> float:
-    """Smallest wall time of ``repeats`` runs [s] (the least disturbed by other load)."""
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        func()
-        times.append(time.perf_counter() - start)
-    return min(times)
 
 
 # --------------------------------------------------------------------------- the peer's model

@@ -20,11 +20,10 @@ Targets: batch >= 1,000,000 samples/s and >= 30x filterpy; predict+update <= 10 
 from __future__ import annotations
 
 import logging
-import time
 from collections.abc import Callable
 
 import numpy as np
-from _table import Row, print_rows
+from _table import Row, best_of, print_rows
 from filterpy.kalman import KalmanFilter
 
 from motorid.estimators import HammersteinRLS
@@ -32,16 +31,6 @@ from motorid.estimators import HammersteinRLS
 TITLE = "RLS, p = 19 (Hammerstein na=4, nb=4, degree=3), best of 3"
 LAM, DELTA = 0.99, 1e3
 logger = logging.getLogger(__name__)
-
-
-def best_of(repeats: int, func: Callable[[], object]) -> float:
-    """Smallest wall time of ``repeats`` runs [s] (the least disturbed by other load)."""
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        func()
-        times.append(time.perf_counter() - start)
-    return min(times)
 
 
 def make() -> HammersteinRLS:

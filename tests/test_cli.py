@@ -2,24 +2,14 @@
 
 from __future__ import annotations
 
-import json
 import tomllib
 
 import pandas as pd
 import pytest
+from cli_fixtures import run
 
 from motorid.cli import main
 from motorid.records import read_record
-
-
-def run(capsys, *argv: str) -> tuple[int, dict | str, str]:
-    code = main(list(argv))
-    captured = capsys.readouterr()
-    try:
-        out = json.loads(captured.out)
-    except json.JSONDecodeError:
-        out = captured.out
-    return code, out, captured.err
 
 
 @pytest.fixture(scope="module")
