@@ -340,8 +340,9 @@ def propagate(x: np.ndarray, v: float, c: np.ndarray, F: np.ndarray, want_jacobi
 
 
 @njit(cache=True)
-def covariance_predict(P: np.ndarray, F: np.ndarray, Q: np.ndarray) -> np.ndarray:
-    """``F P F^T + Q`` on one triangle, mirrored (exactly symmetric)."""
+def congruence(P: np.ndarray, F: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """``F P F^T + Q`` on one triangle, mirrored (exactly symmetric): the covariance
+    prediction, and the Joseph update with ``F = I - K h^T``, ``Q = r K K^T``."""
     n = P.shape[0]
     FP = np.empty((n, n))
     for i in range(n):
@@ -384,7 +385,7 @@ def ekf_predict(
     n = x.shape[0]
     F = np.empty((n, n))
     x_prior = propagate(x, v, c, F, True)
-    return x_prior, covariance_predict(P, F, Q), F
+    return x_prior, congruence(P, F, Q), F
 
 
 @njit(cache=True)
@@ -414,24 +415,12 @@ def joseph_update(
         x_post[i] = max(x[i] + K[i] * e, lower[i])
     # (I - K h^T) P (I - K h^T)^T + r K K^T
     IKH = np.empty((n, n))
+    rKK = np.empty((n, n))
     for i in range(n):
         for k in range(n):
             IKH[i, k] = (1.0 if i == k else 0.0) - K[i] * h[k]
-    M = np.empty((n, n))
-    for i in range(n):
-        for k in range(n):
-            acc = 0.0
-            for m in range(n):
-                acc += IKH[i, m] * P[m, k]
-            M[i, k] = acc
-    P_post = np.empty((n, n))
-    for i in range(n):
-        for k in range(i, n):
-            acc = r * K[i] * K[k]
-            for m in range(n):
-                acc += M[i, m] * IKH[k, m]
-            P_post[i, k] = acc
-            P_post[k, i] = acc
+            rKK[i, k] = r * K[i] * K[k]
+    P_post = congruence(P, IKH, rKK)
     return x_post, P_post, K, e, s
 
 
@@ -603,7 +592,7 @@ __all__ = [
     "I_OMEGA_L",
     "I_OMEGA_M",
     "I_TWIST",
-    "covariance_predict",
+    "congruence",
     "drift",
     "free_run",
     "pack_constants",
