@@ -35,6 +35,42 @@ ATTRS_MARKER = "# motorid-record "
 #: Columns a record must have, in its canonical names.
 REQUIRED_COLUMNS: tuple[str, ...] = ("t", "u", "y")
 
+#: The keywords ``attrs["timing"]`` takes: how input and output samples line up in time.
+TIMINGS: dict[str, str] = {
+    "hold": "u[k] is held over [t[k], t[k]+dt); y[k] is measured at t[k]+dt (a simulator, a DAQ loop)",
+    "sampled": "y[k] is read at t[k], then u[k] is held over [t[k], t[k]+dt) (a controller's loop)",
+}
+#: Descriptive sentences earlier motorid versions wrote as ``attrs["timing"]``; each means "hold".
+_LEGACY_TIMINGS = (
+    "u[k] is held over [t[k], t[k]+dt); y and the true states are at t[k]+dt",
+    "u[k] is held over [t[k], t[k]+dt); y is measured at t[k]+dt",
+)
+
+
+def record_timing(attrs: Mapping[str, Any], default: str = "hold") -> str:
+    """The timing keyword of a record's ``attrs`` (one of :data:`TIMINGS`).
+
+    Parameters
+    ----------
+    attrs : mapping
+        The record's attributes; ``attrs["timing"]`` may be absent (``default``
+        is returned) or a sentence an earlier motorid version wrote (read as
+        ``"hold"``, so recordings already on disk stay readable).
+    default : str
+        Timing of a record that does not say.
+
+    Raises
+    ------
+    ValueError
+        On a value that is not a known keyword, naming it and the keywords.
+    """
+    value = attrs.get("timing", default)
+    if value in _LEGACY_TIMINGS:
+        return "hold"
+    if value not in TIMINGS:
+        raise ValueError(f"attrs['timing'] must be one of {sorted(TIMINGS)}, got {value!r}")
+    return str(value)
+
 
 def _jsonable(value: Any) -> Any:
     if isinstance(value, Mapping):
@@ -210,4 +246,4 @@ def read_record(
     return rec
 
 
-__all__ = ["ATTRS_MARKER", "REQUIRED_COLUMNS", "read_record", "write_record"]
+__all__ = ["ATTRS_MARKER", "REQUIRED_COLUMNS", "TIMINGS", "read_record", "record_timing", "write_record"]

@@ -53,6 +53,7 @@ from motorid.diagnose.effects import EFFECTS, get_effect
 from motorid.diagnose.kinematics import Kinematics, kinematics
 from motorid.diagnose.locate import Region, features, locate
 from motorid.diagnose.model import BalanceData, FitResult, GreyBoxModel, fit_model
+from motorid.records import record_timing
 
 logger = logging.getLogger(__name__)
 
@@ -516,7 +517,7 @@ def diagnose(
         if isinstance(holdout, bool) or not isinstance(holdout, int | float) or not 0.0 < holdout < 0.9:
             raise ValueError(f"holdout must be a fraction in (0, 0.9) or a DataFrame, got {holdout!r}")
     if timing is None:
-        timing = getattr(record, "attrs", {}).get("timing", "hold")
+        timing = record_timing(getattr(record, "attrs", {}))
     if timing not in ("auto", "hold", "sampled"):
         raise ValueError(f"timing must be 'auto', 'hold' or 'sampled', got {timing!r}")
     if not math.isfinite(threshold):

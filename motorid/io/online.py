@@ -144,7 +144,7 @@ class RunRecorder:
         df = pd.DataFrame(self.rows, columns=self.columns or ["t", "seq", "u", "y", "clamped"])
         df.attrs["dt"] = dt
         df.attrs["units"] = {"t": "s", "u": "V", "y": "rad/s"}
-        df.attrs["timing"] = "u[k] is held over [t[k], t[k]+dt); y is measured at t[k]+dt"
+        df.attrs["timing"] = "hold"  # a keyword of motorid.records.TIMINGS
         return df
 
 

@@ -463,7 +463,7 @@ class TwoMassRig:
         df.attrs["rig"] = self.to_dict()
         df.attrs["integrator"] = integrator
         df.attrs["seed"] = seed
-        df.attrs["timing"] = "u[k] is held over [t[k], t[k]+dt); y and the true states are at t[k]+dt"
+        df.attrs["timing"] = "hold"  # a keyword of motorid.records.TIMINGS; the true states are at t[k]+dt too
         return df
 
     # ---------------------------------------------------------- description
