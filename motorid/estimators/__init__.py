@@ -9,7 +9,7 @@ from motorid.estimators.base import BatchResult, Estimator
 from motorid.estimators.basis import Basis, BasisFunction, basis_from_spec, dead_zone, polynomial, power, sign
 from motorid.estimators.friction_kf import FilterDivergenceError, FrictionEKF, FrictionUKF
 from motorid.estimators.hammerstein import HammersteinRLS
-from motorid.estimators.registry import ENTRY_POINT_GROUP, available, create, register, unregister
+from motorid.estimators.registry import ENTRY_POINT_GROUP, available, create, factory, register, unregister
 
 __all__ = [
     "ARXRLS",
@@ -26,6 +26,7 @@ __all__ = [
     "basis_from_spec",
     "create",
     "dead_zone",
+    "factory",
     "polynomial",
     "power",
     "register",

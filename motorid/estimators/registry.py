@@ -96,10 +96,21 @@ def create(name: str, **kwargs: Any) -> Estimator:
         For an unknown name (listing the known ones), or when the factory does
         not return an :class:`Estimator`.
     """
-    factories = _factories()
-    if name not in factories:
-        raise ValueError(f"unknown estimator {name!r}; available: {', '.join(sorted(factories))}")
-    estimator = factories[name](**kwargs)
+    estimator = factory(name)(**kwargs)
     if not isinstance(estimator, Estimator):
         raise ValueError(f"estimator {name!r} built a {type(estimator).__name__}, not a motorid Estimator")
     return estimator
+
+
+def factory(name: str) -> EstimatorFactory:
+    """The factory registered as ``name`` (its signature tells which arguments it takes).
+
+    Raises
+    ------
+    ValueError
+        For an unknown name, listing the known ones.
+    """
+    factories = _factories()
+    if name not in factories:
+        raise ValueError(f"unknown estimator {name!r}; available: {', '.join(sorted(factories))}")
+    return factories[name]

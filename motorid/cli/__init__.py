@@ -1,0 +1,81 @@
+"""The ``motorid`` command.
+
+Each subcommand prints human text on stderr and, with ``--json``, one JSON object
+on stdout. Figures are PNG files written where ``--out`` says.
+
+Exit status: 0 done; 2 the user's input cannot be used (an option, a file, a
+column, a value: one line names it); 1 a bug in motorid (one line, the
+traceback with ``-v``); 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import traceback
+from collections.abc import Sequence
+
+from motorid.errors import DataError
+
+from . import doctor, identification, rig, simulation
+from .report import say
+
+__all__ = ["build_parser", "main"]
+
+logger = logging.getLogger("motorid")
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with a one-line error that names the option and where to find help."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = _Parser(
+        prog="motorid",
+        description="Nonlinear modelling and online identification of bidirectional DC motor drives.",
+    )
+    parser.add_argument("-v", "--verbose", action="count", default=0,
+                        help="more log output on stderr; the traceback of an internal error")  # fmt: skip
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=_Parser)
+    for module in (simulation, identification, doctor, rig):
+        module.add_commands(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    level = logging.WARNING - 10 * min(args.verbose, 2)
+    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
+    command = " ".join(filter(None, (args.command, getattr(args, "rig_command", None))))
+    try:
+        return args.func(args)
+    except DataError as exc:
+        say(f"motorid {command}: error: {exc}")
+        return 2
+    except KeyboardInterrupt:
+        say(f"motorid {command}: interrupted")
+        return 130
+    except OSError as exc:  # the machine's answer about a file or a port the user named
+        say(f"motorid {command}: error: {exc}")
+        return 2
+    except Exception as exc:
+        if args.verbose:
+            traceback.print_exc()
+        say(
+            f"motorid {command}: internal error: {type(exc).__name__}: {exc}. This is a bug in motorid; "
+            + (
+                "please report it with the traceback above."
+                if args.verbose
+                else "rerun with -v for the traceback."
+            )
+        )
+        return 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,90 @@
+"""``motorid doctor``: find the effect missing from a drive model and show the gap shrink."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import pandas as pd
+
+from motorid.errors import DataError
+
+from .options import add_json, add_record_input, check_out_folder, number, positive, read_record_from_args
+from .report import emit_json, say
+
+
+def effect_list(text: str, option: str) -> list[str]:
+    """Comma-separated effect names, each checked against the library."""
+    from motorid.diagnose import EFFECTS
+
+    names = [n.strip() for n in text.split(",") if n.strip()]
+    for name in names:
+        if name not in EFFECTS:
+            raise DataError(f"{option}: unknown effect {name!r}; known effects: {', '.join(EFFECTS)}")
+    return names
+
+
+def cmd_doctor(args: argparse.Namespace) -> int:
+    """Find the missing effect: where model and measurement disagree, which effect, how much better."""
+    from motorid.diagnose import diagnose
+
+    base = effect_list(args.base, "--base")
+    candidates = effect_list(args.candidates, "--candidates") if args.candidates else None
+    record = read_record_from_args(args)
+    if args.out:
+        check_out_folder(args.out)
+    diagnosis = diagnose(
+        record, dt=args.dt, input="u", output="y", output_kind=args.output_kind,
+        input_gain=args.input_gain, base=base, candidates=candidates,
+        holdout=args.holdout, max_steps=args.max_steps, progress=True, timing=args.timing,
+    )  # fmt: skip
+    units = diagnosis.units
+    say(f"motorid doctor on {args.data} ({len(record)} samples), base model: inertia, input gain"
+        + "".join(f", {b}" for b in diagnosis.settings["base"]))  # fmt: skip
+    say(f"  located: {diagnosis.region.description}")
+    table = diagnosis.table()
+    if len(table):
+        with pd.option_context("display.width", 160, "display.max_columns", 12, "display.max_colwidth", 48):
+            say(f"  gaps [{units['v']}] and force error [%] per step:")
+            say(table.round(4).to_string())
+    for step in diagnosis.steps:
+        params = ", ".join(f"{k} = {v:.5g}" for k, v in step.params.items())
+        say(f"  + {step.effect}: {params} (ΔBIC {step.evidence['delta_bic']:.1f})")
+    say(
+        f"  gap {diagnosis.initial_gap['overall']:.4g} -> {diagnosis.final_gap['overall']:.4g} {units['v']}, "
+        f"force error {diagnosis.initial_gap['force_error_percent']:.2f} % -> "
+        f"{diagnosis.final_gap['force_error_percent']:.2f} %"
+    )
+    say(f"  stopped: {diagnosis.stop_reason}")
+    figures = []
+    if args.out:
+        figures = diagnosis.write_figures(args.out)
+        table.to_csv(args.out / "doctor_table.csv")
+        say(f"  wrote {len(figures)} figures and doctor_table.csv in {args.out}/")
+    if args.json:
+        emit_json({**diagnosis.to_dict(), "figures": figures})
+    return 0
+
+
+def add_commands(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("doctor", help="find the effect missing from a drive model and show the gap shrink")
+    add_record_input(p)
+    p.add_argument("--output-kind", choices=("velocity", "position"), default="velocity",
+                   help="what the output column is (default: velocity)")  # fmt: skip
+    p.add_argument("--input-gain", type=positive, default=1.0,
+                   help="force or torque per input unit [N/V, N m/V] (default: 1, the model then "
+                        "stays in input units)")  # fmt: skip
+    p.add_argument("--base", default="viscous_friction,offset", metavar="EFFECT,...",
+                   help="effects already in the model (default: viscous_friction,offset)")  # fmt: skip
+    p.add_argument("--candidates", metavar="EFFECT,...", help="effects to try (default: all others)")
+    p.add_argument("--holdout", type=number(float, low=0.0, high=0.9, low_open=True), default=0.3,
+                   help="share of the record held out, in (0, 0.9] (default: 0.3)")  # fmt: skip
+    p.add_argument("--max-steps", type=number(int, low=0), default=3, help="most effects added (default: 3)")
+    p.add_argument(
+        "--timing", choices=("hold", "sampled", "auto"), default=None,
+        help="input/output timing: hold (y[k] at the end of the interval u[k] is held over; the "
+        "default, or the record's own), sampled (a controller reads y[k], then holds u[k]), auto",
+    )  # fmt: skip
+    p.add_argument("--out", type=Path, help="folder for the figures and the table (replaced if there)")
+    add_json(p)
+    p.set_defaults(func=cmd_doctor)

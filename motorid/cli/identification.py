@@ -1,0 +1,131 @@
+"""``motorid identify`` and ``motorid sweep``: estimators on a record."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import pandas as pd
+
+from .options import (
+    add_estimator_options,
+    add_json,
+    add_low_speed_band,
+    add_record_input,
+    add_skip,
+    check_out_folder,
+    create_estimator,
+    int_range,
+    number,
+    read_record_from_args,
+)
+from .report import emit_json, frame_records, say, say_params
+
+
+def cmd_identify(args: argparse.Namespace) -> int:
+    """Identify one estimator on a record; report params, MSE, FIT and residual tests."""
+    from motorid.validation import (
+        RPM_PER_RAD_S,
+        plot_residual_tests,
+        residual_tests,
+        rpm_to_rad_s,
+        score_predictions,
+    )
+
+    record = read_record_from_args(args)
+    est = create_estimator(args.estimator, args)
+    if args.out:
+        check_out_folder(args.out)
+    u, y = record["u"].to_numpy(), record["y"].to_numpy()
+    result = est.batch_filter(u, y)
+    free_run = est.simulate(u)
+    threshold = float(rpm_to_rad_s(args.low_speed_rpm))
+    scores = score_predictions(y, {"one_step": result.y_hat, "free_run": free_run}, threshold, args.skip)
+    tests = residual_tests(u[args.skip :], (y - result.y_hat)[args.skip :], max_lag=args.max_lag)
+    say(f"{args.estimator} on {args.data} ({len(record)} samples)")
+    say_params("", est.params)
+    for kind, row in scores.iterrows():
+        say(
+            f"  {kind:<9} MSE {row['mse']:.4g} (rad/s)^2 = {row['mse'] * RPM_PER_RAD_S**2:.4g} rpm^2, "
+            f"low-speed MSE {row['low_speed_mse'] * RPM_PER_RAD_S**2:.4g} rpm^2, FIT {row['fit_percent']:.2f} %"
+        )
+    for test in tests:
+        say(f"  residual test {test.formula:<22} {'pass' if test.passed else 'FAIL'}")
+    figure = None
+    if args.out:
+        figure = args.out / "residual_tests.png"
+        plot_residual_tests(tests, str(figure), f"Residuals of {args.estimator} (one-step)")
+        say(f"  wrote {figure}")
+    if args.json:
+        emit_json(
+            {
+                "estimator": args.estimator,
+                "samples": len(record),
+                "params": est.params,
+                "scores": {
+                    kind: {**row, "mse_rpm2": row["mse"] * RPM_PER_RAD_S**2}
+                    for kind, row in scores.to_dict("index").items()
+                },
+                "low_speed_threshold_rad_s": threshold,
+                "residual_tests": {
+                    t.name: {"passed": t.passed, "fraction_outside": t.fraction_outside} for t in tests
+                },
+                "figure": figure,
+            }
+        )
+    return 0
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    """The paper's Tables 1 and 2 on a record."""
+    from motorid.validation import order_sweep, rpm_to_rad_s
+
+    record = read_record_from_args(args)
+    tables = order_sweep(
+        record["u"].to_numpy(), record["y"].to_numpy(), args.orders, args.degrees,
+        degree=args.degree, order=args.order, lam=args.lam, prediction=args.prediction,
+        low_speed_threshold=float(rpm_to_rad_s(args.low_speed_rpm)), skip=args.skip, progress=True,
+    )  # fmt: skip
+    with pd.option_context("display.width", 140, "display.max_columns", 12):
+        say(f"Table 1: MSE [rpm^2] per model order (degree {args.degree}), {args.prediction} prediction")
+        say(tables.orders.round(3).to_string())
+        say(f"\nTable 2: MSE [rpm^2] and gamma per polynomial degree (order {args.order})")
+        say(tables.degrees.to_string(float_format=lambda v: f"{v:.5g}"))
+    if args.json:
+        emit_json(
+            {
+                "table1": frame_records(tables.orders),
+                "table2": frame_records(tables.degrees),
+                "low_speed_threshold_rad_s": tables.low_speed_threshold,
+                "prediction": tables.prediction,
+            }
+        )
+    return 0
+
+
+def add_commands(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("identify", help="identify an estimator on a record")
+    add_record_input(p)
+    add_estimator_options(p)
+    add_low_speed_band(p)
+    add_skip(p)
+    p.add_argument("--max-lag", type=number(int, low=1), default=25,
+                   help="largest lag of the residual tests [samples] (default: 25)")  # fmt: skip
+    p.add_argument("--out", type=Path, help="folder for the residual-test figure (replaced if there)")
+    add_json(p)
+    p.set_defaults(func=cmd_identify)
+
+    p = sub.add_parser("sweep", help="the paper's Tables 1 and 2 on a record")
+    add_record_input(p)
+    p.add_argument("--orders", type=int_range, default=list(range(1, 7)), help="model orders (default: 1-6)")
+    p.add_argument("--degrees", type=int_range, default=list(range(2, 6)), help="degrees (default: 2-5)")
+    p.add_argument("--order", type=number(int, low=1), default=4, help="model order of Table 2 (default: 4)")
+    p.add_argument("--degree", type=number(int, low=1), default=3,
+                   help="polynomial degree of Table 1 (default: 3)")  # fmt: skip
+    p.add_argument("--lam", type=number(float, low=0.0, high=1.0, low_open=True), default=1.0,
+                   help="forgetting factor, 0 < lam <= 1 (default: 1)")  # fmt: skip
+    p.add_argument("--prediction", choices=("one_step", "free_run"), default="one_step")
+    add_low_speed_band(p)
+    add_skip(p)
+    add_json(p)
+    p.set_defaults(func=cmd_sweep)

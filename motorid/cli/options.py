@@ -1,0 +1,269 @@
+"""The options several commands share, each declared once, and the checks at the edge.
+
+Every value a user types is checked here, where it is parsed: a bad one stops the
+command with one line naming the option (exit status 2) before any work is done.
+"""
+
+from __future__ import annotations
+
+import argparse
+import inspect
+import math
+import os
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from motorid.errors import DataError
+
+#: The paper's low-speed band, |y| < 150 rpm (its Figs. 9-11).
+LOW_SPEED_RPM = 150.0
+#: The paper's model order (Table 1's best): the default of --na and --nb.
+PAPER_ORDER = 4
+#: Excitation signals by name (functions of motorid.plants.signals).
+SIGNALS = ("paper", "prbs", "multisine", "chirp", "steps")
+
+
+# --------------------------------------------------------------------------- value types
+def number(kind: type = float, *, low: float | None = None, high: float | None = None,
+           low_open: bool = False, unit: str = "") -> Callable[[str], Any]:  # fmt: skip
+    """An argparse type: a finite ``kind`` in ``[low, high]`` (``(low, high]`` when ``low_open``)."""
+    lo = "(" if low_open else "["
+    span = f"{lo}{'-inf' if low is None else f'{low:g}'}, {'inf' if high is None else f'{high:g}'}]"
+    unit_text = f" [{unit}]" if unit else ""
+
+    def parse(text: str) -> Any:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {'an integer' if kind is int else 'a number'}{unit_text}, "
+                                             f"got {text!r}") from None  # fmt: skip
+        ok = math.isfinite(value)
+        ok = ok and (low is None or (value > low if low_open else value >= low))
+        ok = ok and (high is None or value <= high)
+        if not ok:
+            raise argparse.ArgumentTypeError(f"must be in {span}{unit_text}, got {text}")
+        return value
+
+    parse.__name__ = kind.__name__  # argparse names the type in its messages
+    return parse
+
+
+positive = number(float, low=0.0, low_open=True)
+non_negative = number(float, low=0.0)
+
+
+def int_range(text: str) -> list[int]:
+    """'1-6' or '2,3,5' as a non-empty list of ints >= 1."""
+    try:
+        if "-" in text:
+            lo, hi = (int(v) for v in text.split("-", 1))
+            values = list(range(lo, hi + 1))
+        else:
+            values = [int(v) for v in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected a range like 1-6 or a list like 2,3,5, got {text!r}"
+        ) from None
+    if not values:
+        raise argparse.ArgumentTypeError(
+            f"the range {text!r} is empty (write the smaller number first, e.g. 1-6)"
+        )
+    if min(values) < 1:
+        raise argparse.ArgumentTypeError(f"every value must be >= 1, got {text!r}")
+    return values
+
+
+# --------------------------------------------------------------------------- option groups
+def add_json(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--json", action="store_true", help="one JSON object on stdout (text stays on stderr)"
+    )
+
+
+def add_record_input(parser: argparse.ArgumentParser) -> None:
+    """The record a command reads: file, columns, sample time, size limit."""
+    parser.add_argument("data", type=Path, help="record CSV (columns t [s], u [V], y [rad/s] by default)")
+    group = parser.add_argument_group("record")
+    group.add_argument("--time", metavar="COL", help="time column [s] (default: t; optional with --dt)")
+    group.add_argument("--input", default="u", metavar="COL", help="input column [V] (default: u)")
+    group.add_argument("--output", default="y", metavar="COL", help="output column [rad/s] (default: y)")
+    group.add_argument("--dt", type=positive, help="sample time [s] (default: from the file)")
+    group.add_argument(
+        "--max-samples", type=number(int, low=1), default=2_000_000,
+        help="refuse a longer record (default: 2000000); decimate a longer one first",
+    )  # fmt: skip
+
+
+def read_record_from_args(args: argparse.Namespace, min_samples: int = 20) -> pd.DataFrame:
+    """Read the record named by :func:`add_record_input`'s options, with columns ``t``, ``u``, ``y``.
+
+    Without ``--time``, a file with no ``t`` column reads when ``--dt`` is given.
+    """
+    from motorid.records import read_record
+
+    columns = [args.input, args.output]
+    if args.time is not None or args.dt is None:
+        columns.insert(0, args.time or "t")
+    record = read_record(args.data, dt=args.dt, columns=columns, min_samples=min_samples,
+                         max_samples=args.max_samples)  # fmt: skip
+    names = dict(zip(columns, ("t", "u", "y")[-len(columns) :], strict=True))
+    renamed = record.rename(columns=names)
+    renamed.attrs = dict(record.attrs)
+    units = record.attrs.get("units")
+    if isinstance(units, dict):
+        renamed.attrs["units"] = {names.get(k, k): v for k, v in units.items()}
+    return renamed
+
+
+def add_estimator_options(parser: argparse.ArgumentParser, repeatable: bool = False) -> None:
+    """--estimator and its arguments; an argument is passed only to estimators that take it."""
+    group = parser.add_argument_group("estimator")
+    if repeatable:
+        group.add_argument("--estimator", action="append", required=True, metavar="NAME",
+                           help="registered estimator name (repeatable)")  # fmt: skip
+    else:
+        group.add_argument("--estimator", default="hammerstein-rls", metavar="NAME",
+                           help="registered estimator name (default: hammerstein-rls)")  # fmt: skip
+    group.add_argument("--na", type=number(int, low=0), help=f"order of A(q^-1) (default: {PAPER_ORDER})")
+    group.add_argument("--nb", type=number(int, low=0), help=f"order of B(q^-1) (default: {PAPER_ORDER})")
+    group.add_argument("--degree", type=number(int, low=1), help="polynomial degree of the static block")
+    group.add_argument("--basis", help="static block basis, e.g. 'u,sign' or 'dead_zone:0.8'")
+    group.add_argument("--lam", type=number(float, low=0.0, high=1.0, low_open=True),
+                       help="forgetting factor, 0 < lam <= 1")  # fmt: skip
+    group.add_argument("--delta", type=positive, help="initial covariance P0 = delta I")
+    group.add_argument("--gamma-method", choices=("paper", "svd"), help="Hammerstein step 2")
+    group.add_argument("-p", "--param", action="append", default=[], metavar="KEY=VALUE",
+                       help="any other estimator argument")  # fmt: skip
+
+
+def _parse_value(text: str) -> Any:
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    if text.lower() in ("true", "false"):
+        return text.lower() == "true"
+    return text
+
+
+def create_estimator(name: str, args: argparse.Namespace):
+    """Build estimator ``name`` from the options; the paper's order 4 where it needs ``na``/``nb``."""
+    from motorid.estimators import available, factory
+
+    if name not in available():
+        raise DataError(f"--estimator: unknown estimator {name!r}; known: {', '.join(available())}")
+    make = factory(name)
+    try:
+        accepted = inspect.signature(make).parameters
+    except (TypeError, ValueError):  # a factory without a signature takes what it is given
+        accepted = {}
+    kwargs: dict[str, Any] = {}
+    for key in ("na", "nb", "degree", "basis", "lam", "delta", "gamma_method"):
+        value = getattr(args, key, None)
+        option = "--" + key.replace("_", "-")
+        if value is None:
+            if key in ("na", "nb") and key in accepted and accepted[key].default is inspect.Parameter.empty:
+                kwargs[key] = PAPER_ORDER
+            continue
+        if accepted and key not in accepted:
+            raise DataError(f"{option}: estimator {name!r} takes no {key!r} argument")
+        kwargs[key] = value
+    for item in args.param:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise DataError(f"--param expects KEY=VALUE, got {item!r}")
+        kwargs[key.replace("-", "_")] = _parse_value(value)
+    try:
+        return make(**kwargs)
+    except (TypeError, ValueError) as exc:  # the estimator's own check of the arguments the user gave
+        raise DataError(f"estimator {name!r}: {exc}") from None
+
+
+def add_signal_options(parser: argparse.ArgumentParser, duration: float | None) -> None:
+    """The excitation: --signal, --amplitude, --duration, --seed (the signal's seed only)."""
+    group = parser.add_argument_group("excitation signal")
+    group.add_argument("--signal", choices=SIGNALS, default="paper", help="excitation (default: paper)")
+    group.add_argument("--amplitude", type=positive, help="signal amplitude [V] (default: the signal's)")
+    group.add_argument(
+        "--duration", type=positive, default=duration, required=duration is None,
+        help="[s]" + ("" if duration is None else f" (default: {duration:g})"),
+    )  # fmt: skip
+    group.add_argument("--seed", type=number(int, low=0), default=0,
+                       help="seed of the excitation signal (default: 0)")  # fmt: skip
+
+
+def excitation_from_args(args: argparse.Namespace, dt: float) -> np.ndarray:
+    """The excitation [V] per sample of :func:`add_signal_options`'s options at sample time ``dt``."""
+    from motorid.plants import signals
+
+    kwargs: dict[str, Any] = {"duration": args.duration, "dt": dt, "seed": args.seed}
+    if args.signal == "paper":
+        if args.amplitude is not None:
+            kwargs["amplitudes"] = (args.amplitude, 0.625 * args.amplitude)
+        return signals.two_sine_signal(**kwargs)[1]
+    if args.amplitude is not None:
+        kwargs["amplitude"] = args.amplitude
+    return getattr(signals, args.signal)(**kwargs)[1]
+
+
+def add_plant_seed(parser: argparse.ArgumentParser, default: int | None) -> None:
+    parser.add_argument(
+        "--plant-seed", type=number(int, low=0), default=default,
+        help="seed of the simulated rig's sensor noise" + ("" if default is None else f" (default: {default})"),
+    )  # fmt: skip
+
+
+def add_u_max(parser: argparse.ArgumentParser, meaning: str) -> None:
+    parser.add_argument("--u-max", type=positive, default=12.0, help=f"{meaning} [V] (default: 12)")
+
+
+def add_low_speed_band(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--low-speed-rpm", type=positive, default=LOW_SPEED_RPM,
+                        help=f"low-speed band |y| < this [rpm] (default: {LOW_SPEED_RPM:g})")  # fmt: skip
+
+
+def add_skip(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--skip", type=number(int, low=0), default=50,
+                        help="leading samples left out of the scores (default: 50)")  # fmt: skip
+
+
+# --------------------------------------------------------------------------- files written
+def add_out_file(parser: argparse.ArgumentParser, what: str, required: bool = True) -> None:
+    parser.add_argument("--out", type=Path, required=required, help=f"{what}; an existing file is refused "
+                        "unless --overwrite is given")  # fmt: skip
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing --out file")
+
+
+def check_out_file(path: Path, overwrite: bool, option: str = "--out") -> None:
+    """Refuse, before any work, a file that exists (without ``overwrite``) or cannot be written."""
+    if path.is_dir():
+        raise DataError(f"{option} {path}: is a folder, expected a file name")
+    if path.exists() and not overwrite:
+        raise DataError(
+            f"{option} {path}: the file exists; pass --overwrite to replace it, or choose another name"
+        )
+    folder = path.parent if str(path.parent) else Path(".")
+    _check_folder_writable(folder, option, path)
+
+
+def check_out_folder(path: Path, option: str = "--out") -> None:
+    """Create the folder ``path`` (and parents) or refuse with the reason, before any work."""
+    if path.exists() and not path.is_dir():
+        raise DataError(f"{option} {path}: is a file, expected a folder")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise DataError(f"{option} {path}: cannot create the folder: {exc.strerror}") from None
+    _check_folder_writable(path, option, path)
+
+
+def _check_folder_writable(folder: Path, option: str, path: Path) -> None:
+    if not folder.is_dir():
+        raise DataError(f"{option} {path}: the folder {folder} does not exist")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise DataError(f"{option} {path}: the folder {folder} is not writable")

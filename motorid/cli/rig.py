@@ -1,0 +1,126 @@
+"""``motorid rig serve``, ``motorid rig map`` and ``motorid run``: a rig behind Modbus, online runs."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from motorid.errors import DataError
+
+from .options import (
+    add_estimator_options,
+    add_json,
+    add_out_file,
+    add_plant_seed,
+    add_signal_options,
+    add_u_max,
+    check_out_file,
+    create_estimator,
+    excitation_from_args,
+    non_negative,
+    number,
+    positive,
+)
+from .report import emit_json, say, say_params
+
+
+def cmd_rig_serve(args: argparse.Namespace) -> int:
+    """Serve the simulated rig over Modbus until Ctrl-C."""
+    from motorid.io import RigServer
+
+    server = RigServer(
+        None, host=args.host, port=args.port, serial_port=args.serial, baudrate=args.baudrate,
+        register_map=args.map, word_order=args.word_order, lockstep=not args.realtime, seed=args.plant_seed,
+        watchdog_periods=args.watchdog_periods or None, u_max=args.u_max,
+    )  # fmt: skip
+    where = args.serial or f"{args.host}:{args.port}"
+    try:
+        server.start()
+    except RuntimeError as exc:
+        option = "--serial" if args.serial else "--port"
+        raise DataError(f"{option}: cannot serve Modbus on {where}: {exc.__cause__ or exc}") from None
+    say(f"motorid rig serve: simulated rig on Modbus {server.url} "
+        f"({'real time' if args.realtime else 'lock-step'}); Ctrl-C stops it")  # fmt: skip
+    server.serve_forever()
+    return 0
+
+
+def cmd_rig_map(args: argparse.Namespace) -> int:
+    """Print the register map in use as TOML."""
+    from motorid.io import rig_map_toml
+
+    sys.stdout.write(rig_map_toml(args.map, args.word_order))
+    return 0
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    """Online identification on a DAQ (simulated rig or Modbus)."""
+    from motorid.io import DAQError, daq_from_url, run_online
+
+    check_out_file(args.out, args.overwrite)
+    estimators = {name: create_estimator(name, args) for name in args.estimator}
+    simulated = args.daq.strip() in ("sim", "sim://", "simulated")
+    if not simulated and args.plant_seed is not None:
+        raise DataError(f"--plant-seed applies to --daq sim only; the rig behind {args.daq} has its own "
+                        "(motorid rig serve --plant-seed)")  # fmt: skip
+    daq = daq_from_url(
+        args.daq, seed=(args.plant_seed or 0) if simulated else None, dt=args.dt, register_map=args.map,
+        u_max=args.u_max, timeout=args.timeout,
+    )  # fmt: skip
+    excitation = excitation_from_args(args, daq.dt)
+    try:
+        record = run_online(daq, estimators, excitation, args.duration, out=args.out, progress=True,
+                            overwrite=args.overwrite)  # fmt: skip
+    except DAQError as exc:
+        notes = " ".join(getattr(exc, "__notes__", []))
+        raise DataError(f"run stopped: {exc}. {notes}".strip()) from None
+    except KeyboardInterrupt as exc:
+        notes = " ".join(getattr(exc, "__notes__", []))
+        raise DataError(f"run interrupted (Ctrl-C or SIGTERM). {notes}".strip()) from None
+    say(f"wrote {args.out}: {record.attrs.get('samples', len(record))} samples")
+    for name, est in estimators.items():
+        say_params(f"{name}.", est.params)
+    if args.json:
+        emit_json({"out": args.out, "samples": record.attrs.get("samples", len(record)),
+                   "params": {n: e.params for n, e in estimators.items()}})  # fmt: skip
+    return 0
+
+
+def add_commands(sub: argparse._SubParsersAction) -> None:
+    rig = sub.add_parser("rig", help="the simulated rig behind Modbus").add_subparsers(
+        dest="rig_command", required=True, metavar="RIG_COMMAND"
+    )
+    for name, helptext, func in (
+        ("serve", "serve the simulated rig over Modbus TCP or RTU", cmd_rig_serve),
+        ("map", "print the register map in use as TOML", cmd_rig_map),
+    ):
+        p = rig.add_parser(name, help=helptext)
+        p.add_argument("--map", help="register map TOML file (default: the built-in map)")
+        p.add_argument("--word-order", choices=("ABCD", "CDAB"), default="ABCD", help="float32 word order")
+        p.set_defaults(func=func)
+    serve = rig.choices["serve"]
+    serve.add_argument("--host", default="127.0.0.1", help="address to listen on (default: 127.0.0.1)")
+    serve.add_argument("--port", type=number(int, low=1, high=65535), default=5020,
+                       help="TCP port (default: 5020)")  # fmt: skip
+    serve.add_argument("--serial", metavar="DEVICE", help="serve Modbus RTU on this serial device instead")
+    serve.add_argument("--baudrate", type=number(int, low=1), default=115200)
+    serve.add_argument("--realtime", action="store_true", help="advance with the clock, not lock-step")
+    add_plant_seed(serve, default=None)
+    serve.add_argument("--watchdog-periods", type=non_negative, default=3.0,
+                       help="heartbeat timeout [samples]; 0: off (default: 3)")  # fmt: skip
+    add_u_max(serve, "voltage rating")
+
+    p = sub.add_parser("run", help="online identification on a DAQ")
+    p.add_argument(
+        "--daq", default="sim", help="sim, modbus://HOST:PORT or modbus-rtu:///dev/X (default: sim)"
+    )
+    add_estimator_options(p, repeatable=True)
+    add_signal_options(p, duration=None)
+    add_out_file(p, "CSV written row by row as the run goes")
+    add_plant_seed(p, default=None)
+    p.add_argument("--dt", type=positive, help="sample time [s] (default: the rig's)")
+    p.add_argument("--map", help="register map TOML file")
+    p.add_argument("--timeout", type=positive, help="Modbus timeout [s]")
+    add_u_max(p, "voltage clamp")
+    add_json(p)
+    p.set_defaults(func=cmd_run)
