@@ -65,3 +65,17 @@ def test_readme_friction_filter_example_runs_and_learns_the_friction(tmp_path, m
     params = namespace["ekf"].params  # type: ignore[attr-defined]
     assert params["coulomb"] == pytest.approx(6e-3, rel=0.01)
     assert params["viscous"] == pytest.approx(3e-5, rel=0.02)
+
+
+def _other_python_blocks() -> list[str]:
+    """The README's Python blocks that the tests above do not run already."""
+    blocks = re.findall(r"```python\n(.*?)```", README.read_text(encoding="utf-8"), flags=re.S)
+    covered = [b for b in blocks if "FrictionEKF.from_rig" in b or ("create(" in b and "simulate(" in b)]
+    assert len(covered) == 2, "the two examples tested above are no longer in README.md"
+    return [b for b in blocks if b not in covered]
+
+
+@pytest.mark.parametrize("block", _other_python_blocks())
+def test_every_other_readme_python_block_runs(tmp_path, monkeypatch, block):
+    monkeypatch.chdir(tmp_path)
+    exec(compile(block, "README.md", "exec"), {"__name__": "readme_example"})

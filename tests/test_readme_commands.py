@@ -1,0 +1,92 @@
+"""Every ``motorid`` line of README.md's shell blocks runs, in order, as printed, in an empty folder.
+
+The lines run as a user runs them: the installed ``motorid`` console script in a
+subprocess. ``motorid rig serve`` is started in the background and stopped after
+the lines that follow it; its port (5020 in the README) is swapped for a free one
+in every line, since a test machine may have 5020 taken. Nothing else is changed.
+The notebooks hold no shell lines (checked here too, so a new one is not missed).
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shlex
+import signal
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from io_fixtures import wait_for
+
+ROOT = Path(__file__).resolve().parent.parent
+MOTORID = Path(sys.executable).with_name("motorid")
+README_PORT = "5020"
+
+
+def shell_lines(text: str) -> list[str]:
+    """The ``motorid ...`` lines of the ```sh blocks, their trailing comments removed."""
+    lines = []
+    for block in re.findall(r"```(?:sh|bash|console)\n(.*?)```", text, flags=re.S):
+        for line in block.splitlines():
+            command = line.split(" # ")[0].strip()
+            if command.startswith("motorid "):
+                lines.append(command)
+    return lines
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def listening(server: subprocess.Popen, port: int) -> bool:
+    """True once ``server`` accepts connections on ``port``; fail the test if it exited."""
+    if server.poll() is not None:
+        pytest.fail(f"{server.args} exited with {server.returncode}: {server.stderr.read()}")
+    with socket.socket() as s:
+        return s.connect_ex(("127.0.0.1", port)) == 0
+
+
+def test_readme_shows_each_subcommand():
+    lines = shell_lines((ROOT / "README.md").read_text(encoding="utf-8"))
+    used = {shlex.split(line)[1] for line in lines}
+    assert {"demo", "simulate", "identify", "sweep", "doctor", "rig", "run"} <= used
+
+
+def test_notebooks_hold_no_shell_lines():
+    for path in (ROOT / "notebooks").glob("*.py"):
+        text = path.read_text(encoding="utf-8")
+        assert not re.search(r"^\s*[!%]\s*motorid", text, flags=re.M), f"{path.name} runs a shell line"
+
+
+def test_every_readme_command_runs_as_printed(tmp_path):
+    lines = shell_lines((ROOT / "README.md").read_text(encoding="utf-8"))
+    port = str(free_port())
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    servers: list[subprocess.Popen] = []
+    try:
+        for line in lines:
+            argv = [str(MOTORID), *shlex.split(line.replace(README_PORT, port))[1:]]
+            if argv[1:3] == ["rig", "serve"]:
+                servers.append(
+                    subprocess.Popen(argv, cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True)
+                )
+                wait_for(lambda: listening(servers[-1], int(port)), timeout=60, what=f"{line!r} to listen")
+                continue
+            done = subprocess.run(argv, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+            assert done.returncode == 0, f"{line!r} exited with {done.returncode}:\n{done.stderr[-3000:]}"
+    finally:
+        for server in servers:
+            server.send_signal(signal.SIGINT)
+            try:
+                server.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                server.kill()
+                server.wait()
+    for server in servers:
+        assert server.returncode == 0, server.stderr.read()
+    assert (tmp_path / "rec.csv").exists() and (tmp_path / "run.csv").exists()
