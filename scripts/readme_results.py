@@ -19,11 +19,12 @@ import argparse
 import sys
 from pathlib import Path
 
+from motorid.cli.options import LOW_SPEED_RPM  # motorid demo's default
+
 ROOT = Path(__file__).resolve().parent.parent
 README = ROOT / "README.md"
 FIGURE = ROOT / "docs" / "figures" / "low_speed.png"
 BEGIN, END = "<!-- results:begin -->", "<!-- results:end -->"
-LOW_SPEED_RPM = 150.0  # motorid demo's default
 
 
 def run_demo():
