@@ -123,7 +123,7 @@ BAD_INPUT = [
         "--plant-seed on Modbus",
         "run --daq modbus://127.0.0.1:9 --estimator arx-rls --duration 1 --out {d}/new.csv --plant-seed 3",
         ["--plant-seed", "sim"],
-    ),  # fmt: skip
+    ),
     ("input all zero, identify", "identify {d}/zero_input.csv", ["'u'", "constant"]),
     ("input all zero, doctor", "doctor {d}/zero_input.csv", ["'u'", "constant"]),
     ("1e300 in y, identify", "identify {d}/huge_y.csv", ["'y'", "250"]),
