@@ -10,6 +10,7 @@ import pandas as pd
 from .options import (
     add_estimator_options,
     add_json,
+    add_lam,
     add_low_speed_band,
     add_record_input,
     add_skip,
@@ -122,8 +123,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--order", type=number(int, low=1), default=4, help="model order of Table 2 (default: 4)")
     p.add_argument("--degree", type=number(int, low=1), default=3,
                    help="polynomial degree of Table 1 (default: 3)")  # fmt: skip
-    p.add_argument("--lam", type=number(float, low=0.0, high=1.0, low_open=True), default=1.0,
-                   help="forgetting factor, 0 < lam <= 1 (default: 1)")  # fmt: skip
+    add_lam(p, default=1.0)
     p.add_argument("--prediction", choices=("one_step", "free_run"), default="one_step")
     add_low_speed_band(p)
     add_skip(p)

@@ -54,6 +54,7 @@ def number(kind: type = float, *, low: float | None = None, high: float | None =
 
 positive = number(float, low=0.0, low_open=True)
 non_negative = number(float, low=0.0)
+forgetting_factor = number(float, low=0.0, high=1.0, low_open=True)
 
 
 def int_range(text: str) -> list[int]:
@@ -132,12 +133,16 @@ def add_estimator_options(parser: argparse.ArgumentParser, repeatable: bool = Fa
     group.add_argument("--nb", type=number(int, low=0), help=f"order of B(q^-1) (default: {PAPER_ORDER})")
     group.add_argument("--degree", type=number(int, low=1), help="polynomial degree of the static block")
     group.add_argument("--basis", help="static block basis, e.g. 'u,sign' or 'dead_zone:0.8'")
-    group.add_argument("--lam", type=number(float, low=0.0, high=1.0, low_open=True),
-                       help="forgetting factor, 0 < lam <= 1")  # fmt: skip
+    add_lam(group, default=None)
     group.add_argument("--delta", type=positive, help="initial covariance P0 = delta I")
     group.add_argument("--gamma-method", choices=("paper", "svd"), help="Hammerstein step 2")
     group.add_argument("-p", "--param", action="append", default=[], metavar="KEY=VALUE",
                        help="any other estimator argument")  # fmt: skip
+
+
+def add_lam(group: argparse._ActionsContainer, default: float | None) -> None:
+    group.add_argument("--lam", type=forgetting_factor, default=default,
+                       help="forgetting factor, 0 < lam <= 1" + ("" if default is None else f" (default: {default:g})"))  # fmt: skip
 
 
 def _parse_value(text: str) -> Any:
