@@ -86,6 +86,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def add_register_map(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--map", help="register map TOML file (default: the built-in map; motorid rig map prints it)"
+    )
+
+
 def add_commands(sub: argparse._SubParsersAction) -> None:
     rig = sub.add_parser("rig", help="the simulated rig behind Modbus").add_subparsers(
         dest="rig_command", required=True, metavar="RIG_COMMAND"
@@ -95,7 +101,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
         ("map", "print the register map in use as TOML", cmd_rig_map),
     ):
         p = rig.add_parser(name, help=helptext)
-        p.add_argument("--map", help="register map TOML file (default: the built-in map)")
+        add_register_map(p)
         p.add_argument("--word-order", choices=("ABCD", "CDAB"), default="ABCD", help="float32 word order")
         p.set_defaults(func=func)
     serve = rig.choices["serve"]
@@ -119,7 +125,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     add_out_file(p, "CSV written row by row as the run goes")
     add_plant_seed(p, default=None)
     p.add_argument("--dt", type=positive, help="sample time [s] (default: the rig's)")
-    p.add_argument("--map", help="register map TOML file")
+    add_register_map(p)
     p.add_argument("--timeout", type=positive, help="Modbus timeout [s]")
     add_u_max(p, "voltage clamp")
     add_json(p)
