@@ -12,7 +12,17 @@ import pytest
 from filterpy.common import Saver
 
 from motorid import testing
-from motorid.estimators import ARXRLS, HammersteinRLS, available, create, register, unregister
+from motorid.estimators import (
+    ARXRLS,
+    Basis,
+    HammersteinRLS,
+    available,
+    create,
+    factory,
+    polynomial,
+    register,
+    unregister,
+)
 from motorid.testing import check_estimator, conformance_record
 
 #: keyword arguments that build a small instance of each registered estimator
@@ -34,16 +44,60 @@ def test_unknown_name_lists_what_is_available():
         create("kalman")
 
 
+@pytest.mark.cpu_sensitive
 @pytest.mark.parametrize("name", available())
 def test_every_registered_estimator_passes_the_conformance_suite(name):
-    passed = check_estimator(lambda: create(name, **SMALL.get(name, {})))
-    assert "check_batch_equals_loop" in passed and len(passed) == 10
+    """Every registered estimator passes; motorid's own give the sample loop's numbers
+    bit for bit from batch_filter, and a reset estimator a fresh one's: their batch
+    kernels run the loop's operations in the loop's order on the same basis values."""
+    report = check_estimator(lambda: create(name, **SMALL.get(name, {})))
+    if factory(name).__module__.startswith("motorid."):
+        assert report["check_batch_equals_loop"] == 0.0
+        assert report["check_reset"] == 0.0
 
 
+@pytest.mark.cpu_sensitive
 @pytest.mark.parametrize("gamma_method", ["paper", "svd"])
-@pytest.mark.parametrize("basis", [None, "u,sign", "dead_zone:0.5,u^3"])
+@pytest.mark.parametrize(
+    "basis",
+    [None, "u,sign", "dead_zone:0.5,u^3", [np.tanh, lambda v: v * np.abs(v)]],
+    ids=["cubic", "u,sign", "dead_zone,u^3", "custom"],
+)
 def test_hammerstein_variants_pass_the_conformance_suite(basis, gamma_method):
-    check_estimator(lambda: HammersteinRLS(2, 2, basis=basis, gamma_method=gamma_method, lam=0.98))
+    """Every kind of basis, the built-ins compiled and custom NumPy functions, gives
+    batch_filter the loop's numbers bit for bit (one evaluation of the basis)."""
+    report = check_estimator(lambda: HammersteinRLS(2, 2, basis=basis, gamma_method=gamma_method, lam=0.98))
+    assert report["check_batch_equals_loop"] == 0.0
+
+
+class _LastBitBasis(Basis):
+    """Rounds u^3 one unit in the last place up on every third sample of a record but
+    not for a single sample, as NumPy's vectorised power can on an AVX-512 CPU."""
+
+    def evaluate(self, u, start=0):
+        G = super().evaluate(u, start)
+        if len(u) > 1:
+            G[::3, 2] = np.nextafter(G[::3, 2], np.inf)
+        return G
+
+
+@pytest.mark.cpu_sensitive
+def test_a_plugin_whose_batch_path_rounds_differently_passes():
+    """A third-party estimator is not rejected for rounding: its batch path differs from
+    its loop in the last bit of one regressor on a third of the samples, which RLS
+    amplifies to about 1e-9 of the estimate (more than the former rtol 1e-9 allowed);
+    the suite passes it, using a small part of its allowance."""
+    u, y = conformance_record()
+    make = lambda: HammersteinRLS(4, 4, basis=_LastBitBasis(polynomial(3)), lam=0.99)  # noqa: E731
+    loop = make()
+    for k in range(len(u)):
+        loop.predict(u[k])
+        loop.update(y[k])
+    batch = make()
+    batch.batch_filter(u, y)
+    assert np.abs(batch.x - loop.x).max() > 1e-12 * np.abs(loop.x).max()  # they do differ
+    figure = check_estimator(make)["check_batch_equals_loop"]
+    assert 0.0 < figure < 0.1
 
 
 class _DriftingBatch(ARXRLS):
@@ -63,6 +117,18 @@ class _TouchesPOnBadInput(ARXRLS):
         return super().predict(u)
 
 
+class _ForgetsDifferently(ARXRLS):
+    """Broken: its batch path applies a forgetting factor off by one part in a million."""
+
+    def batch_filter(self, u, z, saver=None):
+        lam = self.lam
+        self.lam = lam * (1.0 - 1e-6)
+        try:
+            return super().batch_filter(u, z, saver)
+        finally:
+            self.lam = lam
+
+
 class _AsymmetricP(ARXRLS):
     """Broken: loses the symmetry of P."""
 
@@ -72,16 +138,19 @@ class _AsymmetricP(ARXRLS):
         return result
 
 
+@pytest.mark.cpu_sensitive
 @pytest.mark.parametrize(
     ("broken", "check"),
     [
         (_DriftingBatch, "check_batch_equals_loop"),
+        (_ForgetsDifferently, "check_batch_equals_loop"),
         (_TouchesPOnBadInput, "check_bad_input"),
         (_AsymmetricP, "check_covariance"),
     ],
 )
 def test_the_conformance_suite_rejects_broken_estimators(broken, check):
-    """Each check fails on the estimator broken its way (and so does the whole suite)."""
+    """Each check fails on the estimator broken its way (and so does the whole suite):
+    the allowance for rounding is far below a disagreement of one part in a million."""
     u, y = conformance_record()
     with pytest.raises(AssertionError, match=check):
         getattr(testing, check)(lambda: broken(2, 2, lam=0.99), u, y)
@@ -148,6 +217,7 @@ def test_a_plugin_registered_through_entry_point_metadata(tmp_path, monkeypatch,
         assert "broken-plugin" in caplog.text
         est = create("first-order-rls", lam=0.97)
         assert type(est).__name__ == "FirstOrderRLS" and est.lam == 0.97
-        check_estimator(lambda: create("first-order-rls", lam=0.99))
+        report = check_estimator(lambda: create("first-order-rls", lam=0.99))
+        assert report["check_batch_equals_loop"] == 0.0  # it inherits motorid's batch kernel
     finally:
         sys.modules.pop("motorid_demo_plugin", None)

@@ -7,7 +7,28 @@ The static nonlinearity is a weighted sum of basis functions of the input,
 with gamma_1 = 1 fixing the scale the Hammerstein structure leaves free. The paper
 uses powers, g_j(u) = u^j (eq. 16). A cubic polynomial fits a dead zone or a
 sign-like (Coulomb) step poorly, so :func:`dead_zone` and :func:`sign` are
-offered as basis functions too, and any vectorised function of ``u`` can be used.
+offered as basis functions too, and any element-wise function of ``u`` can be used.
+
+One evaluation serves every path. :meth:`Basis.evaluate` is the only place a basis
+is evaluated: the per-sample :meth:`~motorid.estimators.rls.LaggedRegressionRLS.predict`
+calls it on a one-sample array, ``batch_filter`` and ``simulate`` on the whole
+record, and it computes every sample on its own:
+
+- the built-in functions (:func:`power`, :func:`sign`, :func:`dead_zone`) by one
+  compiled scalar function, :func:`builtin_value`, called once per sample and
+  function. It uses only correctly rounded IEEE operations (products, differences,
+  comparisons; no ``pow`` or other library call, whose SIMD variants round
+  differently), so a sample gets the same bits whether it comes alone or inside a
+  record, on every CPU and compiled target. (NumPy's vectorised ``u**3`` does
+  not promise that: it dispatches SIMD code per CPU, and on AVX-512 it can differ
+  in the last bit from a scalar power.)
+- a custom Python function by one call per sample on a one-sample array, in the
+  per-sample path and in ``batch_filter`` alike. It costs a Python call per
+  sample in ``batch_filter`` (the built-ins are compiled), and makes the value of
+  a sample independent of the SIMD path NumPy picks for a longer array.
+
+So the regressors of the sample loop and of ``batch_filter`` are the same numbers
+by construction, and so are their estimates (:mod:`motorid.estimators.rls`).
 """
 
 from __future__ import annotations
@@ -15,42 +36,112 @@ from __future__ import annotations
 import math
 import re
 from collections.abc import Callable, Iterable, Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
+
+#: kinds of built-in function understood by :func:`builtin_value`
+POWER, SIGN, DEAD_ZONE = 0, 1, 2
+#: kind of a custom (Python) function, evaluated outside the compiled code
+CUSTOM = -1
+
+
+@njit(cache=True)
+def builtin_value(kind: int, parameter: float, u: float) -> float:
+    """One built-in basis function at one input ``u`` [V].
+
+    ``POWER``: ``u^j`` with j = ``parameter``, as the product ``u u ... u`` taken
+    left to right (j - 1 correctly rounded multiplications); ``SIGN``: sgn(u),
+    sgn(0) = 0 (paper eq. 10); ``DEAD_ZONE``: ``u - d`` for u > d, ``u + d`` for
+    u < -d, else 0, with d = ``parameter`` [V] (paper Fig. 4).
+    """
+    if kind == POWER:
+        value = u
+        for _ in range(1, int(parameter)):
+            value = value * u
+        return value
+    if kind == SIGN:
+        if u > 0.0:
+            return 1.0
+        if u < 0.0:
+            return -1.0
+        return 0.0
+    if u > parameter:
+        return u - parameter
+    if u < -parameter:
+        return u + parameter
+    return 0.0
+
+
+@njit(cache=True)
+def builtin_columns(kinds: np.ndarray, parameters: np.ndarray, u: np.ndarray, G: np.ndarray) -> int:
+    """``G[t, j] = builtin_value(kinds[j], parameters[j], u[t])`` for every built-in
+    column (columns of kind ``CUSTOM`` are left alone), sample by sample.
+
+    Returns the flat index ``t * n + j`` of the first non-finite value, or -1.
+    """
+    n = kinds.shape[0]
+    first_bad = -1
+    for t in range(u.shape[0]):
+        for j in range(n):
+            if kinds[j] != CUSTOM:
+                value = builtin_value(kinds[j], parameters[j], u[t])
+                G[t, j] = value
+                if first_bad < 0 and not math.isfinite(value):
+                    first_bad = t * n + j
+    return first_bad
 
 
 @dataclass(frozen=True)
 class BasisFunction:
-    """One named, vectorised function ``g(u)`` of the input [V].
+    """One named function ``g(u)`` of the input [V], applied element by element.
 
     Parameters
     ----------
     name : str
         How it is shown in ``params`` and tables, e.g. ``"u^2"``.
-    func : callable
-        Maps a float array of inputs to an array of the same shape.
+    func : callable, optional
+        A custom function: maps a float array of inputs to an array of the same
+        shape, each element from the input element alone. None for a built-in.
+    builtin : tuple of (int, float), optional
+        The compiled form ``(kind, parameter)`` of a built-in function (see
+        :func:`builtin_value`); set by :func:`power`, :func:`sign` and
+        :func:`dead_zone`. Give ``func`` or ``builtin``, not both.
     """
 
     name: str
-    func: Callable[[np.ndarray], np.ndarray]
+    func: Callable[[np.ndarray], np.ndarray] | None = None
+    builtin: tuple[int, float] | None = field(default=None, repr=False)
+
+    def __post_init__(self) -> None:
+        if (self.func is None) == (self.builtin is None):
+            raise ValueError(f"basis function {self.name!r} needs func or builtin, not both or neither")
+        if self.func is not None and not callable(self.func):
+            raise ValueError(f"func of basis function {self.name!r} must be callable, got {self.func!r}")
 
     def __call__(self, u: np.ndarray) -> np.ndarray:
-        return np.asarray(self.func(np.asarray(u, dtype=float)), dtype=float)
+        """``g(u)`` for an array of inputs [V], of the same shape."""
+        arr = np.asarray(u, dtype=float)
+        if self.func is not None:
+            return np.asarray(self.func(arr), dtype=float)
+        kind, parameter = self.builtin  # type: ignore[misc]
+        flat = np.ascontiguousarray(arr.reshape(-1))
+        out = np.empty((flat.shape[0], 1))
+        builtin_columns(np.array([kind]), np.array([parameter], dtype=float), flat, out)
+        return out.reshape(arr.shape)
 
 
 def power(j: int) -> BasisFunction:
-    """``g(u) = u^j`` (paper eq. 16)."""
-    if j < 1:
-        raise ValueError(f"power must be >= 1, got {j}")
-    if j == 1:
-        return BasisFunction("u", lambda u: u)
-    return BasisFunction(f"u^{j}", lambda u: u**j)
+    """``g(u) = u^j`` (paper eq. 16), the product of j factors u."""
+    if isinstance(j, bool) or not isinstance(j, (int, np.integer)) or j < 1:
+        raise ValueError(f"power must be an integer >= 1, got {j!r}")
+    return BasisFunction("u" if j == 1 else f"u^{j}", builtin=(POWER, float(j)))
 
 
 def sign() -> BasisFunction:
     """``g(u) = sgn(u)`` (paper eq. 10, sgn(0) = 0): a Coulomb-like step at zero input."""
-    return BasisFunction("sign(u)", np.sign)
+    return BasisFunction("sign(u)", builtin=(SIGN, 0.0))
 
 
 def dead_zone(d: float) -> BasisFunction:
@@ -61,7 +152,7 @@ def dead_zone(d: float) -> BasisFunction:
     d = float(d)
     if not np.isfinite(d) or d < 0.0:
         raise ValueError(f"dead zone half-width d must be finite and >= 0, got {d}")
-    return BasisFunction(f"dead_zone(u, {d:g})", lambda u: np.sign(u) * np.maximum(np.abs(u) - d, 0.0))
+    return BasisFunction(f"dead_zone(u, {d:g})", builtin=(DEAD_ZONE, d))
 
 
 class Basis(Sequence[BasisFunction]):
@@ -70,7 +161,7 @@ class Basis(Sequence[BasisFunction]):
     Parameters
     ----------
     functions : iterable of BasisFunction or callable
-        Plain callables are named ``g1``, ``g2``, ... by position.
+        Plain callables are custom functions named ``g1``, ``g2``, ... by position.
     """
 
     def __init__(self, functions: Iterable[BasisFunction | Callable[[np.ndarray], np.ndarray]]):
@@ -85,6 +176,9 @@ class Basis(Sequence[BasisFunction]):
         if not items:
             raise ValueError("basis must hold at least one function")
         self._functions = tuple(items)
+        self._kinds = np.array([CUSTOM if f.builtin is None else f.builtin[0] for f in items], dtype=np.int64)
+        self._parameters = np.array([0.0 if f.builtin is None else f.builtin[1] for f in items])
+        self._custom = tuple(j for j, f in enumerate(items) if f.builtin is None)
 
     def __getitem__(self, index):  # type: ignore[override]
         return self._functions[index]
@@ -100,30 +194,47 @@ class Basis(Sequence[BasisFunction]):
         """The name of each function."""
         return tuple(f.name for f in self._functions)
 
-    def evaluate(self, u: np.ndarray) -> np.ndarray:
-        """``G[t, j] = g_j(u[t])``, shape ``(len(u), len(self))``; ValueError naming
-        the function and sample where one returns a wrong shape or a non-finite value."""
-        u = np.asarray(u, dtype=float)
-        columns = np.empty((u.shape[0], len(self._functions)))
-        for j, f in enumerate(self._functions):
-            values = f(u)
-            if values.shape != u.shape:
-                raise ValueError(
-                    f"basis function {f.name!r} returned shape {values.shape} for input {u.shape}"
-                )
-            bad = np.flatnonzero(~np.isfinite(values))
-            if bad.size:
-                raise ValueError(f"basis function {f.name!r} is not finite at sample {int(bad[0])}")
-            columns[:, j] = values
-        return columns
+    def evaluate(self, u: np.ndarray, start: int = 0) -> np.ndarray:
+        """``G[t, j] = g_j(u[t])``, shape ``(len(u), len(self))``, each sample on its own.
 
-    def evaluate_scalar(self, u: float) -> np.ndarray:
-        """``g_j(u)`` for one input value, shape ``(len(self),)`` (the per-sample path)."""
-        values = [float(f.func(u)) for f in self._functions]
-        if not math.isfinite(sum(values)):
-            j = next(j for j, value in enumerate(values) if not math.isfinite(value))
-            raise ValueError(f"basis function {self._functions[j].name!r} is {values[j]} at u = {u}")
-        return np.array(values)
+        The one evaluation of the basis (module docstring): the sample loop calls it
+        with one sample, ``batch_filter`` with the record, and both get the same bits.
+
+        Parameters
+        ----------
+        u : ndarray, shape (N,)
+            Inputs [V].
+        start : int
+            Sample index of ``u[0]`` in the record, for the error message.
+
+        Raises
+        ------
+        ValueError
+            Naming the function and the sample where a function returns a wrong
+            shape or a non-finite value.
+        """
+        u = np.ascontiguousarray(u, dtype=float)
+        n = len(self._functions)
+        columns = np.empty((u.shape[0], n))
+        first_bad = builtin_columns(self._kinds, self._parameters, u, columns)
+        for j in self._custom:
+            f = self._functions[j]
+            for t in range(u.shape[0]):
+                value = f(u[t : t + 1])
+                if value.shape != (1,):
+                    raise ValueError(
+                        f"basis function {f.name!r} returned shape {value.shape} for one sample, expected (1,)"
+                    )
+                columns[t, j] = value[0]
+                if not math.isfinite(value[0]) and (first_bad < 0 or t * n + j < first_bad):
+                    first_bad = t * n + j
+        if first_bad >= 0:
+            t, j = divmod(first_bad, n)
+            raise ValueError(
+                f"basis function {self._functions[j].name!r} is {columns[t, j]} at sample {start + t} "
+                f"(u = {u[t]} V)"
+            )
+        return columns
 
     def __repr__(self) -> str:
         return f"Basis({', '.join(self.names)})"
