@@ -8,7 +8,8 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from conftest import examples
+from hypothesis import given
 from hypothesis import strategies as st
 
 from motorid.plants import (
@@ -48,7 +49,9 @@ def test_step_interface_and_state_dict():
     assert all(v == 0.0 for k, v in rig.state.items() if k not in ("t",))
 
 
+@pytest.mark.cpu_sensitive
 def test_step_loop_equals_simulate_with_same_seed():
+    """Bit for bit: step() and simulate() call the same compiled sample kernel."""
     rig = paper_rig()
     u = np.concatenate([np.linspace(0, 8, 40), np.linspace(8, -8, 80), np.zeros(2000)])
     df = rig.simulate(u, seed=42)
@@ -144,25 +147,36 @@ def test_friction_and_sensor_parameters_are_checked():
 
 
 # ------------------------------------------------------ the paper's figures
-def test_paper_rig_speed_at_12_volts_is_about_2400_rpm():
+#: What K_m = 0.04284 V s/rad, given to four digits, can promise of the speed it was
+#: set for: half a unit in its last digit is 1.2e-4 of it, and the speed goes as 1/K_m.
+K_M_DIGITS = 1.2e-4
+
+
+def test_paper_rig_speed_at_12_volts_is_2400_rpm():
+    """paper_rig's docstring: 2400 rpm at 12 V within 0.012 % (measured 2400.2 rpm),
+    in the steady state and after 1.6 s of the step, both ways."""
     rig = quiet(paper_rig())
-    assert steady_state_speed(rig, 12.0) * RPM == pytest.approx(2400, rel=0.02)
+    assert steady_state_speed(rig, 12.0) * RPM == pytest.approx(2400, rel=K_M_DIGITS)
     df = rig.simulate(np.full(40, 12.0))
-    assert df["omega_l"].iloc[-1] * RPM == pytest.approx(2400, rel=0.02)
+    assert df["omega_l"].iloc[-1] * RPM == pytest.approx(2400, rel=K_M_DIGITS)
     df = rig.simulate(np.full(40, -12.0))
-    assert df["omega_l"].iloc[-1] * RPM == pytest.approx(-2400, rel=0.02)
+    assert df["omega_l"].iloc[-1] * RPM == pytest.approx(-2400, rel=K_M_DIGITS)
     # saturation: commanding more than the rating changes nothing
     df20 = rig.simulate(np.full(40, 20.0))
     assert df20["omega_l"].iloc[-1] == -df["omega_l"].iloc[-1]
 
 
-def test_paper_rig_settling_time_is_about_400_ms():
+def test_paper_rig_settling_time_is_0_41_s():
+    """paper_rig's docstring: the 2 % settling time of the 12 V step is 0.41 s, stated
+    to two decimals, so the test allows half a unit of the last one (5 ms); sampled
+    every 1 ms, it is the first sample after which the speed stays within 2 % of its
+    final value (measured 0.409 s; 0.4082 s at 0.1 ms)."""
     rig = quiet(paper_rig(dt=0.001, substeps=1))
     w = rig.simulate(np.full(1500, 12.0))["omega_l"].to_numpy()
     final = w[-1]
     outside = np.flatnonzero(np.abs(w - final) > 0.02 * abs(final))
-    settling = (outside[-1] + 2) * rig.dt
-    assert 0.3 <= settling <= 0.5, settling
+    settling = (outside[-1] + 2) * rig.dt  # sample k ends at (k + 1) dt
+    assert settling == pytest.approx(0.41, abs=0.005)
 
 
 def test_paper_rig_holds_still_at_low_voltage_and_moves_above():
@@ -182,7 +196,7 @@ def test_sampled_at_40ms_with_1khz_internal_steps():
 
 
 # ------------------------------------------------------- stick at zero speed
-@settings(max_examples=25, deadline=None)
+@examples(25)
 @given(
     levels=st.lists(st.floats(-0.95, 0.95), min_size=1, max_size=8),
     hold=st.integers(1, 10),

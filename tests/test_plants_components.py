@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from motorid.plants import (
@@ -29,7 +29,6 @@ speeds = st.floats(-300.0, 300.0, allow_nan=False)
 coef = st.floats(0.0, 0.05)
 
 
-@settings(max_examples=40, deadline=None)
 @given(w=speeds, a0=coef, a1=coef, a2=st.floats(0.0, 5.0))
 def test_coulomb_and_stribeck_follow_eqs_8_and_9(w, a0, a1, a2):
     sgn = float(np.sign(w))  # eq. (10): sgn(0) = 0
@@ -38,7 +37,6 @@ def test_coulomb_and_stribeck_follow_eqs_8_and_9(w, a0, a1, a2):
     assert StribeckFriction(a0, a1, a2).torque(w) == pytest.approx(expected)
 
 
-@settings(max_examples=40, deadline=None)
 @given(w=speeds, a=st.tuples(coef, coef, st.floats(0, 5), coef, coef, st.floats(0, 5)))
 def test_asymmetric_follows_eq_11(w, a):
     sgn1 = 1.0 if w >= 0 else 0.0
@@ -97,12 +95,57 @@ def test_lugre_reaches_its_steady_state_curve():
     assert lugre.torque(z, 5.0) == pytest.approx(lugre.steady_state_torque(5.0))
 
 
-@settings(max_examples=50, deadline=None)
-@given(u=st.floats(-30, 30), d=st.floats(0, 2), vmax=st.floats(1, 24), g=st.floats(0.5, 2))
-def test_amplifier_dead_zone_and_saturation(u, d, vmax, g):
-    v = min(max(g * u, -vmax), vmax)
-    expected = 0.0 if abs(v) <= d else v - math.copysign(d, v)
-    assert Amplifier(gain=g, dead_zone=d, v_max=vmax)(u) == pytest.approx(expected, abs=1e-12)
+@pytest.mark.parametrize(
+    ("amplifier", "u", "v_a"),
+    [
+        # the paper rig's amplifier: unit gain, 0.6 V dead zone, ±12 V rating (Fig. 4)
+        (Amplifier(1.0, 0.6, 12.0), 0.0, 0.0),
+        (Amplifier(1.0, 0.6, 12.0), 0.3, 0.0),
+        (Amplifier(1.0, 0.6, 12.0), -0.6, 0.0),  # the edge of the band is still dead
+        (Amplifier(1.0, 0.6, 12.0), 1.0, 0.4),
+        (Amplifier(1.0, 0.6, 12.0), -6.0, -5.4),
+        (Amplifier(1.0, 0.6, 12.0), 12.0, 11.4),  # the largest voltage, V_max - d
+        (Amplifier(1.0, 0.6, 12.0), 20.0, 11.4),  # beyond the rating: nothing more
+        (Amplifier(1.0, 0.6, 12.0), -20.0, -11.4),
+        # gain 2: the dead zone and the rating apply to the amplified command
+        (Amplifier(2.0, 0.5, 10.0), 0.25, 0.0),
+        (Amplifier(2.0, 0.5, 10.0), 1.0, 1.5),
+        (Amplifier(2.0, 0.5, 10.0), 6.0, 9.5),
+        (Amplifier(), -7.0, -7.0),  # the defaults: an ideal amplifier
+    ],
+)
+def test_amplifier_at_known_points(amplifier, u, v_a):
+    assert amplifier(u) == pytest.approx(v_a, abs=1e-15)  # one rounding of a few volts
+
+
+@given(d=st.floats(0, 2), vmax=st.floats(1, 24), g=st.floats(0.5, 2), u=st.floats(-30, 30))
+def test_amplifier_is_odd_monotone_bounded_and_dead_inside_its_band(d, vmax, g, u):
+    """Properties of a dead zone behind a saturation, whatever the formula: odd,
+    non-decreasing, never beyond V_max - d, exactly zero while |G u| <= d and nonzero
+    outside the band below the rating."""
+    amp = Amplifier(gain=g, dead_zone=d, v_max=vmax)
+    grid = np.sort(np.r_[np.linspace(-30.0, 30.0, 601), u])
+    v = amp(grid)
+    np.testing.assert_array_equal(amp(-grid), -v)
+    assert np.all(np.diff(v) >= 0.0)
+    assert np.all(np.abs(v) <= max(vmax - d, 0.0))
+    if abs(g * u) <= d:
+        assert amp(u) == 0.0
+    elif vmax > d:
+        assert amp(u) != 0.0 and math.copysign(1.0, amp(u)) == math.copysign(1.0, u)
+
+
+@pytest.mark.parametrize(("g", "d", "vmax"), [(1.0, 0.6, 12.0), (2.0, 0.5, 10.0), (0.7, 1.5, 24.0)])
+def test_amplifier_slope_is_the_gain_between_band_and_rating(g, d, vmax):
+    """Between the dead band and the rating dv_a/du = G, on both sides; beyond the
+    rating 0. The slope comes from outputs volts apart, each within a rounding
+    (1e-15 V) of its value: it is G to 1e-12."""
+    amp = Amplifier(gain=g, dead_zone=d, v_max=vmax)
+    low, high = (d + 0.25 * (vmax - d)) / g, (d + 0.75 * (vmax - d)) / g
+    for sign in (1.0, -1.0):
+        slope = (amp(sign * high) - amp(sign * low)) / (sign * (high - low))
+        assert slope == pytest.approx(g, rel=1e-12)
+        assert amp(sign * 2 * vmax / g) == amp(sign * 3 * vmax / g)
 
 
 def test_tacho_and_adc_chain():
