@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from motorid.plants.signals import chirp, multisine, prbs, steps, two_sine_signal
@@ -48,7 +48,6 @@ def test_two_sine_signal_has_quiet_stretches_around_zero():
     assert np.sum(np.diff(np.sign(u[quiet])) != 0) > 10
 
 
-@settings(max_examples=20, deadline=None)
 @given(
     amplitude=st.floats(0.1, 12.0),
     hold=st.integers(1, 5),
