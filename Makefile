@@ -15,9 +15,11 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet -e ".[test]"
 	touch $(STAMP)
 
+# the tests that hold two code paths to the same numbers, again on numba's generic x86-64 target
 test: $(STAMP)
 	$(BIN)/ruff check motorid tests benchmarks scripts notebooks
 	$(BIN)/python -m pytest -q
+	NUMBA_CPU_NAME=generic $(BIN)/python -m pytest -q -m cpu_sensitive
 
 demo: $(STAMP)
 	$(BIN)/motorid demo --out out
