@@ -30,9 +30,10 @@ every input and measurement moved by one unit in the last place, and the two pat
 may differ by up to :data:`ROUNDING_MARGIN` times the estimator's response to that
 change, each estimate relative to its own size (:func:`rounding_comparison`). A
 different rounding of one intermediate value per sample (``u**3`` vectorised
-against scalar, in the Hammerstein RLS) measured 0.5 to 2 times that response; a
-real disagreement (a sample skipped or updated twice, another forgetting factor,
-an offset of 1e-3) exceeds it by many orders of magnitude. motorid's own
+against scalar, in the Hammerstein RLS) measured 0.4 to 3 times that response, so
+the margin leaves room for paths that round differently in many places; a real
+disagreement (a sample skipped or updated twice, an offset of 1e-3, a forgetting
+factor off by even one part in 10^7) exceeds it by orders of magnitude. motorid's own
 estimators compute both paths with the same operations in the same order, and the
 figures the checks return are 0.0 for them (bit for bit; the project's tests
 assert it).

@@ -61,6 +61,9 @@ class HammersteinRLS(LaggedRegressionRLS):
         gamma_1 = 1. Ship-in functions: :func:`~motorid.estimators.basis.dead_zone`
         and :func:`~motorid.estimators.basis.sign`; a string is parsed by
         :func:`~motorid.estimators.basis.basis_from_spec` (e.g. ``"u,sign"``).
+        The built-ins are compiled; a custom (Python) function is called on
+        one-sample arrays, in ``batch_filter`` as in the sample loop, so both give
+        the same numbers (at a Python call per sample).
     gamma_method : {"paper", "svd"}
         How step 2 recovers b and gamma.
     direct_term, max_trace, R, x0
