@@ -12,7 +12,17 @@ from hypothesis import given
 from hypothesis import strategies as st
 from scipy.signal import lfilter
 
-from motorid.estimators import Basis, HammersteinRLS, basis_from_spec, dead_zone, polynomial, power, sign
+from motorid.estimators import (
+    Basis,
+    BasisFunction,
+    HammersteinRLS,
+    basis_from_spec,
+    dead_zone,
+    polynomial,
+    power,
+    sign,
+)
+from motorid.estimators.basis import POWER, SIGN
 from motorid.validation import mse
 
 SETTINGS = examples(12)
@@ -125,6 +135,10 @@ def test_basis_spec_and_objects():
         basis_from_spec("u,cos")
     with pytest.raises(ValueError, match="dead zone half-width"):
         dead_zone(-1.0)
+    with pytest.raises(ValueError, match="no built-in"):
+        BasisFunction("u^2.5", builtin=(POWER, 2.5))
+    with pytest.raises(ValueError, match="func or builtin"):
+        BasisFunction("g", np.tanh, builtin=(SIGN, 0.0))
     bad = HammersteinRLS(1, 1, basis=[lambda v: v, lambda v: np.where(v < 0, np.inf, v)])
     with pytest.raises(ValueError, match="basis function 'g2'"):
         bad.batch_filter(np.array([1.0, -1.0]), np.array([0.0, 0.0]))

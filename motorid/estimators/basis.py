@@ -119,6 +119,15 @@ class BasisFunction:
             raise ValueError(f"basis function {self.name!r} needs func or builtin, not both or neither")
         if self.func is not None and not callable(self.func):
             raise ValueError(f"func of basis function {self.name!r} must be callable, got {self.func!r}")
+        if self.builtin is not None:
+            kind, parameter = self.builtin
+            valid = (
+                (kind == POWER and float(parameter).is_integer() and parameter >= 1)
+                or kind == SIGN
+                or (kind == DEAD_ZONE and math.isfinite(parameter) and parameter >= 0.0)
+            )
+            if not valid:
+                raise ValueError(f"basis function {self.name!r}: no built-in {self.builtin!r}")
 
     def __call__(self, u: np.ndarray) -> np.ndarray:
         """``g(u)`` for an array of inputs [V], of the same shape."""
