@@ -463,7 +463,8 @@ class TwoMassRig:
         df.attrs["rig"] = self.to_dict()
         df.attrs["integrator"] = integrator
         df.attrs["seed"] = seed
-        df.attrs["timing"] = "hold"  # a keyword of motorid.records.TIMINGS; the true states are at t[k]+dt too
+        # a keyword of motorid.records.TIMINGS; the true states are at t[k]+dt too
+        df.attrs["timing"] = "hold"
         return df
 
     # ---------------------------------------------------------- description
