@@ -5,7 +5,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
+
+from motorid.errors import DataError
 
 from .options import (
     add_estimator_options,
@@ -21,6 +24,19 @@ from .options import (
     read_record_from_args,
 )
 from .report import emit_json, frame_records, say, say_params
+
+
+def require_finite_estimate(name: str, x: np.ndarray, u: np.ndarray, y: np.ndarray) -> None:
+    """Refuse an estimate that stopped being finite, naming the first sample where it did.
+
+    A result with NaN or inf is never reported as a success: it means the record
+    drove the estimator out of floating-point range (an outlier, a unit mistake).
+    """
+    bad = ~np.isfinite(x).all(axis=1)
+    if bad.any():
+        k = int(np.argmax(bad))
+        raise DataError(f"estimator {name!r}: its estimate is not finite from sample {k} on "
+                        f"(u = {u[k]:.6g}, y = {y[k]:.6g} there); check the record around row {k}")  # fmt: skip
 
 
 def cmd_identify(args: argparse.Namespace) -> int:
@@ -39,6 +55,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
         check_out_folder(args.out)
     u, y = record["u"].to_numpy(), record["y"].to_numpy()
     result = est.batch_filter(u, y)
+    require_finite_estimate(args.estimator, result.x, u, y)
     free_run = est.simulate(u)
     threshold = float(rpm_to_rad_s(args.low_speed_rpm))
     scores = score_predictions(y, {"one_step": result.y_hat, "free_run": free_run}, threshold, args.skip)
