@@ -9,13 +9,14 @@ paper reports rpm.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
 
+from motorid.errors import DataError
 from motorid.estimators.base import Estimator, as_float_vector, first_bad_index
 
 RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
@@ -29,6 +30,56 @@ def rad_s_to_rpm(value: ArrayLike) -> np.ndarray | float:
 def rpm_to_rad_s(value: ArrayLike) -> np.ndarray | float:
     """Angular speed [rev/min] to [rad/s]."""
     return np.asarray(value, dtype=float) / RPM_PER_RAD_S
+
+
+#: A sample further from the median than this many times the signal's spread is an outlier.
+OUTLIER_SPREADS = 1e6
+
+
+def check_signals(signals: Mapping[str, ArrayLike]) -> None:
+    """Refuse signals that cannot identify a model, naming the column and the row.
+
+    Each signal (a record's column, by name) must vary, and hold no outlier: a
+    sample ``x[k]`` with ``|x[k] - median(x)| > OUTLIER_SPREADS * s``, where the
+    spread ``s`` is the median absolute deviation from the median (or, when more
+    than half the samples sit on the median, as with a mostly-zero input, the
+    median of the nonzero deviations). The factor 1e6 passes any measured drive signal
+    (measured: EMPS's force and position reach 7.3 spreads, the small motors of
+    ``realmotors/`` 4.4) and
+    catches a unit slip or a corrupt cell (1e300), which would overflow the
+    squares of least squares and turn every result to NaN.
+
+    Parameters
+    ----------
+    signals : mapping of str to array_like
+        Column name -> samples (row k of the record is sample k).
+
+    Raises
+    ------
+    DataError
+        On a constant column, or an outlier (the first, by row).
+    """
+    for name, values in signals.items():
+        x = as_float_vector(values, name)
+        bad = first_bad_index(x)
+        if bad is not None:
+            raise DataError(f"column {name!r} has a non-finite value {x[bad]!r} at row {bad}")
+        if x.size and np.all(x == x[0]):
+            raise DataError(
+                f"column {name!r} is constant ({x[0]:g} in every one of its {x.size} rows): "
+                "it carries nothing to identify a model from"
+            )
+        centre = float(np.median(x))
+        deviation = np.abs(x - centre)
+        spread = float(np.median(deviation)) or float(np.median(deviation[deviation > 0.0]))
+        outliers = np.flatnonzero(deviation > OUTLIER_SPREADS * spread)
+        if outliers.size:
+            row = int(outliers[0])
+            raise DataError(
+                f"column {name!r} has an outlier {x[row]:.6g} at row {row}, more than {OUTLIER_SPREADS:g} "
+                f"times the column's spread ({spread:.3g}) from its median ({centre:.3g}): a unit slip or a "
+                "corrupt cell? Fix or drop that row"
+            )
 
 
 def _pair(y: ArrayLike, y_hat: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
@@ -66,7 +117,7 @@ def fit_percent(y: ArrayLike, y_hat: ArrayLike) -> float:
     y_arr, y_hat_arr = _pair(y, y_hat)
     spread = float(np.linalg.norm(y_arr - y_arr.mean()))
     if spread == 0.0:
-        raise ValueError("y is constant: FIT % is undefined")
+        raise DataError("y is constant: FIT % is undefined")
     with np.errstate(over="ignore", invalid="ignore"):
         return 100.0 * (1.0 - float(np.linalg.norm(y_arr - y_hat_arr)) / spread)
 
@@ -395,6 +446,7 @@ def order_sweep(
     from motorid.estimators import ARXRLS, HammersteinRLS
 
     u_arr, y_arr = as_float_vector(u, "u"), as_float_vector(y, "y")
+    check_signals({"u": u_arr, "y": y_arr})
     if prediction not in ("one_step", "free_run"):
         raise ValueError(f"prediction must be 'one_step' or 'free_run', got {prediction!r}")
     threshold = 0.1 * float(np.max(np.abs(y_arr))) if low_speed_threshold is None else low_speed_threshold

@@ -235,4 +235,4 @@ def test_a_nan_sample_is_named_with_its_column_and_index():
     with pytest.raises(ValueError, match="DataFrame"):
         diagnose(rec.to_numpy())  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="too short"):
-        diagnose(pd.DataFrame({"u": np.ones(40), "y": np.ones(40)}), dt=0.01)
+        diagnose(pd.DataFrame({"u": np.sin(np.arange(40.0)), "y": np.cos(np.arange(40.0))}), dt=0.01)

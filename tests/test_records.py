@@ -8,9 +8,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from motorid.errors import DataError
 from motorid.plants import TwoMassRig, paper_rig
 from motorid.plants.signals import two_sine_signal
-from motorid.records import ATTRS_MARKER, read_record, write_record
+from motorid.records import ATTRS_MARKER, count_data_lines, read_record, write_record
 
 
 @pytest.fixture(scope="module")
@@ -109,7 +110,7 @@ def test_time_not_uniform_names_row(tmp_path):
 def test_too_few_samples(tmp_path, record):
     path = tmp_path / "short.csv"
     write_record(record.iloc[:5], path)
-    with pytest.raises(ValueError, match=r"5 samples, fewer than min_samples = 10"):
+    with pytest.raises(ValueError, match=r"5 samples; at least 10 are needed"):
         read_record(path, min_samples=10)
     assert len(read_record(path, min_samples=5)) == 5
 
@@ -120,3 +121,66 @@ def test_dt_mismatch_with_file(tmp_path, record):
     with pytest.raises(ValueError, match="dt"):
         read_record(path, dt=0.01)
     assert read_record(path, dt=0.04).attrs["dt"] == 0.04
+
+
+GOOD = "t,u,y\n" + "".join(f"{k * 0.04!r},{np.sin(k):.6f},{np.cos(k):.6f}\n" for k in range(10))
+
+
+@pytest.mark.parametrize(
+    ("case", "content", "words"),
+    [
+        ("missing file", None, ["no such file"]),
+        ("a folder", "folder", ["is a folder"]),
+        ("empty", b"", ["is empty"]),
+        ("binary", b"\x89PNG\r\n\x1a\n\x00\x00\xff\xfe", ["not a text CSV"]),
+        ("header only", b"t,u,y\n", ["no data"]),
+        ("attribute line only", (ATTRS_MARKER + '{"dt": 0.04}\n').encode(), ["no header line"]),
+        ("repeated column", b"t,u,y,y\n0,1,2,3\n0.04,1,2,3\n", ["'y' appears twice"]),
+        ("unnamed column", b"t,u,,y\n0,1,2,3\n0.04,1,2,3\n", ["column 3 of the header has no name"]),
+        ("single row", b"t,u,y\n0,1,2\n", ["1 sample;", "at least 2"]),
+        ("text in the time column", GOOD.replace("0.16", "skip").encode(), ["'t'", "'skip'", "row 4"]),
+        (
+            "three rows missing",
+            "".join(GOOD.splitlines(True)[i] for i in (0, 1, 2, 6, 7, 8)).encode(),
+            ["gap of 3 samples before row 2", "line 4"],
+        ),
+        (
+            "infinite value",
+            GOOD.replace("0.04,", "0.04,inf,", 1).replace(",inf,0.841471", ",inf").encode(),
+            ["'u' has an infinite value 'inf' at row 1"],
+        ),
+    ],
+)
+def test_a_file_that_is_not_a_record_is_a_data_error_naming_it(tmp_path, case, content, words):
+    path = tmp_path / "rec.csv"
+    if content == "folder":
+        path.mkdir()
+    elif content is not None:
+        path.write_bytes(content)
+    before = path.read_bytes() if path.is_file() else None
+    with pytest.raises(DataError) as err:
+        read_record(path)
+    assert all(w in str(err.value) for w in words), f"{case}: {err.value}"
+    assert str(path) in str(err.value) or "column" in str(err.value)
+    assert (path.read_bytes() if path.is_file() else None) == before
+
+
+def test_max_samples_refuses_a_long_record_before_parsing_it(tmp_path):
+    path = tmp_path / "long.csv"
+    path.write_text(GOOD)
+    assert len(read_record(path, max_samples=10)) == 10
+    with pytest.raises(
+        DataError, match=r"10 rows, more than the limit of 9 samples.*decimate.*keep one row in 2\)"
+    ):
+        read_record(path, max_samples=9)
+    assert count_data_lines(path) == 11
+    path.write_text(GOOD.rstrip("\n"))  # no line break after the last row
+    assert count_data_lines(path) == 11
+
+
+def test_only_the_named_columns_are_read_when_asked(tmp_path, record):
+    path = tmp_path / "rec.csv"
+    write_record(record, path)
+    narrow = read_record(path, other_columns=False)
+    assert list(narrow.columns) == ["t", "u", "y"]
+    pd.testing.assert_frame_equal(narrow, record[["t", "u", "y"]], check_exact=True, check_like=False)

@@ -2,12 +2,17 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
+import pandas as pd
 import pytest
 from scipy.signal import lfilter
 
+from motorid.errors import DataError
 from motorid.estimators import ARXRLS, HammersteinRLS
 from motorid.validation import (
+    check_signals,
     compare_predictions,
     fit_percent,
     low_speed_mse,
@@ -16,6 +21,8 @@ from motorid.validation import (
     rmse,
     rpm_to_rad_s,
 )
+
+REALMOTORS = Path(__file__).resolve().parents[2] / "shared" / "data" / "realmotors"
 
 
 def test_metrics_by_hand():
@@ -106,3 +113,29 @@ def test_residual_tests_reject_bad_arguments(tmp_path):
     path = tmp_path / "resid.png"
     plot_residual_tests(residual_tests(rng.standard_normal(500), rng.standard_normal(500)), str(path))
     assert path.stat().st_size > 10_000
+
+
+def test_check_signals_refuses_a_constant_column_and_names_an_outlier_row():
+    t = np.arange(500) * 0.01
+    u, y = np.sin(3 * t), np.cos(2 * t)
+    check_signals({"u": u, "y": y})  # a good record passes
+    with pytest.raises(DataError, match=r"column 'volts' is constant \(0 in every one of its 500 rows\)"):
+        check_signals({"volts": np.zeros(500), "y": y})
+    spiky = y.copy()
+    spiky[250] = 1e300
+    with pytest.raises(DataError, match=r"column 'speed' has an outlier 1e\+300 at row 250"):
+        check_signals({"u": u, "speed": spiky})
+    # a mostly-zero input (a pulse) has MAD 0: the mean absolute deviation is its spread then
+    pulse = np.where((t > 1.0) & (t < 1.5), 2.0, 0.0)
+    check_signals({"u": pulse})
+    pulse[400] = 1e9
+    with pytest.raises(DataError, match=r"'u' has an outlier .* at row 400"):
+        check_signals({"u": pulse})
+
+
+@pytest.mark.parametrize("name", sorted(p.name for p in REALMOTORS.glob("*.csv")) or ["none"])
+def test_check_signals_passes_every_measured_record(name):
+    if not REALMOTORS.is_dir():
+        pytest.skip(f"{REALMOTORS} is not there")
+    record = pd.read_csv(REALMOTORS / name, comment="#")
+    check_signals({"u": record["u"], "y": record["y"]})

@@ -41,8 +41,10 @@ def require_finite_estimate(name: str, x: np.ndarray, u: np.ndarray, y: np.ndarr
 
 def cmd_identify(args: argparse.Namespace) -> int:
     """Identify one estimator on a record; report params, MSE, FIT and residual tests."""
+    from motorid.estimators.base import first_bad_index
     from motorid.validation import (
         RPM_PER_RAD_S,
+        check_signals,
         plot_residual_tests,
         residual_tests,
         rpm_to_rad_s,
@@ -54,11 +56,16 @@ def cmd_identify(args: argparse.Namespace) -> int:
     if args.out:
         check_out_folder(args.out)
     u, y = record["u"].to_numpy(), record["y"].to_numpy()
+    check_signals({args.input: u, args.output: y})
     result = est.batch_filter(u, y)
     require_finite_estimate(args.estimator, result.x, u, y)
+    predictions = {"one_step": result.y_hat}
     free_run = est.simulate(u)
+    diverged = first_bad_index(free_run)
+    if diverged is None:
+        predictions["free_run"] = free_run
     threshold = float(rpm_to_rad_s(args.low_speed_rpm))
-    scores = score_predictions(y, {"one_step": result.y_hat, "free_run": free_run}, threshold, args.skip)
+    scores = score_predictions(y, predictions, threshold, args.skip)
     tests = residual_tests(u[args.skip :], (y - result.y_hat)[args.skip :], max_lag=args.max_lag)
     say(f"{args.estimator} on {args.data} ({len(record)} samples)")
     say_params("", est.params)
@@ -67,6 +74,9 @@ def cmd_identify(args: argparse.Namespace) -> int:
             f"  {kind:<9} MSE {row['mse']:.4g} (rad/s)^2 = {row['mse'] * RPM_PER_RAD_S**2:.4g} rpm^2, "
             f"low-speed MSE {row['low_speed_mse'] * RPM_PER_RAD_S**2:.4g} rpm^2, FIT {row['fit_percent']:.2f} %"
         )
+    if diverged is not None:
+        say(f"  free_run  diverges from sample {diverged} on: the identified model is unstable on this input, "
+            "so it has no free-run score")  # fmt: skip
     for test in tests:
         say(f"  residual test {test.formula:<22} {'pass' if test.passed else 'FAIL'}")
     figure = None
@@ -84,6 +94,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
                     kind: {**row, "mse_rpm2": row["mse"] * RPM_PER_RAD_S**2}
                     for kind, row in scores.to_dict("index").items()
                 },
+                "free_run_diverges_from_sample": diverged,
                 "low_speed_threshold_rad_s": threshold,
                 "residual_tests": {
                     t.name: {"passed": t.passed, "fraction_outside": t.fraction_outside} for t in tests
@@ -96,9 +107,10 @@ def cmd_identify(args: argparse.Namespace) -> int:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     """The paper's Tables 1 and 2 on a record."""
-    from motorid.validation import order_sweep, rpm_to_rad_s
+    from motorid.validation import check_signals, order_sweep, rpm_to_rad_s
 
     record = read_record_from_args(args)
+    check_signals({args.input: record["u"], args.output: record["y"]})
     tables = order_sweep(
         record["u"].to_numpy(), record["y"].to_numpy(), args.orders, args.degrees,
         degree=args.degree, order=args.order, lam=args.lam, prediction=args.prediction,
@@ -109,6 +121,10 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         say(tables.orders.round(3).to_string())
         say(f"\nTable 2: MSE [rpm^2] and gamma per polynomial degree (order {args.order})")
         say(tables.degrees.to_string(float_format=lambda v: f"{v:.5g}"))
+    if not all(
+        np.isfinite(table.filter(like="mse").to_numpy()).all() for table in (tables.orders, tables.degrees)
+    ):
+        say("inf: that model's free run diverges (it is unstable on this input); null in --json")
     if args.json:
         emit_json(
             {

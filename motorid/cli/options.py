@@ -109,6 +109,13 @@ def read_record_from_args(args: argparse.Namespace, min_samples: int = 20) -> pd
     columns = [args.input, args.output]
     if args.time is not None or args.dt is None:
         columns.insert(0, args.time or "t")
+    options = ["--time", "--input", "--output"][-len(columns) :]
+    for position, name in enumerate(columns):
+        if name in columns[:position]:
+            first = options[columns.index(name)]
+            raise DataError(
+                f"{options[position]} {name!r} is the same column as {first}: each must name its own column"
+            )
     record = read_record(args.data, dt=args.dt, columns=columns, min_samples=min_samples,
                          max_samples=args.max_samples)  # fmt: skip
     names = dict(zip(columns, ("t", "u", "y")[-len(columns) :], strict=True))

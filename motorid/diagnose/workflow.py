@@ -53,7 +53,9 @@ from motorid.diagnose.effects import EFFECTS, get_effect
 from motorid.diagnose.kinematics import Kinematics, kinematics
 from motorid.diagnose.locate import Region, features, locate
 from motorid.diagnose.model import BalanceData, FitResult, GreyBoxModel, fit_model
+from motorid.errors import DataError
 from motorid.records import record_timing
+from motorid.validation import check_signals
 
 logger = logging.getLogger(__name__)
 
@@ -95,12 +97,12 @@ class Prepared:
 
 def _column(record: pd.DataFrame, name: str, role: str) -> np.ndarray:
     if not isinstance(name, str) or name not in record.columns:
-        raise ValueError(f"{role} column {name!r} is not in the record; columns are {list(record.columns)}")
+        raise DataError(f"{role} column {name!r} is not in the record; columns are {list(record.columns)}")
     values = pd.to_numeric(record[name], errors="coerce").to_numpy(dtype=float)
     bad = np.flatnonzero(~np.isfinite(values))
     if bad.size:
         k = int(bad[0])
-        raise ValueError(f"column {name!r} is not finite at sample {k}: {record[name].iloc[k]!r}")
+        raise DataError(f"column {name!r} is not finite at sample {k}: {record[name].iloc[k]!r}")
     return values
 
 
@@ -112,14 +114,14 @@ def _sample_time(record: pd.DataFrame, dt: float | None) -> float:
         if t.size >= 2 and np.all(np.isfinite(t)):
             dt = float(np.median(np.diff(t)))
     if dt is None:
-        raise ValueError("dt is not given and the record has neither attrs['dt'] nor a 't' column")
+        raise DataError("dt is not given and the record has neither attrs['dt'] nor a 't' column")
     if (
         isinstance(dt, bool)
         or not isinstance(dt, int | float | np.number)
         or not math.isfinite(dt)
         or dt <= 0
     ):
-        raise ValueError(f"dt must be a finite number > 0 [s], got {dt!r}")
+        raise DataError(f"dt must be a finite number > 0 [s], got {dt!r}")
     return float(dt)
 
 
@@ -156,23 +158,28 @@ def prepare(
     second is brought to the first by pairing ``u[k]`` with ``y[k+1]``.
     """
     if not isinstance(record, pd.DataFrame):
-        raise ValueError(f"record must be a pandas DataFrame, got {type(record).__name__}")
+        raise DataError(f"record must be a pandas DataFrame, got {type(record).__name__}")
     if output_kind not in ("velocity", "position"):
-        raise ValueError(f"output_kind must be 'velocity' or 'position', got {output_kind!r}")
+        raise DataError(f"output_kind must be 'velocity' or 'position', got {output_kind!r}")
     if timing not in ("hold", "sampled"):
-        raise ValueError(f"timing must be 'hold', 'sampled' or 'auto', got {timing!r}")
+        raise DataError(f"timing must be 'hold', 'sampled' or 'auto', got {timing!r}")
     if isinstance(input_gain, bool) or not isinstance(input_gain, int | float | np.number):
-        raise ValueError(f"input_gain must be a number, got {input_gain!r}")
+        raise DataError(f"input_gain must be a number, got {input_gain!r}")
     if not math.isfinite(input_gain) or input_gain <= 0:
-        raise ValueError(f"input_gain must be finite and > 0, got {input_gain!r}")
+        raise DataError(f"input_gain must be finite and > 0, got {input_gain!r}")
     dt = _sample_time(record, dt)
+    if "t" in (input, output) or input == output:
+        raise DataError(
+            f"input {input!r} and output {output!r} must be two columns other than the time column 't'"
+        )
     u = _column(record, input, "input")
     y = _column(record, output, "output")
+    check_signals({input: u, output: y})
     if timing == "sampled":
         u, y = u[:-1], y[1:]
     kin = kinematics(u, y, dt, output_kind, band)  # type: ignore[arg-type]
     if kin.decimated_index.size < 30:
-        raise ValueError(
+        raise DataError(
             f"the record is too short: {len(record)} samples give {kin.decimated_index.size} decimated "
             f"samples after the filter edges (at least 30 needed; decimation factor {kin.factor})"
         )
@@ -432,7 +439,7 @@ def _names(value: Sequence[str] | str | None, what: str) -> tuple[str, ...]:
     out = []
     for name in value:
         if name not in EFFECTS:
-            raise ValueError(f"{what}: unknown effect {name!r}; known effects: {', '.join(EFFECTS)}")
+            raise DataError(f"{what}: unknown effect {name!r}; known effects: {', '.join(EFFECTS)}")
         out.append(name)
     return tuple(dict.fromkeys(out))
 
@@ -512,16 +519,16 @@ def diagnose(
     else:
         cand_names = tuple(n for n in _names(candidates, "candidates") if n not in base_names)
     if isinstance(max_steps, bool) or not isinstance(max_steps, int | np.integer) or max_steps < 0:
-        raise ValueError(f"max_steps must be an integer >= 0, got {max_steps!r}")
+        raise DataError(f"max_steps must be an integer >= 0, got {max_steps!r}")
     if not isinstance(holdout, pd.DataFrame):
         if isinstance(holdout, bool) or not isinstance(holdout, int | float) or not 0.0 < holdout < 0.9:
-            raise ValueError(f"holdout must be a fraction in (0, 0.9) or a DataFrame, got {holdout!r}")
+            raise DataError(f"holdout must be a fraction in (0, 0.9) or a DataFrame, got {holdout!r}")
     if timing is None:
         timing = record_timing(getattr(record, "attrs", {}))
     if timing not in ("auto", "hold", "sampled"):
-        raise ValueError(f"timing must be 'auto', 'hold' or 'sampled', got {timing!r}")
+        raise DataError(f"timing must be 'auto', 'hold' or 'sampled', got {timing!r}")
     if not math.isfinite(threshold):
-        raise ValueError(f"threshold must be finite, got {threshold!r}")
+        raise DataError(f"threshold must be finite, got {threshold!r}")
 
     opts = {"dt": dt, "input": input, "output": output, "output_kind": output_kind,
             "input_gain": input_gain, "band": band}  # fmt: skip
