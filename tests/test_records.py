@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
-from hypothesis import given, settings
+from conftest import examples
+from hypothesis import given
 from hypothesis import strategies as st
 
 from motorid.errors import DataError
@@ -35,7 +36,7 @@ def test_round_trip_keeps_values_and_attrs(tmp_path, record):
     np.testing.assert_array_equal(plain["y"].to_numpy(), record["y"].to_numpy())
 
 
-@settings(max_examples=20, deadline=None)
+@examples(20)
 @given(
     values=st.lists(st.floats(allow_nan=False, allow_infinity=False, width=64), min_size=2, max_size=30),
     dt=st.sampled_from([0.001, 0.01, 0.04, 0.1]),

@@ -117,7 +117,7 @@ def read_record_from_args(args: argparse.Namespace, min_samples: int = 20) -> pd
                 f"{options[position]} {name!r} is the same column as {first}: each must name its own column"
             )
     record = read_record(args.data, dt=args.dt, columns=columns, min_samples=min_samples,
-                         max_samples=args.max_samples)  # fmt: skip
+                         max_samples=args.max_samples, other_columns=False)  # fmt: skip
     names = dict(zip(columns, ("t", "u", "y")[-len(columns) :], strict=True))
     renamed = record.rename(columns=names)
     renamed.attrs = dict(record.attrs)
