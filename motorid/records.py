@@ -297,7 +297,7 @@ def read_record(
             )
     rows = count_data_lines(name) - skip - 1
     if rows <= 0:
-        raise DataError(f"{name} has a header but no data rows (no data)")
+        raise DataError(f"{name} has a header but no data rows")
     if max_samples is not None and rows > max_samples:
         raise DataError(
             f"{name} has {rows} rows, more than the limit of {max_samples} samples (max_samples, "
@@ -342,11 +342,11 @@ def read_record(
                 ):
                     raise DataError(
                         f"column 't' has a gap of {missing} sample{'s' if missing > 1 else ''} before {where(row)}: "
-                        f"step {step!r} s, expected dt = {float(expected)!r} s"
+                        f"step {step:.6g} s, expected dt = {float(expected):.6g} s"
                     )
                 raise DataError(
                     f"column 't' is not uniformly sampled at {where(row)}: step "
-                    f"{step!r} s, expected dt = {float(expected)!r} s"
+                    f"{step:.6g} s, expected dt = {float(expected):.6g} s"
                 )
         if expected is not None:
             attrs["dt"] = float(expected)
