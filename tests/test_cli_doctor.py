@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import pandas as pd
 import pytest
 from cli_fixtures import run
@@ -42,6 +44,7 @@ def test_doctor_json_names_the_hidden_effect(capsys, record_csv, planted, tmp_pa
     assert all((tmp_path / p.split("/")[-1]).exists() for p in out["figures"]) and len(out["figures"]) == 2
     assert (tmp_path / "doctor_table.csv").exists()
     assert "coulomb_friction" in err and "stopped:" in err
+    assert out["units"]["force"] == "N m" and re.search(r"coulomb = \S+ N m\b", err)
 
 
 def test_doctor_takes_dt_from_the_command_line(capsys, planted, tmp_path):
@@ -50,6 +53,19 @@ def test_doctor_takes_dt_from_the_command_line(capsys, planted, tmp_path):
     code, out, err = run(capsys, "doctor", str(bare), "--dt", "0.01", "--max-steps", "1", "--json")
     assert code == 0, err
     assert out["settings"]["dt"] == pytest.approx(0.01) and len(out["steps"]) <= 1
+    # no --input-gain and no unit in the file: forces are per input unit, and say so
+    assert out["units"]["force"] == out["units"]["params"]["coulomb"] == "input units"
+    assert "forces are per input unit, in input units" in err
+
+
+def test_doctor_without_input_gain_reports_forces_in_the_input_unit(capsys, record_csv, tmp_path):
+    code, out, err = run(
+        capsys, "doctor", str(record_csv), "--input", "volts", "--output", "speed", "--max-steps", "1",
+        "--json", "--out", str(tmp_path),
+    )  # fmt: skip
+    assert code == 0, err
+    assert out["units"]["force"] == out["units"]["params"]["coulomb"] == "V"
+    assert re.search(r"coulomb = \S+ V\b", err) and "N m" not in err
 
 
 @pytest.mark.parametrize(

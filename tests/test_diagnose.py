@@ -173,6 +173,29 @@ def test_position_records_are_differentiated():
     assert d.to_dict()["units"]["gap"].endswith("velocity derived from position)")
 
 
+def test_force_units_follow_the_input_gain_in_json_text_and_figure_labels():
+    """With an input gain the forces are in N m; without one they are per input unit (V here)."""
+    from motorid.diagnose.figures import residual_figure
+
+    planted = planted_record("coulomb_friction", 1)
+    bare = planted.record.copy()
+    bare.attrs = {k: v for k, v in planted.record.attrs.items() if k != "units"}
+    cases = [(planted.record, None, "V"), (bare, None, "input units"),
+             (planted.record, 1.0, "N m"), (planted.record, 2.5, "N m")]  # fmt: skip
+    for record, gain, force in cases:
+        d = diagnose(record, input_gain=gain, base=planted.base, max_steps=1)
+        assert d.units["F"] == force
+        units = d.to_dict()["units"]
+        assert units["force"] == force and units["params"]["coulomb"] == force
+        assert units["params"]["viscous"] == f"{force} s/(rad/s)"
+        fig = residual_figure(d, d._prep)
+        assert all(ax.get_ylabel() == f"F_in - F_model [{force}]" for ax in fig.axes)
+    # the same drive: a force per volt is the force in N m divided by the gain
+    per_volt = diagnose(planted.record, base=planted.base, max_steps=1)
+    in_n_m = diagnose(planted.record, input_gain=2.5, base=planted.base, max_steps=1)
+    assert in_n_m.model.params["coulomb"] == pytest.approx(2.5 * per_volt.model.params["coulomb"], rel=1e-6)
+
+
 def test_kinematics_of_a_known_motion():
     dt = 0.001
     t = np.arange(5000) * dt

@@ -38,9 +38,11 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         input_gain=args.input_gain, base=base, candidates=candidates,
         holdout=args.holdout, max_steps=args.max_steps, progress=True, timing=args.timing,
     )  # fmt: skip
-    units = diagnosis.units
+    units, param_units = diagnosis.units, diagnosis.param_units
     say(f"motorid doctor on {args.data} ({len(record)} samples), base model: inertia, input gain"
         + "".join(f", {b}" for b in diagnosis.settings["base"]))  # fmt: skip
+    if args.input_gain is None:
+        say(f"  no --input-gain: forces are per input unit, in {units['F']}")
     say(f"  located: {diagnosis.region.description}")
     table = diagnosis.table()
     if len(table):
@@ -48,7 +50,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
             say(f"  gaps [{units['v']}] and force error [%] per step:")
             say(table.round(4).to_string())
     for step in diagnosis.steps:
-        params = ", ".join(f"{k} = {v:.5g}" for k, v in step.params.items())
+        params = ", ".join(f"{k} = {v:.5g} {param_units[k]}" for k, v in step.params.items())
         say(f"  + {step.effect}: {params} (ΔBIC {step.evidence['delta_bic']:.1f})")
     say(
         f"  gap {diagnosis.initial_gap['overall']:.4g} -> {diagnosis.final_gap['overall']:.4g} {units['v']}, "
@@ -71,9 +73,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     add_record_input(p)
     p.add_argument("--output-kind", choices=("velocity", "position"), default="velocity",
                    help="what the output column is (default: velocity)")  # fmt: skip
-    p.add_argument("--input-gain", type=positive, default=1.0,
-                   help="force or torque per input unit [N/V, N m/V] (default: 1, the model then "
-                        "stays in input units)")  # fmt: skip
+    p.add_argument("--input-gain", type=positive,
+                   help="force or torque per input unit [N/V, N m/V] (default: unknown; the "
+                        "model's forces are then per input unit, e.g. in V)")  # fmt: skip
     p.add_argument("--base", default="viscous_friction,offset", metavar="EFFECT,...",
                    help="effects already in the model (default: viscous_friction,offset)")  # fmt: skip
     p.add_argument("--candidates", metavar="EFFECT,...", help="effects to try (default: all others)")

@@ -7,8 +7,9 @@ The grey-box model is the torque (force) balance of a rigid drive::
 
 with J the inertia [kg m² or kg], g the input gain [N m/V or N/V] and w the
 velocity [rad/s or m/s]. Below, "F" stands for the force unit of the model
-(N m or N, that of ``g u``), "v" for the velocity unit and "u" for the input
-unit (V).
+(N m or N, that of ``g u``; without a known g the fit takes g = 1 and F is the
+input's unit), "v" for the velocity unit and "u" for the input unit (e.g. V);
+:func:`param_unit` makes them concrete.
 
 Each effect is a class with its name (the snake_case names of DESIGN.md), the
 parameters it adds (``linear``: enter the balance linearly, fitted by least
@@ -317,24 +318,38 @@ def get_effect(name: str) -> Effect:
         raise ValueError(f"unknown effect {name!r}; known effects: {', '.join(EFFECTS)}") from None
 
 
-def unit_names(output_kind: str, linear_units: bool) -> dict[str, str]:
-    """The concrete units of F, v and u for a record (rotary or linear drive)."""
-    if linear_units:
-        return {"F": "N", "v": "m/s", "u": "V", "x": "m"}
-    return {"F": "N m", "v": "rad/s", "u": "V", "x": "rad"}
+#: Units of the parameters every model has (``F`` force, ``v`` velocity, ``u`` input).
+MODEL_UNITS: dict[str, str] = {"inertia": "F s/v", "input_gain": "F/u"}
 
 
-def concrete_unit(template: str, units: dict[str, str]) -> str:
-    """``"F s/v"`` -> ``"N m s/(rad/s)"`` and similar."""
+def param_unit(name: str, units: dict[str, str]) -> str:
+    """Concrete unit of parameter ``name`` (of any effect, or ``inertia``/``input_gain``).
+
+    Parameters
+    ----------
+    name : str
+        Parameter name, e.g. ``"viscous"``.
+    units : dict
+        Concrete ``F``, ``v`` and ``u`` (:attr:`motorid.diagnose.Diagnosis.units`).
+
+    Returns
+    -------
+    str
+        E.g. ``"N m s/(rad/s)"`` for ``viscous`` of a rotary drive with a known
+        input gain, ``"V"`` for ``coulomb`` without one (forces per volt).
+    """
+    templates = dict(MODEL_UNITS)
+    for cls in EFFECTS.values():
+        templates.update(cls.units)
     out = []
-    for token in template.replace("/", " / ").split():
+    after_slash = False
+    for token in templates[name].replace("/", " / ").split():
         base = token.rstrip("²")
         power = token[len(base) :]
-        if base in units:
-            unit = units[base]
-            out.append(f"({unit}){power}" if (" " in unit or "/" in unit) and power else unit + power)
-        else:
-            out.append(token)
+        unit = units.get(base, base)
+        compound = " " in unit or "/" in unit
+        out.append(f"({unit}){power}" if compound and (power or after_slash) else unit + power)
+        after_slash = token == "/"
     return " ".join(out).replace(" / ", "/")
 
 
@@ -344,6 +359,7 @@ def is_finite_number(value: float) -> bool:
 
 __all__ = [
     "EFFECTS",
+    "MODEL_UNITS",
     "SIM_PARAMS",
     "AsymmetricFriction",
     "Backlash",
@@ -356,5 +372,6 @@ __all__ = [
     "StribeckFriction",
     "ViscousFriction",
     "get_effect",
+    "param_unit",
     "time_since_reversal",
 ]

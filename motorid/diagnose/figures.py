@@ -12,11 +12,17 @@ import numpy as np
 from motorid.figures import save, subplots
 
 if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
     from motorid.diagnose.workflow import Diagnosis, Prepared
 
 
-def plot_residual_vs_speed(diagnosis: Diagnosis, prep: Prepared, path: Path) -> Path:
-    """Torque-balance residual [F] against velocity [v]: one panel per step (before, after)."""
+def residual_figure(diagnosis: Diagnosis, prep: Prepared) -> Figure:
+    """Torque-balance residual [F] against velocity [v]: one panel per step (before, after).
+
+    The axes name the units of ``prep.units``: ``F`` is N or N m with a known
+    input gain, else the input's unit (the model's forces per input unit).
+    """
     from motorid.diagnose.workflow import balance_residual
 
     w = prep.data.w
@@ -35,7 +41,12 @@ def plot_residual_vs_speed(diagnosis: Diagnosis, prep: Prepared, path: Path) -> 
         ax.grid(alpha=0.3)
         ax.legend(loc="best", fontsize=8, markerscale=3)
     axes[0, 0].set_title("Torque-balance residual against speed")
-    return save(fig, path)
+    return fig
+
+
+def plot_residual_vs_speed(diagnosis: Diagnosis, prep: Prepared, path: Path) -> Path:
+    """Write :func:`residual_figure` as PNG at ``path``."""
+    return save(residual_figure(diagnosis, prep), path)
 
 
 def plot_simulation(diagnosis: Diagnosis, prep: Prepared, path: Path) -> Path:
@@ -69,4 +80,4 @@ def write_figures(diagnosis: Diagnosis, prep: Prepared, out_dir: Path) -> list[P
     ]
 
 
-__all__ = ["plot_residual_vs_speed", "plot_simulation", "write_figures"]
+__all__ = ["plot_residual_vs_speed", "plot_simulation", "residual_figure", "write_figures"]

@@ -49,7 +49,7 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
-from motorid.diagnose.effects import EFFECTS, get_effect
+from motorid.diagnose.effects import EFFECTS, get_effect, param_unit
 from motorid.diagnose.kinematics import Kinematics, kinematics
 from motorid.diagnose.locate import Region, features, locate
 from motorid.diagnose.model import BalanceData, FitResult, GreyBoxModel, fit_model
@@ -125,19 +125,27 @@ def _sample_time(record: pd.DataFrame, dt: float | None) -> float:
     return float(dt)
 
 
-def _units(record: pd.DataFrame, output: str, output_kind: str) -> dict[str, str]:
-    unit = (record.attrs.get("units") or {}).get(output)
+def _units(
+    record: pd.DataFrame, input: str, output: str, output_kind: str, gain_given: bool
+) -> dict[str, str]:
+    """Concrete units of velocity ``v``, force ``F``, input ``u`` and time ``s`` for a record.
+
+    The force unit is N (linear drive: velocity in m/s) or N m when the input
+    gain is given; without it the model's forces are per input unit, so ``F``
+    is the input's unit (``attrs["units"][input]``, else ``"input units"``).
+    """
+    known = record.attrs.get("units") or {}
+    unit = known.get(output)
     if output_kind == "position":
         v = f"{unit}/s" if unit else "rad/s"
     else:
         v = unit or "rad/s"
-    linear = v.startswith("m/")
-    return {
-        "v": v,
-        "u": (record.attrs.get("units") or {}).get("u", "V"),
-        "s": "s",
-        "F": "N" if linear else "N m",
-    }
+    u = known.get(input) or "input units"
+    if gain_given:
+        force = "N" if v.startswith("m/") else "N m"
+    else:
+        force = u
+    return {"v": v, "u": u, "s": "s", "F": force}
 
 
 def prepare(
@@ -146,11 +154,14 @@ def prepare(
     input: str = "u",
     output: str = "y",
     output_kind: str = "velocity",
-    input_gain: float = 1.0,
+    input_gain: float | None = None,
     timing: str = "hold",
     band: float | None = None,
 ) -> Prepared:
     """Check a record and compute its kinematics and balance data.
+
+    ``input_gain`` None (not known) fits with g = 1: the forces are then in
+    the input's unit (see :func:`_units`).
 
     ``timing="hold"``: ``y[k]`` is measured at the end of the interval over which
     ``u[k]`` is held (motorid records); ``"sampled"``: ``y[k]`` is measured when
@@ -163,8 +174,11 @@ def prepare(
         raise DataError(f"output_kind must be 'velocity' or 'position', got {output_kind!r}")
     if timing not in ("hold", "sampled"):
         raise DataError(f"timing must be 'hold', 'sampled' or 'auto', got {timing!r}")
+    gain_given = input_gain is not None
+    if input_gain is None:
+        input_gain = 1.0
     if isinstance(input_gain, bool) or not isinstance(input_gain, int | float | np.number):
-        raise DataError(f"input_gain must be a number, got {input_gain!r}")
+        raise DataError(f"input_gain must be a number or None, got {input_gain!r}")
     if not math.isfinite(input_gain) or input_gain <= 0:
         raise DataError(f"input_gain must be finite and > 0, got {input_gain!r}")
     dt = _sample_time(record, dt)
@@ -185,7 +199,7 @@ def prepare(
         )
     data = BalanceData(kin, float(input_gain))
     feats = features(kin.w, kin.a, kin.u, dt, data.w_threshold)
-    return Prepared(kin, data, feats, timing, _units(record, output, output_kind))
+    return Prepared(kin, data, feats, timing, _units(record, input, output, output_kind, gain_given))
 
 
 # --------------------------------------------------------------------------- measures
@@ -315,7 +329,8 @@ class Diagnosis:
     region : Region
         The region located on the initial model's residual.
     units : dict
-        Units of velocity (``v``), force (``F``) and input (``u``).
+        Units of velocity (``v``), force (``F``) and input (``u``): ``F`` is
+        N or N m with a known input gain, else the input's unit.
     settings : dict
         Options used (for :meth:`evaluate` on another record).
     """
@@ -336,6 +351,11 @@ class Diagnosis:
     def named(self) -> list[str]:
         """The effects added, in order."""
         return [s.effect for s in self.steps]
+
+    @property
+    def param_units(self) -> dict[str, str]:
+        """Concrete unit of each parameter of the final model, e.g. ``{"coulomb": "N m"}``."""
+        return {name: param_unit(name, self.units) for name in self.model.params}
 
     @property
     def models(self) -> list[tuple[str, GreyBoxModel]]:
@@ -363,6 +383,7 @@ class Diagnosis:
                 "force": self.units["F"],
                 "velocity": self.units["v"],
                 "input": self.units["u"],
+                "params": self.param_units,
             },
             "settings": self.settings,
         }
@@ -450,7 +471,7 @@ def diagnose(
     input: str = "u",
     output: str = "y",
     output_kind: Literal["velocity", "position"] = "velocity",
-    input_gain: float = 1.0,
+    input_gain: float | None = None,
     base: Sequence[str] | str = DEFAULT_BASE,
     candidates: Sequence[str] | str | None = None,
     holdout: float | pd.DataFrame = 0.3,
@@ -472,15 +493,17 @@ def diagnose(
     dt : float, optional
         Sample time [s], > 0; default from ``attrs["dt"]`` or the ``t`` column.
     input, output : str
-        Column names of the input [V] and the output.
+        Column names of the input (e.g. [V]) and the output.
     output_kind : {"velocity", "position"}
         What the output is. Position records are differentiated (zero-phase
         low-pass and central differences); their output gap is then measured
         on the velocity derived from position, since a free-run position drifts.
-    input_gain : float
+    input_gain : float, optional
         Force or torque per input unit g [N/V or N m/V], > 0, so the model's
-        parameters come out in N or N m. With the default 1 they are per input
-        unit (the torque balance fixes them only up to this scale).
+        parameters come out in N or N m. Without it (None) the fit takes g = 1
+        and forces are per input unit: a Coulomb level of 0.8 is 0.8 V when the
+        input is in V (the torque balance fixes them only up to this scale).
+        :attr:`Diagnosis.units` states which.
     base : sequence of str or comma-separated str
         Effects already in the model (inertia and input gain always are).
     candidates : sequence of str, optional
