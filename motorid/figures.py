@@ -89,11 +89,16 @@ def plot_low_speed(
     return save(fig, path)
 
 
-def plot_identification_error(
-    t: np.ndarray, y: np.ndarray, predictions: Mapping[str, np.ndarray], path: str | Path
-) -> Path:
+def identification_error_figure(
+    t: np.ndarray, y: np.ndarray, predictions: Mapping[str, np.ndarray]
+) -> Figure:
     """Fig. 12: the identification error y - y_hat [rpm], one panel per model, on
-    one common scale."""
+    one common scale.
+
+    The scale is ±1.2 times the largest 99.5th percentile of |y - y_hat|, so a
+    few samples of a panel may lie outside it: that panel's title then says
+    the axis is clipped and how many samples it leaves out.
+    """
     errors = {label: (y - y_hat) * RPM_PER_RAD_S for label, y_hat in predictions.items()}
     limit = max(float(np.percentile(np.abs(e), 99.5)) for e in errors.values()) * 1.2
     fig, axes = subplots(len(errors), 1, figsize=(9, 2.4 * len(errors)), sharex=True)
@@ -101,10 +106,19 @@ def plot_identification_error(
         ax.plot(t, err, lw=0.6)
         ax.set_ylim(-limit, limit)
         ax.set_ylabel("error [rpm]")
-        ax.set_title(f"identification error, {label}")
+        outside = int(np.count_nonzero(np.abs(err) > limit))
+        note = f" (y clipped to ±{limit:.3g} rpm; {outside} samples outside)" if outside else ""
+        ax.set_title(f"identification error, {label}{note}")
         ax.grid(alpha=0.3)
     np.atleast_1d(axes)[-1].set_xlabel("time t [s]")
-    return save(fig, path)
+    return fig
+
+
+def plot_identification_error(
+    t: np.ndarray, y: np.ndarray, predictions: Mapping[str, np.ndarray], path: str | Path
+) -> Path:
+    """Write :func:`identification_error_figure` (Fig. 12) as PNG at ``path``."""
+    return save(identification_error_figure(t, y, predictions), path)
 
 
 def plot_estimates(

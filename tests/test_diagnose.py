@@ -196,6 +196,24 @@ def test_force_units_follow_the_input_gain_in_json_text_and_figure_labels():
     assert in_n_m.model.params["coulomb"] == pytest.approx(2.5 * per_volt.model.params["coulomb"], rel=1e-6)
 
 
+def test_fig12_says_when_its_axis_clips_samples():
+    """The paper's Fig. 12 zooms on the common error scale; a panel with samples outside says so."""
+    from motorid.figures import identification_error_figure
+
+    t = np.arange(1000) * 0.04
+    y = np.sin(t)
+    smooth = y - 0.1 * np.sin(3 * t)  # error within ±0.1 rad/s
+    spiky = smooth.copy()
+    spiky[[100, 500, 900]] += 5.0  # 3 of 1000 samples, beyond the 99.5th percentile
+    fig = identification_error_figure(t, y, {"smooth": smooth, "spiky": spiky})
+    titles = [ax.get_title() for ax in fig.axes]
+    assert titles[0] == "identification error, smooth"
+    assert titles[1].startswith("identification error, spiky (y clipped to ±")
+    assert titles[1].endswith("rpm; 3 samples outside)")
+    fig = identification_error_figure(t, y, {"smooth": smooth})
+    assert "clipped" not in fig.axes[0].get_title()
+
+
 def test_kinematics_of_a_known_motion():
     dt = 0.001
     t = np.arange(5000) * dt
