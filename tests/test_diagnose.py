@@ -214,6 +214,51 @@ def test_fig12_says_when_its_axis_clips_samples():
     assert "clipped" not in fig.axes[0].get_title()
 
 
+def test_a_long_record_is_diagnosed_in_few_full_rate_columns_and_drawn_thinned(monkeypatch):
+    """Memory: at most ~25 columns of the record's length at the peak (with the cache of
+    decimated columns at its floor of 16), and the figures draw thinned lines that say so."""
+    import tracemalloc
+
+    import motorid.diagnose.model as model_module
+    from motorid.diagnose.figures import MAX_BUCKETS, MAX_SCATTER, residual_figure, simulation_figure
+
+    n = 300_000
+    planted = planted_record("coulomb_friction", 1, duration=n * 0.01, dt=0.01)
+    monkeypatch.setattr(model_module, "CACHE_BYTES", 0.0)
+    tracemalloc.start()
+    try:
+        d = diagnose(planted.record, input_gain=planted.input_gain, base=planted.base, max_steps=1)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert d.named == ["coulomb_friction"]
+    assert peak < 25 * 8 * n, f"peak {peak / 8 / n:.1f} full-rate columns"
+    assert len(d._prep.data._cache) <= 16
+    sim = simulation_figure(d, d._prep)
+    assert all(np.size(line.get_xdata()) <= 2 * MAX_BUCKETS for ax in sim.axes for line in ax.get_lines())
+    assert "minimum and maximum of every 75 samples shown" in sim.axes[0].get_title()
+    measured = sim.axes[0].get_lines()[0].get_ydata()
+    assert measured.max() == d._prep.kin.w.max() and measured.min() == d._prep.kin.w.min()
+    res = residual_figure(d, d._prep)
+    assert all(np.size(line.get_xdata()) <= MAX_SCATTER for line in res.axes[0].get_lines())
+    assert f"1 in 2 of {d._prep.data.n} decimated samples shown" in res.axes[0].get_title()
+
+
+def test_the_column_cache_keeps_the_columns_used_last(monkeypatch):
+    import motorid.diagnose.model as model_module
+
+    data = diagnose(planted_record(None, 0, duration=5.0).record, max_steps=0)._prep.data
+    data._cache.clear()
+    shared = data.decimated("shared", data.kin.w)
+    for i in range(40):
+        data.decimated(f"one-off {i}", data.kin.u)
+        assert data.decimated("shared", data.kin.w) is shared  # used every time: stays
+    assert len(data._cache) == 40 + 1  # 256 columns fit in CACHE_BYTES at this size
+    monkeypatch.setattr(model_module, "CACHE_BYTES", 20 * data.a.nbytes)
+    data.decimated("new", data.kin.u)
+    assert len(data._cache) == 20 and "shared" in data._cache and "one-off 0" not in data._cache
+
+
 def test_kinematics_of_a_known_motion():
     dt = 0.001
     t = np.arange(5000) * dt

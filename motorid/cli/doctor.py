@@ -60,6 +60,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     say(f"  stopped: {diagnosis.stop_reason}")
     figures = []
     if args.out:
+        say(f"  writing figures in {args.out}/")
         figures = diagnosis.write_figures(args.out)
         table.to_csv(args.out / "doctor_table.csv")
         say(f"  wrote {len(figures)} figures and doctor_table.csv in {args.out}/")

@@ -17,30 +17,72 @@ if TYPE_CHECKING:
     from motorid.diagnose.workflow import Diagnosis, Prepared
 
 
+#: Most points of one series in the residual scatter; longer series show every k-th sample.
+MAX_SCATTER = 50_000
+#: Most time buckets of one line in the simulation figure; longer lines show each bucket's
+#: minimum and maximum (a PNG a thousand pixels wide shows no more).
+MAX_BUCKETS = 4_000
+
+
+def envelope(t: np.ndarray, x: np.ndarray, buckets: int = MAX_BUCKETS) -> tuple[np.ndarray, np.ndarray, int]:
+    """A long line thinned for plotting: the minimum and maximum of each run of samples.
+
+    Parameters
+    ----------
+    t, x : ndarray, shape (N,)
+        Time [s] and values (NaN allowed: a bucket of NaN stays NaN).
+    buckets : int
+        Most runs; with ``N <= 2 buckets`` the line is returned as it is.
+
+    Returns
+    -------
+    t, x : ndarray
+        Two points per run, at the run's first time: its minimum, then its maximum.
+    size : int
+        Samples per run (1: not thinned).
+    """
+    n = x.size
+    if n <= 2 * buckets:
+        return t, x, 1
+    size = -(-n // buckets)
+    padded = np.full(size * (-(-n // size)), np.nan)
+    padded[:n] = x
+    runs = padded.reshape(-1, size)
+    lo, hi = np.fmin.reduce(runs, axis=1), np.fmax.reduce(runs, axis=1)
+    starts = t[::size]
+    return np.repeat(starts, 2), np.column_stack([lo, hi]).ravel(), size
+
+
 def residual_figure(diagnosis: Diagnosis, prep: Prepared) -> Figure:
     """Torque-balance residual [F] against velocity [v]: one panel per step (before, after).
 
     The axes name the units of ``prep.units``: ``F`` is N or N m with a known
     input gain, else the input's unit (the model's forces per input unit).
+    Above :data:`MAX_SCATTER` decimated samples every k-th is shown, and the
+    title says so.
     """
     from motorid.diagnose.workflow import balance_residual
 
-    w = prep.data.w
+    step = -(-prep.data.n // MAX_SCATTER)
+    w = prep.data.w[::step]
     models = diagnosis.models
     pairs = list(itertools.pairwise(models)) or [(models[0], models[0])]
     fig, axes = subplots(len(pairs), 1, figsize=(8, 3.2 * len(pairs)), squeeze=False)
     for ax, ((lb, mb), (la, ma)) in zip(axes[:, 0], pairs, strict=True):
         rb, _ = balance_residual(mb, prep.data)
-        ax.plot(w, rb, ".", ms=2.5, alpha=0.5, color="tab:red", label=f"before ({lb})")
+        ax.plot(w, rb[::step], ".", ms=2.5, alpha=0.5, color="tab:red", label=f"before ({lb})")
         if ma is not mb:
             ra, _ = balance_residual(ma, prep.data)
-            ax.plot(w, ra, ".", ms=2.5, alpha=0.5, color="tab:blue", label=f"after ({la})")
+            ax.plot(w, ra[::step], ".", ms=2.5, alpha=0.5, color="tab:blue", label=f"after ({la})")
         ax.axhline(0.0, color="k", lw=0.5)
         ax.set_xlabel(f"velocity w [{prep.units['v']}]")
         ax.set_ylabel(f"F_in - F_model [{prep.units['F']}]")
         ax.grid(alpha=0.3)
         ax.legend(loc="best", fontsize=8, markerscale=3)
-    axes[0, 0].set_title("Torque-balance residual against speed")
+    title = "Torque-balance residual against speed"
+    if step > 1:
+        title += f" (1 in {step} of {prep.data.n} decimated samples shown)"
+    axes[0, 0].set_title(title)
     return fig
 
 
@@ -49,27 +91,39 @@ def plot_residual_vs_speed(diagnosis: Diagnosis, prep: Prepared, path: Path) -> 
     return save(residual_figure(diagnosis, prep), path)
 
 
-def plot_simulation(diagnosis: Diagnosis, prep: Prepared, path: Path) -> Path:
-    """Measured velocity and the free-run simulation of the initial and final models."""
+def simulation_figure(diagnosis: Diagnosis, prep: Prepared) -> Figure:
+    """Measured velocity [v] and the free-run simulation of the initial and final models.
+
+    Records longer than 2 :data:`MAX_BUCKETS` samples are drawn as the minimum
+    and maximum of each run of samples (:func:`envelope`), and the title says so.
+    """
     kin = prep.kin
     t = np.arange(kin.n) * kin.dt
     fig, (ax, ax_e) = subplots(2, 1, figsize=(10, 6), sharex=True)
-    ax.plot(t, kin.w, lw=1.0, color="k", label="measured")
-    err_axes = []
+    tt, ww, size = envelope(t, kin.w)
+    ax.plot(tt, ww, lw=1.0, color="k", label="measured")
     for label, model in (
         (diagnosis.models[0], diagnosis.models[-1]) if diagnosis.steps else diagnosis.models[:1]
     ):
         sim = prep.simulate(model)
-        ax.plot(t, sim, lw=0.8, label=f"free run, {label}")
-        err_axes.append(ax_e.plot(t, kin.w - sim, lw=0.8, label=label))
+        ax.plot(*envelope(t, sim)[:2], lw=0.8, label=f"free run, {label}")
+        ax_e.plot(*envelope(t, kin.w - sim)[:2], lw=0.8, label=label)
+    title = "Simulation against measurement"
+    if size > 1:
+        title += f" (minimum and maximum of every {size} samples shown)"
+    ax.set_title(title)
     ax.set_ylabel(f"velocity [{prep.units['v']}]")
-    ax.set_title("Simulation against measurement")
     ax_e.set_ylabel(f"measured - simulated [{prep.units['v']}]")
     ax_e.set_xlabel("time [s]")
     for a in (ax, ax_e):
         a.grid(alpha=0.3)
         a.legend(loc="upper right", fontsize=8)
-    return save(fig, path)
+    return fig
+
+
+def plot_simulation(diagnosis: Diagnosis, prep: Prepared, path: Path) -> Path:
+    """Write :func:`simulation_figure` as PNG at ``path``."""
+    return save(simulation_figure(diagnosis, prep), path)
 
 
 def write_figures(diagnosis: Diagnosis, prep: Prepared, out_dir: Path) -> list[Path]:
@@ -80,4 +134,11 @@ def write_figures(diagnosis: Diagnosis, prep: Prepared, out_dir: Path) -> list[P
     ]
 
 
-__all__ = ["plot_residual_vs_speed", "plot_simulation", "residual_figure", "write_figures"]
+__all__ = [
+    "envelope",
+    "plot_residual_vs_speed",
+    "plot_simulation",
+    "residual_figure",
+    "simulation_figure",
+    "write_figures",
+]

@@ -40,22 +40,38 @@ _ORDERED = {
 _SIGNS = {"velocity_sign": "w", "acceleration_sign": "a"}
 
 
+#: Every feature :func:`feature` computes.
+FEATURES = (*_ORDERED, *_SIGNS, "sgn_w", "sgn_u", "sgn_a")
+
+
+def feature(
+    name: str, w: np.ndarray, a: np.ndarray, u: np.ndarray, dt: float, w_threshold: float
+) -> np.ndarray:
+    """One feature of every sample (see the module notes), from velocity ``w`` [v],
+    acceleration ``a`` [v/s] and input ``u`` [u] sampled every ``dt`` [s]; ``w_threshold``
+    [v] is the speed below which w has no sign for ``time_since_reversal``."""
+    if name == "speed":
+        return np.abs(w)
+    if name == "input":
+        return np.abs(u)
+    if name == "time_since_reversal":
+        return time_since_reversal(np.where(np.abs(w) < w_threshold, 0.0, np.sign(w)), dt)
+    if name == "time_since_input_reversal":
+        return time_since_reversal(u, dt)
+    signed = {"velocity_sign": w, "sgn_w": w, "acceleration_sign": a, "sgn_a": a, "sgn_u": u}
+    return np.sign(signed[name])
+
+
 def features(
-    w: np.ndarray, a: np.ndarray, u: np.ndarray, dt: float, w_threshold: float
+    w: np.ndarray, a: np.ndarray, u: np.ndarray, dt: float, w_threshold: float, at: np.ndarray | None = None
 ) -> dict[str, np.ndarray]:
-    """Full-rate features of every sample (see the module notes)."""
-    w_sign = np.where(np.abs(w) < w_threshold, 0.0, np.sign(w))
-    return {
-        "speed": np.abs(w),
-        "input": np.abs(u),
-        "time_since_reversal": time_since_reversal(w_sign, dt),
-        "time_since_input_reversal": time_since_reversal(u, dt),
-        "velocity_sign": np.sign(w),
-        "acceleration_sign": np.sign(a),
-        "sgn_w": np.sign(w),
-        "sgn_u": np.sign(u),
-        "sgn_a": np.sign(a),
-    }
+    """Every feature (:data:`FEATURES`) of every sample, or only of the samples ``at``
+    (indices; the features that look back in time are computed at full rate first)."""
+    out = {}
+    for name in FEATURES:
+        x = feature(name, w, a, u, dt, w_threshold)
+        out[name] = x if at is None else x[at]
+    return out
 
 
 @dataclass(frozen=True)
@@ -194,4 +210,4 @@ def locate(r: np.ndarray, feats: dict[str, np.ndarray], units: dict[str, str], n
     )
 
 
-__all__ = ["Region", "features", "locate", "sign_pattern"]
+__all__ = ["FEATURES", "Region", "feature", "features", "locate", "sign_pattern"]

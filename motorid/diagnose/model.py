@@ -81,6 +81,11 @@ def _free_run(force: np.ndarray, dt: float, nsub: int, p: np.ndarray, w0: float)
 
 
 # --------------------------------------------------------------------------- data
+#: Memory [bytes] :meth:`BalanceData.decimated` may keep cached columns in (between 16 and
+#: 256 columns whatever their size).
+CACHE_BYTES = 256e6
+
+
 @dataclass
 class BalanceData:
     """The inverse-dynamics data of one record: decimated acceleration, velocity and masks.
@@ -132,12 +137,20 @@ class BalanceData:
         return int(self.idx.size)
 
     def decimated(self, key: str, column: np.ndarray) -> np.ndarray:
-        """Decimate a full-rate column (cached under ``key``)."""
-        if key not in self._cache:
-            if len(self._cache) > 256:
-                self._cache.clear()
-            self._cache[key] = self.kin.decimate(column)
-        return self._cache[key]
+        """Decimate a full-rate column, cached under ``key``.
+
+        The cache keeps the columns used last, as many as fit in
+        :data:`CACHE_BYTES` (16 to 256): the columns every fit shares stay,
+        the oldest points of past shape searches go first.
+        """
+        value = self._cache.pop(key, None)
+        if value is None:
+            value = self.kin.decimate(column)
+            limit = min(max(int(CACHE_BYTES // max(value.nbytes, 1)), 16), 256)
+            while len(self._cache) >= limit:
+                del self._cache[next(iter(self._cache))]
+        self._cache[key] = value  # most recently used last
+        return value
 
     def balance_force(self, force: np.ndarray) -> np.ndarray:
         """The force held over sample k taken at the output instant: ``(F[k] + F[k+1]) / 2``."""
@@ -312,25 +325,21 @@ def _linear_solve(
         for j, pname in enumerate(eff.linear):
             names.append(pname)
             cols.append(data.decimated(f"{key}|{j}", full[:, j]))
-    X = np.column_stack(cols)[rows]
+    full_X = np.column_stack(cols)
+    X = full_X[rows]
     y = target[rows]
     norms = np.linalg.norm(X, axis=0)
     norms[norms == 0.0] = 1.0
     Xs = X / norms
-    keep: list[int] = []
-    for j in range(Xs.shape[1]):
-        if keep:
-            coef, *_ = np.linalg.lstsq(Xs[:, keep], Xs[:, j], rcond=None)
-            resid = Xs[:, j] - Xs[:, keep] @ coef
-        else:
-            resid = Xs[:, j]
-        if np.linalg.norm(resid) > 1e-3:
-            keep.append(j)
-    theta = np.zeros(Xs.shape[1])
+    # one QR of [Xs | y]: |R_jj| is the part of unit column j outside the span of those before
+    # it (below 1e-3 it adds no rank), and ||Xs_keep θ - y|| = ||R_keep θ - R_y||, a small problem
+    k = Xs.shape[1]
+    R = np.linalg.qr(np.column_stack([Xs, y]), mode="r")
+    keep = np.flatnonzero(np.abs(np.diag(R)[:k]) > 1e-3).tolist()
+    theta = np.zeros(k)
     if keep:
-        sol, *_ = np.linalg.lstsq(Xs[:, keep], y, rcond=None)
+        sol, *_ = np.linalg.lstsq(R[:, keep], R[:, k], rcond=None)
         theta[keep] = sol / norms[keep]
-    full_X = np.column_stack(cols)
     residual = target - full_X @ theta
     rss = float(np.sum(residual[rows] ** 2))
     return dict(zip(names, theta.tolist(), strict=True)), rss, len(keep), residual

@@ -51,7 +51,7 @@ import pandas as pd
 
 from motorid.diagnose.effects import EFFECTS, get_effect, param_unit
 from motorid.diagnose.kinematics import Kinematics, kinematics
-from motorid.diagnose.locate import Region, features, locate
+from motorid.diagnose.locate import Region, feature, features, locate
 from motorid.diagnose.model import BalanceData, FitResult, GreyBoxModel, fit_model
 from motorid.errors import DataError
 from motorid.records import record_timing
@@ -70,17 +70,26 @@ DEFAULT_BASE = ("viscous_friction", "offset")
 # --------------------------------------------------------------------------- prepared record
 @dataclass
 class Prepared:
-    """One record made ready: kinematics, balance data, features and the free-run start."""
+    """One record made ready: kinematics, balance data, features and the free-run start.
+
+    The features are kept on the decimated samples only (``feats_dec``); a
+    region's full-rate mask is computed when asked for (:meth:`region_mask`).
+    """
 
     kin: Kinematics
     data: BalanceData
-    feats_full: dict[str, np.ndarray]
+    feats_dec: dict[str, np.ndarray]
     timing: str
     units: dict[str, str]
+    _masks: dict[Region, np.ndarray] = field(default_factory=dict, repr=False)
 
-    @property
-    def feats_dec(self) -> dict[str, np.ndarray]:
-        return {k: v[self.data.idx] for k, v in self.feats_full.items()}
+    def region_mask(self, region: Region) -> np.ndarray:
+        """Full-rate samples inside ``region`` (cached per region)."""
+        if region not in self._masks:
+            kin = self.kin
+            x = feature(region.feature, kin.w, kin.a, kin.u, kin.dt, self.data.w_threshold)
+            self._masks[region] = region.mask({region.feature: x})
+        return self._masks[region]
 
     @property
     def start(self) -> int:
@@ -198,7 +207,7 @@ def prepare(
             f"samples after the filter edges (at least 30 needed; decimation factor {kin.factor})"
         )
     data = BalanceData(kin, float(input_gain))
-    feats = features(kin.w, kin.a, kin.u, dt, data.w_threshold)
+    feats = features(kin.w, kin.a, kin.u, dt, data.w_threshold, at=data.idx)
     return Prepared(kin, data, feats, timing, _units(record, input, output, output_kind, gain_given))
 
 
@@ -235,7 +244,7 @@ def gaps(model: GreyBoxModel, prep: Prepared, region: Region | None) -> dict[str
     r, f_in = balance_residual(model, prep.data)
     out = {
         "overall": _rms(err[valid]),
-        "region": _rms(err[valid & region.mask(prep.feats_full)]) if region is not None else float("nan"),
+        "region": _rms(err[valid & prep.region_mask(region)]) if region is not None else float("nan"),
         "force_error_percent": 100.0 * float(np.linalg.norm(r) / max(np.linalg.norm(f_in), 1e-300)),
     }
     return out
@@ -564,6 +573,7 @@ def diagnose(
                 fit.rss / max(float(np.sum(p.data.kin.decimate(p.data.kin.u)[p.data.moving] ** 2)), 1e-300)
             )
         prep = preps[int(np.argmin(scores))]
+        preps.clear()  # the other timing's arrays go now
     else:
         prep = prepare(record, timing=timing, **opts)
     data = prep.data
@@ -590,6 +600,9 @@ def diagnose(
         return _rms(r[held_rows]) / inertia
 
     current = tuple(base_names)
+    # stages: the initial fit, each step, the final gaps (after the checks: an error shows no bar)
+    bar = tqdm(total=max_steps + 2, desc="doctor", disable=not progress, unit="stage")
+    bar.set_postfix_str(f"initial fit on {data.n} decimated samples")
     fit0 = fit_model(data, current)
     initial_model = fit0.model
     r0, _ = balance_residual(initial_model, data)
@@ -597,8 +610,9 @@ def diagnose(
     steps: list[Step] = []
     rejected: list[dict[str, Any]] = []
     stop_reason = f"max_steps = {max_steps} reached"
-    bar = tqdm(total=max_steps, desc="doctor", disable=not progress, unit="step")
+    bar.update(1)
     for _ in range(max_steps):
+        bar.set_postfix_str(f"step {len(steps) + 1}")
         remaining = [
             c for c in cand_names if c not in current and all(r in current for r in get_effect(c).requires)
         ]
@@ -686,10 +700,13 @@ def diagnose(
         current = fit1.model.effects
         fit0 = fit1
         bar.update(1)
-    bar.close()
+    bar.total = bar.n + 1  # a diagnosis that stops early skips the steps it did not take
+    bar.set_postfix_str("final gaps")
     final_model = fit0.model
     initial_gap = gaps(initial_model, prep, first_region)
     final_gap = gaps(final_model, prep, first_region) if steps else dict(initial_gap)
+    bar.update(1)
+    bar.close()
     return Diagnosis(
         initial_gap=initial_gap, final_gap=final_gap, steps=steps, stop_reason=stop_reason,
         model=final_model, initial_model=initial_model, region=first_region, units=prep.units,
