@@ -247,11 +247,104 @@ def test_run_online_keyboard_interrupt_and_sigterm(tmp_path):
             return 1.0
 
         daq = CommandLog(FirstOrderPlant(), seed=0)
-        with pytest.raises(KeyboardInterrupt):
+        with pytest.raises(KeyboardInterrupt) as info:
             run_online(daq, [Recorder()], excitation, 2.0, out=out, progress=False)
         assert daq.sent[-1] == 0.0 and daq.closed
         assert len(pd.read_csv(out)) == 6
+        # the stop message counts exactly the rows on disk
+        assert any("stopped after 6 of 50 samples" in n for n in info.value.__notes__)
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+
+
+def test_run_online_stops_between_samples_on_a_real_sigint(tmp_path):
+    """A real Ctrl-C (SIGINT) mid-loop: the file ends on a whole row, the message says how many."""
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("signals need the main thread")
+    handler = signal.getsignal(signal.SIGINT)
+    out = tmp_path / "sigint.csv"
+
+    def excitation(t):
+        if abs(t - 0.4) < 1e-9:  # while computing the command of sample 10
+            signal.raise_signal(signal.SIGINT)
+        return 1.0
+
+    daq = CommandLog(FirstOrderPlant(), seed=0)
+    with pytest.raises(KeyboardInterrupt, match="SIGINT") as info:
+        run_online(daq, [Recorder()], excitation, 2.0, out=out, progress=False)
+    rows = len(pd.read_csv(out))
+    assert rows == 10
+    assert any(f"stopped after {rows} of 50 samples" in n for n in info.value.__notes__)
+    assert daq.sent[-1] == 0.0 and daq.closed
+    assert signal.getsignal(signal.SIGINT) is handler
+
+
+def test_run_online_never_truncates_an_existing_file(tmp_path):
+    out = tmp_path / "old.csv"
+    out.write_text("t,u,y\n0,1,2\n")
+    daq = CommandLog(FirstOrderPlant(), seed=0)
+    with pytest.raises(FileExistsError, match="old.csv.*overwrite=True"):
+        run_online(daq, None, np.ones(5), None, out=out, progress=False)
+    assert daq.sent == [] and not daq.is_open  # refused before the rig was touched
+    assert out.read_text() == "t,u,y\n0,1,2\n"
+
+    class Unreachable(CommandLog):
+        def _open(self):
+            raise DAQError("cannot connect")
+
+    # overwrite=True, but the run never takes a sample: the old file stays as it was
+    with pytest.raises(DAQError):
+        run_online(Unreachable(FirstOrderPlant(), seed=0), None, np.ones(5), None, out=out, overwrite=True,
+                   progress=False)  # fmt: skip
+    assert out.read_text() == "t,u,y\n0,1,2\n"
+    new = tmp_path / "never.csv"
+    with pytest.raises(DAQError):
+        run_online(Unreachable(FirstOrderPlant(), seed=0), None, np.ones(5), None, out=new, progress=False)
+    assert not new.exists()
+
+    df = run_online(CommandLog(FirstOrderPlant(), seed=0), None, np.ones(5), None, out=out, overwrite=True,
+                    progress=False)  # fmt: skip
+    pd.testing.assert_frame_equal(pd.read_csv(out), df, check_dtype=False)
+
+
+MEMORY_RUN = """
+import resource, sys
+import numpy as np
+sys.path.insert(0, {tests!r})
+from io_fixtures import FirstOrderPlant
+from motorid.estimators import create
+from motorid.io import SimulatedDAQ, run_online
+n = int(sys.argv[1])
+u = 6.0 * np.sin(0.05 * np.arange(n))
+df = run_online(SimulatedDAQ(FirstOrderPlant(), seed=0), {{"arx": create("arx-rls", na=2, nb=2)}}, u, None,
+                out=sys.argv[2], progress=False)
+print(len(df), df.attrs["samples"], resource.getrusage(resource.RUSAGE_SELF).ru_maxrss)
+"""
+
+
+def test_a_long_online_run_holds_its_memory_flat(tmp_path):
+    """200,000 samples (2.2 h at 25 Hz) peak at the memory of 20,000: the rows are on disk, not in memory.
+
+    Each run is a fresh process and its peak resident set is what the
+    operating system measured. With every row kept in memory the 180,000
+    extra samples of this run cost 243 MB (measured: 289 -> 533 MB); bounded,
+    2 MB. 32 MB allows the allocator's and the interpreter's own variation and
+    is still 7 times below the unbounded growth.
+    """
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    script = MEMORY_RUN.format(tests=str(Path(__file__).parent))
+    peaks = {}
+    for n in (20_000, 200_000):
+        out = tmp_path / f"run{n}.csv"
+        done = subprocess.run([sys.executable, "-c", script, str(n), str(out)], capture_output=True,
+                              text=True, timeout=600, check=True)  # fmt: skip
+        kept, samples, peak_kb = map(int, done.stdout.split())
+        assert samples == n and kept == 10_000  # KEEP_WITH_FILE rows in memory, the file holds all
+        assert sum(1 for _ in out.open()) == n + 1  # header + every sample
+        peaks[n] = peak_kb
+    assert peaks[200_000] - peaks[20_000] < 32 * 1024, peaks
 
 
 def test_run_online_rejects_bad_arguments():

@@ -369,7 +369,7 @@ def start_rig_process(port: int) -> subprocess.Popen:
         "serve",
         "--port",
         str(port),
-        "--seed",
+        "--plant-seed",
         "1",
         "--watchdog-periods",
         "0",

@@ -74,14 +74,14 @@ def cmd_run(args: argparse.Namespace) -> int:
     except DAQError as exc:
         notes = " ".join(getattr(exc, "__notes__", []))
         raise DataError(f"run stopped: {exc}. {notes}".strip()) from None
-    except KeyboardInterrupt as exc:
-        notes = " ".join(getattr(exc, "__notes__", []))
-        raise DataError(f"run interrupted (Ctrl-C or SIGTERM). {notes}".strip()) from None
-    say(f"wrote {args.out}: {record.attrs.get('samples', len(record))} samples")
+    except KeyboardInterrupt as exc:  # exit 130 (main), after saying what is on disk
+        say(f"motorid run: {exc or 'interrupted'}; " + " ".join(getattr(exc, "__notes__", [])))
+        raise
+    say(f"wrote {args.out}: {record.attrs['samples']} samples")
     for name, est in estimators.items():
         say_params(f"{name}.", est.params)
     if args.json:
-        emit_json({"out": args.out, "samples": record.attrs.get("samples", len(record)),
+        emit_json({"out": args.out, "samples": record.attrs["samples"],
                    "params": {n: e.params for n, e in estimators.items()}})  # fmt: skip
     return 0
 

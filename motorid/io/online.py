@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import copy
 import csv
 import logging
 import math
 import signal
 import sys
 import threading
+from collections import deque
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -21,7 +23,10 @@ from .base import DAQ, Sample
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["OnlineEstimator", "RunRecorder", "run_online"]
+__all__ = ["KEEP_WITH_FILE", "OnlineEstimator", "RunRecorder", "run_online"]
+
+KEEP_WITH_FILE = 10_000
+"""Rows :func:`run_online` keeps in memory by default when it writes a file (the file holds them all)."""
 
 Excitation = Sequence[float] | np.ndarray | Callable[[float], float]
 
@@ -92,12 +97,15 @@ def name_estimators(estimators: Mapping[str, Any] | Iterable[Any] | None) -> dic
 
 
 class RunRecorder:
-    """Append-only CSV recording of an online run, readable at every moment.
+    """Append-only CSV recording of an online run, readable at every moment, in bounded memory.
 
-    The header is written with the first row (the parameter columns are
-    known only once the estimators have produced them). Rows are flushed to
-    the operating system every ``flush_every`` rows, so a crash or Ctrl-C
-    loses at most the rows since the last flush (none with the default 1).
+    The file is created with the first row (the parameter columns are known
+    only once the estimators have produced them), so a run that never takes a
+    sample leaves an existing file as it was and creates none. Rows are
+    flushed to the operating system every ``flush_every`` rows, so a crash or
+    Ctrl-C loses at most the rows since the last flush (none with the
+    default 1). Only the last ``keep`` rows stay in memory: a run of days
+    holds its memory flat, and the file holds every row.
 
     Parameters
     ----------
@@ -105,33 +113,62 @@ class RunRecorder:
         CSV file to write; None keeps the rows in memory only.
     flush_every : int
         Flush after this many rows.
+    overwrite : bool
+        Replace an existing ``path``; without it an existing file is refused
+        here, before the run starts.
+    keep : int or None
+        Rows kept in memory for :meth:`frame`; None keeps all of them.
+
+    Raises
+    ------
+    FileExistsError
+        ``path`` exists and ``overwrite`` is false.
     """
 
-    def __init__(self, path: str | Path | None, flush_every: int = 1) -> None:
+    def __init__(
+        self,
+        path: str | Path | None,
+        flush_every: int = 1,
+        *,
+        overwrite: bool = False,
+        keep: int | None = None,
+    ) -> None:
         if flush_every < 1:
             raise ValueError(f"flush_every must be >= 1, got {flush_every!r}")
+        if keep is not None and (not isinstance(keep, int) or keep < 0):
+            raise ValueError(f"keep must be None or an integer >= 0, got {keep!r}")
         self.path = None if path is None else Path(path)
         self.flush_every = int(flush_every)
-        self.rows: list[dict[str, float | int]] = []
+        self.overwrite = bool(overwrite)
+        self.rows: deque[dict[str, float | int]] = deque(maxlen=keep)
+        self.count = 0
         self.columns: list[str] | None = None
         self._fh: Any = None
         self._writer: Any = None
         if self.path is not None:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-            self._fh = self.path.open("w", newline="", encoding="utf-8")
+            if self.path.is_dir():
+                raise IsADirectoryError(f"run_online: out {self.path} is a folder, expected a file name")
+            if self.path.exists() and not self.overwrite:
+                raise FileExistsError(
+                    f"run_online: out {self.path} exists; pass overwrite=True to replace it, "
+                    "or choose another name"
+                )
 
     def append(self, row: dict[str, float | int]) -> None:
         """Record one row (written to disk at once, flushed every ``flush_every``)."""
         if self.columns is None:
             self.columns = list(row)
-            if self._fh is not None:
+            if self.path is not None:
+                self.path.parent.mkdir(parents=True, exist_ok=True)
+                self._fh = self.path.open("w" if self.overwrite else "x", newline="", encoding="utf-8")
                 self._writer = csv.writer(self._fh, lineterminator="\n")
                 self._writer.writerow(self.columns)
-        self.rows.append(row)
         if self._writer is not None:
             self._writer.writerow([_format(row.get(c, math.nan)) for c in self.columns])
-            if len(self.rows) % self.flush_every == 0:
+            if (self.count + 1) % self.flush_every == 0:
                 self._fh.flush()
+        self.rows.append(row)
+        self.count += 1
 
     def close(self) -> None:
         """Flush and close the file; the recording stays readable."""
@@ -140,12 +177,36 @@ class RunRecorder:
             self._fh.close()
 
     def frame(self, dt: float) -> pd.DataFrame:
-        """The rows so far as a DataFrame with ``attrs["dt"]`` and ``attrs["units"]``."""
-        df = pd.DataFrame(self.rows, columns=self.columns or ["t", "seq", "u", "y", "clamped"])
+        """The rows kept in memory as a DataFrame.
+
+        ``attrs`` holds ``dt`` [s], ``units``, ``timing`` and ``samples``, the
+        number of rows recorded in all (more than the frame's length when
+        ``keep`` bounded it; the file holds every row).
+        """
+        df = pd.DataFrame(list(self.rows), columns=self.columns or ["t", "seq", "u", "y", "clamped"])
         df.attrs["dt"] = dt
         df.attrs["units"] = {"t": "s", "u": "V", "y": "rad/s"}
         df.attrs["timing"] = "hold"  # a keyword of motorid.records.TIMINGS
+        df.attrs["samples"] = self.count
         return df
+
+
+def warm_up(estimators: Mapping[str, OnlineEstimator]) -> None:
+    """Run one ``predict(0); update(0)`` on a copy of each estimator, before the rig is opened.
+
+    The first call of a compiled estimator compiles it (0.1-0.2 s), longer
+    than a rig server's watchdog allows between samples (3 periods of 40 ms);
+    done here, on a copy, it costs nothing during the run and leaves the
+    estimators untouched. An estimator that cannot be copied is not warmed
+    (logged at debug level).
+    """
+    for name, est in estimators.items():
+        try:
+            twin = copy.deepcopy(est)
+            twin.predict(0.0)
+            twin.update(0.0)
+        except Exception as exc:  # a plugin that cannot be copied or run on zeros: warm-up is optional
+            logger.debug("estimator %r not warmed up before the run: %s: %s", name, type(exc).__name__, exc)
 
 
 def _format(value: float) -> str:
@@ -164,21 +225,41 @@ def _command_for(excitation: Excitation, k: int, t: float) -> float:
     return u
 
 
-@contextmanager
-def _sigterm_as_interrupt() -> Any:
-    """Within the block, SIGTERM raises KeyboardInterrupt (main thread only)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
+class StopRequest:
+    """Ctrl-C (SIGINT) and SIGTERM as a request to stop between two samples.
 
-    def _terminate(signum: int, frame: object) -> None:
-        raise KeyboardInterrupt(f"signal {signum}")
+    Inside :meth:`installed` the first signal only sets :attr:`signal_name`;
+    the loop checks :meth:`check` once per sample and stops there, so the
+    rig is commanded to 0 V and the CSV ends on a whole row that the stop
+    message counts exactly. A second signal raises KeyboardInterrupt at once
+    (a rig that no longer answers). Outside the main thread signals cannot be
+    caught, and nothing is installed.
+    """
 
-    previous = signal.signal(signal.SIGTERM, _terminate)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
+    def __init__(self) -> None:
+        self.signal_name: str | None = None
+
+    def _handle(self, signum: int, frame: object) -> None:
+        if self.signal_name is not None:
+            raise KeyboardInterrupt(f"{signal.Signals(signum).name} received twice")
+        self.signal_name = signal.Signals(signum).name
+
+    def check(self) -> None:
+        """Raise KeyboardInterrupt if a stop was requested."""
+        if self.signal_name is not None:
+            raise KeyboardInterrupt(f"{self.signal_name} received")
+
+    @contextmanager
+    def installed(self) -> Any:
+        if threading.current_thread() is not threading.main_thread():
+            yield self
+            return
+        previous = {s: signal.signal(s, self._handle) for s in (signal.SIGINT, signal.SIGTERM)}
+        try:
+            yield self
+        finally:
+            for s, handler in previous.items():
+                signal.signal(s, handler)
 
 
 def run_online(
@@ -190,6 +271,8 @@ def run_online(
     progress: bool = True,
     *,
     flush_every: int = 1,
+    overwrite: bool = False,
+    keep: int | None = None,
 ) -> pd.DataFrame:
     """Run online identification on a DAQ: excite, measure, estimate, record.
 
@@ -212,11 +295,20 @@ def run_online(
         Length of the run [s]; ``round(duration / daq.dt)`` samples. None
         with an array excitation runs the whole array.
     out : path, optional
-        CSV file the recording is appended to while the loop runs.
+        CSV file written row by row while the loop runs (created with the
+        first sample). An existing file is refused before the DAQ is opened
+        unless ``overwrite`` is true.
     progress : bool
         Show a tqdm progress bar on stderr.
     flush_every : int
         Flush the CSV every this many samples (1: every sample).
+    overwrite : bool
+        Replace an existing ``out``. Even then the old file stays as it was
+        until the first sample is taken.
+    keep : int or None
+        Rows kept in memory and returned. None: every row without ``out``,
+        the last :data:`KEEP_WITH_FILE` rows with it (the file holds them
+        all), so a run of days at 25 Hz holds its memory flat.
 
     Returns
     -------
@@ -226,18 +318,22 @@ def run_online(
         then for each estimator ``NAME.y_hat`` and its flattened ``params``
         after the update. Timing as in ``TwoMassRig.simulate``: ``u`` is held
         over ``[t, t + dt)`` and ``y`` is measured at ``t + dt`` (the sample's
-        time stamp). ``attrs["dt"]``, ``attrs["units"]`` and
-        ``attrs["timing"]`` are set.
+        time stamp). ``attrs["dt"]``, ``attrs["units"]``,
+        ``attrs["timing"]`` and ``attrs["samples"]`` (rows recorded in all)
+        are set.
 
     Raises
     ------
+    FileExistsError
+        ``out`` exists and ``overwrite`` is false (before the DAQ is opened).
     DAQError
         The rig failed (lost link, invalid reading, fault). The loop stops,
         commands 0 V where it can, closes the DAQ, and re-raises; the CSV
         holds every sample taken before the failure (a note on the exception
         says how many and where).
     KeyboardInterrupt
-        Ctrl-C or SIGTERM: the same clean-up, then re-raised.
+        Ctrl-C or SIGTERM: the loop stops before the next sample, with the
+        same clean-up (a second signal stops it at once).
     """
     named = name_estimators(estimators)
     dt = float(daq.dt)
@@ -262,15 +358,19 @@ def run_online(
                 f"needs {n} ({duration} s at dt = {dt} s)"
             )
 
-    recorder = RunRecorder(out, flush_every=flush_every)
+    if keep is None and out is not None:
+        keep = KEEP_WITH_FILE
+    recorder = RunRecorder(out, flush_every=flush_every, overwrite=overwrite, keep=keep)
+    warm_up(named)
     bar = tqdm(
         total=n, file=sys.stderr, disable=not progress, unit="sample", desc="online", dynamic_ncols=True
     )
     try:
-        with _sigterm_as_interrupt():
+        with StopRequest().installed() as stop:
             daq.open()
             daq.write(_command_for(excitation, 0, 0.0))
             for k in range(n):
+                stop.check()
                 sample: Sample = daq.read()
                 row: dict[str, float | int] = {
                     "t": sample.t - dt,
@@ -290,8 +390,9 @@ def run_online(
                     daq.write(_command_for(excitation, k + 1, (k + 1) * dt))
     except BaseException as exc:
         where = f" in {recorder.path}" if recorder.path is not None else ""
-        msg = f"run_online stopped after {len(recorder.rows)} of {n} samples (recorded{where})"
-        logger.error("%s: %s: %s", msg, type(exc).__name__, exc)
+        msg = f"run_online stopped after {recorder.count} of {n} samples (recorded{where})"
+        reason = str(exc) or ("interrupted" if isinstance(exc, KeyboardInterrupt) else "no message")
+        logger.error("%s: %s: %s", msg, type(exc).__name__, reason)
         exc.add_note(msg)
         raise
     finally:

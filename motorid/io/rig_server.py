@@ -436,7 +436,9 @@ class RigServer:
         """Serve in the calling thread until KeyboardInterrupt or SIGTERM.
 
         SIGTERM is handled like Ctrl-C (when called from the main thread), so
-        the listener is closed cleanly either way.
+        the listener is closed cleanly either way. Starts the server unless
+        :meth:`start` already has (which lets a caller report that it listens
+        before handing over the thread).
         """
         import signal
 
@@ -447,7 +449,8 @@ class RigServer:
                 raise KeyboardInterrupt
 
             previous = signal.signal(signal.SIGTERM, _terminate)
-        self.start()
+        if not self.running:
+            self.start()
         try:
             while not self._done.wait(0.5):
                 pass

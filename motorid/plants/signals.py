@@ -93,9 +93,8 @@ def two_sine_signal(
         edges.append(edges[-1] + rng.uniform(*span))
         levels.append(1.0 if active else low_level)
         active = not active
-    env = np.empty_like(t)
-    for k in range(len(levels)):
-        env[(t >= edges[k]) & (t < edges[k + 1])] = levels[k]
+    # the stretch k holding t: edges[k] <= t < edges[k + 1]
+    env = np.asarray(levels)[np.searchsorted(edges, t, side="right") - 1]
     if ramp > 0.0:
         n_ramp = max(1, round(ramp / dt))
         kernel = np.hanning(n_ramp + 2)[1:-1]

@@ -1,0 +1,5 @@
+"""``python -m motorid.cli``: the ``motorid`` command."""
+
+from . import main
+
+raise SystemExit(main())
