@@ -163,3 +163,16 @@ def test_a_good_record_still_identifies(capsys, folder):
     code, text = _run(capsys, ["identify", str(folder / "good.csv"), "--estimator", "arx-rls"])
     assert code == 0, text
     assert "FIT" in text
+
+
+def test_rig_serve_on_a_port_in_use_names_it(capsys):
+    import socket
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        code, text = _run(capsys, ["rig", "serve", "--port", str(port)])
+    lines = [line for line in text.splitlines() if line.strip()]
+    assert code == 2 and len(lines) == 1, text
+    assert f"--port {port}" in lines[0] and "in use" in lines[0]

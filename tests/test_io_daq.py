@@ -282,7 +282,7 @@ def test_run_online_never_truncates_an_existing_file(tmp_path):
     out = tmp_path / "old.csv"
     out.write_text("t,u,y\n0,1,2\n")
     daq = CommandLog(FirstOrderPlant(), seed=0)
-    with pytest.raises(FileExistsError, match="old.csv.*overwrite=True"):
+    with pytest.raises(FileExistsError, match=r"old\.csv.*overwrite=True"):
         run_online(daq, None, np.ones(5), None, out=out, progress=False)
     assert daq.sent == [] and not daq.is_open  # refused before the rig was touched
     assert out.read_text() == "t,u,y\n0,1,2\n"

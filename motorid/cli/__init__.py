@@ -79,4 +79,3 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
         )
         return 1
-

@@ -34,6 +34,8 @@ def cmd_rig_serve(args: argparse.Namespace) -> int:
         watchdog_periods=args.watchdog_periods or None, u_max=args.u_max,
     )  # fmt: skip
     where = args.serial or f"{args.host}:{args.port}"
+    if not args.serial:
+        check_port_free(args.host, args.port)
     try:
         server.start()
     except RuntimeError as exc:
@@ -43,6 +45,18 @@ def cmd_rig_serve(args: argparse.Namespace) -> int:
         f"({'real time' if args.realtime else 'lock-step'}); Ctrl-C stops it")  # fmt: skip
     server.serve_forever()
     return 0
+
+
+def check_port_free(host: str, port: int) -> None:
+    """Refuse, with the operating system's reason, a TCP address the rig server could not listen on."""
+    import socket
+
+    with socket.socket() as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as the server binds
+        try:
+            probe.bind((host, port))
+        except OSError as exc:
+            raise DataError(f"--port {port}: cannot listen on {host}:{port}: {exc.strerror or exc}") from None
 
 
 def cmd_rig_map(args: argparse.Namespace) -> int:
