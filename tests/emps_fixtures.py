@@ -1,4 +1,4 @@
-"""Where the tests find the EMPS measurement, and the published inverse-dynamics recipe.
+"""Where the tests find the measured data (EMPS, real small motors), and EMPS's published recipe.
 
 The data folder is ``$MOTORID_DATA`` or, in a checkout with the shared data beside
 it, ``../shared/data``. Tests that need the files skip with the reason otherwise.
@@ -18,11 +18,21 @@ from motorid.datasets import DATA_ENV_VAR, EMPS_FILES
 REPO = Path(__file__).resolve().parents[1]
 
 
+def data_roots() -> list[Path]:
+    """``$MOTORID_DATA`` when set, then ``../shared/data`` beside the checkout."""
+    roots = [Path(os.environ[DATA_ENV_VAR])] if os.environ.get(DATA_ENV_VAR) else []
+    return [*roots, REPO.parent / "shared" / "data"]
+
+
+def real_motor_file(name: str) -> Path:
+    """``realmotors/NAME`` in the first data root that has it (the first root's path otherwise)."""
+    candidates = [root / "realmotors" / name for root in data_roots()]
+    return next((path for path in candidates if path.is_file()), candidates[0])
+
+
 def emps_folder() -> Path | None:
     """Folder holding the EMPS files, or None."""
-    roots = [Path(os.environ[DATA_ENV_VAR])] if os.environ.get(DATA_ENV_VAR) else []
-    roots.append(REPO.parent / "shared" / "data")
-    for root in roots:
+    for root in data_roots():
         for folder in (root, root / "emps"):
             if all((folder / name).is_file() for name in EMPS_FILES.values()):
                 return folder

@@ -128,6 +128,8 @@ BAD_INPUT = [
     ("1e300 in y, doctor", "doctor {d}/huge_y.csv", ["'y'", "250"]),
     ("1e300 in u, doctor", "doctor {d}/huge_u.csv", ["'u'", "250"]),
     ("time column as output", "doctor {d}/good.csv --output t", ["'t'"]),
+    ("unknown output unit", "identify {d}/good.csv --output-unit rpms", ["--output-unit", "'rpms'", "rpm"]),
+    ("supply voltage without duty", "identify {d}/good.csv --supply-voltage 12", ["--supply-voltage", "%"]),
 ]
 
 

@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.errors import DataError
+from motorid.units import INPUT_UNITS, OUTPUT_UNITS, convert_record
 
 #: The paper's low-speed band, |y| < 150 rpm (its Figs. 9-11).
 LOW_SPEED_RPM = 150.0
@@ -93,6 +94,14 @@ def add_record_input(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--input", default="u", metavar="COL", help="input column [V] (default: u)")
     group.add_argument("--output", default="y", metavar="COL", help="output column [rad/s] (default: y)")
     group.add_argument("--dt", type=positive, help="sample time [s] (default: from the file)")
+    group.add_argument("--input-unit", metavar="UNIT", choices=INPUT_UNITS,
+                       help=f"unit of the input column: {', '.join(INPUT_UNITS).replace('%', '%%')} (default: the file's "
+                       "attrs, else V); %% is PWM duty, in volts with --supply-voltage")  # fmt: skip
+    group.add_argument("--output-unit", metavar="UNIT", choices=OUTPUT_UNITS,
+                       help=f"unit of the output column: {', '.join(OUTPUT_UNITS)} (default: the file's "
+                       "attrs, else rad/s); converted to rad/s, rad, m/s or m as it is read")  # fmt: skip
+    group.add_argument("--supply-voltage", type=positive, metavar="V",
+                       help="supply voltage of a PWM drive [V]: --input-unit %% becomes volts")  # fmt: skip
     group.add_argument(
         "--max-samples", type=number(int, low=1), default=2_000_000,
         help="refuse a longer record (default: 2000000); decimate a longer one first",
@@ -103,6 +112,8 @@ def read_record_from_args(args: argparse.Namespace, min_samples: int = 20) -> pd
     """Read the record named by :func:`add_record_input`'s options, with columns ``t``, ``u``, ``y``.
 
     Without ``--time``, a file with no ``t`` column reads when ``--dt`` is given.
+    The input and output are converted to motorid's units as they are read
+    (:func:`motorid.units.convert_record`).
     """
     from motorid.records import read_record
 
@@ -124,7 +135,9 @@ def read_record_from_args(args: argparse.Namespace, min_samples: int = 20) -> pd
     units = record.attrs.get("units")
     if isinstance(units, dict):
         renamed.attrs["units"] = {names.get(k, k): v for k, v in units.items()}
-    return renamed
+    if args.supply_voltage is not None and args.input_unit != "%":
+        raise DataError("--supply-voltage converts PWM duty: it needs --input-unit %")
+    return convert_record(renamed, args.input_unit, args.output_unit, args.supply_voltage)
 
 
 def add_estimator_options(parser: argparse.ArgumentParser, repeatable: bool = False) -> None:

@@ -1,0 +1,146 @@
+"""Units at the edge: a record's input and output converted once, as it is read, to motorid's units.
+
+Inside motorid the input is in volts [V] (or left in the drive's own command
+unit, such as PWM duty [%], when no conversion to volts is known) and the
+output in SI units: rad/s, rad, m/s or m. Records from DAQs arrive in rpm,
+rev/s, degrees, millimetres or PWM duty; each unit is converted here by one
+factor,
+
+    x_SI = factor * x_file,
+
+and the record's ``attrs["units"]`` then names the unit its columns hold, so
+nothing downstream ever takes rpm for rad/s.
+"""
+
+from __future__ import annotations
+
+import math
+
+import pandas as pd
+
+from motorid.errors import DataError
+
+__all__ = ["INPUT_UNITS", "OUTPUT_UNITS", "convert_record", "input_factor", "output_factor"]
+
+#: Output units: name -> (factor to the SI unit, the SI unit).
+OUTPUT_UNITS: dict[str, tuple[float, str]] = {
+    "rad/s": (1.0, "rad/s"),
+    "rpm": (2.0 * math.pi / 60.0, "rad/s"),
+    "rev/min": (2.0 * math.pi / 60.0, "rad/s"),
+    "rev/s": (2.0 * math.pi, "rad/s"),
+    "rps": (2.0 * math.pi, "rad/s"),
+    "deg/s": (math.pi / 180.0, "rad/s"),
+    "rad": (1.0, "rad"),
+    "rev": (2.0 * math.pi, "rad"),
+    "deg": (math.pi / 180.0, "rad"),
+    "m/s": (1.0, "m/s"),
+    "mm/s": (1e-3, "m/s"),
+    "m": (1.0, "m"),
+    "mm": (1e-3, "m"),
+}
+
+#: Input units: name -> factor to volts; ``%`` (PWM duty) converts only with a supply voltage.
+INPUT_UNITS: dict[str, float | None] = {"V": 1.0, "mV": 1e-3, "%": None}
+
+
+def output_factor(unit: str, option: str = "--output-unit") -> tuple[float, str]:
+    """The factor from ``unit`` to its SI unit, and that SI unit.
+
+    Raises
+    ------
+    DataError
+        ``unit`` is not one of :data:`OUTPUT_UNITS` (the message lists them).
+    """
+    try:
+        return OUTPUT_UNITS[unit]
+    except KeyError:
+        raise DataError(f"{option}: unknown unit {unit!r}; known: {', '.join(OUTPUT_UNITS)}") from None
+
+
+def input_factor(
+    unit: str, supply_voltage: float | None = None, option: str = "--input-unit"
+) -> tuple[float, str]:
+    """The factor from the input ``unit`` to volts, and the unit the converted input is in.
+
+    PWM duty ``%`` becomes volts with the drive's supply voltage ``V_s`` [V]:
+    ``u_V = u_% * V_s / 100``. Without ``supply_voltage`` the duty stays in
+    ``%`` (factor 1): the model's input gain then absorbs the supply.
+
+    Raises
+    ------
+    DataError
+        An unknown unit, or a supply voltage that is not a positive number.
+    """
+    if unit not in INPUT_UNITS:
+        raise DataError(f"{option}: unknown unit {unit!r}; known: {', '.join(INPUT_UNITS)}")
+    if supply_voltage is not None and not (math.isfinite(supply_voltage) and supply_voltage > 0):
+        raise DataError(f"--supply-voltage must be a positive voltage [V], got {supply_voltage!r}")
+    factor = INPUT_UNITS[unit]
+    if factor is not None:
+        return factor, "V"
+    if supply_voltage is None:
+        return 1.0, "%"
+    return supply_voltage / 100.0, "V"
+
+
+def convert_record(
+    record: pd.DataFrame,
+    input_unit: str | None = None,
+    output_unit: str | None = None,
+    supply_voltage: float | None = None,
+) -> pd.DataFrame:
+    """A copy of ``record`` with ``u`` in volts (or duty %) and ``y`` in SI units.
+
+    Parameters
+    ----------
+    record : DataFrame
+        Columns ``u`` and ``y``; ``attrs["units"]`` may name their units.
+    input_unit, output_unit : str, optional
+        The units of ``u`` and ``y`` in the file. Given, they override
+        ``attrs["units"]``; not given, the attrs say (a record written by
+        motorid carries them); a record without either is taken as V and
+        rad/s, motorid's own units. A unit the attrs name and this module has
+        no factor for (a force input in N, say) is kept as it is.
+    supply_voltage : float, optional
+        Supply voltage [V] of a PWM drive, for ``input_unit="%"``.
+
+    Returns
+    -------
+    DataFrame
+        The converted record, ``attrs`` kept, ``attrs["units"]`` updated and
+        ``attrs["converted_from"]`` naming the file's units where they were
+        converted.
+
+    Raises
+    ------
+    DataError
+        An unknown unit given as an argument (named, with the known ones), or
+        a bad supply voltage.
+    """
+    units = dict(record.attrs.get("units") or {})
+    u_unit = input_unit or units.get("u") or "V"
+    y_unit = output_unit or units.get("y") or "rad/s"
+    if input_unit or u_unit in INPUT_UNITS:
+        u_factor, u_si = input_factor(u_unit, supply_voltage)
+    else:  # a unit the file declares and motorid has no factor for (a force input, say): kept as it is
+        u_factor, u_si = 1.0, u_unit
+    if output_unit or y_unit in OUTPUT_UNITS:
+        y_factor, y_si = output_factor(y_unit)
+    else:
+        y_factor, y_si = 1.0, y_unit
+    out = record.copy()
+    out.attrs = dict(record.attrs)
+    converted = dict(out.attrs.get("converted_from") or {})
+    if u_factor != 1.0:
+        out["u"] = record["u"] * u_factor
+    if y_factor != 1.0:
+        out["y"] = record["y"] * y_factor
+    if u_si != u_unit:
+        converted["u"] = u_unit
+    if y_si != y_unit:
+        converted["y"] = y_unit
+    units.update(u=u_si, y=y_si)
+    out.attrs["units"] = units
+    if converted:
+        out.attrs["converted_from"] = converted
+    return out
