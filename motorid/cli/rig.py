@@ -36,14 +36,20 @@ def cmd_rig_serve(args: argparse.Namespace) -> int:
     where = args.serial or f"{args.host}:{args.port}"
     if not args.serial:
         check_port_free(args.host, args.port)
+    listening: list[bool] = []
+
+    def banner() -> None:
+        listening.append(True)
+        say(f"motorid rig serve: simulated rig on Modbus {server.url} "
+            f"({'real time' if args.realtime else 'lock-step'}); Ctrl-C stops it")  # fmt: skip
+
     try:
-        server.start()
+        server.serve_forever(on_listening=banner)
     except RuntimeError as exc:
+        if listening:  # failed while serving: not the user's input
+            raise
         option = "--serial" if args.serial else "--port"
         raise DataError(f"{option}: cannot serve Modbus on {where}: {exc.__cause__ or exc}") from None
-    say(f"motorid rig serve: simulated rig on Modbus {server.url} "
-        f"({'real time' if args.realtime else 'lock-step'}); Ctrl-C stops it")  # fmt: skip
-    server.serve_forever()
     return 0
 
 

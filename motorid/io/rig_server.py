@@ -29,6 +29,7 @@ import asyncio
 import logging
 import math
 import threading
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -432,13 +433,18 @@ class RigServer:
     def __exit__(self, *exc_info: object) -> None:
         self.stop()
 
-    def serve_forever(self) -> None:
+    def serve_forever(self, on_listening: Callable[[], None] | None = None) -> None:
         """Serve in the calling thread until KeyboardInterrupt or SIGTERM.
 
-        SIGTERM is handled like Ctrl-C (when called from the main thread), so
-        the listener is closed cleanly either way. Starts the server unless
-        :meth:`start` already has (which lets a caller report that it listens
-        before handing over the thread).
+        SIGTERM is handled like Ctrl-C (when called from the main thread) from
+        before the server starts, so the listener is closed cleanly either
+        way. ``on_listening`` is called once the server listens (the command
+        line prints its banner there).
+
+        Raises
+        ------
+        RuntimeError
+            The server could not start (see :meth:`start`) or failed while serving.
         """
         import signal
 
@@ -449,9 +455,10 @@ class RigServer:
                 raise KeyboardInterrupt
 
             previous = signal.signal(signal.SIGTERM, _terminate)
-        if not self.running:
-            self.start()
         try:
+            self.start()
+            if on_listening is not None:
+                on_listening()
             while not self._done.wait(0.5):
                 pass
         except KeyboardInterrupt:
