@@ -98,9 +98,10 @@ def convert_record(
     input_unit, output_unit : str, optional
         The units of ``u`` and ``y`` in the file. Given, they override
         ``attrs["units"]``; not given, the attrs say (a record written by
-        motorid carries them); a record without either is taken as V and
-        rad/s, motorid's own units. A unit the attrs name and this module has
-        no factor for (a force input in N, say) is kept as it is.
+        motorid carries them). A record without either is used as it is, in
+        units nobody named (results then say "input units"), and a unit the
+        attrs name that this module has no factor for (a force input in N,
+        say) is kept as it is.
     supply_voltage : float, optional
         Supply voltage [V] of a PWM drive, for ``input_unit="%"``.
 
@@ -114,33 +115,31 @@ def convert_record(
     Raises
     ------
     DataError
-        An unknown unit given as an argument (named, with the known ones), or
-        a bad supply voltage.
+        An unknown unit given as an argument (named, with the known ones), a
+        bad supply voltage, or a supply voltage for an input that is not PWM
+        duty.
     """
     units = dict(record.attrs.get("units") or {})
-    u_unit = input_unit or units.get("u") or "V"
-    y_unit = output_unit or units.get("y") or "rad/s"
-    if input_unit or u_unit in INPUT_UNITS:
-        u_factor, u_si = input_factor(u_unit, supply_voltage)
-    else:  # a unit the file declares and motorid has no factor for (a force input, say): kept as it is
-        u_factor, u_si = 1.0, u_unit
-    if output_unit or y_unit in OUTPUT_UNITS:
-        y_factor, y_si = output_factor(y_unit)
-    else:
-        y_factor, y_si = 1.0, y_unit
+    if supply_voltage is not None and (input_unit or units.get("u")) != "%":
+        raise DataError("--supply-voltage converts PWM duty to volts: it needs --input-unit %")
     out = record.copy()
     out.attrs = dict(record.attrs)
     converted = dict(out.attrs.get("converted_from") or {})
-    if u_factor != 1.0:
-        out["u"] = record["u"] * u_factor
-    if y_factor != 1.0:
-        out["y"] = record["y"] * y_factor
-    if u_si != u_unit:
-        converted["u"] = u_unit
-    if y_si != y_unit:
-        converted["y"] = y_unit
-    units.update(u=u_si, y=y_si)
-    out.attrs["units"] = units
+    for column, given in (("u", input_unit), ("y", output_unit)):
+        unit = given or units.get(column)
+        if unit is None:  # nothing says: the column is taken as it is and its unit stays unnamed
+            continue
+        table = INPUT_UNITS if column == "u" else OUTPUT_UNITS
+        if given is None and unit not in table:  # a unit the file declares without a factor here
+            continue
+        factor, si = input_factor(unit, supply_voltage) if column == "u" else output_factor(unit)
+        if factor != 1.0:
+            out[column] = record[column] * factor
+        if si != unit:
+            converted[column] = unit
+        units[column] = si
+    if units:
+        out.attrs["units"] = units
     if converted:
         out.attrs["converted_from"] = converted
     return out

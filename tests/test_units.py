@@ -90,3 +90,12 @@ def test_a_real_record_in_rev_s_identifies_as_the_same_record_in_rad_s(capsys, t
     code, reference, _ = run(capsys, *argv, str(tmp_path / "rad_s.csv"))
     assert code == 0
     assert converted["params"] == reference["params"] and converted["scores"] == reference["scores"]
+
+
+def test_a_record_that_names_no_units_is_used_as_it_is():
+    record = _record([1.0, 2.0], [3.0, 4.0])
+    out = convert_record(record)
+    pd.testing.assert_frame_equal(out, record)
+    assert "units" not in out.attrs  # nothing invents V and rad/s for it
+    with pytest.raises(DataError, match=r"--supply-voltage.*--input-unit %"):
+        convert_record(record, supply_voltage=12.0)

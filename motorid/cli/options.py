@@ -135,8 +135,6 @@ def read_record_from_args(args: argparse.Namespace, min_samples: int = 20) -> pd
     units = record.attrs.get("units")
     if isinstance(units, dict):
         renamed.attrs["units"] = {names.get(k, k): v for k, v in units.items()}
-    if args.supply_voltage is not None and args.input_unit != "%":
-        raise DataError("--supply-voltage converts PWM duty: it needs --input-unit %")
     return convert_record(renamed, args.input_unit, args.output_unit, args.supply_voltage)
 
 
