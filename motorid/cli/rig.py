@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
 
 from motorid.errors import DataError
 
@@ -25,11 +26,14 @@ from .report import emit_json, say, say_params
 
 
 def cmd_rig_serve(args: argparse.Namespace) -> int:
-    """Serve the simulated rig over Modbus until Ctrl-C."""
+    """Serve the simulated rig (the default one or a model file's) over Modbus until Ctrl-C."""
     from motorid.io import RigServer
 
+    from .simulation import rig_from_model_file
+
+    plant = None if args.model is None else rig_from_model_file(args.model).simulation()
     server = RigServer(
-        None, host=args.host, port=args.port, serial_port=args.serial, baudrate=args.baudrate,
+        plant, host=args.host, port=args.port, serial_port=args.serial, baudrate=args.baudrate,
         register_map=args.map, word_order=args.word_order, lockstep=not args.realtime, seed=args.plant_seed,
         watchdog_periods=args.watchdog_periods or None, u_max=args.u_max,
     )  # fmt: skip
@@ -39,7 +43,8 @@ def cmd_rig_serve(args: argparse.Namespace) -> int:
     except RuntimeError as exc:
         option = "--serial" if args.serial else "--port"
         raise DataError(f"{option}: cannot serve Modbus on {where}: {exc.__cause__ or exc}") from None
-    say(f"motorid rig serve: simulated rig on Modbus {server.url} "
+    what = "simulated rig" if args.model is None else f"rig of {args.model}"
+    say(f"motorid rig serve: {what} on Modbus {server.url} "
         f"({'real time' if args.realtime else 'lock-step'}); Ctrl-C stops it")  # fmt: skip
     server.serve_forever()
     return 0
@@ -105,6 +110,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
         p.add_argument("--word-order", choices=("ABCD", "CDAB"), default="ABCD", help="float32 word order")
         p.set_defaults(func=func)
     serve = rig.choices["serve"]
+    serve.add_argument("--model", type=Path, metavar="FILE",
+                       help="serve the rig of this model file (default: the default rig)")  # fmt: skip
     serve.add_argument("--host", default="127.0.0.1", help="address to listen on (default: 127.0.0.1)")
     serve.add_argument("--port", type=number(int, low=1, high=65535), default=5020,
                        help="TCP port (default: 5020)")  # fmt: skip
