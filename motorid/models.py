@@ -62,14 +62,23 @@ VERSION = 1
 KIND_RIG = "two-mass-rig"
 KIND_ESTIMATOR = "estimator"
 
-__all__ = ["FORMAT", "VERSION", "load_model", "model_from_dict", "model_to_dict", "save_model"]
+__all__ = [
+    "FORMAT",
+    "VERSION",
+    "friction_from_dict",
+    "load_model",
+    "model_from_dict",
+    "model_to_dict",
+    "rig_from_dict",
+    "save_model",
+]
 
 
 class _BadKeyError(Exception):
     """A problem at ``key`` of the file; :func:`model_from_dict` adds the file's name."""
 
     def __init__(self, key: str, message: str):
-        super().__init__(f"{key}: {message}")
+        super().__init__(f"{key}: {message}" if key else message)
 
 
 # --------------------------------------------------------------------------- writing
@@ -223,9 +232,31 @@ def model_from_dict(data: Any, source: str = "model") -> Any:
         raise DataError(f"{source}: {exc}") from None
 
 
+def rig_from_dict(data: Any) -> TwoMassRig:
+    """A :class:`~motorid.plants.rig.TwoMassRig` from its description (``model`` of a rig file).
+
+    Raises
+    ------
+    DataError
+        Naming the key: ``friction[1].alpha1: missing``, ``J_m: J_m must be > 0, got -1.0``.
+    """
+    try:
+        return _rig(data, "")
+    except _BadKeyError as exc:
+        raise DataError(str(exc)) from None
+
+
+def friction_from_dict(data: Any) -> Any:
+    """A friction law from its description ``{"kind": ..., <parameters>}`` (DataError naming the key)."""
+    try:
+        return _friction(data, "")
+    except _BadKeyError as exc:
+        raise DataError(str(exc)) from None
+
+
 def _keys(data: Any, names: tuple[str, ...] | list[str], where: str) -> dict[str, Any]:
     """``data`` as a dict with exactly the keys ``names``."""
-    label = where or "the file"
+    label = where or "the top level"
     if not isinstance(data, dict):
         raise _BadKeyError(where or "file", f"must be a JSON object, got {type(data).__name__}")
     missing = [n for n in names if n not in data]

@@ -351,3 +351,14 @@ def test_readme_model_file_example_runs(tmp_path, monkeypatch):
     exec(compile(example, "README.md", "exec"), namespace)
     assert namespace["same"] == namespace["rig"]
     assert (tmp_path / "rig.json").exists() and (tmp_path / "ekf.json").exists()
+
+
+def test_rig_from_dict_is_the_same_strict_reader_as_the_model_files():
+    """One reader: TwoMassRig.from_dict (a record's attrs) refuses what load_model refuses."""
+    data = every_part_rig().to_dict()
+    assert TwoMassRig.from_dict(data) == every_part_rig()
+    del data["friction"][1]["alpha2"]
+    with pytest.raises(DataError, match=r"^friction\[1\]\.alpha2: missing"):
+        TwoMassRig.from_dict(data)
+    with pytest.raises(DataError, match=r"^J_m: J_m must be > 0"):
+        TwoMassRig.from_dict({**TwoMassRig().to_dict(), "J_m": -1.0})

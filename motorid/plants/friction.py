@@ -321,12 +321,17 @@ FRICTION_KINDS: dict[str, type[Friction]] = {
 
 
 def friction_from_dict(data: dict[str, Any]) -> Friction:
-    """Rebuild a friction object from :meth:`Friction.to_dict` output."""
-    data = dict(data)
-    kind = data.pop("kind", None)
-    if kind not in FRICTION_KINDS:
-        raise ValueError(f"friction kind must be one of {sorted(FRICTION_KINDS)}, got {kind!r}")
-    return FRICTION_KINDS[kind](**data)
+    """Rebuild a friction law from :meth:`Friction.to_dict` output, every key checked
+    (the reader the rig and the model files use, :func:`motorid.models.friction_from_dict`).
+
+    Raises
+    ------
+    motorid.errors.DataError
+        A ValueError naming an unknown ``kind`` or a missing, mistyped or bad parameter.
+    """
+    from motorid.models import friction_from_dict as read
+
+    return read(data)
 
 
 def side_index(side: str) -> int:

@@ -44,7 +44,6 @@ from motorid.plants.friction import (
     Friction,
     LuGreFriction,
     breakaway,
-    friction_from_dict,
     pack_lugre,
     pack_static_friction,
     viscous_total,
@@ -457,18 +456,19 @@ class TwoMassRig:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> TwoMassRig:
-        """Rebuild a rig from :meth:`to_dict` output."""
-        data = dict(data)
-        data["friction"] = tuple(friction_from_dict(d) for d in data.get("friction", ()))
-        if "amplifier" in data:
-            data["amplifier"] = Amplifier.from_dict(data["amplifier"])
-        if "tacho" in data:
-            data["tacho"] = Tachogenerator(**data["tacho"])
-        if "adc" in data:
-            data["adc"] = ADConverter(**data["adc"])
-        if data.get("encoder") is not None:
-            data["encoder"] = Encoder(**data["encoder"])
-        return cls(**data)
+        """Rebuild a rig from :meth:`to_dict` output, every key checked.
+
+        The one reader of a rig description, shared with the model files
+        (:func:`motorid.models.rig_from_dict`).
+
+        Raises
+        ------
+        motorid.errors.DataError
+            A ValueError naming the missing, unknown, mistyped or out-of-range key.
+        """
+        from motorid.models import rig_from_dict
+
+        return rig_from_dict(data)
 
     def save(self, path: str | Path) -> None:
         """Write the rig as a model file (:mod:`motorid.models`); :func:`motorid.load_model` reads it."""
