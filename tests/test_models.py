@@ -360,5 +360,5 @@ def test_rig_from_dict_is_the_same_strict_reader_as_the_model_files():
     del data["friction"][1]["alpha2"]
     with pytest.raises(DataError, match=r"^friction\[1\]\.alpha2: missing"):
         TwoMassRig.from_dict(data)
-    with pytest.raises(DataError, match=r"^J_m: J_m must be > 0"):
+    with pytest.raises(DataError, match=r"^J_m must be > 0, got -1.0"):
         TwoMassRig.from_dict({**TwoMassRig().to_dict(), "J_m": -1.0})
