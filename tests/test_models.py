@@ -70,11 +70,11 @@ def test_rig_round_trip_keeps_every_part_and_simulates_the_same_bits(tmp_path):
     data = json.loads(path.read_text())
     assert (data["format"], data["version"], data["kind"]) == (FORMAT, VERSION, "two-mass-rig")
     assert [f["kind"] for f in data["model"]["friction"]] == [
-        "coulomb",
-        "stribeck",
-        "asymmetric",
-        "viscous",
-        "lugre",
+        "coulomb_friction",
+        "stribeck_friction",
+        "asymmetric_friction",
+        "viscous_friction",
+        "lugre_friction",
     ]
 
 
@@ -207,7 +207,7 @@ BAD_FILES = [
     ("bool for a number", lambda: _set(_rig_file(), ("model", "R_a"), True), "model.R_a: must be a number"),
     ("float for an integer", lambda: _set(_rig_file(), ("model", "substeps"), 2.5), "model.substeps: must be an integer"),
     ("number for a side", lambda: _set(_rig_file(), ("model", "encoder", "side"), 1), "model.encoder.side: must be a string"),
-    ("friction not a list", lambda: _set(_rig_file(), ("model", "friction"), {"kind": "coulomb"}), "model.friction: must be a list"),
+    ("friction not a list", lambda: _set(_rig_file(), ("model", "friction"), {"kind": "coulomb_friction"}), "model.friction: must be a list"),
     ("NaN", lambda: _set(_rig_file(), ("model", "J_l"), math.nan), "model.J_l: must be finite, got nan"),
     ("infinity", lambda: _set(_rig_file(), ("model", "friction", 0, "alpha"), math.inf), r"model.friction\[0\].alpha: must be finite"),
     ("negative inertia", lambda: _set(_rig_file(), ("model", "J_m"), -2.5e-5), "model: J_m must be > 0, got -2.5e-05"),
@@ -362,3 +362,12 @@ def test_rig_from_dict_is_the_same_strict_reader_as_the_model_files():
         TwoMassRig.from_dict(data)
     with pytest.raises(DataError, match=r"^J_m must be > 0, got -1.0"):
         TwoMassRig.from_dict({**TwoMassRig().to_dict(), "J_m": -1.0})
+
+
+def test_friction_laws_are_named_with_the_effect_vocabulary():
+    """A law's kind in a model file is the effect name the doctor reports (one vocabulary)."""
+    from motorid.diagnose import EFFECTS
+    from motorid.plants.friction import FRICTION_KINDS
+
+    assert set(FRICTION_KINDS) - {"lugre_friction"} <= set(EFFECTS)
+    assert all(name.endswith("_friction") for name in FRICTION_KINDS)
