@@ -322,22 +322,25 @@ def test_identify_saves_the_identified_estimator(capsys, tmp_path, record):
 def test_rig_serve_hosts_the_model_file(capsys, tmp_path, monkeypatch):
     from motorid.io import RigServer
 
-    rig = paper_rig(J_l=1e-4, friction=())
+    rig = paper_rig(J_l=1e-4, friction=(), amplifier=Amplifier(dead_zone=0.2, v_max=9.0))
     rig.save(tmp_path / "rig.json")
-    served = {}
-
-    def capture(server):
-        served["plant"] = server.plant
-
+    served = []
     monkeypatch.setattr(RigServer, "start", lambda self: None)
-    monkeypatch.setattr(RigServer, "serve_forever", capture)
+    monkeypatch.setattr(RigServer, "serve_forever", lambda self: served.append(self))
     code, _, err = run(capsys, "rig", "serve", "--model", str(tmp_path / "rig.json"), "--port", "5999")
     assert code == 0 and "rig of" in err
-    plant = served["plant"]
-    assert plant.rig == rig
+    plant = served[-1].plant
+    assert plant.rig == rig and served[-1].u_max == 9.0  # the rating is the model's saturation
     plant.reset(seed=2)
     sim = rig.simulation(seed=2)
     assert [plant.step(3.0) for _ in range(5)] == [sim.step(3.0) for _ in range(5)]
+    run(capsys, "rig", "serve", "--model", str(tmp_path / "rig.json"), "--u-max", "6")
+    assert served[-1].u_max == 6.0
+    run(capsys, "rig", "serve")
+    assert served[-1].plant.rig == paper_rig() and served[-1].u_max == paper_rig().amplifier.v_max
+    TwoMassRig().save(tmp_path / "unbounded.json")  # an ideal amplifier has no rating to serve with
+    code, _, err = run(capsys, "rig", "serve", "--model", str(tmp_path / "unbounded.json"))
+    assert code == 2 and "--u-max" in err
     code, _, err = run(capsys, "rig", "serve", "--model", str(tmp_path / "missing.json"))
     assert code == 2 and "missing.json: cannot read" in err
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
@@ -28,14 +29,20 @@ from .report import emit_json, say, say_params
 def cmd_rig_serve(args: argparse.Namespace) -> int:
     """Serve the simulated rig (the default one or a model file's) over Modbus until Ctrl-C."""
     from motorid.io import RigServer
+    from motorid.plants import paper_rig
 
     from .simulation import rig_from_model_file
 
-    plant = None if args.model is None else rig_from_model_file(args.model).simulation()
+    rig = paper_rig() if args.model is None else rig_from_model_file(args.model)
+    u_max = rig.amplifier.v_max if args.u_max is None else args.u_max
+    if not math.isfinite(u_max):
+        raise DataError(
+            f"--model {args.model}: its amplifier has no saturation; give the rating with --u-max"
+        )
     server = RigServer(
-        plant, host=args.host, port=args.port, serial_port=args.serial, baudrate=args.baudrate,
+        rig.simulation(), host=args.host, port=args.port, serial_port=args.serial, baudrate=args.baudrate,
         register_map=args.map, word_order=args.word_order, lockstep=not args.realtime, seed=args.plant_seed,
-        watchdog_periods=args.watchdog_periods or None, u_max=args.u_max,
+        watchdog_periods=args.watchdog_periods or None, u_max=u_max,
     )  # fmt: skip
     where = args.serial or f"{args.host}:{args.port}"
     try:
@@ -121,7 +128,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     add_plant_seed(serve, default=None)
     serve.add_argument("--watchdog-periods", type=non_negative, default=3.0,
                        help="heartbeat timeout [samples]; 0: off (default: 3)")  # fmt: skip
-    add_u_max(serve, "voltage rating")
+    serve.add_argument("--u-max", type=positive,
+                       help="voltage rating [V]: commands are clamped to it (default: the rig's amplifier "
+                            "saturation)")  # fmt: skip
 
     p = sub.add_parser("run", help="online identification on a DAQ")
     p.add_argument(
