@@ -12,6 +12,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 from cli_fixtures import run
+from conftest import examples
+from hypothesis import given
+from hypothesis import strategies as st
 
 import motorid
 from motorid.errors import DataError
@@ -76,6 +79,36 @@ def test_rig_round_trip_keeps_every_part_and_simulates_the_same_bits(tmp_path):
         "viscous_friction",
         "lugre_friction",
     ]
+
+
+positive = st.floats(1e-6, 1e3, allow_nan=False)
+level = st.floats(0.0, 0.05, allow_nan=False)
+side = st.sampled_from(["motor", "load", "both"])
+laws = st.one_of(
+    st.builds(CoulombFriction, alpha=level, side=side),
+    st.builds(StribeckFriction, alpha0=level, alpha1=level, alpha2=st.floats(0.0, 10.0), side=side),
+    st.builds(ViscousFriction, B=st.floats(0.0, 1e-3), side=side),
+    st.builds(AsymmetricFriction, alpha0=level, alpha1=level, alpha2=st.floats(0.0, 10.0), alpha3=level,
+              alpha4=level, alpha5=st.floats(0.0, 10.0), side=side),
+)  # fmt: skip
+
+
+@examples(25)
+@given(
+    J_m=positive, k_s=positive, B_s=st.floats(0.0, 1.0), dt=st.floats(1e-4, 0.1), substeps=st.integers(1, 50),
+    friction=st.lists(laws, max_size=4), dead_zone=st.floats(0.0, 2.0),
+    v_max=st.one_of(st.just(math.inf), st.floats(0.5, 50.0)), bits=st.integers(0, 16),
+)  # fmt: skip
+def test_any_rig_survives_the_round_trip_exactly(tmp_path_factory, J_m, k_s, B_s, dt, substeps, friction,
+                                                 dead_zone, v_max, bits):  # fmt: skip
+    """Every float written with its shortest repr reads back to the same bits: the rigs are equal."""
+    rig = paper_rig(
+        J_m=J_m, k_s=k_s, B_s=B_s, dt=dt, substeps=substeps, friction=tuple(friction),
+        amplifier=Amplifier(dead_zone=dead_zone, v_max=v_max), adc=ADConverter(bits=bits),
+    )  # fmt: skip
+    path = tmp_path_factory.mktemp("any") / "rig.json"
+    rig.save(path)
+    assert load_model(path) == rig
 
 
 def test_infinite_saturation_is_written_as_null_and_read_back(tmp_path):
