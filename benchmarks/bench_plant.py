@@ -39,11 +39,11 @@ def measure(hours: float = 1.0, reference_seconds: float = 20.0) -> list[Row]:
     rig.simulate(u[:n_ref], seed=0, integrator="reference")
     ref = (time.perf_counter() - t0) * u.size / n_ref
 
-    rig.reset(seed=0)
+    sim = rig.simulation(seed=0)
     n_online = min(u.size, 20000)
     t0 = time.perf_counter()
     for v in u[:n_online]:
-        rig.step(v)
+        sim.step(v)
     per_step = (time.perf_counter() - t0) / n_online
 
     record = f"{duration / 3600:g} h of record"

@@ -13,6 +13,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from motorid.plants import (
+    PHYSICAL_DEFAULTS,
     ADConverter,
     Amplifier,
     CoulombFriction,
@@ -36,17 +37,52 @@ def quiet(rig: TwoMassRig) -> TwoMassRig:
 def test_step_interface_and_state_dict():
     rig = paper_rig()
     assert rig.dt == pytest.approx(0.04)
-    rig.reset(seed=1)
-    y = rig.step(6.0)
+    sim = rig.simulation(seed=1)
+    assert sim.dt == rig.dt
+    y = sim.step(6.0)
     assert isinstance(y, float)
-    state = rig.state
+    state = sim.state
     for key in ("i_a", "omega_m", "omega_l", "theta_m", "theta_l", "v_a"):
         assert key in state
     assert state["v_a"] == pytest.approx(6.0 - 0.6)
     assert state["omega_l"] > 0.0
     assert state["t"] == pytest.approx(0.04)
-    rig.reset()
-    assert all(v == 0.0 for k, v in rig.state.items() if k not in ("t",))
+    sim.reset()
+    assert all(v == 0.0 for k, v in sim.state.items() if k not in ("t",))
+
+
+def test_rig_is_a_description_that_stepping_does_not_change():
+    """The running state is the simulation's: stepping leaves the rig equal to a fresh
+    copy, two simulations of one rig do not share state, and fields cannot be set."""
+    rig = paper_rig()
+    fresh = paper_rig()
+    first, second = rig.simulation(seed=3), rig.simulation(seed=3)
+    ys = [first.step(5.0) for _ in range(10)]
+    assert rig == fresh and hash(rig) == hash(fresh)
+    assert second.state["omega_l"] == 0.0 and second.sample_index == 0
+    assert [second.step(5.0) for _ in range(10)] == ys  # same seed, same inputs, same bits
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        rig.J_m = 1.0  # type: ignore[misc]
+
+
+def test_plant_interface_of_the_rig_is_its_hosted_simulation():
+    """reset/step/state on the rig (what the DAQ backends call) equal a simulation of it."""
+    rig = paper_rig()
+    rig.reset(seed=5)
+    sim = rig.simulation(seed=5)
+    assert [rig.step(u) for u in (3.0, 6.0, -2.0)] == [sim.step(u) for u in (3.0, 6.0, -2.0)]
+    assert rig.state == sim.state
+    assert rig == paper_rig()
+
+
+def test_physical_defaults_are_written_once():
+    """paper_rig's physical values are TwoMassRig's defaults and its docstring table is
+    made from them (each default with its unit)."""
+    linear, paper = TwoMassRig(), paper_rig()
+    for name, (value, unit, _) in PHYSICAL_DEFAULTS.items():
+        assert getattr(paper, name) == getattr(linear, name) == value
+        assert f" {name} " in paper_rig.__doc__ and f"{value:g} {unit}".strip() in paper_rig.__doc__
+    assert len(PHYSICAL_DEFAULTS) == 13
 
 
 @pytest.mark.cpu_sensitive
@@ -55,10 +91,10 @@ def test_step_loop_equals_simulate_with_same_seed():
     rig = paper_rig()
     u = np.concatenate([np.linspace(0, 8, 40), np.linspace(8, -8, 80), np.zeros(2000)])
     df = rig.simulate(u, seed=42)
-    rig.reset(seed=42)
-    ys = np.array([rig.step(v) for v in u])
+    sim = rig.simulation(seed=42)
+    ys = np.array([sim.step(v) for v in u])
     np.testing.assert_array_equal(ys, df["y"].to_numpy())
-    np.testing.assert_array_equal(rig.state["omega_l"], df["omega_l"].iloc[-1])
+    np.testing.assert_array_equal(sim.state["omega_l"], df["omega_l"].iloc[-1])
 
 
 def test_seed_makes_noise_reproducible():
@@ -126,11 +162,11 @@ def test_non_finite_input_names_u_and_sample(bad):
     u[13] = bad
     with pytest.raises(ValueError, match=r"u.*sample 13"):
         rig.simulate(u)
-    rig.reset()
-    rig.step(1.0)
-    rig.step(1.0)
+    sim = rig.simulation()
+    sim.step(1.0)
+    sim.step(1.0)
     with pytest.raises(ValueError, match=r"u.*sample 2"):
-        rig.step(bad)
+        sim.step(bad)
 
 
 def test_friction_and_sensor_parameters_are_checked():

@@ -17,6 +17,7 @@ from .options import (
     add_low_speed_band,
     add_record_input,
     add_skip,
+    check_out_file,
     check_out_folder,
     create_estimator,
     int_range,
@@ -55,6 +56,8 @@ def cmd_identify(args: argparse.Namespace) -> int:
     est = create_estimator(args.estimator, args)
     if args.out:
         check_out_folder(args.out)
+    if args.save_model:
+        check_out_file(args.save_model, args.overwrite, "--save-model")
     u, y = record["u"].to_numpy(), record["y"].to_numpy()
     check_signals({args.input: u, args.output: y})
     result = est.batch_filter(u, y)
@@ -79,6 +82,12 @@ def cmd_identify(args: argparse.Namespace) -> int:
             "so it has no free-run score")  # fmt: skip
     for test in tests:
         say(f"  residual test {test.formula:<22} {'pass' if test.passed else 'FAIL'}")
+    if args.save_model:
+        try:
+            est.save(args.save_model)
+        except ValueError as exc:
+            raise DataError(f"--save-model {args.save_model}: {exc}") from None
+        say(f"  wrote {args.save_model}: the identified model (motorid.load_model reads it)")
     figure = None
     if args.out:
         figure = args.out / "residual_tests.png"
@@ -100,6 +109,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
                     t.name: {"passed": t.passed, "fraction_outside": t.fraction_outside} for t in tests
                 },
                 "figure": figure,
+                "model": args.save_model,
             }
         )
     return 0
@@ -146,6 +156,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--max-lag", type=number(int, low=1), default=25,
                    help="largest lag of the residual tests [samples] (default: 25)")  # fmt: skip
     p.add_argument("--out", type=Path, help="folder for the residual-test figure (replaced if there)")
+    p.add_argument("--save-model", type=Path, metavar="FILE",
+                   help="write the identified estimator as a model file (JSON; motorid.load_model reads it)")  # fmt: skip
+    p.add_argument("--overwrite", action="store_true", help="replace an existing --save-model file")
     add_json(p)
     p.set_defaults(func=cmd_identify)
 

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import math
 import sys
+from pathlib import Path
 
 from motorid.errors import DataError
 
@@ -25,13 +27,22 @@ from .report import emit_json, say, say_params
 
 
 def cmd_rig_serve(args: argparse.Namespace) -> int:
-    """Serve the simulated rig over Modbus until Ctrl-C."""
+    """Serve the simulated rig (the default one or a model file's) over Modbus until Ctrl-C."""
     from motorid.io import RigServer
+    from motorid.plants import paper_rig
 
+    from .simulation import rig_from_model_file
+
+    rig = paper_rig() if args.model is None else rig_from_model_file(args.model)
+    u_max = rig.amplifier.v_max if args.u_max is None else args.u_max
+    if not math.isfinite(u_max):
+        raise DataError(
+            f"--model {args.model}: its amplifier has no saturation; give the rating with --u-max"
+        )
     server = RigServer(
-        None, host=args.host, port=args.port, serial_port=args.serial, baudrate=args.baudrate,
+        rig.simulation(), host=args.host, port=args.port, serial_port=args.serial, baudrate=args.baudrate,
         register_map=args.map, word_order=args.word_order, lockstep=not args.realtime, seed=args.plant_seed,
-        watchdog_periods=args.watchdog_periods or None, u_max=args.u_max,
+        watchdog_periods=args.watchdog_periods or None, u_max=u_max,
     )  # fmt: skip
     where = args.serial or f"{args.host}:{args.port}"
     if not args.serial:
@@ -40,7 +51,8 @@ def cmd_rig_serve(args: argparse.Namespace) -> int:
 
     def banner() -> None:
         listening.append(True)
-        say(f"motorid rig serve: simulated rig on Modbus {server.url} "
+        what = "simulated rig" if args.model is None else f"rig of {args.model}"
+        say(f"motorid rig serve: {what} on Modbus {server.url} "
             f"({'real time' if args.realtime else 'lock-step'}); Ctrl-C stops it")  # fmt: skip
 
     try:
@@ -125,6 +137,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
         p.add_argument("--word-order", choices=("ABCD", "CDAB"), default="ABCD", help="float32 word order")
         p.set_defaults(func=func)
     serve = rig.choices["serve"]
+    serve.add_argument("--model", type=Path, metavar="FILE",
+                       help="serve the rig of this model file (default: the default rig)")  # fmt: skip
     serve.add_argument("--host", default="127.0.0.1", help="address to listen on (default: 127.0.0.1)")
     serve.add_argument("--port", type=number(int, low=1, high=65535), default=5020,
                        help="TCP port (default: 5020)")  # fmt: skip
@@ -134,7 +148,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     add_plant_seed(serve, default=None)
     serve.add_argument("--watchdog-periods", type=non_negative, default=3.0,
                        help="heartbeat timeout [samples]; 0: off (default: 3)")  # fmt: skip
-    add_u_max(serve, "voltage rating")
+    serve.add_argument("--u-max", type=positive,
+                       help="voltage rating [V]: commands are clamped to it (default: the rig's amplifier "
+                            "saturation)")  # fmt: skip
 
     p = sub.add_parser("run", help="online identification on a DAQ")
     p.add_argument(

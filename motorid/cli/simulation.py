@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
+from motorid.errors import DataError
 
 from .options import (
     add_json,
@@ -14,7 +17,6 @@ from .options import (
     add_out_file,
     add_plant_seed,
     add_signal_options,
-    add_u_max,
     check_out_file,
     check_out_folder,
     excitation_from_args,
@@ -60,40 +62,88 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
-def rig_from_args(args: argparse.Namespace):
-    """The default rig with the friction, dead zone, backlash and rating the options give."""
-    from motorid.plants import Amplifier, CoulombFriction, StribeckFriction, ViscousFriction, paper_rig
+#: The rig options of ``motorid simulate`` (dest names); none may be combined with --model.
+RIG_OPTIONS = ("coulomb_motor", "coulomb_load", "stribeck", "viscous", "dead_zone", "backlash", "u_max")
 
-    friction = []
-    if args.coulomb_motor > 0:
-        friction.append(CoulombFriction(alpha=args.coulomb_motor, side="motor"))
-    if args.coulomb_load > 0:
-        friction.append(CoulombFriction(alpha=args.coulomb_load, side="load"))
+
+def rig_from_args(args: argparse.Namespace):
+    """The default rig (:func:`~motorid.plants.paper_rig`) with what the rig options change.
+
+    An option not given keeps the default rig's value, so every default is the
+    rig's own and written once, in :mod:`motorid.plants.rig`.
+    """
+    from motorid.plants import CoulombFriction, StribeckFriction, ViscousFriction, paper_rig
+
+    rig = paper_rig()
+    coulomb = {f.side: f.alpha for f in rig.friction if isinstance(f, CoulombFriction)}
+    for side, given in (("motor", args.coulomb_motor), ("load", args.coulomb_load)):
+        if given is not None:
+            coulomb[side] = given
+    friction: list = [CoulombFriction(alpha=a, side=side) for side, a in coulomb.items() if a > 0]
+    friction += [f for f in rig.friction if not isinstance(f, CoulombFriction)]
     if args.stribeck is not None:
         a1, a2 = args.stribeck
         friction.append(StribeckFriction(alpha0=0.0, alpha1=a1, alpha2=a2, side="motor"))
-    if args.viscous > 0:
+    if args.viscous:
         friction.append(ViscousFriction(B=args.viscous, side="motor"))
-    return paper_rig(
-        friction=tuple(friction),
-        amplifier=Amplifier(gain=1.0, dead_zone=args.dead_zone, v_max=args.u_max),
-        backlash=args.backlash,
-    )
+    amplifier = rig.amplifier
+    changes = {k: v for k, v in (("dead_zone", args.dead_zone), ("v_max", args.u_max)) if v is not None}
+    if changes:
+        amplifier = dataclasses.replace(amplifier, **changes)
+    backlash = rig.backlash if args.backlash is None else args.backlash
+    return rig.replace(friction=tuple(friction), amplifier=amplifier, backlash=backlash)
+
+
+def rig_from_model_file(path: Path, option: str = "--model"):
+    """The :class:`~motorid.plants.rig.TwoMassRig` in the model file ``path``; DataError otherwise."""
+    from motorid.models import load_model
+    from motorid.plants import TwoMassRig
+
+    model = load_model(path)
+    if not isinstance(model, TwoMassRig):
+        raise DataError(f"{option} {path}: holds a {type(model).__name__}, not a rig model")
+    return model
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
-    """Simulate the rig on an excitation signal and write the record."""
+    """Simulate the rig on an excitation signal and write the record and/or the rig's model file."""
     from motorid.records import write_record
 
-    check_out_file(args.out, args.overwrite)
-    rig = rig_from_args(args)
+    if args.out is None and args.save_model is None:
+        raise DataError("give --out (the record to write), --save-model (the rig's model file) or both")
+    for option, path in (("--out", args.out), ("--save-model", args.save_model)):
+        if path is not None:
+            check_out_file(path, args.overwrite, option)
+    if args.model is not None:
+        given = [name for name in RIG_OPTIONS if getattr(args, name) is not None]
+        if given:
+            flag = "--" + given[0].replace("_", "-")
+            raise DataError(f"{flag} cannot be combined with --model: the model file describes the rig")
+        rig = rig_from_model_file(args.model)
+    else:
+        rig = rig_from_args(args)
+    if args.save_model is not None:
+        rig.save(args.save_model)
+        say(f"wrote {args.save_model}: the rig's model file")
+    if args.out is None:
+        if args.json:
+            emit_json({"model": args.save_model, "rig": rig.to_dict()})
+        return 0
     u = excitation_from_args(args, rig.dt)
     record = rig.simulate(u, seed=args.plant_seed, integrator=args.integrator)
     write_record(record, args.out)
     y = record["y"].to_numpy()
     say(f"wrote {args.out}: {len(record)} samples at dt = {rig.dt:g} s, |y| max {np.abs(y).max():.1f} rad/s")
     if args.json:
-        emit_json({"out": args.out, "samples": len(record), "dt": rig.dt, "rig": record.attrs.get("rig")})
+        emit_json(
+            {
+                "out": args.out,
+                "model": args.save_model,
+                "samples": len(record),
+                "dt": rig.dt,
+                "rig": record.attrs.get("rig"),
+            }
+        )
     return 0
 
 
@@ -108,24 +158,23 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     add_json(p)
     p.set_defaults(func=cmd_demo)
 
-    p = sub.add_parser("simulate", help="simulate the rig and write a record CSV")
-    add_out_file(p, "record CSV to write")
+    p = sub.add_parser("simulate", help="simulate the rig and write a record CSV and/or its model file")
+    add_out_file(p, "record CSV to write", required=False)
+    p.add_argument("--save-model", type=Path, metavar="FILE",
+                   help="write the rig as a model file (JSON; motorid simulate/rig serve --model read it)")  # fmt: skip
     add_signal_options(p, duration=120.0)
     add_plant_seed(p, default=0)
-    rig = p.add_argument_group("rig")
-    rig.add_argument("--coulomb-motor", type=non_negative, default=4e-3,
-                     help="Coulomb torque, motor side [N m] (default: 0.004)")  # fmt: skip
-    rig.add_argument("--coulomb-load", type=non_negative, default=2e-3,
-                     help="Coulomb torque, load side [N m] (default: 0.002)")  # fmt: skip
+    rig = p.add_argument_group("rig (default: the default rig's value, as --save-model writes it)")
+    rig.add_argument("--model", type=Path, metavar="FILE",
+                     help="the rig from a model file, instead of the options below")  # fmt: skip
+    rig.add_argument("--coulomb-motor", type=non_negative, help="Coulomb torque, motor side [N m]")
+    rig.add_argument("--coulomb-load", type=non_negative, help="Coulomb torque, load side [N m]")
     rig.add_argument("--stribeck", type=non_negative, nargs=2, metavar=("ALPHA1", "ALPHA2"),
                      help="Stribeck excess [N m] and decay [s/rad], motor side")  # fmt: skip
-    rig.add_argument("--viscous", type=non_negative, default=0.0,
-                     help="extra viscous friction, motor side [N m s/rad] (default: 0)")  # fmt: skip
-    rig.add_argument("--dead-zone", type=non_negative, default=0.6,
-                     help="amplifier dead zone half-width [V] (default: 0.6)")  # fmt: skip
-    rig.add_argument("--backlash", type=non_negative, default=0.0,
-                     help="shaft backlash, total play [rad] (default: 0)")  # fmt: skip
-    add_u_max(rig, "amplifier saturation")
+    rig.add_argument("--viscous", type=non_negative, help="extra viscous friction, motor side [N m s/rad]")
+    rig.add_argument("--dead-zone", type=non_negative, help="amplifier dead zone half-width [V]")
+    rig.add_argument("--backlash", type=non_negative, help="shaft backlash, half-width of the gap [rad]")
+    rig.add_argument("--u-max", type=positive, help="amplifier saturation [V]")
     rig.add_argument("--integrator", choices=("fast", "reference"), default="fast")
     add_json(p)
     p.set_defaults(func=cmd_simulate)

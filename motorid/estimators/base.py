@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 import warnings
 from abc import ABC, abstractmethod
 from collections.abc import Sequence
@@ -319,6 +320,13 @@ class Estimator(ABC):
             if saver is not None:
                 saver.save()
         return BatchResult(x_hist, p_diag, y_hat, innovation, s_hist, self.state_names)
+
+    def save(self, path: str | os.PathLike[str]) -> None:
+        """Write the estimator as a model file; ``motorid.load_model`` reads it back
+        (the format and what is saved: :mod:`motorid.models`)."""
+        from motorid.models import save_model
+
+        save_model(self, path)
 
     def __repr__(self) -> str:
         lines = [f"{type(self).__name__} object"]

@@ -38,6 +38,7 @@ raises it.
 
 from __future__ import annotations
 
+import inspect
 import math
 import warnings
 from collections.abc import Sequence
@@ -302,6 +303,65 @@ class _FrictionFilter(Estimator):
         self.sample_index = 0
         self._nis_ring = np.zeros(self._window)
         self._nis_count = 0
+        self._pending = False
+
+    # ------------------------------------------------------------------ saving
+    @classmethod
+    def parameter_annotations(cls) -> dict[str, str]:
+        """The constructor arguments by name (``rig`` included), each with the text of
+        its type annotation, e.g. ``{"rig": "TwoMassRig | None", ..., "R": "float | None"}``."""
+        out: dict[str, str] = {}
+        for owner in (cls, _FrictionFilter):
+            for name, p in inspect.signature(owner.__init__).parameters.items():
+                if name != "self" and p.kind is not inspect.Parameter.VAR_KEYWORD:
+                    out.setdefault(name, str(p.annotation))
+        return out
+
+    def get_params(self) -> dict[str, Any]:
+        """The constructor arguments, by name (``rig`` included): ``type(self)(**get_params())``
+        builds the same filter at its prior."""
+        return {name: getattr(self, name) for name in self.parameter_annotations()}
+
+    def get_state(self) -> dict[str, Any]:
+        """What :meth:`update` has learnt: ``x``, ``P``, ``sample_index``, the NIS window
+        (``nis_ring``, ``nis_count``, ``nis_mean``) and ``diverged``; :meth:`set_state`
+        puts it back. Refused between a :meth:`predict` and its :meth:`update`."""
+        if self._pending:
+            raise ValueError("the filter is between predict() and update(): call update() first")
+        return {
+            "x": self.x.copy(),
+            "P": self.P.copy(),
+            "sample_index": self.sample_index,
+            "nis_ring": self._nis_ring.copy(),
+            "nis_count": self._nis_count,
+            "nis_mean": self.nis_mean,
+            "diverged": self.diverged,
+        }
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Continue from a :meth:`get_state` of a filter built with the same parameters.
+
+        Raises
+        ------
+        ValueError
+            Naming the entry whose shape does not fit this filter, or a covariance that
+            is not symmetric positive definite.
+        """
+        n = self.dim_x
+        x = np.array(state["x"], dtype=float)
+        P = np.array(state["P"], dtype=float)
+        ring = np.array(state["nis_ring"], dtype=float)
+        for key, value, shape in (("x", x, (n,)), ("P", P, (n, n)), ("nis_ring", ring, (self._window,))):
+            if value.shape != shape:
+                raise ValueError(f"{key} must have shape {shape} for this filter, got {value.shape}")
+        if not (np.array_equal(P, P.T) and fm.is_healthy(x, P)):
+            raise ValueError("P must be symmetric positive definite and x finite")
+        self.x = self.x_prior = self.x_post = x
+        self.P = self.P_prior = self.P_post = P
+        self.sample_index = int(state["sample_index"])
+        self._nis_ring, self._nis_count = ring, int(state["nis_count"])
+        self.nis_mean = float(state["nis_mean"])
+        self.diverged = bool(state["diverged"])
         self._pending = False
 
     # ------------------------------------------------------------------ description

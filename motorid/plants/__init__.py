@@ -1,8 +1,9 @@
 """Plants: the two-mass DC motor rig, its nonlinear effects, sensors and excitation signals.
 
 >>> from motorid.plants import paper_rig
->>> rig = paper_rig()
->>> y = rig.step(3.0)          # one 40 ms sample at 3 V; measured load speed [rad/s]
+>>> rig = paper_rig()                # the model: a description, saved with rig.save(path)
+>>> sim = rig.simulation(seed=0)    # a running simulation of it
+>>> y = sim.step(3.0)               # one 40 ms sample at 3 V; measured load speed [rad/s]
 """
 
 from motorid.plants.amplifier import Amplifier
@@ -16,10 +17,18 @@ from motorid.plants.friction import (
     ViscousFriction,
     friction_from_dict,
 )
-from motorid.plants.rig import RECORD_UNITS, TwoMassRig, paper_rig, steady_state_speed
+from motorid.plants.rig import (
+    PHYSICAL_DEFAULTS,
+    RECORD_UNITS,
+    RigSimulation,
+    TwoMassRig,
+    paper_rig,
+    steady_state_speed,
+)
 from motorid.plants.sensors import ADConverter, Encoder, Tachogenerator, measure_speed
 
 __all__ = [
+    "PHYSICAL_DEFAULTS",
     "RECORD_UNITS",
     "ADConverter",
     "Amplifier",
@@ -28,6 +37,7 @@ __all__ = [
     "Encoder",
     "Friction",
     "LuGreFriction",
+    "RigSimulation",
     "StaticFriction",
     "StribeckFriction",
     "Tachogenerator",

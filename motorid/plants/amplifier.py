@@ -60,10 +60,3 @@ class Amplifier:
         if math.isinf(self.v_max):
             d["v_max"] = None  # JSON has no infinity
         return d
-
-    @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> Amplifier:
-        data = dict(data)
-        if data.get("v_max") is None:
-            data["v_max"] = math.inf
-        return cls(**data)

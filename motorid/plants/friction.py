@@ -24,6 +24,11 @@ stays there while the torque applied to it lies inside
 ``[-breakaway_negative, breakaway_positive]``). The ``torque`` methods are the
 plain-NumPy statement of each law; the compiled integrator evaluates the same
 laws from :func:`pack_static_friction` rows.
+
+Each law's ``kind`` (its name in ``to_dict`` and in model files) is its effect name,
+the snake_case vocabulary the diagnose workflow names effects with:
+``viscous_friction``, ``coulomb_friction``, ``stribeck_friction``,
+``asymmetric_friction``, and ``lugre_friction``.
 """
 
 from __future__ import annotations
@@ -91,7 +96,7 @@ class ViscousFriction(Friction):
     side : {"motor", "load", "both"}
     """
 
-    kind: ClassVar[str] = "viscous"
+    kind: ClassVar[str] = "viscous_friction"
     B: float = 0.0
 
     def __post_init__(self) -> None:
@@ -157,7 +162,7 @@ class CoulombFriction(StaticFriction):
     side : {"motor", "load", "both"}
     """
 
-    kind: ClassVar[str] = "coulomb"
+    kind: ClassVar[str] = "coulomb_friction"
     alpha: float = 0.0
 
     def __post_init__(self) -> None:
@@ -185,7 +190,7 @@ class StribeckFriction(StaticFriction):
     side : {"motor", "load", "both"}
     """
 
-    kind: ClassVar[str] = "stribeck"
+    kind: ClassVar[str] = "stribeck_friction"
     alpha0: float = 0.0
     alpha1: float = 0.0
     alpha2: float = 0.0
@@ -214,7 +219,7 @@ class AsymmetricFriction(StaticFriction):
     side : {"motor", "load", "both"}
     """
 
-    kind: ClassVar[str] = "asymmetric"
+    kind: ClassVar[str] = "asymmetric_friction"
     alpha0: float = 0.0
     alpha1: float = 0.0
     alpha2: float = 0.0
@@ -267,7 +272,7 @@ class LuGreFriction(Friction):
     side : {"motor", "load", "both"}
     """
 
-    kind: ClassVar[str] = "lugre"
+    kind: ClassVar[str] = "lugre_friction"
     sigma0: float = 1.0
     sigma1: float = 0.0
     sigma2: float = 0.0
@@ -321,12 +326,17 @@ FRICTION_KINDS: dict[str, type[Friction]] = {
 
 
 def friction_from_dict(data: dict[str, Any]) -> Friction:
-    """Rebuild a friction object from :meth:`Friction.to_dict` output."""
-    data = dict(data)
-    kind = data.pop("kind", None)
-    if kind not in FRICTION_KINDS:
-        raise ValueError(f"friction kind must be one of {sorted(FRICTION_KINDS)}, got {kind!r}")
-    return FRICTION_KINDS[kind](**data)
+    """Rebuild a friction law from :meth:`Friction.to_dict` output, every key checked
+    (the reader the rig and the model files use, :func:`motorid.models.friction_from_dict`).
+
+    Raises
+    ------
+    motorid.errors.DataError
+        A ValueError naming an unknown ``kind`` or a missing, mistyped or bad parameter.
+    """
+    from motorid.models import friction_from_dict as read
+
+    return read(data)
 
 
 def side_index(side: str) -> int:

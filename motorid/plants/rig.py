@@ -28,6 +28,7 @@ import dataclasses
 import logging
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Literal
 
 import numpy as np
@@ -43,7 +44,6 @@ from motorid.plants.friction import (
     Friction,
     LuGreFriction,
     breakaway,
-    friction_from_dict,
     pack_lugre,
     pack_static_friction,
     viscous_total,
@@ -84,6 +84,11 @@ def _check_input(name: str, values: npt.ArrayLike) -> np.ndarray:
         k = int(bad[0])
         raise ValueError(f"{name} must be finite: {name}[{k}] = {arr[k]!r} at sample {k}")
     return np.ascontiguousarray(arr)
+
+
+def _about(unit: str, meaning: str) -> dict[str, str]:
+    """Field metadata of a physical parameter: its unit and what it is (for the tables)."""
+    return {"unit": unit, "meaning": meaning}
 
 
 @dataclass(frozen=True)
@@ -128,26 +133,35 @@ class TwoMassRig:
 
     Notes
     -----
-    The defaults are the physical values of :func:`paper_rig` without any
-    nonlinearity (no friction laws, an ideal amplifier): the linear rig.
-    The object is immutable; make variants with ``dataclasses.replace`` or
-    :meth:`replace`. The online state used by :meth:`step` lives beside the
-    parameters and is reset by :meth:`reset`.
+    The defaults of the thirteen physical parameters (R_a ... substeps) are the
+    paper's rig, written here once (:data:`PHYSICAL_DEFAULTS` lists them with
+    units); without friction laws and with an ideal amplifier they make the linear
+    rig, and :func:`paper_rig` adds its friction and amplifier. A rig is a
+    description: immutable (make variants with :meth:`replace`), comparable,
+    saved and loaded as a model file (:meth:`save`, :func:`motorid.load_model`).
+    A running simulation (state, noise stream) is a :class:`RigSimulation`, made
+    by :meth:`simulation`; :meth:`simulate` runs a whole record from rest.
     """
 
-    R_a: float = 2.0
-    L_a: float = 1.0e-3
-    K_m: float = 0.04284
-    J_m: float = 2.5e-5
-    J_l: float = 7.5e-5
-    B_m: float = 1.0e-5
-    B_l: float = 2.0e-5
-    k_s: float = 0.5
-    B_s: float = 1.0e-3
-    backlash: float = 0.0
-    T_d: float = 0.0
-    dt: float = 0.04
-    substeps: int = 40
+    R_a: float = field(default=2.0, metadata=_about("Ω", "armature resistance"))
+    L_a: float = field(
+        default=1.0e-3, metadata=_about("H", "armature inductance (electrical time constant 0.5 ms)")
+    )
+    K_m: float = field(
+        default=0.04284, metadata=_about("V s/rad", "torque/back-EMF constant, set for 2400 rpm at 12 V")
+    )
+    J_m: float = field(default=2.5e-5, metadata=_about("kg m²", "rotor"))
+    J_l: float = field(
+        default=7.5e-5, metadata=_about("kg m²", "disks, tachogenerator and brake disk on the shaft")
+    )
+    B_m: float = field(default=1.0e-5, metadata=_about("N m s/rad", "motor bearing and brush viscous losses"))
+    B_l: float = field(default=2.0e-5, metadata=_about("N m s/rad", "load bearing viscous losses"))
+    k_s: float = field(default=0.5, metadata=_about("N m/rad", "flexible coupling; shaft mode near 30 Hz"))
+    B_s: float = field(default=1.0e-3, metadata=_about("N m s/rad", "inner damping of the coupling"))
+    backlash: float = field(default=0.0, metadata=_about("rad", "half-width of the shaft's backlash gap"))
+    T_d: float = field(default=0.0, metadata=_about("N m", "constant load disturbance torque"))
+    dt: float = field(default=0.04, metadata=_about("s", "sampling interval (section 5)"))
+    substeps: int = field(default=40, metadata=_about("", "internal steps per sample (1 kHz)"))
     friction: tuple[Friction, ...] = ()
     amplifier: Amplifier = field(default_factory=Amplifier)
     tacho: Tachogenerator = field(default_factory=Tachogenerator)
@@ -200,12 +214,14 @@ class TwoMassRig:
                     h * math.sqrt(lugre[k, 1] / J),
                 )
         phi, gam = self._discretise(h)
+        # derived at construction, never changed: the compiled model and the
+        # simulation hosted for the Plant interface (reset/step)
         object.__setattr__(
             self,
             "_compiled",
             (phi, gam, self._packed_parameters(), pack_static_friction(friction), lugre),
         )
-        self.reset()
+        object.__setattr__(self, "_hosted", RigSimulation(self))
 
     @property
     def h(self) -> float:
@@ -308,74 +324,29 @@ class TwoMassRig:
         return p
 
     # ----------------------------------------------------------- online use
-    def reset(self, seed: int | None = None) -> None:
-        """Return to rest (all states zero) and re-seed the sensor noise.
+    def simulation(self, seed: int | None = None) -> RigSimulation:
+        """A new running simulation of this rig, at rest, noise seeded with ``seed``."""
+        return RigSimulation(self, seed)
 
-        Parameters
-        ----------
-        seed : int or None
-            Seed of the noise generator (``numpy.random.default_rng``); the
-            sequence of measurements after ``reset(seed)`` equals the ``y``
-            column of ``simulate(u, seed=seed)`` for the same inputs.
-        """
-        object.__setattr__(self, "_x", np.zeros(fi.N_STATE))
-        object.__setattr__(self, "_out", np.zeros(fi.N_OUT))
-        object.__setattr__(self, "_rng", np.random.default_rng(seed))
-        object.__setattr__(self, "_noise", np.empty(0))
-        object.__setattr__(self, "_noise_pos", 0)
-        object.__setattr__(self, "_k", 0)
+    def reset(self, seed: int | None = None) -> None:
+        """The :class:`motorid.io.base.Plant` interface: reset the simulation this
+        rig hosts for the DAQ backends (see :meth:`step`)."""
+        self._hosted.reset(seed)
 
     def step(self, u: float, load_torque: float | None = None) -> float:
-        """Apply ``u`` [V] for one sample (zero-order hold) and measure.
+        """The :class:`motorid.io.base.Plant` interface: one sample of the simulation
+        this rig hosts (made with the rig; :meth:`reset` restarts it).
 
-        Parameters
-        ----------
-        u : float
-            Command voltage [V] (before the amplifier).
-        load_torque : float, optional
-            Load disturbance torque T_d [N m] for this sample; default ``self.T_d``.
-
-        Returns
-        -------
-        float
-            Measured load speed y [rad/s] at the end of the sample.
+        The rig's parameters never change; the running state is the hosted
+        :class:`RigSimulation`'s. Code that steps a rig itself should hold its own
+        ``rig.simulation(seed)``, so two loops never share one state.
         """
-        u = float(u)
-        if not math.isfinite(u):
-            raise ValueError(f"u must be finite, got {u!r} at sample {self._k}")
-        t_d = self.T_d if load_torque is None else float(load_torque)
-        if not math.isfinite(t_d):
-            raise ValueError(f"load_torque must be finite, got {t_d!r} at sample {self._k}")
-        if self._noise_pos >= self._noise.size:
-            object.__setattr__(self, "_noise", self._rng.standard_normal(_NOISE_BLOCK))
-            object.__setattr__(self, "_noise_pos", 0)
-        noise = self._noise[self._noise_pos]
-        object.__setattr__(self, "_noise_pos", self._noise_pos + 1)
-        object.__setattr__(self, "_k", self._k + 1)
-        phi, gam, p, fric, lug = self._compiled
-        return fi.advance_sample(self._x, u, t_d, noise, phi, gam, p, fric, lug, self._out)
+        return self._hosted.step(u, load_torque)
 
     @property
     def state(self) -> dict[str, float]:
-        """True state [SI] after the last :meth:`step`.
-
-        Keys: ``t`` [s], ``v_a`` [V] (last armature voltage), ``i_a`` [A],
-        ``omega_m``, ``omega_l`` [rad/s], ``theta_m``, ``theta_l``, ``twist``
-        [rad], ``z_m``, ``z_l`` [rad] (LuGre bristles; 0 without LuGre).
-        """
-        x = self._x
-        return {
-            "t": self._k * self.dt,
-            "v_a": float(self._out[1]),
-            "i_a": float(x[0]),
-            "omega_m": float(x[1]),
-            "omega_l": float(x[2]),
-            "theta_m": float(x[4] + x[3]),
-            "theta_l": float(x[4]),
-            "twist": float(x[3]),
-            "z_m": float(x[5]),
-            "z_l": float(x[6]),
-        }
+        """True state of the hosted simulation (:attr:`RigSimulation.state`)."""
+        return self._hosted.state
 
     # -------------------------------------------------------------- records
     def simulate(
@@ -388,7 +359,7 @@ class TwoMassRig:
     ) -> pd.DataFrame:
         """Simulate a record from rest for the command sequence ``u``.
 
-        Does not touch the online state of :meth:`step`.
+        Independent of every :class:`RigSimulation` of the rig.
 
         Parameters
         ----------
@@ -485,18 +456,133 @@ class TwoMassRig:
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> TwoMassRig:
-        """Rebuild a rig from :meth:`to_dict` output."""
-        data = dict(data)
-        data["friction"] = tuple(friction_from_dict(d) for d in data.get("friction", ()))
-        if "amplifier" in data:
-            data["amplifier"] = Amplifier.from_dict(data["amplifier"])
-        if "tacho" in data:
-            data["tacho"] = Tachogenerator(**data["tacho"])
-        if "adc" in data:
-            data["adc"] = ADConverter(**data["adc"])
-        if data.get("encoder") is not None:
-            data["encoder"] = Encoder(**data["encoder"])
-        return cls(**data)
+        """Rebuild a rig from :meth:`to_dict` output, every key checked.
+
+        The one reader of a rig description, shared with the model files
+        (:func:`motorid.models.rig_from_dict`).
+
+        Raises
+        ------
+        motorid.errors.DataError
+            A ValueError naming the missing, unknown, mistyped or out-of-range key.
+        """
+        from motorid.models import rig_from_dict
+
+        return rig_from_dict(data)
+
+    def save(self, path: str | Path) -> None:
+        """Write the rig as a model file (:mod:`motorid.models`); :func:`motorid.load_model` reads it."""
+        from motorid.models import save_model
+
+        save_model(self, path)
+
+
+class RigSimulation:
+    """A running simulation of a :class:`TwoMassRig`: its state and noise stream.
+
+    The rig is the description; this object is what changes as samples are
+    applied. Several simulations of one rig run independently.
+
+    Parameters
+    ----------
+    rig : TwoMassRig
+        The rig simulated (read only).
+    seed : int or None
+        Seed of the sensor noise (``numpy.random.default_rng``).
+
+    Attributes
+    ----------
+    rig : TwoMassRig
+    sample_index : int
+        Samples applied since the last :meth:`reset`.
+    """
+
+    def __init__(self, rig: TwoMassRig, seed: int | None = None) -> None:
+        self.rig = rig
+        self.reset(seed)
+
+    @property
+    def dt(self) -> float:
+        """Sample time [s] (the rig's)."""
+        return self.rig.dt
+
+    def reset(self, seed: int | None = None) -> None:
+        """Return to rest (all states zero) and re-seed the sensor noise.
+
+        Parameters
+        ----------
+        seed : int or None
+            Seed of the noise generator; the measurements after ``reset(seed)``
+            equal the ``y`` column of ``rig.simulate(u, seed=seed)`` for the same inputs.
+        """
+        self._x = np.zeros(fi.N_STATE)
+        self._out = np.zeros(fi.N_OUT)
+        self._rng = np.random.default_rng(seed)
+        self._noise = np.empty(0)
+        self._noise_pos = 0
+        self.sample_index = 0
+
+    def step(self, u: float, load_torque: float | None = None) -> float:
+        """Apply ``u`` [V] for one sample (zero-order hold) and measure.
+
+        Parameters
+        ----------
+        u : float
+            Command voltage [V] (before the amplifier).
+        load_torque : float, optional
+            Load disturbance torque T_d [N m] for this sample; default the rig's ``T_d``.
+
+        Returns
+        -------
+        float
+            Measured load speed y [rad/s] at the end of the sample.
+        """
+        u = float(u)
+        if not math.isfinite(u):
+            raise ValueError(f"u must be finite, got {u!r} at sample {self.sample_index}")
+        t_d = self.rig.T_d if load_torque is None else float(load_torque)
+        if not math.isfinite(t_d):
+            raise ValueError(f"load_torque must be finite, got {t_d!r} at sample {self.sample_index}")
+        if self._noise_pos >= self._noise.size:
+            self._noise = self._rng.standard_normal(_NOISE_BLOCK)
+            self._noise_pos = 0
+        noise = self._noise[self._noise_pos]
+        self._noise_pos += 1
+        self.sample_index += 1
+        phi, gam, p, fric, lug = self.rig._compiled
+        return fi.advance_sample(self._x, u, t_d, noise, phi, gam, p, fric, lug, self._out)
+
+    @property
+    def state(self) -> dict[str, float]:
+        """True state [SI] after the last :meth:`step`.
+
+        Keys: ``t`` [s], ``v_a`` [V] (last armature voltage), ``i_a`` [A],
+        ``omega_m``, ``omega_l`` [rad/s], ``theta_m``, ``theta_l``, ``twist``
+        [rad], ``z_m``, ``z_l`` [rad] (LuGre bristles; 0 without LuGre).
+        """
+        x = self._x
+        return {
+            "t": self.sample_index * self.rig.dt,
+            "v_a": float(self._out[1]),
+            "i_a": float(x[0]),
+            "omega_m": float(x[1]),
+            "omega_l": float(x[2]),
+            "theta_m": float(x[4] + x[3]),
+            "theta_l": float(x[4]),
+            "twist": float(x[3]),
+            "z_m": float(x[5]),
+            "z_l": float(x[6]),
+        }
+
+
+#: What :func:`paper_rig` adds to the defaults of :class:`TwoMassRig`.
+PAPER_NONLINEARITIES: dict[str, Any] = {
+    "friction": (
+        CoulombFriction(alpha=4.0e-3, side="motor"),
+        CoulombFriction(alpha=2.0e-3, side="load"),
+    ),
+    "amplifier": Amplifier(gain=1.0, dead_zone=0.6, v_max=12.0),
+}
 
 
 def paper_rig(**overrides: Any) -> TwoMassRig:
@@ -524,54 +610,56 @@ def paper_rig(**overrides: Any) -> TwoMassRig:
       0.85 V. This is what makes a linear model fail near zero speed.
 
     Values from the datasheet class of small 12 V permanent-magnet DC motors
-    (20-40 W servo-trainer motors of the kind on the paper's rig):
+    (20-40 W servo-trainer motors of the kind on the paper's rig): the physical
+    parameters are the defaults of :class:`TwoMassRig` (this table is made from
+    them), and :data:`PAPER_NONLINEARITIES` adds
 
-    ========== ============ ==================================================
-    R_a        2.0 Ω        armature resistance
-    L_a        1.0 mH       armature inductance (electrical time constant 0.5 ms)
-    K_m        0.04284 V s/rad  torque/back-EMF constant, set for 2400 rpm at 12 V
-    J_m        2.5e-5 kg m² rotor
-    J_l        7.5e-5 kg m² disks, tachogenerator and brake disk on the shaft
-    B_m, B_l   1e-5, 2e-5 N m s/rad  bearing and brush viscous losses
-    k_s, B_s   0.5 N m/rad, 1e-3 N m s/rad  flexible coupling; shaft mode near 30 Hz
-    Coulomb    4 mN m motor (brushes), 2 mN m load (bearings, tacho brushes)
-    dead zone  0.6 V        amplifier output stage
-    tacho      2.5 V/1000 rpm, 10 mV noise; A/D 12 bit, ±10 V (PCL-1800)
-    ========== ============ ==================================================
+    - Coulomb friction 4 mN m on the motor (brushes), 2 mN m on the load
+      (bearings, tacho brushes);
+    - a 0.6 V dead zone in the amplifier output stage and its ±12 V rating;
+    - the default tachogenerator (2.5 V/1000 rpm, 10 mV noise) and A/D
+      converter (12 bit, ±10 V, as the PCL-1800).
+
+    {table}
 
     Parameters
     ----------
     **overrides
         Any :class:`TwoMassRig` field, e.g. ``paper_rig(friction=(), dt=0.01)``.
     """
-    base: dict[str, Any] = {
-        "R_a": 2.0,
-        "L_a": 1.0e-3,
-        "K_m": 0.04284,
-        "J_m": 2.5e-5,
-        "J_l": 7.5e-5,
-        "B_m": 1.0e-5,
-        "B_l": 2.0e-5,
-        "k_s": 0.5,
-        "B_s": 1.0e-3,
-        "backlash": 0.0,
-        "T_d": 0.0,
-        "dt": 0.04,
-        "substeps": 40,
-        "friction": (
-            CoulombFriction(alpha=4.0e-3, side="motor"),
-            CoulombFriction(alpha=2.0e-3, side="load"),
-        ),
-        "amplifier": Amplifier(gain=1.0, dead_zone=0.6, v_max=12.0),
-        "tacho": Tachogenerator(),
-        "adc": ADConverter(bits=12, v_min=-10.0, v_max=10.0),
-        "encoder": None,
-    }
-    unknown = set(overrides) - set(base)
+    names = {f.name for f in dataclasses.fields(TwoMassRig)}
+    unknown = set(overrides) - names
     if unknown:
         raise ValueError(f"unknown rig parameter(s): {sorted(unknown)}")
-    base.update(overrides)
-    return TwoMassRig(**base)
+    return TwoMassRig(**{**PAPER_NONLINEARITIES, **overrides})
+
+
+#: The physical parameters of :class:`TwoMassRig` with their defaults: ``name -> (value, unit, meaning)``.
+PHYSICAL_DEFAULTS: dict[str, tuple[float, str, str]] = {
+    f.name: (f.default, f.metadata["unit"], f.metadata["meaning"])
+    for f in dataclasses.fields(TwoMassRig)
+    if "unit" in f.metadata
+}
+
+
+def _defaults_table() -> str:
+    """The reStructuredText table of :data:`PHYSICAL_DEFAULTS` for :func:`paper_rig`'s docstring."""
+    rows = [
+        (name, f"{value:g} {unit}".strip(), meaning)
+        for name, (value, unit, meaning) in PHYSICAL_DEFAULTS.items()
+    ]
+    widths = [max(len(r[k]) for r in rows) for k in range(3)]
+    rule = " ".join("=" * w for w in widths)
+    lines = [
+        rule,
+        *(" ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip() for r in rows),
+        rule,
+    ]
+    return "\n    ".join(lines)
+
+
+if paper_rig.__doc__:  # None under python -OO
+    paper_rig.__doc__ = paper_rig.__doc__.replace("{table}", _defaults_table())
 
 
 def steady_state_speed(rig: TwoMassRig, u: float) -> float:
@@ -603,4 +691,12 @@ def steady_state_speed(rig: TwoMassRig, u: float) -> float:
     return float(scipy.optimize.brentq(balance, math.copysign(1e-12, v), hi))
 
 
-__all__ = ["RECORD_UNITS", "TwoMassRig", "paper_rig", "steady_state_speed"]
+__all__ = [
+    "PAPER_NONLINEARITIES",
+    "PHYSICAL_DEFAULTS",
+    "RECORD_UNITS",
+    "RigSimulation",
+    "TwoMassRig",
+    "paper_rig",
+    "steady_state_speed",
+]

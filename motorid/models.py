@@ -1,0 +1,474 @@
+"""Model files: one versioned JSON format for drive models and identified estimators.
+
+A model file is one JSON object::
+
+    {
+      "format": "motorid-model",
+      "version": 1,
+      "kind": "two-mass-rig" | "estimator",
+      "model": {...}
+    }
+
+- ``two-mass-rig``: ``model`` is :meth:`TwoMassRig.to_dict
+  <motorid.plants.rig.TwoMassRig.to_dict>`, every parameter in SI units (the
+  table of :class:`~motorid.plants.rig.TwoMassRig`), its friction laws as
+  ``{"kind": ..., <parameters>}``, amplifier, tachogenerator, A/D converter and
+  encoder; ``null`` for an infinite amplifier saturation.
+- ``estimator``: ``model`` is ``{"estimator": NAME, "settings": {...}, "state":
+  {...}}``: the registered name, the constructor arguments and what the filter has
+  learnt (``x``, ``P`` and what the next sample needs), so the reloaded estimator
+  has the same ``params``, gives the same ``simulate(u)`` bit for bit and continues
+  filtering as the saved one would. Saved: ``arx-rls``, ``hammerstein-rls`` (built-in
+  basis functions), ``friction-ekf`` and ``friction-ukf`` (with their rig).
+
+Every key is required and no other is allowed. :func:`load_model` checks the whole
+file before it builds anything, and a bad file (not JSON, another format, a newer or
+unknown version, a missing or unknown key, a wrong type, NaN, a value out of range
+such as a negative inertia, an unknown friction law) raises one
+:class:`~motorid.errors.DataError` naming the file and the key, e.g.
+``rig.json: model.J_m: J_m must be > 0, got -1.0``.
+
+This module sits at the top of the package, beside :mod:`motorid.records`, because
+a model file holds either a drive model (:mod:`motorid.plants`) or an estimator
+(:mod:`motorid.estimators`), and the plants must not import the estimators.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import logging
+import math
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from motorid.errors import DataError
+from motorid.plants.amplifier import Amplifier
+from motorid.plants.friction import FRICTION_KINDS
+from motorid.plants.rig import TwoMassRig
+from motorid.plants.sensors import ADConverter, Encoder, Tachogenerator
+
+logger = logging.getLogger(__name__)
+
+#: The ``format`` name of a model file.
+FORMAT = "motorid-model"
+#: The newest ``version`` this motorid writes and reads.
+VERSION = 1
+#: The ``kind`` of a model file for each kind of model.
+KIND_RIG = "two-mass-rig"
+KIND_ESTIMATOR = "estimator"
+
+__all__ = [
+    "FORMAT",
+    "VERSION",
+    "friction_from_dict",
+    "load_model",
+    "model_from_dict",
+    "model_to_dict",
+    "rig_from_dict",
+    "save_model",
+]
+
+
+class _BadKeyError(Exception):
+    """A problem at ``key`` of the file; :func:`model_from_dict` adds the file's name."""
+
+    def __init__(self, key: str, message: str):
+        super().__init__(f"{key}: {message}" if key else message)
+
+
+# --------------------------------------------------------------------------- writing
+def model_to_dict(model: Any) -> dict[str, Any]:
+    """The JSON object of a model file for ``model`` (a rig or a saved estimator).
+
+    Raises
+    ------
+    ValueError
+        For an object that has no model file form (another type, an estimator with
+        a custom basis function, a filter between ``predict`` and ``update``).
+    """
+    if isinstance(model, TwoMassRig):
+        return {"format": FORMAT, "version": VERSION, "kind": KIND_RIG, "model": model.to_dict()}
+    from motorid.estimators.base import Estimator
+
+    if isinstance(model, Estimator):
+        body = _estimator_to_dict(model)
+        return {"format": FORMAT, "version": VERSION, "kind": KIND_ESTIMATOR, "model": body}
+    raise ValueError(
+        f"cannot save a {type(model).__name__} as a model file: give a TwoMassRig or an estimator"
+    )
+
+
+def save_model(model: Any, path: str | os.PathLike[str]) -> None:
+    """Write ``model`` as a model file at ``path`` (replaced whole, never left half-written)."""
+    text = json.dumps(model_to_dict(model), indent=2, allow_nan=False) + "\n"
+    target = Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent or Path("."))
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        os.replace(tmp, target)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    logger.info("wrote model file %s (%s)", target, type(model).__name__)
+
+
+def _estimator_to_dict(est: Any) -> dict[str, Any]:
+    from motorid.estimators import ARXRLS, FrictionEKF, FrictionUKF, HammersteinRLS
+
+    if type(est) in (ARXRLS, HammersteinRLS):
+        if est._pending is not None:
+            raise ValueError(f"{est.name} is between predict() and update(): call update() first")
+        settings: dict[str, Any] = {
+            "na": est.na,
+            "nb": est.nb,
+            "lam": est.lam,
+            "delta": est.delta,
+            "direct_term": est.direct_term,
+            "max_trace": None if math.isinf(est.max_trace) else est.max_trace,
+            "R": est.R,
+            "x0": est.x0.tolist(),
+        }
+        if type(est) is HammersteinRLS:
+            settings["basis"] = _basis_spec(est.basis)
+            settings["gamma_method"] = est.gamma_method
+        state = {
+            "x": est.x.tolist(),
+            "P": est.P.tolist(),
+            "y_history": est.y_history.tolist(),
+            "g_history": est.g_history.tolist(),
+            "sample_index": est.sample_index,
+        }
+    elif type(est) in (FrictionEKF, FrictionUKF):
+        settings = est.get_params()
+        settings["rig"] = None if settings["rig"] is None else settings["rig"].to_dict()
+        state = est.get_state()
+        state = {k: v.tolist() if isinstance(v, np.ndarray) else v for k, v in state.items()}
+        state["nis_mean"] = None if math.isnan(state["nis_mean"]) else state["nis_mean"]
+    else:
+        raise ValueError(
+            f"cannot save a {type(est).__name__}: model files hold arx-rls, hammerstein-rls, "
+            "friction-ekf and friction-ukf"
+        )
+    return {"estimator": est.name, "settings": settings, "state": state}
+
+
+def _basis_spec(basis: Any) -> str:
+    """The basis as the text :func:`~motorid.estimators.basis.basis_from_spec` reads back."""
+    from motorid.estimators.basis import DEAD_ZONE, POWER, SIGN
+
+    items = []
+    for f in basis:
+        if f.builtin is None:
+            raise ValueError(
+                f"cannot save the custom basis function {f.name!r}: only built-in ones are saved"
+            )
+        kind, parameter = f.builtin
+        if kind == POWER:
+            items.append(f"u^{int(parameter)}")
+        elif kind == SIGN:
+            items.append("sign")
+        elif kind == DEAD_ZONE:
+            items.append(f"dead_zone:{float(parameter)!r}")
+    return ",".join(items)
+
+
+# --------------------------------------------------------------------------- reading
+def load_model(path: str | os.PathLike[str]) -> Any:
+    """Read a model file: a :class:`~motorid.plants.rig.TwoMassRig` or an estimator.
+
+    Raises
+    ------
+    DataError
+        Naming the file and the key for an unreadable or bad file (module docstring).
+    """
+    source = Path(path)
+    try:
+        text = source.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise DataError(f"{source}: cannot read the model file: {exc.strerror or exc}") from None
+    except UnicodeDecodeError:
+        raise DataError(f"{source}: not a model file (not UTF-8 text)") from None
+    try:
+        data = json.loads(text, parse_constant=lambda name: float(name))
+    except json.JSONDecodeError as exc:
+        raise DataError(
+            f"{source}: not a model file (invalid JSON at line {exc.lineno}: {exc.msg})"
+        ) from None
+    return model_from_dict(data, source=str(source))
+
+
+def model_from_dict(data: Any, source: str = "model") -> Any:
+    """Build the model a model file's JSON object describes (see :func:`load_model`).
+
+    ``source`` names the file in the error messages.
+    """
+    try:
+        if not isinstance(data, dict) or data.get("format") != FORMAT:
+            raise DataError(f'{source}: not a motorid model file (no "format": "{FORMAT}")')
+        version = data.get("version")
+        if isinstance(version, bool) or not isinstance(version, int):
+            raise DataError(f"{source}: version must be an integer, got {version!r}")
+        if version > VERSION:
+            raise DataError(
+                f"{source}: model file version {version} is newer than this motorid reads "
+                f"(up to {VERSION}); upgrade motorid to read it"
+            )
+        if version < 1:
+            raise DataError(f"{source}: unknown model file version {version} (known: 1 to {VERSION})")
+        _keys(data, ("format", "version", "kind", "model"), "")
+        kind = data["kind"]
+        if kind == KIND_RIG:
+            return _rig(data["model"], "model")
+        if kind == KIND_ESTIMATOR:
+            return _estimator(data["model"], "model")
+        raise _BadKeyError("kind", f"unknown model kind {kind!r} (known: {KIND_RIG}, {KIND_ESTIMATOR})")
+    except _BadKeyError as exc:
+        raise DataError(f"{source}: {exc}") from None
+
+
+def rig_from_dict(data: Any) -> TwoMassRig:
+    """A :class:`~motorid.plants.rig.TwoMassRig` from its description (``model`` of a rig file).
+
+    Raises
+    ------
+    DataError
+        Naming the key: ``friction[1].alpha1: missing``, ``J_m: J_m must be > 0, got -1.0``.
+    """
+    try:
+        return _rig(data, "")
+    except _BadKeyError as exc:
+        raise DataError(str(exc)) from None
+
+
+def friction_from_dict(data: Any) -> Any:
+    """A friction law from its description ``{"kind": ..., <parameters>}`` (DataError naming the key)."""
+    try:
+        return _friction(data, "")
+    except _BadKeyError as exc:
+        raise DataError(str(exc)) from None
+
+
+def _keys(data: Any, names: tuple[str, ...] | list[str], where: str) -> dict[str, Any]:
+    """``data`` as a dict with exactly the keys ``names``."""
+    label = where or "the top level"
+    if not isinstance(data, dict):
+        raise _BadKeyError(where or "file", f"must be a JSON object, got {type(data).__name__}")
+    missing = [n for n in names if n not in data]
+    if missing:
+        raise _BadKeyError(_join(where, missing[0]), f"missing in {label}")
+    unknown = [k for k in data if k not in names]
+    if unknown:
+        raise _BadKeyError(_join(where, unknown[0]), f"unknown key in {label} (known: {', '.join(names)})")
+    return data
+
+
+def _join(where: str, key: str | int) -> str:
+    if isinstance(key, int):
+        return f"{where}[{key}]"
+    return f"{where}.{key}" if where else key
+
+
+def _number(value: Any, key: str, *, none_is: float | None = None) -> float:
+    if value is None and none_is is not None:
+        return none_is
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise _BadKeyError(key, f"must be a number, got {json.dumps(value)}")
+    if not math.isfinite(value):
+        raise _BadKeyError(key, f"must be finite, got {value!r}")
+    return float(value)
+
+
+def _integer(value: Any, key: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise _BadKeyError(key, f"must be an integer, got {json.dumps(value)}")
+    return value
+
+
+def _boolean(value: Any, key: str) -> bool:
+    if not isinstance(value, bool):
+        raise _BadKeyError(key, f"must be true or false, got {json.dumps(value)}")
+    return value
+
+
+def _text(value: Any, key: str) -> str:
+    if not isinstance(value, str):
+        raise _BadKeyError(key, f"must be a string, got {json.dumps(value)}")
+    return value
+
+
+def _array(value: Any, key: str, shape: tuple[int, ...]) -> np.ndarray:
+    """A finite float array of ``shape`` from nested lists."""
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        raise _BadKeyError(key, f"must be an array of numbers of shape {shape}") from None
+    if arr.shape != shape or (arr.size and not isinstance(value, list)):
+        raise _BadKeyError(key, f"must have shape {shape}, got {arr.shape}")
+    bad = np.argwhere(~np.isfinite(arr))
+    if bad.size:
+        where = "".join(f"[{int(i)}]" for i in bad[0])
+        raise _BadKeyError(key + where, f"must be finite, got {float(arr[tuple(bad[0])])!r}")
+    if any(isinstance(v, bool) for v in np.array(value, dtype=object).reshape(-1)):
+        raise _BadKeyError(key, "must hold numbers, not true/false")
+    return arr
+
+
+def _build(cls: Any, values: dict[str, Any], where: str) -> Any:
+    """``cls(**values)``, its ValueError (which names the parameter) turned into a _BadKeyError at ``where``."""
+    try:
+        return cls(**values)
+    except ValueError as exc:
+        raise _BadKeyError(where, str(exc)) from None
+
+
+def _scalars(cls: Any, data: Any, where: str) -> Any:
+    """A dataclass of scalar fields, every field required, each checked for its type."""
+    fields = [f for f in dataclasses.fields(cls) if f.init]
+    _keys(data, [f.name for f in fields], where)
+    values: dict[str, Any] = {}
+    for f in fields:
+        key = _join(where, f.name)
+        value = data[f.name]
+        if f.type == "float":
+            infinite = f.default if isinstance(f.default, float) and math.isinf(f.default) else None
+            values[f.name] = _number(value, key, none_is=infinite)
+        elif f.type == "int":
+            values[f.name] = _integer(value, key)
+        else:  # str and Literal aliases such as Side
+            values[f.name] = _text(value, key)
+    return _build(cls, values, where)
+
+
+def _friction(data: Any, where: str) -> Any:
+    if not isinstance(data, dict):
+        raise _BadKeyError(where, f"must be a JSON object, got {type(data).__name__}")
+    kind = data.get("kind")
+    if kind not in FRICTION_KINDS:
+        raise _BadKeyError(
+            _join(where, "kind"), f"unknown friction law {kind!r} (known: {', '.join(FRICTION_KINDS)})"
+        )
+    return _scalars(FRICTION_KINDS[kind], {k: v for k, v in data.items() if k != "kind"}, where)
+
+
+def _rig(data: Any, where: str) -> TwoMassRig:
+    fields = [f for f in dataclasses.fields(TwoMassRig) if f.init]
+    _keys(data, [f.name for f in fields], where)
+    parts = {"amplifier": Amplifier, "tacho": Tachogenerator, "adc": ADConverter}
+    values: dict[str, Any] = {}
+    for f in fields:
+        key = _join(where, f.name)
+        value = data[f.name]
+        if f.name == "friction":
+            if not isinstance(value, list):
+                raise _BadKeyError(key, f"must be a list of friction laws, got {json.dumps(value)}")
+            values[f.name] = tuple(_friction(item, _join(key, k)) for k, item in enumerate(value))
+        elif f.name in parts:
+            values[f.name] = _scalars(parts[f.name], value, key)
+        elif f.name == "encoder":
+            values[f.name] = None if value is None else _scalars(Encoder, value, key)
+        elif f.type == "int":
+            values[f.name] = _integer(value, key)
+        else:
+            values[f.name] = _number(value, key)
+    return _build(TwoMassRig, values, where)
+
+
+def _estimator(data: Any, where: str) -> Any:
+    from motorid.estimators import ARXRLS, FrictionEKF, FrictionUKF, HammersteinRLS
+
+    _keys(data, ("estimator", "settings", "state"), where)
+    classes = {cls.name: cls for cls in (ARXRLS, HammersteinRLS, FrictionEKF, FrictionUKF)}
+    name = data["estimator"]
+    if name not in classes:
+        raise _BadKeyError(
+            _join(where, "estimator"), f"unknown estimator {name!r} (known: {', '.join(classes)})"
+        )
+    cls = classes[name]
+    if cls in (ARXRLS, HammersteinRLS):
+        return _rls(cls, data["settings"], data["state"], where)
+    return _friction_filter(cls, data["settings"], data["state"], where)
+
+
+def _rls(cls: Any, settings: Any, state: Any, where: str) -> Any:
+    from motorid.estimators import HammersteinRLS
+
+    s_where, x_where = _join(where, "settings"), _join(where, "state")
+    names = ["na", "nb", "lam", "delta", "direct_term", "max_trace", "R", "x0"]
+    if cls is HammersteinRLS:
+        names += ["basis", "gamma_method"]
+    _keys(settings, names, s_where)
+    kw: dict[str, Any] = {
+        "na": _integer(settings["na"], _join(s_where, "na")),
+        "nb": _integer(settings["nb"], _join(s_where, "nb")),
+        "lam": _number(settings["lam"], _join(s_where, "lam")),
+        "delta": _number(settings["delta"], _join(s_where, "delta")),
+        "direct_term": _boolean(settings["direct_term"], _join(s_where, "direct_term")),
+        "max_trace": _number(settings["max_trace"], _join(s_where, "max_trace"), none_is=math.inf),
+        "R": _number(settings["R"], _join(s_where, "R")),
+    }
+    if cls is HammersteinRLS:
+        kw["basis"] = _text(settings["basis"], _join(s_where, "basis"))
+        kw["gamma_method"] = _text(settings["gamma_method"], _join(s_where, "gamma_method"))
+    x0 = settings["x0"]
+    if not isinstance(x0, list):
+        raise _BadKeyError(_join(s_where, "x0"), f"must be a list of numbers, got {json.dumps(x0)}")
+    kw["x0"] = _array(x0, _join(s_where, "x0"), (len(x0),))
+    est = _build(cls, kw, s_where)
+    n = est.dim_x
+    _keys(state, ("x", "P", "y_history", "g_history", "sample_index"), x_where)
+    x = _array(state["x"], _join(x_where, "x"), (n,))
+    P = _array(state["P"], _join(x_where, "P"), (n, n))
+    y_history = _array(state["y_history"], _join(x_where, "y_history"), est.y_history.shape)
+    g_history = _array(state["g_history"], _join(x_where, "g_history"), est.g_history.shape)
+    sample_index = _integer(state["sample_index"], _join(x_where, "sample_index"))
+    if sample_index < 0:
+        raise _BadKeyError(_join(x_where, "sample_index"), f"must be >= 0, got {sample_index}")
+    est.x = est.x_prior = est.x_post = x
+    est.P = est.P_prior = est.P_post = P
+    est.y_history, est.g_history = y_history, g_history
+    est.sample_index = sample_index
+    return est
+
+
+def _friction_filter(cls: Any, settings: Any, state: Any, where: str) -> Any:
+    s_where, x_where = _join(where, "settings"), _join(where, "state")
+    annotations = cls.parameter_annotations()
+    _keys(settings, list(annotations), s_where)
+    kw: dict[str, Any] = {}
+    for name, annotation in annotations.items():
+        key, value = _join(s_where, name), settings[name]
+        if name == "rig":
+            kw[name] = None if value is None else _rig(value, key)
+        elif value is None and "None" in annotation:
+            kw[name] = None
+        elif annotation.startswith("bool"):
+            kw[name] = _boolean(value, key)
+        elif annotation.startswith("int"):
+            kw[name] = _integer(value, key)
+        elif annotation.startswith("float"):
+            kw[name] = _number(value, key)
+        else:  # a Literal of names
+            kw[name] = _text(value, key)
+    est = _build(cls, kw, s_where)
+    n, window = est.dim_x, est.nis_window
+    _keys(state, ("x", "P", "sample_index", "nis_ring", "nis_count", "nis_mean", "diverged"), x_where)
+    values = {
+        "x": _array(state["x"], _join(x_where, "x"), (n,)),
+        "P": _array(state["P"], _join(x_where, "P"), (n, n)),
+        "nis_ring": _array(state["nis_ring"], _join(x_where, "nis_ring"), (window,)),
+        "sample_index": _integer(state["sample_index"], _join(x_where, "sample_index")),
+        "nis_count": _integer(state["nis_count"], _join(x_where, "nis_count")),
+        "nis_mean": _number(state["nis_mean"], _join(x_where, "nis_mean"), none_is=math.nan),
+        "diverged": _boolean(state["diverged"], _join(x_where, "diverged")),
+    }
+    try:
+        est.set_state(values)
+    except ValueError as exc:
+        raise _BadKeyError(x_where, str(exc)) from None
+    return est

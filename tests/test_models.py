@@ -1,0 +1,413 @@
+"""Model files: rigs and identified estimators saved and reloaded exactly, bad files refused
+with one error naming the file and the key, and the commands that write and read them."""
+
+from __future__ import annotations
+
+import copy
+import json
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from cli_fixtures import run
+from conftest import examples
+from hypothesis import given
+from hypothesis import strategies as st
+
+import motorid
+from motorid.errors import DataError
+from motorid.estimators import FrictionEKF, FrictionUKF, HammersteinRLS, create
+from motorid.models import FORMAT, VERSION, load_model, model_to_dict, save_model
+from motorid.plants import (
+    ADConverter,
+    Amplifier,
+    AsymmetricFriction,
+    CoulombFriction,
+    Encoder,
+    LuGreFriction,
+    StribeckFriction,
+    Tachogenerator,
+    TwoMassRig,
+    ViscousFriction,
+    paper_rig,
+)
+from motorid.plants.signals import two_sine_signal
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def every_part_rig() -> TwoMassRig:
+    """A rig using every friction law, a finite and every sensor part, backlash and a load torque."""
+    friction = (
+        CoulombFriction(alpha=3e-3, side="motor"),
+        StribeckFriction(alpha0=1e-3, alpha1=2e-3, alpha2=0.1, side="motor"),
+        AsymmetricFriction(alpha0=1e-3, alpha1=5e-4, alpha2=0.2, alpha3=2e-3, alpha4=1e-4, alpha5=0.3, side="load"),
+        ViscousFriction(B=1e-6, side="both"),
+        LuGreFriction(sigma0=20.0, sigma1=0.01, sigma2=1e-6, Fc=1e-3, Fs=1.5e-3, omega_s=0.5, side="load"),
+    )  # fmt: skip
+    return paper_rig(
+        friction=friction, backlash=2e-3, T_d=1e-4, substeps=80,
+        amplifier=Amplifier(gain=1.5, dead_zone=0.4, v_max=10.0),
+        tacho=Tachogenerator(gain=0.03, noise_std=0.02), adc=ADConverter(bits=14, v_min=-5.0, v_max=5.0),
+        encoder=Encoder(counts_per_rev=1000, side="load"),
+    )  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def record():
+    _, u = two_sine_signal(duration=20.0, dt=0.04, seed=3)
+    return u, paper_rig().simulate(u, seed=3)["y"].to_numpy()
+
+
+# --------------------------------------------------------------------------- rigs
+def test_rig_round_trip_keeps_every_part_and_simulates_the_same_bits(tmp_path):
+    rig = every_part_rig()
+    path = tmp_path / "rig.json"
+    rig.save(path)
+    back = motorid.load_model(path)
+    assert back == rig
+    u = np.concatenate([np.linspace(0, 6, 30), np.linspace(6, -6, 60)])
+    np.testing.assert_array_equal(back.simulate(u, seed=1).to_numpy(), rig.simulate(u, seed=1).to_numpy())
+    data = json.loads(path.read_text())
+    assert (data["format"], data["version"], data["kind"]) == (FORMAT, VERSION, "two-mass-rig")
+    assert [f["kind"] for f in data["model"]["friction"]] == [
+        "coulomb_friction",
+        "stribeck_friction",
+        "asymmetric_friction",
+        "viscous_friction",
+        "lugre_friction",
+    ]
+
+
+positive = st.floats(1e-6, 1e3, allow_nan=False)
+level = st.floats(0.0, 0.05, allow_nan=False)
+side = st.sampled_from(["motor", "load", "both"])
+laws = st.one_of(
+    st.builds(CoulombFriction, alpha=level, side=side),
+    st.builds(StribeckFriction, alpha0=level, alpha1=level, alpha2=st.floats(0.0, 10.0), side=side),
+    st.builds(ViscousFriction, B=st.floats(0.0, 1e-3), side=side),
+    st.builds(AsymmetricFriction, alpha0=level, alpha1=level, alpha2=st.floats(0.0, 10.0), alpha3=level,
+              alpha4=level, alpha5=st.floats(0.0, 10.0), side=side),
+)  # fmt: skip
+
+
+@examples(25)
+@given(
+    J_m=positive, k_s=positive, B_s=st.floats(0.0, 1.0), dt=st.floats(1e-4, 0.1), substeps=st.integers(1, 50),
+    friction=st.lists(laws, max_size=4), dead_zone=st.floats(0.0, 2.0),
+    v_max=st.one_of(st.just(math.inf), st.floats(0.5, 50.0)), bits=st.integers(0, 16),
+)  # fmt: skip
+def test_any_rig_survives_the_round_trip_exactly(tmp_path_factory, J_m, k_s, B_s, dt, substeps, friction,
+                                                 dead_zone, v_max, bits):  # fmt: skip
+    """Every float written with its shortest repr reads back to the same bits: the rigs are equal."""
+    rig = paper_rig(
+        J_m=J_m, k_s=k_s, B_s=B_s, dt=dt, substeps=substeps, friction=tuple(friction),
+        amplifier=Amplifier(dead_zone=dead_zone, v_max=v_max), adc=ADConverter(bits=bits),
+    )  # fmt: skip
+    path = tmp_path_factory.mktemp("any") / "rig.json"
+    rig.save(path)
+    assert load_model(path) == rig
+
+
+def test_infinite_saturation_is_written_as_null_and_read_back(tmp_path):
+    rig = TwoMassRig()  # ideal amplifier: v_max = inf, which JSON cannot hold
+    save_model(rig, tmp_path / "linear.json")
+    assert json.loads((tmp_path / "linear.json").read_text())["model"]["amplifier"]["v_max"] is None
+    assert load_model(tmp_path / "linear.json").amplifier.v_max == math.inf
+
+
+# --------------------------------------------------------------------------- estimators
+@pytest.mark.parametrize(
+    "name, kwargs",
+    [
+        ("arx-rls", {"na": 3, "nb": 2, "lam": 0.995}),
+        ("arx-rls", {"na": 2, "nb": 2, "direct_term": False, "max_trace": math.inf}),
+        ("hammerstein-rls", {"na": 4, "nb": 4, "degree": 3, "lam": 0.99}),
+        ("hammerstein-rls", {"na": 2, "nb": 2, "basis": "u,sign,dead_zone:0.35", "gamma_method": "svd"}),
+    ],
+)
+def test_identified_rls_reloads_with_the_same_params_and_free_run_to_the_last_bit(
+    tmp_path, record, name, kwargs
+):
+    u, y = record
+    est = create(name, **kwargs)
+    est.batch_filter(u[:300], y[:300])
+    est.save(tmp_path / "est.json")
+    back = load_model(tmp_path / "est.json")
+    assert type(back) is type(est)
+    for key, value in est.params.items():
+        np.testing.assert_array_equal(back.params[key], value)
+    np.testing.assert_array_equal(back.simulate(u), est.simulate(u))
+    # and it continues filtering exactly where the saved one would
+    a, b = est.batch_filter(u[300:], y[300:]), back.batch_filter(u[300:], y[300:])
+    np.testing.assert_array_equal(a.x, b.x)
+    np.testing.assert_array_equal(est.P, back.P)
+
+
+@pytest.mark.parametrize("cls", [FrictionEKF, FrictionUKF])
+def test_friction_filter_reloads_with_its_rig_state_and_covariance(tmp_path, record, cls):
+    u, y = record
+    rig = paper_rig(B_m=3e-5)
+    est = cls.from_rig(rig, stribeck=True, coulomb0=3e-3, nis_window=20, on_divergence="ignore")
+    est.batch_filter(u[:150], y[:150])
+    est.save(tmp_path / "filter.json")
+    back = load_model(tmp_path / "filter.json")
+    assert type(back) is cls and back.rig == rig and back.stribeck and back.nis_window == 20
+    np.testing.assert_array_equal(back.x, est.x)
+    np.testing.assert_array_equal(back.P, est.P)
+    assert back.sample_index == est.sample_index == 150
+    assert back.params == est.params
+    np.testing.assert_array_equal(back.simulate(u), est.simulate(u))
+    a, b = est.batch_filter(u[150:200], y[150:200]), back.batch_filter(u[150:200], y[150:200])
+    np.testing.assert_array_equal(a.x, b.x)
+    assert back.nis_mean == est.nis_mean  # the NIS window came along too
+
+
+def test_friction_filter_starts_from_a_rig_model_file(tmp_path):
+    rig = paper_rig(J_l=9e-5)
+    rig.save(tmp_path / "rig.json")
+    ekf = FrictionEKF.from_rig(load_model(tmp_path / "rig.json"))
+    assert ekf.rig == rig and ekf.dt == rig.dt
+
+
+def test_what_cannot_be_saved_is_refused_and_leaves_the_old_file(tmp_path):
+    path = tmp_path / "est.json"
+    paper_rig().save(path)
+    before = path.read_bytes()
+    custom = HammersteinRLS(na=2, nb=2, basis=[np.tanh])
+    with pytest.raises(ValueError, match="custom basis function"):
+        custom.save(path)
+    pending = create("arx-rls", na=2, nb=2)
+    pending.predict(1.0)
+    with pytest.raises(ValueError, match=r"update\(\) first"):
+        pending.save(path)
+    ekf = FrictionEKF()
+    ekf.predict(1.0)
+    with pytest.raises(ValueError, match=r"update\(\) first"):
+        ekf.save(path)
+    with pytest.raises(ValueError, match="cannot save a dict"):
+        save_model({}, path)
+    assert path.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == ["est.json"]  # no temporary file left behind
+
+
+# --------------------------------------------------------------------------- bad files
+def _rig_file() -> dict:
+    return model_to_dict(every_part_rig())
+
+
+def _ekf_file() -> dict:
+    return model_to_dict(FrictionEKF(nis_window=5))
+
+
+def _arx_file() -> dict:
+    return model_to_dict(create("arx-rls", na=2, nb=1))
+
+
+def _set(data: dict, path: tuple, value) -> dict:
+    data = copy.deepcopy(data)
+    node = data
+    for key in path[:-1]:
+        node = node[key]
+    node[path[-1]] = value
+    return data
+
+
+def _drop(data: dict, path: tuple) -> dict:
+    data = copy.deepcopy(data)
+    node = data
+    for key in path[:-1]:
+        node = node[key]
+    del node[path[-1]]
+    return data
+
+
+BAD_FILES = [
+    # (what, file content, the key or words the message must name)
+    ("other format", lambda: _set(_rig_file(), ("format",), "other"), 'no "format": "motorid-model"'),
+    ("newer version", lambda: _set(_rig_file(), ("version",), VERSION + 1), f"version {VERSION + 1} is newer"),
+    ("unknown version", lambda: _set(_rig_file(), ("version",), 0), "unknown model file version 0"),
+    ("text version", lambda: _set(_rig_file(), ("version",), "1"), "version must be an integer"),
+    ("unknown kind", lambda: _set(_rig_file(), ("kind",), "three-mass-rig"), "kind: unknown model kind"),
+    ("missing model", lambda: _drop(_rig_file(), ("model",)), "model: missing"),
+    ("missing rig key", lambda: _drop(_rig_file(), ("model", "J_m")), "model.J_m: missing"),
+    ("missing nested key", lambda: _drop(_rig_file(), ("model", "amplifier", "gain")), "model.amplifier.gain: missing"),
+    ("missing law key", lambda: _drop(_rig_file(), ("model", "friction", 1, "alpha1")), r"model.friction\[1\].alpha1: missing"),
+    ("unknown key", lambda: _set(_rig_file(), ("model", "J_mm"), 1.0), "model.J_mm: unknown key"),
+    ("text for a number", lambda: _set(_rig_file(), ("model", "K_m"), "0.04"), 'model.K_m: must be a number, got "0.04"'),
+    ("bool for a number", lambda: _set(_rig_file(), ("model", "R_a"), True), "model.R_a: must be a number"),
+    ("float for an integer", lambda: _set(_rig_file(), ("model", "substeps"), 2.5), "model.substeps: must be an integer"),
+    ("number for a side", lambda: _set(_rig_file(), ("model", "encoder", "side"), 1), "model.encoder.side: must be a string"),
+    ("friction not a list", lambda: _set(_rig_file(), ("model", "friction"), {"kind": "coulomb_friction"}), "model.friction: must be a list"),
+    ("NaN", lambda: _set(_rig_file(), ("model", "J_l"), math.nan), "model.J_l: must be finite, got nan"),
+    ("infinity", lambda: _set(_rig_file(), ("model", "friction", 0, "alpha"), math.inf), r"model.friction\[0\].alpha: must be finite"),
+    ("negative inertia", lambda: _set(_rig_file(), ("model", "J_m"), -2.5e-5), "model: J_m must be > 0, got -2.5e-05"),
+    ("negative friction", lambda: _set(_rig_file(), ("model", "friction", 0, "alpha"), -1.0), r"model.friction\[0\]: alpha must be"),
+    ("unknown friction law", lambda: _set(_rig_file(), ("model", "friction", 2, "kind"), "stiction"), r"model.friction\[2\].kind: unknown friction law 'stiction'"),
+    ("unknown side", lambda: _set(_rig_file(), ("model", "friction", 0, "side"), "shaft"), r"model.friction\[0\]: side must be one of"),
+    ("unknown estimator", lambda: _set(_arx_file(), ("model", "estimator"), "lstm"), "model.estimator: unknown estimator 'lstm'"),
+    ("estimator setting type", lambda: _set(_arx_file(), ("model", "settings", "na"), 2.0), "model.settings.na: must be an integer"),
+    ("estimator setting range", lambda: _set(_arx_file(), ("model", "settings", "lam"), 1.5), "model.settings: lam must satisfy"),
+    ("estimate of the wrong size", lambda: _set(_arx_file(), ("model", "state", "x"), [0.0, 1.0]), r"model.state.x: must have shape \(4,\)"),
+    ("NaN in a covariance", lambda: _set(_arx_file(), ("model", "state", "P", 1, 2), math.nan), r"model.state.P\[1\]\[2\]: must be finite, got nan"),
+    ("history not numbers", lambda: _set(_arx_file(), ("model", "state", "y_history"), ["a", "b"]), "model.state.y_history: must be an array"),
+    ("filter rig", lambda: _set(_ekf_file(), ("model", "settings", "rig"), {"R_a": 2.0}), "model.settings.rig.L_a: missing"),
+    ("filter setting", lambda: _set(_ekf_file(), ("model", "settings", "stribeck"), "yes"), "model.settings.stribeck: must be true or false"),
+    ("filter side", lambda: _set(_ekf_file(), ("model", "settings", "friction_side"), "shaft"), "model.settings: friction_side must be"),
+    ("covariance not positive definite", lambda: _set(_ekf_file(), ("model", "state", "P", 0, 0), -1.0), "model.state: P must be symmetric positive definite"),
+    ("NIS window of another length", lambda: _set(_ekf_file(), ("model", "state", "nis_ring"), [0.0]), r"model.state.nis_ring: must have shape \(5,\)"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("what, make, message", BAD_FILES, ids=[b[0] for b in BAD_FILES])
+def test_bad_file_gets_one_data_error_naming_the_file_and_key(tmp_path, what, make, message):
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps(make()))  # json writes NaN and Infinity tokens as Python reads them
+    with pytest.raises(DataError) as info:
+        load_model(path)
+    text = str(info.value)
+    assert text.startswith(f"{path}: "), text
+    assert re.search(message, text), text
+    assert "\n" not in text
+
+
+@pytest.mark.parametrize(
+    "content, message",
+    [(b"{", "invalid JSON at line 1"), (b"\xff\xfe", "not UTF-8"), (b"[1, 2]", "not a motorid model file")],
+)
+def test_unreadable_files_are_refused_naming_the_file(tmp_path, content, message):
+    path = tmp_path / "m.json"
+    path.write_bytes(content)
+    with pytest.raises(DataError, match=message):
+        load_model(path)
+    with pytest.raises(DataError, match=r"nowhere\.json: cannot read"):
+        load_model(tmp_path / "nowhere.json")
+
+
+# --------------------------------------------------------------------------- command line
+def test_simulate_saves_the_rig_its_options_describe_and_simulates_a_model_file(capsys, tmp_path):
+    model = tmp_path / "rig.json"
+    code, out, _ = run(capsys, "simulate", "--save-model", str(model), "--stribeck", "0.002", "0.1",
+                       "--dead-zone", "0.3", "--coulomb-load", "0", "--json")  # fmt: skip
+    assert code == 0 and out["model"] == str(model)
+    expected = paper_rig(
+        friction=(CoulombFriction(alpha=4e-3, side="motor"),
+                  StribeckFriction(alpha0=0.0, alpha1=0.002, alpha2=0.1, side="motor")),
+        amplifier=Amplifier(gain=1.0, dead_zone=0.3, v_max=12.0),
+    )  # fmt: skip
+    assert load_model(model) == expected
+    rec = tmp_path / "rec.csv"
+    code, out, _ = run(
+        capsys, "simulate", "--model", str(model), "--out", str(rec), "--duration", "4", "--json"
+    )
+    assert code == 0 and out["rig"] == expected.to_dict() and out["samples"] == 100
+    # without options the flags describe the default rig, as before
+    run(capsys, "simulate", "--save-model", str(tmp_path / "default.json"))
+    assert load_model(tmp_path / "default.json") == paper_rig()
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (
+            ["--model", "{model}", "--dead-zone", "0.1", "--out", "{out}"],
+            "--dead-zone cannot be combined with --model",
+        ),
+        (["--model", "{est}", "--out", "{out}"], "holds a ARXRLS, not a rig model"),
+        (["--duration", "1"], "give --out"),
+        (["--save-model", "{model}"], "--save-model .*the file exists"),
+    ],
+)
+def test_simulate_model_options_refuse_what_does_not_fit(capsys, tmp_path, argv, message):
+    paths = {"model": tmp_path / "rig.json", "est": tmp_path / "est.json", "out": tmp_path / "rec.csv"}
+    paper_rig().save(paths["model"])
+    create("arx-rls", na=1, nb=1).save(paths["est"])
+    code, _, err = run(capsys, "simulate", *[a.format(**paths) for a in argv])
+    assert code == 2 and re.search(message, err), err
+    assert not paths["out"].exists()
+
+
+def test_identify_saves_the_identified_estimator(capsys, tmp_path, record):
+    u, y = record
+    rec = tmp_path / "rec.csv"
+    import pandas as pd
+
+    from motorid.records import write_record
+
+    frame = pd.DataFrame({"t": np.arange(len(u)) * 0.04, "u": u, "y": y})
+    frame.attrs["dt"] = 0.04
+    write_record(frame, rec)
+    est_path = tmp_path / "est.json"
+    code, out, _ = run(capsys, "identify", str(rec), "--estimator", "hammerstein-rls", "--basis", "u,sign",
+                       "--save-model", str(est_path), "--json")  # fmt: skip
+    assert code == 0 and out["model"] == str(est_path)
+    est = load_model(est_path)
+    reference = HammersteinRLS(na=4, nb=4, basis="u,sign")
+    reference.batch_filter(u, y)
+    np.testing.assert_array_equal(est.x, reference.x)
+    assert np.allclose(out["params"]["gamma"], est.params["gamma"], rtol=0, atol=0)
+    code, _, err = run(capsys, "identify", str(rec), "--save-model", str(est_path))
+    assert code == 2 and "--save-model" in err and "exists" in err
+
+
+def test_rig_serve_hosts_the_model_file(capsys, tmp_path, monkeypatch):
+    from motorid.io import RigServer
+
+    rig = paper_rig(J_l=1e-4, friction=(), amplifier=Amplifier(dead_zone=0.2, v_max=9.0))
+    rig.save(tmp_path / "rig.json")
+    served = []
+
+    def serve_forever(self, on_listening=None):  # hosted, not served: the test checks what would be
+        served.append(self)
+        on_listening()
+
+    monkeypatch.setattr(RigServer, "serve_forever", serve_forever)
+    code, _, err = run(capsys, "rig", "serve", "--model", str(tmp_path / "rig.json"), "--port", "5999")
+    assert code == 0 and "rig of" in err
+    plant = served[-1].plant
+    assert plant.rig == rig and served[-1].u_max == 9.0  # the rating is the model's saturation
+    plant.reset(seed=2)
+    sim = rig.simulation(seed=2)
+    assert [plant.step(3.0) for _ in range(5)] == [sim.step(3.0) for _ in range(5)]
+    run(capsys, "rig", "serve", "--model", str(tmp_path / "rig.json"), "--u-max", "6")
+    assert served[-1].u_max == 6.0
+    run(capsys, "rig", "serve")
+    assert served[-1].plant.rig == paper_rig() and served[-1].u_max == paper_rig().amplifier.v_max
+    TwoMassRig().save(tmp_path / "unbounded.json")  # an ideal amplifier has no rating to serve with
+    code, _, err = run(capsys, "rig", "serve", "--model", str(tmp_path / "unbounded.json"))
+    assert code == 2 and "--u-max" in err
+    code, _, err = run(capsys, "rig", "serve", "--model", str(tmp_path / "missing.json"))
+    assert code == 2 and "missing.json: cannot read" in err
+
+
+def test_readme_model_file_example_runs(tmp_path, monkeypatch):
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    blocks = re.findall(r"```python\n(.*?)```", text, flags=re.S)
+    example = next(b for b in blocks if "load_model(" in b)
+    monkeypatch.chdir(tmp_path)
+    namespace: dict[str, object] = {}
+    exec(compile(example, "README.md", "exec"), namespace)
+    assert namespace["same"] == namespace["rig"]
+    assert (tmp_path / "rig.json").exists() and (tmp_path / "ekf.json").exists()
+
+
+def test_rig_from_dict_is_the_same_strict_reader_as_the_model_files():
+    """One reader: TwoMassRig.from_dict (a record's attrs) refuses what load_model refuses."""
+    data = every_part_rig().to_dict()
+    assert TwoMassRig.from_dict(data) == every_part_rig()
+    del data["friction"][1]["alpha2"]
+    with pytest.raises(DataError, match=r"^friction\[1\]\.alpha2: missing"):
+        TwoMassRig.from_dict(data)
+    with pytest.raises(DataError, match=r"^J_m must be > 0, got -1.0"):
+        TwoMassRig.from_dict({**TwoMassRig().to_dict(), "J_m": -1.0})
+
+
+def test_friction_laws_are_named_with_the_effect_vocabulary():
+    """A law's kind in a model file is the effect name the doctor reports (one vocabulary)."""
+    from motorid.diagnose import EFFECTS
+    from motorid.plants.friction import FRICTION_KINDS
+
+    assert set(FRICTION_KINDS) - {"lugre_friction"} <= set(EFFECTS)
+    assert all(name.endswith("_friction") for name in FRICTION_KINDS)
