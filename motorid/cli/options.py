@@ -85,9 +85,20 @@ def add_json(parser: argparse.ArgumentParser) -> None:
     )
 
 
+#: What a record file may be, in --help.
+RECORD_FILES = (
+    "CSV, Parquet, MATLAB .mat, NI .tdms or HDF5 .h5 by extension; columns t [s], u [V], y [rad/s] by default"
+)
+
+
 def add_record_input(parser: argparse.ArgumentParser) -> None:
     """The record a command reads: file, columns, sample time, size limit."""
-    parser.add_argument("data", type=Path, help="record CSV (columns t [s], u [V], y [rad/s] by default)")
+    parser.add_argument("data", type=Path, help=f"record file ({RECORD_FILES})")
+    add_record_columns(parser)
+
+
+def add_record_columns(parser: argparse.ArgumentParser) -> None:
+    """How a record is read: columns, sample time, size limit."""
     group = parser.add_argument_group("record")
     group.add_argument("--time", metavar="COL", help="time column [s] (default: t; optional with --dt)")
     group.add_argument("--input", default="u", metavar="COL", help="input column [V] (default: u)")
