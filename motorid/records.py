@@ -43,6 +43,10 @@ ATTRS_MARKER = "# motorid-record "
 #: Columns a record must have, in its canonical names.
 REQUIRED_COLUMNS: tuple[str, ...] = ("t", "u", "y")
 
+#: The keys of ``attrs`` naming the drive a record comes from and when it was taken (ISO 8601 text):
+#: written by :mod:`motorid.plants.fleet`, read by ``motorid fleet``.
+DRIVE_ATTR = "drive"
+TIME_ATTR = "time"
 #: The keywords ``attrs["timing"]`` takes: how input and output samples line up in time.
 TIMINGS: dict[str, str] = {
     "hold": "u[k] is held over [t[k], t[k]+dt); y[k] is measured at t[k]+dt (a simulator, a DAQ loop)",
@@ -621,9 +625,11 @@ def _checked(
 __all__ = [
     "ATTRS_KEY",
     "ATTRS_MARKER",
+    "DRIVE_ATTR",
     "MAT_ATTRS_VARIABLE",
     "RECORD_FORMATS",
     "REQUIRED_COLUMNS",
+    "TIME_ATTR",
     "TIMINGS",
     "count_data_lines",
     "read_record",
