@@ -110,7 +110,7 @@ class ResultsStore:
         return path
 
     def rows(self) -> pd.DataFrame:
-        """Every row written so far, one per record (the last written), identity columns first."""
+        """Every row written so far, one per record (the last written), sorted by record, identity columns first."""
         import pyarrow.parquet as pq
 
         frames = [pq.read_table(p).to_pandas() for p in self._part_files()]
@@ -118,7 +118,7 @@ class ResultsStore:
         if not frames:
             return pd.DataFrame(columns=list(IDENTITY_COLUMNS))
         table = pd.concat(frames, ignore_index=True)
-        table = table.drop_duplicates("record", keep="last").reset_index(drop=True)
+        table = table.drop_duplicates("record", keep="last").sort_values("record", ignore_index=True)
         first = [c for c in IDENTITY_COLUMNS if c in table.columns]
         return table[first + [c for c in table.columns if c not in first]]
 
