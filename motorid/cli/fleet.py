@@ -13,6 +13,7 @@ import copy
 import os
 import socket
 import time
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -39,7 +40,7 @@ class RecordTask:
 
     Picklable (the parsed options travel with it). Every error of the record is caught and
     returned as a row with ``status = "failed"`` and ``error``, so one bad record does not stop
-    the others.
+    the others; its warnings (a filter that diverged) are the row's ``warnings``.
     """
 
     command: str  # "identify" or "doctor"
@@ -55,29 +56,32 @@ class RecordTask:
         start = time.perf_counter()
         drive, when = identity(path, {}, given)
         row: dict[str, Any] = {"record": path, "drive": drive, "time": when, "command": self.command}
-        try:
-            args = copy.copy(self.args)
-            args.data = Path(path)
-            record = read_record_from_args(args)
-            drive, when = identity(path, record.attrs, given)
-            row.update(drive=drive, time=when)
-            folder = self.figures / drive / Path(path).stem if self.figures is not None else None
-            if folder is not None:
-                folder.mkdir(parents=True, exist_ok=True)
-            if self.command == "identify":
-                payload, tests = identify_record(record, args)
-                figures = [write_identify_figure(tests, folder, args.estimator)] if folder else []
-                extra = {}
-            else:
-                diagnosis = doctor_record(record, args, progress=False)
-                payload = diagnosis.to_dict()
-                figures = diagnosis.write_figures(folder) if folder else []
-                extra = {"named": ",".join(diagnosis.named)}
-            row.update(status="ok", error=None)
-            row.update(flatten(jsonable({**payload, **extra, "figures": [str(f) for f in figures]})))
-        except Exception as exc:  # the record's failure, whatever it is, is its row
-            message = str(exc) if isinstance(exc, DataError) else f"{type(exc).__name__}: {exc}"
-            row.update(status="failed", error=message)
+        with warnings.catch_warnings(record=True) as caught:  # a worker's warnings go in the row, not stderr
+            warnings.simplefilter("always")
+            try:
+                args = copy.copy(self.args)
+                args.data = Path(path)
+                record = read_record_from_args(args)
+                drive, when = identity(path, record.attrs, given)
+                row.update(drive=drive, time=when)
+                folder = self.figures / drive / Path(path).stem if self.figures is not None else None
+                if folder is not None:
+                    folder.mkdir(parents=True, exist_ok=True)
+                if self.command == "identify":
+                    payload, tests = identify_record(record, args)
+                    figures = [write_identify_figure(tests, folder, args.estimator)] if folder else []
+                    extra = {}
+                else:
+                    diagnosis = doctor_record(record, args, progress=False)
+                    payload = diagnosis.to_dict()
+                    figures = diagnosis.write_figures(folder) if folder else []
+                    extra = {"named": ",".join(diagnosis.named)}
+                row.update(status="ok", error=None)
+                row.update(flatten(jsonable({**payload, **extra, "figures": [str(f) for f in figures]})))
+            except Exception as exc:  # the record's failure, whatever it is, is its row
+                message = str(exc) if isinstance(exc, DataError) else f"{type(exc).__name__}: {exc}"
+                row.update(status="failed", error=message)
+        row["warnings"] = "; ".join(dict.fromkeys(str(w.message) for w in caught)) or None
         row["run_time_s"] = time.perf_counter() - start
         row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
         return row

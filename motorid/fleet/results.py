@@ -12,7 +12,8 @@ On disk, in the run's ``--out`` folder:
 
 A row holds the record's identity (``record`` path, ``drive``, ``time``), the
 ``command``, ``status`` (``ok`` or ``failed``), ``error`` (the message of a
-failed record), ``run_time_s`` and ``worker``, then the command's ``--json``
+failed record), ``warnings`` (what the computation warned, e.g. a diverging filter),
+``run_time_s`` and ``worker``, then the command's ``--json``
 output flattened (:func:`flatten`): ``params.coulomb``, ``scores.one_step.mse``,
 ``final_gap.overall``, ``model.params.viscous``, ...
 """
@@ -36,7 +37,17 @@ logger = logging.getLogger(__name__)
 PARQUET_NAME = "results.parquet"
 CSV_NAME = "results.csv"
 #: The columns every row starts with.
-IDENTITY_COLUMNS = ("record", "drive", "time", "command", "status", "error", "run_time_s", "worker")
+IDENTITY_COLUMNS = (
+    "record",
+    "drive",
+    "time",
+    "command",
+    "status",
+    "error",
+    "warnings",
+    "run_time_s",
+    "worker",
+)
 _PART = re.compile(r"part-(\d+)\.parquet\Z")
 
 
