@@ -5,7 +5,7 @@ Run: ``.venv/bin/python benchmarks/bench_fleet.py [--drives 8] [--days 5] [--dur
 A generated fleet (:mod:`motorid.plants.fleet`, 30 s records of 750 samples by
 default) is diagnosed three ways, each timing only the records (compilation and
 the cluster's start are left out: a warm-up record runs first, and the start is
-its own row):
+its own row; each figure is the best of 3 runs):
 
 - the single-process loop: the same per-record task called in this process, one
   record after the other (the peer of the 1-worker run: what the cluster adds);
@@ -33,6 +33,8 @@ from motorid.plants.fleet import make_fleet, write_fleet
 
 TITLE = "Fleet: motorid fleet doctor, records per second"
 DOCTOR = ["--base", "coulomb_friction,viscous_friction,offset"]
+#: Each figure is the best of this many runs (the machine is shared: the best run is the least disturbed).
+REPEATS = 3
 
 
 def _task(figures: Path | None = None) -> RecordTask:
@@ -50,12 +52,15 @@ def _cluster_rate(
         start = time.perf_counter() - t0
         warm = [str(paths[0])] * workers
         client.gather(client.map(task, warm, [{}] * workers, pure=False))  # each worker compiles once
-        t0 = time.perf_counter()
-        run = run_fleet(paths, task, folder / f"w{workers}{'f' if figures else ''}", client, progress=False)
-        seconds = time.perf_counter() - t0
-    if run.failed:
-        raise RuntimeError(f"{run.failed} records failed on {workers} workers")
-    return len(paths) / seconds, start
+        best = float("inf")
+        for repeat in range(REPEATS):
+            t0 = time.perf_counter()
+            out = folder / f"w{workers}{'f' if figures else ''}-{repeat}"
+            run = run_fleet(paths, task, out, client, progress=False)
+            best = min(best, time.perf_counter() - t0)
+            if run.failed:
+                raise RuntimeError(f"{run.failed} records failed on {workers} workers")
+    return len(paths) / best, start
 
 
 def measure(drives: int = 8, days: int = 5, duration: float = 30.0) -> list[Row]:
@@ -64,12 +69,15 @@ def measure(drives: int = 8, days: int = 5, duration: float = 30.0) -> list[Row]
         paths = write_fleet(folder / "records", make_fleet(drives, seed=0), days, duration=duration)
         task = _task()
         task(str(paths[0]), {})  # compile
-        t0 = time.perf_counter()
-        for path in paths:
-            row = task(str(path), {})
-            if row["status"] != "ok":
-                raise RuntimeError(f"{path}: {row['error']}")
-        loop = len(paths) / (time.perf_counter() - t0)
+        best = float("inf")
+        for _ in range(REPEATS):
+            t0 = time.perf_counter()
+            for path in paths:
+                row = task(str(path), {})
+                if row["status"] != "ok":
+                    raise RuntimeError(f"{path}: {row['error']}")
+            best = min(best, time.perf_counter() - t0)
+        loop = len(paths) / best
         one, start1 = _cluster_rate(paths, 1, folder)
         two, start2 = _cluster_rate(paths, 2, folder)
         drawn, _ = _cluster_rate(paths, 1, folder, figures=True)
