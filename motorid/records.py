@@ -1,4 +1,4 @@
-"""Records on disk: CSV with the record's attributes in a commented first line.
+"""Records on disk: CSV with the record's attributes in a commented first line; the files DAQs write.
 
 A record is a pandas DataFrame with columns ``t`` [s], ``u`` [V], ``y`` [rad/s]
 (and any extra signals) and ``attrs`` holding at least ``dt`` [s] and ``units``
@@ -14,6 +14,11 @@ tools skip the comment line, so the data stay readable without motorid;
 :func:`read_record` restores the attributes and checks the data. A CSV without
 the comment line (a measurement from elsewhere) reads too: ``dt`` then comes
 from the argument or from the time column.
+
+:func:`read_record` also reads the files DAQs and analysis tools write, by
+extension (:data:`RECORD_FORMATS`): Parquet, MATLAB ``.mat`` (a variable per
+column), NI TDMS (a channel per column) and HDF5 (a dataset per column), with the
+same checks and the same errors as a CSV.
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ import json
 import logging
 import math
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -38,6 +43,10 @@ ATTRS_MARKER = "# motorid-record "
 #: Columns a record must have, in its canonical names.
 REQUIRED_COLUMNS: tuple[str, ...] = ("t", "u", "y")
 
+#: The keys of ``attrs`` naming the drive a record comes from and when it was taken (ISO 8601 text):
+#: written by :mod:`motorid.plants.fleet`, read by ``motorid fleet``.
+DRIVE_ATTR = "drive"
+TIME_ATTR = "time"
 #: The keywords ``attrs["timing"]`` takes: how input and output samples line up in time.
 TIMINGS: dict[str, str] = {
     "hold": "u[k] is held over [t[k], t[k]+dt); y[k] is measured at t[k]+dt (a simulator, a DAQ loop)",
@@ -211,6 +220,221 @@ def _parse_columns(path: str, skip: int, names: list[str], chunk_rows: int = 1_0
     raise DataError(f"{path}: the columns {names} do not parse as numbers")  # the fast path failed on a quirk
 
 
+#: Formats :func:`read_record` reads besides CSV, by file-name extension (any other extension is CSV).
+RECORD_FORMATS: dict[str, str] = {
+    ".parquet": "Parquet",
+    ".pq": "Parquet",
+    ".mat": "MATLAB",
+    ".tdms": "TDMS",
+    ".h5": "HDF5",
+    ".hdf5": "HDF5",
+}
+#: Where a record's attributes (the JSON of the CSV attribute line) sit in the other formats: a key of
+#: a Parquet file's schema metadata, a root property of a TDMS file, a root attribute of an HDF5 file.
+ATTRS_KEY = "motorid-record"
+#: The same JSON in a MATLAB file: a char variable (MATLAB names take no hyphen).
+MAT_ATTRS_VARIABLE = "motorid_record"
+
+
+def record_format(path: str | os.PathLike[str]) -> str:
+    """The format :func:`read_record` reads ``path`` as: a value of :data:`RECORD_FORMATS`, else ``"CSV"``."""
+    return RECORD_FORMATS.get(os.path.splitext(os.fspath(path))[1].lower(), "CSV")
+
+
+def _attrs_from_json(text: Any, name: str, where: str) -> dict[str, Any]:
+    """The attributes stored as JSON text (str or bytes) at ``where`` in file ``name``; {} when absent."""
+    if text is None:
+        return {}
+    if isinstance(text, np.ndarray):  # a MATLAB char variable reads as an array of one string
+        text = "".join(str(v) for v in text.ravel())
+    if isinstance(text, bytes):
+        text = text.decode("utf-8", errors="replace")
+    try:
+        attrs = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise DataError(f"{name}: the record attributes in {where} are not valid JSON: {exc}") from None
+    if not isinstance(attrs, dict):
+        raise DataError(f"{name}: the record attributes in {where} are not a JSON object")
+    return attrs
+
+
+# A reader of a binary format: (file name, choose) -> (arrays by column name, attrs). ``choose`` is
+# given the shape of every column the file holds and returns the names to load (it raises on a
+# missing, ambiguous, misshapen or too long column), so nothing is loaded before it is checked.
+Choose = Callable[[dict[str, tuple[int, ...]]], list[str]]
+
+
+def _read_parquet(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    try:
+        parquet = pq.ParquetFile(name)
+    except (pa.ArrowException, OSError) as exc:
+        raise DataError(f"{name} is not a readable Parquet file: {exc}") from None
+    schema = parquet.schema_arrow
+    attrs = _attrs_from_json((schema.metadata or {}).get(ATTRS_KEY.encode()), name, "the schema metadata")
+    rows = parquet.metadata.num_rows
+    chosen = choose({column: (rows,) for column in schema.names})
+    table = parquet.read(columns=chosen)
+    return {column: table.column(column).to_numpy() for column in chosen}, attrs
+
+
+def _read_mat(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    import scipy.io
+
+    try:
+        listing = scipy.io.whosmat(name)
+    except NotImplementedError:  # a MATLAB v7.3 file is an HDF5 file
+        return _read_hdf5(name, choose)
+    except Exception as exc:  # scipy raises many kinds on a file that is not MATLAB's
+        raise DataError(f"{name} is not a readable MATLAB file: {type(exc).__name__}: {exc}") from None
+    shapes = {var: tuple(shape) for var, shape, _ in listing if var != MAT_ATTRS_VARIABLE}
+    chosen = choose(shapes)
+    extra = [MAT_ATTRS_VARIABLE] if len(shapes) < len(listing) else []
+    mat = scipy.io.loadmat(name, variable_names=chosen + extra)
+    attrs = _attrs_from_json(mat.get(MAT_ATTRS_VARIABLE), name, f"the variable {MAT_ATTRS_VARIABLE}")
+    return {var: np.asarray(mat[var]).reshape(-1) for var in chosen}, attrs
+
+
+def _read_hdf5(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    import h5py
+
+    try:
+        handle = h5py.File(name, "r")
+    except OSError as exc:
+        raise DataError(f"{name} is not a readable HDF5 file: {exc}") from None
+    with handle:
+        shapes: dict[str, tuple[int, ...]] = {}
+
+        def visit(key: str, item: Any) -> None:
+            if isinstance(item, h5py.Dataset) and not key.startswith("#"):  # '#refs#': MATLAB's own
+                shapes[key] = tuple(item.shape)
+
+        handle.visititems(visit)
+        attrs = _attrs_from_json(handle.attrs.get(ATTRS_KEY), name, f"the root attribute {ATTRS_KEY!r}")
+        chosen = choose(shapes)
+        return {key: np.asarray(handle[key][()]).reshape(-1) for key in chosen}, attrs
+
+
+def _read_tdms(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    """Columns ``group/channel``; ``dt`` from the channels' ``wf_increment`` when the file has no attrs' dt."""
+    from nptdms import TdmsFile
+
+    try:
+        tdms = TdmsFile.open(name)
+    except Exception as exc:  # npTDMS raises ValueError, KeyError, struct errors ... on a foreign file
+        raise DataError(f"{name} is not a readable TDMS file: {type(exc).__name__}: {exc}") from None
+    with tdms:
+        channels = {f"{g.name}/{c.name}": c for g in tdms.groups() for c in g.channels()}
+        attrs = _attrs_from_json(tdms.properties.get(ATTRS_KEY), name, f"the file property {ATTRS_KEY!r}")
+        chosen = choose({key: (len(channel),) for key, channel in channels.items()})
+        increments = {channels[key].properties.get("wf_increment") for key in chosen}
+        if "dt" not in attrs and len(increments) == 1 and None not in increments:
+            attrs["dt"] = float(increments.pop())
+        return {key: np.asarray(channels[key][:]) for key in chosen}, attrs
+
+
+_READERS: dict[str, Callable[[str, Choose], tuple[dict[str, np.ndarray], dict[str, Any]]]] = {
+    "Parquet": _read_parquet,
+    "MATLAB": _read_mat,
+    "HDF5": _read_hdf5,
+    "TDMS": _read_tdms,
+}
+
+
+def _find_column(name: str, column: str, present: list[str]) -> str | None:
+    """The name in the file of ``column``: itself, or the one ``group/column`` of a TDMS or HDF5 file."""
+    if column in present:
+        return column
+    nested = [key for key in present if key.rsplit("/", 1)[-1] == column]
+    if len(nested) > 1:
+        raise DataError(f"column {column!r} is ambiguous in {name}: {nested}; name one of them")
+    return nested[0] if nested else None
+
+
+def _samples(shape: tuple[int, ...]) -> int | None:
+    """Number of samples of an array that is one column (at most one axis longer than 1), else None."""
+    return math.prod(shape) if sum(n > 1 for n in shape) <= 1 else None
+
+
+def _read_binary(
+    name: str, kind: str, mapping: dict[str, str], other_columns: bool, max_samples: int | None
+) -> tuple[pd.DataFrame, dict[str, Any]]:
+    """The columns of a Parquet, MATLAB, HDF5 or TDMS record as float64, checked as a CSV's are.
+
+    Other columns (``other_columns``) are those of the same length that are numbers, named as in
+    the file (a nested one by its last part when that is unique); the rest of the file (scalars,
+    matrices, text) is left out.
+    """
+    if os.path.isdir(name):
+        raise DataError(f"{name} is a folder, not a record file")
+    if not os.path.exists(name):
+        raise DataError(f"{name}: no such file")
+    if os.path.getsize(name) == 0:
+        raise DataError(f"{name} is empty")
+    found: dict[str, str] = {}
+
+    def choose(shapes: dict[str, tuple[int, ...]]) -> list[str]:
+        present = list(shapes)
+        for canonical, column in mapping.items():
+            key = _find_column(name, column, present)
+            if key is None:
+                raise DataError(
+                    f"column {column!r} is missing from {name}"
+                    + (f" (needed as {canonical!r})" if column != canonical else "")
+                    + f"; columns are {present}"
+                )
+            if _samples(shapes[key]) is None:
+                raise DataError(
+                    f"column {column!r} of {name} is not one column of samples (shape {shapes[key]})"
+                )
+            found[key] = canonical
+        first = next(iter(found))
+        rows = _samples(shapes[first])
+        for key in found:
+            if _samples(shapes[key]) != rows:
+                raise DataError(
+                    f"column {key!r} of {name} has {_samples(shapes[key])} samples, column {first!r} has {rows}"
+                )
+        if not rows:
+            raise DataError(f"{name} has columns but no samples")
+        if max_samples is not None and rows > max_samples:
+            raise DataError(
+                f"{name} has {rows} rows, more than the limit of {max_samples} samples (max_samples, "
+                f"--max-samples on the command line) that keeps memory bounded (about 8 bytes per sample "
+                f"and column); decimate the record (low-pass filter it, then keep one row in "
+                f"{math.ceil(rows / max_samples)}) or raise the limit"
+            )
+        others = (
+            [k for k in present if k not in found and _samples(shapes[k]) == rows] if other_columns else []
+        )
+        return [k for k in present if k in found or k in others]
+
+    arrays, attrs = _READERS[kind](name, choose)
+    columns: dict[str, np.ndarray] = {}
+    for key, values in arrays.items():
+        if values.dtype.kind not in "fiub":
+            if key in found:
+                raise DataError(f"column {key!r} of {name} is not numeric (its values are {values.dtype})")
+            continue
+        values = values.astype(np.float64)
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            kind_of = "a NaN" if np.isnan(values[bad[0]]) else "an infinite"
+            raise DataError(
+                f"column {key!r} has {kind_of} value {values[bad[0]]!r} at row {int(bad[0])} of {name}"
+            )
+        columns[found[key] if key in found else _short_name(key, list(arrays))] = values
+    return pd.DataFrame(columns), attrs
+
+
+def _short_name(key: str, keys: list[str]) -> str:
+    """``group/name`` as ``name`` when no other of ``keys`` ends in that name."""
+    last = key.rsplit("/", 1)[-1]
+    return last if sum(k.rsplit("/", 1)[-1] == last for k in keys) == 1 else key
+
+
 def read_record(
     path: str | os.PathLike[str],
     dt: float | None = None,
@@ -220,12 +444,21 @@ def read_record(
     max_samples: int | None = None,
     other_columns: bool = True,
 ) -> pd.DataFrame:
-    """Read and check a record written by :func:`write_record` (or any CSV).
+    """Read and check a record: CSV (as :func:`write_record` writes it, or any CSV) or a DAQ's file.
+
+    The format comes from the extension (:func:`record_format`): ``.parquet``/``.pq``
+    (Parquet), ``.mat`` (MATLAB: one variable per column, a row or column vector,
+    as EMPS; v7.3 files too), ``.tdms`` (NI TDMS: a column per channel, named
+    ``group/channel`` or by the channel's name alone when no other group has one
+    of that name), ``.h5``/``.hdf5`` (HDF5: a column per one-dimensional dataset,
+    named by its path), anything else CSV. The attributes come from the CSV
+    attribute line or the format's place for them (:data:`ATTRS_KEY`); a TDMS
+    waveform's ``wf_increment`` gives ``dt``. Every format is checked the same way.
 
     Parameters
     ----------
     path : str or path-like
-        CSV file, with or without the ``# motorid-record`` attribute line.
+        The record file.
     dt : float, optional
         Expected sample time [s]. Default: ``attrs["dt"]`` from the file, else
         the median spacing of the time column. If given and the file says
@@ -241,12 +474,14 @@ def read_record(
         Relative tolerance on the uniformity of the time steps (default 0.1 %: a
         measured time column carries clock jitter, e.g. 2e-5 relative in EMPS).
     max_samples : int, optional
-        Most rows accepted. The lines of the file are counted (in bounded
-        memory) before anything is parsed, so a record too long for memory is
-        refused at once, by a DataError naming the limit and how to decimate.
-        A record takes about 8 bytes per row and column once read.
+        Most rows accepted. The rows are counted before anything is parsed (the
+        lines of a CSV in bounded memory, the others from their metadata), so a
+        record too long for memory is refused at once, by a DataError naming
+        the limit and how to decimate. A record takes about 8 bytes per row and
+        column once read.
     other_columns : bool
-        Keep the file's other columns too (default); False reads only ``columns``
+        Keep the file's other columns too (default; in the binary formats those
+        of the same length that hold numbers); False reads only ``columns``
         (less memory and time on a wide file).
 
     Returns
@@ -258,11 +493,13 @@ def read_record(
     ------
     DataError
         (a ValueError) On a missing file, a folder, an empty, binary or
-        header-only file, a blank or repeated column name, a missing column, a
-        non-numeric, NaN or infinite value, a time column that is not increasing,
-        has a gap or is not uniformly sampled, fewer than ``min_samples`` or more
-        than ``max_samples`` rows; the message names the file, the column and
-        the row (0-based data row and the line in the file).
+        header-only file, a file that is not of the format its extension says, a
+        blank or repeated column name, a missing or ambiguous column, a column
+        that is not one column of numbers or is shorter than another, a NaN or
+        infinite value, a time column that is not increasing, has a gap or is
+        not uniformly sampled, fewer than ``min_samples`` or more than
+        ``max_samples`` rows; the message names the file, the column and the row
+        (0-based data row, and in a CSV the line in the file).
     """
     if not isinstance(min_samples, int) or min_samples < 1:
         raise ValueError(f"min_samples must be an integer >= 1, got {min_samples!r}")
@@ -273,6 +510,27 @@ def read_record(
     if dt is not None and (not math.isfinite(dt) or dt <= 0.0):
         raise DataError(f"dt must be finite and > 0, got {dt!r}")
     name = os.fspath(path)
+    mapping = _column_map(columns)
+    kind = record_format(name)
+    if kind == "CSV":
+        rec, attrs, header_line = _read_csv(name, mapping, other_columns, max_samples)
+
+        def where(row: int) -> str:
+            return f"row {row} (line {header_line + 1 + row} of {name})"
+
+    else:
+        rec, attrs = _read_binary(name, kind, mapping, other_columns, max_samples)
+
+        def where(row: int) -> str:
+            return f"row {row} of {name}"
+
+    return _checked(name, rec, attrs, where, dt, dt_rtol, min_samples)
+
+
+def _read_csv(
+    name: str, mapping: dict[str, str], other_columns: bool, max_samples: int | None
+) -> tuple[pd.DataFrame, dict[str, Any], int]:
+    """The columns of a CSV record, its attrs and the line number of its header."""
     first = _open_checked(name)
     attrs: dict[str, Any] = {}
     skip = 0
@@ -287,7 +545,6 @@ def read_record(
     if not header_text.strip():
         raise DataError(f"{name} has no header line (line {skip + 1} is empty)")
     present = _header(name, header_text, skip + 1)
-    mapping = _column_map(columns)
     for canonical, column in mapping.items():
         if column not in present:
             raise DataError(
@@ -307,12 +564,19 @@ def read_record(
         )
     wanted = present if other_columns else [c for c in present if c in mapping.values()]
     rec = _parse_columns(name, skip, wanted).rename(columns={v: k for k, v in mapping.items() if v != k})
-    rec = rec.reset_index(drop=True)
-    header_line = skip + 1
+    return rec.reset_index(drop=True), attrs, skip + 1
 
-    def where(row: int) -> str:
-        return f"row {row} (line {header_line + 1 + row} of {name})"
 
+def _checked(
+    name: str,
+    rec: pd.DataFrame,
+    attrs: dict[str, Any],
+    where: Callable[[int], str],
+    dt: float | None,
+    dt_rtol: float,
+    min_samples: int,
+) -> pd.DataFrame:
+    """The record with ``attrs["dt"]`` set, once its length and time column pass the checks."""
     if len(rec) < min_samples:
         plural = "" if len(rec) == 1 else "s"
         raise DataError(f"{name} has {len(rec)} sample{plural}; at least {min_samples} are needed")
@@ -359,11 +623,17 @@ def read_record(
 
 
 __all__ = [
+    "ATTRS_KEY",
     "ATTRS_MARKER",
+    "DRIVE_ATTR",
+    "MAT_ATTRS_VARIABLE",
+    "RECORD_FORMATS",
     "REQUIRED_COLUMNS",
+    "TIME_ATTR",
     "TIMINGS",
     "count_data_lines",
     "read_record",
+    "record_format",
     "record_timing",
     "write_record",
 ]

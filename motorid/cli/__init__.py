@@ -18,7 +18,7 @@ from collections.abc import Sequence
 
 from motorid.errors import DataError
 
-from . import doctor, identification, rig, simulation
+from . import doctor, fleet, identification, rig, simulation
 from .report import say
 
 __all__ = ["build_parser", "main"]
@@ -41,7 +41,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-v", "--verbose", action="count", default=0,
                         help="more log output on stderr; the traceback of an internal error")  # fmt: skip
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=_Parser)
-    for module in (simulation, identification, doctor, rig):
+    for module in (simulation, identification, doctor, rig, fleet):
         module.add_commands(sub)
     return parser
 
@@ -55,7 +55,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(exc.code or 0)
     level = logging.WARNING - 10 * min(args.verbose, 2)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
-    command = " ".join(filter(None, (args.command, getattr(args, "rig_command", None))))
+    # the cluster's own log (a worker lost and its tasks rerun) only with -v: the run reports what matters
+    logging.getLogger("distributed").setLevel(logging.WARNING if args.verbose else logging.CRITICAL)
+    subcommand = getattr(args, "rig_command", None) or getattr(args, "fleet_command", None)
+    command = " ".join(filter(None, (args.command, subcommand)))
     try:
         return args.func(args)
     except DataError as exc:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import pandas as pd
 
@@ -11,6 +12,9 @@ from motorid.errors import DataError
 
 from .options import add_json, add_record_input, check_out_folder, number, positive, read_record_from_args
 from .report import emit_json, say
+
+if TYPE_CHECKING:
+    from motorid.diagnose.workflow import Diagnosis
 
 
 def effect_list(text: str, option: str) -> list[str]:
@@ -24,20 +28,32 @@ def effect_list(text: str, option: str) -> list[str]:
     return names
 
 
-def cmd_doctor(args: argparse.Namespace) -> int:
-    """Find the missing effect: where model and measurement disagree, which effect, how much better."""
+def doctor_record(record: pd.DataFrame, args: argparse.Namespace, progress: bool = True) -> Diagnosis:
+    """What ``motorid doctor`` computes on a record with columns ``t``, ``u``, ``y``.
+
+    ``motorid fleet doctor`` calls this very function on each record (without the progress
+    bar), so a fleet's rows equal the single-record command's ``--json`` output.
+    """
     from motorid.diagnose import diagnose
 
     base = effect_list(args.base, "--base")
     candidates = effect_list(args.candidates, "--candidates") if args.candidates else None
+    return diagnose(
+        record, dt=args.dt, input="u", output="y", output_kind=args.output_kind,
+        input_gain=args.input_gain, base=base, candidates=candidates,
+        holdout=args.holdout, max_steps=args.max_steps, progress=progress, timing=args.timing,
+    )  # fmt: skip
+
+
+def cmd_doctor(args: argparse.Namespace) -> int:
+    """Find the missing effect: where model and measurement disagree, which effect, how much better."""
+    effect_list(args.base, "--base")  # bad effect names stop the command before anything is read
+    if args.candidates:
+        effect_list(args.candidates, "--candidates")
     record = read_record_from_args(args)
     if args.out:
         check_out_folder(args.out)
-    diagnosis = diagnose(
-        record, dt=args.dt, input="u", output="y", output_kind=args.output_kind,
-        input_gain=args.input_gain, base=base, candidates=candidates,
-        holdout=args.holdout, max_steps=args.max_steps, progress=True, timing=args.timing,
-    )  # fmt: skip
+    diagnosis = doctor_record(record, args)
     units, param_units = diagnosis.units, diagnosis.param_units
     say(f"motorid doctor on {args.data} ({len(record)} samples), base model: inertia, input gain"
         + "".join(f", {b}" for b in diagnosis.settings["base"]))  # fmt: skip
@@ -69,25 +85,32 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     return 0
 
 
-def add_commands(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("doctor", help="find the effect missing from a drive model and show the gap shrink")
-    add_record_input(p)
-    p.add_argument("--output-kind", choices=("velocity", "position"), default="velocity",
-                   help="what the output column is (default: velocity)")  # fmt: skip
-    p.add_argument("--input-gain", type=positive,
-                   help="force or torque per input unit [N/V, N m/V] (default: unknown; the "
-                        "model's forces are then per input unit, e.g. in V)")  # fmt: skip
-    p.add_argument("--base", default="viscous_friction,offset", metavar="EFFECT,...",
-                   help="effects already in the model (default: viscous_friction,offset)")  # fmt: skip
-    p.add_argument("--candidates", metavar="EFFECT,...", help="effects to try (default: all others)")
-    p.add_argument("--holdout", type=number(float, low=0.0, high=0.9, low_open=True), default=0.3,
-                   help="share of the record held out, in (0, 0.9] (default: 0.3)")  # fmt: skip
-    p.add_argument("--max-steps", type=number(int, low=0), default=3, help="most effects added (default: 3)")
-    p.add_argument(
+def add_doctor_options(parser: argparse.ArgumentParser) -> None:
+    """The options of ``motorid doctor`` besides the record and --out (``fleet doctor`` takes them too)."""
+    parser.add_argument("--output-kind", choices=("velocity", "position"), default="velocity",
+                        help="what the output column is (default: velocity)")  # fmt: skip
+    parser.add_argument("--input-gain", type=positive,
+                        help="force or torque per input unit [N/V, N m/V] (default: unknown; the "
+                             "model's forces are then per input unit, e.g. in V)")  # fmt: skip
+    parser.add_argument("--base", default="viscous_friction,offset", metavar="EFFECT,...",
+                        help="effects already in the model (default: viscous_friction,offset)")  # fmt: skip
+    parser.add_argument("--candidates", metavar="EFFECT,...", help="effects to try (default: all others)")
+    parser.add_argument("--holdout", type=number(float, low=0.0, high=0.9, low_open=True), default=0.3,
+                        help="share of the record held out, in (0, 0.9] (default: 0.3)")  # fmt: skip
+    parser.add_argument(
+        "--max-steps", type=number(int, low=0), default=3, help="most effects added (default: 3)"
+    )
+    parser.add_argument(
         "--timing", choices=("hold", "sampled", "auto"), default=None,
         help="input/output timing: hold (y[k] at the end of the interval u[k] is held over; the "
         "default, or the record's own), sampled (a controller reads y[k], then holds u[k]), auto",
     )  # fmt: skip
+
+
+def add_commands(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("doctor", help="find the effect missing from a drive model and show the gap shrink")
+    add_record_input(p)
+    add_doctor_options(p)
     p.add_argument("--out", type=Path, help="folder for the figures and the table (replaced if there)")
     add_json(p)
     p.set_defaults(func=cmd_doctor)

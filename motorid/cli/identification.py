@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -40,24 +41,24 @@ def require_finite_estimate(name: str, x: np.ndarray, u: np.ndarray, y: np.ndarr
                         f"(u = {u[k]:.6g}, y = {y[k]:.6g} there); check the record around row {k}")  # fmt: skip
 
 
-def cmd_identify(args: argparse.Namespace) -> int:
-    """Identify one estimator on a record; report params, MSE, FIT and residual tests."""
+def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dict[str, Any], list, Any]:
+    """What ``motorid identify`` computes on a record with columns ``t``, ``u``, ``y``.
+
+    Returns the ``--json`` payload (without ``figure``), the residual tests (for the figure) and
+    the identified estimator (for ``--save-model``).
+    ``motorid fleet identify`` calls this very function on each record, so a fleet's rows equal
+    the single-record command's output.
+    """
     from motorid.estimators.base import first_bad_index
     from motorid.validation import (
         RPM_PER_RAD_S,
         check_signals,
-        plot_residual_tests,
         residual_tests,
         rpm_to_rad_s,
         score_predictions,
     )
 
-    record = read_record_from_args(args)
     est = create_estimator(args.estimator, args)
-    if args.out:
-        check_out_folder(args.out)
-    if args.save_model:
-        check_out_file(args.save_model, args.overwrite, "--save-model")
     u, y = record["u"].to_numpy(), record["y"].to_numpy()
     check_signals({args.input: u, args.output: y})
     result = est.batch_filter(u, y)
@@ -70,9 +71,47 @@ def cmd_identify(args: argparse.Namespace) -> int:
     threshold = float(rpm_to_rad_s(args.low_speed_rpm))
     scores = score_predictions(y, predictions, threshold, args.skip)
     tests = residual_tests(u[args.skip :], (y - result.y_hat)[args.skip :], max_lag=args.max_lag)
+    payload = {
+        "estimator": args.estimator,
+        "samples": len(record),
+        "params": est.params,
+        "scores": {
+            kind: {**row, "mse_rpm2": row["mse"] * RPM_PER_RAD_S**2}
+            for kind, row in scores.to_dict("index").items()
+        },
+        "free_run_diverges_from_sample": diverged,
+        "low_speed_threshold_rad_s": threshold,
+        "residual_tests": {
+            t.name: {"passed": t.passed, "fraction_outside": t.fraction_outside} for t in tests
+        },
+    }
+    return payload, tests, est
+
+
+def write_identify_figure(tests: list, folder: Path, estimator: str) -> Path:
+    """The residual-test figure of :func:`identify_record` as ``folder/residual_tests.png``."""
+    from motorid.validation import plot_residual_tests
+
+    figure = folder / "residual_tests.png"
+    plot_residual_tests(tests, str(figure), f"Residuals of {estimator} (one-step)")
+    return figure
+
+
+def cmd_identify(args: argparse.Namespace) -> int:
+    """Identify one estimator on a record; report params, MSE, FIT and residual tests."""
+    from motorid.validation import RPM_PER_RAD_S
+
+    record = read_record_from_args(args)
+    create_estimator(args.estimator, args)  # a bad estimator option stops before the folder is made
+    if args.out:
+        check_out_folder(args.out)
+    if args.save_model:
+        check_out_file(args.save_model, args.overwrite, "--save-model")
+    payload, tests, est = identify_record(record, args)
+    diverged = payload["free_run_diverges_from_sample"]
     say(f"{args.estimator} on {args.data} ({len(record)} samples)")
-    say_params("", est.params)
-    for kind, row in scores.iterrows():
+    say_params("", payload["params"])
+    for kind, row in payload["scores"].items():
         say(
             f"  {kind:<9} MSE {row['mse']:.4g} (rad/s)^2 = {row['mse'] * RPM_PER_RAD_S**2:.4g} rpm^2, "
             f"low-speed MSE {row['low_speed_mse'] * RPM_PER_RAD_S**2:.4g} rpm^2, FIT {row['fit_percent']:.2f} %"
@@ -90,28 +129,10 @@ def cmd_identify(args: argparse.Namespace) -> int:
         say(f"  wrote {args.save_model}: the identified model (motorid.load_model reads it)")
     figure = None
     if args.out:
-        figure = args.out / "residual_tests.png"
-        plot_residual_tests(tests, str(figure), f"Residuals of {args.estimator} (one-step)")
+        figure = write_identify_figure(tests, args.out, args.estimator)
         say(f"  wrote {figure}")
     if args.json:
-        emit_json(
-            {
-                "estimator": args.estimator,
-                "samples": len(record),
-                "params": est.params,
-                "scores": {
-                    kind: {**row, "mse_rpm2": row["mse"] * RPM_PER_RAD_S**2}
-                    for kind, row in scores.to_dict("index").items()
-                },
-                "free_run_diverges_from_sample": diverged,
-                "low_speed_threshold_rad_s": threshold,
-                "residual_tests": {
-                    t.name: {"passed": t.passed, "fraction_outside": t.fraction_outside} for t in tests
-                },
-                "figure": figure,
-                "model": args.save_model,
-            }
-        )
+        emit_json({**payload, "figure": figure, "model": args.save_model})
     return 0
 
 
@@ -147,14 +168,19 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     return 0
 
 
+def add_identify_options(parser: argparse.ArgumentParser) -> None:
+    """The options of ``motorid identify`` besides the record and --out (``fleet identify`` takes them too)."""
+    add_estimator_options(parser)
+    add_low_speed_band(parser)
+    add_skip(parser)
+    parser.add_argument("--max-lag", type=number(int, low=1), default=25,
+                        help="largest lag of the residual tests [samples] (default: 25)")  # fmt: skip
+
+
 def add_commands(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("identify", help="identify an estimator on a record")
     add_record_input(p)
-    add_estimator_options(p)
-    add_low_speed_band(p)
-    add_skip(p)
-    p.add_argument("--max-lag", type=number(int, low=1), default=25,
-                   help="largest lag of the residual tests [samples] (default: 25)")  # fmt: skip
+    add_identify_options(p)
     p.add_argument("--out", type=Path, help="folder for the residual-test figure (replaced if there)")
     p.add_argument("--save-model", type=Path, metavar="FILE",
                    help="write the identified estimator as a model file (JSON; motorid.load_model reads it)")  # fmt: skip

@@ -86,20 +86,33 @@ def add_json(parser: argparse.ArgumentParser) -> None:
     )
 
 
+#: What a record file may be, in --help.
+RECORD_FILES = (
+    "CSV, Parquet, MATLAB .mat, NI .tdms or HDF5 .h5 by extension; columns t [s], u [V], y [rad/s] by default"
+)
+
+
 def add_record_input(parser: argparse.ArgumentParser) -> None:
     """The record a command reads: file, columns, sample time, size limit."""
-    parser.add_argument("data", type=Path, help="record CSV (columns t [s], u [V], y [rad/s] by default)")
+    parser.add_argument("data", type=Path, help=f"record file ({RECORD_FILES})")
+    add_record_columns(parser)
+
+
+def add_record_columns(parser: argparse.ArgumentParser) -> None:
+    """How a record is read: columns, sample time, size limit."""
     group = parser.add_argument_group("record")
     group.add_argument("--time", metavar="COL", help="time column [s] (default: t; optional with --dt)")
-    group.add_argument("--input", default="u", metavar="COL", help="input column [V] (default: u)")
-    group.add_argument("--output", default="y", metavar="COL", help="output column [rad/s] (default: y)")
+    group.add_argument("--input", default="u", metavar="COL", help="input column (default: u)")
+    group.add_argument("--output", default="y", metavar="COL", help="output column (default: y)")
     group.add_argument("--dt", type=positive, help="sample time [s] (default: from the file)")
+    as_read = "(default: the unit the file names; none: the numbers are used as they are)"
     group.add_argument("--input-unit", metavar="UNIT", choices=INPUT_UNITS,
-                       help=f"unit of the input column: {', '.join(INPUT_UNITS).replace('%', '%%')} (default: the file's "
-                       "attrs, else V); %% is PWM duty, in volts with --supply-voltage")  # fmt: skip
+                       help=f"unit of the input column, converted to V as it is read: "
+                       f"{', '.join(INPUT_UNITS).replace('%', '%%')} {as_read}; %% is PWM duty, "
+                       "converted with --supply-voltage")  # fmt: skip
     group.add_argument("--output-unit", metavar="UNIT", choices=OUTPUT_UNITS,
-                       help=f"unit of the output column: {', '.join(OUTPUT_UNITS)} (default: the file's "
-                       "attrs, else rad/s); converted to rad/s, rad, m/s or m as it is read")  # fmt: skip
+                       help=f"unit of the output column, converted to rad/s, rad, m/s or m as it is read: "
+                       f"{', '.join(OUTPUT_UNITS)} {as_read}")  # fmt: skip
     group.add_argument("--supply-voltage", type=positive, metavar="V",
                        help="supply voltage of a PWM drive [V]: --input-unit %% becomes volts")  # fmt: skip
     group.add_argument(

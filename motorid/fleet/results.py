@@ -1,0 +1,176 @@
+"""The results table of a fleet run: one row per record, on disk as soon as the record is done.
+
+On disk, in the run's ``--out`` folder:
+
+- ``results.parquet/``: a Parquet dataset, one part file per batch of finished
+  records, each written to a temporary name and renamed into place, so a run that
+  is killed loses no finished row and never leaves a half-written part. pandas
+  (``pd.read_parquet(folder)``) and pyarrow read it as one table; :func:`load_results`
+  also keeps one row per record (the last written).
+- ``results.csv``: the same table as CSV, rewritten (atomically) every few seconds
+  during a run and at its end.
+
+A row holds the record's identity (``record`` path, ``drive``, ``time``), the
+``command``, ``status`` (``ok`` or ``failed``), ``error`` (the message of a
+failed record), ``warnings`` (what the computation warned, e.g. a diverging filter),
+``run_time_s`` and ``worker``, then the command's ``--json``
+output flattened (:func:`flatten`): ``params.coulomb``, ``scores.one_step.mse``,
+``final_gap.overall``, ``model.params.viscous``, ...
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import os
+import re
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+logger = logging.getLogger(__name__)
+
+#: Names in a run's folder.
+PARQUET_NAME = "results.parquet"
+CSV_NAME = "results.csv"
+#: The columns every row starts with.
+IDENTITY_COLUMNS = (
+    "record",
+    "drive",
+    "time",
+    "command",
+    "status",
+    "error",
+    "warnings",
+    "run_time_s",
+    "worker",
+)
+_PART = re.compile(r"part-(\d+)\.parquet\Z")
+
+
+def flatten(payload: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+    """A nested JSON object as one flat row: ``{"a": {"b": 1}}`` -> ``{"a.b": 1}``.
+
+    Lists of numbers become ``key[0]``, ``key[1]``, ...; lists of text one comma-joined
+    value; empty lists and lists of objects (a doctor's steps and rankings) are left out; NaN and inf
+    become None, as in ``--json``.
+    """
+    row: dict[str, Any] = {}
+    for key, value in payload.items():
+        name = f"{prefix}{key}"
+        if isinstance(value, Mapping):
+            row.update(flatten(value, name + "."))
+        elif isinstance(value, list | tuple):
+            if not value:
+                continue
+            if all(isinstance(v, str) for v in value):
+                row[name] = ",".join(value)
+            elif all(isinstance(v, bool | int | float | np.number) or v is None for v in value):
+                row.update({f"{name}[{i}]": _scalar(v) for i, v in enumerate(value)})
+        else:
+            row[name] = _scalar(value)
+    return row
+
+
+def _scalar(value: Any) -> Any:
+    if isinstance(value, np.generic):
+        value = value.item()
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, os.PathLike):
+        return os.fspath(value)
+    return value
+
+
+class ResultsStore:
+    """The results of a run in ``folder`` (see the module docstring); rows appended as they come.
+
+    One run writes to a folder at a time.
+    """
+
+    def __init__(self, folder: str | os.PathLike[str]):
+        self.folder = Path(folder)
+        self.parts = self.folder / PARQUET_NAME
+        self.csv = self.folder / CSV_NAME
+        self.parts.mkdir(parents=True, exist_ok=True)
+        indices = [int(m.group(1)) for p in self.parts.iterdir() if (m := _PART.match(p.name))]
+        self._next = max(indices, default=-1) + 1
+
+    def _part_files(self) -> list[Path]:
+        return sorted((p for p in self.parts.iterdir() if _PART.match(p.name)), key=lambda p: p.name)
+
+    def append(self, rows: list[dict[str, Any]]) -> Path | None:
+        """Write ``rows`` as the next part file (temporary name, then renamed); its path."""
+        import pyarrow as pa
+
+        if not rows:
+            return None
+        return self._write_part(pa.Table.from_pylist(rows))
+
+    def _write_part(self, table: Any) -> Path:
+        import pyarrow.parquet as pq
+
+        path = self.parts / f"part-{self._next:06d}.parquet"
+        tmp = self.parts / f".{path.name}.tmp"
+        pq.write_table(table, tmp)
+        os.replace(tmp, path)
+        self._next += 1
+        return path
+
+    def rows(self) -> pd.DataFrame:
+        """Every row written so far, one per record (the last written), sorted by record, identity columns first."""
+        import pyarrow.parquet as pq
+
+        frames = [pq.read_table(p).to_pandas() for p in self._part_files()]
+        frames = [f for f in frames if len(f)]
+        if not frames:
+            return pd.DataFrame(columns=list(IDENTITY_COLUMNS))
+        table = pd.concat(frames, ignore_index=True)
+        table = table.drop_duplicates("record", keep="last").sort_values("record", ignore_index=True)
+        first = [c for c in IDENTITY_COLUMNS if c in table.columns]
+        return table[first + [c for c in table.columns if c not in first]]
+
+    def write_csv(self) -> Path:
+        """Rewrite ``results.csv`` from the Parquet parts (temporary name, then renamed)."""
+        tmp = self.folder / f".{CSV_NAME}.tmp"
+        self.rows().to_csv(tmp, index=False)
+        os.replace(tmp, self.csv)
+        return self.csv
+
+    def compact(self) -> None:
+        """Merge the parts into one (the merged part is in place before the others go)."""
+        parts = self._part_files()
+        if len(parts) <= 1:
+            return
+        import pyarrow as pa
+
+        self._write_part(pa.Table.from_pandas(self.rows(), preserve_index=False))  # NaN in text columns: null
+        for part in parts:
+            part.unlink()
+
+
+def load_results(folder: str | os.PathLike[str]) -> pd.DataFrame:
+    """The results table of a run folder (one row per record), ``time`` as datetime.
+
+    Raises
+    ------
+    motorid.errors.DataError
+        When ``folder`` holds no results.
+    """
+    from motorid.errors import DataError
+
+    path = Path(folder)
+    if not (path / PARQUET_NAME).is_dir():
+        raise DataError(
+            f"{path} holds no fleet results ({PARQUET_NAME}/ is missing): run motorid fleet first"
+        )
+    table = ResultsStore(path).rows()
+    if "time" in table.columns:
+        table["time"] = pd.to_datetime(table["time"])
+    return table
+
+
+__all__ = ["CSV_NAME", "IDENTITY_COLUMNS", "PARQUET_NAME", "ResultsStore", "flatten", "load_results"]

@@ -1,0 +1,190 @@
+"""Friction trends over a fleet: each drive's friction against record time, and the drives to look at.
+
+From a results table (:func:`motorid.fleet.results.load_results`) of ``motorid fleet
+doctor`` (the final model's parameters ``model.params.*`` and the effects it named)
+or ``motorid fleet identify`` with a friction filter (``params.coulomb``,
+``params.coulomb_std``, ...).
+
+A drive is flagged when, over its last ``window_days`` days of records,
+
+    rise = (f(t_end) - f(t_start)) / f(t_start) > threshold
+
+for its Coulomb or viscous friction, with f the least-squares straight line through
+the parameter against time (robust to the record-to-record scatter, which is a few
+per cent), t_start and t_end the first and last record time in the window; or when the
+doctor names an effect that it did not name in the drive's first record, on at least
+half of the records from its first naming on (the effect appeared: the day is
+reported).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from motorid.errors import DataError
+
+logger = logging.getLogger(__name__)
+
+#: Parameters of a doctor's model that are not friction or an effect (not trended).
+_NOT_TRENDED = ("inertia", "input_gain")
+#: The parameters whose rise flags a drive.
+RISING = ("coulomb", "viscous")
+
+
+def friction_trends(results: pd.DataFrame) -> pd.DataFrame:
+    """The friction parameters of every successful record, one row per record and parameter.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``drive``, ``time``, ``record``, ``parameter``, ``value``, ``std`` (NaN when
+        the results carry no uncertainty), sorted by drive, parameter and time.
+
+    Raises
+    ------
+    DataError
+        When no successful record has a time, or the results hold no friction parameter.
+    """
+    ok = results[(results["status"] == "ok") & results["time"].notna()] if "time" in results else results[:0]
+    if ok.empty:
+        raise DataError(
+            "no successful record with a time in the results: give the records a time "
+            "(attrs 'time', or --pattern with {date:...}) and rerun"
+        )
+    frames = []
+    for prefix in ("model.params.", "params."):
+        names = [
+            c[len(prefix) :]
+            for c in ok.columns
+            if c.startswith(prefix)
+            and not c.endswith("_std")
+            and "[" not in c
+            and c[len(prefix) :] not in _NOT_TRENDED
+        ]
+        for name in names:
+            values = pd.to_numeric(ok[prefix + name], errors="coerce")
+            std_col = prefix + name + "_std"
+            std = pd.to_numeric(ok[std_col], errors="coerce") if std_col in ok else np.nan
+            frame = pd.DataFrame(
+                {"drive": ok["drive"], "time": ok["time"], "record": ok["record"], "parameter": name,
+                 "value": values, "std": std}
+            )  # fmt: skip
+            frames.append(frame[frame["value"].notna()])
+    if not frames:
+        raise DataError(
+            "the results hold no friction parameter (run motorid fleet doctor, or identify with a friction filter)"
+        )
+    trends = pd.concat(frames, ignore_index=True)
+    return trends.sort_values(["drive", "parameter", "time"], ignore_index=True)
+
+
+def relative_rise(time: pd.Series, value: pd.Series) -> float:
+    """(f(t_end) - f(t_start)) / f(t_start) for the least-squares line f through ``value`` against ``time``.
+
+    NaN with fewer than 3 records or a line that is not positive at t_start.
+    """
+    if len(value) < 3:
+        return float("nan")
+    days = (pd.to_datetime(time) - pd.to_datetime(time).min()).dt.total_seconds().to_numpy() / 86400.0
+    slope, intercept = np.polyfit(days, value.to_numpy(dtype=float), 1)
+    start = intercept + slope * days.min()
+    end = intercept + slope * days.max()
+    return float((end - start) / start) if start > 0 else float("nan")
+
+
+def flag_drives(
+    trends: pd.DataFrame, results: pd.DataFrame, threshold: float = 0.2, window_days: float = 30.0
+) -> pd.DataFrame:
+    """Per drive: the rise of Coulomb and viscous friction over its last ``window_days`` days, effects
+    that appeared, and whether it is flagged (see the module docstring).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per drive, flagged ones first: ``drive``, ``records``, ``coulomb_rise`` and
+        ``viscous_rise`` (shares, NaN when not estimated), ``appeared`` (``effect from
+        YYYY-MM-DD``, comma-separated), ``flagged`` (bool), ``reason``.
+    """
+    if not threshold > 0:
+        raise ValueError(f"threshold must be > 0, got {threshold!r}")
+    if not window_days > 0:
+        raise ValueError(f"window_days must be > 0, got {window_days!r}")
+    ok = results[(results["status"] == "ok") & results["time"].notna()].sort_values("time")
+    rows = []
+    for drive, own in trends.groupby("drive", sort=True):
+        end = own["time"].max()
+        recent = own[own["time"] >= end - pd.Timedelta(days=window_days)]
+        row: dict = {"drive": drive, "records": int(own["record"].nunique())}
+        reasons = []
+        for name in RISING:
+            series = recent[recent["parameter"] == name]
+            rise = relative_rise(series["time"], series["value"])
+            row[f"{name}_rise"] = rise
+            if rise > threshold:
+                reasons.append(f"{name} +{rise:.0%}")
+        appeared = _appeared(ok[ok["drive"] == drive]) if "named" in ok else {}
+        row["appeared"] = ", ".join(f"{effect} from {when:%Y-%m-%d}" for effect, when in appeared.items())
+        reasons += [f"{effect} appeared on {when:%Y-%m-%d}" for effect, when in appeared.items()]
+        row["flagged"] = bool(reasons)
+        row["reason"] = "; ".join(reasons)
+        rows.append(row)
+    table = pd.DataFrame(
+        rows, columns=["drive", "records", "coulomb_rise", "viscous_rise", "appeared", "flagged", "reason"]
+    )
+    return table.sort_values(["flagged", "drive"], ascending=[False, True], ignore_index=True)
+
+
+def _appeared(records: pd.DataFrame) -> dict[str, pd.Timestamp]:
+    """Effects named on at least half of a drive's records from their first naming on, but not in its first."""
+    named = [set(filter(None, str(v).split(","))) if isinstance(v, str) else set() for v in records["named"]]
+    times = list(records["time"])
+    out = {}
+    for effect in sorted(set().union(*named)) if named else []:
+        hits = [effect in n for n in named]
+        first = hits.index(True)
+        if first > 0 and sum(hits[first:]) >= 0.5 * len(hits[first:]):
+            out[effect] = times[first]
+    return out
+
+
+def plot_trends(trends: pd.DataFrame, flags: pd.DataFrame, out: str | os.PathLike[str]) -> list[Path]:
+    """One PNG per drive, ``<drive>.png``: each friction parameter against time (±2σ bars when known),
+    the day an effect appeared marked; the title says why the drive is flagged. The paths."""
+    import matplotlib.pyplot as plt
+
+    folder = Path(out)
+    folder.mkdir(parents=True, exist_ok=True)
+    reasons = dict(zip(flags["drive"], flags["reason"], strict=True))
+    appeared = dict(zip(flags["drive"], flags["appeared"], strict=True))
+    paths = []
+    for drive, own in trends.groupby("drive", sort=True):
+        names = list(dict.fromkeys(own["parameter"]))
+        fig, axes = plt.subplots(
+            len(names), 1, figsize=(7, 1.9 * len(names) + 0.8), sharex=True, squeeze=False
+        )
+        for ax, name in zip(axes[:, 0], names, strict=True):
+            series = own[own["parameter"] == name]
+            ax.errorbar(series["time"], series["value"], yerr=2 * series["std"] if series["std"].notna().any() else None,
+                        fmt="o-", ms=3, lw=1, capsize=2)  # fmt: skip
+            ax.set_ylabel(name)
+            ax.grid(alpha=0.3)
+            for item in filter(None, str(appeared.get(drive, "")).split(", ")):
+                ax.axvline(pd.Timestamp(item.rsplit(" from ", 1)[1]), color="tab:red", ls="--", lw=1)
+        reason = reasons.get(drive, "")
+        axes[0, 0].set_title(f"{drive}: " + (f"flagged ({reason})" if reason else "not flagged"), fontsize=10)
+        axes[-1, 0].set_xlabel("record time")
+        fig.autofmt_xdate()
+        fig.tight_layout()
+        path = folder / f"{drive}.png"
+        fig.savefig(path, dpi=80)
+        plt.close(fig)
+        paths.append(path)
+    return paths
+
+
+__all__ = ["RISING", "flag_drives", "friction_trends", "plot_trends", "relative_rise"]
