@@ -169,3 +169,23 @@ def test_tacho_and_adc_chain():
 def test_encoder_counts():
     enc = Encoder(counts_per_rev=4)
     np.testing.assert_allclose(enc.measure([0.0, 1.0, 1.6, -0.1]), [0.0, 0.0, math.pi / 2, -math.pi / 2])
+
+
+def test_friction_objects_evaluate_the_integrators_law_bit_for_bit():
+    """torque() and z_dot() are the compiled functions the integrators call (one statement
+    of each law), so they agree to the last bit with the packed rows the fast path uses."""
+    from motorid.plants.fast_integrator import lugre_rate, static_friction
+    from motorid.plants.friction import pack_static_friction
+
+    law = AsymmetricFriction(1e-3, 5e-4, 0.2, 2e-3, 1e-4, 0.3, side="motor")
+    rows = pack_static_friction((law,))
+    for w in np.linspace(-3.0, 3.0, 61):
+        for d in (-1.0, 1.0):
+            assert float(law.torque(w, direction=d)) == static_friction(
+                rows, 0, w, d if w == 0 else np.sign(w)
+            )
+    lugre = LuGreFriction(sigma0=2.0, sigma1=1e-3, Fc=1e-3, Fs=2e-3, omega_s=1.0)
+    z, w = np.linspace(-1e-3, 1e-3, 7), np.linspace(-2.0, 2.0, 7)
+    assert lugre.z_dot(z, w).tolist() == [
+        lugre_rate(2.0, 1e-3, 2e-3, 1.0, a, b) for a, b in zip(z, w, strict=True)
+    ]

@@ -148,8 +148,9 @@ def tacho_readings(
 
 
 @numba.njit(cache=True)
-def _stick_or_slip(omega: float, t_net: float, break_pos: float, break_neg: float) -> tuple[int, float]:
-    """Karnopp's test for one mass: ``(stuck, direction)``.
+def stick_or_slip(omega: float, t_net: float, break_pos: float, break_neg: float) -> tuple[int, float]:
+    """Karnopp's stick/slip rule for one mass: ``(stuck, direction)`` (the one implementation:
+    the fast and the reference integrator call it).
 
     A moving mass slips in the direction of its speed. A mass at exactly zero
     speed stays stuck while the net driving torque ``t_net`` [N m] lies within
@@ -167,28 +168,86 @@ def _stick_or_slip(omega: float, t_net: float, break_pos: float, break_neg: floa
 
 
 @numba.njit(cache=True)
+def friction_law(
+    a0: float, a1: float, a2: float, a3: float, a4: float, a5: float, omega: float, direction: float
+) -> float:
+    """Torque [N m] of one static friction law, eq. (11), for motion in ``direction``.
+
+    ``a0 + a1 exp(-a2 |ω|)`` for ``direction > 0``, ``-(a3 + a4 exp(-a5 |ω|))`` for
+    ``direction < 0`` and 0 for ``direction == 0`` (ω [rad/s]). Coulomb (eq. 8) and
+    Stribeck (eq. 9) friction are its special cases. The one implementation of the
+    law: the friction objects, the fast and the reference integrator evaluate it.
+    """
+    aw = abs(omega)
+    if direction > 0.0:
+        return a0 + a1 * math.exp(-a2 * aw)
+    if direction < 0.0:
+        return -(a3 + a4 * math.exp(-a5 * aw))
+    return 0.0
+
+
+@numba.njit(cache=True)
+def friction_torques(coefficients: np.ndarray, omega: np.ndarray, direction: float) -> np.ndarray:
+    """:func:`friction_law` at each speed of ``omega``, moving in the direction sgn(ω), or
+    sgn(``direction``) where ω == 0 (impending motion)."""
+    c = coefficients
+    out = np.empty_like(omega)
+    for k in range(omega.size):
+        w = omega[k]
+        out[k] = friction_law(c[0], c[1], c[2], c[3], c[4], c[5], w, w if w != 0.0 else direction)
+    return out
+
+
+@numba.njit(cache=True)
 def static_friction(fric: np.ndarray, side: int, omega: float, direction: float) -> float:
     """Sum of the static friction laws on ``side`` [N m] for motion in ``direction``.
 
-    Row layout ``[side, α0..α5]`` (eq. 11): ``α0 + α1 exp(-α2|ω|)`` forwards,
-    ``-(α3 + α4 exp(-α5|ω|))`` backwards.
+    Row layout ``[side, α0..α5]`` (:func:`friction_law`).
     """
     total = 0.0
-    aw = abs(omega)
     for r in range(fric.shape[0]):
-        if fric[r, 0] != side:
-            continue
-        if direction > 0.0:
-            total += fric[r, 1] + fric[r, 2] * math.exp(-fric[r, 3] * aw)
-        elif direction < 0.0:
-            total -= fric[r, 4] + fric[r, 5] * math.exp(-fric[r, 6] * aw)
+        if fric[r, 0] == side:
+            total += friction_law(
+                fric[r, 1], fric[r, 2], fric[r, 3], fric[r, 4], fric[r, 5], fric[r, 6], omega, direction
+            )
     return total
 
 
 @numba.njit(cache=True)
+def lugre_level(fc: float, fs: float, omega_s: float, omega: float) -> float:
+    """LuGre's Stribeck curve g(ω) = Fc + (Fs - Fc) exp(-(ω/ωs)²) [N m] (the one implementation)."""
+    return fc + (fs - fc) * math.exp(-((omega / omega_s) ** 2))
+
+
+@numba.njit(cache=True)
+def lugre_rate(sigma0: float, fc: float, fs: float, omega_s: float, z: float, omega: float) -> float:
+    """LuGre's bristle rate dz/dt = ω - σ0 |ω| z / g(ω) [rad/s] (the one implementation)."""
+    return omega - sigma0 * abs(omega) * z / lugre_level(fc, fs, omega_s, omega)
+
+
+@numba.njit(cache=True)
+def lugre_levels(fc: float, fs: float, omega_s: float, omega: np.ndarray) -> np.ndarray:
+    """Vectorised :func:`lugre_level`."""
+    out = np.empty_like(omega)
+    for k in range(omega.size):
+        out[k] = lugre_level(fc, fs, omega_s, omega[k])
+    return out
+
+
+@numba.njit(cache=True)
+def lugre_rates(
+    sigma0: float, fc: float, fs: float, omega_s: float, z: np.ndarray, omega: np.ndarray
+) -> np.ndarray:
+    """Vectorised :func:`lugre_rate` (``z`` and ``omega`` of one shape)."""
+    out = np.empty_like(omega)
+    for k in range(omega.size):
+        out[k] = lugre_rate(sigma0, fc, fs, omega_s, z[k], omega[k])
+    return out
+
+
+@numba.njit(cache=True)
 def _lugre_zdot(lug: np.ndarray, k: int, z: float, omega: float) -> float:
-    g = lug[k, 3] + (lug[k, 4] - lug[k, 3]) * math.exp(-((omega / lug[k, 5]) ** 2))
-    return omega - lug[k, 1] * abs(omega) * z / g
+    return lugre_rate(lug[k, 1], lug[k, 3], lug[k, 4], lug[k, 5], z, omega)
 
 
 @numba.njit(cache=True)
@@ -196,7 +255,7 @@ def _lugre_advance(lug: np.ndarray, k: int, z: float, omega: float, h: float) ->
     """Exact bristle update over h for ω held constant: z relaxes to g(ω) sgn(ω)/σ0."""
     if omega == 0.0:
         return z
-    g = lug[k, 3] + (lug[k, 4] - lug[k, 3]) * math.exp(-((omega / lug[k, 5]) ** 2))
+    g = lugre_level(lug[k, 3], lug[k, 4], lug[k, 5], omega)
     rate = lug[k, 1] * abs(omega) / g
     z_ss = omega / rate
     return z_ss + (z - z_ss) * math.exp(-rate * h)
@@ -247,11 +306,11 @@ def _substep(
 
     # Karnopp stick test on each mass at exactly zero speed
     has_m = p[P_BREAK_POS_M] > 0.0 or p[P_BREAK_NEG_M] > 0.0
-    stuck_m, dir_m = _stick_or_slip(wm, K * i_a - t_s - f_lug_m, p[P_BREAK_POS_M], p[P_BREAK_NEG_M])
+    stuck_m, dir_m = stick_or_slip(wm, K * i_a - t_s - f_lug_m, p[P_BREAK_POS_M], p[P_BREAK_NEG_M])
     if stuck_m == 0 and dir_m != 0.0:
         tau_m -= static_friction(fric, 0, wm, dir_m)
     has_l = p[P_BREAK_POS_L] > 0.0 or p[P_BREAK_NEG_L] > 0.0
-    stuck_l, dir_l = _stick_or_slip(wl, t_s - t_d - f_lug_l, p[P_BREAK_POS_L], p[P_BREAK_NEG_L])
+    stuck_l, dir_l = stick_or_slip(wl, t_s - t_d - f_lug_l, p[P_BREAK_POS_L], p[P_BREAK_NEG_L])
     if stuck_l == 0 and dir_l != 0.0:
         tau_l -= static_friction(fric, 1, wl, dir_l)
 

@@ -21,9 +21,11 @@ an internal bristle state z per mass.
 Zero speed is not smoothed: the integrators use the breakaway torques of the
 static laws for Karnopp-style stick/slip switching (a mass at exactly zero speed
 stays there while the torque applied to it lies inside
-``[-breakaway_negative, breakaway_positive]``). The ``torque`` methods are the
-plain-NumPy statement of each law; the compiled integrator evaluates the same
-laws from :func:`pack_static_friction` rows.
+``[-breakaway_negative, breakaway_positive]``). Each law is written once, as a
+compiled function in :mod:`~motorid.plants.fast_integrator` (eq. 11:
+``friction_law``; LuGre: ``lugre_level`` and ``lugre_rate``; the stick/slip rule:
+``stick_or_slip``): the ``torque`` methods here, the fast integrator (from
+:func:`pack_static_friction` rows) and the reference integrator all call them.
 
 Each law's ``kind`` (its name in ``to_dict`` and in model files) is its effect name,
 the snake_case vocabulary the diagnose workflow names effects with:
@@ -42,6 +44,8 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 import numpy.typing as npt
 
+from motorid.plants.fast_integrator import friction_torques, lugre_levels, lugre_rates
+
 Side = Literal["motor", "load", "both"]
 SIDES: tuple[str, ...] = ("motor", "load", "both")
 
@@ -58,12 +62,6 @@ def _check_nonnegative(**values: float) -> None:
     for name, value in values.items():
         if not (isinstance(value, numbers.Real) and math.isfinite(value) and value >= 0.0):
             raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-
-
-def _direction_sign(omega: npt.ArrayLike, direction: float) -> np.ndarray:
-    """sgn(ω), with ``sgn(direction)`` used where ω == 0 (impending motion)."""
-    w = np.asarray(omega, dtype=float)
-    return np.where(w != 0.0, np.sign(w), np.sign(direction))
 
 
 @dataclass(frozen=True)
@@ -140,15 +138,13 @@ class StaticFriction(Friction):
         Where ``omega == 0`` the value for motion in the direction
         ``sgn(direction)`` is returned (the kinetic level at 0±, what the
         integrators use at breakaway); ``direction=0`` gives 0 there, as sgn(0) = 0
-        in eq. (10).
+        in eq. (10). Evaluated by the integrators' compiled law
+        (:func:`~motorid.plants.fast_integrator.friction_law`).
         """
-        a0, a1, a2, a3, a4, a5 = self.coefficients()
         w = np.asarray(omega, dtype=float)
-        s = _direction_sign(w, direction)
-        aw = np.abs(w)
-        pos = a0 + a1 * np.exp(-a2 * aw)
-        neg = a3 + a4 * np.exp(-a5 * aw)
-        return np.where(s > 0, pos, np.where(s < 0, -neg, 0.0))
+        flat = np.ascontiguousarray(w.reshape(-1))
+        out = friction_torques(np.array(self.coefficients(), dtype=float), flat, float(direction))
+        return out.reshape(w.shape)
 
 
 @dataclass(frozen=True)
@@ -293,14 +289,17 @@ class LuGreFriction(Friction):
             raise ValueError(f"Fs must be >= Fc, got Fs={self.Fs!r} < Fc={self.Fc!r}")
 
     def g(self, omega: npt.ArrayLike) -> np.ndarray:
-        """Stribeck curve g(ω) [N m]."""
+        """Stribeck curve g(ω) [N m] (:func:`~motorid.plants.fast_integrator.lugre_level`)."""
         w = np.asarray(omega, dtype=float)
-        return self.Fc + (self.Fs - self.Fc) * np.exp(-((w / self.omega_s) ** 2))
+        flat = np.ascontiguousarray(w.reshape(-1))
+        return lugre_levels(self.Fc, self.Fs, self.omega_s, flat).reshape(w.shape)
 
     def z_dot(self, z: npt.ArrayLike, omega: npt.ArrayLike) -> np.ndarray:
-        """Bristle rate dz/dt [rad/s]."""
-        w = np.asarray(omega, dtype=float)
-        return w - self.sigma0 * np.abs(w) * np.asarray(z, dtype=float) / self.g(w)
+        """Bristle rate dz/dt [rad/s] (:func:`~motorid.plants.fast_integrator.lugre_rate`)."""
+        zb, wb = np.broadcast_arrays(np.asarray(z, dtype=float), np.asarray(omega, dtype=float))
+        flat_z = np.ascontiguousarray(zb.reshape(-1))
+        flat_w = np.ascontiguousarray(wb.reshape(-1))
+        return lugre_rates(self.sigma0, self.Fc, self.Fs, self.omega_s, flat_z, flat_w).reshape(wb.shape)
 
     def torque(self, z: npt.ArrayLike, omega: npt.ArrayLike) -> np.ndarray:
         """Friction torque [N m] for bristle state ``z`` [rad] at speed ``omega``."""

@@ -2,7 +2,10 @@
 
 The same model as the fast path (:mod:`.fast_integrator`), written directly as
 ordinary differential equations in plain Python and integrated with an
-adaptive Runge-Kutta method at tight tolerances. Every switch of the hybrid
+adaptive Runge-Kutta method at tight tolerances. The friction laws and the
+stick/slip rule are the fast path's own compiled functions (each written once);
+what this integrator checks independently is the integration: exact event times
+instead of events resolved to one internal step. Every switch of the hybrid
 model ends an integration segment at an event located by root finding:
 
 - a slipping mass with static friction reaching zero speed (``s ω = 0``,
@@ -29,7 +32,8 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from motorid.plants.friction import LuGreFriction, StaticFriction
+from motorid.plants.fast_integrator import lugre_rate, static_friction, stick_or_slip
+from motorid.plants.friction import LuGreFriction, pack_static_friction
 
 logger = logging.getLogger(__name__)
 
@@ -70,15 +74,12 @@ class ReferenceIntegrator:
         self.atol = atol
         self.max_step = max_step
         self.method = method
-        self._static: list[list[tuple[float, ...]]] = [[], []]
+        self._static_rows = pack_static_friction(rig.friction)
         self._lugre: list[LuGreFriction | None] = [None, None]
         for f in rig.friction:
             for side in f.sides():
-                k = 0 if side == "motor" else 1
-                if isinstance(f, StaticFriction):
-                    self._static[k].append(tuple(f.coefficients()))
-                elif isinstance(f, LuGreFriction):
-                    self._lugre[k] = f
+                if isinstance(f, LuGreFriction):
+                    self._lugre[0 if side == "motor" else 1] = f
         self._viscous = (rig.viscous("motor"), rig.viscous("load"))
         self._J = (rig.J_m, rig.J_l)
         self._break = (rig.breakaway("motor"), rig.breakaway("load"))
@@ -86,22 +87,15 @@ class ReferenceIntegrator:
 
     # ----------------------------------------------------------- model pieces
     def _static_torque(self, k: int, omega: float, direction: float) -> float:
-        total = 0.0
-        aw = abs(omega)
-        for a0, a1, a2, a3, a4, a5 in self._static[k]:
-            if direction > 0:
-                total += a0 + a1 * math.exp(-a2 * aw)
-            elif direction < 0:
-                total -= a3 + a4 * math.exp(-a5 * aw)
-        return total
+        """The static laws on mass k: the compiled law the fast path uses, on the same rows."""
+        return static_friction(self._static_rows, k, omega, float(direction))
 
     def _lugre_parts(self, k: int, z: float, omega: float) -> tuple[float, float]:
         """(σ0 z + σ1 dz/dt, dz/dt); σ2 is counted with the viscous terms."""
         f = self._lugre[k]
         if f is None:
             return 0.0, 0.0
-        g = f.Fc + (f.Fs - f.Fc) * math.exp(-((omega / f.omega_s) ** 2))
-        zdot = omega - f.sigma0 * abs(omega) * z / g
+        zdot = lugre_rate(f.sigma0, f.Fc, f.Fs, f.omega_s, z, omega)
         return f.sigma0 * z + f.sigma1 * zdot, zdot
 
     def _shaft_torque(self, x: np.ndarray, regime: int) -> float:
@@ -203,12 +197,12 @@ class ReferenceIntegrator:
                 continue
             if modes[k] == STUCK or x[1 + k] == 0.0:
                 bp, bn = self._break[k]
-                t_net = self._net_torque(k, x, regime, t_d)
-                if -bn <= t_net <= bp:
+                stuck, direction = stick_or_slip(0.0, self._net_torque(k, x, regime, t_d), bp, bn)
+                if stuck:
                     modes[k] = STUCK
                     x[1 + k] = 0.0
                 else:
-                    modes[k] = 1 if t_net > 0.0 else -1
+                    modes[k] = 1 if direction > 0.0 else -1
 
     # -------------------------------------------------------------------- run
     def run(self, u: np.ndarray, t_d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
