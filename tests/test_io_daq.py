@@ -367,3 +367,16 @@ def test_online_record_matches_the_rigs_offline_simulation():
     np.testing.assert_allclose(online["t"], offline["t"], atol=1e-12)
     np.testing.assert_array_equal(online["u"], offline["u"])
     np.testing.assert_allclose(online["y"], offline["y"], rtol=1e-12, atol=1e-12)
+
+
+def test_a_drive_model_runs_in_a_simulation_of_each_daq():
+    """A model is a description: each DAQ steps a simulation of its own, and the model stays as it was."""
+    rig = plants.paper_rig()
+    u = np.repeat([4.0, -4.0], 15)
+    first = run_online(SimulatedDAQ(rig, seed=3), None, u, None, progress=False)
+    second_daq = SimulatedDAQ(rig, seed=3)
+    assert second_daq.plant is not SimulatedDAQ(rig, seed=3).plant
+    second = run_online(second_daq, None, u, None, progress=False)
+    np.testing.assert_array_equal(first["y"], second["y"])
+    np.testing.assert_array_equal(first["y"], rig.simulate(u, seed=3)["y"])
+    assert rig == plants.paper_rig()

@@ -65,16 +65,6 @@ def test_rig_is_a_description_that_stepping_does_not_change():
         rig.J_m = 1.0  # type: ignore[misc]
 
 
-def test_plant_interface_of_the_rig_is_its_hosted_simulation():
-    """reset/step/state on the rig (what the DAQ backends call) equal a simulation of it."""
-    rig = paper_rig()
-    rig.reset(seed=5)
-    sim = rig.simulation(seed=5)
-    assert [rig.step(u) for u in (3.0, 6.0, -2.0)] == [sim.step(u) for u in (3.0, 6.0, -2.0)]
-    assert rig.state == sim.state
-    assert rig == paper_rig()
-
-
 def test_physical_defaults_are_written_once():
     """paper_rig's physical values are TwoMassRig's defaults and its docstring table is
     made from them (each default with its unit)."""

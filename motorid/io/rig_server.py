@@ -35,7 +35,7 @@ from typing import Any
 
 from .base import Plant
 from .registers import STATUS_BITS, STATUS_CLEAR, STATUS_FAULTS, RegisterMap, WordOrder
-from .simulated import default_plant
+from .simulated import plant_to_step
 
 logger = logging.getLogger(__name__)
 
@@ -71,9 +71,10 @@ class RigServer:
 
     Parameters
     ----------
-    plant : Plant, optional
-        The simulated rig (``dt``, ``reset(seed)``, ``step(u)``). Default:
-        ``motorid.plants.paper_rig()``.
+    plant : drive model or Plant, optional
+        The simulated rig: a model such as ``motorid.plants.paper_rig()`` (the
+        default), run in a simulation of the server's own, or a running
+        :class:`Plant` (``dt``, ``reset(seed)``, ``step(u)``).
     host : str
         Address to bind (TCP). ``127.0.0.1`` by default: only this machine
         can reach the rig. Use ``0.0.0.0`` deliberately to expose it.
@@ -116,7 +117,7 @@ class RigServer:
 
     def __init__(
         self,
-        plant: Plant | None = None,
+        plant: object | None = None,
         *,
         host: str = "127.0.0.1",
         port: int = 5020,
@@ -137,7 +138,7 @@ class RigServer:
             raise ValueError(f"watchdog_periods must be > 0 or None, got {watchdog_periods!r}")
         if not (math.isfinite(u_max) and u_max > 0):
             raise ValueError(f"u_max must be a finite positive voltage [V], got {u_max!r}")
-        self.plant = default_plant() if plant is None else plant
+        self.plant: Plant = plant_to_step(plant)
         self.dt = float(self.plant.dt)
         self.host = host
         self.port = int(port)

@@ -9,14 +9,23 @@ from .base import DAQ, Plant, Sample
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["SimulatedDAQ", "default_plant"]
+__all__ = ["SimulatedDAQ", "plant_to_step"]
 
 
-def default_plant() -> Plant:
-    """Return the simulated rig of the paper (``motorid.plants.paper_rig()``)."""
-    from motorid.plants import paper_rig  # plants are optional at import time
+def plant_to_step(plant: object | None) -> Plant:
+    """The running plant a simulated DAQ or the rig server steps.
 
-    return paper_rig()
+    A drive model (a description with ``simulation()``, such as
+    ``motorid.plants.paper_rig()``) gives a new simulation of its own, so two
+    DAQs of one model never share a state; a :class:`Plant` (``dt``,
+    ``reset``, ``step``) is stepped as it is; None is the paper's rig.
+    """
+    if plant is None:
+        from motorid.plants import paper_rig  # plants are optional at import time
+
+        plant = paper_rig()
+    simulation = getattr(plant, "simulation", None)
+    return simulation() if callable(simulation) else plant  # type: ignore[return-value]
 
 
 def steps_per_sample(plant_dt: float, dt: float | None) -> int:
@@ -54,9 +63,10 @@ class SimulatedDAQ(DAQ):
 
     Parameters
     ----------
-    plant : Plant, optional
-        The simulated rig (``dt``, ``reset(seed)``, ``step(u)``). Default:
-        ``motorid.plants.paper_rig()``.
+    plant : drive model or Plant, optional
+        The simulated rig: a model such as ``motorid.plants.paper_rig()`` (the
+        default), run in a simulation of the DAQ's own, or a running
+        :class:`Plant` (``dt``, ``reset(seed)``, ``step(u)``).
     dt : float, optional
         Sample time [s]; a whole multiple of ``plant.dt`` (default: ``plant.dt``).
     realtime : bool
@@ -76,7 +86,7 @@ class SimulatedDAQ(DAQ):
 
     def __init__(
         self,
-        plant: Plant | None = None,
+        plant: object | None = None,
         dt: float | None = None,
         realtime: bool = False,
         seed: int | None = None,
@@ -84,7 +94,7 @@ class SimulatedDAQ(DAQ):
         u_max: float = 12.0,
     ) -> None:
         super().__init__(u_max=u_max)
-        self.plant = default_plant() if plant is None else plant
+        self.plant = plant_to_step(plant)
         self._steps = steps_per_sample(self.plant.dt, dt)
         self._dt = float(self.plant.dt) * self._steps
         self.realtime = bool(realtime)

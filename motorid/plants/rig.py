@@ -214,14 +214,12 @@ class TwoMassRig:
                     h * math.sqrt(lugre[k, 1] / J),
                 )
         phi, gam = self._discretise(h)
-        # derived at construction, never changed: the compiled model and the
-        # simulation hosted for the Plant interface (reset/step)
+        # derived at construction, never changed: the compiled model
         object.__setattr__(
             self,
             "_compiled",
             (phi, gam, self._packed_parameters(), pack_static_friction(friction), lugre),
         )
-        object.__setattr__(self, "_hosted", RigSimulation(self))
 
     @property
     def h(self) -> float:
@@ -327,26 +325,6 @@ class TwoMassRig:
     def simulation(self, seed: int | None = None) -> RigSimulation:
         """A new running simulation of this rig, at rest, noise seeded with ``seed``."""
         return RigSimulation(self, seed)
-
-    def reset(self, seed: int | None = None) -> None:
-        """The :class:`motorid.io.base.Plant` interface: reset the simulation this
-        rig hosts for the DAQ backends (see :meth:`step`)."""
-        self._hosted.reset(seed)
-
-    def step(self, u: float, load_torque: float | None = None) -> float:
-        """The :class:`motorid.io.base.Plant` interface: one sample of the simulation
-        this rig hosts (made with the rig; :meth:`reset` restarts it).
-
-        The rig's parameters never change; the running state is the hosted
-        :class:`RigSimulation`'s. Code that steps a rig itself should hold its own
-        ``rig.simulation(seed)``, so two loops never share one state.
-        """
-        return self._hosted.step(u, load_torque)
-
-    @property
-    def state(self) -> dict[str, float]:
-        """True state of the hosted simulation (:attr:`RigSimulation.state`)."""
-        return self._hosted.state
 
     # -------------------------------------------------------------- records
     def simulate(
