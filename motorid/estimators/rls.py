@@ -60,6 +60,15 @@ from motorid.estimators.basis import Basis, builtin_row
 
 # --------------------------------------------------------------------------- kernels
 @njit(cache=True)
+def _copy(src: np.ndarray, dst: np.ndarray) -> None:
+    """``dst[...] = src`` for arrays of one size, ``dst`` C-contiguous, as one flat loop."""
+    flat_src = src.ravel()
+    flat_dst = dst.reshape(-1)
+    for k in range(flat_dst.shape[0]):
+        flat_dst[k] = flat_src[k]
+
+
+@njit(cache=True)
 def _push(history: np.ndarray, value: float) -> None:
     """Shift the 1-D ``history`` one lag back and put ``value`` in front."""
     for k in range(history.shape[0] - 1, 0, -1):
@@ -196,7 +205,7 @@ def rls_predict(
     _push_row(g_hist, g)
     _fill_regressor(y_hist, g_hist, k0, phi)
     scale = _forgetting_scale(P, lam, max_trace)
-    P_prior[:, :] = P
+    _copy(P, P_prior)
     out[0] = _forget_and_gain(P_prior, scale, phi, r, Pphi)
     return _predicted_output(phi, x)
 
@@ -218,8 +227,8 @@ def rls_update(
     ``K``, in one compiled call; pushes ``z`` into ``y_hist`` and returns the
     innovation ``z - y_hat``. ``x`` and ``P_prior`` are not changed."""
     e = z - y_hat
-    x_post[:] = x
-    P_post[:, :] = P_prior
+    _copy(x, x_post)
+    _copy(P_prior, P_post)
     _correct(P_post, Pphi, s, e, x_post, K)
     _push(y_hist, z)
     return e
@@ -269,8 +278,8 @@ def rls_batch(
         y_hat[t] = yh
         S[t] = s
         if t == G.shape[0] - 1:
-            x_prior[:] = x
-            P_prior[:, :] = P
+            _copy(x, x_prior)
+            _copy(P, P_prior)
         if present[t]:
             e = z[t] - yh
             innovation[t] = e
@@ -412,6 +421,7 @@ class LaggedRegressionRLS(Estimator):
         n = len(self.x0)
         self.x = self.x0.copy()
         self.P = self.delta * np.eye(n)
+        self._own_x, self._own_P = self.x, self.P
         self.x_prior, self.P_prior = self.x.copy(), self.P.copy()
         self.x_post, self.P_post = self.x.copy(), self.P.copy()
         self.K = np.zeros(n)
@@ -430,6 +440,24 @@ class LaggedRegressionRLS(Estimator):
         #: y_hat of the sample whose predict still waits for its update, else None
         self._pending: float | None = None
 
+    def _check_state(self) -> None:
+        """Check ``x`` and ``P`` when they are not the arrays this estimator made last
+        (a user assigned them): the kernels need x of shape (n,) and P of shape
+        (n, n), exactly symmetric (module docstring)."""
+        if self.x is self._own_x and self.P is self._own_P:
+            return
+        n = len(self.x0)
+        x = np.ascontiguousarray(as_float_vector(self.x, "x"))
+        P = np.ascontiguousarray(np.asarray(self.P, dtype=float))
+        if x.shape != (n,):
+            raise ValueError(f"x must have shape ({n},), got {x.shape}")
+        if P.shape != (n, n):
+            raise ValueError(f"P must have shape ({n}, {n}), got {P.shape}")
+        if not np.array_equal(P, P.T):
+            raise ValueError(f"P must be symmetric, got max |P - P^T| = {float(np.max(np.abs(P - P.T))):g}")
+        self.x, self.P = x, P
+        self._own_x, self._own_P = x, P
+
     @property
     def phi(self) -> np.ndarray:
         """The regressor phi(t) of the last :meth:`predict` (a copy)."""
@@ -443,6 +471,7 @@ class LaggedRegressionRLS(Estimator):
         A previous sample still waiting for its :meth:`update` is closed as skipped.
         """
         u = self.check_input(u)
+        self._check_state()
         basis = self.basis
         if self._pending is not None or basis.has_custom:
             # raises on a non-finite basis value before anything is changed
@@ -457,7 +486,7 @@ class LaggedRegressionRLS(Estimator):
         if math.isnan(y_hat) and self._out[1] >= 0:
             column = int(self._out[1])
             raise basis.value_error(column, float(self._g[column]), u, self.sample_index)
-        self.P = self.P_prior = P_prior
+        self.P = self.P_prior = self._own_P = P_prior
         self.x_prior = self.x
         self.S = float(self._out[0])
         self.sample_index += 1
@@ -482,13 +511,14 @@ class LaggedRegressionRLS(Estimator):
             self.x_post, self.P_post = self.x, self.P
             _push(self.y_history, y_hat)
         else:
+            self._check_state()
             x_post, P_post, K = np.empty(self.x.shape), np.empty(self.P.shape), np.empty(self.x.shape)
             self.y = rls_update(
                 value, y_hat, self.x, self.P, self._Pphi, self.S, self.y_history, x_post, P_post, K
             )
             self.z = value
-            self.x = self.x_post = x_post
-            self.P = self.P_post = P_post
+            self.x = self.x_post = self._own_x = x_post
+            self.P = self.P_post = self._own_P = P_post
             self.K = K
         self._pending = None
 
@@ -502,6 +532,7 @@ class LaggedRegressionRLS(Estimator):
         if saver is not None:
             return super().batch_filter(u, z, saver)
         u_arr, z_arr, present = self.check_record(u, z)
+        self._check_state()
         G = self.basis.evaluate(u_arr, start=self.sample_index)
         if self._pending is not None:
             self.update(None)
@@ -516,7 +547,7 @@ class LaggedRegressionRLS(Estimator):
             X, P_diag, y_hat, innovation, S, x_prior, P_prior, K,
         )  # fmt: skip
         if N:
-            self.x, self.P = x, P
+            self.x, self.P = self._own_x, self._own_P = x, P
             self.x_prior, self.P_prior = x_prior, P_prior
             self.x_post, self.P_post = x, P
             self.K, self.y, self.S = K, float(e), float(S[-1])
