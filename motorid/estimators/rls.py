@@ -441,11 +441,9 @@ class LaggedRegressionRLS(Estimator):
         self._pending: float | None = None
 
     def _check_state(self) -> None:
-        """Check ``x`` and ``P`` when they are not the arrays this estimator made last
-        (a user assigned them): the kernels need x of shape (n,) and P of shape
-        (n, n), exactly symmetric (module docstring)."""
-        if self.x is self._own_x and self.P is self._own_P:
-            return
+        """Check ``x`` and ``P``, called where they are not the arrays this estimator
+        made last (a user assigned them): the kernels need x of shape (n,) and P of
+        shape (n, n), exactly symmetric (module docstring)."""
         n = len(self.x0)
         x = np.ascontiguousarray(as_float_vector(self.x, "x"))
         P = np.ascontiguousarray(np.asarray(self.P, dtype=float))
@@ -471,7 +469,8 @@ class LaggedRegressionRLS(Estimator):
         A previous sample still waiting for its :meth:`update` is closed as skipped.
         """
         u = self.check_input(u)
-        self._check_state()
+        if self.x is not self._own_x or self.P is not self._own_P:
+            self._check_state()
         basis = self.basis
         if self._pending is not None or basis.has_custom:
             # raises on a non-finite basis value before anything is changed
@@ -511,7 +510,8 @@ class LaggedRegressionRLS(Estimator):
             self.x_post, self.P_post = self.x, self.P
             _push(self.y_history, y_hat)
         else:
-            self._check_state()
+            if self.x is not self._own_x or self.P is not self._own_P:
+                self._check_state()
             x_post, P_post, K = np.empty(self.x.shape), np.empty(self.P.shape), np.empty(self.x.shape)
             self.y = rls_update(
                 value, y_hat, self.x, self.P, self._Pphi, self.S, self.y_history, x_post, P_post, K
@@ -532,7 +532,8 @@ class LaggedRegressionRLS(Estimator):
         if saver is not None:
             return super().batch_filter(u, z, saver)
         u_arr, z_arr, present = self.check_record(u, z)
-        self._check_state()
+        if self.x is not self._own_x or self.P is not self._own_P:
+            self._check_state()
         G = self.basis.evaluate(u_arr, start=self.sample_index)
         if self._pending is not None:
             self.update(None)
