@@ -359,3 +359,21 @@ def test_an_assigned_covariance_is_used_and_checked(record):
             est.batch_filter(u[10:20], y[10:20])
         np.testing.assert_array_equal(est.x, x0)
         assert est.sample_index == index
+
+
+def test_arrays_read_after_a_step_are_not_changed_by_later_steps(record):
+    """x, P, the priors, the posteriors and K (read from its work array when first
+    asked for) are new arrays each step: what a user keeps stays as it was."""
+    u, y = record
+    est = ARXRLS(2, 1, lam=0.98)
+    names = ("x", "P", "x_prior", "P_prior", "x_post", "P_post", "K")
+    kept = []
+    for t in range(6):
+        est.predict(u[t])
+        est.update(None if t == 3 else y[t])
+        kept.append({name: (getattr(est, name), getattr(est, name).copy()) for name in names})
+    est.batch_filter(u[6:20], y[6:20])
+    for step in kept:
+        for name, (array, copy) in step.items():
+            np.testing.assert_array_equal(array, copy, err_msg=name)
+    assert not np.array_equal(kept[2]["K"][1], kept[4]["K"][1])  # the gain did change

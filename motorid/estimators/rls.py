@@ -223,9 +223,9 @@ def rls_update(
     P_post: np.ndarray,
     K: np.ndarray,
 ) -> float:
-    """Measurement update with ``z`` into the new arrays ``x_post``, ``P_post`` and
-    ``K``, in one compiled call; pushes ``z`` into ``y_hist`` and returns the
-    innovation ``z - y_hat``. ``x`` and ``P_prior`` are not changed."""
+    """Measurement update with ``z`` into the new arrays ``x_post`` and ``P_post``
+    and the gain into ``K``, in one compiled call; pushes ``z`` into ``y_hist`` and
+    returns the innovation ``z - y_hat``. ``x`` and ``P_prior`` are not changed."""
     e = z - y_hat
     _copy(x, x_post)
     _copy(P_prior, P_post)
@@ -437,6 +437,7 @@ class LaggedRegressionRLS(Estimator):
         self._phi = np.zeros(n)
         self._Pphi = np.zeros(n)
         self._out = np.zeros(2)
+        self._gain = np.zeros(n)
         #: y_hat of the sample whose predict still waits for its update, else None
         self._pending: float | None = None
 
@@ -460,6 +461,19 @@ class LaggedRegressionRLS(Estimator):
     def phi(self) -> np.ndarray:
         """The regressor phi(t) of the last :meth:`predict` (a copy)."""
         return self._phi.copy()
+
+    @property
+    def K(self) -> np.ndarray:
+        """Gain of the last update (zeros when it was skipped). The per-sample update
+        leaves it in a work array; it is copied from there when first read, since a
+        sample loop seldom reads it."""
+        if self._K is None:
+            self._K = self._gain.copy()
+        return self._K
+
+    @K.setter
+    def K(self, value: np.ndarray) -> None:
+        self._K = value
 
     # ------------------------------------------------------------------ filter
     def predict(self, u: float) -> float:
@@ -512,14 +526,14 @@ class LaggedRegressionRLS(Estimator):
         else:
             if self.x is not self._own_x or self.P is not self._own_P:
                 self._check_state()
-            x_post, P_post, K = np.empty(self.x.shape), np.empty(self.P.shape), np.empty(self.x.shape)
+            x_post, P_post = np.empty(self.x.shape), np.empty(self.P.shape)
             self.y = rls_update(
-                value, y_hat, self.x, self.P, self._Pphi, self.S, self.y_history, x_post, P_post, K
+                value, y_hat, self.x, self.P, self._Pphi, self.S, self.y_history, x_post, P_post, self._gain
             )
             self.z = value
             self.x = self.x_post = self._own_x = x_post
             self.P = self.P_post = self._own_P = P_post
-            self.K = K
+            self._K = None
         self._pending = None
 
     def batch_filter(self, u: ArrayLike, z: ArrayLike, saver: Any = None) -> BatchResult:
