@@ -17,7 +17,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-__all__ = ["Row", "format_rows", "print_rows"]
+__all__ = ["Row", "Timing", "best_of", "best_times", "format_rows", "print_rows"]
 
 
 @dataclass(frozen=True)
@@ -126,11 +126,35 @@ def print_rows(rows: list[Row], title: str) -> None:
     print(format_rows(rows, title), flush=True)
 
 
+@dataclass(frozen=True)
+class Timing:
+    """The best of several runs of one piece of work.
+
+    Parameters
+    ----------
+    wall : float
+        Smallest wall time [s].
+    cpu : float
+        Smallest CPU time of this process, all its threads [s]. On a machine shared
+        with other work it is the steadier figure: time spent waiting for a core
+        is not counted.
+    """
+
+    wall: float
+    cpu: float
+
+
+def best_times(repeats: int, func: Callable[[], object]) -> Timing:
+    """Smallest wall time and smallest CPU time of ``repeats`` runs of ``func``."""
+    walls, cpus = [], []
+    for _ in range(repeats):
+        wall, cpu = time.perf_counter(), time.process_time()
+        func()
+        cpus.append(time.process_time() - cpu)
+        walls.append(time.perf_counter() - wall)
+    return Timing(min(walls), min(cpus))
+
+
 def best_of(repeats: int, func: Callable[[], object]) -> float:
     """Smallest wall time of ``repeats`` runs [s] (the least disturbed by other load)."""
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        func()
-        times.append(time.perf_counter() - start)
-    return min(times)
+    return best_times(repeats, func).wall

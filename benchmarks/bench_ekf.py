@@ -12,7 +12,10 @@ points start at rest, on the stick/slip switch, where rounding differences betwe
 two implementations of one model (the models agree to 1e-11) decide whether a point
 sticks, and the filters then part by a few tenths of a percent.
 
-Run: ``python benchmarks/bench_ekf.py``. Target: EKF predict+update <= 50 us.
+The EKF's predict+update is given in wall time and in the CPU time of the process (steadier
+on a machine shared with other work; the peer is timed the same way).
+
+Run: ``python benchmarks/bench_ekf.py``. Target: EKF predict+update <= 15 us.
 """
 
 from __future__ import annotations
@@ -21,7 +24,7 @@ import logging
 import math
 
 import numpy as np
-from _table import Row, best_of, print_rows
+from _table import Row, best_of, best_times, print_rows
 from filterpy.kalman import ExtendedKalmanFilter, MerweScaledSigmaPoints, UnscentedKalmanFilter
 
 from motorid.estimators import FrictionEKF, FrictionUKF
@@ -161,13 +164,13 @@ def measure() -> list[Row]:
     run(FrictionEKF, 20)  # load the compiled kernels
     run(FrictionUKF, 5)
     FrictionEKF.from_rig(rig).batch_filter(u[:20], y[:20])
-    t_ekf = best_of(3, lambda: run(FrictionEKF, n_ekf))
+    t_ekf = best_times(3, lambda: run(FrictionEKF, n_ekf))
     t_ukf = best_of(3, lambda: run(FrictionUKF, n_ukf))
     t_batch = best_of(3, lambda: FrictionEKF.from_rig(rig).batch_filter(u, y))
 
     ekf_ref = FrictionEKF.from_rig(rig)
     model = NumpyFrictionModel(rig, ekf_ref.n_substeps)
-    t_peer_ekf = best_of(3, lambda: filterpy_ekf(ekf_ref, model, u[:n_peer_ekf], y[:n_peer_ekf]))
+    t_peer_ekf = best_times(3, lambda: filterpy_ekf(ekf_ref, model, u[:n_peer_ekf], y[:n_peer_ekf]))
     t_peer_ukf = best_of(3, lambda: filterpy_ukf(run(FrictionUKF, 0), model, u[:n_peer_ukf], y[:n_peer_ukf]))
 
     check_same_estimate(
@@ -183,12 +186,14 @@ def measure() -> list[Row]:
         1e-2,
     )
 
-    ekf_us = t_ekf / n_ekf * 1e6
+    ekf_us = t_ekf.wall / n_ekf * 1e6
     ukf_us = t_ukf / n_ukf * 1e6
-    peer_ekf_us = t_peer_ekf / n_peer_ekf * 1e6
+    peer_ekf_us = t_peer_ekf.wall / n_peer_ekf * 1e6
     peer_ukf_us = t_peer_ukf / n_peer_ukf * 1e6
     return [
         Row("friction EKF predict+update per sample, n = 5", ekf_us, peer_ekf_us, "us", "filterpy EKF + NumPy model", False),
+        Row("friction EKF predict+update per sample, n = 5, CPU time", t_ekf.cpu / n_ekf * 1e6,
+            t_peer_ekf.cpu / n_peer_ekf * 1e6, "us", "filterpy EKF + NumPy model", False),
         Row("friction UKF predict+update per sample, n = 5", ukf_us, peer_ukf_us, "us", "filterpy UKF + NumPy model", False),
         Row("friction EKF batch_filter, n = 5", len(u) / t_batch, 1e6 / peer_ekf_us, "samples/s", "filterpy EKF + NumPy model", True),
     ]  # fmt: skip
@@ -196,4 +201,4 @@ def measure() -> list[Row]:
 
 if __name__ == "__main__":
     print_rows(measure(), TITLE)
-    print("target: friction EKF predict+update <= 50 us")
+    print("target: friction EKF predict+update <= 15 us")

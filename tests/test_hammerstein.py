@@ -159,6 +159,26 @@ def test_basis_gives_a_sample_the_same_bits_alone_and_in_a_record():
     np.testing.assert_array_equal(alone, record)
 
 
+def test_a_basis_value_that_overflows_raises_in_predict_and_changes_nothing():
+    """u^3 of 1e150 V overflows: predict names the function and the sample, and the
+    estimator is as before, also when a sample was left open (it stays open)."""
+    est = HammersteinRLS(1, 1, degree=3)
+    est.batch_filter(np.array([0.5, -0.2]), np.array([0.1, 0.3]))
+    est.predict(0.4)
+    state = (est.x.copy(), est.P.copy(), est.y_history.copy(), est.g_history.copy(), est.sample_index)
+    with pytest.raises(ValueError, match=r"basis function 'u\^3' is inf at sample 3"):
+        est.predict(1e150)
+    for before, after in zip(
+        state, (est.x, est.P, est.y_history, est.g_history, est.sample_index), strict=True
+    ):
+        np.testing.assert_array_equal(after, before)
+    est.update(0.2)  # the open sample still takes its measurement
+    assert est.z == 0.2 and est.sample_index == 3
+    with pytest.raises(ValueError, match=r"basis function 'u\^2' is inf at sample 3"):
+        est.predict(-1e200)
+    assert est.sample_index == 3
+
+
 def test_custom_functions_are_called_one_sample_at_a_time():
     """A custom function sees one-sample arrays in batch_filter and simulate as in the
     loop, so a sample's value never depends on the SIMD path NumPy takes for a record."""

@@ -108,17 +108,25 @@ def test_equals_filterpy_kalman_filter(record, lam):
         # y_hat = phi^T x: its error is at most |phi|^T |error of x|
         assert abs(y_hat - (kf.H @ kf.x).item()) <= rtol * (np.abs(Phi[t]) @ np.abs(kf.x.ravel()))
         np.testing.assert_allclose(est.P_prior, kf.P_prior, rtol=0, atol=rtol * np.abs(kf.P_prior).max())
+        np.testing.assert_allclose(est.x_prior, kf.x_prior.ravel(), rtol=0, atol=rtol * np.abs(kf.x).max())
+        assert est.P is est.P_prior and est.x is est.x_prior
         est.update(y[t])
         kf.update(np.array([[y[t]]]))
         rtol = rls_rtol(len(u), kf.P)
         np.testing.assert_allclose(est.x, kf.x.ravel(), rtol=0, atol=rtol * np.abs(kf.x).max())
         np.testing.assert_allclose(est.P, kf.P, rtol=0, atol=rtol * np.abs(kf.P).max())
+        np.testing.assert_allclose(est.x_post, kf.x_post.ravel(), rtol=0, atol=rtol * np.abs(kf.x).max())
+        np.testing.assert_allclose(est.P_post, kf.P_post, rtol=0, atol=rtol * np.abs(kf.P).max())
+        # K = P_prior phi / S: each factor within rtol of filterpy's, so K too, relative to its size
+        np.testing.assert_allclose(est.K, kf.K.ravel(), rtol=0, atol=rtol * np.abs(kf.K).max())
         assert est.y == pytest.approx(float(kf.y[0, 0]), abs=rtol * (np.abs(Phi[t]) @ np.abs(kf.x.ravel())))
         assert est.S == pytest.approx(float(kf.S[0, 0]), rel=rtol)
         # -(y^2/S + log 2 pi S)/2 and |y|/sqrt(S), from y and S above
         nis = float(kf.y[0, 0]) ** 2 / float(kf.S[0, 0])
         assert est.log_likelihood == pytest.approx(kf.log_likelihood, abs=rtol * (1.0 + nis))
         assert est.mahalanobis == pytest.approx(kf.mahalanobis, abs=rtol * (1.0 + kf.mahalanobis))
+        # the likelihood is exp of the log-likelihood above: its relative error is that absolute one
+        assert est.likelihood == pytest.approx(kf.likelihood, rel=rtol * (1.0 + nis))
 
 
 @pytest.mark.parametrize("direct_term", [True, False])
@@ -327,3 +335,45 @@ def test_simulate_equals_lfilter_with_the_same_coefficients():
     np.testing.assert_allclose(
         strict.simulate(u), y, rtol=0, atol=recursion_rounding_bound(a, np.r_[0.0, b[1:]], u, y)
     )
+
+
+def test_an_assigned_covariance_is_used_and_checked(record):
+    """P set by the user is used as given (here: the same numbers as a fresh estimator
+    with that P0, bit for bit); one of the wrong shape or not symmetric is rejected
+    by name before anything changes, since the kernels read P's rows as its columns."""
+    u, y = record
+    est, ref = ARXRLS(2, 1, delta=1e3), ARXRLS(2, 1, delta=5.0)
+    est.P = 5.0 * np.eye(4)
+    np.testing.assert_array_equal(est.batch_filter(u, y).x, ref.batch_filter(u, y).x)
+    for bad, message in (
+        (np.eye(3), r"P must have shape \(4, 4\)"),
+        (np.triu(np.ones((4, 4))), "P must be symmetric"),
+    ):
+        est = ARXRLS(2, 1)
+        est.batch_filter(u[:10], y[:10])
+        x0, index = est.x.copy(), est.sample_index
+        est.P = bad
+        with pytest.raises(ValueError, match=message):
+            est.predict(u[10])
+        with pytest.raises(ValueError, match=message):
+            est.batch_filter(u[10:20], y[10:20])
+        np.testing.assert_array_equal(est.x, x0)
+        assert est.sample_index == index
+
+
+def test_arrays_read_after_a_step_are_not_changed_by_later_steps(record):
+    """x, P, the priors, the posteriors and K (read from its work array when first
+    asked for) are new arrays each step: what a user keeps stays as it was."""
+    u, y = record
+    est = ARXRLS(2, 1, lam=0.98)
+    names = ("x", "P", "x_prior", "P_prior", "x_post", "P_post", "K")
+    kept = []
+    for t in range(6):
+        est.predict(u[t])
+        est.update(None if t == 3 else y[t])
+        kept.append({name: (getattr(est, name), getattr(est, name).copy()) for name in names})
+    est.batch_filter(u[6:20], y[6:20])
+    for step in kept:
+        for name, (array, copy) in step.items():
+            np.testing.assert_array_equal(array, copy, err_msg=name)
+    assert not np.array_equal(kept[2]["K"][1], kept[4]["K"][1])  # the gain did change

@@ -9,10 +9,13 @@ uses powers, g_j(u) = u^j (eq. 16). A cubic polynomial fits a dead zone or a
 sign-like (Coulomb) step poorly, so :func:`dead_zone` and :func:`sign` are
 offered as basis functions too, and any element-wise function of ``u`` can be used.
 
-One evaluation serves every path. :meth:`Basis.evaluate` is the only place a basis
-is evaluated: the per-sample :meth:`~motorid.estimators.rls.LaggedRegressionRLS.predict`
-calls it on a one-sample array, ``batch_filter`` and ``simulate`` on the whole
-record, and it computes every sample on its own:
+One evaluation serves every path: every sample's basis values come from one
+compiled function, :func:`builtin_row`, and every sample is computed on its own.
+:meth:`Basis.evaluate` calls it for each sample of a record (``batch_filter``,
+``simulate``); the per-sample
+:meth:`~motorid.estimators.rls.LaggedRegressionRLS.predict` calls it for its one
+sample inside its compiled kernel (after :meth:`Basis.evaluate` on a one-sample
+array where the basis has a custom function). The values are computed:
 
 - the built-in functions (:func:`power`, :func:`sign`, :func:`dead_zone`) by one
   compiled scalar function, :func:`builtin_value`, called once per sample and
@@ -75,21 +78,37 @@ def builtin_value(kind: int, parameter: float, u: float) -> float:
 
 
 @njit(cache=True)
-def builtin_columns(kinds: np.ndarray, parameters: np.ndarray, u: np.ndarray, G: np.ndarray) -> int:
-    """``G[t, j] = builtin_value(kinds[j], parameters[j], u[t])`` for every built-in
-    column (columns of kind ``CUSTOM`` are left alone), sample by sample.
+def builtin_row(kinds: np.ndarray, parameters: np.ndarray, u: float, g: np.ndarray) -> int:
+    """One sample: ``g[j] = builtin_value(kinds[j], parameters[j], u)`` for every
+    built-in column; columns of kind ``CUSTOM`` keep what the caller put there.
 
-    Returns the flat index ``t * n + j`` of the first non-finite value, or -1.
+    Returns the first column of ``g`` (built-in or custom) whose value is not
+    finite, or -1. The per-sample RLS kernel and :func:`builtin_columns` both call
+    it, so a sample's basis values are computed by one function on either path.
+    """
+    first_bad = -1
+    for j in range(kinds.shape[0]):
+        if kinds[j] != CUSTOM:
+            g[j] = builtin_value(kinds[j], parameters[j], u)
+        if first_bad < 0 and not math.isfinite(g[j]):
+            first_bad = j
+    return first_bad
+
+
+@njit(cache=True)
+def builtin_columns(kinds: np.ndarray, parameters: np.ndarray, u: np.ndarray, G: np.ndarray) -> int:
+    """:func:`builtin_row` for every sample: ``G[t, j] = builtin_value(kinds[j],
+    parameters[j], u[t])`` for every built-in column (columns of kind ``CUSTOM``
+    keep their values).
+
+    Returns the flat index ``t * n + j`` of the first non-finite value of ``G``, or -1.
     """
     n = kinds.shape[0]
     first_bad = -1
     for t in range(u.shape[0]):
-        for j in range(n):
-            if kinds[j] != CUSTOM:
-                value = builtin_value(kinds[j], parameters[j], u[t])
-                G[t, j] = value
-                if first_bad < 0 and not math.isfinite(value):
-                    first_bad = t * n + j
+        bad = builtin_row(kinds, parameters, u[t], G[t])
+        if first_bad < 0 and bad >= 0:
+            first_bad = t * n + bad
     return first_bad
 
 
@@ -185,9 +204,13 @@ class Basis(Sequence[BasisFunction]):
         if not items:
             raise ValueError("basis must hold at least one function")
         self._functions = tuple(items)
-        self._kinds = np.array([CUSTOM if f.builtin is None else f.builtin[0] for f in items], dtype=np.int64)
-        self._parameters = np.array([0.0 if f.builtin is None else f.builtin[1] for f in items])
         self._custom = tuple(j for j, f in enumerate(items) if f.builtin is None)
+        #: True when a function is a custom Python function, evaluated outside the compiled code
+        self.has_custom = bool(self._custom)
+        #: kind of each function for the compiled code (:func:`builtin_value`; ``CUSTOM``)
+        self.kinds = np.array([CUSTOM if f.builtin is None else f.builtin[0] for f in items], dtype=np.int64)
+        #: parameter of each built-in function for the compiled code (0.0 for a custom one)
+        self.parameters = np.array([0.0 if f.builtin is None else f.builtin[1] for f in items])
 
     def __getitem__(self, index):  # type: ignore[override]
         return self._functions[index]
@@ -225,7 +248,6 @@ class Basis(Sequence[BasisFunction]):
         u = np.ascontiguousarray(u, dtype=float)
         n = len(self._functions)
         columns = np.empty((u.shape[0], n))
-        first_bad = builtin_columns(self._kinds, self._parameters, u, columns)
         for j in self._custom:
             f = self._functions[j]
             for t in range(u.shape[0]):
@@ -235,15 +257,17 @@ class Basis(Sequence[BasisFunction]):
                         f"basis function {f.name!r} returned shape {value.shape} for one sample, expected (1,)"
                     )
                 columns[t, j] = value[0]
-                if not math.isfinite(value[0]) and (first_bad < 0 or t * n + j < first_bad):
-                    first_bad = t * n + j
+        first_bad = builtin_columns(self.kinds, self.parameters, u, columns)
         if first_bad >= 0:
             t, j = divmod(first_bad, n)
-            raise ValueError(
-                f"basis function {self._functions[j].name!r} is {columns[t, j]} at sample {start + t} "
-                f"(u = {u[t]} V)"
-            )
+            raise self.value_error(j, float(columns[t, j]), float(u[t]), start + t)
         return columns
+
+    def value_error(self, column: int, value: float, u: float, sample: int) -> ValueError:
+        """The error for a function that is not finite: names it, the sample and ``u`` [V]."""
+        return ValueError(
+            f"basis function {self._functions[column].name!r} is {value} at sample {sample} (u = {u} V)"
+        )
 
     def __repr__(self) -> str:
         return f"Basis({', '.join(self.names)})"

@@ -25,19 +25,24 @@ safeguard bounds the trace of P: the forgetting actually applied is
     lambda_eff = min(1, max(lambda, tr(P) / max_trace)),
 
 so tr(P_prior) never exceeds ``max_trace`` (and P is never inflated when it already
-does). P is only ever scaled by a positive number or reduced by the rank-1 update,
-which is computed on one triangle and mirrored, so it stays exactly symmetric.
+does).
 
-The kernels below are compiled with numba; the per-sample methods and the
-batch path call the same kernels, so there is one implementation of the algorithm.
-Both take the basis values g_j(u(t)) from the one evaluation of the basis,
-:meth:`~motorid.estimators.basis.Basis.evaluate` (one sample in :meth:`predict`,
-the record in :meth:`batch_filter`, the same bits either way), and the batch loop
-performs the floating-point operations of :func:`rls_predict` and
-:func:`rls_update` in their order. So ``batch_filter`` gives the sample loop's
-numbers bit for bit, on every CPU and compiled target: nothing in either path is
-vectorised differently or calls a library function whose rounding depends on the
-CPU, and numba contracts no multiply-add into a fused one without ``fastmath``.
+Symmetry of P. P is only ever scaled by a positive number or reduced by the rank-1
+update, and the update computes entry (i, j) and entry (j, i) by the same
+operations on the same numbers, ``P_prior[i, j] - (P_prior phi)[i] K[j]`` with
+i <= j, so P stays exactly symmetric. The kernels rely on it: they read column j
+of P_prior as its row j, which keeps every loop over contiguous memory.
+
+The kernels below are compiled with numba; the per-sample methods (one compiled
+call each) and the batch path call the same kernels, so there is one
+implementation of the algorithm. Both take the basis values g_j(u(t)) from one
+function, :func:`~motorid.estimators.basis.builtin_row` (module docstring of
+:mod:`motorid.estimators.basis`), and the batch loop performs the floating-point
+operations of :func:`rls_predict` and :func:`rls_update` in their order. So
+``batch_filter`` gives the sample loop's numbers bit for bit, on every CPU and
+compiled target: every sum runs in one fixed order, and a vectorised loop only
+does in each lane what a scalar loop does (no reduction is reordered, and numba
+contracts no multiply-add into a fused one without ``fastmath``).
 """
 
 from __future__ import annotations
@@ -50,17 +55,37 @@ from numba import njit
 from numpy.typing import ArrayLike
 
 from motorid.estimators.base import BatchResult, Estimator, as_float_vector, first_bad_index
-from motorid.estimators.basis import Basis
+from motorid.estimators.basis import Basis, builtin_row
 
 
 # --------------------------------------------------------------------------- kernels
 @njit(cache=True)
-def _push(history: np.ndarray, value: np.ndarray | float) -> None:
-    """Shift ``history`` one lag back along axis 0 and put ``value`` in front."""
+def _copy(src: np.ndarray, dst: np.ndarray) -> None:
+    """``dst[...] = src`` for arrays of one size, ``dst`` C-contiguous, as one flat loop."""
+    flat_src = src.ravel()
+    flat_dst = dst.reshape(-1)
+    for k in range(flat_dst.shape[0]):
+        flat_dst[k] = flat_src[k]
+
+
+@njit(cache=True)
+def _push(history: np.ndarray, value: float) -> None:
+    """Shift the 1-D ``history`` one lag back and put ``value`` in front."""
     for k in range(history.shape[0] - 1, 0, -1):
         history[k] = history[k - 1]
     if history.shape[0] > 0:
         history[0] = value
+
+
+@njit(cache=True)
+def _push_row(history: np.ndarray, row: np.ndarray) -> None:
+    """Shift the rows of ``history`` one lag back and put ``row`` in front."""
+    for k in range(history.shape[0] - 1, 0, -1):
+        for j in range(history.shape[1]):
+            history[k, j] = history[k - 1, j]
+    if history.shape[0] > 0:
+        for j in range(history.shape[1]):
+            history[0, j] = row[j]
 
 
 @njit(cache=True)
@@ -89,40 +114,68 @@ def _forgetting_scale(P: np.ndarray, lam: float, max_trace: float) -> float:
 
 
 @njit(cache=True)
-def _prior_gain(P: np.ndarray, scale: float, phi: np.ndarray, r: float, Pphi: np.ndarray) -> float:
-    """With P_prior = scale * P: leaves P_prior phi in ``Pphi`` and returns
-    S = phi^T P_prior phi + R."""
+def _forget_and_gain(P: np.ndarray, scale: float, phi: np.ndarray, r: float, Pphi: np.ndarray) -> float:
+    """In place ``P <- scale P`` (P_prior); leaves P_prior phi in ``Pphi`` and
+    returns S = phi^T P_prior phi + R.
+
+    ``(P_prior phi)_i = sum_j P_prior[i, j] phi_j`` is summed over j in order; with
+    P symmetric, row j of P_prior holds column j, so the loop over i runs along
+    contiguous memory.
+    """
     n = phi.shape[0]
+    for i in range(n):
+        Pphi[i] = 0.0
+    for j in range(n):
+        phi_j = phi[j]
+        for i in range(n):
+            p = P[j, i] * scale
+            P[j, i] = p
+            Pphi[i] += p * phi_j
     s = r
     for i in range(n):
-        acc = 0.0
-        for j in range(n):
-            acc += (P[i, j] * scale) * phi[j]
-        Pphi[i] = acc
-        s += phi[i] * acc
+        s += phi[i] * Pphi[i]
     return s
 
 
 @njit(cache=True)
-def _posterior(
-    x: np.ndarray, P: np.ndarray, scale: float, Pphi: np.ndarray, s: float, e: float, K: np.ndarray
-) -> None:
-    """In place: K = P_prior phi / S, theta += K e, P = scale * P - (P_prior phi) K^T,
-    on one triangle mirrored to the other."""
+def _correct(P: np.ndarray, Pphi: np.ndarray, s: float, e: float, x: np.ndarray, K: np.ndarray) -> None:
+    """In place, from P = P_prior and the innovation ``e``: K = P_prior phi / S,
+    theta += K e, P = P_prior - (P_prior phi) K^T.
+
+    Entry (i, j) and entry (j, i) are both ``P_prior[i, j] - (P_prior phi)[i] K[j]``
+    with i <= j (the same two factors, picked without a branch), so P stays exactly
+    symmetric and each row is one loop over contiguous memory.
+    """
     n = x.shape[0]
     for i in range(n):
         K[i] = Pphi[i] / s
+    for i in range(n):
         x[i] += K[i] * e
     for i in range(n):
-        for j in range(i, n):
-            v = P[i, j] * scale - Pphi[i] * K[j]
-            P[i, j] = v
-            P[j, i] = v
+        Pphi_i = Pphi[i]
+        K_i = K[i]
+        for j in range(n):
+            below = j < i
+            a = Pphi[j] if below else Pphi_i
+            b = K_i if below else K[j]
+            P[i, j] = P[i, j] - a * b
+
+
+@njit(cache=True)
+def _predicted_output(phi: np.ndarray, x: np.ndarray) -> float:
+    """y_hat = phi^T x, summed in order."""
+    y_hat = 0.0
+    for i in range(x.shape[0]):
+        y_hat += phi[i] * x[i]
+    return y_hat
 
 
 @njit(cache=True)
 def rls_predict(
+    u: float,
     g: np.ndarray,
+    kinds: np.ndarray,
+    parameters: np.ndarray,
     y_hist: np.ndarray,
     g_hist: np.ndarray,
     x: np.ndarray,
@@ -131,37 +184,54 @@ def rls_predict(
     max_trace: float,
     r: float,
     k0: int,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
-    """Time update: push ``g`` into ``g_hist`` (in place), form phi, forget.
+    phi: np.ndarray,
+    P_prior: np.ndarray,
+    Pphi: np.ndarray,
+    out: np.ndarray,
+) -> float:
+    """Time update of one sample with input ``u``, in one compiled call.
 
-    Returns ``(phi, P_prior, P_prior phi, y_hat, S)``.
+    Evaluates the basis into ``g`` (:func:`~motorid.estimators.basis.builtin_row`;
+    custom columns as the caller filled them), pushes it into ``g_hist``, forms
+    ``phi``, writes P_prior into ``P_prior`` and P_prior phi into ``Pphi``, and
+    returns ``y_hat = phi^T x`` with ``out[0] = S``. ``x`` and ``P`` are not
+    changed. Where a basis value is not finite nothing is changed: ``out[1]`` is
+    its column and NaN is returned (``out[1] = -1`` otherwise).
     """
-    n = x.shape[0]
-    _push(g_hist, g)
-    phi = np.empty(n)
+    bad = builtin_row(kinds, parameters, u, g)
+    out[1] = bad
+    if bad >= 0:
+        return np.nan
+    _push_row(g_hist, g)
     _fill_regressor(y_hist, g_hist, k0, phi)
     scale = _forgetting_scale(P, lam, max_trace)
-    Pphi = np.empty(n)
-    s = _prior_gain(P, scale, phi, r, Pphi)
-    P_prior = P * scale
-    y_hat = 0.0
-    for i in range(n):
-        y_hat += phi[i] * x[i]
-    return phi, P_prior, Pphi, y_hat, s
+    _copy(P, P_prior)
+    out[0] = _forget_and_gain(P_prior, scale, phi, r, Pphi)
+    return _predicted_output(phi, x)
 
 
 @njit(cache=True)
 def rls_update(
-    x: np.ndarray, P_prior: np.ndarray, Pphi: np.ndarray, s: float, e: float, y_hist: np.ndarray, y_t: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Measurement update on copies, returning ``(x_post, P_post, K)``; pushes the
-    output ``y_t`` into ``y_hist`` (in place)."""
-    x_post = x.copy()
-    P_post = P_prior.copy()
-    K = np.empty(x.shape[0])
-    _posterior(x_post, P_post, 1.0, Pphi, s, e, K)
-    _push(y_hist, y_t)
-    return x_post, P_post, K
+    z: float,
+    y_hat: float,
+    x: np.ndarray,
+    P_prior: np.ndarray,
+    Pphi: np.ndarray,
+    s: float,
+    y_hist: np.ndarray,
+    x_post: np.ndarray,
+    P_post: np.ndarray,
+    K: np.ndarray,
+) -> float:
+    """Measurement update with ``z`` into the new arrays ``x_post`` and ``P_post``
+    and the gain into ``K``, in one compiled call; pushes ``z`` into ``y_hist`` and
+    returns the innovation ``z - y_hat``. ``x`` and ``P_prior`` are not changed."""
+    e = z - y_hat
+    _copy(x, x_post)
+    _copy(P_prior, P_post)
+    _correct(P_post, Pphi, s, e, x_post, K)
+    _push(y_hist, z)
+    return e
 
 
 @njit(cache=True)
@@ -177,56 +247,53 @@ def rls_batch(
     max_trace: float,
     r: float,
     k0: int,
-):
-    """The sample loop of :func:`rls_predict` and :func:`rls_update` over a record,
-    with the forgetting folded into the covariance update (the same floating-point
-    operations, so the same numbers, without forming P_prior each sample).
+    X: np.ndarray,
+    P_diag: np.ndarray,
+    y_hat: np.ndarray,
+    innovation: np.ndarray,
+    S: np.ndarray,
+    x_prior: np.ndarray,
+    P_prior: np.ndarray,
+    K: np.ndarray,
+) -> float:
+    """The sample loop of :func:`rls_predict` and :func:`rls_update` over a record:
+    the same kernels in the same order, on ``x`` and ``P`` in place.
 
-    ``y_hist``, ``g_hist``, ``x`` and ``P`` are advanced in place. Returns the
-    per-sample arrays and the last sample's prior, gain, innovation and S.
+    ``y_hist``, ``g_hist``, ``x`` and ``P`` are advanced in place. Fills the
+    per-sample arrays ``X``, ``P_diag``, ``y_hat``, ``innovation`` (NaN where
+    skipped) and ``S`` (allocated by the caller, so NumPy's allocator serves the
+    large ones), the last sample's prior ``x_prior``, ``P_prior`` and gain ``K``;
+    returns the last innovation (0.0 when skipped).
     """
-    N = G.shape[0]
     n = x.shape[0]
-    X = np.empty((N, n))
-    P_diag = np.empty((N, n))
-    y_hat = np.empty(N)
-    innovation = np.full(N, np.nan)
-    S = np.empty(N)
     phi = np.empty(n)
     Pphi = np.empty(n)
-    K = np.zeros(n)
-    x_prior = x.copy()
-    P_prior = P.copy()
     e = 0.0
-    for t in range(N):
-        _push(g_hist, G[t])
+    for t in range(G.shape[0]):
+        _push_row(g_hist, G[t])
         _fill_regressor(y_hist, g_hist, k0, phi)
         scale = _forgetting_scale(P, lam, max_trace)
-        s = _prior_gain(P, scale, phi, r, Pphi)
-        yh = 0.0
-        for i in range(n):
-            yh += phi[i] * x[i]
+        s = _forget_and_gain(P, scale, phi, r, Pphi)
+        yh = _predicted_output(phi, x)
         y_hat[t] = yh
         S[t] = s
-        if t == N - 1:
-            x_prior[:] = x
-            P_prior[:, :] = P * scale
+        if t == G.shape[0] - 1:
+            _copy(x, x_prior)
+            _copy(P, P_prior)
         if present[t]:
             e = z[t] - yh
             innovation[t] = e
-            _posterior(x, P, scale, Pphi, s, e, K)
+            _correct(P, Pphi, s, e, x, K)
             _push(y_hist, z[t])
         else:
             e = 0.0
+            innovation[t] = np.nan
             K[:] = 0.0
-            for i in range(n):
-                for j in range(n):
-                    P[i, j] *= scale
             _push(y_hist, yh)
         for i in range(n):
             X[t, i] = x[i]
             P_diag[t, i] = P[i, i]
-    return X, P_diag, y_hat, innovation, S, x_prior, P_prior, K, e
+    return e
 
 
 @njit(cache=True)
@@ -239,11 +306,9 @@ def free_run(G: np.ndarray, theta: np.ndarray, na: int, n_lags: int, k0: int) ->
     g_hist = np.zeros((n_lags, G.shape[1]))
     phi = np.empty(theta.shape[0])
     for t in range(N):
-        _push(g_hist, G[t])
+        _push_row(g_hist, G[t])
         _fill_regressor(y_hist, g_hist, k0, phi)
-        yt = 0.0
-        for i in range(theta.shape[0]):
-            yt += phi[i] * theta[i]
+        yt = _predicted_output(phi, theta)
         y[t] = yt
         _push(y_hist, yt)
     return y
@@ -356,6 +421,7 @@ class LaggedRegressionRLS(Estimator):
         n = len(self.x0)
         self.x = self.x0.copy()
         self.P = self.delta * np.eye(n)
+        self._own_x, self._own_P = self.x, self.P
         self.x_prior, self.P_prior = self.x.copy(), self.P.copy()
         self.x_post, self.P_post = self.x.copy(), self.P.copy()
         self.K = np.zeros(n)
@@ -365,7 +431,49 @@ class LaggedRegressionRLS(Estimator):
         self.sample_index = 0
         self.y_history = np.zeros(self.na)
         self.g_history = np.zeros((self.nb + 1, len(self.basis)))
-        self._pending: tuple[np.ndarray, float] | None = None
+        # work arrays of the compiled per-sample kernels: basis values, regressor,
+        # P_prior phi, and (S, column of a non-finite basis value)
+        self._g = np.zeros(len(self.basis))
+        self._phi = np.zeros(n)
+        self._Pphi = np.zeros(n)
+        self._out = np.zeros(2)
+        self._gain = np.zeros(n)
+        #: y_hat of the sample whose predict still waits for its update, else None
+        self._pending: float | None = None
+
+    def _check_state(self) -> None:
+        """Check ``x`` and ``P``, called where they are not the arrays this estimator
+        made last (a user assigned them): the kernels need x of shape (n,) and P of
+        shape (n, n), exactly symmetric (module docstring)."""
+        n = len(self.x0)
+        x = np.ascontiguousarray(as_float_vector(self.x, "x"))
+        P = np.ascontiguousarray(np.asarray(self.P, dtype=float))
+        if x.shape != (n,):
+            raise ValueError(f"x must have shape ({n},), got {x.shape}")
+        if P.shape != (n, n):
+            raise ValueError(f"P must have shape ({n}, {n}), got {P.shape}")
+        if not np.array_equal(P, P.T):
+            raise ValueError(f"P must be symmetric, got max |P - P^T| = {float(np.max(np.abs(P - P.T))):g}")
+        self.x, self.P = x, P
+        self._own_x, self._own_P = x, P
+
+    @property
+    def phi(self) -> np.ndarray:
+        """The regressor phi(t) of the last :meth:`predict` (a copy)."""
+        return self._phi.copy()
+
+    @property
+    def K(self) -> np.ndarray:
+        """Gain of the last update (zeros when it was skipped). The per-sample update
+        leaves it in a work array; it is copied from there when first read, since a
+        sample loop seldom reads it."""
+        if self._K is None:
+            self._K = self._gain.copy()
+        return self._K
+
+    @K.setter
+    def K(self, value: np.ndarray) -> None:
+        self._K = value
 
     # ------------------------------------------------------------------ filter
     def predict(self, u: float) -> float:
@@ -375,18 +483,27 @@ class LaggedRegressionRLS(Estimator):
         A previous sample still waiting for its :meth:`update` is closed as skipped.
         """
         u = self.check_input(u)
-        g = self.basis.evaluate(np.array([u]), start=self.sample_index)[0]
+        if self.x is not self._own_x or self.P is not self._own_P:
+            self._check_state()
+        basis = self.basis
+        if self._pending is not None or basis.has_custom:
+            # raises on a non-finite basis value before anything is changed
+            self._g[:] = basis.evaluate(np.array([u]), start=self.sample_index)[0]
         if self._pending is not None:
             self.update(None)
-        phi, P_prior, Pphi, y_hat, s = rls_predict(
-            g, self.y_history, self.g_history, self.x, self.P, self.lam, self.max_trace, self.R, self.k0
-        )
-        self.phi = phi
-        self.P = self.P_prior = P_prior
+        P_prior = np.empty(self.P.shape)
+        y_hat = rls_predict(
+            u, self._g, basis.kinds, basis.parameters, self.y_history, self.g_history,
+            self.x, self.P, self.lam, self.max_trace, self.R, self.k0, self._phi, P_prior, self._Pphi, self._out,
+        )  # fmt: skip
+        if math.isnan(y_hat) and self._out[1] >= 0:
+            column = int(self._out[1])
+            raise basis.value_error(column, float(self._g[column]), u, self.sample_index)
+        self.P = self.P_prior = self._own_P = P_prior
         self.x_prior = self.x
-        self.S = s
+        self.S = float(self._out[0])
         self.sample_index += 1
-        self._pending = (Pphi, y_hat)
+        self._pending = y_hat
         return y_hat
 
     def update(self, z: float | None) -> None:
@@ -396,21 +513,27 @@ class LaggedRegressionRLS(Estimator):
         update: ``x`` and ``P`` stay at the prior, and the prediction stands in for
         the missing output in later regressors.
         """
-        if self._pending is None:
+        y_hat = self._pending
+        if y_hat is None:
             raise RuntimeError("update() needs a predict(u) for this sample first")
-        Pphi, y_hat = self._pending
         value = None if z is None else self.check_measurement(z)
         if value is None:
             self.z = None
             self.y = 0.0
-            self.K = np.zeros(self.dim_x)
+            self.K = np.zeros(len(self.x))
             self.x_post, self.P_post = self.x, self.P
             _push(self.y_history, y_hat)
         else:
+            if self.x is not self._own_x or self.P is not self._own_P:
+                self._check_state()
+            x_post, P_post = np.empty(self.x.shape), np.empty(self.P.shape)
+            self.y = rls_update(
+                value, y_hat, self.x, self.P, self._Pphi, self.S, self.y_history, x_post, P_post, self._gain
+            )
             self.z = value
-            self.y = value - y_hat
-            self.x, self.P, self.K = rls_update(self.x, self.P, Pphi, self.S, self.y, self.y_history, value)
-            self.x_post, self.P_post = self.x, self.P
+            self.x = self.x_post = self._own_x = x_post
+            self.P = self.P_post = self._own_P = P_post
+            self._K = None
         self._pending = None
 
     def batch_filter(self, u: ArrayLike, z: ArrayLike, saver: Any = None) -> BatchResult:
@@ -423,21 +546,28 @@ class LaggedRegressionRLS(Estimator):
         if saver is not None:
             return super().batch_filter(u, z, saver)
         u_arr, z_arr, present = self.check_record(u, z)
+        if self.x is not self._own_x or self.P is not self._own_P:
+            self._check_state()
         G = self.basis.evaluate(u_arr, start=self.sample_index)
         if self._pending is not None:
             self.update(None)
+        N, n = len(u_arr), len(self.x)
         x, P = self.x.copy(), self.P.copy()
-        X, P_diag, y_hat, innovation, S, x_prior, P_prior, K, e = rls_batch(
+        x_prior, P_prior, K = x.copy(), P.copy(), np.zeros(n)
+        X, P_diag = np.empty((N, n)), np.empty((N, n))
+        y_hat, innovation, S = np.empty(N), np.empty(N), np.empty(N)
+        e = rls_batch(
             G, z_arr, present, self.y_history, self.g_history, x, P,
             self.lam, self.max_trace, self.R, self.k0,
+            X, P_diag, y_hat, innovation, S, x_prior, P_prior, K,
         )  # fmt: skip
-        if len(u_arr):
-            self.x, self.P = x, P
+        if N:
+            self.x, self.P = self._own_x, self._own_P = x, P
             self.x_prior, self.P_prior = x_prior, P_prior
             self.x_post, self.P_post = x, P
             self.K, self.y, self.S = K, float(e), float(S[-1])
             self.z = float(z_arr[-1]) if present[-1] else None
-            self.sample_index += len(u_arr)
+            self.sample_index += N
         return BatchResult(X, P_diag, y_hat, innovation, S, self.state_names)
 
     # ------------------------------------------------------------------ model
