@@ -81,7 +81,9 @@ class RecordTask:
             except Exception as exc:  # the record's failure, whatever it is, is its row
                 message = str(exc) if isinstance(exc, DataError) else f"{type(exc).__name__}: {exc}"
                 row.update(status="failed", error=message)
-        row["warnings"] = "; ".join(dict.fromkeys(str(w.message) for w in caught)) or None
+        # a ResourceWarning comes from the garbage collector, at any time: not this record's
+        messages = [str(w.message) for w in caught if not issubclass(w.category, ResourceWarning)]
+        row["warnings"] = "; ".join(dict.fromkeys(messages)) or None
         row["run_time_s"] = time.perf_counter() - start
         row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
         return row

@@ -140,8 +140,14 @@ class ResultsStore:
         first = [c for c in IDENTITY_COLUMNS if c in table.columns]
         return table[first + [c for c in table.columns if c not in first]]
 
-    def write_csv(self) -> Path:
-        """Rewrite ``results.csv`` from the Parquet parts (temporary name, then renamed)."""
+    def write_csv(self, reread: bool = False) -> Path:
+        """Rewrite ``results.csv`` from the Parquet parts (temporary name, then renamed).
+
+        ``reread`` reads the parts from disk again first: a run stopped between writing a part
+        and keeping it in memory still gets every row on disk into the CSV.
+        """
+        if reread:
+            self._frames = None
         tmp = self.folder / f".{CSV_NAME}.tmp"
         self.rows().to_csv(tmp, index=False)
         os.replace(tmp, self.csv)

@@ -171,7 +171,7 @@ def run_fleet(
                 last_csv = time.monotonic()
     finally:
         bar.close()
-        store.write_csv()
+        store.write_csv(reread=True)
     store.compact()
     run.seconds = time.perf_counter() - start
     return run
