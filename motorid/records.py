@@ -197,9 +197,15 @@ def _parse_columns(path: str, skip: int, names: list[str], chunk_rows: int = 1_0
             return data[names]
     except ValueError:
         pass  # a cell that is not a number: find and name it below
-    reader = pd.read_csv(
+    with pd.read_csv(
         path, skiprows=skip, usecols=names, dtype=str, keep_default_na=False, chunksize=chunk_rows
-    )
+    ) as reader:  # closed when a bad cell is raised
+        _name_bad_cell(path, reader, names, header_line)
+    raise DataError(f"{path}: the columns {names} do not parse as numbers")  # the fast path failed on a quirk
+
+
+def _name_bad_cell(path: str, reader: Any, names: list[str], header_line: int) -> None:
+    """Raise a DataError naming the first non-numeric, NaN or infinite cell of the chunks of ``reader``."""
     for chunk in reader:
         for name in names:
             text = chunk[name].str.strip()
@@ -217,7 +223,6 @@ def _parse_columns(path: str, skip: int, names: list[str], chunk_rows: int = 1_0
                 raise DataError(
                     f"column {name!r} has {kind} value {raw!r} at row {row} (line {header_line + 1 + row} of {path})"
                 )
-    raise DataError(f"{path}: the columns {names} do not parse as numbers")  # the fast path failed on a quirk
 
 
 #: Formats :func:`read_record` reads besides CSV, by file-name extension (any other extension is CSV).

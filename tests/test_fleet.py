@@ -142,9 +142,11 @@ def test_a_rerun_skips_what_is_done_and_retries_failed_ones_on_request(
     assert main([*argv, "--retry-failed"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert (summary["skipped"], summary["done"], summary["failed"]) == (DRIVES * DAYS, 0, 1)
+    # the same rows and values; a column of only empty values may come back as text or as objects
     pd.testing.assert_frame_equal(
         load_results(doctor_run).drop(columns=["run_time_s", "worker"]),
         before.drop(columns=["run_time_s", "worker"]),
+        check_dtype=False,
     )
 
 

@@ -95,7 +95,7 @@ def test_make_fleet_refuses_bad_arguments_by_name():
 
 def test_written_records_carry_drive_and_time_in_attrs_and_name(tmp_path):
     drives = make_fleet(2, seed=1, wearing=(), dead_zone_drive=None)
-    paths = write_fleet(tmp_path, drives, n_days=2, duration=4.0)
+    paths = write_fleet(tmp_path, drives, 2, duration=4.0)
     assert [p.name for p in paths] == ["drive-00_20260105.csv", "drive-00_20260106.csv",
                                        "drive-01_20260105.csv", "drive-01_20260106.csv"]  # fmt: skip
     pattern = FilenamePattern("{drive}_{date:%Y%m%d}.csv")
@@ -107,3 +107,11 @@ def test_written_records_carry_drive_and_time_in_attrs_and_name(tmp_path):
     first, second = (read_record(p)["y"].to_numpy() for p in paths[:2])
     assert not np.array_equal(first, second)  # each day a new record
     assert datetime.fromisoformat(read_record(paths[0]).attrs["time"]) == FLEET_START
+    every_third = write_fleet(tmp_path / "sparse", drives[:1], [0, 3, 6], duration=4.0)
+    assert [p.name for p in every_third] == [
+        "drive-00_20260105.csv",
+        "drive-00_20260108.csv",
+        "drive-00_20260111.csv",
+    ]
+    with pytest.raises(ValueError, match="days"):
+        write_fleet(tmp_path, drives, 0)

@@ -32,6 +32,7 @@ def test_there_are_notebooks():
         "02_friction_ekf",
         "03_find_the_missing_effect",
         "04_modbus_rig",
+        "05_fleet",
     }
 
 

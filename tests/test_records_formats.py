@@ -290,3 +290,18 @@ def test_identify_reads_a_parquet_record_as_its_csv(tmp_path, capsys):
     assert outputs[0]["params"] == outputs[1]["params"]
     assert main(["identify", str(tmp_path / "rec.parquet"), "--output", "speed"]) == 2
     assert "column 'speed' is missing from" in capsys.readouterr().err
+
+
+def test_a_bad_csv_cell_leaves_no_file_open(tmp_path):
+    import gc
+    import warnings
+
+    path = tmp_path / "bad.csv"
+    path.write_text("t,u,y\n0,1,2\n0.04,1,nan\n", encoding="utf-8")
+    gc.collect()  # what other tests left behind goes now, not below
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with pytest.raises(DataError, match=r"column 'y' has a NaN value 'nan' at row 1"):
+            read_record(path)
+        gc.collect()
+    assert not [w for w in caught if issubclass(w.category, ResourceWarning) and str(path) in str(w.message)]

@@ -81,14 +81,17 @@ class RecordTask:
             except Exception as exc:  # the record's failure, whatever it is, is its row
                 message = str(exc) if isinstance(exc, DataError) else f"{type(exc).__name__}: {exc}"
                 row.update(status="failed", error=message)
-        row["warnings"] = "; ".join(dict.fromkeys(str(w.message) for w in caught)) or None
+        # a ResourceWarning comes from the garbage collector, at any time: not this record's
+        messages = [str(w.message) for w in caught if not issubclass(w.category, ResourceWarning)]
+        row["warnings"] = "; ".join(dict.fromkeys(messages)) or None
         row["run_time_s"] = time.perf_counter() - start
         row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
         return row
 
 
 def _run(args: argparse.Namespace, command: str) -> int:
-    from motorid.fleet import FilenamePattern, find_records, fleet_client, run_fleet
+    from motorid.fleet import FilenamePattern, FleetRun, find_records, fleet_client, run_fleet
+    from motorid.fleet.runner import pending_records
 
     if command == "identify":
         create_estimator(args.estimator, args)  # a bad option stops before any work
@@ -105,11 +108,14 @@ def _run(args: argparse.Namespace, command: str) -> int:
     task = RecordTask(command, argparse.Namespace(**vars(args)), args.out.resolve() if args.figures else None)
     where = args.scheduler or f"a local cluster of {args.workers or os.cpu_count()} worker processes"
     say(f"motorid fleet {command}: {len(paths)} records on {where}; results in {args.out}/")
-    with fleet_client(args.scheduler, args.workers) as client:
-        run = run_fleet(paths, task, args.out, client, given=given, retry_failed=args.retry_failed)
+    if pending_records(paths, args.out, args.retry_failed):
+        with fleet_client(args.scheduler, args.workers) as client:
+            run = run_fleet(paths, task, args.out, client, given=given, retry_failed=args.retry_failed)
+    else:  # every record is in the results: no cluster to start
+        run = FleetRun(records=len(paths), skipped=len(paths), done=0, failed=0, seconds=0.0)
     say(
         f"  {run.done} done, {run.failed} failed, {run.skipped} already in the results "
-        f"({run.seconds:.1f} s); wrote {args.out / 'results.parquet'}/ and {args.out / 'results.csv'}"
+        f"({run.seconds:.1f} s); results: {args.out / 'results.parquet'}/ and {args.out / 'results.csv'}"
     )
     if run.failed:
         say(f"  the failed records' errors are in the 'error' column of {args.out / 'results.csv'}")

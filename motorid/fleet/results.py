@@ -88,7 +88,8 @@ def _scalar(value: Any) -> Any:
 class ResultsStore:
     """The results of a run in ``folder`` (see the module docstring); rows appended as they come.
 
-    One run writes to a folder at a time.
+    The parts on disk are read once and kept in memory beside the rows appended since, so the
+    CSV rewrites of a long run do not read the folder again. One run writes to a folder at a time.
     """
 
     def __init__(self, folder: str | os.PathLike[str]):
@@ -98,6 +99,7 @@ class ResultsStore:
         self.parts.mkdir(parents=True, exist_ok=True)
         indices = [int(m.group(1)) for p in self.parts.iterdir() if (m := _PART.match(p.name))]
         self._next = max(indices, default=-1) + 1
+        self._frames: list[pd.DataFrame] | None = None  # what is on disk, read once, then kept in step
 
     def _part_files(self) -> list[Path]:
         return sorted((p for p in self.parts.iterdir() if _PART.match(p.name)), key=lambda p: p.name)
@@ -108,7 +110,11 @@ class ResultsStore:
 
         if not rows:
             return None
-        return self._write_part(pa.Table.from_pylist(rows))
+        table = pa.Table.from_pylist(rows)
+        path = self._write_part(table)
+        if self._frames is not None:
+            self._frames.append(table.to_pandas())
+        return path
 
     def _write_part(self, table: Any) -> Path:
         import pyarrow.parquet as pq
@@ -124,8 +130,9 @@ class ResultsStore:
         """Every row written so far, one per record (the last written), sorted by record, identity columns first."""
         import pyarrow.parquet as pq
 
-        frames = [pq.read_table(p).to_pandas() for p in self._part_files()]
-        frames = [f for f in frames if len(f)]
+        if self._frames is None:
+            self._frames = [pq.read_table(p).to_pandas() for p in self._part_files()]
+        frames = [f for f in self._frames if len(f)]
         if not frames:
             return pd.DataFrame(columns=list(IDENTITY_COLUMNS))
         table = pd.concat(frames, ignore_index=True)
@@ -133,8 +140,14 @@ class ResultsStore:
         first = [c for c in IDENTITY_COLUMNS if c in table.columns]
         return table[first + [c for c in table.columns if c not in first]]
 
-    def write_csv(self) -> Path:
-        """Rewrite ``results.csv`` from the Parquet parts (temporary name, then renamed)."""
+    def write_csv(self, reread: bool = False) -> Path:
+        """Rewrite ``results.csv`` from the Parquet parts (temporary name, then renamed).
+
+        ``reread`` reads the parts from disk again first: a run stopped between writing a part
+        and keeping it in memory still gets every row on disk into the CSV.
+        """
+        if reread:
+            self._frames = None
         tmp = self.folder / f".{CSV_NAME}.tmp"
         self.rows().to_csv(tmp, index=False)
         os.replace(tmp, self.csv)
@@ -147,9 +160,11 @@ class ResultsStore:
             return
         import pyarrow as pa
 
-        self._write_part(pa.Table.from_pandas(self.rows(), preserve_index=False))  # NaN in text columns: null
+        merged = self.rows()
+        self._write_part(pa.Table.from_pandas(merged, preserve_index=False))  # NaN in text columns: null
         for part in parts:
             part.unlink()
+        self._frames = [merged]
 
 
 def load_results(folder: str | os.PathLike[str]) -> pd.DataFrame:

@@ -75,6 +75,20 @@ def fleet_client(scheduler: str | None = None, workers: int | None = None) -> It
         yield client
 
 
+def pending_records(
+    paths: Sequence[str | os.PathLike[str]],
+    out: str | os.PathLike[str] | ResultsStore,
+    retry_failed: bool = False,
+) -> list[str]:
+    """The absolute paths of ``paths`` that have no row in ``out``'s results (with ``retry_failed``,
+    no successful row): what a run has to do."""
+    store = out if isinstance(out, ResultsStore) else ResultsStore(out)
+    previous = store.rows()
+    kept = previous if not retry_failed else previous[previous["status"] == "ok"]
+    finished = set(kept["record"])
+    return [path for path in map(os.path.abspath, paths) if path not in finished]
+
+
 @dataclass
 class FleetRun:
     """Counts of a run: records found, skipped (already in the results), done, failed; wall time [s]."""
@@ -121,11 +135,8 @@ def run_fleet(
 
     start = time.perf_counter()
     store = ResultsStore(out)
-    previous = store.rows()
-    kept = previous if not retry_failed else previous[previous["status"] == "ok"]
-    finished = set(kept["record"])
     records = [os.path.abspath(p) for p in paths]
-    todo = [p for p in records if p not in finished]
+    todo = pending_records(records, store, retry_failed)
     given = given or {}
     run = FleetRun(records=len(records), skipped=len(records) - len(todo), done=0, failed=0, seconds=0.0)
     logger.info("%d records, %d already in %s, %d to run", run.records, run.skipped, out, len(todo))
@@ -160,10 +171,10 @@ def run_fleet(
                 last_csv = time.monotonic()
     finally:
         bar.close()
-        store.write_csv()
+        store.write_csv(reread=True)
     store.compact()
     run.seconds = time.perf_counter() - start
     return run
 
 
-__all__ = ["FleetRun", "Task", "fleet_client", "run_fleet"]
+__all__ = ["FleetRun", "Task", "fleet_client", "pending_records", "run_fleet"]

@@ -11,9 +11,10 @@ A drive is flagged when, over its last ``window_days`` days of records,
 
 for its Coulomb or viscous friction, with f the least-squares straight line through
 the parameter against time (robust to the record-to-record scatter, which is a few
-per cent), t_start and t_end the first and last record time in the window; or when the
-doctor names an effect that it did not name in the drive's first record, on at least
-half of the records from its first naming on (the effect appeared: the day is
+per cent), t_start and t_end the first and last record time in the window; or when an
+effect appeared: from some record on (not the drive's first), the doctor names it on at
+least half of the records, at least 3 of them, having named it on fewer than half of
+the records before (a single record's false alarm does not flag a drive; the day is
 reported).
 """
 
@@ -139,16 +140,19 @@ def flag_drives(
     return table.sort_values(["flagged", "drive"], ascending=[False, True], ignore_index=True)
 
 
-def _appeared(records: pd.DataFrame) -> dict[str, pd.Timestamp]:
-    """Effects named on at least half of a drive's records from their first naming on, but not in its first."""
+def _appeared(records: pd.DataFrame, min_records: int = 3) -> dict[str, pd.Timestamp]:
+    """Per effect, the time of the first record from which the doctor names it on at least half of the
+    drive's records (at least ``min_records`` of them), having named it on fewer than half before."""
     named = [set(filter(None, str(v).split(","))) if isinstance(v, str) else set() for v in records["named"]]
     times = list(records["time"])
     out = {}
-    for effect in sorted(set().union(*named)) if named else []:
-        hits = [effect in n for n in named]
-        first = hits.index(True)
-        if first > 0 and sum(hits[first:]) >= 0.5 * len(hits[first:]):
-            out[effect] = times[first]
+    for effect in sorted(set().union(*named)):
+        hits = np.array([effect in n for n in named])
+        for i in np.flatnonzero(hits):
+            after, before = hits[i:], hits[:i]
+            if i > 0 and len(after) >= min_records and after.mean() >= 0.5 and before.mean() < 0.5:
+                out[effect] = times[i]
+                break
     return out
 
 

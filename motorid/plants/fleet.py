@@ -24,6 +24,7 @@ from __future__ import annotations
 import dataclasses
 import logging
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from datetime import datetime, timedelta
 from pathlib import Path
@@ -181,24 +182,26 @@ def make_fleet(
 
 def write_fleet(
     folder: str | os.PathLike[str],
-    drives: list[FleetDrive],
-    n_days: int,
+    drives: Sequence[FleetDrive],
+    days: int | Sequence[int],
     duration: float = 60.0,
     seed: int = 0,
     start: datetime = FLEET_START,
 ) -> list[Path]:
     """Write each drive's record of each day as ``folder/<drive>_<YYYYMMDD>.csv``; the paths.
 
+    ``days`` is a number of days (0, 1, ... ``days - 1``) or the days themselves (e.g. every third).
     The file names follow the pattern ``{drive}_{date:%Y%m%d}.csv`` (``motorid fleet
     --pattern``); the records' attrs say the same.
     """
-    if not isinstance(n_days, int) or n_days < 1:
-        raise ValueError(f"n_days must be an integer >= 1, got {n_days!r}")
+    day_list = list(range(days)) if isinstance(days, int) else [int(d) for d in days]
+    if not day_list or min(day_list) < 0:
+        raise ValueError(f"days must be a number >= 1 or days >= 0, got {days!r}")
     out = Path(folder)
     out.mkdir(parents=True, exist_ok=True)
     paths = []
     for drive in drives:
-        for day in range(n_days):
+        for day in day_list:
             path = out / f"{drive.name}_{(start + timedelta(days=day)):%Y%m%d}.csv"
             write_record(drive.record(day, duration=duration, start=start, seed=seed), path)
             paths.append(path)
