@@ -115,3 +115,26 @@ def test_written_records_carry_drive_and_time_in_attrs_and_name(tmp_path):
     ]
     with pytest.raises(ValueError, match="days"):
         write_fleet(tmp_path, drives, 0)
+
+
+def test_the_results_table_does_not_depend_on_how_rows_were_batched(tmp_path):
+    """Rows written one part each, or all in one part, read back as the same table (values and dtypes)."""
+    import pandas as pd
+
+    from motorid.fleet import ResultsStore
+
+    rows = [
+        {"record": "/r/a.csv", "status": "ok", "warnings": None, "final_gap.overall": 0.5},
+        {"record": "/r/b.csv", "status": "ok", "warnings": "filter diverged at sample 3",
+         "final_gap.overall": 0.7, "model.params.dead_zone": 0.82},
+        {"record": "/r/c.csv", "status": "failed", "error": "column 'y' has a NaN value", "warnings": None},
+    ]  # fmt: skip
+    one_by_one, together = ResultsStore(tmp_path / "parts"), ResultsStore(tmp_path / "one")
+    for row in rows:
+        one_by_one.append([row])
+    together.append(rows)
+    table = ResultsStore(tmp_path / "parts").rows()  # read back from disk
+    pd.testing.assert_frame_equal(table, together.rows())
+    pd.testing.assert_frame_equal(one_by_one.rows(), together.rows())
+    assert table.set_index("record").loc["/r/b.csv", "model.params.dead_zone"] == 0.82
+    assert pd.isna(table.set_index("record").loc["/r/a.csv", "model.params.dead_zone"])

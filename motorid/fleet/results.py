@@ -99,7 +99,7 @@ class ResultsStore:
         self.parts.mkdir(parents=True, exist_ok=True)
         indices = [int(m.group(1)) for p in self.parts.iterdir() if (m := _PART.match(p.name))]
         self._next = max(indices, default=-1) + 1
-        self._frames: list[pd.DataFrame] | None = None  # what is on disk, read once, then kept in step
+        self._tables: list[Any] | None = None  # what is on disk (pyarrow tables), read once, then kept in step
 
     def _part_files(self) -> list[Path]:
         return sorted((p for p in self.parts.iterdir() if _PART.match(p.name)), key=lambda p: p.name)
@@ -110,10 +110,12 @@ class ResultsStore:
 
         if not rows:
             return None
-        table = pa.Table.from_pylist(rows)
+        # every key of every row (from_pylist alone takes the first row's keys and drops the rest)
+        columns = list(dict.fromkeys(key for row in rows for key in row))
+        table = pa.table({column: [row.get(column) for row in rows] for column in columns})
         path = self._write_part(table)
-        if self._frames is not None:
-            self._frames.append(table.to_pandas())
+        if self._tables is not None:
+            self._tables.append(table)
         return path
 
     def _write_part(self, table: Any) -> Path:
@@ -127,15 +129,21 @@ class ResultsStore:
         return path
 
     def rows(self) -> pd.DataFrame:
-        """Every row written so far, one per record (the last written), sorted by record, identity columns first."""
+        """Every row written so far, one per record (the last written), sorted by record, identity columns first.
+
+        The parts are joined as one Arrow table (their schemas unified: a column missing
+        from a part is null there) and converted once, so a column's type does not
+        depend on how the rows happened to be batched into parts.
+        """
+        import pyarrow as pa
         import pyarrow.parquet as pq
 
-        if self._frames is None:
-            self._frames = [pq.read_table(p).to_pandas() for p in self._part_files()]
-        frames = [f for f in self._frames if len(f)]
-        if not frames:
+        if self._tables is None:
+            self._tables = [pq.read_table(p) for p in self._part_files()]
+        tables = [t for t in self._tables if t.num_rows]
+        if not tables:
             return pd.DataFrame(columns=list(IDENTITY_COLUMNS))
-        table = pd.concat(frames, ignore_index=True)
+        table = pa.concat_tables(tables, promote_options="permissive").to_pandas()
         table = table.drop_duplicates("record", keep="last").sort_values("record", ignore_index=True)
         first = [c for c in IDENTITY_COLUMNS if c in table.columns]
         return table[first + [c for c in table.columns if c not in first]]
@@ -147,7 +155,7 @@ class ResultsStore:
         and keeping it in memory still gets every row on disk into the CSV.
         """
         if reread:
-            self._frames = None
+            self._tables = None
         tmp = self.folder / f".{CSV_NAME}.tmp"
         self.rows().to_csv(tmp, index=False)
         os.replace(tmp, self.csv)
@@ -160,11 +168,11 @@ class ResultsStore:
             return
         import pyarrow as pa
 
-        merged = self.rows()
-        self._write_part(pa.Table.from_pandas(merged, preserve_index=False))  # NaN in text columns: null
+        merged = pa.Table.from_pandas(self.rows(), preserve_index=False)  # NaN in text columns: null
+        self._write_part(merged)
         for part in parts:
             part.unlink()
-        self._frames = [merged]
+        self._tables = [merged]
 
 
 def load_results(folder: str | os.PathLike[str]) -> pd.DataFrame:
