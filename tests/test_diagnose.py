@@ -21,11 +21,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from motorid.diagnose import EFFECTS, GreyBoxModel, diagnose
+from motorid.diagnose import EFFECTS, diagnose
 from motorid.diagnose.calibration import false_alarms
-from motorid.diagnose.effects import time_since_reversal
 from motorid.diagnose.kinematics import kinematics
 from motorid.diagnose.synthetic import BASE_FOR, planted_record
+from motorid.plants.rigid import RigidDrive, time_since_reversal
 
 EXAMPLES = 3
 SETTINGS = settings(
@@ -274,16 +274,17 @@ def test_kinematics_of_a_known_motion():
 
 def test_free_run_sticks_and_matches_the_linear_solution():
     dt = 0.001
-    model = GreyBoxModel(("viscous_friction",), {"inertia": 0.5, "input_gain": 2.0, "viscous": 1.0})
-    w = model.simulate(np.ones(3000), dt, substeps=10)
+    model = RigidDrive(("viscous_friction",), {"inertia": 0.5, "input_gain": 2.0, "viscous": 1.0}, dt)
+    w = model.free_run(np.ones(3000), substeps=10)
     t = (np.arange(3000) + 1) * dt
     assert np.allclose(w, 2.0 * (1 - np.exp(-t / 0.5)), atol=2e-3)
-    stuck = GreyBoxModel(
+    stuck = RigidDrive(
         ("viscous_friction", "coulomb_friction"),
         {"inertia": 0.5, "input_gain": 2.0, "viscous": 1.0, "coulomb": 3.0},
+        dt,
     )
-    assert np.all(stuck.simulate(np.ones(500), dt) == 0.0)  # 2 N < 3 N breakaway: stays at rest
-    assert np.all(stuck.simulate(np.full(500, 2.0), dt)[10:] > 0.0)
+    assert np.all(stuck.free_run(np.ones(500)) == 0.0)  # 2 N < 3 N breakaway: stays at rest
+    assert np.all(stuck.free_run(np.full(500, 2.0))[10:] > 0.0)
 
 
 def test_time_since_reversal():

@@ -52,8 +52,9 @@ import pandas as pd
 from motorid.diagnose.effects import EFFECTS, get_effect, param_unit
 from motorid.diagnose.kinematics import Kinematics, kinematics
 from motorid.diagnose.locate import Region, feature, features, locate
-from motorid.diagnose.model import BalanceData, FitResult, GreyBoxModel, fit_model
+from motorid.diagnose.model import BalanceData, FitResult, fit_model, model_balance
 from motorid.errors import DataError
+from motorid.plants.rigid import RigidDrive
 from motorid.records import record_timing
 from motorid.validation import check_signals
 
@@ -96,11 +97,11 @@ class Prepared:
         valid = np.flatnonzero(self.kin.valid)
         return int(valid[0]) if valid.size else 1
 
-    def simulate(self, model: GreyBoxModel) -> np.ndarray:
+    def simulate(self, model: RigidDrive) -> np.ndarray:
         """Free-run velocity at every sample (NaN before the settled span)."""
         i0 = max(self.start, 1)
         out = np.full(self.kin.n, np.nan)
-        out[i0:] = model.simulate(self.kin.u, self.kin.dt, w0=float(self.kin.w[i0 - 1]), start=i0)
+        out[i0:] = model.free_run(self.kin.u, w0=float(self.kin.w[i0 - 1]), start=i0)
         return out
 
 
@@ -212,14 +213,14 @@ def prepare(
 
 
 # --------------------------------------------------------------------------- measures
-def balance_residual(model: GreyBoxModel, data: BalanceData) -> tuple[np.ndarray, np.ndarray]:
+def balance_residual(model: RigidDrive, data: BalanceData) -> tuple[np.ndarray, np.ndarray]:
     """Force residual ``F_in - F_model`` on the decimated samples, and the commanded force ``g u``.
 
     On samples near rest (not moving) static friction holds whatever force lies
     between the model's friction levels at 0- and 0+: there the model force is
     ``J a + clip(F_in - J a, T(0-), T(0+))``.
     """
-    f_in, f_model = model.balance(data)
+    f_in, f_model = model_balance(model, data)
     f_meas = data.decimated("F|", data.balance_force(data.input_gain * data.kin.u))
     eps = max(1e-9, 1e-6 * data.scale["w_max"])
     t_pos, t_neg = model.friction(np.array([eps, -eps]))
@@ -236,7 +237,7 @@ def _rms(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean(x**2))) if x.size else float("nan")
 
 
-def gaps(model: GreyBoxModel, prep: Prepared, region: Region | None) -> dict[str, float]:
+def gaps(model: RigidDrive, prep: Prepared, region: Region | None) -> dict[str, float]:
     """Output gap overall and in ``region`` [v] (free run) and force error [%]."""
     w_sim = prep.simulate(model)
     err = prep.kin.w - w_sim
@@ -296,7 +297,7 @@ class Step:
         ``overall`` and ``region`` output gap [v], ``force_error_percent`` [%].
     evidence : dict
         ΔBIC and its threshold, held-out errors [F], the candidate ranking.
-    model : GreyBoxModel
+    model : RigidDrive
         The refitted model after this step.
     """
 
@@ -306,7 +307,7 @@ class Step:
     gap_before: dict[str, float]
     gap_after: dict[str, float]
     evidence: dict[str, Any]
-    model: GreyBoxModel
+    model: RigidDrive
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -332,9 +333,9 @@ class Diagnosis:
         ``force_error_percent`` [%] (torque-balance error on the decimated samples).
     steps : list of Step
     stop_reason : str
-    model : GreyBoxModel
+    model : RigidDrive
         The final fitted model (``model.params``: inertia, input_gain, viscous, ...).
-    initial_model : GreyBoxModel
+    initial_model : RigidDrive
     region : Region
         The region located on the initial model's residual.
     units : dict
@@ -348,8 +349,8 @@ class Diagnosis:
     final_gap: dict[str, float]
     steps: list[Step]
     stop_reason: str
-    model: GreyBoxModel
-    initial_model: GreyBoxModel
+    model: RigidDrive
+    initial_model: RigidDrive
     region: Region
     units: dict[str, str]
     settings: dict[str, Any]
@@ -367,7 +368,7 @@ class Diagnosis:
         return {name: param_unit(name, self.units) for name in self.model.params}
 
     @property
-    def models(self) -> list[tuple[str, GreyBoxModel]]:
+    def models(self) -> list[tuple[str, RigidDrive]]:
         """``(label, model)`` for the initial model and after each step."""
         out = [("initial", self.initial_model)]
         out += [(f"+{s.effect}", s.model) for s in self.steps]
