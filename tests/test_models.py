@@ -334,7 +334,7 @@ def test_simulate_saves_the_rig_its_options_describe_and_simulates_a_model_file(
             ["--model", "{model}", "--dead-zone", "0.1", "--out", "{out}"],
             "--dead-zone cannot be combined with --model",
         ),
-        (["--model", "{est}", "--out", "{out}"], "holds a ARXRLS, not a rig model"),
+        (["--model", "{est}", "--out", "{out}"], "holds a ARXRLS, not a drive model"),
         (["--duration", "1"], "give --out"),
         (["--save-model", "{model}"], "--save-model .*the file exists"),
     ],
