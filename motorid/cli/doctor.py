@@ -95,7 +95,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     if diagnosis.refitted_gap is not None:
         say(f"  gap of the given model {diagnosis.initial_gap['overall']:.4g} {units['v']}, "
             f"refitted {diagnosis.refitted_gap['overall']:.4g} {units['v']}")  # fmt: skip
-    if args.input_gain is None:
+    if args.input_gain is None and args.model is None:
         say(f"  no --input-gain: forces are per input unit, in {units['F']}")
     say(f"  located: {diagnosis.region.description}")
     table = diagnosis.table()
