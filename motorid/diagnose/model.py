@@ -27,12 +27,13 @@ same compiled terms as the regressor columns here.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.optimize
 
-from motorid.diagnose.effects import EFFECTS, get_effect
+from motorid.diagnose.effects import EFFECTS, Effect, get_effect
 from motorid.diagnose.kinematics import Kinematics
 from motorid.plants.rigid import RigidDrive, effect_order
 
@@ -93,16 +94,17 @@ class BalanceData:
     def n(self) -> int:
         return int(self.idx.size)
 
-    def decimated(self, key: str, column: np.ndarray) -> np.ndarray:
+    def decimated(self, key: str, column: np.ndarray | Callable[[], np.ndarray]) -> np.ndarray:
         """Decimate a full-rate column, cached under ``key``.
 
-        The cache keeps the columns used last, as many as fit in
-        :data:`CACHE_BYTES` (16 to 256): the columns every fit shares stay,
-        the oldest points of past shape searches go first.
+        ``column`` is the column or a function that computes it, called only when
+        ``key`` is not cached. The cache keeps the columns used last, as many as fit
+        in :data:`CACHE_BYTES` (16 to 256): the columns every fit shares stay, the
+        oldest points of past shape searches go first.
         """
         value = self._cache.pop(key, None)
         if value is None:
-            value = self.kin.decimate(column)
+            value = self.kin.decimate(column() if callable(column) else column)
             limit = min(max(int(CACHE_BYTES // max(value.nbytes, 1)), 16), 256)
             while len(self._cache) >= limit:
                 del self._cache[next(iter(self._cache))]
@@ -152,21 +154,24 @@ def _linear_solve(
     stribeck_shape: str,
 ) -> tuple[dict[str, float], float, int, np.ndarray]:
     kin = data.kin
-    x = np.asarray(kin.u, dtype=float)
     input_effects = sorted(
-        (get_effect(n) for n in effects if EFFECTS[n].kind == "input"), key=lambda e: e.order
+        (get_effect(n) for n in effects if EFFECTS[n].kind == "input" and n != "backlash"),
+        key=lambda e: e.order,
     )
-    key_parts = []
-    for eff in input_effects:
-        if eff.name == "backlash":
-            continue
-        x = eff.transform(x, kin.dt, shape)
-        key_parts.append(f"{eff.name}={shape[eff.nonlinear[0]]:.12g}")
-    force = gain * x
+    key_parts = [f"{eff.name}={shape[eff.nonlinear[0]]:.12g}" for eff in input_effects]
     if "backlash" in effects:
-        force = get_effect("backlash").transform(force, kin.dt, shape)
         key_parts.append(f"backlash={shape['backlash_time']:.12g}")
-    target = data.decimated("F|" + "|".join(key_parts), data.balance_force(force))
+
+    def balance_force() -> np.ndarray:
+        x = np.asarray(kin.u, dtype=float)
+        for eff in input_effects:
+            x = eff.transform(x, kin.dt, shape)
+        force = gain * x
+        if "backlash" in effects:
+            force = get_effect("backlash").transform(force, kin.dt, shape)
+        return data.balance_force(force)
+
+    target = data.decimated("F|" + "|".join(key_parts), balance_force)
     names = ["inertia"]
     cols = [data.a]
     # an offset goes first, so a column that repeats it (the Coulomb asymmetry) is the one dropped
@@ -177,10 +182,16 @@ def _linear_solve(
         key = name + "|" + "|".join(f"{p}={shape[p]:.12g}" for p in eff.nonlinear)
         if eff.nonlinear:
             key += "|" + stribeck_shape
-        full = eff.columns(kin.w, shape, stribeck_shape)
+        full: list[np.ndarray] = []  # the effect's columns, computed on the first cache miss
+
+        def column(j: int, eff: Effect = eff, full: list[np.ndarray] = full) -> np.ndarray:
+            if not full:
+                full.append(eff.columns(kin.w, shape, stribeck_shape))
+            return full[0][:, j]
+
         for j, pname in enumerate(eff.linear):
             names.append(pname)
-            cols.append(data.decimated(f"{key}|{j}", full[:, j]))
+            cols.append(data.decimated(f"{key}|{j}", lambda j=j, column=column: column(j)))
     full_X = np.column_stack(cols)
     X = full_X[rows]
     y = target[rows]
