@@ -35,6 +35,12 @@ With every nonlinearity off the method is exact for a zero-order-hold input
 (to rounding). With Coulomb friction and dead zone the only errors are the
 event times, resolved to h.
 
+The rigid drive (:class:`~motorid.plants.rigid.RigidDrive`, the doctor's model) is
+here too: its terms (:func:`rigid_term`, with the one Stribeck decay
+:func:`stribeck_decay`, exponential or Gaussian), their regressor columns
+(:func:`rigid_columns`) and its free run (:func:`rigid_free_run`, on
+:func:`stick_or_slip`).
+
 Everything here is compiled with ``numba.njit(cache=True)``, including the
 amplifier (:func:`armature_voltage`) and the tacho + A/D chain
 (:func:`tacho_reading`), kept in this one module so the on-disk cache of the
