@@ -5,7 +5,7 @@ A model file is one JSON object::
     {
       "format": "motorid-model",
       "version": 1,
-      "kind": "two-mass-rig" | "estimator",
+      "kind": "two-mass-rig" | "rigid-drive" | "estimator",
       "model": {...}
     }
 
@@ -14,6 +14,10 @@ A model file is one JSON object::
   table of :class:`~motorid.plants.rig.TwoMassRig`), its friction laws as
   ``{"kind": ..., <parameters>}``, amplifier, tachogenerator, A/D converter and
   encoder; ``null`` for an infinite amplifier saturation.
+- ``rigid-drive``: ``model`` is :meth:`RigidDrive.to_dict
+  <motorid.plants.rigid.RigidDrive.to_dict>`: ``effects`` (names), ``params`` (inertia,
+  input gain and each effect's parameters, SI units), ``dt`` and ``stribeck_shape``;
+  what ``motorid doctor --save-model`` writes.
 - ``estimator``: ``model`` is ``{"estimator": NAME, "settings": {...}, "state":
   {...}}``: the registered name, the constructor arguments and what the filter has
   learnt (``x``, ``P`` and what the next sample needs), so the reloaded estimator
@@ -50,6 +54,7 @@ from motorid.errors import DataError
 from motorid.plants.amplifier import Amplifier
 from motorid.plants.friction import FRICTION_KINDS
 from motorid.plants.rig import TwoMassRig
+from motorid.plants.rigid import RigidDrive
 from motorid.plants.sensors import ADConverter, Encoder, Tachogenerator
 
 logger = logging.getLogger(__name__)
@@ -60,6 +65,7 @@ FORMAT = "motorid-model"
 VERSION = 1
 #: The ``kind`` of a model file for each kind of model.
 KIND_RIG = "two-mass-rig"
+KIND_RIGID = "rigid-drive"
 KIND_ESTIMATOR = "estimator"
 
 __all__ = [
@@ -70,6 +76,7 @@ __all__ = [
     "model_from_dict",
     "model_to_dict",
     "rig_from_dict",
+    "rigid_drive_from_dict",
     "save_model",
 ]
 
@@ -93,13 +100,17 @@ def model_to_dict(model: Any) -> dict[str, Any]:
     """
     if isinstance(model, TwoMassRig):
         return {"format": FORMAT, "version": VERSION, "kind": KIND_RIG, "model": model.to_dict()}
+    if isinstance(model, RigidDrive):
+        model.check_physical()
+        return {"format": FORMAT, "version": VERSION, "kind": KIND_RIGID, "model": model.to_dict()}
     from motorid.estimators.base import Estimator
 
     if isinstance(model, Estimator):
         body = _estimator_to_dict(model)
         return {"format": FORMAT, "version": VERSION, "kind": KIND_ESTIMATOR, "model": body}
     raise ValueError(
-        f"cannot save a {type(model).__name__} as a model file: give a TwoMassRig or an estimator"
+        f"cannot save a {type(model).__name__} as a model file: give a TwoMassRig, a RigidDrive "
+        "or an estimator"
     )
 
 
@@ -180,7 +191,8 @@ def _basis_spec(basis: Any) -> str:
 
 # --------------------------------------------------------------------------- reading
 def load_model(path: str | os.PathLike[str]) -> Any:
-    """Read a model file: a :class:`~motorid.plants.rig.TwoMassRig` or an estimator.
+    """Read a model file: a :class:`~motorid.plants.rig.TwoMassRig`, a
+    :class:`~motorid.plants.rigid.RigidDrive` or an estimator.
 
     Raises
     ------
@@ -225,9 +237,13 @@ def model_from_dict(data: Any, source: str = "model") -> Any:
         kind = data["kind"]
         if kind == KIND_RIG:
             return _rig(data["model"], "model")
+        if kind == KIND_RIGID:
+            return _rigid_drive(data["model"], "model")
         if kind == KIND_ESTIMATOR:
             return _estimator(data["model"], "model")
-        raise _BadKeyError("kind", f"unknown model kind {kind!r} (known: {KIND_RIG}, {KIND_ESTIMATOR})")
+        raise _BadKeyError(
+            "kind", f"unknown model kind {kind!r} (known: {KIND_RIG}, {KIND_RIGID}, {KIND_ESTIMATOR})"
+        )
     except _BadKeyError as exc:
         raise DataError(f"{source}: {exc}") from None
 
@@ -242,6 +258,15 @@ def rig_from_dict(data: Any) -> TwoMassRig:
     """
     try:
         return _rig(data, "")
+    except _BadKeyError as exc:
+        raise DataError(str(exc)) from None
+
+
+def rigid_drive_from_dict(data: Any) -> RigidDrive:
+    """A physical :class:`~motorid.plants.rigid.RigidDrive` from its description (``model`` of a
+    rigid-drive file); DataError naming the key, e.g. ``params.inertia: inertia must be > 0``."""
+    try:
+        return _rigid_drive(data, "")
     except _BadKeyError as exc:
         raise DataError(str(exc)) from None
 
@@ -377,6 +402,35 @@ def _rig(data: Any, where: str) -> TwoMassRig:
         else:
             values[f.name] = _number(value, key)
     return _build(TwoMassRig, values, where)
+
+
+def _rigid_drive(data: Any, where: str) -> RigidDrive:
+    from motorid.plants.rigid import DRIVE_PARAMETERS, RIGID_EFFECTS
+
+    _keys(data, ("effects", "params", "dt", "stribeck_shape"), where)
+    e_where = _join(where, "effects")
+    if not isinstance(data["effects"], list):
+        raise _BadKeyError(e_where, f"must be a list of effect names, got {json.dumps(data['effects'])}")
+    effects = []
+    for k, name in enumerate(data["effects"]):
+        if _text(name, _join(e_where, k)) not in RIGID_EFFECTS:
+            raise _BadKeyError(
+                _join(e_where, k), f"unknown effect {name!r} (known: {', '.join(RIGID_EFFECTS)})"
+            )
+        effects.append(name)
+    p_where = _join(where, "params")
+    names = [*DRIVE_PARAMETERS, *(p for e in dict.fromkeys(effects) for p in RIGID_EFFECTS[e])]
+    params = _keys(data["params"], names, p_where)
+    values = {n: _number(params[n], _join(p_where, n)) for n in names}
+    dt = _number(data["dt"], _join(where, "dt"))
+    shape = _text(data["stribeck_shape"], _join(where, "stribeck_shape"))
+    drive = _build(RigidDrive, {"effects": tuple(effects), "params": values, "dt": dt,
+                                "stribeck_shape": shape}, where)  # fmt: skip
+    try:
+        return drive.check_physical()
+    except ValueError as exc:
+        name = str(exc).split(" ", 1)[0]
+        raise _BadKeyError(_join(p_where, name), str(exc)) from None
 
 
 def _estimator(data: Any, where: str) -> Any:

@@ -21,11 +21,11 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from motorid.diagnose import EFFECTS, GreyBoxModel, diagnose
+from motorid.diagnose import EFFECTS, diagnose
 from motorid.diagnose.calibration import false_alarms
-from motorid.diagnose.effects import time_since_reversal
 from motorid.diagnose.kinematics import kinematics
 from motorid.diagnose.synthetic import BASE_FOR, planted_record
+from motorid.plants.rigid import RigidDrive, time_since_reversal
 
 EXAMPLES = 3
 SETTINGS = settings(
@@ -274,16 +274,17 @@ def test_kinematics_of_a_known_motion():
 
 def test_free_run_sticks_and_matches_the_linear_solution():
     dt = 0.001
-    model = GreyBoxModel(("viscous_friction",), {"inertia": 0.5, "input_gain": 2.0, "viscous": 1.0})
-    w = model.simulate(np.ones(3000), dt, substeps=10)
+    model = RigidDrive(("viscous_friction",), {"inertia": 0.5, "input_gain": 2.0, "viscous": 1.0}, dt)
+    w = model.free_run(np.ones(3000), substeps=10)
     t = (np.arange(3000) + 1) * dt
     assert np.allclose(w, 2.0 * (1 - np.exp(-t / 0.5)), atol=2e-3)
-    stuck = GreyBoxModel(
+    stuck = RigidDrive(
         ("viscous_friction", "coulomb_friction"),
         {"inertia": 0.5, "input_gain": 2.0, "viscous": 1.0, "coulomb": 3.0},
+        dt,
     )
-    assert np.all(stuck.simulate(np.ones(500), dt) == 0.0)  # 2 N < 3 N breakaway: stays at rest
-    assert np.all(stuck.simulate(np.full(500, 2.0), dt)[10:] > 0.0)
+    assert np.all(stuck.free_run(np.ones(500)) == 0.0)  # 2 N < 3 N breakaway: stays at rest
+    assert np.all(stuck.free_run(np.full(500, 2.0))[10:] > 0.0)
 
 
 def test_time_since_reversal():
@@ -322,3 +323,27 @@ def test_a_nan_sample_is_named_with_its_column_and_index():
         diagnose(rec.to_numpy())  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="too short"):
         diagnose(pd.DataFrame({"u": np.sin(np.arange(40.0)), "y": np.cos(np.arange(40.0))}), dt=0.01)
+
+
+def test_a_given_model_is_the_first_gap_as_given_then_refitted():
+    planted = planted_record("coulomb_friction", 7, sizes={"coulomb": 8e-3})
+    found = diagnose(planted.record, input_gain=planted.input_gain)
+    assert found.named == ["coulomb_friction"]
+    # the model found, given back: its gap as given is the gap it ended on (same record, no refit;
+    # the region is located on this model's own residual, so only the overall figures are the same)
+    again = diagnose(planted.record, model=found.model)
+    for key in ("overall", "force_error_percent"):
+        assert again.initial_gap[key] == found.final_gap[key]
+    assert again.initial_model == found.model and again.named == []
+    assert again.settings["base"] == list(found.model.effects) and again.settings["model"] == "given"
+    # a wrong Coulomb level: the first gap is that model's; refitting its effects brings it back
+    wrong = found.model.with_params(coulomb=3.0 * found.model.params["coulomb"])
+    start = diagnose(planted.record, model=wrong)
+    assert start.initial_model.params["coulomb"] == wrong.params["coulomb"]
+    assert start.initial_gap["overall"] > 2.0 * start.refitted_gap["overall"]
+    # the refit is the fit of the same effects: within 1 % of the gap found before (same data, shape search)
+    assert start.refitted_gap["overall"] == pytest.approx(found.final_gap["overall"], rel=0.01)
+    with pytest.raises(ValueError, match="base: give either base effects or a model"):
+        diagnose(planted.record, model=wrong, base=("viscous_friction",))
+    with pytest.raises(ValueError, match="model must be a RigidDrive"):
+        diagnose(planted.record, model={"inertia": 1.0})  # type: ignore[arg-type]

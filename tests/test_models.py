@@ -27,6 +27,7 @@ from motorid.plants import (
     CoulombFriction,
     Encoder,
     LuGreFriction,
+    RigidDrive,
     StribeckFriction,
     Tachogenerator,
     TwoMassRig,
@@ -198,6 +199,17 @@ def _rig_file() -> dict:
     return model_to_dict(every_part_rig())
 
 
+def _drive_file() -> dict:
+    params = {
+        "inertia": 2e-3,
+        "input_gain": 0.05,
+        "coulomb": 0.02,
+        "stribeck": 0.01,
+        "stribeck_velocity": 2.0,
+    }
+    return model_to_dict(RigidDrive(("coulomb_friction", "stribeck_friction"), params, dt=0.01))
+
+
 def _ekf_file() -> dict:
     return model_to_dict(FrictionEKF(nis_window=5))
 
@@ -247,6 +259,13 @@ BAD_FILES = [
     ("negative friction", lambda: _set(_rig_file(), ("model", "friction", 0, "alpha"), -1.0), r"model.friction\[0\]: alpha must be"),
     ("unknown friction law", lambda: _set(_rig_file(), ("model", "friction", 2, "kind"), "stiction"), r"model.friction\[2\].kind: unknown friction law 'stiction'"),
     ("unknown side", lambda: _set(_rig_file(), ("model", "friction", 0, "side"), "shaft"), r"model.friction\[0\]: side must be one of"),
+    ("drive: negative inertia", lambda: _set(_drive_file(), ("model", "params", "inertia"), -1.0), "model.params.inertia: inertia must be > 0, got -1.0"),
+    ("drive: unknown effect", lambda: _set(_drive_file(), ("model", "effects", 1), "stiction"), r"model.effects\[1\]: unknown effect 'stiction'"),
+    ("drive: missing parameter", lambda: _drop(_drive_file(), ("model", "params", "stribeck_velocity")), "model.params.stribeck_velocity: missing"),
+    ("drive: parameter of no effect", lambda: _set(_drive_file(), ("model", "params", "offset"), 0.0), "model.params.offset: unknown key"),
+    ("drive: NaN", lambda: _set(_drive_file(), ("model", "params", "coulomb"), math.nan), "model.params.coulomb: must be finite"),
+    ("drive: text dt", lambda: _set(_drive_file(), ("model", "dt"), "0.01"), "model.dt: must be a number"),
+    ("drive: unknown shape", lambda: _set(_drive_file(), ("model", "stribeck_shape"), "cubic"), "model: stribeck_shape must be one of"),
     ("unknown estimator", lambda: _set(_arx_file(), ("model", "estimator"), "lstm"), "model.estimator: unknown estimator 'lstm'"),
     ("estimator setting type", lambda: _set(_arx_file(), ("model", "settings", "na"), 2.0), "model.settings.na: must be an integer"),
     ("estimator setting range", lambda: _set(_arx_file(), ("model", "settings", "lam"), 1.5), "model.settings: lam must satisfy"),
@@ -315,7 +334,7 @@ def test_simulate_saves_the_rig_its_options_describe_and_simulates_a_model_file(
             ["--model", "{model}", "--dead-zone", "0.1", "--out", "{out}"],
             "--dead-zone cannot be combined with --model",
         ),
-        (["--model", "{est}", "--out", "{out}"], "holds a ARXRLS, not a rig model"),
+        (["--model", "{est}", "--out", "{out}"], "holds a ARXRLS, not a drive model"),
         (["--duration", "1"], "give --out"),
         (["--save-model", "{model}"], "--save-model .*the file exists"),
     ],

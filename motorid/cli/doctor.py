@@ -10,17 +10,28 @@ import pandas as pd
 
 from motorid.errors import DataError
 
-from .options import add_json, add_record_input, check_out_folder, number, positive, read_record_from_args
+from .options import (
+    add_json,
+    add_record_input,
+    check_out_file,
+    check_out_folder,
+    number,
+    positive,
+    read_record_from_args,
+)
 from .report import emit_json, say
 
 if TYPE_CHECKING:
     from motorid.diagnose.workflow import Diagnosis
+    from motorid.plants import RigidDrive
 
 
-def effect_list(text: str, option: str) -> list[str]:
-    """Comma-separated effect names, each checked against the library."""
+def effect_list(text: str | None, option: str) -> list[str]:
+    """Comma-separated effect names, each checked against the library (none for None)."""
     from motorid.diagnose import EFFECTS
 
+    if text is None:
+        return []
     names = [n.strip() for n in text.split(",") if n.strip()]
     for name in names:
         if name not in EFFECTS:
@@ -36,13 +47,30 @@ def doctor_record(record: pd.DataFrame, args: argparse.Namespace, progress: bool
     """
     from motorid.diagnose import diagnose
 
-    base = effect_list(args.base, "--base")
+    base = effect_list(args.base, "--base") if args.base is not None else None
     candidates = effect_list(args.candidates, "--candidates") if args.candidates else None
+    model_file = getattr(args, "model", None)
+    model = None if model_file is None else rigid_drive_from_file(model_file)
     return diagnose(
         record, dt=args.dt, input="u", output="y", output_kind=args.output_kind,
         input_gain=args.input_gain, base=base, candidates=candidates,
         holdout=args.holdout, max_steps=args.max_steps, progress=progress, timing=args.timing,
+        model=model,
     )  # fmt: skip
+
+
+def rigid_drive_from_file(path: Path) -> RigidDrive:
+    """The rigid drive of the model file ``path`` (``--model``); DataError for another model."""
+    from motorid.models import load_model
+    from motorid.plants import RigidDrive
+
+    model = load_model(path)
+    if not isinstance(model, RigidDrive):
+        raise DataError(
+            f"--model {path}: holds a {type(model).__name__}; the doctor starts from a rigid-drive model "
+            "(a file motorid doctor --save-model wrote, or a RigidDrive saved in Python)"
+        )
+    return model
 
 
 def cmd_doctor(args: argparse.Namespace) -> int:
@@ -50,14 +78,24 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     effect_list(args.base, "--base")  # bad effect names stop the command before anything is read
     if args.candidates:
         effect_list(args.candidates, "--candidates")
+    if args.model is not None:
+        if args.base is not None:
+            raise DataError("--base cannot be combined with --model: the model's effects are the base")
+        rigid_drive_from_file(args.model)
+    if args.save_model is not None:
+        check_out_file(args.save_model, True, "--save-model")
     record = read_record_from_args(args)
     if args.out:
         check_out_folder(args.out)
     diagnosis = doctor_record(record, args)
     units, param_units = diagnosis.units, diagnosis.param_units
-    say(f"motorid doctor on {args.data} ({len(record)} samples), base model: inertia, input gain"
+    start = f"the model in {args.model}" if args.model is not None else "inertia, input gain"
+    say(f"motorid doctor on {args.data} ({len(record)} samples), base model: {start}"
         + "".join(f", {b}" for b in diagnosis.settings["base"]))  # fmt: skip
-    if args.input_gain is None:
+    if diagnosis.refitted_gap is not None:
+        say(f"  gap of the given model {diagnosis.initial_gap['overall']:.4g} {units['v']}, "
+            f"refitted {diagnosis.refitted_gap['overall']:.4g} {units['v']}")  # fmt: skip
+    if args.input_gain is None and args.model is None:
         say(f"  no --input-gain: forces are per input unit, in {units['F']}")
     say(f"  located: {diagnosis.region.description}")
     table = diagnosis.table()
@@ -74,6 +112,14 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         f"{diagnosis.final_gap['force_error_percent']:.2f} %"
     )
     say(f"  stopped: {diagnosis.stop_reason}")
+    if args.save_model is not None:
+        try:
+            diagnosis.model.save(args.save_model)
+        except ValueError as exc:
+            raise DataError(
+                f"--save-model {args.save_model}: the improved model is not physical: {exc}"
+            ) from None
+        say(f"  wrote {args.save_model}: the improved model (motorid simulate --model reads it)")
     figures = []
     if args.out:
         say(f"  writing figures in {args.out}/")
@@ -92,7 +138,7 @@ def add_doctor_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--input-gain", type=positive,
                         help="force or torque per input unit [N/V, N m/V] (default: unknown; the "
                              "model's forces are then per input unit, e.g. in V)")  # fmt: skip
-    parser.add_argument("--base", default="viscous_friction,offset", metavar="EFFECT,...",
+    parser.add_argument("--base", metavar="EFFECT,...",
                         help="effects already in the model (default: viscous_friction,offset)")  # fmt: skip
     parser.add_argument("--candidates", metavar="EFFECT,...", help="effects to try (default: all others)")
     parser.add_argument("--holdout", type=number(float, low=0.0, high=0.9, low_open=True), default=0.3,
@@ -112,5 +158,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     add_record_input(p)
     add_doctor_options(p)
     p.add_argument("--out", type=Path, help="folder for the figures and the table (replaced if there)")
+    p.add_argument("--model", type=Path, metavar="FILE",
+                   help="start from your own rigid-drive model file: the first gap is it as given")  # fmt: skip
+    p.add_argument("--save-model", type=Path, metavar="FILE",
+                   help="write the improved model as a rigid-drive model file (replaced if there)")  # fmt: skip
     add_json(p)
     p.set_defaults(func=cmd_doctor)

@@ -105,8 +105,20 @@ def rig_from_model_file(path: Path, option: str = "--model"):
     return model
 
 
+def drive_model_from_file(path: Path, option: str = "--model"):
+    """The drive model in the model file ``path``: a two-mass rig or a rigid drive; DataError otherwise."""
+    from motorid.models import load_model
+    from motorid.plants import RigidDrive, TwoMassRig
+
+    model = load_model(path)
+    if not isinstance(model, TwoMassRig | RigidDrive):
+        raise DataError(f"{option} {path}: holds a {type(model).__name__}, not a drive model")
+    return model
+
+
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Simulate the rig on an excitation signal and write the record and/or the rig's model file."""
+    from motorid.plants import RigidDrive
     from motorid.records import write_record
 
     if args.out is None and args.save_model is None:
@@ -119,7 +131,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         if given:
             flag = "--" + given[0].replace("_", "-")
             raise DataError(f"{flag} cannot be combined with --model: the model file describes the rig")
-        rig = rig_from_model_file(args.model)
+        rig = drive_model_from_file(args.model)
     else:
         rig = rig_from_args(args)
     if args.save_model is not None:
@@ -130,7 +142,10 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             emit_json({"model": args.save_model, "rig": rig.to_dict()})
         return 0
     u = excitation_from_args(args, rig.dt)
-    record = rig.simulate(u, seed=args.plant_seed, integrator=args.integrator)
+    if isinstance(rig, RigidDrive):  # a rigid drive has no sensor: its record is noise free
+        record = rig.simulate(u)
+    else:
+        record = rig.simulate(u, seed=args.plant_seed, integrator=args.integrator)
     write_record(record, args.out)
     y = record["y"].to_numpy()
     say(f"wrote {args.out}: {len(record)} samples at dt = {rig.dt:g} s, |y| max {np.abs(y).max():.1f} rad/s")
@@ -141,7 +156,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
                 "model": args.save_model,
                 "samples": len(record),
                 "dt": rig.dt,
-                "rig": record.attrs.get("rig"),
+                "rig": rig.to_dict(),
             }
         )
     return 0
@@ -166,7 +181,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     add_plant_seed(p, default=0)
     rig = p.add_argument_group("rig (default: the default rig's value, as --save-model writes it)")
     rig.add_argument("--model", type=Path, metavar="FILE",
-                     help="the rig from a model file, instead of the options below")  # fmt: skip
+                     help="the drive from a model file, instead of the options below: a two-mass rig, "
+                          "or a rigid drive (motorid doctor --save-model; its record is noise free)")  # fmt: skip
     rig.add_argument("--coulomb-motor", type=non_negative, help="Coulomb torque, motor side [N m]")
     rig.add_argument("--coulomb-load", type=non_negative, help="Coulomb torque, load side [N m]")
     rig.add_argument("--stribeck", type=non_negative, nargs=2, metavar=("ALPHA1", "ALPHA2"),

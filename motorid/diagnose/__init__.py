@@ -6,8 +6,8 @@ missing physical effect, add it and show the gap shrink.
 >>> d.named, d.stop_reason                                      # doctest: +SKIP
 (['coulomb_friction'], 'no candidate passes the evidence threshold: ...')
 
-Modules: :mod:`.effects` (the effect library), :mod:`.model` (the rigid
-grey-box model, its fit and free-run simulation), :mod:`.kinematics`
+Modules: :mod:`.effects` (the effect library), :mod:`.model` (the fit of
+the rigid drive, :class:`motorid.plants.RigidDrive`, whose free run the plants compile), :mod:`.kinematics`
 (zero-phase differentiation and decimation), :mod:`.locate`, :mod:`.workflow`
 (:func:`diagnose`, :class:`Diagnosis`), :mod:`.figures`, :mod:`.synthetic`
 (records with planted effects) and :mod:`.calibration` (false-alarm rate).
@@ -15,7 +15,7 @@ grey-box model, its fit and free-run simulation), :mod:`.kinematics`
 
 from motorid.diagnose.effects import EFFECTS, Effect, get_effect
 from motorid.diagnose.locate import Region
-from motorid.diagnose.model import GreyBoxModel, fit_model
+from motorid.diagnose.model import fit_model
 from motorid.diagnose.workflow import DEFAULT_BASE, DEFAULT_THRESHOLD, Diagnosis, Step, diagnose
 
 __all__ = [
@@ -24,7 +24,6 @@ __all__ = [
     "EFFECTS",
     "Diagnosis",
     "Effect",
-    "GreyBoxModel",
     "Region",
     "Step",
     "diagnose",

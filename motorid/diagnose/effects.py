@@ -1,38 +1,25 @@
 """The effect library: the physical effects the workflow can name and add to a model.
 
-The grey-box model is the torque (force) balance of a rigid drive::
+The model is the rigid drive of :mod:`motorid.plants.rigid`
+(:class:`~motorid.plants.rigid.RigidDrive`: inertia J, input gain g and the effects'
+parameters; its module holds the table of terms and units)::
 
-    J dw/dt = F_in(u) - Σ_e T_e(w)                                   [N m or N]
-    F_in(u) = g · B(D(S(u)))                                          (input path)
+    J dw/dt = F_in(u) - Σ_e T_e(w),    F_in(u) = B(g · D(S(u)))              [F]
 
-with J the inertia [kg m² or kg], g the input gain [N m/V or N/V] and w the
-velocity [rad/s or m/s]. Below, "F" stands for the force unit of the model
-(N m or N, that of ``g u``; without a known g the fit takes g = 1 and F is the
-input's unit), "v" for the velocity unit and "u" for the input unit (e.g. V);
-:func:`param_unit` makes them concrete.
+"F" stands for the force unit of the model (N m or N, that of ``g u``; without a
+known g the fit takes g = 1 and F is the input's unit), "v" for the velocity unit
+and "u" for the input unit (e.g. V); :func:`param_unit` makes them concrete.
 
-Each effect is a class with its name (the snake_case names of DESIGN.md), the
-parameters it adds (``linear``: enter the balance linearly, fitted by least
-squares; ``nonlinear``: a few shape parameters fitted by a bounded search),
-its signature (where it shows in the residual) and how it adds itself to the
-model: friction-type effects give regressor columns ``T_e(w) = Σ θ_i c_i(w)``;
-input-path effects transform the input.
-
-========================= ============================================= ==============================
-effect                    term                                          parameters [unit]
-========================= ============================================= ==============================
-``viscous_friction``      B w                                           viscous [F s/v]
-``coulomb_friction``      F_c sgn(w)                                    coulomb [F]
-``stribeck_friction``     F_s exp(-|w|/v_s) sgn(w)                      stribeck [F], stribeck_velocity [v]
-``asymmetric_friction``   ΔF_c |sgn w| + ΔF_v |w|                       coulomb_asymmetry [F],
-                          (so F_c± = F_c ± ΔF_c, B± = B ± ΔF_v)         viscous_asymmetry [F s/v]
-``quadratic_drag``        c w |w|                                       quadratic_drag [F s²/v²]
-``offset``                T_0 (also at rest)                            offset [F]
-``input_dead_zone``       D(u) = 0 for |u| <= d, u - d sgn(u) beyond    dead_zone [u]
-``input_saturation``      S(u) = clip(u, -u_s, u_s)                     saturation [u]
-``backlash``              B(F): the drive force is not transmitted      backlash_time [s]
-                          for τ_b after each reversal of its sign
-========================= ============================================= ==============================
+Each effect here is what the workflow needs to name and fit one effect of the
+drive: its name (the snake_case names of DESIGN.md), the parameters it adds
+(``linear``: enter the balance linearly, fitted by least squares; ``nonlinear``: a
+few shape parameters fitted by a bounded search), its signature (where it shows in
+the residual), the search interval of its shape parameters, and how it adds itself
+to the model: friction-type effects give regressor columns ``T_e(w) = Σ θ_i c_i(w)``,
+input-path effects transform the input. Both are evaluated by the drive's compiled
+functions in :mod:`motorid.plants` (:func:`~motorid.plants.rigid.term_columns`,
+:func:`~motorid.plants.rigid.input_path`, :func:`~motorid.plants.rigid.backlash_dwell`),
+the ones its free run uses, so no term is written twice.
 
 What ``backlash`` models: lost motion in a rigid drive seen from the measured
 side. After the drive force reverses, the driving side crosses the play
@@ -49,18 +36,7 @@ from typing import ClassVar
 
 import numpy as np
 
-#: Position of each simulator parameter in the packed vector of the free-run kernel.
-SIM_PARAMS: tuple[str, ...] = (
-    "inertia",
-    "viscous",
-    "coulomb",
-    "stribeck",
-    "stribeck_velocity",
-    "coulomb_asymmetry",
-    "viscous_asymmetry",
-    "quadratic_drag",
-    "offset",
-)
+from motorid.plants.rigid import RIGID_EFFECTS, backlash_dwell, input_path, term_columns
 
 
 class Effect:
@@ -102,9 +78,14 @@ class Effect:
     nonnegative: ClassVar[tuple[str, ...]] = ()
     requires: ClassVar[tuple[str, ...]] = ()
 
-    def columns(self, w: np.ndarray, shape: dict[str, float]) -> np.ndarray:
-        """Regressor columns ``c_i(w)``, shape (N, len(linear)): the torque per unit parameter."""
-        return np.zeros((w.size, 0))
+    def columns(
+        self, w: np.ndarray, shape: dict[str, float], stribeck_shape: str = "exponential"
+    ) -> np.ndarray:
+        """Regressor columns ``c_i(w)``, shape (N, len(linear)): the torque per unit parameter
+        (the rigid drive's compiled terms, :func:`motorid.plants.rigid.term_columns`)."""
+        if not self.linear:
+            return np.zeros((w.size, 0))
+        return term_columns(self.linear, w, shape.get("stribeck_velocity", 1.0), stribeck_shape)
 
     def transform(self, x: np.ndarray, dt: float, shape: dict[str, float]) -> np.ndarray:
         """Input path: ``u`` (or the drive force, for backlash) after this effect."""
@@ -131,9 +112,6 @@ class ViscousFriction(Effect):
     nonnegative = ("viscous",)
     signature = "grows in proportion to w, sign follows sgn(w), largest at high |w|"
 
-    def columns(self, w: np.ndarray, shape: dict[str, float]) -> np.ndarray:
-        return w[:, None]
-
 
 class CoulombFriction(Effect):
     """Coulomb friction ``T = F_c sgn(w)`` [F] (paper eq. 8)."""
@@ -143,9 +121,6 @@ class CoulombFriction(Effect):
     units: ClassVar[dict[str, str]] = {"coulomb": "F"}
     nonnegative = ("coulomb",)
     signature = "constant level whose sign follows sgn(w); dominates at low |w| and holds a resting drive"
-
-    def columns(self, w: np.ndarray, shape: dict[str, float]) -> np.ndarray:
-        return np.sign(w)[:, None]
 
 
 class StribeckFriction(Effect):
@@ -157,10 +132,6 @@ class StribeckFriction(Effect):
     units: ClassVar[dict[str, str]] = {"stribeck": "F", "stribeck_velocity": "v"}
     nonnegative = ("stribeck",)
     signature = "sign follows sgn(w), confined to |w| below a few v_s and decaying with |w|"
-
-    def columns(self, w: np.ndarray, shape: dict[str, float]) -> np.ndarray:
-        vs = shape["stribeck_velocity"]
-        return (np.sign(w) * np.exp(-np.abs(w) / vs))[:, None]
 
     def bounds(self, scale: dict[str, float]) -> dict[str, tuple[float, float]]:
         lo = max(2.0 * scale["w_noise"], 1e-3 * scale["w_max"])
@@ -183,9 +154,6 @@ class AsymmetricFriction(Effect):
     requires = ("coulomb_friction", "viscous_friction")
     signature = "same sign in both directions of motion (even in w), growing with |w|"
 
-    def columns(self, w: np.ndarray, shape: dict[str, float]) -> np.ndarray:
-        return np.column_stack([np.abs(np.sign(w)), np.abs(w)])
-
 
 class QuadraticDrag(Effect):
     """Quadratic drag ``T = c w |w|`` [F] (windage, fluid drag)."""
@@ -196,9 +164,6 @@ class QuadraticDrag(Effect):
     nonnegative = ("quadratic_drag",)
     signature = "grows as w², sign follows sgn(w), concentrated at the highest |w|"
 
-    def columns(self, w: np.ndarray, shape: dict[str, float]) -> np.ndarray:
-        return (w * np.abs(w))[:, None]
-
 
 class Offset(Effect):
     """Constant torque ``T = T_0`` [F] (gravity on a tilted axis, a biased amplifier), also at rest."""
@@ -207,9 +172,6 @@ class Offset(Effect):
     linear = ("offset",)
     units: ClassVar[dict[str, str]] = {"offset": "F"}
     signature = "constant, the same sign in both directions of motion and at rest"
-
-    def columns(self, w: np.ndarray, shape: dict[str, float]) -> np.ndarray:
-        return np.ones((w.size, 1))
 
 
 class InputDeadZone(Effect):
@@ -223,8 +185,7 @@ class InputDeadZone(Effect):
     order = 1
 
     def transform(self, x: np.ndarray, dt: float, shape: dict[str, float]) -> np.ndarray:
-        d = shape["dead_zone"]
-        return np.where(np.abs(x) <= d, 0.0, x - d * np.sign(x))
+        return input_path(x, dead_zone=shape["dead_zone"])
 
     def bounds(self, scale: dict[str, float]) -> dict[str, tuple[float, float]]:
         return {"dead_zone": (1e-3 * scale["u_max"], 0.5 * scale["u_max"])}
@@ -241,8 +202,7 @@ class InputSaturation(Effect):
     order = 0
 
     def transform(self, x: np.ndarray, dt: float, shape: dict[str, float]) -> np.ndarray:
-        us = shape["saturation"]
-        return np.clip(x, -us, us)
+        return input_path(x, saturation=shape["saturation"])
 
     def bounds(self, scale: dict[str, float]) -> dict[str, tuple[float, float]]:
         return {"saturation": (0.2 * scale["u_max"], scale["u_max"])}
@@ -262,36 +222,12 @@ class Backlash(Effect):
     order = 2
 
     def transform(self, x: np.ndarray, dt: float, shape: dict[str, float]) -> np.ndarray:
-        tau = shape["backlash_time"]
-        return x * (time_since_reversal(x, dt, before_first=math.inf) >= tau)
+        return backlash_dwell(x, dt, shape["backlash_time"])
 
     def bounds(self, scale: dict[str, float]) -> dict[str, tuple[float, float]]:
         # a dwell shorter than the decimated sample time is below the band the balance resolves
         lo = scale.get("dt_band", scale["dt"])
         return {"backlash_time": (lo, max(2.0 * lo, min(50.0 * scale["dt"], 0.3)))}
-
-
-def time_since_reversal(x: np.ndarray, dt: float, before_first: float | None = None) -> np.ndarray:
-    """Time [s] since the last change of sign of ``x`` (zeros keep the previous sign).
-
-    Before the first reversal the time counts from the start of the record, or
-    is ``before_first`` when given.
-    """
-    x = np.asarray(x, dtype=float)
-    s = np.sign(x)
-    # carry the last non-zero sign forwards
-    idx = np.where(s != 0, np.arange(s.size), 0)
-    np.maximum.accumulate(idx, out=idx)
-    s = s[idx]
-    change = np.zeros(s.size, dtype=bool)
-    change[1:] = (s[1:] != s[:-1]) & (s[:-1] != 0)
-    last = np.where(change, np.arange(s.size), 0)
-    np.maximum.accumulate(last, out=last)
-    out = (np.arange(s.size) - last) * dt
-    if before_first is not None:
-        first = np.flatnonzero(change)
-        out[: first[0] if first.size else s.size] = before_first
-    return out
 
 
 _CLASSES: tuple[type[Effect], ...] = (
@@ -306,8 +242,11 @@ _CLASSES: tuple[type[Effect], ...] = (
     Offset,
 )
 
-#: The library: effect name -> effect class.
-EFFECTS: dict[str, type[Effect]] = {cls.name: cls for cls in _CLASSES}
+#: The library: effect name -> effect class, in the order of the drive's effects
+#: (:data:`motorid.plants.rigid.RIGID_EFFECTS`).
+EFFECTS: dict[str, type[Effect]] = {
+    name: cls for name in RIGID_EFFECTS for cls in _CLASSES if cls.name == name
+}
 
 
 def get_effect(name: str) -> Effect:
@@ -360,7 +299,6 @@ def is_finite_number(value: float) -> bool:
 __all__ = [
     "EFFECTS",
     "MODEL_UNITS",
-    "SIM_PARAMS",
     "AsymmetricFriction",
     "Backlash",
     "CoulombFriction",
@@ -373,5 +311,4 @@ __all__ = [
     "ViscousFriction",
     "get_effect",
     "param_unit",
-    "time_since_reversal",
 ]

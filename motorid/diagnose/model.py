@@ -1,6 +1,7 @@
-"""The rigid grey-box drive model: its fit in the torque balance and its free-run simulation.
+"""The doctor's fit of a rigid drive to the torque balance of a record.
 
-Model (see :mod:`motorid.diagnose.effects` for the terms)::
+The model is :class:`motorid.plants.rigid.RigidDrive` (see :mod:`motorid.diagnose.effects`
+for the terms)::
 
     J dw/dt = F_in(u) - Σ_e T_e(w)                                        [F]
 
@@ -18,68 +19,25 @@ squares (variable projection), coordinate-wise over the shape parameters.
 Columns that add no rank to those before them (the Coulomb asymmetry beside an
 offset) are dropped and their parameter reported as 0.
 
-Free run (:func:`simulate`): fixed step h = dt/n_sub, the input force held
-over each sample, semi-implicit Euler (the velocity-proportional terms
-implicit, so the step is stable for any h), and Karnopp's stick/slip rule: a
-drive at w = 0 stays there while the force lies between the friction levels at
-0- and 0+, and a step that would carry w through zero stops it at 0.
+Free run: :meth:`RigidDrive.free_run <motorid.plants.rigid.RigidDrive.free_run>`
+(semi-implicit Euler with Karnopp's stick/slip rule, compiled in the plants), on the
+same compiled terms as the regressor columns here.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
-import numba
 import numpy as np
 import scipy.optimize
 
-from motorid.diagnose.effects import EFFECTS, SIM_PARAMS, Effect, get_effect
+from motorid.diagnose.effects import EFFECTS, Effect, get_effect
 from motorid.diagnose.kinematics import Kinematics
-
+from motorid.plants.rigid import RigidDrive, effect_order
 
 # --------------------------------------------------------------------------- simulation kernel
-@numba.njit(cache=True)
-def _free_run(force: np.ndarray, dt: float, nsub: int, p: np.ndarray, w0: float) -> np.ndarray:
-    """Velocity at the end of each sample for the force held over it (packed params ``p``)."""
-    J, B, Fc, Fs, vs, dFc, dFv, cq, off = p[0], p[1], p[2], p[3], p[4], p[5], p[6], p[7], p[8]
-    n = force.size
-    out = np.empty(n)
-    h = dt / nsub
-    w = w0
-    static = abs(Fc + Fs) > 0.0
-    for k in range(n):
-        f = force[k]
-        for _ in range(nsub):
-            if w == 0.0:
-                up = Fc + Fs + dFc + off
-                dn = -(Fc + Fs) + dFc + off
-                fwd = f > up
-                bwd = f < dn
-                if fwd and bwd:
-                    s = 1.0 if f - up >= dn - f else -1.0
-                elif fwd:
-                    s = 1.0
-                elif bwd:
-                    s = -1.0
-                else:
-                    continue
-            else:
-                s = 1.0 if w > 0.0 else -1.0
-            aw = abs(w)
-            rest = s * (Fc + Fs * math.exp(-aw / vs)) + dFc + off
-            damp = B + dFv * s + cq * aw
-            den = 1.0 + h * damp / J
-            if den < 0.1:
-                den = 0.1
-            wn = (w + h / J * (f - rest)) / den
-            if (static or w == 0.0) and wn * s < 0.0:
-                wn = 0.0
-            w = wn
-        out[k] = w
-    return out
-
-
 # --------------------------------------------------------------------------- data
 #: Memory [bytes] :meth:`BalanceData.decimated` may keep cached columns in (between 16 and
 #: 256 columns whatever their size).
@@ -136,16 +94,17 @@ class BalanceData:
     def n(self) -> int:
         return int(self.idx.size)
 
-    def decimated(self, key: str, column: np.ndarray) -> np.ndarray:
+    def decimated(self, key: str, column: np.ndarray | Callable[[], np.ndarray]) -> np.ndarray:
         """Decimate a full-rate column, cached under ``key``.
 
-        The cache keeps the columns used last, as many as fit in
-        :data:`CACHE_BYTES` (16 to 256): the columns every fit shares stay,
-        the oldest points of past shape searches go first.
+        ``column`` is the column or a function that computes it, called only when
+        ``key`` is not cached. The cache keeps the columns used last, as many as fit
+        in :data:`CACHE_BYTES` (16 to 256): the columns every fit shares stay, the
+        oldest points of past shape searches go first.
         """
         value = self._cache.pop(key, None)
         if value is None:
-            value = self.kin.decimate(column)
+            value = self.kin.decimate(column() if callable(column) else column)
             limit = min(max(int(CACHE_BYTES // max(value.nbytes, 1)), 16), 256)
             while len(self._cache) >= limit:
                 del self._cache[next(iter(self._cache))]
@@ -161,120 +120,12 @@ class BalanceData:
 
 
 # --------------------------------------------------------------------------- model
-def _ordered(effects: tuple[str, ...]) -> tuple[str, ...]:
-    for name in effects:
-        get_effect(name)
-    names = list(dict.fromkeys(effects))
-    return tuple(sorted(names, key=list(EFFECTS).index))
-
-
-@dataclass
-class GreyBoxModel:
-    """Rigid drive with a set of effects and their parameter values.
-
-    Parameters
-    ----------
-    effects : tuple of str
-        Effect names (:data:`motorid.diagnose.EFFECTS`); inertia and input gain
-        are always part of the model.
-    params : dict
-        ``inertia`` [kg m² or kg], ``input_gain`` [F/u] and each effect's
-        parameters in SI units (see :mod:`motorid.diagnose.effects`).
-    """
-
-    effects: tuple[str, ...]
-    params: dict[str, float]
-
-    def __post_init__(self) -> None:
-        self.effects = _ordered(tuple(self.effects))
-
-    # ------------------------------------------------------------------ parts
-    @property
-    def input_effects(self) -> list[Effect]:
-        out = [get_effect(n) for n in self.effects if EFFECTS[n].kind == "input"]
-        return sorted(out, key=lambda e: e.order)
-
-    @property
-    def friction_effects(self) -> list[Effect]:
-        return [get_effect(n) for n in self.effects if EFFECTS[n].kind == "friction"]
-
-    def shape(self) -> dict[str, float]:
-        return {k: v for k, v in self.params.items()}
-
-    def input_force(self, u: np.ndarray, dt: float) -> np.ndarray:
-        """Force reaching the drive, F_in(u) [F], for the input held over each sample."""
-        shape = self.shape()
-        x = np.asarray(u, dtype=float)
-        for eff in self.input_effects:
-            if eff.name == "backlash":
-                continue
-            x = eff.transform(x, dt, shape)
-        force = self.params["input_gain"] * x
-        if "backlash" in self.effects:
-            force = get_effect("backlash").transform(force, dt, shape)
-        return force
-
-    def friction(self, w: np.ndarray) -> np.ndarray:
-        """Sum of the friction-type torques Σ T_e(w) [F] at velocity ``w`` (moving)."""
-        total = np.zeros_like(np.asarray(w, dtype=float))
-        shape = self.shape()
-        for eff in self.friction_effects:
-            cols = eff.columns(w, shape)
-            for j, name in enumerate(eff.linear):
-                total = total + self.params.get(name, 0.0) * cols[:, j]
-        return total
-
-    def packed(self) -> np.ndarray:
-        """Parameters in the layout of the free-run kernel (:data:`SIM_PARAMS`)."""
-        p = np.zeros(len(SIM_PARAMS))
-        for i, name in enumerate(SIM_PARAMS):
-            p[i] = float(self.params.get(name, 0.0))
-        if p[SIM_PARAMS.index("stribeck_velocity")] <= 0.0:
-            p[SIM_PARAMS.index("stribeck_velocity")] = 1.0
-        return p
-
-    def simulate(
-        self, u: np.ndarray, dt: float, w0: float = 0.0, substeps: int | None = None, start: int = 0
-    ) -> np.ndarray:
-        """Free-run velocity [v] at the end of each sample for the input ``u`` held over it.
-
-        Parameters
-        ----------
-        u : ndarray, shape (N,)
-            Input [u], zero-order hold.
-        dt : float
-            Sample time [s].
-        w0 : float
-            Velocity at the start [v].
-        substeps : int, optional
-            Steps per sample; default enough for 20 steps per mechanical time
-            constant J/B (1 to 50).
-        start : int
-            Start the free run at sample ``start`` (with ``w0``); the input path
-            (e.g. the backlash dwell) still sees the whole input. The result
-            has ``N - start`` samples.
-        """
-        p = self.packed()
-        J, B = p[0], abs(p[1])
-        if not (math.isfinite(J) and J > 0.0 and np.all(np.isfinite(p))):
-            return np.full(np.asarray(u).size - start, np.nan)  # no free run without a positive inertia
-        if substeps is None:
-            substeps = int(min(50, max(1, math.ceil(20.0 * dt * B / J))))
-        force = np.ascontiguousarray(self.input_force(u, dt)[start:], dtype=float)
-        return _free_run(force, float(dt), int(substeps), p, float(w0))
-
-    def balance(self, data: BalanceData) -> tuple[np.ndarray, np.ndarray]:
-        """Measured and modelled force on the decimated samples: ``(F_in,d, J a_d + Σ T_e,d)``."""
-        kin = data.kin
-        f_in = data.kin.decimate(data.balance_force(self.input_force(kin.u, kin.dt)))
-        f_model = self.params["inertia"] * data.a + data.kin.decimate(self.friction(kin.w))
-        return f_in, f_model
-
-    def with_params(self, **changes: float) -> GreyBoxModel:
-        return GreyBoxModel(self.effects, {**self.params, **changes})
-
-    def describe(self) -> str:
-        return ", ".join(f"{k} = {v:.5g}" for k, v in self.params.items())
+def model_balance(model: RigidDrive, data: BalanceData) -> tuple[np.ndarray, np.ndarray]:
+    """Measured and modelled force on the decimated samples: ``(F_in,d, J a_d + Σ T_e,d)``."""
+    kin = data.kin
+    f_in = kin.decimate(data.balance_force(model.input_force(kin.u)))
+    f_model = model.inertia * data.a + kin.decimate(model.friction(kin.w))
+    return f_in, f_model
 
 
 # --------------------------------------------------------------------------- fit
@@ -286,7 +137,7 @@ class FitResult:
     ``rss_force`` in force units [F²].
     """
 
-    model: GreyBoxModel
+    model: RigidDrive
     rss: float
     rss_force: float
     n_rows: int
@@ -295,24 +146,32 @@ class FitResult:
 
 
 def _linear_solve(
-    data: BalanceData, effects: tuple[str, ...], shape: dict[str, float], gain: float, rows: np.ndarray
+    data: BalanceData,
+    effects: tuple[str, ...],
+    shape: dict[str, float],
+    gain: float,
+    rows: np.ndarray,
+    stribeck_shape: str,
 ) -> tuple[dict[str, float], float, int, np.ndarray]:
     kin = data.kin
-    x = np.asarray(kin.u, dtype=float)
     input_effects = sorted(
-        (get_effect(n) for n in effects if EFFECTS[n].kind == "input"), key=lambda e: e.order
+        (get_effect(n) for n in effects if EFFECTS[n].kind == "input" and n != "backlash"),
+        key=lambda e: e.order,
     )
-    key_parts = []
-    for eff in input_effects:
-        if eff.name == "backlash":
-            continue
-        x = eff.transform(x, kin.dt, shape)
-        key_parts.append(f"{eff.name}={shape[eff.nonlinear[0]]:.12g}")
-    force = gain * x
+    key_parts = [f"{eff.name}={shape[eff.nonlinear[0]]:.12g}" for eff in input_effects]
     if "backlash" in effects:
-        force = get_effect("backlash").transform(force, kin.dt, shape)
         key_parts.append(f"backlash={shape['backlash_time']:.12g}")
-    target = data.decimated("F|" + "|".join(key_parts), data.balance_force(force))
+
+    def balance_force() -> np.ndarray:
+        x = np.asarray(kin.u, dtype=float)
+        for eff in input_effects:
+            x = eff.transform(x, kin.dt, shape)
+        force = gain * x
+        if "backlash" in effects:
+            force = get_effect("backlash").transform(force, kin.dt, shape)
+        return data.balance_force(force)
+
+    target = data.decimated("F|" + "|".join(key_parts), balance_force)
     names = ["inertia"]
     cols = [data.a]
     # an offset goes first, so a column that repeats it (the Coulomb asymmetry) is the one dropped
@@ -321,10 +180,18 @@ def _linear_solve(
         if eff.kind != "friction" or not eff.linear:
             continue
         key = name + "|" + "|".join(f"{p}={shape[p]:.12g}" for p in eff.nonlinear)
-        full = eff.columns(kin.w, shape)
+        if eff.nonlinear:
+            key += "|" + stribeck_shape
+        full: list[np.ndarray] = []  # the effect's columns, computed on the first cache miss
+
+        def column(j: int, eff: Effect = eff, full: list[np.ndarray] = full) -> np.ndarray:
+            if not full:
+                full.append(eff.columns(kin.w, shape, stribeck_shape))
+            return full[0][:, j]
+
         for j, pname in enumerate(eff.linear):
             names.append(pname)
-            cols.append(data.decimated(f"{key}|{j}", full[:, j]))
+            cols.append(data.decimated(f"{key}|{j}", lambda j=j, column=column: column(j)))
     full_X = np.column_stack(cols)
     X = full_X[rows]
     y = target[rows]
@@ -350,6 +217,7 @@ def fit_model(
     effects: tuple[str, ...],
     rows: np.ndarray | None = None,
     start: dict[str, float] | None = None,
+    stribeck_shape: str = "exponential",
 ) -> FitResult:
     """Fit a rigid model with ``effects`` to the torque balance of ``data``.
 
@@ -362,14 +230,17 @@ def fit_model(
         Decimated samples to fit on; default the moving samples.
     start : dict, optional
         Initial shape-parameter values (e.g. from a previous fit).
+    stribeck_shape : {"exponential", "gaussian"}
+        Shape of the Stribeck decay of the model.
 
     Returns
     -------
     FitResult
-        The model (all parameters in SI units), the residual sum of squares
+        The model (a :class:`~motorid.plants.rigid.RigidDrive` at the record's sample time,
+        all parameters in SI units), the residual sum of squares
         [F²] on ``rows``, their number and the number of free parameters.
     """
-    effects = _ordered(tuple(effects))
+    effects = effect_order(tuple(effects))
     rows = data.moving if rows is None else rows & data.moving
     gain = float(data.input_gain)
     shaped = [(p, get_effect(n).bounds(data.scale)[p]) for n in effects for p in get_effect(n).nonlinear]
@@ -380,7 +251,7 @@ def fit_model(
     nonnegative = [p for n in effects if get_effect(n).nonlinear for p in get_effect(n).nonnegative]
 
     def cost(p: str, value: float) -> float:
-        theta, rss, _, _ = _linear_solve(data, effects, {**shape, p: value}, gain, rows)
+        theta, rss, _, _ = _linear_solve(data, effects, {**shape, p: value}, gain, rows, stribeck_shape)
         if any(theta[q] < 0.0 for q in nonnegative):
             return math.inf  # the shape that needs a negative level is not the physical effect
         return _accel_rss(rss, theta["inertia"])
@@ -400,10 +271,10 @@ def fit_model(
                 options={"xatol": 1e-3},
             )
             shape[p] = math.exp(res.x) if res.fun <= costs[i] else float(grid[i])
-    theta, rss, k, residual = _linear_solve(data, effects, shape, gain, rows)
+    theta, rss, k, residual = _linear_solve(data, effects, shape, gain, rows, stribeck_shape)
     inertia = theta.pop("inertia")
     params = {"inertia": inertia, "input_gain": gain, **theta, **shape}
-    model = GreyBoxModel(effects, params)
+    model = RigidDrive(effects, params, data.kin.dt, stribeck_shape)
     return FitResult(model, _accel_rss(rss, inertia), rss, int(rows.sum()), k + len(shaped), residual)
 
 
@@ -413,4 +284,4 @@ def _accel_rss(rss: float, inertia: float) -> float:
     return rss / inertia**2 if inertia > 0.0 and math.isfinite(inertia) else math.inf
 
 
-__all__ = ["BalanceData", "FitResult", "GreyBoxModel", "fit_model"]
+__all__ = ["BalanceData", "FitResult", "fit_model", "model_balance"]

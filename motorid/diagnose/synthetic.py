@@ -8,8 +8,8 @@ paper's (inertias, motor constant, resistance, bearing losses, excitation)
 with a stiff shaft, since the grey-box model is rigid.
 
 Three effects the rig has no law for in the rigid sense of the library are
-planted with the grey-box model's own simulator at a finer step
-(:meth:`GreyBoxModel.simulate` with 20 sub-steps) plus white measurement
+planted with the rigid drive's simulator at a finer step
+(:meth:`RigidDrive.free_run <motorid.plants.rigid.RigidDrive.free_run>` with 20 sub-steps) plus white measurement
 noise: ``quadratic_drag``, ``asymmetric_friction`` (the viscous asymmetry,
 which is what tells it from an offset) and ``backlash`` (the rig's backlash is
 a gap in a two-mass shaft whose signature in the load speed is an impact, not
@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from motorid.diagnose.model import GreyBoxModel
+from motorid.plants.rigid import RigidDrive
 
 #: Effects planted in the rig.
 RIG_EFFECTS = (
@@ -243,9 +243,9 @@ def _model_record(
         planted["backlash"] = {"backlash_time": tau}
     if "coulomb_friction" in names:
         planted["coulomb_friction"] = {"coulomb": params["coulomb"]}
-    model = GreyBoxModel((*effects, *names), params)
+    model = RigidDrive((*effects, *names), params, dt)
     u = _excitation(rng, duration, dt, excitation_seed)
-    w = model.simulate(u, dt, substeps=20)
+    w = model.free_run(u, substeps=20)
     noise_rng = rng if excitation_seed is None else np.random.default_rng([excitation_seed, 2])
     noise = 0.002 * float(np.max(np.abs(w))) * noise_rng.standard_normal(u.size)
     record = _record(u, w + noise, dt)

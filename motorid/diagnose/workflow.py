@@ -52,8 +52,9 @@ import pandas as pd
 from motorid.diagnose.effects import EFFECTS, get_effect, param_unit
 from motorid.diagnose.kinematics import Kinematics, kinematics
 from motorid.diagnose.locate import Region, feature, features, locate
-from motorid.diagnose.model import BalanceData, FitResult, GreyBoxModel, fit_model
+from motorid.diagnose.model import BalanceData, FitResult, fit_model, model_balance
 from motorid.errors import DataError
+from motorid.plants.rigid import RigidDrive
 from motorid.records import record_timing
 from motorid.validation import check_signals
 
@@ -96,11 +97,11 @@ class Prepared:
         valid = np.flatnonzero(self.kin.valid)
         return int(valid[0]) if valid.size else 1
 
-    def simulate(self, model: GreyBoxModel) -> np.ndarray:
+    def simulate(self, model: RigidDrive) -> np.ndarray:
         """Free-run velocity at every sample (NaN before the settled span)."""
         i0 = max(self.start, 1)
         out = np.full(self.kin.n, np.nan)
-        out[i0:] = model.simulate(self.kin.u, self.kin.dt, w0=float(self.kin.w[i0 - 1]), start=i0)
+        out[i0:] = model.free_run(self.kin.u, w0=float(self.kin.w[i0 - 1]), start=i0)
         return out
 
 
@@ -212,14 +213,14 @@ def prepare(
 
 
 # --------------------------------------------------------------------------- measures
-def balance_residual(model: GreyBoxModel, data: BalanceData) -> tuple[np.ndarray, np.ndarray]:
+def balance_residual(model: RigidDrive, data: BalanceData) -> tuple[np.ndarray, np.ndarray]:
     """Force residual ``F_in - F_model`` on the decimated samples, and the commanded force ``g u``.
 
     On samples near rest (not moving) static friction holds whatever force lies
     between the model's friction levels at 0- and 0+: there the model force is
     ``J a + clip(F_in - J a, T(0-), T(0+))``.
     """
-    f_in, f_model = model.balance(data)
+    f_in, f_model = model_balance(model, data)
     f_meas = data.decimated("F|", data.balance_force(data.input_gain * data.kin.u))
     eps = max(1e-9, 1e-6 * data.scale["w_max"])
     t_pos, t_neg = model.friction(np.array([eps, -eps]))
@@ -236,7 +237,7 @@ def _rms(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean(x**2))) if x.size else float("nan")
 
 
-def gaps(model: GreyBoxModel, prep: Prepared, region: Region | None) -> dict[str, float]:
+def gaps(model: RigidDrive, prep: Prepared, region: Region | None) -> dict[str, float]:
     """Output gap overall and in ``region`` [v] (free run) and force error [%]."""
     w_sim = prep.simulate(model)
     err = prep.kin.w - w_sim
@@ -296,7 +297,7 @@ class Step:
         ``overall`` and ``region`` output gap [v], ``force_error_percent`` [%].
     evidence : dict
         ΔBIC and its threshold, held-out errors [F], the candidate ranking.
-    model : GreyBoxModel
+    model : RigidDrive
         The refitted model after this step.
     """
 
@@ -306,7 +307,7 @@ class Step:
     gap_before: dict[str, float]
     gap_after: dict[str, float]
     evidence: dict[str, Any]
-    model: GreyBoxModel
+    model: RigidDrive
 
     def to_dict(self) -> dict[str, Any]:
         return {
@@ -332,9 +333,11 @@ class Diagnosis:
         ``force_error_percent`` [%] (torque-balance error on the decimated samples).
     steps : list of Step
     stop_reason : str
-    model : GreyBoxModel
-        The final fitted model (``model.params``: inertia, input_gain, viscous, ...).
-    initial_model : GreyBoxModel
+    model : RigidDrive
+        The final fitted model (``model.params``: inertia, input_gain, viscous, ...),
+        at the record's sample time; ``model.save(path)`` writes it as a model file.
+    initial_model : RigidDrive
+        The user's model as given (``diagnose(model=...)``), else the fitted base.
     region : Region
         The region located on the initial model's residual.
     units : dict
@@ -342,18 +345,25 @@ class Diagnosis:
         N or N m with a known input gain, else the input's unit.
     settings : dict
         Options used (for :meth:`evaluate` on another record).
+    rejected : list of dict
+        Candidates that passed the evidence threshold but were not accepted, and why.
+    refitted_model, refitted_gap : RigidDrive and dict, or None
+        With a given model: its effects refitted to the record, and their gaps (the
+        start of the first step).
     """
 
     initial_gap: dict[str, float]
     final_gap: dict[str, float]
     steps: list[Step]
     stop_reason: str
-    model: GreyBoxModel
-    initial_model: GreyBoxModel
+    model: RigidDrive
+    initial_model: RigidDrive
     region: Region
     units: dict[str, str]
     settings: dict[str, Any]
     rejected: list[dict[str, Any]] = field(default_factory=list)
+    refitted_model: RigidDrive | None = None
+    refitted_gap: dict[str, float] | None = None
     _prep: Prepared | None = field(default=None, repr=False)
 
     @property
@@ -367,9 +377,11 @@ class Diagnosis:
         return {name: param_unit(name, self.units) for name in self.model.params}
 
     @property
-    def models(self) -> list[tuple[str, GreyBoxModel]]:
+    def models(self) -> list[tuple[str, RigidDrive]]:
         """``(label, model)`` for the initial model and after each step."""
         out = [("initial", self.initial_model)]
+        if self.refitted_model is not None:
+            out.append(("refitted", self.refitted_model))
         out += [(f"+{s.effect}", s.model) for s in self.steps]
         return out
 
@@ -395,6 +407,11 @@ class Diagnosis:
                 "params": self.param_units,
             },
             "settings": self.settings,
+            "initial_model": {
+                "effects": list(self.initial_model.effects),
+                "params": self.initial_model.params,
+            },
+            "refitted_gap": self.refitted_gap,
         }
 
     def table(self) -> pd.DataFrame:
@@ -481,7 +498,7 @@ def diagnose(
     output: str = "y",
     output_kind: Literal["velocity", "position"] = "velocity",
     input_gain: float | None = None,
-    base: Sequence[str] | str = DEFAULT_BASE,
+    base: Sequence[str] | str | None = None,
     candidates: Sequence[str] | str | None = None,
     holdout: float | pd.DataFrame = 0.3,
     max_steps: int = 3,
@@ -492,6 +509,7 @@ def diagnose(
     min_gap_shrink: float = 0.01,
     timing: Literal["hold", "sampled", "auto"] | None = None,
     band: float | None = None,
+    model: RigidDrive | None = None,
 ) -> Diagnosis:
     """Find the effects missing from a rigid drive model of ``record`` (see the module notes).
 
@@ -513,8 +531,9 @@ def diagnose(
         and forces are per input unit: a Coulomb level of 0.8 is 0.8 V when the
         input is in V (the torque balance fixes them only up to this scale).
         :attr:`Diagnosis.units` states which.
-    base : sequence of str or comma-separated str
-        Effects already in the model (inertia and input gain always are).
+    base : sequence of str or comma-separated str, optional
+        Effects already in the model (inertia and input gain always are); default
+        :data:`DEFAULT_BASE`, or the effects of ``model``.
     candidates : sequence of str, optional
         Effects to try; default every effect of the library not in ``base``.
     holdout : float or DataFrame
@@ -538,6 +557,12 @@ def diagnose(
         motorid convention of :mod:`motorid.plants`.
     band : float, optional
         Useful band [Hz] (:mod:`.kinematics`).
+    model : RigidDrive, optional
+        The user's own model of the drive. The initial gap is then this model, as
+        given, against the measurement ("where does my simulation disagree"); the
+        workflow refits its effects (every parameter free; its Stribeck shape kept),
+        then names, adds and refits as without it. Its input gain is the force scale
+        unless ``input_gain`` is given; its effects are the base (give no ``base``).
 
     Returns
     -------
@@ -545,7 +570,17 @@ def diagnose(
     """
     from tqdm import tqdm
 
-    base_names = _names(base, "base")
+    if model is not None and not isinstance(model, RigidDrive):
+        raise DataError(f"model must be a RigidDrive, got {type(model).__name__}")
+    if model is not None and base is not None:
+        raise DataError("base: give either base effects or a model (its effects are the base), not both")
+    if model is not None:
+        base_names = model.effects
+        if input_gain is None:
+            input_gain = model.input_gain
+    else:
+        base_names = _names(DEFAULT_BASE if base is None else base, "base")
+    stribeck_shape = "exponential" if model is None else model.stribeck_shape
     if candidates is None:
         cand_names = tuple(n for n in EFFECTS if n not in base_names)
     else:
@@ -568,7 +603,7 @@ def diagnose(
         preps = [prepare(record, timing=t, **opts) for t in ("hold", "sampled")]
         scores = []
         for p in preps:
-            fit = fit_model(p.data, base_names)
+            fit = fit_model(p.data, base_names, stribeck_shape=stribeck_shape)
             scores.append(
                 fit.rss / max(float(np.sum(p.data.kin.decimate(p.data.kin.u)[p.data.moving] ** 2)), 1e-300)
             )
@@ -580,7 +615,8 @@ def diagnose(
     settings = {**opts, "dt": prep.kin.dt, "timing": prep.timing, "band": prep.kin.band,
                 "base": list(base_names), "candidates": list(cand_names), "threshold": threshold,
                 "holdout": "record" if isinstance(holdout, pd.DataFrame) else holdout,
-                "max_steps": int(max_steps)}  # fmt: skip
+                "max_steps": int(max_steps), "model": "given" if model is not None else "fitted",
+                "stribeck_shape": stribeck_shape}  # fmt: skip
 
     if isinstance(holdout, pd.DataFrame):
         other = prepare(holdout, **{**opts, "dt": None if dt is None else dt}, timing=prep.timing)
@@ -592,7 +628,7 @@ def diagnose(
 
     def held_error(effects: tuple[str, ...], start: dict[str, float] | None) -> float:
         """RMS torque-balance residual / J [v/s] on the held-out rows, fitted on the training rows."""
-        fit = fit_model(data, effects, rows=train, start=start)
+        fit = fit_model(data, effects, rows=train, start=start, stribeck_shape=stribeck_shape)
         inertia = fit.model.params["inertia"]
         if not inertia > 0:
             return math.inf
@@ -603,9 +639,11 @@ def diagnose(
     # stages: the initial fit, each step, the final gaps (after the checks: an error shows no bar)
     bar = tqdm(total=max_steps + 2, desc="doctor", disable=not progress, unit="stage")
     bar.set_postfix_str(f"initial fit on {data.n} decimated samples")
-    fit0 = fit_model(data, current)
-    initial_model = fit0.model
+    fit0 = fit_model(data, current, stribeck_shape=stribeck_shape)
+    # the user's model as given (at the record's sample time), else the fitted base
+    initial_model = fit0.model if model is None else model.replace(dt=prep.kin.dt)
     r0, _ = balance_residual(initial_model, data)
+    refitted_model = fit0.model
     first_region = locate(r0, prep.feats_dec, prep.units)
     steps: list[Step] = []
     rejected: list[dict[str, Any]] = []
@@ -624,7 +662,7 @@ def diagnose(
         gap0 = gaps(fit0.model, prep, region)
         ranking = []
         for name in tqdm(remaining, desc="candidates", disable=not progress, leave=False):
-            fit = fit_model(data, (*current, name), start=fit0.model.params)
+            fit = fit_model(data, (*current, name), start=fit0.model.params, stribeck_shape=stribeck_shape)
             ev = evidence(
                 fit0.rss, fit.rss, fit.n_rows, fit.n_params - fit0.n_params, fit.residual[data.moving]
             )
@@ -704,13 +742,18 @@ def diagnose(
     bar.set_postfix_str("final gaps")
     final_model = fit0.model
     initial_gap = gaps(initial_model, prep, first_region)
-    final_gap = gaps(final_model, prep, first_region) if steps else dict(initial_gap)
+    refitted_gap = None if model is None else gaps(refitted_model, prep, first_region)
+    if steps:
+        final_gap = gaps(final_model, prep, first_region)
+    else:
+        final_gap = dict(initial_gap if refitted_gap is None else refitted_gap)
     bar.update(1)
     bar.close()
     return Diagnosis(
         initial_gap=initial_gap, final_gap=final_gap, steps=steps, stop_reason=stop_reason,
         model=final_model, initial_model=initial_model, region=first_region, units=prep.units,
-        settings=settings, rejected=rejected, _prep=prep,
+        settings=settings, rejected=rejected, refitted_model=None if model is None else refitted_model,
+        refitted_gap=refitted_gap, _prep=prep,
     )  # fmt: skip
 
 

@@ -25,11 +25,13 @@ from motorid.plants.rig import (
     paper_rig,
     steady_state_speed,
 )
+from motorid.plants.rigid import RIGID_EFFECTS, RigidDrive
 from motorid.plants.sensors import ADConverter, Encoder, Tachogenerator, measure_speed
 
 __all__ = [
     "PHYSICAL_DEFAULTS",
     "RECORD_UNITS",
+    "RIGID_EFFECTS",
     "ADConverter",
     "Amplifier",
     "AsymmetricFriction",
@@ -38,6 +40,7 @@ __all__ = [
     "Friction",
     "LuGreFriction",
     "RigSimulation",
+    "RigidDrive",
     "StaticFriction",
     "StribeckFriction",
     "Tachogenerator",

@@ -35,6 +35,12 @@ With every nonlinearity off the method is exact for a zero-order-hold input
 (to rounding). With Coulomb friction and dead zone the only errors are the
 event times, resolved to h.
 
+The rigid drive (:class:`~motorid.plants.rigid.RigidDrive`, the doctor's model) is
+here too: its terms (:func:`rigid_term`, with the one Stribeck decay
+:func:`stribeck_decay`, exponential or Gaussian), their regressor columns
+(:func:`rigid_columns`) and its free run (:func:`rigid_free_run`, on
+:func:`stick_or_slip`).
+
 Everything here is compiled with ``numba.njit(cache=True)``, including the
 amplifier (:func:`armature_voltage`) and the tacho + A/D chain
 (:func:`tacho_reading`), kept in this one module so the on-disk cache of the
@@ -167,6 +173,28 @@ def stick_or_slip(omega: float, t_net: float, break_pos: float, break_neg: float
     return 0, (1.0 if t_net > 0.0 else -1.0)
 
 
+#: Shapes of the Stribeck decay (:func:`stribeck_decay`).
+STRIBECK_EXPONENTIAL = 0
+STRIBECK_GAUSSIAN = 1
+#: Names of the shapes in model files, by code.
+STRIBECK_SHAPES = ("exponential", "gaussian")
+
+
+@numba.njit(cache=True)
+def stribeck_decay(omega: float, rate: float, shape: int) -> float:
+    """The Stribeck decay at speed ω [rad/s or m/s] (dimensionless, 1 at rest).
+
+    ``exp(-rate |ω|)`` for ``shape == STRIBECK_EXPONENTIAL`` (eq. 9, rate = α2 = 1/v_s) and
+    ``exp(-(rate ω)²)`` for ``STRIBECK_GAUSSIAN`` (the shape of LuGre's g(ω), rate = 1/ω_s),
+    rate [s/rad or s/m] >= 0. The one implementation of the decay: eq. (11), LuGre's level
+    and the rigid drive's Stribeck term evaluate it.
+    """
+    if shape == STRIBECK_GAUSSIAN:
+        x = rate * omega
+        return math.exp(-(x * x))
+    return math.exp(-rate * abs(omega))
+
+
 @numba.njit(cache=True)
 def friction_law(
     a0: float, a1: float, a2: float, a3: float, a4: float, a5: float, omega: float, direction: float
@@ -178,11 +206,10 @@ def friction_law(
     Stribeck (eq. 9) friction are its special cases. The one implementation of the
     law: the friction objects, the fast and the reference integrator evaluate it.
     """
-    aw = abs(omega)
     if direction > 0.0:
-        return a0 + a1 * math.exp(-a2 * aw)
+        return a0 + a1 * stribeck_decay(omega, a2, STRIBECK_EXPONENTIAL)
     if direction < 0.0:
-        return -(a3 + a4 * math.exp(-a5 * aw))
+        return -(a3 + a4 * stribeck_decay(omega, a5, STRIBECK_EXPONENTIAL))
     return 0.0
 
 
@@ -216,7 +243,7 @@ def static_friction(fric: np.ndarray, side: int, omega: float, direction: float)
 @numba.njit(cache=True)
 def lugre_level(fc: float, fs: float, omega_s: float, omega: float) -> float:
     """LuGre's Stribeck curve g(ω) = Fc + (Fs - Fc) exp(-(ω/ωs)²) [N m] (the one implementation)."""
-    return fc + (fs - fc) * math.exp(-((omega / omega_s) ** 2))
+    return fc + (fs - fc) * stribeck_decay(omega, 1.0 / omega_s, STRIBECK_GAUSSIAN)
 
 
 @numba.njit(cache=True)
@@ -390,3 +417,131 @@ def simulate_kernel(
     for k in range(n):
         advance_sample(x, u[k], t_d[k], noise[k], phi, gam, p, fric, lug, rows[k])
     return rows
+
+
+# --------------------------------------------------------------------------- rigid drive
+# The terms of the rigid drive's torque balance J dω/dt = F_in - Σ θ_t T_t(ω)
+# (:class:`~motorid.plants.rigid.RigidDrive`), by code. Speed terms scale with ω
+# (T_t = ω k_t(ω, s)) and are integrated implicitly; level terms do not.
+TERM_VISCOUS = 0  # B ω
+TERM_VISCOUS_ASYMMETRY = 1  # ΔF_v s ω = ΔF_v |ω| while moving
+TERM_QUADRATIC_DRAG = 2  # c |ω| ω
+TERM_COULOMB = 3  # F_c s
+TERM_STRIBECK = 4  # F_s s decay(ω)
+TERM_COULOMB_ASYMMETRY = 5  # ΔF_c |s|
+TERM_OFFSET = 6  # T_0, also at rest
+N_SPEED_TERMS = 3
+N_TERMS = 7
+
+
+@numba.njit(cache=True)
+def rigid_speed_factor(term: int, omega: float, direction: float) -> float:
+    """k_t of a speed term (``term < N_SPEED_TERMS``): its torque per unit parameter is ω k_t."""
+    if term == TERM_VISCOUS:
+        return 1.0
+    if term == TERM_VISCOUS_ASYMMETRY:
+        return direction
+    return abs(omega)
+
+
+@numba.njit(cache=True)
+def rigid_level(term: int, omega: float, direction: float, rate: float, shape: int) -> float:
+    """Torque per unit parameter of a level term (``term >= N_SPEED_TERMS``) for motion in
+    ``direction`` (s = ±1, or 0 at rest)."""
+    if term == TERM_COULOMB:
+        return direction
+    if term == TERM_STRIBECK:
+        return direction * stribeck_decay(omega, rate, shape)
+    if term == TERM_COULOMB_ASYMMETRY:
+        return abs(direction)
+    return 1.0
+
+
+@numba.njit(cache=True)
+def rigid_term(term: int, omega: float, direction: float, rate: float, shape: int) -> float:
+    """Torque per unit parameter T_t(ω) of any term of the rigid drive (the one implementation:
+    the free run and the doctor's regressor columns evaluate it)."""
+    if term < N_SPEED_TERMS:
+        return omega * rigid_speed_factor(term, omega, direction)
+    return rigid_level(term, omega, direction, rate, shape)
+
+
+@numba.njit(cache=True)
+def rigid_columns(terms: np.ndarray, omega: np.ndarray, rate: float, shape: int) -> np.ndarray:
+    """Columns ``T_t(ω[k])`` of the ``terms`` for a drive moving in the direction sgn(ω[k]),
+    shape (N, len(terms)) (0 for sgn at ω == 0)."""
+    out = np.empty((omega.size, terms.size))
+    for k in range(omega.size):
+        w = omega[k]
+        s = 1.0 if w > 0.0 else (-1.0 if w < 0.0 else 0.0)
+        for j in range(terms.size):
+            out[k, j] = rigid_term(terms[j], w, s, rate, shape)
+    return out
+
+
+@numba.njit(cache=True)
+def rigid_free_run(
+    force: np.ndarray,
+    dt: float,
+    nsub: int,
+    inertia: float,
+    coef: np.ndarray,
+    rate: float,
+    shape: int,
+    w0: float,
+) -> np.ndarray:
+    """Speed of a rigid drive at the end of each sample for the input force [F] held over it.
+
+    ``coef[t]`` is the parameter θ_t of term t. Fixed step h = dt/nsub, semi-implicit Euler::
+
+        ω+ = (ω + h/J (F - Σ_levels θ_t T_t(ω, s))) / (1 + h/J Σ_speed θ_t k_t(ω, s))
+
+    (the speed terms implicit, so the step is stable for any h; the denominator is kept
+    >= 0.1 for non-physical negative fits), with Karnopp's rule (:func:`stick_or_slip`)
+    at ω == 0: the breakaway levels are the level terms at 0± minus the torque at rest
+    (the offset). A drive without (or with a non-physical negative) static friction at
+    rest moves towards the side the net force exceeds most. A step that would carry a
+    drive with static friction (or one starting at rest) through zero stops it at 0.
+    """
+    n = force.size
+    out = np.empty(n)
+    h = dt / nsub
+    rest = 0.0
+    up = 0.0
+    down = 0.0
+    for t in range(N_SPEED_TERMS, N_TERMS):
+        rest += coef[t] * rigid_level(t, 0.0, 0.0, rate, shape)
+        up += coef[t] * rigid_level(t, 0.0, 1.0, rate, shape)
+        down += coef[t] * rigid_level(t, 0.0, -1.0, rate, shape)
+    break_pos = up - rest
+    break_neg = rest - down
+    static = break_pos > 0.0 or break_neg > 0.0
+    w = w0
+    for k in range(n):
+        f = force[k]
+        for _ in range(nsub):
+            at_rest = w == 0.0
+            if at_rest:
+                t_net = f - rest
+                stuck, s = stick_or_slip(w, t_net, break_pos, break_neg)
+                if stuck == 1:
+                    continue
+                if s == 0.0:
+                    s = 1.0 if t_net >= 0.5 * (break_pos - break_neg) else -1.0
+            else:
+                s = 1.0 if w > 0.0 else -1.0
+            level = 0.0
+            for t in range(N_SPEED_TERMS, N_TERMS):
+                level += coef[t] * rigid_level(t, w, s, rate, shape)
+            damp = 0.0
+            for t in range(N_SPEED_TERMS):
+                damp += coef[t] * rigid_speed_factor(t, w, s)
+            den = 1.0 + h * damp / inertia
+            if den < 0.1:
+                den = 0.1
+            wn = (w + h / inertia * (f - level)) / den
+            if (static or at_rest) and wn * s < 0.0:
+                wn = 0.0
+            w = wn
+        out[k] = w
+    return out

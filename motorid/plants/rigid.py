@@ -1,0 +1,356 @@
+"""The rigid drive: one mass, an input gain and the effects the doctor names.
+
+Model (SI units; ``F`` is the force unit of ``g u``, N m for a rotary drive, N for a
+linear one, or the input's unit when the gain is not known; ``v`` the velocity unit)::
+
+    J dω/dt = F_in(u) - Σ_t θ_t T_t(ω)                                      [F]
+    F_in(u) = B(g · D(S(u)))                                                 (input path)
+
+========================= ============================================= ==============================
+effect                    term T (or input map)                         parameters [unit]
+========================= ============================================= ==============================
+``viscous_friction``      B ω                                           viscous [F s/v]
+``coulomb_friction``      F_c sgn(ω)                                    coulomb [F]
+``stribeck_friction``     F_s decay(ω) sgn(ω), decay = exp(-|ω|/v_s)    stribeck [F], stribeck_velocity [v]
+                          or exp(-(ω/v_s)²) (``stribeck_shape``)
+``asymmetric_friction``   ΔF_c |sgn ω| + ΔF_v |ω|                       coulomb_asymmetry [F],
+                                                                        viscous_asymmetry [F s/v]
+``quadratic_drag``        c ω |ω|                                       quadratic_drag [F s²/v²]
+``offset``                T_0 (also at rest)                            offset [F]
+``input_dead_zone``       D(u) = 0 for |u| <= d, u - d sgn(u) beyond    dead_zone [u]
+``input_saturation``      S(u) = clip(u, -u_s, u_s)                     saturation [u]
+``backlash``              B(F) = 0 for τ_b after each reversal of F     backlash_time [s]
+========================= ============================================= ==============================
+
+Every term is evaluated by the compiled functions of
+:mod:`~motorid.plants.fast_integrator` (``rigid_term``, ``stribeck_decay``,
+``stick_or_slip``, ``rigid_free_run``; the input path by ``armature_voltages``, the
+amplifier's own dead zone and saturation at unit gain), the same ones the doctor's fit
+(:mod:`motorid.diagnose`) builds its regressor columns from.
+
+When a rigid drive fits a measurement, and when a two-mass rig is needed: a rigid drive
+describes what one measured speed sees when the coupling between motor and load is
+stiff, i.e. its resonance (for the paper's rig sqrt(k_s (1/J_m + 1/J_L)) / 2π) lies
+well above the band the record excites and the electrical time constant L_a/R_a is
+short beside a sample; then the back-EMF and the bearings act as one viscous term and
+the motor and load frictions add up. It needs no motor current or constants, so it is
+what a velocity (or position) record and an input identify. Use
+:class:`~motorid.plants.rig.TwoMassRig` when the shaft mode or the backlash gap shows in
+the record (oscillation or impacts after reversals), when motor and load speeds are
+both measured, or when the armature current or voltage matters.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pandas as pd
+
+from motorid.plants import fast_integrator as fi
+
+#: The effects of a rigid drive and their parameters, in the library's order.
+RIGID_EFFECTS: dict[str, tuple[str, ...]] = {
+    "coulomb_friction": ("coulomb",),
+    "stribeck_friction": ("stribeck", "stribeck_velocity"),
+    "asymmetric_friction": ("coulomb_asymmetry", "viscous_asymmetry"),
+    "viscous_friction": ("viscous",),
+    "quadratic_drag": ("quadratic_drag",),
+    "input_dead_zone": ("dead_zone",),
+    "input_saturation": ("saturation",),
+    "backlash": ("backlash_time",),
+    "offset": ("offset",),
+}
+#: The compiled term of each parameter that enters the balance linearly.
+TERM_OF: dict[str, int] = {
+    "viscous": fi.TERM_VISCOUS,
+    "viscous_asymmetry": fi.TERM_VISCOUS_ASYMMETRY,
+    "quadratic_drag": fi.TERM_QUADRATIC_DRAG,
+    "coulomb": fi.TERM_COULOMB,
+    "stribeck": fi.TERM_STRIBECK,
+    "coulomb_asymmetry": fi.TERM_COULOMB_ASYMMETRY,
+    "offset": fi.TERM_OFFSET,
+}
+#: Parameters every rigid drive has: inertia J [F s/v] and input gain g [F/u].
+DRIVE_PARAMETERS = ("inertia", "input_gain")
+#: Parameters that must be > 0 and >= 0 in a physical drive (a model file's).
+_POSITIVE = ("inertia", "input_gain", "stribeck_velocity", "saturation")
+_NONNEGATIVE = ("viscous", "coulomb", "stribeck", "quadratic_drag", "dead_zone", "backlash_time")
+
+
+def effect_order(effects: tuple[str, ...] | list[str]) -> tuple[str, ...]:
+    """``effects`` without repeats in the library's order; ValueError naming an unknown one."""
+    for name in effects:
+        if name not in RIGID_EFFECTS:
+            raise ValueError(f"unknown effect {name!r}; known effects: {', '.join(RIGID_EFFECTS)}")
+    order = list(RIGID_EFFECTS)
+    return tuple(sorted(dict.fromkeys(effects), key=order.index))
+
+
+def time_since_reversal(x: np.ndarray, dt: float, before_first: float | None = None) -> np.ndarray:
+    """Time [s] since the last change of sign of ``x`` (zeros keep the previous sign).
+
+    Before the first reversal the time counts from the start of the record, or
+    is ``before_first`` when given.
+    """
+    x = np.asarray(x, dtype=float)
+    s = np.sign(x)
+    # carry the last non-zero sign forwards
+    idx = np.where(s != 0, np.arange(s.size), 0)
+    np.maximum.accumulate(idx, out=idx)
+    s = s[idx]
+    change = np.zeros(s.size, dtype=bool)
+    change[1:] = (s[1:] != s[:-1]) & (s[:-1] != 0)
+    last = np.where(change, np.arange(s.size), 0)
+    np.maximum.accumulate(last, out=last)
+    out = (np.arange(s.size) - last) * dt
+    if before_first is not None:
+        first = np.flatnonzero(change)
+        out[: first[0] if first.size else s.size] = before_first
+    return out
+
+
+def input_path(u: npt.ArrayLike, dead_zone: float = 0.0, saturation: float = math.inf) -> np.ndarray:
+    """``D(S(u))`` [u]: saturation at ±``saturation``, then the dead zone of half-width ``dead_zone``
+    (the amplifier's compiled map at unit gain)."""
+    x = np.ascontiguousarray(np.asarray(u, dtype=float))
+    return fi.armature_voltages(x, 1.0, float(dead_zone), float(saturation))
+
+
+def backlash_dwell(force: np.ndarray, dt: float, backlash_time: float) -> np.ndarray:
+    """``B(F)``: the force ``F`` is not transmitted for ``backlash_time`` [s] after each reversal
+    of its sign (lost motion crossed by the driving side; before the first reversal it is)."""
+    return force * (time_since_reversal(force, dt, before_first=math.inf) >= backlash_time)
+
+
+def term_columns(
+    params: tuple[str, ...], omega: np.ndarray, stribeck_velocity: float = 1.0, shape: str = "exponential"
+) -> np.ndarray:
+    """Torque per unit parameter of the linear ``params`` at each speed, shape (N, len(params)),
+    for a drive moving in the direction sgn(ω) (:func:`~motorid.plants.fast_integrator.rigid_columns`)."""
+    terms = np.array([TERM_OF[p] for p in params], dtype=np.int64)
+    w = np.ascontiguousarray(np.asarray(omega, dtype=float))
+    return fi.rigid_columns(terms, w, 1.0 / stribeck_velocity, fi.STRIBECK_SHAPES.index(shape))
+
+
+@dataclass(frozen=True)
+class RigidDrive:
+    """A rigid drive: inertia, input gain and a set of effects with their parameters.
+
+    Same family as :class:`~motorid.plants.rig.TwoMassRig`: an immutable description,
+    :meth:`simulate` runs a record, :meth:`to_dict`/:meth:`from_dict` and :meth:`save`
+    (a model file of kind ``rigid-drive``, read by :func:`motorid.load_model`). See the
+    module notes for the model and for when it fits a measurement.
+
+    Parameters
+    ----------
+    effects : tuple of str
+        Effect names (:data:`RIGID_EFFECTS`); kept in the library's order.
+    params : dict
+        ``inertia`` [F s/v = kg m² or kg], ``input_gain`` [F/u] and every parameter of
+        each effect (the module table), all finite. A fitted model may hold
+        non-physical values (a negative level); :meth:`check_physical` refuses them, as
+        the model files do, and a free run with ``inertia <= 0`` is NaN.
+    dt : float
+        Sample time [s], > 0: the input is held over each sample.
+    stribeck_shape : {"exponential", "gaussian"}
+        Shape of the Stribeck decay, exp(-|ω|/v_s) or exp(-(ω/v_s)²).
+    """
+
+    effects: tuple[str, ...]
+    params: dict[str, float]
+    dt: float
+    stribeck_shape: str = "exponential"
+
+    def __post_init__(self) -> None:
+        if isinstance(self.effects, str):
+            raise ValueError(f"effects must be a sequence of effect names, got {self.effects!r}")
+        effects = effect_order(tuple(self.effects))
+        object.__setattr__(self, "effects", effects)
+        if not isinstance(self.params, dict):
+            raise ValueError(f"params must be a dict of parameter values, got {type(self.params).__name__}")
+        expected = [*DRIVE_PARAMETERS, *(p for e in effects for p in RIGID_EFFECTS[e])]
+        missing = [p for p in expected if p not in self.params]
+        if missing:
+            raise ValueError(f"params: {missing[0]!r} is missing (the model holds {', '.join(expected)})")
+        unknown = [p for p in self.params if p not in expected]
+        if unknown:
+            raise ValueError(
+                f"params: {unknown[0]!r} belongs to no effect of the model (it holds {', '.join(expected)})"
+            )
+        params = {}
+        for name in expected:
+            value = self.params[name]
+            if isinstance(value, bool) or not isinstance(value, int | float | np.number):
+                raise ValueError(f"{name} must be a number, got {value!r}")
+            if not math.isfinite(value):
+                raise ValueError(f"{name} must be finite, got {value!r}")
+            params[name] = float(value)
+        object.__setattr__(self, "params", params)
+        dt = self.dt
+        if (
+            isinstance(dt, bool)
+            or not isinstance(dt, int | float | np.number)
+            or not math.isfinite(dt)
+            or dt <= 0
+        ):
+            raise ValueError(f"dt must be a finite number > 0 [s], got {dt!r}")
+        object.__setattr__(self, "dt", float(dt))
+        if self.stribeck_shape not in fi.STRIBECK_SHAPES:
+            raise ValueError(
+                f"stribeck_shape must be one of {', '.join(fi.STRIBECK_SHAPES)}, got {self.stribeck_shape!r}"
+            )
+
+    # ------------------------------------------------------------------ parts
+    @property
+    def inertia(self) -> float:
+        """J [F s/v]."""
+        return self.params["inertia"]
+
+    @property
+    def input_gain(self) -> float:
+        """g [F/u]."""
+        return self.params["input_gain"]
+
+    def check_physical(self) -> RigidDrive:
+        """This drive if it is physical (positive inertia, gain, Stribeck velocity, saturation;
+        non-negative levels, dead zone, dwell); ValueError naming the parameter otherwise."""
+        for name, value in self.params.items():
+            if name in _POSITIVE and value <= 0.0:
+                raise ValueError(f"{name} must be > 0, got {value!r}")
+            if name in _NONNEGATIVE and value < 0.0:
+                raise ValueError(f"{name} must be >= 0, got {value!r}")
+        return self
+
+    def replace(self, **changes: Any) -> RigidDrive:
+        """A copy with some fields changed (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+    def with_params(self, **changes: float) -> RigidDrive:
+        """A copy with some parameter values changed."""
+        return dataclasses.replace(self, params={**self.params, **changes})
+
+    def with_effects(self, effects: tuple[str, ...], params: dict[str, float]) -> RigidDrive:
+        """A copy holding ``effects`` with ``params`` (same dt and Stribeck shape)."""
+        return dataclasses.replace(self, effects=tuple(effects), params=dict(params))
+
+    def input_force(self, u: npt.ArrayLike) -> np.ndarray:
+        """Force reaching the drive, F_in(u) [F], for the input [u] held over each sample."""
+        p = self.params
+        x = input_path(u, p.get("dead_zone", 0.0), p.get("saturation", math.inf))
+        force = p["input_gain"] * x
+        if "backlash" in self.effects:
+            force = backlash_dwell(force, self.dt, p["backlash_time"])
+        return force
+
+    def _terms(self) -> list[str]:
+        return [p for e in self.effects for p in RIGID_EFFECTS[e] if p in TERM_OF]
+
+    def friction(self, omega: npt.ArrayLike) -> np.ndarray:
+        """Σ_t θ_t T_t(ω) [F] at speeds ``omega`` [v] for a drive moving in the direction sgn(ω)."""
+        names = tuple(self._terms())
+        w = np.asarray(omega, dtype=float)
+        if not names:
+            return np.zeros_like(w)
+        cols = term_columns(names, w, self.params.get("stribeck_velocity", 1.0), self.stribeck_shape)
+        return cols @ np.array([self.params[n] for n in names])
+
+    def free_run(
+        self, u: npt.ArrayLike, w0: float = 0.0, substeps: int | None = None, start: int = 0
+    ) -> np.ndarray:
+        """Free-run velocity [v] at the end of each sample for the input ``u`` [u] held over it.
+
+        Parameters
+        ----------
+        u : array_like, shape (N,)
+            Input [u], zero-order hold.
+        w0 : float
+            Velocity at the start [v].
+        substeps : int, optional
+            Steps per sample; default enough for 20 steps per mechanical time
+            constant J/B (1 to 50).
+        start : int
+            Start the free run at sample ``start`` (with ``w0``); the input path
+            (the backlash dwell) still sees the whole input. The result has
+            ``N - start`` samples.
+        """
+        J = self.inertia
+        n = np.asarray(u).size
+        if not J > 0.0:
+            return np.full(n - start, np.nan)  # no free run without a positive inertia
+        coef = np.zeros(fi.N_TERMS)
+        for name in self._terms():
+            coef[TERM_OF[name]] = self.params[name]
+        if substeps is None:
+            substeps = int(min(50, max(1, math.ceil(20.0 * self.dt * abs(coef[fi.TERM_VISCOUS]) / J))))
+        force = np.ascontiguousarray(self.input_force(u)[start:], dtype=float)
+        vs = self.params.get("stribeck_velocity", 1.0)
+        rate = 1.0 / vs if vs > 0.0 else 1.0
+        shape = fi.STRIBECK_SHAPES.index(self.stribeck_shape)
+        return fi.rigid_free_run(force, self.dt, int(substeps), J, coef, rate, shape, float(w0))
+
+    # -------------------------------------------------------------- records
+    def simulate(self, u: npt.ArrayLike, w0: float = 0.0) -> pd.DataFrame:
+        """A record of the drive from speed ``w0`` [v] for the input ``u`` [u] held over each sample.
+
+        Returns
+        -------
+        pandas.DataFrame
+            Columns ``t`` [s] (start of each sample), ``u`` and ``y`` (the velocity at the
+            end of the sample, noise free); ``attrs``: ``dt``, ``units``, ``timing``
+            (``"hold"``) and ``model`` (:meth:`to_dict`).
+        """
+        arr = np.asarray(u, dtype=float)
+        if arr.ndim != 1:
+            raise ValueError(f"u must be one-dimensional, got shape {arr.shape}")
+        bad = np.flatnonzero(~np.isfinite(arr))
+        if bad.size:
+            k = int(bad[0])
+            raise ValueError(f"u must be finite: u[{k}] = {arr[k]!r} at sample {k}")
+        y = self.free_run(arr, w0=w0)
+        df = pd.DataFrame({"t": np.arange(arr.size) * self.dt, "u": arr, "y": y})
+        df.attrs["dt"] = self.dt
+        df.attrs["units"] = {"t": "s", "u": "V", "y": "rad/s"}
+        df.attrs["timing"] = "hold"
+        df.attrs["model"] = self.to_dict()
+        return df
+
+    # ---------------------------------------------------------- description
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able description (inverse: :meth:`from_dict`)."""
+        return {
+            "effects": list(self.effects),
+            "params": dict(self.params),
+            "dt": self.dt,
+            "stribeck_shape": self.stribeck_shape,
+        }
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> RigidDrive:
+        """Rebuild a physical drive from :meth:`to_dict` output, every key checked
+        (:func:`motorid.models.rigid_drive_from_dict`, DataError naming the key)."""
+        from motorid.models import rigid_drive_from_dict
+
+        return rigid_drive_from_dict(data)
+
+    def save(self, path: str | Path) -> None:
+        """Write the drive as a model file (:mod:`motorid.models`); :func:`motorid.load_model` reads it."""
+        from motorid.models import save_model
+
+        save_model(self, path)
+
+
+__all__ = [
+    "RIGID_EFFECTS",
+    "RigidDrive",
+    "backlash_dwell",
+    "effect_order",
+    "input_path",
+    "term_columns",
+    "time_since_reversal",
+]
