@@ -59,6 +59,17 @@ _LEGACY_TIMINGS = (
 )
 
 
+def check_row_limit(name: str, rows: int, max_samples: int | None) -> None:
+    """Refuse, before it is loaded, a record of more than ``max_samples`` rows (how to decimate it named)."""
+    if max_samples is not None and rows > max_samples:
+        raise DataError(
+            f"{name} has {rows} rows, more than the limit of {max_samples} samples (max_samples, "
+            f"--max-samples on the command line) that keeps memory bounded (about 8 bytes per sample "
+            f"and column); decimate the record (low-pass filter it, then keep one row in "
+            f"{math.ceil(rows / max_samples)}) or raise the limit"
+        )
+
+
 def record_timing(attrs: Mapping[str, Any], default: str = "hold") -> str:
     """The timing keyword of a record's ``attrs`` (one of :data:`TIMINGS`).
 
@@ -404,13 +415,7 @@ def _read_binary(
                 )
         if not rows:
             raise DataError(f"{name} has columns but no samples")
-        if max_samples is not None and rows > max_samples:
-            raise DataError(
-                f"{name} has {rows} rows, more than the limit of {max_samples} samples (max_samples, "
-                f"--max-samples on the command line) that keeps memory bounded (about 8 bytes per sample "
-                f"and column); decimate the record (low-pass filter it, then keep one row in "
-                f"{math.ceil(rows / max_samples)}) or raise the limit"
-            )
+        check_row_limit(name, rows, max_samples)
         others = (
             [k for k in present if k not in found and _samples(shapes[k]) == rows] if other_columns else []
         )
@@ -560,13 +565,7 @@ def _read_csv(
     rows = count_data_lines(name) - skip - 1
     if rows <= 0:
         raise DataError(f"{name} has a header but no data rows")
-    if max_samples is not None and rows > max_samples:
-        raise DataError(
-            f"{name} has {rows} rows, more than the limit of {max_samples} samples (max_samples, "
-            f"--max-samples on the command line) that keeps memory bounded (about 8 bytes per sample "
-            f"and column); decimate the record (low-pass filter it, then keep one row in "
-            f"{math.ceil(rows / max_samples)}) or raise the limit"
-        )
+    check_row_limit(name, rows, max_samples)
     wanted = present if other_columns else [c for c in present if c in mapping.values()]
     rec = _parse_columns(name, skip, wanted).rename(columns={v: k for k, v in mapping.items() if v != k})
     return rec.reset_index(drop=True), attrs, skip + 1

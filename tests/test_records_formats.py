@@ -213,10 +213,9 @@ def test_a_gap_in_time_names_the_row(tmp_path, fmt):
         read_record(path)
 
 
-@pytest.mark.parametrize("fmt", FORMATS)
+# a Parquet table cannot hold columns of different lengths: the other formats can
+@pytest.mark.parametrize("fmt", [f for f in FORMATS if f != "parquet"])
 def test_columns_of_different_lengths_are_refused(tmp_path, fmt):
-    if fmt == "parquet":
-        pytest.skip("a Parquet table holds columns of one length")
     columns = columns_of()
     columns["y"] = columns["y"][:-3]
     path = write(fmt, tmp_path, columns)

@@ -99,7 +99,9 @@ class ResultsStore:
         self.parts.mkdir(parents=True, exist_ok=True)
         indices = [int(m.group(1)) for p in self.parts.iterdir() if (m := _PART.match(p.name))]
         self._next = max(indices, default=-1) + 1
-        self._tables: list[Any] | None = None  # what is on disk (pyarrow tables), read once, then kept in step
+        self._tables: list[Any] | None = (
+            None  # what is on disk (pyarrow tables), read once, then kept in step
+        )
 
     def _part_files(self) -> list[Path]:
         return sorted((p for p in self.parts.iterdir() if _PART.match(p.name)), key=lambda p: p.name)

@@ -74,7 +74,7 @@ _NONNEGATIVE = ("B_m", "B_l", "B_s", "backlash")
 _NOISE_BLOCK = 1024
 
 
-def _check_input(name: str, values: npt.ArrayLike) -> np.ndarray:
+def check_input(name: str, values: npt.ArrayLike) -> np.ndarray:
     """1-D float array; ValueError naming the first non-finite sample."""
     arr = np.asarray(values, dtype=float)
     if arr.ndim != 1:
@@ -363,12 +363,12 @@ class TwoMassRig:
             ``dt``, ``units`` (column -> unit), ``rig`` (:meth:`to_dict`),
             ``integrator``, ``seed`` and ``timing``.
         """
-        u_arr = _check_input("u", u)
+        u_arr = check_input("u", u)
         n = u_arr.size
         if load_torque is None:
             t_d = np.full(n, float(self.T_d))
         else:
-            t_d = _check_input("load_torque", load_torque)
+            t_d = check_input("load_torque", load_torque)
             if t_d.size != n:
                 raise ValueError(f"load_torque must have {n} samples like u, got {t_d.size}")
         noise = np.random.default_rng(seed).standard_normal(n)

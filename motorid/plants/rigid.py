@@ -53,6 +53,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from motorid.plants import fast_integrator as fi
+from motorid.plants.rig import check_input
 
 #: The effects of a rigid drive and their parameters, in the library's order.
 RIGID_EFFECTS: dict[str, tuple[str, ...]] = {
@@ -305,13 +306,7 @@ class RigidDrive:
             end of the sample, noise free); ``attrs``: ``dt``, ``units``, ``timing``
             (``"hold"``) and ``model`` (:meth:`to_dict`).
         """
-        arr = np.asarray(u, dtype=float)
-        if arr.ndim != 1:
-            raise ValueError(f"u must be one-dimensional, got shape {arr.shape}")
-        bad = np.flatnonzero(~np.isfinite(arr))
-        if bad.size:
-            k = int(bad[0])
-            raise ValueError(f"u must be finite: u[{k}] = {arr[k]!r} at sample {k}")
+        arr = check_input("u", u)
         y = self.free_run(arr, w0=w0)
         df = pd.DataFrame({"t": np.arange(arr.size) * self.dt, "u": arr, "y": y})
         df.attrs["dt"] = self.dt
