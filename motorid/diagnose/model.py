@@ -192,22 +192,21 @@ def _linear_solve(
         for j, pname in enumerate(eff.linear):
             names.append(pname)
             cols.append(data.decimated(f"{key}|{j}", lambda j=j, column=column: column(j)))
-    full_X = np.column_stack(cols)
-    X = full_X[rows]
-    y = target[rows]
-    norms = np.linalg.norm(X, axis=0)
+    k = len(cols)
+    # [Xs | y] on the fitted rows, the columns scaled to unit norm in place (one copy of the rows)
+    scaled = np.column_stack([*cols, target])[rows]
+    norms = np.linalg.norm(scaled[:, :k], axis=0)
     norms[norms == 0.0] = 1.0
-    Xs = X / norms
+    scaled[:, :k] /= norms
     # one QR of [Xs | y]: |R_jj| is the part of unit column j outside the span of those before
     # it (below 1e-3 it adds no rank), and ||Xs_keep θ - y|| = ||R_keep θ - R_y||, a small problem
-    k = Xs.shape[1]
-    R = np.linalg.qr(np.column_stack([Xs, y]), mode="r")
+    R = np.linalg.qr(scaled, mode="r")
     keep = np.flatnonzero(np.abs(np.diag(R)[:k]) > 1e-3).tolist()
     theta = np.zeros(k)
     if keep:
         sol, *_ = np.linalg.lstsq(R[:, keep], R[:, k], rcond=None)
         theta[keep] = sol / norms[keep]
-    residual = target - full_X @ theta
+    residual = target - np.column_stack(cols) @ theta
     rss = float(np.sum(residual[rows] ** 2))
     return dict(zip(names, theta.tolist(), strict=True)), rss, len(keep), residual
 
@@ -250,8 +249,17 @@ def fit_model(
 
     nonnegative = [p for n in effects if get_effect(n).nonlinear for p in get_effect(n).nonnegative]
 
+    solved: dict[tuple[float, ...], tuple[dict[str, float], float, int, np.ndarray]] = {}
+
+    def solve(point: dict[str, float]) -> tuple[dict[str, float], float, int, np.ndarray]:
+        """The linear solve at the shape ``point``, once per point (the final fit is a point of the search)."""
+        key = tuple(point[p] for p, _ in shaped)
+        if key not in solved:
+            solved[key] = _linear_solve(data, effects, point, gain, rows, stribeck_shape)
+        return solved[key]
+
     def cost(p: str, value: float) -> float:
-        theta, rss, _, _ = _linear_solve(data, effects, {**shape, p: value}, gain, rows, stribeck_shape)
+        theta, rss, _, _ = solve({**shape, p: value})
         if any(theta[q] < 0.0 for q in nonnegative):
             return math.inf  # the shape that needs a negative level is not the physical effect
         return _accel_rss(rss, theta["inertia"])
@@ -271,7 +279,8 @@ def fit_model(
                 options={"xatol": 1e-3},
             )
             shape[p] = math.exp(res.x) if res.fun <= costs[i] else float(grid[i])
-    theta, rss, k, residual = _linear_solve(data, effects, shape, gain, rows, stribeck_shape)
+    theta, rss, k, residual = solve(shape)
+    theta = dict(theta)
     inertia = theta.pop("inertia")
     params = {"inertia": inertia, "input_gain": gain, **theta, **shape}
     model = RigidDrive(effects, params, data.kin.dt, stribeck_shape)
