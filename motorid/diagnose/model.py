@@ -206,6 +206,7 @@ def _linear_solve(
     if keep:
         sol, *_ = np.linalg.lstsq(R[:, keep], R[:, k], rcond=None)
         theta[keep] = sol / norms[keep]
+    del scaled  # the rows' copy goes before the full-length columns are stacked again
     residual = target - np.column_stack(cols) @ theta
     rss = float(np.sum(residual[rows] ** 2))
     return dict(zip(names, theta.tolist(), strict=True)), rss, len(keep), residual
@@ -249,20 +250,19 @@ def fit_model(
 
     nonnegative = [p for n in effects if get_effect(n).nonlinear for p in get_effect(n).nonnegative]
 
-    solved: dict[tuple[float, ...], tuple[dict[str, float], float, int, np.ndarray]] = {}
-
-    def solve(point: dict[str, float]) -> tuple[dict[str, float], float, int, np.ndarray]:
-        """The linear solve at the shape ``point``, once per point (the final fit is a point of the search)."""
-        key = tuple(point[p] for p, _ in shaped)
-        if key not in solved:
-            solved[key] = _linear_solve(data, effects, point, gain, rows, stribeck_shape)
-        return solved[key]
+    # the search's best point so far and its solve: the final fit is that point, solved once
+    best: dict[str, object] = {"cost": math.inf, "point": None, "solve": None}
 
     def cost(p: str, value: float) -> float:
-        theta, rss, _, _ = solve({**shape, p: value})
+        point = {**shape, p: value}
+        solved = _linear_solve(data, effects, point, gain, rows, stribeck_shape)
+        theta, rss = solved[0], solved[1]
         if any(theta[q] < 0.0 for q in nonnegative):
             return math.inf  # the shape that needs a negative level is not the physical effect
-        return _accel_rss(rss, theta["inertia"])
+        value_cost = _accel_rss(rss, theta["inertia"])
+        if value_cost <= best["cost"]:
+            best.update(cost=value_cost, point=point, solve=solved)
+        return value_cost
 
     for _ in range(2 if len(shaped) > 1 else 1):
         for p, (lo, hi) in shaped:
@@ -279,8 +279,10 @@ def fit_model(
                 options={"xatol": 1e-3},
             )
             shape[p] = math.exp(res.x) if res.fun <= costs[i] else float(grid[i])
-    theta, rss, k, residual = solve(shape)
-    theta = dict(theta)
+    if best["point"] == shape:
+        theta, rss, k, residual = best["solve"]  # type: ignore[misc]
+    else:
+        theta, rss, k, residual = _linear_solve(data, effects, shape, gain, rows, stribeck_shape)
     inertia = theta.pop("inertia")
     params = {"inertia": inertia, "input_gain": gain, **theta, **shape}
     model = RigidDrive(effects, params, data.kin.dt, stribeck_shape)
