@@ -116,6 +116,8 @@ def zero_phase(design: tuple[np.ndarray, np.ndarray], x: np.ndarray) -> np.ndarr
     edge = 3 * taps
     if x.size <= edge:
         raise ValueError(f"the signal has {x.size} samples; the zero-phase filter needs more than {edge}")
+    # one compiled signature for every caller: a writable contiguous float64 array (copied only if not)
+    x = np.require(x, dtype=np.float64, requirements=["C", "W"])
     return _zero_phase(sos, zi, x, edge)
 
 
