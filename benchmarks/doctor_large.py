@@ -1,18 +1,22 @@
 """Wall time and peak memory of ``motorid doctor`` and ``diagnose()`` on long records.
 
-Run: ``.venv/bin/python benchmarks/doctor_large.py [--samples 2000000] [--dt 0.005] [--keep DIR]``
+Run: ``.venv/bin/python benchmarks/doctor_large.py [--samples 2000000] [--dt 0.005] [--repeat 1] [--keep DIR]``
 
 Two records of the default rig (:func:`motorid.plants.paper_rig` at ``dt``, driven by
 :func:`motorid.plants.signals.two_sine_signal`): an 80 s one and one of ``--samples``
-samples. Each is diagnosed in a fresh process, once by ``motorid doctor REC --json --out
-DIR`` and once by ``diagnose()`` in Python (read with :func:`motorid.records.read_record`),
-and the script prints the wall time [s] (start-up and reading included), the peak resident
-memory [MB] (``ru_maxrss`` of that process) and whether the progress bar reached stderr. Not a test: it prints figures.
+samples (``--samples 0``: the 80 s one only). Each is diagnosed in a fresh process by
+``motorid doctor REC --json`` (no figures: matplotlib is not imported), by ``motorid doctor
+REC --json --out DIR`` and by ``diagnose()`` in Python (read with
+:func:`motorid.records.read_record`), ``--repeat`` times each, the runs alternated; the script
+prints the median and the smallest wall time [s] (start-up and reading included), the largest
+peak resident memory [MB] (``ru_maxrss`` of that process) and whether the progress bar reached
+stderr. Not a test: it prints figures.
 """
 
 from __future__ import annotations
 
 import argparse
+import statistics
 import subprocess
 import sys
 import tempfile
@@ -61,26 +65,37 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--samples", type=int, default=2_000_000)
     parser.add_argument("--dt", type=float, default=0.005, help="sample time [s]")
+    parser.add_argument("--repeat", type=int, default=1, help="runs of each command (alternated)")
     parser.add_argument("--keep", type=Path, help="folder for the records and figures (default: temporary)")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         folder = args.keep or Path(tmp)
         folder.mkdir(parents=True, exist_ok=True)
-        print(f"{'record':>28} {'run':>16} {'wall [s]':>9} {'peak RSS [MB]':>14} {'progress on stderr':>19}")
-        for samples in (round(80.0 / args.dt), args.samples):
+        print(f"{'record':>28} {'run':>22} {'median wall [s]':>16} {'min wall [s]':>13} "
+              f"{'peak RSS [MB]':>14} {'progress on stderr':>19}")  # fmt: skip
+        for samples in dict.fromkeys(s for s in (round(80.0 / args.dt), args.samples) if s > 0):
             path = folder / f"rig_{samples}.csv"
             if not path.exists():
                 make_record(path, samples, args.dt)
             label = f"{samples} samples, {samples * args.dt:g} s"
+            doctor = [str(MOTORID), "doctor", str(path), "--max-samples", str(samples), "--json"]
             runs = {
-                "motorid doctor": [str(MOTORID), "doctor", str(path), "--max-samples", str(samples),
-                                   "--json", "--out", str(folder / f"doctor_{samples}")],
+                "motorid doctor --json": doctor,
+                "motorid doctor --out": [*doctor, "--out", str(folder / f"doctor_{samples}")],
                 "diagnose()": [sys.executable, "-c", PYTHON_RUN, str(path)],
-            }  # fmt: skip
-            for name, argv in runs.items():
-                wall, peak, err = measure(argv)
-                shown = "yes" if "doctor:" in err and "stage" in err else "-"
-                print(f"{label:>28} {name:>16} {wall:9.1f} {peak:14.0f} {shown:>19}", flush=True)
+            }
+            walls: dict[str, list[float]] = {name: [] for name in runs}
+            peaks: dict[str, float] = dict.fromkeys(runs, 0.0)
+            shown: dict[str, str] = {}
+            for _ in range(args.repeat):
+                for name, argv in runs.items():
+                    wall, peak, err = measure(argv)
+                    walls[name].append(wall)
+                    peaks[name] = max(peaks[name], peak)
+                    shown[name] = "yes" if "doctor:" in err and "stage" in err else "-"
+            for name in runs:
+                print(f"{label:>28} {name:>22} {statistics.median(walls[name]):16.2f} {min(walls[name]):13.2f} "
+                      f"{peaks[name]:14.0f} {shown[name]:>19}", flush=True)  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -193,3 +193,27 @@ def test_doctor_model_options_refuse_what_does_not_fit(capsys, record_csv, tmp_p
     argv += [a.replace("{rig}", str(tmp_path / "rig.json")) for a in extra]
     code, _, err = run(capsys, *argv)
     assert code == 2 and words in err
+
+
+def test_doctor_without_out_imports_no_plotting_and_uses_one_blas_thread(record_csv):
+    """The command without --out never loads matplotlib (about 0.5 s and 40 MB of start-up), and
+    it runs BLAS on one thread unless told otherwise; checked in a fresh process, where the
+    command's own imports are the first."""
+    import json
+    import os
+    import subprocess
+    import sys
+
+    probe = (
+        "import io, json, os, sys, contextlib\n"
+        "from motorid.cli import main\n"
+        "with contextlib.redirect_stdout(io.StringIO()):\n"
+        f"    code = main(['doctor', {str(record_csv)!r}, '--input', 'volts', '--output', 'speed', '--json'])\n"
+        "print(json.dumps([code, 'matplotlib' in sys.modules, os.environ.get('OPENBLAS_NUM_THREADS')]))\n"
+    )
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, env=env, check=True)
+    assert json.loads(done.stdout.splitlines()[-1]) == [0, False, "1"]
+    env["OPENBLAS_NUM_THREADS"] = "2"
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, env=env, check=True)
+    assert json.loads(done.stdout.splitlines()[-1])[2] == "2"

@@ -192,22 +192,22 @@ def _linear_solve(
         for j, pname in enumerate(eff.linear):
             names.append(pname)
             cols.append(data.decimated(f"{key}|{j}", lambda j=j, column=column: column(j)))
-    full_X = np.column_stack(cols)
-    X = full_X[rows]
-    y = target[rows]
-    norms = np.linalg.norm(X, axis=0)
+    k = len(cols)
+    # [Xs | y] on the fitted rows, the columns scaled to unit norm in place (one copy of the rows)
+    scaled = np.column_stack([*cols, target])[rows]
+    norms = np.linalg.norm(scaled[:, :k], axis=0)
     norms[norms == 0.0] = 1.0
-    Xs = X / norms
+    scaled[:, :k] /= norms
     # one QR of [Xs | y]: |R_jj| is the part of unit column j outside the span of those before
     # it (below 1e-3 it adds no rank), and ||Xs_keep θ - y|| = ||R_keep θ - R_y||, a small problem
-    k = Xs.shape[1]
-    R = np.linalg.qr(np.column_stack([Xs, y]), mode="r")
+    R = np.linalg.qr(scaled, mode="r")
     keep = np.flatnonzero(np.abs(np.diag(R)[:k]) > 1e-3).tolist()
     theta = np.zeros(k)
     if keep:
         sol, *_ = np.linalg.lstsq(R[:, keep], R[:, k], rcond=None)
         theta[keep] = sol / norms[keep]
-    residual = target - full_X @ theta
+    del scaled  # the rows' copy goes before the full-length columns are stacked again
+    residual = target - np.column_stack(cols) @ theta
     rss = float(np.sum(residual[rows] ** 2))
     return dict(zip(names, theta.tolist(), strict=True)), rss, len(keep), residual
 
@@ -250,11 +250,19 @@ def fit_model(
 
     nonnegative = [p for n in effects if get_effect(n).nonlinear for p in get_effect(n).nonnegative]
 
+    # the search's best point so far and its solve: the final fit is that point, solved once
+    best: dict[str, object] = {"cost": math.inf, "point": None, "solve": None}
+
     def cost(p: str, value: float) -> float:
-        theta, rss, _, _ = _linear_solve(data, effects, {**shape, p: value}, gain, rows, stribeck_shape)
+        point = {**shape, p: value}
+        solved = _linear_solve(data, effects, point, gain, rows, stribeck_shape)
+        theta, rss = solved[0], solved[1]
         if any(theta[q] < 0.0 for q in nonnegative):
             return math.inf  # the shape that needs a negative level is not the physical effect
-        return _accel_rss(rss, theta["inertia"])
+        value_cost = _accel_rss(rss, theta["inertia"])
+        if value_cost <= best["cost"]:
+            best.update(cost=value_cost, point=point, solve=solved)
+        return value_cost
 
     for _ in range(2 if len(shaped) > 1 else 1):
         for p, (lo, hi) in shaped:
@@ -271,7 +279,10 @@ def fit_model(
                 options={"xatol": 1e-3},
             )
             shape[p] = math.exp(res.x) if res.fun <= costs[i] else float(grid[i])
-    theta, rss, k, residual = _linear_solve(data, effects, shape, gain, rows, stribeck_shape)
+    if best["point"] == shape:
+        theta, rss, k, residual = best["solve"]  # type: ignore[misc]
+    else:
+        theta, rss, k, residual = _linear_solve(data, effects, shape, gain, rows, stribeck_shape)
     inertia = theta.pop("inertia")
     params = {"inertia": inertia, "input_gain": gain, **theta, **shape}
     model = RigidDrive(effects, params, data.kin.dt, stribeck_shape)
