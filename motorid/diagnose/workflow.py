@@ -81,10 +81,12 @@ DEFAULT_THRESHOLD = 10.0
 #: Share of the best candidate's RSS reduction above which two candidates are "alike".
 ALIKE = 0.8
 DEFAULT_BASE = ("viscous_friction", "offset")
-#: Smallest free-run gap shrink of a second or later step, in noise floors σ_w (:mod:`.calibration`).
+#: Smallest free-run gap shrink of a second or later step, in noise floors σ_w: a second effect
+#: was named on 1 of 900 one-effect records with it, on 14 without (:mod:`.calibration`).
 NOISE_SHRINK = 0.5
-#: A final gap above this many noise floors says an effect is still missing (:mod:`.calibration`).
-MISSING_FACTOR = 4.0
+#: A final gap above this many noise floors says an effect is still missing: above the largest
+#: final gap (3.18) of 899 models that found their one planted effect (:mod:`.calibration`).
+MISSING_FACTOR = 3.5
 
 
 # --------------------------------------------------------------------------- prepared record
@@ -512,7 +514,7 @@ def _against_noise(
     gap: float, region_gap: float, region: Region, floor: float, missing_factor: float, unit: str
 ) -> str:
     """The final gap [unit] against the noise floor [unit], and where it concentrates when far above."""
-    ratio = gap / floor if floor > 0 else math.inf
+    ratio = gap / floor if floor > 0 else (0.0 if gap == 0 else math.inf)
     text = f"final gap {gap:.4g} {unit} = {ratio:.1f} x the noise floor {floor:.3g} {unit}"
     if ratio <= missing_factor:
         return text + ": at the noise floor, nothing more to explain"
