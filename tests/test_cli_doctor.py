@@ -41,6 +41,13 @@ def test_doctor_json_names_the_hidden_effect(capsys, record_csv, planted, tmp_pa
     assert step["gap_after"]["region"] < step["gap_before"]["region"]
     assert out["final_gap"]["overall"] < out["initial_gap"]["overall"]
     assert isinstance(out["stop_reason"], str) and out["stop_reason"]
+    # the final gap against the record's noise floor, in the JSON and in words; one effect planted, one named
+    ratio = out["final_gap"]["overall"] / out["noise_floor"]
+    assert (
+        out["stop_reason"].endswith("at the noise floor, nothing more to explain")
+        and f"= {ratio:.1f} x" in (out["stop_reason"])
+    )
+    assert [s["effect"] for s in out["steps"]] == ["coulomb_friction"]
     assert all((tmp_path / p.split("/")[-1]).exists() for p in out["figures"]) and len(out["figures"]) == 2
     assert (tmp_path / "doctor_table.csv").exists()
     assert "coulomb_friction" in err and "stopped:" in err

@@ -27,14 +27,29 @@ The workflow (:func:`diagnose`):
 4. **Add** a passing candidate only if (a) fitted on the training blocks it
    lowers the torque-balance RMS error on held-out blocks (or on a second
    record) by at least ``min_holdout_gain`` and (b) refitted on everything, its
-   free-run output gap is at least ``min_gap_shrink`` smaller; then refit and
-   repeat until no candidate passes, all are in the model or ``max_steps`` is
-   reached. :attr:`Diagnosis.stop_reason` says which.
+   free-run output gap is at least ``min_gap_shrink`` smaller and (c) for a
+   second or later step, the gap shrinks by more than ``noise_shrink`` times
+   the record's noise floor σ_w (below); then refit and repeat until no
+   candidate passes, all are in the model or ``max_steps`` is reached.
+   :attr:`Diagnosis.stop_reason` says which, and how far the final gap is from
+   the noise floor.
 5. **Show**: the gaps before and after each step (:meth:`Diagnosis.table`) and
    figures (:meth:`Diagnosis.write_figures`).
 
-The default ``threshold`` was calibrated on records with no hidden effect; see
-:mod:`motorid.diagnose.calibration` for the measured false-alarm rate.
+The noise floor σ_w [v] is the standard deviation of the measurement noise left
+on the low-passed measured velocity the free run is compared with
+(:attr:`Kinematics.noise <motorid.diagnose.kinematics.Kinematics.noise>`, from
+the high-frequency part of the measured output): a model that reproduces the
+drive exactly still leaves a free-run gap of about σ_w. A second effect must
+therefore shrink the gap by a clear share of σ_w, not only pass the held-out
+blocks (an effect that moves a gap of 1.5 σ_w by 0.05 σ_w fits noise); a gap
+already within ``noise_shrink`` σ_w of the floor ends the search. A final gap
+above ``missing_factor`` σ_w says that something is still missing, and where
+the torque-balance residual of the final model concentrates.
+
+The default ``threshold`` was calibrated on records with no hidden effect, and
+``noise_shrink`` and ``missing_factor`` on records with one; see
+:mod:`motorid.diagnose.calibration` for the measured false-alarm rates.
 """
 
 from __future__ import annotations
@@ -66,6 +81,12 @@ DEFAULT_THRESHOLD = 10.0
 #: Share of the best candidate's RSS reduction above which two candidates are "alike".
 ALIKE = 0.8
 DEFAULT_BASE = ("viscous_friction", "offset")
+#: Smallest free-run gap shrink of a second or later step, in noise floors σ_w: a second effect
+#: was named on 1 of 900 one-effect records with it, on 14 without (:mod:`.calibration`).
+NOISE_SHRINK = 0.5
+#: A final gap above this many noise floors says an effect is still missing: above the largest
+#: final gap (3.18) of 899 models that found their one planted effect (:mod:`.calibration`).
+MISSING_FACTOR = 3.5
 
 
 # --------------------------------------------------------------------------- prepared record
@@ -333,6 +354,13 @@ class Diagnosis:
         ``force_error_percent`` [%] (torque-balance error on the decimated samples).
     steps : list of Step
     stop_reason : str
+        Why the search stopped, then the final gap against the noise floor: at it, or
+        many times it ("something is still missing") and where it concentrates.
+    noise_floor : float
+        σ_w [v]: standard deviation of the noise on the measured velocity the free
+        run is compared with, estimated from the record (see the module notes).
+    final_region : Region
+        Where the final model's torque-balance residual concentrates.
     model : RigidDrive
         The final fitted model (``model.params``: inertia, input_gain, viscous, ...),
         at the record's sample time; ``model.save(path)`` writes it as a model file.
@@ -356,6 +384,8 @@ class Diagnosis:
     final_gap: dict[str, float]
     steps: list[Step]
     stop_reason: str
+    noise_floor: float
+    final_region: Region
     model: RigidDrive
     initial_model: RigidDrive
     region: Region
@@ -392,7 +422,9 @@ class Diagnosis:
             "final_gap": self.final_gap,
             "steps": [s.to_dict() for s in self.steps],
             "stop_reason": self.stop_reason,
+            "noise_floor": self.noise_floor,
             "region": self.region.to_dict(),
+            "final_region": self.final_region.to_dict(),
             "model": {"effects": list(self.model.effects), "params": self.model.params},
             "rejected": self.rejected,
             "units": {
@@ -478,6 +510,20 @@ class Diagnosis:
 
 
 # --------------------------------------------------------------------------- workflow
+def _against_noise(
+    gap: float, region_gap: float, region: Region, floor: float, missing_factor: float, unit: str
+) -> str:
+    """The final gap [unit] against the noise floor [unit], and where it concentrates when far above."""
+    ratio = gap / floor if floor > 0 else (0.0 if gap == 0 else math.inf)
+    text = f"final gap {gap:.4g} {unit} = {ratio:.1f} x the noise floor {floor:.3g} {unit}"
+    if ratio <= missing_factor:
+        return text + ": at the noise floor, nothing more to explain"
+    return (
+        f"{text}: something is still missing; the gap concentrates where {region.description} "
+        f"(final gap there {region_gap:.4g} {unit})"
+    )
+
+
 def _names(value: Sequence[str] | str | None, what: str) -> tuple[str, ...]:
     if value is None:
         return ()
@@ -507,6 +553,8 @@ def diagnose(
     threshold: float = DEFAULT_THRESHOLD,
     min_holdout_gain: float = 0.01,
     min_gap_shrink: float = 0.01,
+    noise_shrink: float = NOISE_SHRINK,
+    missing_factor: float = MISSING_FACTOR,
     timing: Literal["hold", "sampled", "auto"] | None = None,
     band: float | None = None,
     model: RigidDrive | None = None,
@@ -548,6 +596,11 @@ def diagnose(
     min_holdout_gain, min_gap_shrink : float
         Smallest relative improvement of the held-out torque-balance error and
         of the free-run output gap for a candidate to be accepted.
+    noise_shrink : float
+        Smallest free-run gap shrink of a second or later step, in noise floors, >= 0.
+    missing_factor : float
+        Final gap, in noise floors, above which :attr:`Diagnosis.stop_reason` says
+        that something is still missing, > 0.
     timing : {"hold", "sampled", "auto"}, optional
         Input/output timing (:func:`prepare`); ``auto`` takes the one whose
         base model fits the torque balance better (a base model that lacks an
@@ -596,6 +649,10 @@ def diagnose(
         raise DataError(f"timing must be 'auto', 'hold' or 'sampled', got {timing!r}")
     if not math.isfinite(threshold):
         raise DataError(f"threshold must be finite, got {threshold!r}")
+    if not (isinstance(noise_shrink, int | float) and math.isfinite(noise_shrink) and noise_shrink >= 0):
+        raise DataError(f"noise_shrink must be a finite number >= 0 (noise floors), got {noise_shrink!r}")
+    if not (isinstance(missing_factor, int | float) and math.isfinite(missing_factor) and missing_factor > 0):
+        raise DataError(f"missing_factor must be a finite number > 0 (noise floors), got {missing_factor!r}")
 
     opts = {"dt": dt, "input": input, "output": output, "output_kind": output_kind,
             "input_gain": input_gain, "band": band}  # fmt: skip
@@ -614,6 +671,7 @@ def diagnose(
     data = prep.data
     settings = {**opts, "dt": prep.kin.dt, "timing": prep.timing, "band": prep.kin.band,
                 "base": list(base_names), "candidates": list(cand_names), "threshold": threshold,
+                "noise_shrink": noise_shrink, "missing_factor": missing_factor,
                 "holdout": "record" if isinstance(holdout, pd.DataFrame) else holdout,
                 "max_steps": int(max_steps), "model": "given" if model is not None else "fitted",
                 "stribeck_shape": stribeck_shape}  # fmt: skip
@@ -648,6 +706,8 @@ def diagnose(
     steps: list[Step] = []
     rejected: list[dict[str, Any]] = []
     stop_reason = f"max_steps = {max_steps} reached"
+    floor = prep.kin.noise
+    v = prep.units["v"]
     bar.update(1)
     for _ in range(max_steps):
         bar.set_postfix_str(f"step {len(steps) + 1}")
@@ -660,6 +720,12 @@ def diagnose(
         r_cur, _ = balance_residual(fit0.model, data)
         region = first_region if not steps else locate(r_cur, prep.feats_dec, prep.units)
         gap0 = gaps(fit0.model, prep, region)
+        if steps and gap0["overall"] <= (1.0 + noise_shrink) * floor:
+            stop_reason = (
+                f"the free-run gap {gap0['overall']:.4g} {v} is {gap0['overall'] / floor:.2f} x the noise "
+                f"floor {floor:.4g} {v}: no further effect can shrink it by more than {noise_shrink:g} x the noise"
+            )
+            break
         ranking = []
         for name in tqdm(remaining, desc="candidates", disable=not progress, leave=False):
             fit = fit_model(data, (*current, name), start=fit0.model.params, stribeck_shape=stribeck_shape)
@@ -702,24 +768,33 @@ def diagnose(
             gap1 = gaps(c["fit"].model, prep, region)
             ok_held = cand_held < (1.0 - min_holdout_gain) * base_held
             ok_gap = gap1["overall"] < (1.0 - min_gap_shrink) * gap0["overall"]
+            shrink = (gap0["overall"] - gap1["overall"]) / floor if floor > 0 else math.inf
+            ok_noise = not steps or shrink > noise_shrink
             record_c = {
                 "effect": name, "delta_bic": c["delta_bic"], "held_out_error_before": base_held,
                 "held_out_error_after": cand_held, "gap_before": gap0["overall"], "gap_after": gap1["overall"],
+                "gap_shrink_noise_floors": shrink,
             }  # fmt: skip
-            if ok_held and ok_gap:
+            if ok_held and ok_gap and ok_noise:
                 accepted = (c, gap1, record_c)
                 break
             why = []
             if not ok_held:
                 why.append(f"held-out error {cand_held:.4g} vs {base_held:.4g} {prep.units['v']}/s")
             if not ok_gap:
-                why.append(f"free-run gap {gap1['overall']:.4g} vs {gap0['overall']:.4g} {prep.units['v']}")
+                why.append(f"free-run gap {gap1['overall']:.4g} vs {gap0['overall']:.4g} {v}")
+            elif not ok_noise:
+                why.append(
+                    f"free-run gap {gap1['overall']:.4g} vs {gap0['overall']:.4g} {v}, a shrink of {shrink:.2f} "
+                    f"noise floors ({floor:.3g} {v}), not above {noise_shrink:g}"
+                )
             record_c["reason"] = "; ".join(why)
             rejected.append({"step": len(steps) + 1, **record_c})
             reasons.append(f"{name} ({record_c['reason']})")
         if accepted is None:
-            stop_reason = "no candidate improves held-out data and shrinks the free-run gap: " + ", ".join(
-                reasons
+            stop_reason = (
+                "no candidate improves held-out data and shrinks the free-run gap beyond the noise: "
+                + ", ".join(reasons)
             )
             break
         c, gap1, record_c = accepted
@@ -730,6 +805,7 @@ def diagnose(
             "delta_bic": c["delta_bic"], "threshold": threshold, "n": c["n"], "n_eff": c["n_eff"],
             "rss_ratio": c["rss_ratio"], "held_out_error_before": record_c["held_out_error_before"],
             "held_out_error_after": record_c["held_out_error_after"],
+            "gap_shrink_noise_floors": record_c["gap_shrink_noise_floors"], "noise_floor": floor,
             "chosen_by": "free-run gap among alike candidates" if c is not passing[0] else "evidence",
             "ranking": table,
         }  # fmt: skip
@@ -747,10 +823,16 @@ def diagnose(
         final_gap = gaps(final_model, prep, first_region)
     else:
         final_gap = dict(initial_gap if refitted_gap is None else refitted_gap)
+    final_region = locate(balance_residual(final_model, data)[0], prep.feats_dec, prep.units)
+    stop_reason += "; " + _against_noise(
+        final_gap["overall"], gaps(final_model, prep, final_region)["region"], final_region, floor,
+        missing_factor, v,
+    )  # fmt: skip
     bar.update(1)
     bar.close()
     return Diagnosis(
         initial_gap=initial_gap, final_gap=final_gap, steps=steps, stop_reason=stop_reason,
+        noise_floor=floor, final_region=final_region,
         model=final_model, initial_model=initial_model, region=first_region, units=prep.units,
         settings=settings, rejected=rejected, refitted_model=None if model is None else refitted_model,
         refitted_gap=refitted_gap, _prep=prep,
