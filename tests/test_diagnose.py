@@ -24,6 +24,7 @@ from hypothesis import strategies as st
 from motorid.diagnose import EFFECTS, diagnose
 from motorid.diagnose.calibration import false_alarms
 from motorid.diagnose.kinematics import kinematics
+from motorid.diagnose.model import linear_param_std
 from motorid.diagnose.synthetic import BASE_FOR, planted_record
 from motorid.diagnose.workflow import MISSING_FACTOR, NOISE_SHRINK
 from motorid.plants.rigid import RigidDrive, time_since_reversal
@@ -98,6 +99,57 @@ def test_parameters_of_a_planted_effect_are_recovered():
     w_max = planted.record["y"].abs().max()
     assert region.feature == "speed" and region.hi < 0.3 * w_max
     assert region.sign_follows in ("sgn(w)", "sgn(u)")
+
+
+def test_standard_errors_of_a_mean_under_correlated_noise_match_the_scatter_over_repeats():
+    """Independent reference: for the regression on a constant column (the mean), the
+    variance of the estimate under AR(1) noise is σ²/n (1 + ρ)/(1 - ρ) for large n; the
+    reported standard error is held to the scatter of 400 repeats."""
+    rng = np.random.default_rng(7)
+    n, rho, reps = 2000, 0.7, 400
+    estimates, stds = [], []
+    rows = np.ones(n, dtype=bool)
+    rows[::50] = False  # gaps between fitted rows: pairs across a gap are not counted as consecutive
+    for _ in range(reps):
+        e = np.empty(n)
+        e[0] = rng.normal() / math.sqrt(1 - rho**2)
+        for k in range(1, n):
+            e[k] = rho * e[k - 1] + rng.normal()
+        level = float(np.mean(e[rows]))
+        residual = e - level
+        unit_cov = np.array([[1.0 / rows.sum()]])  # (XᵀX)⁻¹ of a column of ones on the rows
+        estimates.append(level)
+        stds.append(linear_param_std(["level"], unit_cov, residual, rows, 1)["level"])
+    # the scatter of 400 repeats is known to about 1/sqrt(2*400) = 3.5 %; 12 % is 3.4 of those
+    assert np.median(stds) == pytest.approx(np.std(estimates, ddof=1), rel=0.12)
+    white = linear_param_std(["level"], np.array([[1.0 / n]]), rng.normal(size=n), np.ones(n, bool), 1)
+    assert white["level"] == pytest.approx(1 / math.sqrt(n), rel=0.06)  # ρ ≈ 0: the plain σ/√n
+
+
+def test_the_doctors_standard_errors_cover_the_scatter_between_records_of_one_drive():
+    """Eight records of one drive under different excitations and noise: the fitted levels
+    scatter by less than their reported standard errors (they also count the two-mass
+    dynamics the rigid model leaves in the residual, about 1.8x the scatter on this rig),
+    yet by more than a sixth of them (a wrong scale would miss by orders of magnitude)."""
+    names = ("coulomb", "viscous", "inertia")
+    values, stds = [], []
+    for excitation in range(8):
+        planted = planted_record("coulomb_friction", 3, excitation_seed=excitation)
+        d = diagnose(
+            planted.record,
+            input_gain=planted.input_gain,
+            base=(*planted.base, "coulomb_friction"),
+            max_steps=0,
+        )
+        values.append([d.model.params[k] for k in names])
+        stds.append([d.param_std[k] for k in names])
+        assert d.to_dict()["model"]["params_std"] == d.param_std
+    ratio = np.std(values, axis=0, ddof=1) / np.median(stds, axis=0)
+    # 8 records know the scatter to about ±25 % (chi with 7 degrees of freedom, 1 %-99 % at 0.42-1.63)
+    assert np.all((ratio > 1 / 6) & (ratio < 1.5)), dict(zip(names, ratio, strict=True))
+    assert np.mean(values, axis=0)[0] == pytest.approx(
+        planted.effects["coulomb_friction"]["coulomb"], rel=0.05
+    )
 
 
 def test_coulomb_friction_and_dead_zone_are_told_apart():

@@ -218,6 +218,10 @@ def test_trend_finds_the_wearing_drives_and_the_dead_zone_day_and_no_healthy_dri
     assert flags.loc["drive-03", "appeared"] == f"input_dead_zone from {day}"
     for healthy in ("drive-00", "drive-04"):
         assert not flags.loc[healthy, "flagged"] and abs(flags.loc[healthy, "coulomb_rise"]) < 0.1
+    # every doctor result carries the standard errors of its levels into the trends
+    coulomb = friction_trends(results).query("parameter == 'coulomb'")
+    assert coulomb["std"].notna().all() and (coulomb["std"] > 0).all()
+    assert (coulomb["std"] < 0.2 * coulomb["value"]).all()  # a level known to better than 20 %
 
 
 def test_trend_command_prints_the_flagged_table_and_writes_figures(doctor_run, tmp_path, capsys):

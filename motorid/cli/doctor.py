@@ -112,6 +112,13 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         f"{diagnosis.final_gap['force_error_percent']:.2f} %"
     )
     say(f"  stopped: {diagnosis.stop_reason}")
+    final = ", ".join(
+        f"{k} = {v:.5g}"
+        + (f" ± {diagnosis.param_std[k]:.2g}" if k in diagnosis.param_std else "")
+        + f" {param_units[k]}"
+        for k, v in diagnosis.model.params.items()
+    )
+    say(f"  final model (± one standard error): {final}")
     if args.save_model is not None:
         try:
             diagnosis.model.save(args.save_model)

@@ -143,6 +143,7 @@ class FitResult:
     n_rows: int
     n_params: int
     residual: np.ndarray  # on every decimated sample (F_in - F_model)
+    param_std: dict[str, float] = field(default_factory=dict)
 
 
 def _linear_solve(
@@ -152,7 +153,10 @@ def _linear_solve(
     gain: float,
     rows: np.ndarray,
     stribeck_shape: str,
-) -> tuple[dict[str, float], float, int, np.ndarray]:
+) -> tuple[dict[str, float], float, int, np.ndarray, np.ndarray]:
+    """Least squares of the balance for fixed shape parameters: ``(θ, RSS [F²], rank,
+    residual, C)`` with C = (XᵀX)⁻¹ over the columns kept (zero rows and columns for a
+    dropped one), in the parameters' units: θ's covariance is σ² C."""
     kin = data.kin
     input_effects = sorted(
         (get_effect(n) for n in effects if EFFECTS[n].kind == "input" and n != "backlash"),
@@ -203,13 +207,44 @@ def _linear_solve(
     R = np.linalg.qr(scaled, mode="r")
     keep = np.flatnonzero(np.abs(np.diag(R)[:k]) > 1e-3).tolist()
     theta = np.zeros(k)
+    unit_cov = np.zeros((k, k))
     if keep:
-        sol, *_ = np.linalg.lstsq(R[:, keep], R[:, k], rcond=None)
+        kept = R[:, keep]
+        sol, *_ = np.linalg.lstsq(kept, R[:, k], rcond=None)
         theta[keep] = sol / norms[keep]
+        # XsᵀXs = RᵀR on the kept columns; unscaling column j divides its row and column by norm_j
+        unit_cov[np.ix_(keep, keep)] = np.linalg.inv(kept.T @ kept) / np.outer(norms[keep], norms[keep])
     del scaled  # the rows' copy goes before the full-length columns are stacked again
     residual = target - np.column_stack(cols) @ theta
     rss = float(np.sum(residual[rows] ** 2))
-    return dict(zip(names, theta.tolist(), strict=True)), rss, len(keep), residual
+    return dict(zip(names, theta.tolist(), strict=True)), rss, len(keep), residual, unit_cov
+
+
+def linear_param_std(
+    names: list[str], unit_cov: np.ndarray, residual: np.ndarray, rows: np.ndarray, rank: int
+) -> dict[str, float]:
+    """Standard errors of the linear parameters θ (inertia and the effects' levels) [their units].
+
+    ``std_j = sqrt(σ² C_jj (1 + ρ) / (1 - ρ))`` with σ² = RSS / (n - rank) on the fitted
+    rows, C = (XᵀX)⁻¹ and ρ ∈ [0, 0.99] the lag-1 autocorrelation of the residual over
+    consecutive fitted rows: the balance residual of filtered, decimated signals is not
+    white, and (1 + ρ)/(1 - ρ) is the variance inflation of a mean of an AR(1) sequence
+    (the effective number of rows is n (1 - ρ)/(1 + ρ)). They hold the shape parameters
+    (Stribeck velocity, dead zone, ...) at their fitted values, which get no standard error.
+    A dropped column's parameter gets 0.
+    """
+    idx = np.flatnonzero(rows)
+    r = residual[idx]
+    dof = r.size - rank
+    if dof <= 0:
+        return {name: math.nan for name in names}
+    sum_sq = float(r @ r)
+    consecutive = np.diff(idx) == 1
+    rho = float(r[:-1][consecutive] @ r[1:][consecutive]) / sum_sq if sum_sq > 0.0 else 0.0
+    rho = min(max(rho, 0.0), 0.99)
+    variance = sum_sq / dof * (1.0 + rho) / (1.0 - rho)
+    std = np.sqrt(variance * np.clip(np.diag(unit_cov), 0.0, None))
+    return dict(zip(names, std.tolist(), strict=True))
 
 
 def fit_model(
@@ -280,13 +315,16 @@ def fit_model(
             )
             shape[p] = math.exp(res.x) if res.fun <= costs[i] else float(grid[i])
     if best["point"] == shape:
-        theta, rss, k, residual = best["solve"]  # type: ignore[misc]
+        theta, rss, k, residual, unit_cov = best["solve"]  # type: ignore[misc]
     else:
-        theta, rss, k, residual = _linear_solve(data, effects, shape, gain, rows, stribeck_shape)
+        theta, rss, k, residual, unit_cov = _linear_solve(data, effects, shape, gain, rows, stribeck_shape)
+    param_std = linear_param_std(list(theta), unit_cov, residual, rows, k)
     inertia = theta.pop("inertia")
     params = {"inertia": inertia, "input_gain": gain, **theta, **shape}
     model = RigidDrive(effects, params, data.kin.dt, stribeck_shape)
-    return FitResult(model, _accel_rss(rss, inertia), rss, int(rows.sum()), k + len(shaped), residual)
+    return FitResult(
+        model, _accel_rss(rss, inertia), rss, int(rows.sum()), k + len(shaped), residual, param_std
+    )
 
 
 def _accel_rss(rss: float, inertia: float) -> float:
@@ -295,4 +333,4 @@ def _accel_rss(rss: float, inertia: float) -> float:
     return rss / inertia**2 if inertia > 0.0 and math.isfinite(inertia) else math.inf
 
 
-__all__ = ["BalanceData", "FitResult", "fit_model", "model_balance"]
+__all__ = ["BalanceData", "FitResult", "fit_model", "linear_param_std", "model_balance"]

@@ -378,6 +378,10 @@ class Diagnosis:
     refitted_model, refitted_gap : RigidDrive and dict, or None
         With a given model: its effects refitted to the record, and their gaps (the
         start of the first step).
+    param_std : dict
+        Standard error of each linear parameter of the final model (inertia and the
+        effects' levels, in the units of ``param_units``), from the fit's residual
+        (:func:`motorid.diagnose.model.linear_param_std`); shape parameters have none.
     """
 
     initial_gap: dict[str, float]
@@ -394,6 +398,7 @@ class Diagnosis:
     rejected: list[dict[str, Any]] = field(default_factory=list)
     refitted_model: RigidDrive | None = None
     refitted_gap: dict[str, float] | None = None
+    param_std: dict[str, float] = field(default_factory=dict)
     _prep: Prepared | None = field(default=None, repr=False)
 
     @property
@@ -425,7 +430,11 @@ class Diagnosis:
             "noise_floor": self.noise_floor,
             "region": self.region.to_dict(),
             "final_region": self.final_region.to_dict(),
-            "model": {"effects": list(self.model.effects), "params": self.model.params},
+            "model": {
+                "effects": list(self.model.effects),
+                "params": self.model.params,
+                "params_std": self.param_std,
+            },
             "rejected": self.rejected,
             "units": {
                 "gap": f"{self.units['v']} (RMS of measured minus free-run velocity"
@@ -835,7 +844,7 @@ def diagnose(
         noise_floor=floor, final_region=final_region,
         model=final_model, initial_model=initial_model, region=first_region, units=prep.units,
         settings=settings, rejected=rejected, refitted_model=None if model is None else refitted_model,
-        refitted_gap=refitted_gap, _prep=prep,
+        refitted_gap=refitted_gap, param_std=fit0.param_std, _prep=prep,
     )  # fmt: skip
 
 

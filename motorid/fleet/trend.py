@@ -2,8 +2,8 @@
 
 From a results table (:func:`motorid.fleet.results.load_results`) of ``motorid fleet
 doctor`` (the final model's parameters ``model.params.*`` and the effects it named)
-or ``motorid fleet identify`` with a friction filter (``params.coulomb``,
-``params.coulomb_std``, ...).
+with their standard errors ``model.params_std.*``, or ``motorid fleet identify`` with a
+friction filter (``params.coulomb``, ``params.coulomb_std``, ...).
 
 A drive is flagged when, over its last ``window_days`` days of records,
 
@@ -58,7 +58,11 @@ def friction_trends(results: pd.DataFrame) -> pd.DataFrame:
             "(attrs 'time', or --pattern with {date:...}) and rerun"
         )
     frames = []
-    for prefix in ("model.params.", "params."):
+    # (prefix of a parameter's column, prefix and suffix of its standard error's column)
+    for prefix, std_prefix, std_suffix in (
+        ("model.params.", "model.params_std.", ""),
+        ("params.", "params.", "_std"),
+    ):
         names = [
             c[len(prefix) :]
             for c in ok.columns
@@ -69,7 +73,7 @@ def friction_trends(results: pd.DataFrame) -> pd.DataFrame:
         ]
         for name in names:
             values = pd.to_numeric(ok[prefix + name], errors="coerce")
-            std_col = prefix + name + "_std"
+            std_col = std_prefix + name + std_suffix
             std = pd.to_numeric(ok[std_col], errors="coerce") if std_col in ok else np.nan
             frame = pd.DataFrame(
                 {"drive": ok["drive"], "time": ok["time"], "record": ok["record"], "parameter": name,
