@@ -174,6 +174,27 @@ def test_doctor_improves_the_users_model_and_the_saved_model_predicts_a_fresh_me
     assert rms["improved"] < 1.4 * noise
     assert rms["datasheet"] > 2.5 * noise
 
+    # the friction filter started from the improved model tracks the fresh measurement online
+    from motorid import load_model
+    from motorid.estimators import FrictionEKF
+    from motorid.estimators.friction_kf import tacho_variance
+
+    improved = load_model(tmp_path / "improved.json")
+    p = improved.params
+    ekf = FrictionEKF.from_rig(
+        improved, R=tacho_variance(rig)
+    )  # R: the drive's tacho and A/D, from its datasheet
+    assert ekf.state_names == ("omega", "coulomb", "viscous", "stribeck")
+    np.testing.assert_array_equal(ekf.x, [0.0, p["coulomb"], p["viscous"], p["stribeck"]])
+    assert ekf.stribeck_decay == 1.0 / p["stribeck_velocity"]
+    result = ekf.batch_filter(fresh["u"], y)
+    nis = result.innovation**2 / result.S
+    # A consistent filter's innovations are white with NIS ~ chi2(1), so the mean over the
+    # N = 6000 samples is chi2(N)/N: 99 % band 1 +- 2.58 sqrt(2/N) = [0.953, 1.047]
+    # (measured 0.988); and the windowed mean never passes divergence_nis.
+    band = 2.58 * np.sqrt(2.0 / nis.size)
+    assert abs(nis.mean() - 1.0) < band and not ekf.diverged
+
 
 @pytest.mark.parametrize(
     "extra, words",
