@@ -57,13 +57,17 @@ Zero speed (sgn is not differentiable at 0)
 The sample is integrated in ``n`` sub-steps of h = dt/n by Heun's method (RK2).
 Within a sub-step the direction s is *frozen* at its value at the start of the
 sub-step, exactly as the plant's integrator holds its friction torques over an
-internal step, and a Karnopp stick/slip rule makes the model stick like the plant:
+internal step, and the plant's Karnopp stick/slip rule (``stick_or_slip``) makes the
+model stick like the plant:
 
 - ω_j != 0 at the start: s = sgn(ω_j). If the sub-step ends with s ω_j < 0 (the
   mass passed through zero) ω_j is set to exactly 0.
 - ω_j == 0 at the start: the mass stays stuck (dω_j/dt = 0 over the sub-step)
   while the net driving torque on it lies in [-(T_c- + T_s), T_c + T_s]; else it
   breaks away with s the sign of that torque.
+
+Within a sub-step the Stribeck decay is evaluated at the stage's own speed, d(ω_j);
+only its side (the level T_c or T_c- and the sign s) is frozen.
 
 So the map is smooth in x inside each mode and the Jacobian is the exact
 derivative of the sub-stepped map along the path actually taken: the Coulomb term

@@ -41,6 +41,14 @@ here too: its terms (:func:`rigid_term`, with the one Stribeck decay
 (:func:`rigid_columns`) and its free run (:func:`rigid_free_run`, on
 :func:`stick_or_slip`).
 
+So is the friction filters' process model (the EKF/UKF of
+:mod:`motorid.estimators.friction_kf`, state layout in
+:mod:`motorid.estimators.friction_model`): :func:`filter_drift` and its Jacobian with
+:func:`friction_law` and :func:`stribeck_decay_slope`, :func:`filter_direction` on
+:func:`stick_or_slip`, the sub-stepped :func:`filter_propagate`, and the EKF kernels
+that inline it (:func:`ekf_predict`, :func:`ekf_batch` ...). The filter's model is the
+drive's physics, so it is compiled with it.
+
 Everything here is compiled with ``numba.njit(cache=True)``, including the
 amplifier (:func:`armature_voltage`) and the tacho + A/D chain
 (:func:`tacho_reading`), kept in this one module so the on-disk cache of the
