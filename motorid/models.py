@@ -498,7 +498,13 @@ def _friction_filter(cls: Any, settings: Any, state: Any, where: str) -> Any:
     for name, annotation in annotations.items():
         key, value = _join(s_where, name), settings[name]
         if name == "rig":
-            kw[name] = None if value is None else _rig(value, key)
+            # a filter's rig is a two-mass rig or a rigid drive (whose description has ``effects``)
+            if value is None:
+                kw[name] = None
+            elif isinstance(value, dict) and "effects" in value:
+                kw[name] = _rigid_drive(value, key)
+            else:
+                kw[name] = _rig(value, key)
         elif value is None and "None" in annotation:
             kw[name] = None
         elif annotation.startswith("bool"):

@@ -76,14 +76,16 @@ fig.tight_layout()
 # %% [markdown]
 # ## Both filters on the same record
 #
-# The priors are deliberately off: $T_c$ starts at 5 mN m and $B$ at 5e-5 N m s/rad.
+# The priors are deliberately off: $T_c$ starts at 5 mN m and $B$ at 5e-5 N m s/rad
+# (`from_rig` alone would start from the rig's own friction, here the truth).
 # `batch_filter` returns the estimate and the diagonal of P after every sample, which is
 # what the bands below are drawn from.
 
 # %%
+GUESS = {"coulomb0": 5e-3, "viscous0": 5e-5}
 results, timings = {}, {}
 for name, cls in (("EKF", FrictionEKF), ("UKF", FrictionUKF)):
-    est = cls.from_rig(rig)
+    est = cls.from_rig(rig, **GUESS)
     start = time.perf_counter()
     results[name] = (est, est.batch_filter(u, y))
     timings[name] = (time.perf_counter() - start) / len(u) * 1e6
@@ -158,12 +160,14 @@ stribeck_rig = rig.replace(
     friction=(StribeckFriction(alpha0=TRUE["coulomb"], alpha1=TRUE["coulomb"], alpha2=0.5, side="motor"),)
 )
 y_stribeck = stribeck_rig.simulate(u, seed=1)["y"].to_numpy()
-mismatched = FrictionEKF.from_rig(stribeck_rig, divergence_nis=2.0, on_divergence="warn")
+mismatched = FrictionEKF.from_rig(
+    stribeck_rig, stribeck=False, divergence_nis=2.0, on_divergence="warn", **GUESS
+)
 with warnings.catch_warnings(record=True) as caught:
     warnings.simplefilter("always")
     res_mismatched = mismatched.batch_filter(u, y_stribeck)
 print("first warning:", str(caught[0].message) if caught else None)
-matched = FrictionEKF.from_rig(stribeck_rig, stribeck=True, stribeck_decay=0.5)
+matched = FrictionEKF.from_rig(stribeck_rig, stribeck0=0.0, **GUESS)  # Stribeck on, α2 = 0.5 from the rig
 res_matched = matched.batch_filter(u, y_stribeck)
 display(
     pd.DataFrame(

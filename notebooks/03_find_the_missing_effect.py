@@ -36,12 +36,19 @@
 import tempfile
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 from IPython.display import Image, display
 
+from motorid import load_model
 from motorid.datasets import EMPS_REFERENCE, load_emps
 from motorid.diagnose import EFFECTS, diagnose
 from motorid.diagnose.synthetic import planted_record
+from motorid.estimators import FrictionEKF
+from motorid.estimators.friction_kf import tacho_variance
+from motorid.io import ModbusDAQ, RigServer, run_online
+from motorid.plants import CoulombFriction, RigidDrive, StribeckFriction, paper_rig
+from motorid.plants.signals import two_sine_signal
 
 pd.set_option("display.width", 180)
 pd.set_option("display.max_colwidth", 60)
@@ -82,6 +89,105 @@ display(ranking[["delta_bic", "rss_ratio"]].sort_values("delta_bic", ascending=F
 # %%
 for path in hidden.write_figures(WORK / "hidden"):
     display(Image(filename=str(path)))
+
+# %% [markdown]
+# ## The whole loop on your own model
+#
+# The doctor also starts from *your* simulation and hands the improved one back as a model
+# file that every command reads. The loop, on a drive whose truth we know: the paper's rig
+# at 100 Hz with Stribeck friction on the motor, and a datasheet model of it (inertia,
+# gain, losses, Coulomb friction and the amplifier's dead zone) that lacks Stribeck friction.
+#
+# 1. **measure** 60 s of the paper's test signal on the drive;
+# 2. **doctor**: where does the datasheet model disagree, which effect is missing;
+# 3. **save** the improved model (`motorid doctor meas.csv --model datasheet.json --save-model improved.json`);
+# 4. **simulate** it on a *different* input (`motorid simulate --model improved.json`) against a fresh measurement;
+# 5. **serve** the drive over Modbus (`motorid rig serve --model truth.json`: here the measured drive stands in
+#    for the real one behind its PLC);
+# 6. **track it online**: the friction EKF starts from the improved model's friction
+#    (`FrictionEKF.from_rig(load_model("improved.json"), R=...)`) and follows the drive sample by sample.
+
+# %%
+drive = paper_rig(
+    dt=0.01, substeps=20, k_s=20.0, B_s=0.02,
+    friction=(
+        CoulombFriction(alpha=4e-3, side="motor"), CoulombFriction(alpha=2e-3, side="load"),
+        StribeckFriction(alpha0=0.0, alpha1=6e-3, alpha2=0.1, side="motor"),
+    ),
+)  # fmt: skip
+datasheet = RigidDrive(
+    ("coulomb_friction", "viscous_friction", "offset", "input_dead_zone"),
+    {
+        "inertia": drive.J_m + drive.J_l, "input_gain": drive.K_m / drive.R_a, "coulomb": 6e-3,
+        "viscous": drive.K_m**2 / drive.R_a + drive.B_m + drive.B_l, "offset": 0.0, "dead_zone": 0.6,
+    },
+    drive.dt,
+)  # fmt: skip
+datasheet.save(WORK / "datasheet.json")
+
+# 1. measure
+_, u_meas = two_sine_signal(60.0, drive.dt, seed=1)
+measurement = drive.simulate(u_meas, seed=1)
+# 2. doctor, starting from the datasheet model
+doctor = diagnose(measurement, model=load_model(WORK / "datasheet.json"))
+display(doctor.table())
+print(
+    f"gap of the datasheet model {doctor.initial_gap['overall']:.3f} rad/s, refitted "
+    f"{doctor.refitted_gap['overall']:.3f}, improved {doctor.final_gap['overall']:.3f} rad/s"
+)
+# 3. save
+doctor.model.save(WORK / "improved.json")
+improved = load_model(WORK / "improved.json")
+print("improved model:", improved.effects)
+print({k: float(f"{v:.4g}") for k, v in improved.params.items()})
+
+# %% [markdown]
+# **Simulate** the saved models on a different input, against a fresh measurement of the
+# drive (new noise): the improved model is off by about the noise, the datasheet model by
+# several times it.
+
+# %%
+_, u_new = two_sine_signal(60.0, drive.dt, seed=2)
+fresh = drive.simulate(u_new, seed=5)
+noise = float(np.std(fresh["y"] - fresh["omega_l"]))
+rms = {
+    name: float(np.sqrt(np.mean((model.simulate(u_new)["y"] - fresh["y"]) ** 2)))
+    for name, model in (("datasheet", datasheet), ("improved", improved))
+}
+display(
+    pd.DataFrame({"rms error [rad/s]": rms, "in noise RMS": {k: v / noise for k, v in rms.items()}}).round(3)
+)
+
+# %% [markdown]
+# **Serve** the drive on a Modbus TCP server (a free port; lock-step, one sample per
+# heartbeat) and **track** it online over Modbus for 20 s: the EKF starts at the friction
+# the doctor found and keeps estimating it. R is the variance of the drive's speed
+# reading (its tacho noise and A/D step, from the datasheet); the normalised innovation
+# squared (NIS) of a filter that fits averages 1.
+
+# %%
+drive.save(WORK / "truth.json")
+server = RigServer(load_model(WORK / "truth.json"), port=0, seed=7).start()
+ekf = FrictionEKF.from_rig(improved, R=tacho_variance(drive))
+print("EKF starts at", {k: float(f"{v:.4g}") for k, v in zip(ekf.state_names, ekf.x, strict=True)})
+_, u_online = two_sine_signal(20.0, drive.dt, seed=3)
+with ModbusDAQ("127.0.0.1", server.port, dt=server.dt, timeout=2.0) as daq:
+    online = run_online(daq, {"ekf": ekf}, u_online, duration=None, progress=False)
+server.stop()
+print(
+    f"{len(online)} samples over Modbus; EKF after 20 s:",
+    {k: float(f"{v:.3g}") for k, v in ekf.params.items()},
+)
+print(f"mean NIS {ekf.nis_mean:.2f} over the last {ekf.nis_window} samples, diverged: {ekf.diverged}")
+
+# %% [markdown]
+# The doctor names Stribeck friction (planted: 6 mN m at 0.1 s/rad, i.e. v_s = 10 rad/s)
+# and the gap shrinks from the datasheet model's to about the noise. The saved model, on an
+# input it never saw, stays within about 1.2 noise RMS of the drive. Over Modbus the EKF
+# starts where the doctor ended and its NIS stays near 1: the improved model describes the
+# drive well enough to track it online. The server hosts two-mass rig models (here the
+# drive itself, as a stand-in for the real one); the doctor's rigid model runs in
+# `simulate` and in the filters, not yet behind the server.
 
 # %% [markdown]
 # ## Real measured data: EMPS
@@ -133,6 +239,20 @@ if estimation is not None:
     display(emps.evaluate(validation))
     for path in emps.write_figures(WORK / "emps"):
         display(Image(filename=str(path)))
+
+# %% [markdown]
+# The doctor's final model, saved as a model file and run unchanged on the validation
+# record (`motorid doctor DATA_EMPS_PULSES.csv --model emps.json --output-kind position`
+# reports the same as its "given model" gap), beside the published 5.98 %.
+
+# %%
+if estimation is not None:
+    emps.model.save(WORK / "emps.json")
+    check = diagnose(validation, output_kind="position", model=load_model(WORK / "emps.json"), max_steps=0)
+    print(
+        f"saved model on the validation set: force error {check.initial_gap['force_error_percent']:.2f} % "
+        f"(published reference model: {EMPS_REFERENCE['force_error_validation']} %)"
+    )
 
 # %% [markdown]
 # Coulomb friction is named first, in the low-speed region where the residual follows

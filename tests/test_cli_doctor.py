@@ -7,6 +7,7 @@ import re
 import pandas as pd
 import pytest
 from cli_fixtures import run
+from emps_fixtures import emps_folder, force_error_percent, published_inverse_dynamics, requires_emps
 
 from motorid.diagnose.synthetic import planted_record
 from motorid.records import write_record
@@ -173,6 +174,61 @@ def test_doctor_improves_the_users_model_and_the_saved_model_predicts_a_fresh_me
     # measured: 1.23 x the noise (0.42 rad/s) for the improved model, 3.6 x for the datasheet's
     assert rms["improved"] < 1.4 * noise
     assert rms["datasheet"] > 2.5 * noise
+
+    # the friction filter started from the improved model tracks the fresh measurement online
+    from motorid import load_model
+    from motorid.estimators import FrictionEKF
+    from motorid.estimators.friction_kf import tacho_variance
+
+    improved = load_model(tmp_path / "improved.json")
+    p = improved.params
+    ekf = FrictionEKF.from_rig(
+        improved, R=tacho_variance(rig)
+    )  # R: the drive's tacho and A/D, from its datasheet
+    assert ekf.state_names == ("omega", "coulomb", "viscous", "stribeck")
+    np.testing.assert_array_equal(ekf.x, [0.0, p["coulomb"], p["viscous"], p["stribeck"]])
+    assert ekf.stribeck_decay == 1.0 / p["stribeck_velocity"]
+    result = ekf.batch_filter(fresh["u"], y)
+    nis = result.innovation**2 / result.S
+    # A consistent filter's innovations are white with NIS ~ chi2(1), so the mean over the
+    # N = 6000 samples is chi2(N)/N: 99 % band 1 +- 2.58 sqrt(2/N) = [0.953, 1.047]
+    # (measured 0.988); and the windowed mean never passes divergence_nis.
+    band = 2.58 * np.sqrt(2.0 / nis.size)
+    assert abs(nis.mean() - 1.0) < band and not ekf.diverged
+
+
+@requires_emps
+def test_doctor_saved_emps_model_validates_below_the_published_force_error(capsys, tmp_path):
+    """EMPS: the doctor's model saved from the estimation set (from the published structure
+    without Coulomb friction: inertia, viscous, offset), run unchanged on the validation set
+    (DATA_EMPS_PULSES.mat). On the published recipe (tests/emps_fixtures.py) the published
+    model's force error is 6.00 % there (published: 5.98 %); the saved model must do better
+    than the published figure. Measured: 5.32 % on that recipe, 3.25 % on the doctor's own
+    torque balance (its given-model gap on the validation record)."""
+
+    from motorid import load_model
+    from motorid.datasets import EMPS_REFERENCE, load_emps
+
+    records = {which: load_emps(emps_folder(), which=which) for which in ("estimation", "validation")}
+    for which, rec in records.items():
+        write_record(rec, tmp_path / f"{which}.csv")
+    gain = str(records["estimation"].attrs["input_gain"])
+    code, out, err = run(capsys, "doctor", str(tmp_path / "estimation.csv"), "--output-kind", "position",
+                         "--input-gain", gain, "--base", "viscous_friction,offset",
+                         "--save-model", str(tmp_path / "emps.json"), "--json")  # fmt: skip
+    assert code == 0, err
+    assert out["steps"][0]["effect"] == "coulomb_friction"
+    code, out, err = run(capsys, "doctor", str(tmp_path / "validation.csv"), "--output-kind", "position",
+                         "--model", str(tmp_path / "emps.json"), "--json")  # fmt: skip
+    assert code == 0, err
+    published = EMPS_REFERENCE["force_error_validation"]
+    assert out["initial_gap"]["force_error_percent"] < published
+    model = load_model(tmp_path / "emps.json")
+    val = records["validation"]
+    qd, qdd, force = published_inverse_dynamics(
+        val["t"].to_numpy(), val["y"].to_numpy(), val["force"].to_numpy()
+    )
+    assert force_error_percent(force, model.inertia * qdd + model.friction(qd)) < published
 
 
 @pytest.mark.parametrize(

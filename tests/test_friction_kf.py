@@ -26,14 +26,17 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from motorid.estimators import FilterDivergenceError, FrictionEKF, FrictionUKF, available, create
-from motorid.estimators import friction_model as fm
 from motorid.plants import CoulombFriction, measure_speed, paper_rig
+from motorid.plants import fast_integrator as fi
 from motorid.plants.signals import two_sine_signal
 from motorid.testing import check_estimator
 
 #: two-sided 95 % band of chi-square with one degree of freedom
 CHI2_1_LOW, CHI2_1_HIGH = 0.000982, 5.0239
 EPS = np.finfo(float).eps
+#: a prior away from the rig's friction (from_rig starts from the rig's own), so that the
+#: tests of accuracy show what the filter learns: 5 mN m and 5e-5 N m s/rad
+PRIOR = {"coulomb0": 5e-3, "viscous0": 5e-5}
 
 
 def matched_rig(coulomb: float = 6e-3, viscous: float = 3e-5, **overrides):
@@ -122,7 +125,7 @@ def test_from_rig_takes_the_known_constants_and_the_sensor_variance():
     squared = (measure_speed(omega, rng.standard_normal(omega.size), rig.tacho, rig.adc) - omega) ** 2
     standard_error = squared.std() / math.sqrt(squared.size)
     assert abs(squared.mean() - ekf.R_speed) <= 5 * standard_error
-    assert ekf._c[fm.C_JL] == 1e-4
+    assert ekf._c[fi.C_JL] == 1e-4
     assert not ekf.has_current_state  # dt = 20 ms >> L_a/R_a = 0.5 ms
     assert FrictionEKF.from_rig(paper_rig(dt=0.002)).has_current_state
     with pytest.raises(ValueError, match="rig"):
@@ -148,7 +151,7 @@ def test_constructor_errors_name_the_argument(kwargs, name):
 
 
 # --------------------------------------------------------------------------- the model
-def reference_drift(x, v, rig, s, side=0, decay=0.1, asymmetric=False, stribeck=False):
+def reference_drift(x, v, rig, s, side=0, decay=0.1, asymmetric=False, stribeck=False, shape="exponential"):
     """Plain-NumPy statement of the continuous model (quasi-static current)."""
     wm, wl, d = x[:3]
     coulomb, viscous = x[3], x[4]
@@ -160,7 +163,8 @@ def reference_drift(x, v, rig, s, side=0, decay=0.1, asymmetric=False, stribeck=
     t_s = rig.k_s * d + rig.B_s * (wm - wl)
     w = x[side]
     level = coulomb if s > 0 else coulomb_neg
-    t_f = s * (level + excess * np.exp(-decay * s * w)) + viscous * w
+    stribeck_decay = np.exp(-decay * abs(w)) if shape == "exponential" else np.exp(-((decay * w) ** 2))
+    t_f = s * (level + excess * stribeck_decay) + viscous * w
     dwm = (rig.K_m * i_a - t_s - (t_f if side == 0 else 0.0)) / rig.J_m
     dwl = (t_s - rig.T_d - (t_f if side == 1 else 0.0)) / rig.J_l
     return np.concatenate([[dwm, dwl, wm - wl], np.zeros(len(x) - 3)])
@@ -169,6 +173,7 @@ def reference_drift(x, v, rig, s, side=0, decay=0.1, asymmetric=False, stribeck=
 VARIANTS = {
     "default": {},
     "asymmetric+stribeck": {"asymmetric": True, "stribeck": True},
+    "gaussian-stribeck": {"stribeck": True, "stribeck_shape": "gaussian", "stribeck_decay": 0.05},
     "load-side": {"friction_side": "load"},
 }
 
@@ -203,13 +208,15 @@ def test_continuous_model_and_jacobian_against_numpy_reference(variant, s):
         rig,
         s,
         side,
+        decay=options.get("stribeck_decay", 0.1),
         asymmetric=options.get("asymmetric", False),
         stribeck=options.get("stribeck", False),
+        shape=options.get("stribeck_shape", "exponential"),
     )
     n = ekf.dim_x
     f = np.zeros(n)
     A = np.zeros((n, n))
-    fm.drift(x, v, ekf._c, s, False, f, A)
+    fi.filter_drift(x, v, ekf._c, s, False, f, A)
     # The compiled f and this restatement add the same terms in other orders: they
     # agree to a few roundings of the largest term, K_m i_a / J_m = 3.2e3 rad/s^2 here
     # (30 rad/s, 5 V), whose unit in the last place is 4.5e-13; atol 1e-9 is 2000 of them.
@@ -222,6 +229,110 @@ def test_continuous_model_and_jacobian_against_numpy_reference(variant, s):
         down[k] -= step
         A_fd[:, k] = (ref(up) - ref(down)) / (2 * step)
     np.testing.assert_allclose(A, A_fd, rtol=1e-6, atol=1e-6 * np.abs(A).max())
+
+
+def rigid_drive(shape: str = "exponential"):
+    """A rigid drive with every effect the filters model: J 1e-4 kg m², g 0.02 N m/V."""
+    from motorid.plants import RigidDrive
+
+    params = {
+        "inertia": 1e-4, "input_gain": 0.02, "coulomb": 5e-3, "coulomb_asymmetry": 1e-3,
+        "viscous_asymmetry": 0.0, "viscous": 3e-4, "stribeck": 4e-3, "stribeck_velocity": 5.0,
+        "offset": 5e-4, "dead_zone": 0.5, "saturation": 10.0,
+    }  # fmt: skip
+    effects = ("coulomb_friction", "asymmetric_friction", "viscous_friction", "stribeck_friction",
+               "offset", "input_dead_zone", "input_saturation")  # fmt: skip
+    return RigidDrive(effects, params, 0.01, stribeck_shape=shape)
+
+
+@pytest.mark.parametrize("shape", ["exponential", "gaussian"])
+@pytest.mark.parametrize("s", [1.0, -1.0])
+def test_rigid_drive_model_and_jacobian_against_numpy_reference(shape, s):
+    """The one-mass model J dω/dt = g v - T_0 - T_f(ω), T_f as the rigid drive states it
+    (:meth:`RigidDrive.friction`, its own compiled terms), and its Jacobian against
+    central differences of a plain-NumPy restatement."""
+    drive = rigid_drive(shape)
+    ekf = FrictionEKF.from_rig(drive, R=0.04)
+    x = ekf.x.copy()
+    x[0] = 3.0 * s
+    v = 4.0 * s
+    p = drive.params
+
+    def reference(xx):
+        w, coulomb, viscous, coulomb_neg, excess = xx
+        decay = np.exp(-abs(w) / 5.0) if shape == "exponential" else np.exp(-((w / 5.0) ** 2))
+        t_f = s * ((coulomb if s > 0 else coulomb_neg) + excess * decay) + viscous * w
+        return np.array([(0.02 * v - p["offset"] - t_f) / 1e-4, 0.0, 0.0, 0.0, 0.0])
+
+    f = np.zeros(5)
+    A = np.zeros((5, 5))
+    fi.filter_drift(x, v, ekf._c, s, False, f, A)
+    # the same terms summed in other orders: a few roundings of the largest, g v / J = 800 rad/s²
+    np.testing.assert_allclose(f, reference(x), rtol=1e-12, atol=1e-10)
+    # at the prior (the drive's own friction) the filter's torque is the drive's (offset included)
+    t_drive = float(drive.friction(np.array([x[0]]))[0])
+    assert (0.02 * v - f[0] * 1e-4) == pytest.approx(t_drive, rel=1e-12)
+    A_fd = np.empty((5, 5))
+    for k in range(5):
+        step = 1e-6 * max(abs(x[k]), 1e-3)
+        up, down = x.copy(), x.copy()
+        up[k] += step
+        down[k] -= step
+        A_fd[:, k] = (reference(up) - reference(down)) / (2 * step)
+    np.testing.assert_allclose(A, A_fd, rtol=1e-6, atol=1e-6 * np.abs(A).max())
+
+
+@pytest.mark.parametrize("shape", ["exponential", "gaussian"])
+def test_rigid_drive_filter_free_run_follows_the_drive(shape):
+    """simulate() of a filter started from a rigid drive runs that drive: the same terms,
+    stick/slip rule and input path; only the integrators differ (Heun sub-steps against
+    the drive's semi-implicit Euler with 1 to 50 steps), so the two agree to within 1 %
+    of the speed range, and both hold the drive at rest below breakaway."""
+    drive = rigid_drive(shape)
+    _, u = two_sine_signal(30.0, drive.dt, seed=4)
+    u = 8.0 * u / np.abs(u).max()
+    ekf = FrictionEKF.from_rig(drive, R=0.04)
+    ours = ekf.simulate(u)
+    theirs = drive.free_run(u, substeps=50)
+    scale = np.abs(theirs).max()
+    assert scale > 50.0  # the drive moves
+    assert np.sqrt(np.mean((ours - theirs) ** 2)) < 0.01 * scale
+    quiet = np.zeros(200) + 0.55  # 0.05 V past the dead zone: 1e-3 N m, below breakaway
+    assert np.all(ekf.simulate(quiet) == 0.0) and np.all(drive.free_run(quiet) == 0.0)
+
+
+def test_rigid_drive_filter_refuses_what_it_cannot_model():
+    from motorid.plants import RigidDrive
+
+    drive = rigid_drive()
+    with pytest.raises(ValueError, match=r"^R: "):
+        FrictionEKF.from_rig(drive)
+    with pytest.raises(ValueError, match="quadratic_drag"):
+        FrictionEKF.from_rig(drive.with_effects((*drive.effects, "quadratic_drag"),
+                                                {**drive.params, "quadratic_drag": 1e-6}), R=0.04)  # fmt: skip
+    with pytest.raises(ValueError, match="viscous_asymmetry"):
+        FrictionEKF.from_rig(drive.with_params(viscous_asymmetry=1e-5), R=0.04)
+    ekf = FrictionEKF.from_rig(drive, R=0.04)
+    ekf.predict(1.0)
+    with pytest.raises(ValueError, match="current"):
+        ekf.update(1.0, current=0.1)
+    with pytest.raises(ValueError, match="current"):
+        FrictionEKF.from_rig(drive, R=0.04).batch_filter([1.0], [0.0], current=[0.1])
+    assert isinstance(drive, RigidDrive)
+
+
+def test_two_mass_friction_the_filter_cannot_hold_is_refused():
+    """The filters hold one Stribeck term: two of different rates are refused by name."""
+    from motorid.plants import StribeckFriction
+
+    rig = paper_rig(friction=(
+        StribeckFriction(alpha0=1e-3, alpha1=2e-3, alpha2=0.1, side="motor"),
+        StribeckFriction(alpha0=1e-3, alpha1=2e-3, alpha2=0.3, side="load"),
+    ))  # fmt: skip
+    with pytest.raises(ValueError, match="different rates"):
+        FrictionEKF.from_rig(rig)
+    ekf = FrictionEKF.from_rig(rig, stribeck=False)  # a user may drop it
+    assert not ekf.stribeck
 
 
 @pytest.mark.parametrize("variant", [*VARIANTS, "current-state"])
@@ -237,7 +348,7 @@ def test_sample_jacobian_against_finite_differences_away_from_zero(variant, s):
     v = 6.0 * s
     n = ekf.dim_x
     F = np.empty((n, n))
-    x_next = fm.propagate(x, v, ekf._c, F, True)
+    x_next = fi.filter_propagate(x, v, ekf._c, F, True)
     assert np.sign(x_next[0]) == s and np.sign(x_next[1]) == s  # no reversal in the sample
     F_fd = np.empty((n, n))
     dummy = np.empty((0, 0))
@@ -247,7 +358,8 @@ def test_sample_jacobian_against_finite_differences_away_from_zero(variant, s):
         up[k] += step
         down[k] -= step
         F_fd[:, k] = (
-            fm.propagate(up, v, ekf._c, dummy, False) - fm.propagate(down, v, ekf._c, dummy, False)
+            fi.filter_propagate(up, v, ekf._c, dummy, False)
+            - fi.filter_propagate(down, v, ekf._c, dummy, False)
         ) / (2 * step)
     scale = np.abs(F).max(axis=1, keepdims=True)
     np.testing.assert_allclose(F, F_fd, rtol=1e-5, atol=1e-7 * scale.max())
@@ -256,7 +368,7 @@ def test_sample_jacobian_against_finite_differences_away_from_zero(variant, s):
     ekf.predict(v + (0.6 * s))  # amplifier dead zone 0.6 V, gain 1
     assert ekf.v == pytest.approx(v, rel=4 * EPS)  # 6.6 - 0.6, rounded
     F_applied = np.empty((n, n))
-    fm.propagate(x, ekf.v, ekf._c, F_applied, True)
+    fi.filter_propagate(x, ekf.v, ekf._c, F_applied, True)
     np.testing.assert_array_equal(ekf.F, F_applied)
 
 
@@ -270,17 +382,17 @@ def test_zero_speed_sticks_exactly_and_teaches_nothing_about_friction():
     F = np.empty((n, n))
     x = ekf.x.copy()  # at rest
     # 0.1 V past the 0.6 V dead zone: K_m * 0.1 / R_a = 2.1 mN m < 6 mN m
-    x_next = fm.propagate(x, 0.1, ekf._c, F, True)
+    x_next = fi.filter_propagate(x, 0.1, ekf._c, F, True)
     assert x_next[0] == 0.0 and x_next[1] == 0.0
     assert np.all(F[0] == 0.0)
     assert F[1, ekf.state_names.index("coulomb")] == 0.0
     # 1 V: 21 mN m > 6 mN m breaks it away, forwards
-    assert fm.propagate(x, 1.0, ekf._c, F, False)[0] > 0.0
+    assert fi.filter_propagate(x, 1.0, ekf._c, F, False)[0] > 0.0
     # coasting from 2 rad/s with no voltage: stops at exactly zero and stays
     x[:2] = 2.0
-    x1 = fm.propagate(x, 0.0, ekf._c, F, True)
+    x1 = fi.filter_propagate(x, 0.0, ekf._c, F, True)
     assert x1[0] == 0.0 and np.all(F[0] == 0.0)
-    x2 = fm.propagate(x1, 0.0, ekf._c, F, False)
+    x2 = fi.filter_propagate(x1, 0.0, ekf._c, F, False)
     assert x2[0] == 0.0
 
 
@@ -314,7 +426,7 @@ def test_ekf_learns_coulomb_within_5_and_viscous_within_10_percent(coulomb, visc
     symmetric positive definite."""
     rig = matched_rig(coulomb, viscous, J_m=J_m, J_l=J_l)
     u, y, _ = record(rig, 60.0, seed=seed)
-    ekf = FrictionEKF.from_rig(rig)
+    ekf = FrictionEKF.from_rig(rig, **PRIOR)
     ekf.batch_filter(u, y)
     assert ekf.params["coulomb"] == pytest.approx(coulomb, rel=0.05)
     assert ekf.params["viscous"] == pytest.approx(viscous, rel=0.10)
@@ -328,7 +440,7 @@ def test_nis_inside_its_95_percent_band_on_90_percent_of_samples(paper_record):
     for the EKF and the UKF, and its mean is near 1."""
     rig, u, y, _ = paper_record
     for cls in (FrictionEKF, FrictionUKF):
-        est = cls.from_rig(rig)
+        est = cls.from_rig(rig, **PRIOR)
         result = est.batch_filter(u, y)
         nis = result.innovation**2 / result.S
         inside = np.mean((nis >= CHI2_1_LOW) & (nis <= CHI2_1_HIGH))
@@ -341,7 +453,7 @@ def test_ekf_and_ukf_agree(paper_record):
     """The UKF (no Jacobian) and the EKF on one record: the same friction to within
     a third of their standard deviation, predictions within a tenth of the noise."""
     rig, u, y, _ = paper_record
-    ekf, ukf = FrictionEKF.from_rig(rig), FrictionUKF.from_rig(rig)
+    ekf, ukf = FrictionEKF.from_rig(rig, **PRIOR), FrictionUKF.from_rig(rig, **PRIOR)
     r_ekf, r_ukf = ekf.batch_filter(u, y), ukf.batch_filter(u, y)
     for key in ("coulomb", "viscous"):
         assert abs(ekf.params[key] - ukf.params[key]) < 0.3 * ekf.params[f"{key}_std"]
@@ -367,7 +479,7 @@ def test_ekf_equals_filterpy_extended_kalman_filter(paper_record):
     errors add up, at worst linearly over the 400 samples: the tolerance is
     400 eps cond(correlation) on those scales. Measured: 6 % of it for x, 0.2 % for P."""
     rig, u, y, _ = paper_record
-    ours = FrictionEKF.from_rig(rig)
+    ours = FrictionEKF.from_rig(rig, **PRIOR)
     n = ours.dim_x
     peer = ExtendedKalmanFilter(dim_x=n, dim_z=1)
     peer.x = ours.x.reshape(n, 1).copy()
@@ -380,7 +492,7 @@ def test_ekf_equals_filterpy_extended_kalman_filter(paper_record):
 
     def predict_x(u=0):
         F = np.empty((n, n))
-        peer.x = fm.propagate(peer.x.ravel(), state["v"], ours._c, F, True).reshape(n, 1)
+        peer.x = fi.filter_propagate(peer.x.ravel(), state["v"], ours._c, F, True).reshape(n, 1)
         peer.F = F
 
     peer.predict_x = predict_x
@@ -404,17 +516,17 @@ def test_measured_current_sharpens_the_estimate_and_batch_equals_loop(paper_reco
     rig, u, y, df = paper_record
     current = df["i_a"].to_numpy() + 0.01 * np.random.default_rng(3).standard_normal(len(u))
     current[17] = np.nan
-    loop = FrictionEKF.from_rig(rig, R_current=1e-4)
+    loop = FrictionEKF.from_rig(rig, R_current=1e-4, **PRIOR)
     with pytest.warns(RuntimeWarning, match="current at sample 17"):
         for k in range(300):
             loop.predict(u[k])
             loop.update(y[k], current=current[k])
-    batch = FrictionEKF.from_rig(rig, R_current=1e-4)
+    batch = FrictionEKF.from_rig(rig, R_current=1e-4, **PRIOR)
     with pytest.warns(RuntimeWarning, match="current is NaN at 1 sample"):
         batch.batch_filter(u[:300], y[:300], current=current[:300])
     np.testing.assert_array_equal(batch.x, loop.x)
     np.testing.assert_array_equal(batch.P, loop.P)
-    without = FrictionEKF.from_rig(rig)
+    without = FrictionEKF.from_rig(rig, **PRIOR)
     without.batch_filter(u[:300], y[:300])
     assert batch.P[0, 0] < without.P[0, 0]  # the motor speed is seen through i_a
 

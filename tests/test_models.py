@@ -166,11 +166,47 @@ def test_friction_filter_reloads_with_its_rig_state_and_covariance(tmp_path, rec
     assert back.nis_mean == est.nis_mean  # the NIS window came along too
 
 
-def test_friction_filter_starts_from_a_rig_model_file(tmp_path):
-    rig = paper_rig(J_l=9e-5)
+def test_friction_filter_starts_from_a_rig_model_file_with_its_friction(tmp_path):
+    """A two-mass rig's friction, summed over both masses, is the filter's initial x:
+    Coulomb 4 + 2 mN m, Stribeck excess 6 mN m at 0.1 s/rad, viscous B_m + B_L."""
+    friction = (
+        CoulombFriction(alpha=4e-3, side="motor"), CoulombFriction(alpha=2e-3, side="load"),
+        StribeckFriction(alpha0=0.0, alpha1=6e-3, alpha2=0.1, side="motor"),
+    )  # fmt: skip
+    rig = paper_rig(J_l=9e-5, B_m=2e-5, B_l=1e-5, friction=friction)
     rig.save(tmp_path / "rig.json")
     ekf = FrictionEKF.from_rig(load_model(tmp_path / "rig.json"))
     assert ekf.rig == rig and ekf.dt == rig.dt
+    assert ekf.stribeck and not ekf.asymmetric and ekf.stribeck_decay == 0.1
+    x = dict(zip(ekf.state_names, ekf.x, strict=True))
+    assert x["coulomb"] == 4e-3 + 2e-3 and x["stribeck"] == 6e-3 and x["viscous"] == 2e-5 + 1e-5
+    # a given prior overrides the model's
+    assert FrictionEKF.from_rig(rig, coulomb0=1e-3).x[ekf.state_names.index("coulomb")] == 1e-3
+
+
+def test_friction_filter_starts_from_a_rigid_drive_model_file_with_its_friction(tmp_path):
+    """The doctor's model: asymmetric levels F_c ± ΔF_c, viscous, Gaussian Stribeck with rate 1/v_s."""
+    params = {
+        "inertia": 8e-5, "input_gain": 0.02, "coulomb": 5e-3, "coulomb_asymmetry": 1e-3,
+        "viscous_asymmetry": 0.0, "viscous": 4e-5, "stribeck": 3e-3, "stribeck_velocity": 8.0,
+        "offset": 2e-4, "dead_zone": 0.5,
+    }  # fmt: skip
+    effects = ("coulomb_friction", "asymmetric_friction", "viscous_friction", "stribeck_friction",
+               "offset", "input_dead_zone")  # fmt: skip
+    RigidDrive(effects, params, 0.01, stribeck_shape="gaussian").save(tmp_path / "drive.json")
+    drive = load_model(tmp_path / "drive.json")
+    ekf = FrictionEKF.from_rig(drive, R=0.04)
+    assert ekf.state_names == ("omega", "coulomb", "viscous", "coulomb_neg", "stribeck")
+    np.testing.assert_array_equal(ekf.x, [0.0, 5e-3 + 1e-3, 4e-5, 5e-3 - 1e-3, 3e-3])
+    assert ekf.stribeck_shape == "gaussian" and ekf.stribeck_decay == 1 / 8.0
+    assert ekf.voltage(0.4) == 0.0 and ekf.voltage(1.5) == 1.0  # its dead zone, at unit gain
+    # saved with its rigid drive, reloaded the same
+    ekf.batch_filter(np.full(20, 3.0), np.linspace(0.0, 5.0, 20))
+    ekf.save(tmp_path / "filter.json")
+    back = load_model(tmp_path / "filter.json")
+    assert back.rig == drive
+    np.testing.assert_array_equal(back.x, ekf.x)
+    np.testing.assert_array_equal(back.P, ekf.P)
 
 
 def test_what_cannot_be_saved_is_refused_and_leaves_the_old_file(tmp_path):

@@ -50,8 +50,11 @@ from numpy.typing import ArrayLike
 from motorid.estimators import friction_model as fm
 from motorid.estimators.base import BatchResult, Estimator, as_float_vector, first_bad_index
 from motorid.estimators.rls import check_order, check_positive
+from motorid.plants import fast_integrator as fi
 from motorid.plants.fast_integrator import armature_voltage, armature_voltages
+from motorid.plants.friction import LuGreFriction, StaticFriction
 from motorid.plants.rig import TwoMassRig, paper_rig
+from motorid.plants.rigid import RigidDrive
 
 OnDivergence = Literal["raise", "warn", "ignore"]
 
@@ -94,6 +97,98 @@ def tacho_variance(rig: TwoMassRig) -> float:
     return (rig.tacho.noise_std / g) ** 2 + (rig.adc.lsb / g) ** 2 / 12.0
 
 
+#: Effects of a rigid drive the filters' model holds (the others are refused by name).
+RIGID_FILTER_EFFECTS = (
+    "coulomb_friction", "stribeck_friction", "asymmetric_friction", "viscous_friction",
+    "offset", "input_dead_zone", "input_saturation",
+)  # fmt: skip
+
+
+def check_rigid_drive(drive: RigidDrive) -> None:
+    """ValueError naming an effect of ``drive`` the filters' model does not hold."""
+    for effect in drive.effects:
+        if effect not in RIGID_FILTER_EFFECTS:
+            raise ValueError(
+                f"rig: the rigid drive's {effect} is not in the friction filters' model "
+                f"(it holds {', '.join(RIGID_FILTER_EFFECTS)})"
+            )
+    if drive.params.get("viscous_asymmetry", 0.0) != 0.0:
+        raise ValueError(
+            "rig: the rigid drive's viscous_asymmetry is not in the friction filters' model "
+            f"(it must be 0, got {drive.params['viscous_asymmetry']!r})"
+        )
+
+
+def friction_prior(model: TwoMassRig | RigidDrive, stribeck: bool = True) -> dict[str, Any]:
+    """The friction a drive model describes, as the filters' prior: constructor arguments
+    ``coulomb0``, ``coulomb_neg0``, ``viscous0``, ``asymmetric``, ``stribeck``,
+    ``stribeck0``, ``stribeck_decay`` and ``stribeck_shape``.
+
+    A rigid drive's Coulomb level F_c and asymmetry ΔF_c give the forward and backward
+    levels F_c ± ΔF_c, its Stribeck level, velocity v_s and shape the excess, the rate
+    1/v_s and the shape; its viscous term is B. A two-mass rig's friction on both masses
+    is summed (the filter estimates the total, on one mass): the static laws' levels
+    α0 (forwards), α3 (backwards) and excess α1 = α4, a LuGre law's steady state (Coulomb
+    Fc, Gaussian excess Fs - Fc with rate 1/ωs, viscous σ2), and B_m + B_L. With
+    ``stribeck=False`` the Stribeck terms are left out (a filter without them).
+
+    Raises
+    ------
+    ValueError
+        When the friction does not fit the filters' one Stribeck term (excesses with
+        different rates or shapes, or a different excess each way), or a rigid drive
+        holds an effect the filters do not model.
+    """
+    if isinstance(model, RigidDrive):
+        check_rigid_drive(model)
+        p = model.params
+        forward = p.get("coulomb", 0.0) + p.get("coulomb_asymmetry", 0.0)
+        backward = p.get("coulomb", 0.0) - p.get("coulomb_asymmetry", 0.0)
+        viscous = p.get("viscous", 0.0)
+        parts = []
+        if "stribeck_friction" in model.effects:
+            parts.append((p["stribeck"], p["stribeck"], 1.0 / p["stribeck_velocity"], model.stribeck_shape))
+    else:
+        forward = backward = 0.0
+        viscous = model.viscous("motor") + model.viscous("load")
+        parts = []
+        for law in model.friction:
+            n = len(law.sides())
+            if isinstance(law, StaticFriction):
+                a = law.coefficients()
+                forward += n * a[0]
+                backward += n * a[3]
+                parts.append((n * a[1], n * a[4], a[2] if a[1] > 0.0 else a[5], "exponential"))
+            elif isinstance(law, LuGreFriction):
+                forward += n * law.Fc
+                backward += n * law.Fc
+                excess = n * (law.Fs - law.Fc)
+                parts.append((excess, excess, 1.0 / law.omega_s, "gaussian"))
+    parts = [part for part in parts if stribeck and (part[0] > 0.0 or part[1] > 0.0)]
+    prior: dict[str, Any] = {
+        "coulomb0": forward,
+        "coulomb_neg0": backward,
+        "viscous0": viscous,
+        "asymmetric": forward != backward,
+        "stribeck": bool(parts),
+    }
+    if parts:
+        if len({part[2:] for part in parts}) > 1:
+            raise ValueError(
+                "rig: its Stribeck terms have different rates or shapes "
+                f"({', '.join(f'{rate:g} s/rad {shape}' for _, _, rate, shape in parts)}); "
+                "the friction filters hold one"
+            )
+        up, down = sum(part[0] for part in parts), sum(part[1] for part in parts)
+        if up != down:
+            raise ValueError(
+                f"rig: its Stribeck excess differs forwards ({up:g} N m) and backwards ({down:g} N m); "
+                "the friction filters hold one excess both ways"
+            )
+        prior.update(stribeck0=up, stribeck_decay=parts[0][2], stribeck_shape=parts[0][3])
+    return prior
+
+
 class _FrictionFilter(Estimator):
     """Shared part of :class:`FrictionEKF` and :class:`FrictionUKF`: parameters, model
     set-up, ``params``, ``simulate``, consistency bookkeeping."""
@@ -102,15 +197,17 @@ class _FrictionFilter(Estimator):
 
     def __init__(
         self,
-        rig: TwoMassRig | None = None,
+        rig: TwoMassRig | RigidDrive | None = None,
         *,
         friction_side: Literal["motor", "load"] = "motor",
         asymmetric: bool = False,
         stribeck: bool = False,
         stribeck_decay: float = 0.1,
+        stribeck_shape: Literal["exponential", "gaussian"] = "exponential",
         current_state: bool | None = None,
         substeps: int | None = None,
         coulomb0: float = 5e-3,
+        coulomb_neg0: float | None = None,
         viscous0: float = 5e-5,
         stribeck0: float = 0.0,
         coulomb_std0: float = 5e-3,
@@ -134,9 +231,11 @@ class _FrictionFilter(Estimator):
         self.asymmetric = asymmetric
         self.stribeck = stribeck
         self.stribeck_decay = stribeck_decay
+        self.stribeck_shape = stribeck_shape
         self.current_state = current_state
         self.substeps = substeps
         self.coulomb0 = coulomb0
+        self.coulomb_neg0 = coulomb_neg0
         self.viscous0 = viscous0
         self.stribeck0 = stribeck0
         self.coulomb_std0 = coulomb_std0
@@ -157,34 +256,54 @@ class _FrictionFilter(Estimator):
         self.reset()
 
     @classmethod
-    def from_rig(cls, rig: TwoMassRig, **kwargs: Any) -> _FrictionFilter:
-        """A filter for the drive described by ``rig``.
+    def from_rig(cls, rig: TwoMassRig | RigidDrive, **kwargs: Any) -> _FrictionFilter:
+        """A filter for the drive described by ``rig``, starting from its friction.
 
-        The known constants are taken from ``rig``: R_a, L_a, K_m, J_m, J_L, k_s,
-        B_s, the constant load torque T_d, the sample time dt, the amplifier (gain,
-        dead zone, saturation) and, unless ``R`` is given, the measurement variance
-        of its tacho + A/D chain. Its friction laws and B_m, B_L are ignored: they
-        are what the filter estimates (``coulomb0`` and ``viscous0`` are the prior).
+        The known constants are taken from ``rig``. A two-mass rig gives R_a, L_a,
+        K_m, J_m, J_L, k_s, B_s, the constant load torque T_d, the sample time dt, the
+        amplifier (gain, dead zone, saturation) and, unless ``R`` is given, the
+        measurement variance of its tacho + A/D chain. A rigid drive (the doctor's
+        model, e.g. ``load_model("improved.json")``) gives its inertia, input gain,
+        offset torque, dead zone, saturation and dt; it has no sensor model, so ``R``
+        must be given. The friction it describes (:func:`friction_prior`: Coulomb
+        levels each way, viscous coefficient, Stribeck excess, rate and shape) is the
+        prior the filter starts from and goes on estimating.
 
         Parameters
         ----------
-        rig : TwoMassRig
+        rig : TwoMassRig or RigidDrive
         **kwargs
-            Any other constructor argument.
+            Any other constructor argument; given ones override the prior (e.g.
+            ``coulomb0=3e-3`` to start from another guess).
         """
-        if not isinstance(rig, TwoMassRig):
-            raise ValueError(f"rig must be a TwoMassRig, got {type(rig).__name__}")
-        return cls(rig=rig, **kwargs)
+        if not isinstance(rig, TwoMassRig | RigidDrive):
+            raise ValueError(f"rig must be a TwoMassRig or a RigidDrive, got {type(rig).__name__}")
+        return cls(rig=rig, **{**friction_prior(rig, kwargs.get("stribeck", True) is not False), **kwargs})
 
     # ------------------------------------------------------------------ set-up
     def _configure(self) -> None:
         """Validate the stored parameters (errors name the argument) and build the
         compiled model's constants, Q, R and the initial estimate."""
         rig = paper_rig() if self.rig is None else self.rig
-        if not isinstance(rig, TwoMassRig):
-            raise ValueError(f"rig must be a TwoMassRig or None, got {type(rig).__name__}")
+        if not isinstance(rig, TwoMassRig | RigidDrive):
+            raise ValueError(f"rig must be a TwoMassRig, a RigidDrive or None, got {type(rig).__name__}")
+        rigid = isinstance(rig, RigidDrive)
         if self.friction_side not in ("motor", "load"):
             raise ValueError(f"friction_side must be 'motor' or 'load', got {self.friction_side!r}")
+        if self.stribeck_shape not in fi.STRIBECK_SHAPES:
+            raise ValueError(
+                f"stribeck_shape must be one of {', '.join(fi.STRIBECK_SHAPES)}, got {self.stribeck_shape!r}"
+            )
+        if rigid:
+            check_rigid_drive(rig)
+            if self.friction_side != "motor":
+                raise ValueError("friction_side: a RigidDrive has one mass; leave friction_side at 'motor'")
+            if self.current_state:
+                raise ValueError("current_state: a RigidDrive has no armature current")
+            if self.R is None:
+                raise ValueError(
+                    "R: give the variance of the speed measurement [(rad/s)^2]; a RigidDrive has no sensor model"
+                )
         if self.on_divergence not in ("raise", "warn", "ignore"):
             raise ValueError(f"on_divergence must be 'raise', 'warn' or 'ignore', got {self.on_divergence!r}")
         for name in ("asymmetric", "stribeck"):
@@ -198,8 +317,10 @@ class _FrictionFilter(Estimator):
             "stribeck_drift", "R_current", "divergence_nis",
         ):  # fmt: skip
             check_positive(name, getattr(self, name))
-        for name in ("coulomb0", "viscous0", "stribeck0"):
+        for name in ("coulomb0", "coulomb_neg0", "viscous0", "stribeck0"):
             value = getattr(self, name)
+            if value is None and name == "coulomb_neg0":
+                continue
             if isinstance(value, bool) or not isinstance(value, int | float | np.number) or not value >= 0:
                 raise ValueError(f"{name} must be a number >= 0, got {value!r}")
             if not math.isfinite(value):
@@ -208,25 +329,43 @@ class _FrictionFilter(Estimator):
         window = check_order("nis_window", self.nis_window, 1)
 
         dt = rig.dt
-        current = dt < 10.0 * rig.L_a / rig.R_a if self.current_state is None else bool(self.current_state)
-        names, index = fm.state_layout(current, bool(self.asymmetric), bool(self.stribeck))
+        shape = str(self.stribeck_shape)
+        if rigid:
+            current = False
+            names, index = fm.state_layout(False, bool(self.asymmetric), bool(self.stribeck), rigid=True)
+            p = rig.params
+            constants = {
+                "J_m": rig.inertia, "J_l": 0.0, "K_m": 0.0, "R_a": 1.0, "L_a": 0.0, "k_s": 0.0, "B_s": 0.0,
+                "T_d": p.get("offset", 0.0), "input_gain": rig.input_gain,
+            }  # fmt: skip
+            amp = (1.0, p.get("dead_zone", 0.0), p.get("saturation", math.inf))
+        else:
+            current = (
+                dt < 10.0 * rig.L_a / rig.R_a if self.current_state is None else bool(self.current_state)
+            )
+            names, index = fm.state_layout(current, bool(self.asymmetric), bool(self.stribeck))
+            constants = {
+                "J_m": rig.J_m, "J_l": rig.J_l, "K_m": rig.K_m, "R_a": rig.R_a, "L_a": rig.L_a,
+                "k_s": rig.k_s, "B_s": rig.B_s, "T_d": rig.T_d,
+            }  # fmt: skip
+            amp = (float(rig.amplifier.gain), float(rig.amplifier.dead_zone), float(rig.amplifier.v_max))
+        constants.update(
+            stribeck_decay=float(self.stribeck_decay), stribeck_shape=shape, dt=dt,
+            friction_side=self.friction_side, index=index,
+        )  # fmt: skip
         n = len(names)
-        constants = {
-            "J_m": rig.J_m, "J_l": rig.J_l, "K_m": rig.K_m, "R_a": rig.R_a, "L_a": rig.L_a,
-            "k_s": rig.k_s, "B_s": rig.B_s, "T_d": rig.T_d, "stribeck_decay": float(self.stribeck_decay),
-            "dt": dt, "friction_side": self.friction_side, "index": index,
-        }  # fmt: skip
+        speeds = [index[k] for k in ("omega_m", "omega_l") if index[k] >= 0]
         x0 = np.zeros(n)
         x0[index["coulomb"]] = self.coulomb0
         x0[index["viscous"]] = self.viscous0
         if self.asymmetric:
-            x0[index["coulomb_neg"]] = self.coulomb0
+            x0[index["coulomb_neg"]] = self.coulomb0 if self.coulomb_neg0 is None else self.coulomb_neg0
         if self.stribeck:
             x0[index["stribeck"]] = self.stribeck0
         if self.substeps is None:
             # Heun: keep h |lambda_max| <= 0.25, lambda from the model moving at 1 rad/s
             probe = x0.copy()
-            probe[fm.I_OMEGA_M] = probe[fm.I_OMEGA_L] = 1.0
+            probe[speeds] = 1.0
             c_probe = fm.pack_constants(**constants, substeps=1)
             substeps = max(1, math.ceil(dt * fm.stiffest_rate(c_probe, probe) / 0.25))
         else:
@@ -243,11 +382,12 @@ class _FrictionFilter(Estimator):
         # initial covariance and process noise (per sample), both diagonal
         p0 = np.zeros(n)
         q = np.zeros(n)
-        p0[fm.I_OMEGA_M] = p0[fm.I_OMEGA_L] = self.speed_std0**2
-        q[fm.I_OMEGA_M] = q[fm.I_OMEGA_L] = self.speed_noise**2
-        # the twist that a speed difference builds over a sample
-        p0[fm.I_TWIST] = (self.speed_std0 * dt) ** 2
-        q[fm.I_TWIST] = self.twist_noise**2
+        p0[speeds] = self.speed_std0**2
+        q[speeds] = self.speed_noise**2
+        if index["twist"] >= 0:
+            # the twist that a speed difference builds over a sample
+            p0[index["twist"]] = (self.speed_std0 * dt) ** 2
+            q[index["twist"]] = self.twist_noise**2
         if current:
             p0[index["i_a"]] = (self.speed_std0 * rig.K_m / rig.R_a) ** 2 + self.current_noise**2
             q[index["i_a"]] = self.current_noise**2
@@ -267,17 +407,17 @@ class _FrictionFilter(Estimator):
         for key in ("coulomb", "viscous", "coulomb_neg", "stribeck"):
             if index[key] >= 0:
                 self._lower[index[key]] = 0.0
+        self._speed = index["speed"]
         self._h_speed = np.zeros(n)
-        self._h_speed[fm.I_OMEGA_L] = 1.0
+        self._h_speed[self._speed] = 1.0
         self._h_current = np.zeros(n)
+        self._current_gain = 0.0
         if current:
             self._h_current[index["i_a"]] = 1.0
-            self._current_gain = 0.0
-        else:
+        elif not rigid:
             self._h_current[fm.I_OMEGA_M] = -rig.K_m / rig.R_a
             self._current_gain = 1.0 / rig.R_a
-        amp = rig.amplifier
-        self._amp = (float(amp.gain), float(amp.dead_zone), float(amp.v_max))
+        self._amp = amp
 
     def reset(self) -> None:
         """Validate the parameters and return to the prior: drive at rest, friction at
@@ -354,7 +494,7 @@ class _FrictionFilter(Estimator):
         for key, value, shape in (("x", x, (n,)), ("P", P, (n, n)), ("nis_ring", ring, (self._window,))):
             if value.shape != shape:
                 raise ValueError(f"{key} must have shape {shape} for this filter, got {value.shape}")
-        if not (np.array_equal(P, P.T) and fm.is_healthy(x, P)):
+        if not (np.array_equal(P, P.T) and fi.is_healthy(x, P)):
             raise ValueError("P must be symmetric positive definite and x finite")
         self.x = self.x_prior = self.x_post = x
         self.P = self.P_prior = self.P_post = P
@@ -415,10 +555,12 @@ class _FrictionFilter(Estimator):
             if i >= 0:
                 x0[i] = self.x[i]
         v = armature_voltages(np.ascontiguousarray(u_arr), *self._amp)
-        return fm.free_run(v, x0, self._c)[:, fm.I_OMEGA_L].copy()
+        return fi.filter_free_run(v, x0, self._c)[:, self._speed].copy()
 
     # ------------------------------------------------------------------ checks
     def _check_current(self, current: float | None) -> float | None:
+        if current is not None and isinstance(self._rig, RigidDrive):
+            raise ValueError("current: a RigidDrive has no armature current to measure")
         return None if current is None else self.check_measured_value("current", current)
 
     def _warn_nan_record(self, z: Any) -> None:
@@ -439,6 +581,7 @@ class _FrictionFilter(Estimator):
     def _current_record(self, current: ArrayLike | None, n: int) -> tuple[np.ndarray, np.ndarray]:
         if current is None:
             return np.zeros(n), np.zeros(n, dtype=bool)
+        self._check_current(0.0)
         values = as_float_vector(current, "current")
         if values.shape != (n,):
             raise ValueError(f"current must have the length of u ({n}), got shape {values.shape}")
@@ -457,7 +600,7 @@ class _FrictionFilter(Estimator):
     # ------------------------------------------------------------------ consistency
     def _record_nis(self, e: float, s: float) -> None:
         self.nis = e * e / s
-        self._nis_count, self.nis_mean = fm.push_nis(self._nis_ring, self._nis_count, self.nis)
+        self._nis_count, self.nis_mean = fi.push_nis(self._nis_ring, self._nis_count, self.nis)
 
     def _breakdown(self, sample: int) -> None:
         self.diverged = True
@@ -469,7 +612,7 @@ class _FrictionFilter(Estimator):
 
     def _check_health(self, sample: int) -> None:
         """Raise on a numerical breakdown; flag (and raise or warn) on a NIS excursion."""
-        if not fm.is_healthy(self.x, self.P):
+        if not fi.is_healthy(self.x, self.P):
             self._breakdown(sample)
         if self.nis_mean > self.divergence_nis:
             self._flag_divergence(sample, self.nis_mean)
@@ -511,11 +654,14 @@ class FrictionEKF(_FrictionFilter):
 
     Parameters
     ----------
-    rig : TwoMassRig, optional
+    rig : TwoMassRig or RigidDrive, optional
         The known constants of the drive: R_a [Ω], L_a [H], K_m [N m/A], J_m, J_L
         [kg m²], k_s [N m/rad], B_s [N m s/rad], T_d [N m], dt [s], the amplifier
         and the tacho + A/D chain (for R). Default :func:`~motorid.plants.paper_rig`.
-        Its friction laws and B_m, B_L are not used: they are estimated.
+        Its friction laws and B_m, B_L are not used here: they are estimated
+        (:meth:`from_rig` starts from them). A rigid drive (one mass, the doctor's
+        model) gives its inertia, input gain, offset torque, dead zone, saturation
+        and dt; ``R`` is then required and no current can be measured.
     friction_side : {"motor", "load"}
         The mass the estimated friction acts on. With one speed sensor and a stiff
         shaft only the total friction of the drive is observable; the estimate is
@@ -525,7 +671,9 @@ class FrictionEKF(_FrictionFilter):
     stribeck : bool
         Estimate the Stribeck excess ``stribeck`` = α1 of eq. (9).
     stribeck_decay : float
-        α2 [s/rad] of eq. (9), known, > 0.
+        α2 [s/rad] of eq. (9), known, > 0 (the rate 1/v_s of either shape).
+    stribeck_shape : {"exponential", "gaussian"}
+        The Stribeck decay exp(-α2 |ω|) of eq. (9) or exp(-(α2 ω)²).
     current_state : bool, optional
         Keep i_a in the state (True) or use its quasi-static value (False); None
         (default) keeps it when dt < 10 L_a/R_a (see :mod:`.friction_model`).
@@ -533,7 +681,9 @@ class FrictionEKF(_FrictionFilter):
         Heun sub-steps per sample; None chooses h |λ_max| <= 0.25 from the model's
         stiffest eigenvalue (26 for the paper's rig: 1.5 ms steps).
     coulomb0, viscous0, stribeck0 : float
-        Prior estimates [N m], [N m s/rad], [N m] (``coulomb_neg`` starts at ``coulomb0``).
+        Prior estimates [N m], [N m s/rad], [N m].
+    coulomb_neg0 : float, optional
+        Prior of the backward level ``coulomb_neg`` [N m]; None starts it at ``coulomb0``.
     coulomb_std0, viscous_std0, stribeck_std0 : float
         Prior standard deviations, same units.
     speed_std0 : float
@@ -597,15 +747,16 @@ class FrictionEKF(_FrictionFilter):
         if self._pending:
             self.update(None)
         v = armature_voltage(u, *self._amp)
-        x_prior, P_prior, F = fm.ekf_predict(self.x, self.P, v, self._c, self.Q)
+        x_prior, P_prior, F = fi.ekf_predict(self.x, self.P, v, self._c, self.Q)
         self.v = v
         self.F = F
         self.x = self.x_prior = x_prior
         self.P = self.P_prior = P_prior
-        self.S = float(P_prior[1, 1] + self._r)
+        i = self._speed
+        self.S = float(P_prior[i, i] + self._r)
         self.sample_index += 1
         self._pending = True
-        return float(x_prior[1])
+        return float(x_prior[i])
 
     def update(self, z: float | None, current: float | None = None) -> None:
         """Measurement update with the measured load speed ``z`` [rad/s] and, where
@@ -632,7 +783,7 @@ class FrictionEKF(_FrictionFilter):
             self.nis = math.nan
         else:
             self.z = value
-            x, P, K, e, s, count, nis_mean, healthy = fm.ekf_update_step(
+            x, P, K, e, s, count, nis_mean, healthy = fi.ekf_update_step(
                 self.x, self.P, self._h_speed, value, self._r, self._lower, self._nis_ring, self._nis_count
             )
             self.x, self.P, self.K = x, P, K
@@ -640,7 +791,7 @@ class FrictionEKF(_FrictionFilter):
             self.nis = self.y * self.y / self.S
             self._nis_count, self.nis_mean = count, nis_mean
         if i_meas is not None:
-            self.x, self.P, _, e, s = fm.joseph_update(
+            self.x, self.P, _, e, s = fi.joseph_update(
                 self.x,
                 self.P,
                 self._h_current,
@@ -650,9 +801,9 @@ class FrictionEKF(_FrictionFilter):
                 self._lower,
             )
             self.y_current, self.S_current = float(e), float(s)
-            healthy = fm.is_healthy(self.x, self.P)
+            healthy = fi.is_healthy(self.x, self.P)
         elif value is None:
-            healthy = fm.is_healthy(self.x, self.P)
+            healthy = fi.is_healthy(self.x, self.P)
         self.x_post, self.P_post = self.x, self.P
         if not healthy:
             self._breakdown(self.sample_index - 1)
@@ -694,7 +845,7 @@ class FrictionEKF(_FrictionFilter):
         (
             X, P_diag, y_hat, innovation, S, NIS, x, P, x_prior, P_prior, F, K, e, s,
             count, nis_mean, flag, flag_at, flag_mean, done,
-        ) = fm.ekf_batch(
+        ) = fi.ekf_batch(
             v, np.where(present, z_arr, 0.0), present, cur, cur_present, self.x.copy(), self.P.copy(),
             self._c, self.Q, self._r, float(self.R_current), self._h_speed, self._h_current,
             self._current_gain, self._lower, ring, self._nis_count, float(self.divergence_nis),
@@ -713,9 +864,9 @@ class FrictionEKF(_FrictionFilter):
             self.nis_mean = float(nis_mean)
             self._nis_ring, self._nis_count = ring, int(count)
             self.sample_index += done
-        if flag == fm.FLAG_BREAKDOWN:
+        if flag == fi.FLAG_BREAKDOWN:
             self._check_health(self.sample_index - 1)
-        elif flag == fm.FLAG_NIS:
+        elif flag == fi.FLAG_NIS:
             self.diverged = already
             self._flag_divergence(self.sample_index - (done - flag_at), float(flag_mean))
         return BatchResult(
@@ -783,12 +934,13 @@ class FrictionUKF(_FrictionFilter):
         )
         c = self._c
         empty = np.empty((0, 0))
+        i = self._speed
 
         def fx(x: np.ndarray, dt: float, v: float = 0.0) -> np.ndarray:
-            return fm.propagate(x, v, c, empty, False)
+            return fi.filter_propagate(x, v, c, empty, False)
 
         def hx(x: np.ndarray) -> np.ndarray:
-            return x[1:2]
+            return x[i : i + 1]
 
         ukf = UnscentedKalmanFilter(dim_x=n, dim_z=1, dt=self.dt, hx=hx, fx=fx, points=points)
         ukf.x = self.x.copy()
@@ -818,10 +970,11 @@ class FrictionUKF(_FrictionFilter):
         self.v = v
         self.x = self.x_prior = ukf.x.copy()
         self.P = self.P_prior = P
-        self.S = float(P[1, 1] + self._r)
+        i = self._speed
+        self.S = float(P[i, i] + self._r)
         self.sample_index += 1
         self._pending = True
-        return float(self.x[1])
+        return float(self.x[i])
 
     def update(self, z: float | None, current: float | None = None) -> None:
         """Measurement update with the load speed ``z`` [rad/s] and optionally the
@@ -857,7 +1010,7 @@ class FrictionUKF(_FrictionFilter):
                 ukf.update(
                     np.array([value, i_meas]),
                     R=np.diag([self._r, self.R_current]),
-                    hx=lambda x: np.array([x[1], current_of(x)]),
+                    hx=lambda x: np.array([x[self._speed], current_of(x)]),
                 )
         x = np.maximum(ukf.x, self._lower)
         P = 0.5 * (ukf.P + ukf.P.T)
@@ -894,4 +1047,13 @@ class FrictionUKF(_FrictionFilter):
         return super().batch_filter(u, z, saver)
 
 
-__all__ = ["PARAM_UNITS", "FilterDivergenceError", "FrictionEKF", "FrictionUKF", "tacho_variance"]
+__all__ = [
+    "PARAM_UNITS",
+    "RIGID_FILTER_EFFECTS",
+    "FilterDivergenceError",
+    "FrictionEKF",
+    "FrictionUKF",
+    "check_rigid_drive",
+    "friction_prior",
+    "tacho_variance",
+]

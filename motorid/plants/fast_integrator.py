@@ -41,6 +41,14 @@ here too: its terms (:func:`rigid_term`, with the one Stribeck decay
 (:func:`rigid_columns`) and its free run (:func:`rigid_free_run`, on
 :func:`stick_or_slip`).
 
+So is the friction filters' process model (the EKF/UKF of
+:mod:`motorid.estimators.friction_kf`, state layout in
+:mod:`motorid.estimators.friction_model`): :func:`filter_drift` and its Jacobian with
+:func:`friction_law` and :func:`stribeck_decay_slope`, :func:`filter_direction` on
+:func:`stick_or_slip`, the sub-stepped :func:`filter_propagate`, and the EKF kernels
+that inline it (:func:`ekf_predict`, :func:`ekf_batch` ...). The filter's model is the
+drive's physics, so it is compiled with it.
+
 Everything here is compiled with ``numba.njit(cache=True)``, including the
 amplifier (:func:`armature_voltage`) and the tacho + A/D chain
 (:func:`tacho_reading`), kept in this one module so the on-disk cache of the
@@ -196,20 +204,45 @@ def stribeck_decay(omega: float, rate: float, shape: int) -> float:
 
 
 @numba.njit(cache=True)
+def stribeck_decay_slope(omega: float, rate: float, shape: int, direction: float) -> float:
+    """d/dω of :func:`stribeck_decay` [s/rad] at speed ω [rad/s].
+
+    ``-rate sgn(ω) decay`` for the exponential shape and ``-2 rate² ω decay`` for the
+    Gaussian one. At ω == 0 the exponential shape has a corner: the slope returned is the
+    one-sided slope for motion in ``direction`` (±1), the side the friction filter's
+    Jacobian linearises on.
+    """
+    if shape == STRIBECK_GAUSSIAN:
+        return -2.0 * rate * rate * omega * stribeck_decay(omega, rate, shape)
+    s = (1.0 if omega > 0.0 else -1.0) if omega != 0.0 else direction
+    return -rate * s * stribeck_decay(omega, rate, shape)
+
+
+@numba.njit(cache=True)
 def friction_law(
-    a0: float, a1: float, a2: float, a3: float, a4: float, a5: float, omega: float, direction: float
+    a0: float,
+    a1: float,
+    a2: float,
+    a3: float,
+    a4: float,
+    a5: float,
+    omega: float,
+    direction: float,
+    shape: int,
 ) -> float:
     """Torque [N m] of one static friction law, eq. (11), for motion in ``direction``.
 
-    ``a0 + a1 exp(-a2 |ω|)`` for ``direction > 0``, ``-(a3 + a4 exp(-a5 |ω|))`` for
-    ``direction < 0`` and 0 for ``direction == 0`` (ω [rad/s]). Coulomb (eq. 8) and
-    Stribeck (eq. 9) friction are its special cases. The one implementation of the
-    law: the friction objects, the fast and the reference integrator evaluate it.
+    ``a0 + a1 d(ω; a2)`` for ``direction > 0``, ``-(a3 + a4 d(ω; a5))`` for
+    ``direction < 0`` and 0 for ``direction == 0`` (ω [rad/s]), with d the Stribeck decay
+    of ``shape`` (:func:`stribeck_decay`; eq. 11 is the exponential shape,
+    d = exp(-a2 |ω|)). Coulomb (eq. 8) and Stribeck (eq. 9) friction are its special
+    cases. The one implementation of the law: the friction objects, the fast and the
+    reference integrator and the friction filters' process model evaluate it.
     """
     if direction > 0.0:
-        return a0 + a1 * stribeck_decay(omega, a2, STRIBECK_EXPONENTIAL)
+        return a0 + a1 * stribeck_decay(omega, a2, shape)
     if direction < 0.0:
-        return -(a3 + a4 * stribeck_decay(omega, a5, STRIBECK_EXPONENTIAL))
+        return -(a3 + a4 * stribeck_decay(omega, a5, shape))
     return 0.0
 
 
@@ -221,7 +254,9 @@ def friction_torques(coefficients: np.ndarray, omega: np.ndarray, direction: flo
     out = np.empty_like(omega)
     for k in range(omega.size):
         w = omega[k]
-        out[k] = friction_law(c[0], c[1], c[2], c[3], c[4], c[5], w, w if w != 0.0 else direction)
+        out[k] = friction_law(
+            c[0], c[1], c[2], c[3], c[4], c[5], w, w if w != 0.0 else direction, STRIBECK_EXPONENTIAL
+        )
     return out
 
 
@@ -235,8 +270,9 @@ def static_friction(fric: np.ndarray, side: int, omega: float, direction: float)
     for r in range(fric.shape[0]):
         if fric[r, 0] == side:
             total += friction_law(
-                fric[r, 1], fric[r, 2], fric[r, 3], fric[r, 4], fric[r, 5], fric[r, 6], omega, direction
-            )
+                fric[r, 1], fric[r, 2], fric[r, 3], fric[r, 4], fric[r, 5], fric[r, 6], omega, direction,
+                STRIBECK_EXPONENTIAL,
+            )  # fmt: skip
     return total
 
 
@@ -417,6 +453,470 @@ def simulate_kernel(
     for k in range(n):
         advance_sample(x, u[k], t_d[k], noise[k], phi, gam, p, fric, lug, rows[k])
     return rows
+
+
+# --------------------------------------------------------------------------- friction filter
+# The process model of the friction EKF/UKF (:mod:`motorid.estimators.friction_model` holds
+# its state layout and describes it): the drive of the rig (two masses) or of the rigid
+# drive (one mass) with its friction parameters as states, sub-stepped by Heun's method,
+# with eq. (11) (:func:`friction_law`), the Stribeck decay and its slope and Karnopp's rule
+# (:func:`stick_or_slip`) evaluated by the functions above. The EKF's kernels are here too,
+# beside the model they inline.
+
+# indices into the filter's packed constant vector ``c``
+C_JM = 0  # J_m [kg m²] (the rigid drive's inertia J)
+C_JL = 1  # J_L [kg m²]
+C_KM = 2  # K_m [N m/A]
+C_RA = 3  # R_a [Ω]
+C_LA = 4  # L_a [H]
+C_KS = 5  # k_s [N m/rad]
+C_BS = 6  # B_s [N m s/rad]
+C_TD = 7  # T_d [N m] (the rigid drive's offset torque T_0)
+C_DECAY = 8  # Stribeck rate [s/rad]
+C_H = 9  # sub-step h [s]
+C_NSUB = 10  # sub-steps per sample
+C_SIDE = 11  # friction side: 0 motor, 1 load
+C_I_CURRENT = 12  # index of i_a in x, -1 without
+C_I_COULOMB = 13  # index of T_c in x (= number of physical states)
+C_I_VISCOUS = 14
+C_I_COULOMB_NEG = 15  # -1 without asymmetry
+C_I_STRIBECK = 16  # -1 without Stribeck
+C_SHAPE = 17  # Stribeck shape code
+C_RIGID = 18  # 1: one rigid mass, x = [ω, friction...]
+C_GAIN = 19  # the rigid drive's input gain g [N m/V]
+C_I_SPEED = 20  # index of the measured speed in x
+N_FILTER_CONSTANTS = 21
+
+
+@numba.njit(cache=True)
+def _filter_drive_torque(x: np.ndarray, v: float, c: np.ndarray) -> float:
+    """Net torque [N m] on the friction-side mass without its friction, for voltage ``v``."""
+    if c[C_RIGID] != 0.0:
+        return c[C_GAIN] * v - c[C_TD]
+    t_s = c[C_KS] * x[2] + c[C_BS] * (x[0] - x[1])
+    if int(c[C_SIDE]) == 1:
+        return t_s - c[C_TD]
+    K = c[C_KM]
+    ic = int(c[C_I_CURRENT])
+    t_m = K * x[ic] if ic >= 0 else K * (v - K * x[0]) / c[C_RA]
+    return t_m - t_s
+
+
+@numba.njit(cache=True)
+def filter_drift(
+    x: np.ndarray, v: float, c: np.ndarray, s: float, stuck: bool, f: np.ndarray, A: np.ndarray
+) -> None:
+    """Continuous model ``f = dx/dt`` and its Jacobian ``A = df/dx`` for the friction
+    direction ``s`` (+1 or -1) held fixed; ``stuck`` freezes the friction-side speed.
+
+    ``v`` is the armature voltage [V] (the rigid drive's input after its dead zone and
+    saturation). Fills ``f`` (n,) and ``A`` (n, n). The friction torque is
+    :func:`friction_law` with the forward level T_c, the backward level T_c- (T_c when
+    symmetric) and the Stribeck excess T_s both ways, plus B ω.
+    """
+    n = x.shape[0]
+    jm = c[C_JM]
+    side = int(c[C_SIDE])
+    i_c = int(c[C_I_COULOMB])
+    i_b = int(c[C_I_VISCOUS])
+    i_n = int(c[C_I_COULOMB_NEG])
+    i_s = int(c[C_I_STRIBECK])
+    for i in range(n):
+        f[i] = 0.0
+        for k in range(n):
+            A[i, k] = 0.0
+    if c[C_RIGID] != 0.0:
+        J = jm
+        f[0] = _filter_drive_torque(x, v, c) / jm
+    else:
+        jl = c[C_JL]
+        J = jm if side == 0 else jl
+        K = c[C_KM]
+        R = c[C_RA]
+        ks = c[C_KS]
+        bs = c[C_BS]
+        ic = int(c[C_I_CURRENT])
+        wm = x[0]
+        wl = x[1]
+        t_s = ks * x[2] + bs * (wm - wl)
+        # motor torque K_m i_a
+        if ic >= 0:
+            L = c[C_LA]
+            i_a = x[ic]
+            t_m = K * i_a
+            f[ic] = (v - R * i_a - K * wm) / L
+            A[ic, ic] = -R / L
+            A[ic, 0] = -K / L
+            A[0, ic] = K / jm
+            dtm_dwm = 0.0
+        else:
+            t_m = K * (v - K * wm) / R
+            dtm_dwm = -K * K / R
+        f[0] = (t_m - t_s) / jm
+        f[1] = (t_s - c[C_TD]) / jl
+        f[2] = wm - wl
+        A[0, 0] = (dtm_dwm - bs) / jm
+        A[0, 1] = bs / jm
+        A[0, 2] = -ks / jm
+        A[1, 0] = bs / jl
+        A[1, 1] = -bs / jl
+        A[1, 2] = ks / jl
+        A[2, 0] = 1.0
+        A[2, 1] = -1.0
+
+    if stuck:
+        f[side] = 0.0
+        for k in range(n):
+            A[side, k] = 0.0
+        return
+
+    # friction on mass ``side``, direction s held
+    w = x[side]
+    rate = c[C_DECAY]
+    shape = int(c[C_SHAPE])
+    level_neg = x[i_n] if i_n >= 0 else x[i_c]
+    excess = x[i_s] if i_s >= 0 else 0.0
+    t_f = friction_law(x[i_c], excess, rate, level_neg, excess, rate, w, s, shape) + x[i_b] * w
+    dtf_dw = x[i_b]
+    i_level = i_c if (s > 0.0 or i_n < 0) else i_n
+    A[side, i_level] -= s / J
+    A[side, i_b] -= w / J
+    if i_s >= 0:
+        dtf_dw += s * excess * stribeck_decay_slope(w, rate, shape, s)
+        A[side, i_s] -= s * stribeck_decay(w, rate, shape) / J
+    f[side] -= t_f / J
+    A[side, side] -= dtf_dw / J
+
+
+@numba.njit(cache=True)
+def filter_direction(x: np.ndarray, v: float, c: np.ndarray) -> tuple[float, bool]:
+    """``(s, stuck)`` for the friction side at the start of a sub-step: Karnopp's rule
+    (:func:`stick_or_slip`) with the breakaway levels T_c + T_s forwards and T_c- + T_s
+    backwards. A drive without static friction at rest (both levels 0) moves the way the
+    net torque pushes it (held still only by a net torque of exactly 0)."""
+    w = x[int(c[C_SIDE])]
+    i_c = int(c[C_I_COULOMB])
+    i_n = int(c[C_I_COULOMB_NEG])
+    i_s = int(c[C_I_STRIBECK])
+    excess = x[i_s] if i_s >= 0 else 0.0
+    b_pos = x[i_c] + excess
+    b_neg = (x[i_n] if i_n >= 0 else x[i_c]) + excess
+    t_net = _filter_drive_torque(x, v, c) if w == 0.0 else 0.0
+    stuck, s = stick_or_slip(w, t_net, b_pos, b_neg)
+    if stuck == 1:
+        return 0.0, True
+    if s == 0.0:
+        if t_net == 0.0:
+            return 0.0, True
+        s = 1.0 if t_net > 0.0 else -1.0
+    return s, False
+
+
+@numba.njit(cache=True)
+def filter_propagate(
+    x: np.ndarray, v: float, c: np.ndarray, F: np.ndarray, want_jacobian: bool
+) -> np.ndarray:
+    """The discrete model: ``x`` advanced over one sample with armature voltage ``v``
+    held. Returns the new state; with ``want_jacobian`` fills ``F`` (n, n) with its
+    exact derivative d x_next / d x, else leaves ``F`` alone.
+
+    Per Heun sub-step, with A1, A2 the Jacobians of f at the two stages,
+    ``F_k = I + h/2 (A1 + A2 (I + h A1))`` and ``F = F_k F``; a stop at zero zeroes
+    row j of F_k, and so does a stuck sub-step (a state a little off zero stops
+    within the sub-step as well). The parameter rows of A are zero (random walks), so only the
+    first ``nd`` rows (the physical states) of F_k and F are formed.
+    """
+    n = x.shape[0]
+    nd = int(c[C_I_COULOMB])
+    h = c[C_H]
+    side = int(c[C_SIDE])
+    xk = x.copy()
+    x1 = np.empty(n)
+    xn = np.empty(n)
+    k1 = np.empty(n)
+    k2 = np.empty(n)
+    A1 = np.zeros((n, n))
+    A2 = np.zeros((n, n))
+    Fk = np.empty((nd, n))
+    Fd = np.empty((nd, n))
+    if want_jacobian:
+        for i in range(n):
+            for k in range(n):
+                F[i, k] = 1.0 if i == k else 0.0
+    for _ in range(int(c[C_NSUB])):
+        s, stuck = filter_direction(xk, v, c)
+        filter_drift(xk, v, c, s, stuck, k1, A1)
+        for i in range(n):
+            x1[i] = xk[i] + h * k1[i]
+        filter_drift(x1, v, c, s, stuck, k2, A2)
+        for i in range(n):
+            xn[i] = xk[i] + 0.5 * h * (k1[i] + k2[i])
+        stop = (not stuck) and s * xn[side] < 0.0
+        if stop:
+            xn[side] = 0.0
+        if want_jacobian:
+            for i in range(nd):
+                for k in range(n):
+                    acc = 0.0
+                    for m in range(nd):
+                        acc += A2[i, m] * A1[m, k]
+                    Fk[i, k] = (1.0 if i == k else 0.0) + 0.5 * h * (A1[i, k] + A2[i, k] + h * acc)
+            if stop or stuck:
+                # stopped or held at exactly zero: nearby states end there too
+                for k in range(n):
+                    Fk[side, k] = 0.0
+            for i in range(nd):
+                for k in range(n):
+                    acc = Fk[i, k] if k >= nd else 0.0
+                    for m in range(nd):
+                        acc += Fk[i, m] * F[m, k]
+                    Fd[i, k] = acc
+            for i in range(nd):
+                for k in range(n):
+                    F[i, k] = Fd[i, k]
+        for i in range(n):
+            xk[i] = xn[i]
+    return xk
+
+
+@numba.njit(cache=True)
+def filter_free_run(v: np.ndarray, x0: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """States after each sample of a record of armature voltages ``v`` from ``x0``, shape (N, n)."""
+    N = v.shape[0]
+    n = x0.shape[0]
+    out = np.empty((N, n))
+    F = np.empty((0, 0))
+    x = x0.copy()
+    for t in range(N):
+        x = filter_propagate(x, v[t], c, F, False)
+        out[t] = x
+    return out
+
+
+@numba.njit(cache=True)
+def congruence(P: np.ndarray, F: np.ndarray, Q: np.ndarray) -> np.ndarray:
+    """``F P F^T + Q`` on one triangle, mirrored (exactly symmetric): the covariance
+    prediction, and the Joseph update with ``F = I - K h^T``, ``Q = r K K^T``."""
+    n = P.shape[0]
+    FP = np.empty((n, n))
+    for i in range(n):
+        for k in range(n):
+            acc = 0.0
+            for m in range(n):
+                acc += F[i, m] * P[m, k]
+            FP[i, k] = acc
+    out = np.empty((n, n))
+    for i in range(n):
+        for k in range(i, n):
+            acc = Q[i, k]
+            for m in range(n):
+                acc += FP[i, m] * F[k, m]
+            out[i, k] = acc
+            out[k, i] = acc
+    return out
+
+
+@numba.njit(cache=True)
+def ekf_predict(
+    x: np.ndarray, P: np.ndarray, v: float, c: np.ndarray, Q: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """EKF time update: ``(x_prior, P_prior, F)`` for armature voltage ``v`` [V]."""
+    n = x.shape[0]
+    F = np.empty((n, n))
+    x_prior = filter_propagate(x, v, c, F, True)
+    return x_prior, congruence(P, F, Q), F
+
+
+@numba.njit(cache=True)
+def joseph_update(
+    x: np.ndarray, P: np.ndarray, h: np.ndarray, h0: float, z: float, r: float, lower: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, float]:
+    """Scalar measurement update ``z = h^T x + h0 + noise(r)``, Joseph form.
+
+    Returns ``(x_post, P_post, K, innovation, S)``; ``x_post`` is projected onto
+    ``x >= lower`` and ``P_post`` is mirrored to exact symmetry.
+    """
+    n = x.shape[0]
+    Ph = np.empty(n)
+    s = r
+    z_hat = h0
+    for i in range(n):
+        acc = 0.0
+        for k in range(n):
+            acc += P[i, k] * h[k]
+        Ph[i] = acc
+        s += h[i] * acc
+        z_hat += h[i] * x[i]
+    e = z - z_hat
+    K = Ph / s
+    x_post = np.empty(n)
+    for i in range(n):
+        x_post[i] = max(x[i] + K[i] * e, lower[i])
+    # (I - K h^T) P (I - K h^T)^T + r K K^T
+    IKH = np.empty((n, n))
+    rKK = np.empty((n, n))
+    for i in range(n):
+        for k in range(n):
+            IKH[i, k] = (1.0 if i == k else 0.0) - K[i] * h[k]
+            rKK[i, k] = r * K[i] * K[k]
+    P_post = congruence(P, IKH, rKK)
+    return x_post, P_post, K, e, s
+
+
+@numba.njit(cache=True)
+def is_positive_definite(P: np.ndarray) -> bool:
+    """True when the Cholesky factorisation of ``P`` succeeds (and P is finite)."""
+    n = P.shape[0]
+    L = np.zeros((n, n))
+    for j in range(n):
+        d = P[j, j]
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        if not d > 0.0:
+            return False
+        L[j, j] = math.sqrt(d)
+        for i in range(j + 1, n):
+            acc = P[i, j]
+            for k in range(j):
+                acc -= L[i, k] * L[j, k]
+            L[i, j] = acc / L[j, j]
+    return True
+
+
+@numba.njit(cache=True)
+def push_nis(ring: np.ndarray, count: int, nis: float) -> tuple[int, float]:
+    """Store ``nis`` in the ring buffer of the window; returns the new count and the
+    mean over the window (NaN until it is full)."""
+    W = ring.shape[0]
+    ring[count % W] = nis
+    count += 1
+    if count < W:
+        return count, math.nan
+    acc = 0.0
+    for k in range(W):
+        acc += ring[k]
+    return count, acc / W
+
+
+@numba.njit(cache=True)
+def is_healthy(x: np.ndarray, P: np.ndarray) -> bool:
+    """x finite and P positive definite."""
+    for i in range(x.shape[0]):
+        if not math.isfinite(x[i]):
+            return False
+    return is_positive_definite(P)
+
+
+@numba.njit(cache=True)
+def ekf_update_step(
+    x: np.ndarray,
+    P: np.ndarray,
+    h: np.ndarray,
+    z: float,
+    r: float,
+    lower: np.ndarray,
+    ring: np.ndarray,
+    count: int,
+):
+    """Speed update of one sample: :func:`joseph_update` with ``h0 = 0``, the NIS
+    pushed into the window, and the health of the result.
+
+    Returns ``(x_post, P_post, K, innovation, S, count, nis_mean, healthy)``.
+    """
+    x_post, P_post, K, e, s = joseph_update(x, P, h, 0.0, z, r, lower)
+    count, nis_mean = push_nis(ring, count, e * e / s)
+    return x_post, P_post, K, e, s, count, nis_mean, is_healthy(x_post, P_post)
+
+
+#: codes of the batch kernel for what stopped or flagged it
+FLAG_OK, FLAG_NIS, FLAG_BREAKDOWN = 0, 1, 2
+
+
+@numba.njit(cache=True)
+def ekf_batch(
+    v: np.ndarray,
+    z: np.ndarray,
+    present: np.ndarray,
+    cur: np.ndarray,
+    cur_present: np.ndarray,
+    x: np.ndarray,
+    P: np.ndarray,
+    c: np.ndarray,
+    Q: np.ndarray,
+    r: float,
+    r_cur: float,
+    h_speed: np.ndarray,
+    h_cur: np.ndarray,
+    cur_gain: float,
+    lower: np.ndarray,
+    ring: np.ndarray,
+    count: int,
+    threshold: float,
+    stop_on_nis: bool,
+):
+    """The sample loop of :func:`ekf_predict` and :func:`joseph_update` over a record.
+
+    Stops after the sample where the covariance breaks down, or where the windowed
+    NIS passes ``threshold`` when ``stop_on_nis``. Returns the per-sample arrays
+    (filled up to ``done`` samples) and the last sample's quantities.
+    """
+    N = v.shape[0]
+    n = x.shape[0]
+    i_y = int(c[C_I_SPEED])
+    X = np.empty((N, n))
+    P_diag = np.empty((N, n))
+    y_hat = np.empty(N)
+    innovation = np.full(N, np.nan)
+    S = np.empty(N)
+    NIS = np.full(N, np.nan)
+    x_prior = x.copy()
+    P_prior = P.copy()
+    F = np.eye(n)
+    K = np.zeros(n)
+    e = 0.0
+    s = 0.0
+    nis_mean = math.nan
+    flag_at = -1
+    flag_mean = math.nan
+    flag = FLAG_OK
+    done = 0
+    for t in range(N):
+        x_prior, P_prior, F = ekf_predict(x, P, v[t], c, Q)
+        x = x_prior
+        P = P_prior
+        y_hat[t] = x_prior[i_y]
+        s = P_prior[i_y, i_y] + r
+        healthy = True
+        if present[t]:
+            x, P, K, e, s, count, nis_mean, healthy = ekf_update_step(
+                x, P, h_speed, z[t], r, lower, ring, count
+            )
+            innovation[t] = e
+            NIS[t] = e * e / s
+        else:
+            K = np.zeros(n)
+            e = 0.0
+        if cur_present[t]:
+            x, P, _, _, _ = joseph_update(x, P, h_cur, cur_gain * v[t], cur[t], r_cur, lower)
+            healthy = is_healthy(x, P)
+        S[t] = s
+        X[t] = x
+        for i in range(n):
+            P_diag[t, i] = P[i, i]
+        done = t + 1
+        if not present[t] and not cur_present[t]:
+            healthy = is_healthy(x, P)
+        if not healthy:
+            flag, flag_at = FLAG_BREAKDOWN, t
+            break
+        if nis_mean > threshold and flag == FLAG_OK:
+            flag, flag_at, flag_mean = FLAG_NIS, t, nis_mean
+            if stop_on_nis:
+                break
+    return (
+        X, P_diag, y_hat, innovation, S, NIS, x, P, x_prior, P_prior, F, K, e, s,
+        count, nis_mean, flag, flag_at, flag_mean, done,
+    )  # fmt: skip
 
 
 # --------------------------------------------------------------------------- rigid drive
