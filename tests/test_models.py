@@ -87,10 +87,12 @@ level = st.floats(0.0, 0.05, allow_nan=False)
 side = st.sampled_from(["motor", "load", "both"])
 laws = st.one_of(
     st.builds(CoulombFriction, alpha=level, side=side),
-    st.builds(StribeckFriction, alpha0=level, alpha1=level, alpha2=st.floats(0.0, 10.0), side=side),
+    st.builds(StribeckFriction, alpha0=level, alpha1=level, alpha2=st.floats(0.0, 10.0), side=side,
+              stribeck_shape=st.sampled_from(["exponential", "gaussian"])),
     st.builds(ViscousFriction, B=st.floats(0.0, 1e-3), side=side),
     st.builds(AsymmetricFriction, alpha0=level, alpha1=level, alpha2=st.floats(0.0, 10.0), alpha3=level,
-              alpha4=level, alpha5=st.floats(0.0, 10.0), side=side),
+              alpha4=level, alpha5=st.floats(0.0, 10.0), side=side,
+              stribeck_shape=st.sampled_from(["exponential", "gaussian"])),
 )  # fmt: skip
 
 
@@ -182,6 +184,9 @@ def test_friction_filter_starts_from_a_rig_model_file_with_its_friction(tmp_path
     assert x["coulomb"] == 4e-3 + 2e-3 and x["stribeck"] == 6e-3 and x["viscous"] == 2e-5 + 1e-5
     # a given prior overrides the model's
     assert FrictionEKF.from_rig(rig, coulomb0=1e-3).x[ekf.state_names.index("coulomb")] == 1e-3
+    # the rig's Stribeck shape is the filter's
+    gaussian = (*friction[:2], StribeckFriction(0.0, 6e-3, 0.1, stribeck_shape="gaussian", side="motor"))
+    assert FrictionEKF.from_rig(rig.replace(friction=gaussian)).stribeck_shape == "gaussian"
 
 
 def test_friction_filter_starts_from_a_rigid_drive_model_file_with_its_friction(tmp_path):
@@ -302,6 +307,7 @@ BAD_FILES = [
     ("drive: NaN", lambda: _set(_drive_file(), ("model", "params", "coulomb"), math.nan), "model.params.coulomb: must be finite"),
     ("drive: text dt", lambda: _set(_drive_file(), ("model", "dt"), "0.01"), "model.dt: must be a number"),
     ("drive: unknown shape", lambda: _set(_drive_file(), ("model", "stribeck_shape"), "cubic"), "model: stribeck_shape must be one of"),
+    ("rig: unknown Stribeck shape", lambda: _set(_rig_file(), ("model", "friction", 2, "stribeck_shape"), "cubic"), "stribeck_shape must be one of"),
     ("unknown estimator", lambda: _set(_arx_file(), ("model", "estimator"), "lstm"), "model.estimator: unknown estimator 'lstm'"),
     ("estimator setting type", lambda: _set(_arx_file(), ("model", "settings", "na"), 2.0), "model.settings.na: must be an integer"),
     ("estimator setting range", lambda: _set(_arx_file(), ("model", "settings", "lam"), 1.5), "model.settings: lam must satisfy"),
@@ -361,6 +367,16 @@ def test_simulate_saves_the_rig_its_options_describe_and_simulates_a_model_file(
     # without options the flags describe the default rig, as before
     run(capsys, "simulate", "--save-model", str(tmp_path / "default.json"))
     assert load_model(tmp_path / "default.json") == paper_rig()
+    # a Gaussian Stribeck decay, written and read back
+    gauss = tmp_path / "gauss.json"
+    code, _, _ = run(capsys, "simulate", "--save-model", str(gauss), "--stribeck", "0.002", "0.1",
+                     "--stribeck-shape", "gaussian", "--json")  # fmt: skip
+    law = [f for f in load_model(gauss).friction if isinstance(f, StribeckFriction)]
+    assert code == 0 and law == [StribeckFriction(0.0, 0.002, 0.1, stribeck_shape="gaussian", side="motor")]
+    code, _, err = run(
+        capsys, "simulate", "--save-model", str(tmp_path / "no.json"), "--stribeck-shape", "gaussian"
+    )
+    assert code == 2 and "--stribeck-shape needs --stribeck" in err and not (tmp_path / "no.json").exists()
 
 
 @pytest.mark.parametrize(

@@ -37,6 +37,42 @@ def test_coulomb_and_stribeck_follow_eqs_8_and_9(w, a0, a1, a2):
     assert StribeckFriction(a0, a1, a2).torque(w) == pytest.approx(expected)
 
 
+@given(w=speeds, a0=coef, a1=coef, a2=st.floats(0.0, 5.0))
+def test_gaussian_stribeck_decays_with_the_square_of_the_speed(w, a0, a1, a2):
+    sgn = float(np.sign(w))
+    expected = (a0 + a1 * math.exp(-((a2 * w) ** 2))) * sgn
+    assert StribeckFriction(a0, a1, a2, stribeck_shape="gaussian").torque(w) == pytest.approx(expected)
+    decay = math.exp(-((a2 * w) ** 2))
+    asymmetric = AsymmetricFriction(a0, a1, a2, a1, a0, a2, stribeck_shape="gaussian").torque(w)
+    assert asymmetric == pytest.approx(
+        a0 + a1 * decay if w >= 0 else -(a1 + a0 * decay)
+    )  # eq. (11): sgn1(0) = 1
+
+
+def test_a_gaussian_stribeck_rig_runs_at_its_own_steady_state():
+    """The integrators use the law's shape: the steady speed is the root of the balance
+    with exp(-(α2 ω)²), written here in NumPy, and differs from the exponential rig's."""
+    import scipy.optimize
+
+    a0, a1, a2 = 1e-3, 8e-3, 0.05
+    rates = {}
+    for shape in ("gaussian", "exponential"):
+        law = StribeckFriction(a0, a1, a2, stribeck_shape=shape, side="motor")
+        rig = paper_rig(friction=(law,), amplifier=Amplifier())
+        decay = (
+            (lambda w: math.exp(-((a2 * w) ** 2))) if shape == "gaussian" else (lambda w: math.exp(-a2 * w))
+        )
+        B = rig.B_m + rig.B_l
+
+        def balance(w, decay=decay, rig=rig, B=B):
+            return rig.K_m * (2.0 - rig.K_m * w) / rig.R_a - B * w - a0 - a1 * decay(w) - rig.T_d
+
+        truth = scipy.optimize.brentq(balance, 1e-9, 2.0 / rig.K_m)
+        rates[shape] = rig.simulate(np.full(100, 2.0), seed=0)["omega_l"].iloc[-1]
+        assert rates[shape] == pytest.approx(truth, rel=1e-3)  # the tacho's ripple, as the asymmetric test
+    assert abs(rates["gaussian"] - rates["exponential"]) > 0.01 * rates["exponential"]
+
+
 @given(w=speeds, a=st.tuples(coef, coef, st.floats(0, 5), coef, coef, st.floats(0, 5)))
 def test_asymmetric_follows_eq_11(w, a):
     sgn1 = 1.0 if w >= 0 else 0.0

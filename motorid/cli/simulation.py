@@ -63,7 +63,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 
 #: The rig options of ``motorid simulate`` (dest names); none may be combined with --model.
-RIG_OPTIONS = ("coulomb_motor", "coulomb_load", "stribeck", "viscous", "dead_zone", "backlash", "u_max")
+RIG_OPTIONS = (
+    "coulomb_motor", "coulomb_load", "stribeck", "stribeck_shape", "viscous", "dead_zone", "backlash", "u_max",
+)  # fmt: skip
 
 
 def rig_from_args(args: argparse.Namespace):
@@ -81,9 +83,16 @@ def rig_from_args(args: argparse.Namespace):
             coulomb[side] = given
     friction: list = [CoulombFriction(alpha=a, side=side) for side, a in coulomb.items() if a > 0]
     friction += [f for f in rig.friction if not isinstance(f, CoulombFriction)]
+    if args.stribeck_shape is not None and args.stribeck is None:
+        raise DataError(
+            "--stribeck-shape needs --stribeck ALPHA1 ALPHA2: the shape of which Stribeck friction?"
+        )
     if args.stribeck is not None:
         a1, a2 = args.stribeck
-        friction.append(StribeckFriction(alpha0=0.0, alpha1=a1, alpha2=a2, side="motor"))
+        shape = args.stribeck_shape or "exponential"
+        friction.append(
+            StribeckFriction(alpha0=0.0, alpha1=a1, alpha2=a2, stribeck_shape=shape, side="motor")
+        )
     if args.viscous:
         friction.append(ViscousFriction(B=args.viscous, side="motor"))
     amplifier = rig.amplifier
@@ -187,6 +196,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     rig.add_argument("--coulomb-load", type=non_negative, help="Coulomb torque, load side [N m]")
     rig.add_argument("--stribeck", type=non_negative, nargs=2, metavar=("ALPHA1", "ALPHA2"),
                      help="Stribeck excess [N m] and decay [s/rad], motor side")  # fmt: skip
+    rig.add_argument("--stribeck-shape", choices=("exponential", "gaussian"),
+                     help="the Stribeck decay: exp(-ALPHA2 |w|) (eq. 9, the default) or exp(-(ALPHA2 w)^2)")  # fmt: skip
     rig.add_argument("--viscous", type=non_negative, help="extra viscous friction, motor side [N m s/rad]")
     rig.add_argument("--dead-zone", type=non_negative, help="amplifier dead zone half-width [V]")
     rig.add_argument("--backlash", type=non_negative, help="shaft backlash, half-width of the gap [rad]")

@@ -158,7 +158,9 @@ def friction_prior(model: TwoMassRig | RigidDrive, stribeck: bool = True) -> dic
                 a = law.coefficients()
                 forward += n * a[0]
                 backward += n * a[3]
-                parts.append((n * a[1], n * a[4], a[2] if a[1] > 0.0 else a[5], "exponential"))
+                parts.append(
+                    (n * a[1], n * a[4], a[2] if a[1] > 0.0 else a[5], fi.STRIBECK_SHAPES[law.shape_code()])
+                )
             elif isinstance(law, LuGreFriction):
                 forward += n * law.Fc
                 backward += n * law.Fc

@@ -247,16 +247,14 @@ def friction_law(
 
 
 @numba.njit(cache=True)
-def friction_torques(coefficients: np.ndarray, omega: np.ndarray, direction: float) -> np.ndarray:
-    """:func:`friction_law` at each speed of ``omega``, moving in the direction sgn(ω), or
-    sgn(``direction``) where ω == 0 (impending motion)."""
+def friction_torques(coefficients: np.ndarray, omega: np.ndarray, direction: float, shape: int) -> np.ndarray:
+    """:func:`friction_law` of ``shape`` at each speed of ``omega``, moving in the direction
+    sgn(ω), or sgn(``direction``) where ω == 0 (impending motion)."""
     c = coefficients
     out = np.empty_like(omega)
     for k in range(omega.size):
         w = omega[k]
-        out[k] = friction_law(
-            c[0], c[1], c[2], c[3], c[4], c[5], w, w if w != 0.0 else direction, STRIBECK_EXPONENTIAL
-        )
+        out[k] = friction_law(c[0], c[1], c[2], c[3], c[4], c[5], w, w if w != 0.0 else direction, shape)
     return out
 
 
@@ -264,14 +262,14 @@ def friction_torques(coefficients: np.ndarray, omega: np.ndarray, direction: flo
 def static_friction(fric: np.ndarray, side: int, omega: float, direction: float) -> float:
     """Sum of the static friction laws on ``side`` [N m] for motion in ``direction``.
 
-    Row layout ``[side, α0..α5]`` (:func:`friction_law`).
+    Row layout ``[side, α0..α5, shape]`` (:func:`friction_law`).
     """
     total = 0.0
     for r in range(fric.shape[0]):
         if fric[r, 0] == side:
             total += friction_law(
                 fric[r, 1], fric[r, 2], fric[r, 3], fric[r, 4], fric[r, 5], fric[r, 6], omega, direction,
-                STRIBECK_EXPONENTIAL,
+                int(fric[r, 7]),
             )  # fmt: skip
     return total
 

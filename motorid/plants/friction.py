@@ -15,6 +15,10 @@ Static (memoryless) laws, all special cases of the asymmetric law, eq. (11):
 - :class:`AsymmetricFriction`    T_f = (α0 + α1 e^{-α2|ω|}) sgn1(ω)
                                      + (α3 + α4 e^{-α5|ω|}) sgn2(ω)        eq. (11)
 
+The Stribeck and asymmetric laws take ``stribeck_shape="gaussian"`` for the decay
+exp(-(α2 ω)²) instead of the paper's exp(-α2 |ω|): both shapes are common on real
+drives, and the doctor names either.
+
 and one dynamic law, :class:`LuGreFriction` (Canudas de Wit et al., 1995), with
 an internal bristle state z per mass.
 
@@ -44,18 +48,31 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 import numpy.typing as npt
 
-from motorid.plants.fast_integrator import friction_torques, lugre_levels, lugre_rates
+from motorid.plants.fast_integrator import (
+    STRIBECK_EXPONENTIAL,
+    STRIBECK_SHAPES,
+    friction_torques,
+    lugre_levels,
+    lugre_rates,
+)
 
 Side = Literal["motor", "load", "both"]
 SIDES: tuple[str, ...] = ("motor", "load", "both")
 
+StribeckShape = Literal["exponential", "gaussian"]
+
 #: Column layout of a packed static-friction row (see :func:`pack_static_friction`).
-STATIC_ROW_WIDTH = 7
+STATIC_ROW_WIDTH = 8
 
 
 def _check_side(side: str) -> None:
     if side not in SIDES:
         raise ValueError(f"side must be one of {SIDES}, got {side!r}")
+
+
+def _check_shape(shape: str) -> None:
+    if shape not in STRIBECK_SHAPES:
+        raise ValueError(f"stribeck_shape must be one of {', '.join(STRIBECK_SHAPES)}, got {shape!r}")
 
 
 def _check_nonnegative(**values: float) -> None:
@@ -120,6 +137,10 @@ class StaticFriction(Friction):
     def coefficients(self) -> tuple[float, float, float, float, float, float]:
         raise NotImplementedError
 
+    def shape_code(self) -> int:
+        """The compiled code of the Stribeck decay's shape (exponential unless the law has one)."""
+        return STRIBECK_EXPONENTIAL
+
     @property
     def breakaway_positive(self) -> float:
         """Torque [N m] needed to start a stuck mass moving forwards: α0 + α1."""
@@ -143,7 +164,9 @@ class StaticFriction(Friction):
         """
         w = np.asarray(omega, dtype=float)
         flat = np.ascontiguousarray(w.reshape(-1))
-        out = friction_torques(np.array(self.coefficients(), dtype=float), flat, float(direction))
+        out = friction_torques(
+            np.array(self.coefficients(), dtype=float), flat, float(direction), self.shape_code()
+        )
         return out.reshape(w.shape)
 
 
@@ -182,7 +205,9 @@ class StribeckFriction(StaticFriction):
     alpha1 : float
         Static excess α1 [N m], >= 0; breakaway torque is α0 + α1.
     alpha2 : float
-        Stribeck decay rate α2 [s/rad], >= 0.
+        Stribeck decay rate α2 [s/rad], >= 0 (1/ω_s, ω_s the Stribeck speed).
+    stribeck_shape : {"exponential", "gaussian"}
+        The decay: exp(-α2 |ω|) (eq. 9) or exp(-(α2 ω)²).
     side : {"motor", "load", "both"}
     """
 
@@ -190,13 +215,18 @@ class StribeckFriction(StaticFriction):
     alpha0: float = 0.0
     alpha1: float = 0.0
     alpha2: float = 0.0
+    stribeck_shape: StribeckShape = "exponential"
 
     def __post_init__(self) -> None:
         super().__post_init__()
         _check_nonnegative(alpha0=self.alpha0, alpha1=self.alpha1, alpha2=self.alpha2)
+        _check_shape(self.stribeck_shape)
 
     def coefficients(self) -> tuple[float, float, float, float, float, float]:
         return (self.alpha0, self.alpha1, self.alpha2, self.alpha0, self.alpha1, self.alpha2)
+
+    def shape_code(self) -> int:
+        return STRIBECK_SHAPES.index(self.stribeck_shape)
 
 
 @dataclass(frozen=True)
@@ -212,6 +242,8 @@ class AsymmetricFriction(StaticFriction):
         Coulomb level [N m], static excess [N m] and decay rate [s/rad] for ω > 0.
     alpha3, alpha4, alpha5 : float
         The same for ω < 0 (magnitudes).
+    stribeck_shape : {"exponential", "gaussian"}
+        The decays: e^{-α|ω|} (eq. 11) or e^{-(α ω)²}.
     side : {"motor", "load", "both"}
     """
 
@@ -222,6 +254,7 @@ class AsymmetricFriction(StaticFriction):
     alpha3: float = 0.0
     alpha4: float = 0.0
     alpha5: float = 0.0
+    stribeck_shape: StribeckShape = "exponential"
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -229,9 +262,13 @@ class AsymmetricFriction(StaticFriction):
             alpha0=self.alpha0, alpha1=self.alpha1, alpha2=self.alpha2,
             alpha3=self.alpha3, alpha4=self.alpha4, alpha5=self.alpha5,
         )  # fmt: skip
+        _check_shape(self.stribeck_shape)
 
     def coefficients(self) -> tuple[float, float, float, float, float, float]:
         return (self.alpha0, self.alpha1, self.alpha2, self.alpha3, self.alpha4, self.alpha5)
+
+    def shape_code(self) -> int:
+        return STRIBECK_SHAPES.index(self.stribeck_shape)
 
     def torque(self, omega: npt.ArrayLike, direction: float = 1.0) -> np.ndarray:
         """Eq. (11) literally; at ω == 0 sgn1 = 1, so the default direction is +1."""
@@ -344,9 +381,10 @@ def side_index(side: str) -> int:
 
 
 def pack_static_friction(frictions: Iterable[Friction]) -> np.ndarray:
-    """Rows ``[side, α0, α1, α2, α3, α4, α5]`` for the compiled integrator.
+    """Rows ``[side, α0, α1, α2, α3, α4, α5, shape]`` for the compiled integrator.
 
-    ``side`` is 0 (motor) or 1 (load); a ``side="both"`` law gives two rows.
+    ``side`` is 0 (motor) or 1 (load), ``shape`` the Stribeck shape's code; a
+    ``side="both"`` law gives two rows.
     Viscous and LuGre laws are not packed here. Shape ``(n, 7)``, at least one
     (all-zero, inert) row so the array is never empty.
     """
@@ -354,7 +392,7 @@ def pack_static_friction(frictions: Iterable[Friction]) -> np.ndarray:
     for f in frictions:
         if isinstance(f, StaticFriction):
             for s in f.sides():
-                rows.append([float(side_index(s)), *map(float, f.coefficients())])
+                rows.append([float(side_index(s)), *map(float, f.coefficients()), float(f.shape_code())])
     if not rows:
         rows.append([0.0] * STATIC_ROW_WIDTH)
     return np.ascontiguousarray(rows, dtype=np.float64)
