@@ -71,17 +71,18 @@ def _butterworth(order: int, wn: float) -> tuple[np.ndarray, np.ndarray]:
 
 
 def butterworth_prototype(order: int) -> tuple[np.ndarray, float]:
-    """Poles and gain of the analog Butterworth low-pass of cut-off 1 rad/s (no zeros)::
+    """Poles and gain of the analog Butterworth low-pass of order N = ``order``, cut-off 1 rad/s
+    (no zeros), for :func:`lowpass_sections`::
 
-    p_m = -exp(j π m / (2 N)),  m = -N+1, -N+3, ..., N-1;  k = 1
+        p_m = -exp(j π m / (2 N)),  m = -N+1, -N+3, ..., N-1;  k = 1
     """
     m = np.arange(-order + 1, order, 2, dtype=np.float64)
     return -np.exp(1j * np.pi * m / (2 * order)), 1.0
 
 
 def chebyshev1_prototype(order: int, ripple: float) -> tuple[np.ndarray, float]:
-    """Poles and gain of the analog Chebyshev type I low-pass of ``ripple`` [dB] in the pass band
-    up to 1 rad/s (no zeros)::
+    """Poles and gain of the analog Chebyshev type I low-pass of order N = ``order`` with a
+    ripple of ``ripple`` [dB] in the pass band up to 1 rad/s (no zeros), for :func:`lowpass_sections`::
 
         ε = sqrt(10^(ripple/10) - 1),  μ = asinh(1/ε) / N,
         p_m = -sinh(μ + j π m / (2 N)),  k = Π(-p_m) / sqrt(1 + ε²) (N even; without it for N odd)
@@ -99,12 +100,26 @@ def lowpass_sections(poles: np.ndarray, gain: float, wn: float) -> np.ndarray:
     order N (cut-off 1 rad/s) by the bilinear transform, cut-off ``wn`` (fraction of Nyquist).
 
     The prototype is scaled to the pre-warped cut-off ``ω = 4 tan(π wn / 2)`` (sampling at 2)
-    and mapped by ``z = (4 + s) / (4 - s)``: its N zeros go to z = -1 and its gain becomes
-    ``k ω^N Re(1 / Π(4 - ω p))``. Each section is a pair of conjugate poles with a double zero
-    at -1, ``b = [1, 2, 1]``, ``a = [1, -2 Re p, |p|²]``; the pairs closest to the unit circle
-    go last and the gain goes into the first section's numerator. This is the design
+    and mapped by ``z = (4 + s) / (4 - s)``: its N zeros at infinity go to z = -1 and its gain
+    becomes ``k ω^N Re(1 / Π(4 - ω p))``. Each section is a pair of conjugate poles with a double
+    zero at -1, ``b = [1, 2, 1]``, ``a = [1, -2 Re p, |p|²]``; the pairs closest to the unit
+    circle go last and the gain goes into the first section's numerator. This is the design
     ``scipy.signal.butter`` / ``cheby1`` give with ``output="sos"``, operation for operation
     (a test holds them equal bit for bit), so the doctor's figures do not depend on which ran.
+
+    Parameters
+    ----------
+    poles : ndarray of complex, shape (N,)
+        The prototype's poles (:func:`butterworth_prototype`, :func:`chebyshev1_prototype`).
+    gain : float
+        The prototype's gain.
+    wn : float
+        Cut-off as a fraction of the Nyquist frequency, in (0, 1).
+
+    Returns
+    -------
+    ndarray, shape (N/2, 6)
+        One section per row, ``[b0, b1, b2, 1, a1, a2]``, for :func:`zero_phase`.
 
     Raises
     ------
@@ -345,9 +360,13 @@ def kinematics(
 __all__ = [
     "Kinematics",
     "anti_alias",
+    "butterworth_prototype",
+    "chebyshev1_prototype",
     "decimation_factor",
     "default_band",
     "kinematics",
     "lowpass",
+    "lowpass_sections",
+    "steady_state",
     "zero_phase",
 ]
