@@ -31,7 +31,6 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.optimize
 
 from motorid.diagnose.effects import EFFECTS, Effect, get_effect
 from motorid.diagnose.kinematics import Kinematics
@@ -307,13 +306,10 @@ def fit_model(
             if not np.isfinite(costs[i]):
                 continue
             a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-            res = scipy.optimize.minimize_scalar(
-                lambda z, p=p: min(cost(p, math.exp(z)), 1e300),
-                bounds=(math.log(a), math.log(b)),
-                method="bounded",
-                options={"xatol": 1e-3},
+            z, fz = bounded_minimum(
+                lambda z, p=p: min(cost(p, math.exp(z)), 1e300), math.log(a), math.log(b), 1e-3
             )
-            shape[p] = math.exp(res.x) if res.fun <= costs[i] else float(grid[i])
+            shape[p] = math.exp(z) if fz <= costs[i] else float(grid[i])
     if best["point"] == shape:
         theta, rss, k, residual, unit_cov = best["solve"]  # type: ignore[misc]
     else:
@@ -327,10 +323,102 @@ def fit_model(
     )
 
 
+def bounded_minimum(
+    func: Callable[[float], float], lo: float, hi: float, xatol: float, max_calls: int = 500
+) -> tuple[float, float]:
+    """Brent's minimisation of a scalar function on ``[lo, hi]``: golden-section steps, and
+    parabolic steps through the three best points when they fall inside and shrink.
+
+    The first point is ``lo + (3 - √5)/2 (hi - lo)``; the search stops when the best point
+    ``x`` is within ``2 tol - (b - a)/2`` of the middle of the bracket ``[a, b]``, with
+    ``tol = √(2.2e-16) |x| + xatol / 3``, or after ``max_calls`` calls. This is the method and
+    the arithmetic of ``scipy.optimize.minimize_scalar(method="bounded")`` step for step (a
+    test holds the two equal bit for bit), so the doctor's fits do not depend on which ran.
+
+    Parameters
+    ----------
+    func : callable
+        ``f(x) -> float``, called once per point.
+    lo, hi : float
+        The bounds, finite, ``lo <= hi``.
+    xatol : float
+        Absolute tolerance on x.
+    max_calls : int
+        Most calls of ``func``.
+
+    Returns
+    -------
+    x, f(x) : float
+        The best point found and its value.
+    """
+    if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
+        raise ValueError(f"the bounds must be finite with lo <= hi, got [{lo!r}, {hi!r}]")
+    sqrt_eps = math.sqrt(2.2e-16)
+    golden_mean = 0.5 * (3.0 - math.sqrt(5.0))
+    a, b = lo, hi
+    # x: best point so far, w: second best, v: the previous w (and their values)
+    x = w = v = a + golden_mean * (b - a)
+    fx = fw = fv = func(x)
+    calls = 1
+    step = previous_step = 0.0
+    middle = 0.5 * (a + b)
+    tol = sqrt_eps * abs(x) + xatol / 3.0
+    while abs(x - middle) > 2.0 * tol - 0.5 * (b - a):
+        golden = True
+        if abs(previous_step) > tol:  # try a parabola through x, w, v
+            golden = False
+            r = (x - w) * (fx - fv)
+            q = (x - v) * (fx - fw)
+            p = (x - v) * q - (x - w) * r
+            q = 2.0 * (q - r)
+            if q > 0.0:
+                p = -p
+            q = abs(q)
+            r, previous_step = previous_step, step
+            if abs(p) < abs(0.5 * q * r) and q * (a - x) < p < q * (b - x):
+                step = (p + 0.0) / q
+                trial = x + step
+                if (trial - a) < 2.0 * tol or (b - trial) < 2.0 * tol:  # too near a bound
+                    step = tol * _sign(middle - x)
+            else:
+                golden = True
+        if golden:
+            previous_step = (a if x >= middle else b) - x
+            step = golden_mean * previous_step
+        u = x + _sign(step) * max(abs(step), tol)
+        fu = func(u)
+        calls += 1
+        if fu <= fx:
+            if u >= x:
+                a = x
+            else:
+                b = x
+            v, fv, w, fw, x, fx = w, fw, x, fx, u, fu
+        else:
+            if u < x:
+                a = u
+            else:
+                b = u
+            if fu <= fw or w == x:
+                v, fv, w, fw = w, fw, u, fu
+            elif fu <= fv or v == x or v == w:
+                v, fv = u, fu
+        middle = 0.5 * (a + b)
+        tol = sqrt_eps * abs(x) + xatol / 3.0
+        if calls >= max_calls:
+            break
+    return x, fx
+
+
+def _sign(value: float) -> float:
+    """+1 for value >= 0 (zero included), -1 below, NaN for NaN."""
+    return 1.0 if value >= 0.0 else -1.0 if value < 0.0 else math.nan
+
+
 def _accel_rss(rss: float, inertia: float) -> float:
     """RSS of the balance divided by J² (acceleration units): an input path that starves the
     drive of force cannot fit by shrinking every parameter with it; J <= 0 is no fit."""
     return rss / inertia**2 if inertia > 0.0 and math.isfinite(inertia) else math.inf
 
 
-__all__ = ["BalanceData", "FitResult", "fit_model", "linear_param_std", "model_balance"]
+__all__ = ["BalanceData", "FitResult", "bounded_minimum", "fit_model", "linear_param_std", "model_balance"]

@@ -34,8 +34,6 @@ from typing import Any, Literal
 import numpy as np
 import numpy.typing as npt
 import pandas as pd
-import scipy.linalg
-import scipy.optimize
 
 from motorid.plants import fast_integrator as fi
 from motorid.plants.amplifier import Amplifier
@@ -282,6 +280,8 @@ class TwoMassRig:
         return A, B
 
     def _discretise(self, h: float) -> tuple[np.ndarray, np.ndarray]:
+        import scipy.linalg  # here, not at the top: the rigid-drive users (the doctor) never need it
+
         n, m = fi.N_LINEAR, 3
         phi = np.zeros((8, n, n))
         gam = np.zeros((8, n, m))
@@ -666,6 +666,8 @@ def steady_state_speed(rig: TwoMassRig, u: float) -> float:
     if v == 0.0 or balance(math.copysign(1e-12, v)) * math.copysign(1.0, v) <= 0.0:
         return 0.0
     hi = v / K
+    import scipy.optimize  # here, not at the top: the rigid-drive users (the doctor) never need it
+
     return float(scipy.optimize.brentq(balance, math.copysign(1e-12, v), hi))
 
 
