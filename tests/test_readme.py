@@ -58,7 +58,7 @@ def test_readme_python_example_runs(tmp_path, monkeypatch):
 def test_readme_friction_filter_example_runs_and_learns_the_friction(tmp_path, monkeypatch):
     text = README.read_text(encoding="utf-8")
     blocks = re.findall(r"```python\n(.*?)```", text, flags=re.S)
-    example = next(b for b in blocks if "FrictionEKF.from_rig" in b)
+    example = next(b for b in blocks if "FrictionEKF.from_rig" in b and "two_sine_signal" in b)
     monkeypatch.chdir(tmp_path)
     namespace: dict[str, object] = {}
     exec(compile(example, "README.md", "exec"), namespace)
@@ -70,12 +70,25 @@ def test_readme_friction_filter_example_runs_and_learns_the_friction(tmp_path, m
 def _other_python_blocks() -> list[str]:
     """The README's Python blocks that the tests above do not run already."""
     blocks = re.findall(r"```python\n(.*?)```", README.read_text(encoding="utf-8"), flags=re.S)
-    covered = [b for b in blocks if "FrictionEKF.from_rig" in b or ("create(" in b and "simulate(" in b)]
+    covered = [
+        b
+        for b in blocks
+        if ("FrictionEKF.from_rig" in b and "two_sine_signal" in b) or ("create(" in b and "simulate(" in b)
+    ]
     assert len(covered) == 2, "the two examples tested above are no longer in README.md"
     return [b for b in blocks if b not in covered]
 
 
 @pytest.mark.parametrize("block", _other_python_blocks())
-def test_every_other_readme_python_block_runs(tmp_path, monkeypatch, block):
+def test_every_other_readme_python_block_runs(tmp_path, monkeypatch, capsys, block):
+    """Each block runs, and each ``print(...)  # shown`` line prints what its comment shows."""
     monkeypatch.chdir(tmp_path)
     exec(compile(block, "README.md", "exec"), {"__name__": "readme_example"})
+    shown = [
+        line.split("#", 1)[1].strip()
+        for line in block.splitlines()
+        if line.startswith("print(") and "#" in line
+    ]
+    printed = capsys.readouterr().out.splitlines()
+    if shown:
+        assert printed[-len(shown) :] == shown
