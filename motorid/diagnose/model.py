@@ -218,6 +218,7 @@ def fit_model(
     rows: np.ndarray | None = None,
     start: dict[str, float] | None = None,
     stribeck_shape: str = "exponential",
+    fixed: dict[str, float] | None = None,
 ) -> FitResult:
     """Fit a rigid model with ``effects`` to the torque balance of ``data``.
 
@@ -232,6 +233,9 @@ def fit_model(
         Initial shape-parameter values (e.g. from a previous fit).
     stribeck_shape : {"exponential", "gaussian"}
         Shape of the Stribeck decay of the model.
+    fixed : dict, optional
+        Shape parameters held at these values, not searched (the base structure's delay
+        and lag once chosen).
 
     Returns
     -------
@@ -243,8 +247,14 @@ def fit_model(
     effects = effect_order(tuple(effects))
     rows = data.moving if rows is None else rows & data.moving
     gain = float(data.input_gain)
-    shaped = [(p, get_effect(n).bounds(data.scale)[p]) for n in effects for p in get_effect(n).nonlinear]
-    shape: dict[str, float] = {}
+    fixed = fixed or {}
+    shaped = [
+        (p, get_effect(n).bounds(data.scale)[p])
+        for n in effects
+        for p in get_effect(n).nonlinear
+        if p not in fixed
+    ]
+    shape: dict[str, float] = {p: float(v) for p, v in fixed.items() if p in _shape_params(effects)}
     for p, (lo, hi) in shaped:
         shape[p] = math.sqrt(lo * hi) if not start or p not in start else float(start[p])
 
@@ -287,6 +297,10 @@ def fit_model(
     params = {"inertia": inertia, "input_gain": gain, **theta, **shape}
     model = RigidDrive(effects, params, data.kin.dt, stribeck_shape)
     return FitResult(model, _accel_rss(rss, inertia), rss, int(rows.sum()), k + len(shaped), residual)
+
+
+def _shape_params(effects: tuple[str, ...]) -> set[str]:
+    return {p for n in effects for p in get_effect(n).nonlinear}
 
 
 def _accel_rss(rss: float, inertia: float) -> float:

@@ -69,7 +69,7 @@ from motorid.diagnose.kinematics import Kinematics, kinematics
 from motorid.diagnose.locate import Region, feature, features, locate
 from motorid.diagnose.model import BalanceData, FitResult, fit_model, model_balance
 from motorid.errors import DataError
-from motorid.plants.rigid import RigidDrive
+from motorid.plants.rigid import RigidDrive, effect_order
 from motorid.records import record_timing
 from motorid.validation import check_signals
 
@@ -303,6 +303,51 @@ def holdout_rows(n: int, fraction: float, blocks: int = 10) -> np.ndarray:
 
 # --------------------------------------------------------------------------- results
 @dataclass
+class Structure:
+    """The base structure chosen from the record before any other effect is judged.
+
+    Attributes
+    ----------
+    effects : tuple of str
+        The structure effects taken (``input_delay``, ``input_lag``; none for a drive
+        that answers its input at once).
+    params : dict
+        Their parameters [s], held fixed in every later fit.
+    probe : tuple of str
+        The effects of the model the structures were compared in (the base and
+        Coulomb friction: a missing friction level must not pass for a lag).
+    gap_before, gap_after : float
+        Free-run output gap [v] of the probe model without and with the structure.
+    candidates : list of dict
+        Each structure tried: ``effects``, ``params``, ``delta_bic`` (against the
+        probe, or against the best single effect for the pair) and ``gap`` [v].
+    reason : str
+        Why this structure.
+    """
+
+    effects: tuple[str, ...] = ()
+    params: dict[str, float] = field(default_factory=dict)
+    probe: tuple[str, ...] = ()
+    gap_before: float = float("nan")
+    gap_after: float = float("nan")
+    candidates: list[dict[str, Any]] = field(default_factory=list)
+    reason: str = "not searched"
+
+    def describe(self, dt: float) -> str:
+        """One line for the report, e.g. ``input_delay = 0.012 s (1.20 samples)``."""
+        if not self.effects:
+            return "no input delay or lag"
+        return ", ".join(f"{p} = {v:.4g} s ({v / dt:.2f} samples)" for p, v in self.params.items())
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "effects": list(self.effects), "params": self.params, "probe": list(self.probe),
+            "gap_before": self.gap_before, "gap_after": self.gap_after,
+            "candidates": self.candidates, "reason": self.reason,
+        }  # fmt: skip
+
+
+@dataclass
 class Step:
     """One accepted effect.
 
@@ -394,6 +439,8 @@ class Diagnosis:
     rejected: list[dict[str, Any]] = field(default_factory=list)
     refitted_model: RigidDrive | None = None
     refitted_gap: dict[str, float] | None = None
+    structure: Structure = field(default_factory=Structure)
+    structure_model: RigidDrive | None = None
     _prep: Prepared | None = field(default=None, repr=False)
 
     @property
@@ -412,6 +459,8 @@ class Diagnosis:
         out = [("initial", self.initial_model)]
         if self.refitted_model is not None:
             out.append(("refitted", self.refitted_model))
+        if self.structure_model is not None:
+            out.append(("+" + "+".join(self.structure.effects), self.structure_model))
         out += [(f"+{s.effect}", s.model) for s in self.steps]
         return out
 
@@ -444,6 +493,7 @@ class Diagnosis:
                 "params": self.initial_model.params,
             },
             "refitted_gap": self.refitted_gap,
+            "structure": self.structure.to_dict(),
         }
 
     def table(self) -> pd.DataFrame:
@@ -524,6 +574,83 @@ def _against_noise(
     )
 
 
+#: The structures tried, each single effect first; the pair only when a single one passes.
+STRUCTURES: tuple[tuple[str, ...], ...] = (("input_delay",), ("input_lag",), ("input_delay", "input_lag"))
+
+
+def choose_structure(
+    prep: Prepared,
+    base: tuple[str, ...],
+    start: dict[str, float],
+    stribeck_shape: str,
+    threshold: float,
+    min_gap_shrink: float,
+    noise_shrink: float,
+) -> Structure:
+    """Choose the input delay and lag of the drive from the record, before friction is judged.
+
+    The base and Coulomb friction (the probe) are fitted to the torque balance on the moving
+    samples with each structure of :data:`STRUCTURES` added (the delay and the time constant
+    by the bounded search of :func:`~motorid.diagnose.model.fit_model`). A structure is taken
+    when its ΔBIC against the probe (for the pair: against the best single effect) exceeds
+    ``threshold`` and its free-run output gap shrinks by more than ``min_gap_shrink`` of the
+    probe's and by more than ``noise_shrink`` noise floors: the same rules as a step.
+    """
+    data = prep.data
+    floor = prep.kin.noise
+    probe = effect_order((*base, "coulomb_friction"))
+    fit_p = fit_model(data, probe, start=start, stribeck_shape=stribeck_shape)
+    gap_p = gaps(fit_p.model, prep, None)["overall"]
+    tried: list[dict[str, Any]] = []
+    fits: dict[tuple[str, ...], FitResult] = {}
+
+    def try_structure(names: tuple[str, ...], against: FitResult) -> dict[str, Any]:
+        fit = fit_model(data, (*probe, *names), start=against.model.params, stribeck_shape=stribeck_shape)
+        ev = evidence(
+            against.rss, fit.rss, fit.n_rows, fit.n_params - against.n_params, fit.residual[data.moving]
+        )
+        params = {p: fit.model.params[p] for n in names for p in get_effect(n).nonlinear}
+        row = {"effects": list(names), "params": params, "delta_bic": ev["delta_bic"], "gap": math.nan}
+        fits[names] = fit
+        tried.append(row)
+        return row
+
+    singles = [try_structure(names, fit_p) for names in STRUCTURES if len(names) == 1]
+    passing = sorted((r for r in singles if r["delta_bic"] > threshold), key=lambda r: -r["delta_bic"])
+    if passing:
+        best_single = tuple(passing[0]["effects"])
+        pair = try_structure(STRUCTURES[-1], fits[best_single])
+        if pair["delta_bic"] > threshold:
+            passing.insert(0, pair)
+    reasons = []
+    for row in passing:
+        names = tuple(row["effects"])
+        gap1 = gaps(fits[names].model, prep, None)["overall"]
+        row["gap"] = gap1
+        shrink = (gap_p - gap1) / floor if floor > 0 else math.inf
+        if gap1 < (1.0 - min_gap_shrink) * gap_p and shrink > noise_shrink:
+            reason = (
+                f"chosen from the moving samples: ΔBIC {row['delta_bic']:.1f} > {threshold:g}, free-run gap of "
+                f"{' + '.join(probe)} {gap_p:.4g} -> {gap1:.4g} ({shrink:.1f} noise floors)"
+            )
+            return Structure(names, row["params"], probe, gap_p, gap1, tried, reason)
+        reasons.append(
+            f"{'+'.join(names)} (free-run gap {gap_p:.4g} -> {gap1:.4g}, {shrink:.2f} noise floors)"
+        )
+    if reasons:
+        reason = (
+            "no delay or lag: the structures that pass ΔBIC do not shrink the free-run gap: "
+            + ", ".join(reasons)
+        )
+    else:
+        best = max(tried, key=lambda r: r["delta_bic"])
+        reason = (
+            f"no delay or lag: the best, {'+'.join(best['effects'])}, has ΔBIC {best['delta_bic']:.1f} "
+            f"<= {threshold:g}"
+        )
+    return Structure((), {}, probe, gap_p, gap_p, tried, reason)
+
+
 def _names(value: Sequence[str] | str | None, what: str) -> tuple[str, ...]:
     if value is None:
         return ()
@@ -558,6 +685,7 @@ def diagnose(
     timing: Literal["hold", "sampled", "auto"] | None = None,
     band: float | None = None,
     model: RigidDrive | None = None,
+    structure: bool = True,
 ) -> Diagnosis:
     """Find the effects missing from a rigid drive model of ``record`` (see the module notes).
 
@@ -616,6 +744,10 @@ def diagnose(
         workflow refits its effects (every parameter free; its Stribeck shape kept),
         then names, adds and refits as without it. Its input gain is the force scale
         unless ``input_gain`` is given; its effects are the base (give no ``base``).
+    structure : bool
+        Choose the input delay and lag from the record before any other effect is
+        judged (:func:`choose_structure`; skipped when the base already holds one);
+        the chosen values are held in every later fit. False: the base as given.
 
     Returns
     -------
@@ -635,7 +767,7 @@ def diagnose(
         base_names = _names(DEFAULT_BASE if base is None else base, "base")
     stribeck_shape = "exponential" if model is None else model.stribeck_shape
     if candidates is None:
-        cand_names = tuple(n for n in EFFECTS if n not in base_names)
+        cand_names = tuple(n for n in EFFECTS if n not in base_names and not EFFECTS[n].structure)
     else:
         cand_names = tuple(n for n in _names(candidates, "candidates") if n not in base_names)
     if isinstance(max_steps, bool) or not isinstance(max_steps, int | np.integer) or max_steps < 0:
@@ -674,7 +806,7 @@ def diagnose(
                 "noise_shrink": noise_shrink, "missing_factor": missing_factor,
                 "holdout": "record" if isinstance(holdout, pd.DataFrame) else holdout,
                 "max_steps": int(max_steps), "model": "given" if model is not None else "fitted",
-                "stribeck_shape": stribeck_shape}  # fmt: skip
+                "stribeck_shape": stribeck_shape, "structure": bool(structure)}  # fmt: skip
 
     if isinstance(holdout, pd.DataFrame):
         other = prepare(holdout, **{**opts, "dt": None if dt is None else dt}, timing=prep.timing)
@@ -684,9 +816,11 @@ def diagnose(
         held = holdout_rows(data.n, float(holdout))
         train, held_data, held_rows = ~held, data, held & data.moving
 
+    fixed: dict[str, float] = {}  # the structure's delay and lag once chosen
+
     def held_error(effects: tuple[str, ...], start: dict[str, float] | None) -> float:
         """RMS torque-balance residual / J [v/s] on the held-out rows, fitted on the training rows."""
-        fit = fit_model(data, effects, rows=train, start=start, stribeck_shape=stribeck_shape)
+        fit = fit_model(data, effects, rows=train, start=start, stribeck_shape=stribeck_shape, fixed=fixed)
         inertia = fit.model.params["inertia"]
         if not inertia > 0:
             return math.inf
@@ -708,6 +842,24 @@ def diagnose(
     stop_reason = f"max_steps = {max_steps} reached"
     floor = prep.kin.noise
     v = prep.units["v"]
+    chosen = Structure(
+        reason="not searched: " + ("structure=False" if not structure else "the base holds it")
+    )
+    structure_model = None
+    if structure and not any(EFFECTS[n].structure for n in current):
+        bar.set_postfix_str("base structure")
+        chosen = choose_structure(
+            prep, current, fit0.model.params, stribeck_shape, threshold, min_gap_shrink, noise_shrink
+        )
+        if chosen.effects:
+            fixed.update(chosen.params)
+            fit0 = fit_model(
+                data, (*current, *chosen.effects), start=fit0.model.params, stribeck_shape=stribeck_shape,
+                fixed=fixed,
+            )  # fmt: skip
+            current = fit0.model.effects
+            structure_model = fit0.model
+        logger.info("structure: %s", chosen.reason)
     bar.update(1)
     for _ in range(max_steps):
         bar.set_postfix_str(f"step {len(steps) + 1}")
@@ -718,7 +870,9 @@ def diagnose(
             stop_reason = "every candidate effect is already in the model (or needs one that is not)"
             break
         r_cur, _ = balance_residual(fit0.model, data)
-        region = first_region if not steps else locate(r_cur, prep.feats_dec, prep.units)
+        region = (
+            first_region if not steps and not chosen.effects else locate(r_cur, prep.feats_dec, prep.units)
+        )
         gap0 = gaps(fit0.model, prep, region)
         if steps and gap0["overall"] <= (1.0 + noise_shrink) * floor:
             stop_reason = (
@@ -728,7 +882,9 @@ def diagnose(
             break
         ranking = []
         for name in tqdm(remaining, desc="candidates", disable=not progress, leave=False):
-            fit = fit_model(data, (*current, name), start=fit0.model.params, stribeck_shape=stribeck_shape)
+            fit = fit_model(
+                data, (*current, name), start=fit0.model.params, stribeck_shape=stribeck_shape, fixed=fixed
+            )
             ev = evidence(
                 fit0.rss, fit.rss, fit.n_rows, fit.n_params - fit0.n_params, fit.residual[data.moving]
             )
@@ -819,7 +975,7 @@ def diagnose(
     final_model = fit0.model
     initial_gap = gaps(initial_model, prep, first_region)
     refitted_gap = None if model is None else gaps(refitted_model, prep, first_region)
-    if steps:
+    if steps or chosen.effects:
         final_gap = gaps(final_model, prep, first_region)
     else:
         final_gap = dict(initial_gap if refitted_gap is None else refitted_gap)
@@ -835,8 +991,19 @@ def diagnose(
         noise_floor=floor, final_region=final_region,
         model=final_model, initial_model=initial_model, region=first_region, units=prep.units,
         settings=settings, rejected=rejected, refitted_model=None if model is None else refitted_model,
-        refitted_gap=refitted_gap, _prep=prep,
+        refitted_gap=refitted_gap, structure=chosen, structure_model=structure_model, _prep=prep,
     )  # fmt: skip
 
 
-__all__ = ["DEFAULT_BASE", "DEFAULT_THRESHOLD", "Diagnosis", "Prepared", "Step", "diagnose", "prepare"]
+__all__ = [
+    "DEFAULT_BASE",
+    "DEFAULT_THRESHOLD",
+    "STRUCTURES",
+    "Diagnosis",
+    "Prepared",
+    "Step",
+    "Structure",
+    "choose_structure",
+    "diagnose",
+    "prepare",
+]

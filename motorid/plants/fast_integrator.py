@@ -480,6 +480,55 @@ def rigid_columns(terms: np.ndarray, omega: np.ndarray, rate: float, shape: int)
 
 
 @numba.njit(cache=True)
+def rigid_input_delay(x: np.ndarray, dt: float, delay: float) -> np.ndarray:
+    """Mean over each sample of the held signal ``x`` delayed by ``delay`` [s] >= 0.
+
+    With ``delay = (m + f) dt`` (m whole samples, 0 <= f < 1; a negative delay is taken as 0) the delayed held signal
+    covers sample k with ``x[k-m-1]`` for the share f and ``x[k-m]`` for 1 - f::
+
+        x_d[k] = (1 - f) x[k - m] + f x[k - m - 1]
+
+    (exact for whole samples; before the first sample ``x[0]`` is held).
+    """
+    n = x.size
+    out = np.empty(n)
+    steps = max(delay, 0.0) / dt
+    m = int(steps)  # delay >= 0: the whole samples
+    f = steps - m
+    for k in range(n):
+        i = k - m
+        a = x[i] if i >= 0 else x[0]
+        b = x[i - 1] if i >= 1 else x[0]
+        out[k] = (1.0 - f) * a + f * b
+    return out
+
+
+@numba.njit(cache=True)
+def rigid_input_lag(x: np.ndarray, dt: float, time_constant: float) -> np.ndarray:
+    """Mean over each sample of the first-order lag ``T dz/dt = x - z`` of the held signal ``x``.
+
+    With ``a = exp(-dt/T)``, over sample k (``x[k]`` held, z from ``z_k``)::
+
+        mean_k = x[k] + (z_k - x[k]) T (1 - a) / dt,    z_{k+1} = x[k] + (z_k - x[k]) a
+
+    exact for the held input, ``z_0 = x[0]`` (at rest before the record); ``T <= 0`` is no lag.
+    """
+    n = x.size
+    out = np.empty(n)
+    if time_constant <= 0.0:
+        out[:] = x
+        return out
+    a = math.exp(-dt / time_constant)
+    c = time_constant * (1.0 - a) / dt
+    z = x[0] if n > 0 else 0.0
+    for k in range(n):
+        d = z - x[k]
+        out[k] = x[k] + d * c
+        z = x[k] + d * a
+    return out
+
+
+@numba.njit(cache=True)
 def rigid_free_run(
     force: np.ndarray,
     dt: float,
@@ -489,6 +538,7 @@ def rigid_free_run(
     rate: float,
     shape: int,
     w0: float,
+    breakaway_excess: float = 0.0,
 ) -> np.ndarray:
     """Speed of a rigid drive at the end of each sample for the input force [F] held over it.
 
@@ -499,7 +549,9 @@ def rigid_free_run(
     (the speed terms implicit, so the step is stable for any h; the denominator is kept
     >= 0.1 for non-physical negative fits), with Karnopp's rule (:func:`stick_or_slip`)
     at ω == 0: the breakaway levels are the level terms at 0± minus the torque at rest
-    (the offset). A drive without (or with a non-physical negative) static friction at
+    (the offset), each raised by ``breakaway_excess`` [F] >= 0 (static friction above the
+    kinetic level: a drive at rest breaks away only beyond it, and once moving slows
+    against the kinetic level alone, so it keeps moving down to a lower force). A drive without (or with a non-physical negative) static friction at
     rest moves towards the side the net force exceeds most. A step that would carry a
     drive with static friction (or one starting at rest) through zero stops it at 0.
     """
@@ -513,8 +565,8 @@ def rigid_free_run(
         rest += coef[t] * rigid_level(t, 0.0, 0.0, rate, shape)
         up += coef[t] * rigid_level(t, 0.0, 1.0, rate, shape)
         down += coef[t] * rigid_level(t, 0.0, -1.0, rate, shape)
-    break_pos = up - rest
-    break_neg = rest - down
+    break_pos = up - rest + breakaway_excess
+    break_neg = rest - down + breakaway_excess
     static = break_pos > 0.0 or break_neg > 0.0
     w = w0
     for k in range(n):
