@@ -39,8 +39,7 @@ import numpy as np
 from motorid.plants.rigid import (
     RIGID_EFFECTS,
     backlash_dwell,
-    input_delay,
-    input_lag,
+    input_dynamics,
     input_path,
     term_columns,
 )
@@ -72,6 +71,9 @@ class Effect:
         Part of the base structure (delay, lag), chosen from the data before any
         other effect is judged (:func:`motorid.diagnose.workflow.choose_structure`),
         not a candidate of the steps.
+    rest_only : bool
+        Acts on a drive at rest only (static friction): invisible to the balance of the
+        moving samples, so a fit keeps its value as given and the steps do not try it.
     nonnegative : tuple of str
         Parameters that are >= 0 for the effect to be physical (a fit with a
         negative value is not this effect).
@@ -89,6 +91,7 @@ class Effect:
     nonnegative: ClassVar[tuple[str, ...]] = ()
     requires: ClassVar[tuple[str, ...]] = ()
     structure: ClassVar[bool] = False
+    rest_only: ClassVar[bool] = False
 
     def columns(
         self, w: np.ndarray, shape: dict[str, float], stribeck_shape: str = "exponential"
@@ -255,7 +258,8 @@ class InputDelay(Effect):
     structure = True
 
     def transform(self, x: np.ndarray, dt: float, shape: dict[str, float]) -> np.ndarray:
-        return input_delay(x, dt, shape["input_delay"])
+        # with a lag in the model the two are one map (the drive's), applied here
+        return input_dynamics(x, dt, shape["input_delay"], shape.get("lag_time_constant", 0.0))
 
     def bounds(self, scale: dict[str, float]) -> dict[str, tuple[float, float]]:
         # from a twentieth of a sample (below it the balance cannot tell) to 20 samples
@@ -275,10 +279,30 @@ class InputLag(Effect):
     structure = True
 
     def transform(self, x: np.ndarray, dt: float, shape: dict[str, float]) -> np.ndarray:
-        return input_lag(x, dt, shape["lag_time_constant"])
+        if "input_delay" in shape:
+            return x  # the delay's transform applied the lag with it (one map)
+        return input_dynamics(x, dt, 0.0, shape["lag_time_constant"])
 
     def bounds(self, scale: dict[str, float]) -> dict[str, tuple[float, float]]:
         return {"lag_time_constant": (0.1 * scale["dt"], 100.0 * scale["dt"])}
+
+
+class StaticFriction(Effect):
+    """Static friction above the kinetic level: a drive at rest breaks away only when the net
+    force exceeds the kinetic level at 0± by ``ΔF_s`` [F]; moving, it slows against the kinetic
+    level alone, so it breaks away high and keeps moving down to a lower force (hysteresis).
+
+    It acts through the stick/slip rule of the free run only; the balance of the moving
+    samples does not see it, so a fit keeps the value it is given (a user's model) and the
+    workflow does not name it yet.
+    """
+
+    name = "static_friction"
+    nonlinear = ("breakaway_excess",)
+    units: ClassVar[dict[str, str]] = {"breakaway_excess": "F"}
+    nonnegative = ("breakaway_excess",)
+    signature = "at rest only: the drive stays stuck under forces beyond its kinetic friction level"
+    rest_only = True
 
 
 _CLASSES: tuple[type[Effect], ...] = (
@@ -293,6 +317,7 @@ _CLASSES: tuple[type[Effect], ...] = (
     Offset,
     InputDelay,
     InputLag,
+    StaticFriction,
 )
 
 #: The library: effect name -> effect class, in the order of the drive's effects
@@ -362,6 +387,7 @@ __all__ = [
     "InputSaturation",
     "Offset",
     "QuadraticDrag",
+    "StaticFriction",
     "StribeckFriction",
     "ViscousFriction",
     "get_effect",

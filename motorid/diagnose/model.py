@@ -247,7 +247,15 @@ def fit_model(
     effects = effect_order(tuple(effects))
     rows = data.moving if rows is None else rows & data.moving
     gain = float(data.input_gain)
-    fixed = fixed or {}
+    # a rest-only effect (static friction) keeps the value it starts from: the moving samples
+    # do not see it
+    rest = {
+        p: float((start or {}).get(p, 0.0))
+        for n in effects
+        if get_effect(n).rest_only
+        for p in get_effect(n).nonlinear
+    }
+    fixed = {**rest, **(fixed or {})}
     shaped = [
         (p, get_effect(n).bounds(data.scale)[p])
         for n in effects
@@ -258,7 +266,13 @@ def fit_model(
     for p, (lo, hi) in shaped:
         shape[p] = math.sqrt(lo * hi) if not start or p not in start else float(start[p])
 
-    nonnegative = [p for n in effects if get_effect(n).nonlinear for p in get_effect(n).nonnegative]
+    nonnegative = [
+        p
+        for n in effects
+        if get_effect(n).nonlinear
+        for p in get_effect(n).nonnegative
+        if p in get_effect(n).linear
+    ]
 
     # the search's best point so far and its solve: the final fit is that point, solved once
     best: dict[str, object] = {"cost": math.inf, "point": None, "solve": None}

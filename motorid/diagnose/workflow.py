@@ -238,14 +238,15 @@ def balance_residual(model: RigidDrive, data: BalanceData) -> tuple[np.ndarray, 
     """Force residual ``F_in - F_model`` on the decimated samples, and the commanded force ``g u``.
 
     On samples near rest (not moving) static friction holds whatever force lies
-    between the model's friction levels at 0- and 0+: there the model force is
-    ``J a + clip(F_in - J a, T(0-), T(0+))``.
+    between the model's friction levels at 0- and 0+ (widened by its static friction
+    ``ΔF_s``): there the model force is ``J a + clip(F_in - J a, T(0-) - ΔF_s, T(0+) + ΔF_s)``.
     """
     f_in, f_model = model_balance(model, data)
     f_meas = data.decimated("F|", data.balance_force(data.input_gain * data.kin.u))
     eps = max(1e-9, 1e-6 * data.scale["w_max"])
     t_pos, t_neg = model.friction(np.array([eps, -eps]))
-    lo, hi = min(t_pos, t_neg), max(t_pos, t_neg)
+    excess = model.params.get("breakaway_excess", 0.0)  # static friction widens the band at rest
+    lo, hi = min(t_pos, t_neg) - excess, max(t_pos, t_neg) + excess
     rest = ~data.moving
     ja = model.params["inertia"] * data.a[rest]
     f_model = f_model.copy()
@@ -788,7 +789,11 @@ def diagnose(
         base_names = _names(DEFAULT_BASE if base is None else base, "base")
     stribeck_shape = "exponential" if model is None else model.stribeck_shape
     if candidates is None:
-        cand_names = tuple(n for n in EFFECTS if n not in base_names and not EFFECTS[n].structure)
+        cand_names = tuple(
+            n
+            for n in EFFECTS
+            if n not in base_names and not EFFECTS[n].structure and not EFFECTS[n].rest_only
+        )
     else:
         cand_names = tuple(n for n in _names(candidates, "candidates") if n not in base_names)
     if isinstance(max_steps, bool) or not isinstance(max_steps, int | np.integer) or max_steps < 0:
@@ -852,7 +857,13 @@ def diagnose(
     # stages: the initial fit, each step, the final gaps (after the checks: an error shows no bar)
     bar = tqdm(total=max_steps + 2, desc="doctor", disable=not progress, unit="stage")
     bar.set_postfix_str(f"initial fit on {data.n} decimated samples")
-    fit0 = fit_model(data, current, stribeck_shape=stribeck_shape)
+    # a rest-only effect of the user's model (static friction) keeps its value: the balance cannot refit it
+    kept = (
+        {p: model.params[p] for n in current if EFFECTS[n].rest_only for p in EFFECTS[n].nonlinear}
+        if model
+        else {}
+    )
+    fit0 = fit_model(data, current, stribeck_shape=stribeck_shape, start=kept or None)
     # the user's model as given (at the record's sample time), else the fitted base
     initial_model = fit0.model if model is None else model.replace(dt=prep.kin.dt)
     r0, _ = balance_residual(initial_model, data)

@@ -480,51 +480,46 @@ def rigid_columns(terms: np.ndarray, omega: np.ndarray, rate: float, shape: int)
 
 
 @numba.njit(cache=True)
-def rigid_input_delay(x: np.ndarray, dt: float, delay: float) -> np.ndarray:
-    """Mean over each sample of the held signal ``x`` delayed by ``delay`` [s] >= 0.
+def rigid_input_dynamics(x: np.ndarray, dt: float, delay: float, time_constant: float) -> np.ndarray:
+    """Mean over each sample of the held signal ``x`` delayed by ``delay`` [s] and then passed
+    through the first-order lag ``T dz/dt = x_d - z`` of time constant ``time_constant`` [s].
 
-    With ``delay = (m + f) dt`` (m whole samples, 0 <= f < 1; a negative delay is taken as 0) the delayed held signal
-    covers sample k with ``x[k-m-1]`` for the share f and ``x[k-m]`` for 1 - f::
+    With ``delay = (m + f) dt`` (m whole samples, 0 <= f < 1; a negative delay is 0) the
+    delayed held signal covers sample k with ``x[k-m-1]`` for its first share f and
+    ``x[k-m]`` for the rest (``x[0]`` before the record). Over a piece of length L holding v
+    the lag, with ``e = exp(-L/T)``, integrates exactly::
 
-        x_d[k] = (1 - f) x[k - m] + f x[k - m - 1]
+        ∫ z = v L + (z_0 - v) T (1 - e),    z_L = v + (z_0 - v) e
 
-    (exact for whole samples; before the first sample ``x[0]`` is held).
+    and the sample's value is the integral over it / dt, from ``z = x[0]`` (at rest on the
+    first input). ``T <= 0`` is no lag (then z follows the delayed signal), so without a lag
+    ``(1 - f) x[k-m] + f x[k-m-1]``. Exact for the held input, whole and fractional delays.
     """
     n = x.size
     out = np.empty(n)
     steps = max(delay, 0.0) / dt
-    m = int(steps)  # delay >= 0: the whole samples
+    m = int(steps)  # the whole samples
     f = steps - m
-    for k in range(n):
-        i = k - m
-        a = x[i] if i >= 0 else x[0]
-        b = x[i - 1] if i >= 1 else x[0]
-        out[k] = (1.0 - f) * a + f * b
-    return out
-
-
-@numba.njit(cache=True)
-def rigid_input_lag(x: np.ndarray, dt: float, time_constant: float) -> np.ndarray:
-    """Mean over each sample of the first-order lag ``T dz/dt = x - z`` of the held signal ``x``.
-
-    With ``a = exp(-dt/T)``, over sample k (``x[k]`` held, z from ``z_k``)::
-
-        mean_k = x[k] + (z_k - x[k]) T (1 - a) / dt,    z_{k+1} = x[k] + (z_k - x[k]) a
-
-    exact for the held input, ``z_0 = x[0]`` (at rest before the record); ``T <= 0`` is no lag.
-    """
-    n = x.size
-    out = np.empty(n)
-    if time_constant <= 0.0:
-        out[:] = x
-        return out
-    a = math.exp(-dt / time_constant)
-    c = time_constant * (1.0 - a) / dt
+    lag = time_constant > 0.0
     z = x[0] if n > 0 else 0.0
     for k in range(n):
-        d = z - x[k]
-        out[k] = x[k] + d * c
-        z = x[k] + d * a
+        i = k - m
+        late = x[i] if i >= 0 else x[0]
+        early = x[i - 1] if i >= 1 else x[0]
+        total = 0.0
+        for piece in range(2):
+            v = early if piece == 0 else late
+            length = f * dt if piece == 0 else (1.0 - f) * dt
+            if length <= 0.0:
+                continue
+            if lag:
+                e = math.exp(-length / time_constant)
+                total += v * length + (z - v) * time_constant * (1.0 - e)
+                z = v + (z - v) * e
+            else:
+                total += v * length
+                z = v
+        out[k] = total / dt
     return out
 
 

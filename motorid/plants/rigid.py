@@ -30,9 +30,8 @@ effect                    term T (or input map)                         paramete
                           breaks away high and keeps moving down low)
 ========================= ============================================= ==============================
 
-The delay and the lag act on the held input: each sample holds the mean of the delayed
-(``rigid_input_delay``) or lagged (``rigid_input_lag``) signal over it, exact for a
-held input. A first-order lag of the measured speed (a speed filter) acts like the input
+The delay and the lag act on the held input as one map (``rigid_input_dynamics``): each
+sample holds the mean over it of the delayed, then lagged signal, exact for a held input. A first-order lag of the measured speed (a speed filter) acts like the input
 lag on a drive's linear part; the model carries the input lag only.
 
 Every term is evaluated by the compiled functions of
@@ -142,18 +141,12 @@ def input_path(u: npt.ArrayLike, dead_zone: float = 0.0, saturation: float = mat
     return fi.armature_voltages(x, 1.0, float(dead_zone), float(saturation))
 
 
-def input_delay(x: npt.ArrayLike, dt: float, delay: float) -> np.ndarray:
-    """``Δ(x)``: the held signal ``x`` delayed by ``delay`` [s] >= 0, whole and fractional samples,
-    as the mean over each sample (:func:`~motorid.plants.fast_integrator.rigid_input_delay`)."""
+def input_dynamics(x: npt.ArrayLike, dt: float, delay: float = 0.0, time_constant: float = 0.0) -> np.ndarray:
+    """``L(Δ(x))``: the held signal ``x`` delayed by ``delay`` [s] (whole and fractional samples),
+    then lagged with ``time_constant`` [s] (0: none), as the mean over each sample; one map, exact
+    for the held input (:func:`~motorid.plants.fast_integrator.rigid_input_dynamics`)."""
     arr = np.ascontiguousarray(np.asarray(x, dtype=float))
-    return fi.rigid_input_delay(arr, float(dt), max(float(delay), 0.0))
-
-
-def input_lag(x: npt.ArrayLike, dt: float, time_constant: float) -> np.ndarray:
-    """``L(x)``: the first-order lag of time constant ``time_constant`` [s] of the held signal
-    ``x``, as the mean over each sample (:func:`~motorid.plants.fast_integrator.rigid_input_lag`)."""
-    arr = np.ascontiguousarray(np.asarray(x, dtype=float))
-    return fi.rigid_input_lag(arr, float(dt), float(time_constant))
+    return fi.rigid_input_dynamics(arr, float(dt), float(delay), float(time_constant))
 
 
 def backlash_dwell(force: np.ndarray, dt: float, backlash_time: float) -> np.ndarray:
@@ -277,10 +270,8 @@ class RigidDrive:
         """Force reaching the drive, F_in(u) [F], for the input [u] held over each sample."""
         p = self.params
         x = input_path(u, p.get("dead_zone", 0.0), p.get("saturation", math.inf))
-        if "input_delay" in self.effects:
-            x = input_delay(x, self.dt, p["input_delay"])
-        if "input_lag" in self.effects:
-            x = input_lag(x, self.dt, p["lag_time_constant"])
+        if "input_delay" in self.effects or "input_lag" in self.effects:
+            x = input_dynamics(x, self.dt, p.get("input_delay", 0.0), p.get("lag_time_constant", 0.0))
         force = p["input_gain"] * x
         if "backlash" in self.effects:
             force = backlash_dwell(force, self.dt, p["backlash_time"])
@@ -383,8 +374,7 @@ __all__ = [
     "RigidDrive",
     "backlash_dwell",
     "effect_order",
-    "input_delay",
-    "input_lag",
+    "input_dynamics",
     "input_path",
     "term_columns",
     "time_since_reversal",
