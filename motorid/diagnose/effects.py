@@ -73,7 +73,8 @@ class Effect:
         not a candidate of the steps.
     rest_only : bool
         Acts on a drive at rest only (static friction): invisible to the balance of the
-        moving samples, so a fit keeps its value as given and the steps do not try it.
+        moving samples, so a fit of the balance keeps its value as given; the steps fit and
+        judge it on the free run.
     nonnegative : tuple of str
         Parameters that are >= 0 for the effect to be physical (a fit with a
         negative value is not this effect).
@@ -293,8 +294,9 @@ class StaticFriction(Effect):
     level alone, so it breaks away high and keeps moving down to a lower force (hysteresis).
 
     It acts through the stick/slip rule of the free run only; the balance of the moving
-    samples does not see it, so a fit keeps the value it is given (a user's model) and the
-    workflow does not name it yet.
+    samples does not see it, so a fit of the balance keeps the value it is given, and the
+    workflow fits and judges it on the free run
+    (:func:`~motorid.diagnose.workflow.fit_static_friction`).
     """
 
     name = "static_friction"

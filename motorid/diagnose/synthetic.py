@@ -257,7 +257,7 @@ def _model_record(
         params["lag_time_constant"] = lag
         planted["input_lag"] = {"lag_time_constant": lag}
     if "static_friction" in names:
-        excess = float(sizes.get("breakaway_excess", rng.uniform(0.8, 1.5) * params["coulomb"]))
+        excess = float(sizes.get("breakaway_excess", rng.uniform(1e-2, 1.4e-2)))
         params["breakaway_excess"] = excess
         planted["static_friction"] = {"breakaway_excess": excess}
     if "coulomb_friction" in names:

@@ -3,6 +3,8 @@ missing, and how much better the model is once it is added.
 
 The workflow (:func:`diagnose`):
 
+0. **Structure**: choose the input delay and lag of the drive from the record
+   (:func:`choose_structure`), held fixed in every later fit.
 1. **Fit** the current rigid model (inertia, input gain, the ``base`` effects) to
    the torque balance of the record (:mod:`.model`), simulate it free-run on the
    measured input and compare with the measured velocity. Gaps: the RMS of
@@ -21,7 +23,11 @@ The workflow (:func:`diagnose`):
    without and with the candidate, Δk the parameters it adds, ρ the lag-one
    autocorrelation of the candidate's residual, so coloured residuals count
    as fewer independent samples). Candidates with ΔBIC above ``threshold``
-   pass. Candidates that explain the torque balance alike (each removes at
+   pass. Static friction acts on a resting drive only, which the balance of the
+   moving samples cannot see: its level is fitted to the free run
+   (:func:`fit_static_friction`), and its ΔBIC, held-out error and gap are those of
+   the free-run output (RSS of measured minus free-run velocity, the held-out
+   blocks at full rate). Candidates that explain the torque balance alike (each removes at
    least 80 % of what the best removes, as Coulomb friction and an input dead
    zone do) are re-simulated free-run and the smallest output gap decides.
 4. **Add** a passing candidate only if (a) fitted on the training blocks it
@@ -63,6 +69,7 @@ from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
+import scipy.optimize
 
 from motorid.diagnose.effects import EFFECTS, get_effect, param_unit
 from motorid.diagnose.kinematics import Kinematics, kinematics
@@ -271,6 +278,42 @@ def gaps(model: RigidDrive, prep: Prepared, region: Region | None) -> dict[str, 
         "force_error_percent": 100.0 * float(np.linalg.norm(r) / max(np.linalg.norm(f_in), 1e-300)),
     }
     return out
+
+
+def free_run_error(prep: Prepared, model: RigidDrive) -> np.ndarray:
+    """Measured minus free-run velocity [v] at every sample (NaN outside the settled span)."""
+    err = prep.kin.w - prep.simulate(model)
+    err[~prep.kin.valid] = np.nan
+    return err
+
+
+def fit_static_friction(prep: Prepared, model: RigidDrive, samples: np.ndarray) -> RigidDrive:
+    """``model`` with ``static_friction``, its ``breakaway_excess`` ΔF_s [F] the one that minimises
+    the free-run gap on the full-rate ``samples``.
+
+    Static friction acts on a drive at rest only (the stick/slip rule of the free run), so the
+    balance of the moving samples cannot fit it: a grid of 17 values on [0, half the largest
+    input force] and a bounded search between the best one's neighbours, on the free run.
+    """
+    effects = tuple(dict.fromkeys((*model.effects, "static_friction")))
+    top = 0.5 * prep.data.scale["u_max"] * abs(model.input_gain)
+
+    def with_excess(excess: float) -> RigidDrive:
+        return model.with_effects(effects, {**model.params, "breakaway_excess": float(excess)})
+
+    def cost(excess: float) -> float:
+        err = free_run_error(prep, with_excess(excess))[samples]
+        err = err[np.isfinite(err)]
+        return float(np.mean(err**2)) if err.size else math.inf
+
+    grid = np.linspace(0.0, top, 17)
+    costs = [cost(e) for e in grid]
+    i = int(np.argmin(costs))
+    res = scipy.optimize.minimize_scalar(
+        cost, bounds=(grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]), method="bounded",
+        options={"xatol": 1e-4 * top},
+    )  # fmt: skip
+    return with_excess(res.x if res.fun <= costs[i] else grid[i])
 
 
 def _lag1(r: np.ndarray) -> float:
@@ -789,11 +832,7 @@ def diagnose(
         base_names = _names(DEFAULT_BASE if base is None else base, "base")
     stribeck_shape = "exponential" if model is None else model.stribeck_shape
     if candidates is None:
-        cand_names = tuple(
-            n
-            for n in EFFECTS
-            if n not in base_names and not EFFECTS[n].structure and not EFFECTS[n].rest_only
-        )
+        cand_names = tuple(n for n in EFFECTS if n not in base_names and not EFFECTS[n].structure)
     else:
         cand_names = tuple(n for n in _names(candidates, "candidates") if n not in base_names)
     if isinstance(max_steps, bool) or not isinstance(max_steps, int | np.integer) or max_steps < 0:
@@ -841,6 +880,18 @@ def diagnose(
     else:
         held = holdout_rows(data.n, float(holdout))
         train, held_data, held_rows = ~held, data, held & data.moving
+    # the same blocks at full rate, for effects judged on the free run (static friction)
+    held_full = None if isinstance(holdout, pd.DataFrame) else holdout_rows(prep.kin.n, float(holdout))
+    all_full = np.ones(prep.kin.n, dtype=bool)
+
+    def held_free_run(model: RigidDrive, fitted_on_train: RigidDrive | None) -> float:
+        """Free-run gap [v] on the held-out samples (or the second record) of ``model``, or, for a
+        static-friction candidate, of the model whose ΔF_s is fitted on the training samples."""
+        if fitted_on_train is not None:
+            model = fitted_on_train
+        if held_full is None:
+            return _rms(free_run_error(other, model))
+        return _rms(free_run_error(prep, model)[held_full])
 
     fixed: dict[str, float] = {}  # the structure's delay and lag once chosen
 
@@ -914,6 +965,20 @@ def diagnose(
             break
         ranking = []
         for name in tqdm(remaining, desc="candidates", disable=not progress, leave=False):
+            if get_effect(name).rest_only:
+                # static friction: fitted and judged on the free run, the only place it shows
+                fitted = fit_static_friction(prep, fit0.model, all_full)
+                err0, err1 = free_run_error(prep, fit0.model), free_run_error(prep, fitted)
+                ok = np.isfinite(err0) & np.isfinite(err1)
+                fit = FitResult(
+                    fitted, fit0.rss, fit0.rss_force, fit0.n_rows, fit0.n_params + 1, fit0.residual
+                )
+                ev = evidence(
+                    float(np.sum(err0[ok] ** 2)), float(np.sum(err1[ok] ** 2)), int(ok.sum()), 1, err1[ok]
+                )
+                ev["measure"] = "free run"
+                ranking.append({"effect": name, "fit": fit, **ev})
+                continue
             fit = fit_model(
                 data, (*current, name), start=fit0.model.params, stribeck_shape=stribeck_shape, fixed=fixed
             )
@@ -952,14 +1017,19 @@ def diagnose(
         base_held = held_error(current, fit0.model.params)
         for c in order:
             name = c["effect"]
-            cand_held = held_error((*current, name), c["fit"].model.params)
+            if get_effect(name).rest_only:  # held out on the free run: ΔF_s fitted on the training samples
+                trained = fit_static_friction(prep, fit0.model, all_full if held_full is None else ~held_full)
+                base_held_c, cand_held = held_free_run(fit0.model, None), held_free_run(fit0.model, trained)
+            else:
+                base_held_c = base_held
+                cand_held = held_error((*current, name), c["fit"].model.params)
             gap1 = gaps(c["fit"].model, prep, region)
-            ok_held = cand_held < (1.0 - min_holdout_gain) * base_held
+            ok_held = cand_held < (1.0 - min_holdout_gain) * base_held_c
             ok_gap = gap1["overall"] < (1.0 - min_gap_shrink) * gap0["overall"]
             shrink = (gap0["overall"] - gap1["overall"]) / floor if floor > 0 else math.inf
             ok_noise = not steps or shrink > noise_shrink
             record_c = {
-                "effect": name, "delta_bic": c["delta_bic"], "held_out_error_before": base_held,
+                "effect": name, "delta_bic": c["delta_bic"], "held_out_error_before": base_held_c,
                 "held_out_error_after": cand_held, "gap_before": gap0["overall"], "gap_after": gap1["overall"],
                 "gap_shrink_noise_floors": shrink,
             }  # fmt: skip
@@ -968,7 +1038,8 @@ def diagnose(
                 break
             why = []
             if not ok_held:
-                why.append(f"held-out error {cand_held:.4g} vs {base_held:.4g} {prep.units['v']}/s")
+                unit = prep.units["v"] if get_effect(name).rest_only else prep.units["v"] + "/s"
+                why.append(f"held-out error {cand_held:.4g} vs {base_held_c:.4g} {unit}")
             if not ok_gap:
                 why.append(f"free-run gap {gap1['overall']:.4g} vs {gap0['overall']:.4g} {v}")
             elif not ok_noise:
@@ -1037,5 +1108,7 @@ __all__ = [
     "Structure",
     "choose_structure",
     "diagnose",
+    "fit_static_friction",
+    "free_run_error",
     "prepare",
 ]
