@@ -12,6 +12,7 @@ import pytest
 from motorid.diagnose import diagnose
 from motorid.diagnose.synthetic import planted_record
 from motorid.diagnose.workflow import MISSING_FACTOR
+from motorid.errors import DataError
 from motorid.plants import RigidDrive
 
 # each planted value and a seed; sizes of 2-4 samples, where a delay and a lag no longer look alike
@@ -99,3 +100,9 @@ def test_planted_static_friction_is_named_from_the_free_run_with_its_level(seed)
     assert d.final_gap["overall"] < 0.6 * d.initial_gap["overall"]
     assert d.final_gap["overall"] <= MISSING_FACTOR * d.noise_floor
     assert d.structure.effects == ()
+
+
+def test_structure_must_be_a_bool():
+    planted = planted_record(None, 2)
+    with pytest.raises(DataError, match="structure must be True or False, got 'no'"):
+        diagnose(planted.record, structure="no")

@@ -844,6 +844,8 @@ def diagnose(
         timing = record_timing(getattr(record, "attrs", {}))
     if timing not in ("auto", "hold", "sampled"):
         raise DataError(f"timing must be 'auto', 'hold' or 'sampled', got {timing!r}")
+    if not isinstance(structure, bool):
+        raise DataError(f"structure must be True or False, got {structure!r}")
     if not math.isfinite(threshold):
         raise DataError(f"threshold must be finite, got {threshold!r}")
     if not (isinstance(noise_shrink, int | float) and math.isfinite(noise_shrink) and noise_shrink >= 0):
@@ -871,7 +873,7 @@ def diagnose(
                 "noise_shrink": noise_shrink, "missing_factor": missing_factor,
                 "holdout": "record" if isinstance(holdout, pd.DataFrame) else holdout,
                 "max_steps": int(max_steps), "model": "given" if model is not None else "fitted",
-                "stribeck_shape": stribeck_shape, "structure": bool(structure)}  # fmt: skip
+                "stribeck_shape": stribeck_shape, "structure": structure}  # fmt: skip
 
     if isinstance(holdout, pd.DataFrame):
         other = prepare(holdout, **{**opts, "dt": None if dt is None else dt}, timing=prep.timing)
