@@ -3,6 +3,7 @@ steady-state balance and the linear solution, and the model file round trip."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -10,6 +11,7 @@ import pytest
 import scipy.optimize
 
 from motorid.diagnose import EFFECTS
+from motorid.errors import DataError
 from motorid.models import load_model
 from motorid.plants import RIGID_EFFECTS, RigidDrive
 from motorid.plants.fast_integrator import lugre_level, stribeck_decay
@@ -225,6 +227,12 @@ def test_new_effects_round_trip_through_a_model_file_and_bad_values_are_named(tm
     assert again == drive
     u = np.repeat([1.0, -0.8, 0.6], 50)
     assert np.array_equal(again.free_run(u), drive.free_run(u))
+    text = (tmp_path / "d.json").read_text()
     for key in ("input_delay", "lag_time_constant", "breakaway_excess"):
         with pytest.raises(ValueError, match=f"{key} must be >= 0"):
             drive.with_params(**{key: -0.001}).check_physical()
+        data = json.loads(text)
+        data["model"]["params"][key] = -0.001
+        (tmp_path / "bad.json").write_text(json.dumps(data))
+        with pytest.raises(DataError, match=rf"bad.json: model.params.{key}: {key} must be >= 0"):
+            load_model(tmp_path / "bad.json")
