@@ -89,6 +89,7 @@ def test_doctor_without_input_gain_reports_forces_in_the_input_unit(capsys, reco
         (["--dt", "-0.01"], ["--dt"]),
         (["--input-gain", "-2"], ["--input-gain"]),
         (["--holdout", "2"], ["holdout"]),
+        (["--validate", "no_such_record.csv"], ["no_such_record.csv"]),
     ],
 )
 def test_doctor_bad_arguments_exit_2_naming_the_problem(capsys, record_csv, args, words):
@@ -280,3 +281,32 @@ def test_doctor_without_out_imports_no_plotting_and_uses_one_blas_thread(record_
     env["OPENBLAS_NUM_THREADS"] = "2"
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, env=env, check=True)
     assert json.loads(done.stdout.splitlines()[-1])[2] == "2"
+
+
+def test_doctor_validate_scores_the_models_on_a_second_record_without_refitting(
+    capsys, record_csv, planted, tmp_path
+):
+    """The same drive run on another input: the JSON ``validation`` holds each model's gaps on it,
+    equal to ``Diagnosis.evaluate`` of the same diagnosis (one computation, no refit)."""
+    from motorid.diagnose import diagnose
+
+    second = planted_record("coulomb_friction", 7, sizes={"coulomb": 8e-3}, excitation_seed=31)
+    path = tmp_path / "second.csv"
+    rec = second.record.rename(columns={"u": "volts", "y": "speed"})
+    rec.attrs = dict(second.record.attrs)
+    write_record(rec, path)
+    code, out, err = run(
+        capsys, "doctor", str(record_csv), "--input", "volts", "--output", "speed", "--input-gain",
+        repr(planted.input_gain), "--base", "viscous_friction,offset", "--validate", str(path), "--json",
+    )  # fmt: skip
+    assert code == 0, err
+    scores = out["validation"]["models"]
+    assert out["validation"]["record"] == str(path) and list(scores) == ["initial", "+coulomb_friction"]
+    d = diagnose(planted.record, input_gain=planted.input_gain, base="viscous_friction,offset")
+    want = d.evaluate(second.record)
+    for label, row in scores.items():
+        assert row == pytest.approx(
+            want.loc[label].to_dict(), rel=1e-12
+        )  # CSV floats round-trip exactly; 1e-12 for summation order
+    assert scores["+coulomb_friction"]["overall"] < 0.5 * scores["initial"]["overall"]
+    assert f"on {path} (" in err and "without refitting" in err

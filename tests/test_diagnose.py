@@ -64,7 +64,10 @@ def test_library_covers_the_design_names_and_each_effect_describes_itself():
         "quadratic_drag", "input_dead_zone", "input_saturation", "backlash", "offset",
     }  # fmt: skip
     assert required <= set(EFFECTS)
-    assert set(SIZES) == required == set(BASE_FOR)
+    # the structure is chosen before the steps, and static friction is judged on the free run:
+    # both are planted in tests/test_diagnose_structure.py
+    elsewhere = {"input_delay", "input_lag", "static_friction"}
+    assert set(SIZES) == required == set(BASE_FOR) - elsewhere
     for name, cls in EFFECTS.items():
         eff = cls()
         assert eff.name == name and eff.signature

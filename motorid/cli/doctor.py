@@ -55,7 +55,7 @@ def doctor_record(record: pd.DataFrame, args: argparse.Namespace, progress: bool
         record, dt=args.dt, input="u", output="y", output_kind=args.output_kind,
         input_gain=args.input_gain, base=base, candidates=candidates,
         holdout=args.holdout, max_steps=args.max_steps, progress=progress, timing=args.timing,
-        model=model,
+        model=model, structure=not args.no_structure,
     )  # fmt: skip
 
 
@@ -85,6 +85,10 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     if args.save_model is not None:
         check_out_file(args.save_model, True, "--save-model")
     record = read_record_from_args(args)
+    validation = None
+    if args.validate is not None:
+        # the same record options (columns, dt, units) as the record the models are fitted on
+        validation = read_record_from_args(argparse.Namespace(**{**vars(args), "data": args.validate}))
     if args.out:
         check_out_folder(args.out)
     diagnosis = doctor_record(record, args)
@@ -97,6 +101,8 @@ def cmd_doctor(args: argparse.Namespace) -> int:
             f"refitted {diagnosis.refitted_gap['overall']:.4g} {units['v']}")  # fmt: skip
     if args.input_gain is None and args.model is None:
         say(f"  no --input-gain: forces are per input unit, in {units['F']}")
+    structure = diagnosis.structure
+    say(f"  base structure: {structure.describe(diagnosis.model.dt)} ({structure.reason})")
     say(f"  located: {diagnosis.region.description}")
     table = diagnosis.table()
     if len(table):
@@ -119,6 +125,12 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         for k, v in diagnosis.model.params.items()
     )
     say(f"  final model (± one standard error): {final}")
+    scores = None
+    if validation is not None:
+        scores = diagnosis.evaluate(validation)
+        say(f"  on {args.validate} ({len(validation)} samples), the models above without refitting:")
+        with pd.option_context("display.width", 160):
+            say(scores.round(4).to_string())
     if args.save_model is not None:
         try:
             diagnosis.model.save(args.save_model)
@@ -134,7 +146,10 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         table.to_csv(args.out / "doctor_table.csv")
         say(f"  wrote {len(figures)} figures and doctor_table.csv in {args.out}/")
     if args.json:
-        emit_json({**diagnosis.to_dict(), "figures": figures})
+        out = {**diagnosis.to_dict(), "figures": figures}
+        if scores is not None:
+            out["validation"] = {"record": str(args.validate), "models": scores.to_dict(orient="index")}
+        emit_json(out)
     return 0
 
 
@@ -158,6 +173,9 @@ def add_doctor_options(parser: argparse.ArgumentParser) -> None:
         help="input/output timing: hold (y[k] at the end of the interval u[k] is held over; the "
         "default, or the record's own), sampled (a controller reads y[k], then holds u[k]), auto",
     )  # fmt: skip
+    parser.add_argument("--no-structure", action="store_true",
+                        help="keep the base as given: do not choose an input delay and lag from the record "
+                             "before judging friction")  # fmt: skip
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
@@ -167,6 +185,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, help="folder for the figures and the table (replaced if there)")
     p.add_argument("--model", type=Path, metavar="FILE",
                    help="start from your own rigid-drive model file: the first gap is it as given")  # fmt: skip
+    p.add_argument("--validate", type=Path, metavar="FILE",
+                   help="a second record of the same drive (read with the same options): the models "
+                        "found are scored on it without refitting")  # fmt: skip
     p.add_argument("--save-model", type=Path, metavar="FILE",
                    help="write the improved model as a rigid-drive model file (replaced if there)")  # fmt: skip
     add_json(p)

@@ -4,7 +4,7 @@ The model is the rigid drive of :mod:`motorid.plants.rigid`
 (:class:`~motorid.plants.rigid.RigidDrive`: inertia J, input gain g and the effects'
 parameters; its module holds the table of terms and units)::
 
-    J dw/dt = F_in(u) - Σ_e T_e(w),    F_in(u) = B(g · D(S(u)))              [F]
+    J dw/dt = F_in(u) - Σ_e T_e(w),    F_in(u) = B(g · L(Δ(D(S(u)))))        [F]
 
 "F" stands for the force unit of the model (N m or N, that of ``g u``; without a
 known g the fit takes g = 1 and F is the input's unit), "v" for the velocity unit
@@ -36,7 +36,13 @@ from typing import ClassVar
 
 import numpy as np
 
-from motorid.plants.rigid import RIGID_EFFECTS, backlash_dwell, input_path, term_columns
+from motorid.plants.rigid import (
+    RIGID_EFFECTS,
+    backlash_dwell,
+    input_dynamics,
+    input_path,
+    term_columns,
+)
 
 
 class Effect:
@@ -59,8 +65,16 @@ class Effect:
     signature : str
         Where the effect shows in the residual of a model that lacks it.
     order : int
-        Position in the input path (input effects): saturation, then dead
-        zone, then backlash.
+        Position in the input path (input effects): saturation, dead zone,
+        delay, lag, then backlash.
+    structure : bool
+        Part of the base structure (delay, lag), chosen from the data before any
+        other effect is judged (:func:`motorid.diagnose.workflow.choose_structure`),
+        not a candidate of the steps.
+    rest_only : bool
+        Acts on a drive at rest only (static friction): invisible to the balance of the
+        moving samples, so a fit of the balance keeps its value as given; the steps fit and
+        judge it on the free run.
     nonnegative : tuple of str
         Parameters that are >= 0 for the effect to be physical (a fit with a
         negative value is not this effect).
@@ -77,6 +91,8 @@ class Effect:
     order: ClassVar[int] = 0
     nonnegative: ClassVar[tuple[str, ...]] = ()
     requires: ClassVar[tuple[str, ...]] = ()
+    structure: ClassVar[bool] = False
+    rest_only: ClassVar[bool] = False
 
     def columns(
         self, w: np.ndarray, shape: dict[str, float], stribeck_shape: str = "exponential"
@@ -219,7 +235,7 @@ class Backlash(Effect):
     nonlinear = ("backlash_time",)
     units: ClassVar[dict[str, str]] = {"backlash_time": "s"}
     signature = "right after each reversal of the drive force: the measured side lags, sign follows the force"
-    order = 2
+    order = 4
 
     def transform(self, x: np.ndarray, dt: float, shape: dict[str, float]) -> np.ndarray:
         return backlash_dwell(x, dt, shape["backlash_time"])
@@ -228,6 +244,67 @@ class Backlash(Effect):
         # a dwell shorter than the decimated sample time is below the band the balance resolves
         lo = scale.get("dt_band", scale["dt"])
         return {"backlash_time": (lo, max(2.0 * lo, min(50.0 * scale["dt"], 0.3)))}
+
+
+class InputDelay(Effect):
+    """Transport delay of the input path ``Δ(x)(t) = x(t - τ_d)``, whole and fractional samples
+    (driver latency, a controller's computation time)."""
+
+    name = "input_delay"
+    kind = "input"
+    nonlinear = ("input_delay",)
+    units: ClassVar[dict[str, str]] = {"input_delay": "s"}
+    signature = "after every change of u: the measured drive answers τ_d late, in both directions"
+    order = 2
+    structure = True
+
+    def transform(self, x: np.ndarray, dt: float, shape: dict[str, float]) -> np.ndarray:
+        # with a lag in the model the two are one map (the drive's), applied here
+        return input_dynamics(x, dt, shape["input_delay"], shape.get("lag_time_constant", 0.0))
+
+    def bounds(self, scale: dict[str, float]) -> dict[str, tuple[float, float]]:
+        # from a twentieth of a sample (below it the balance cannot tell) to 20 samples
+        return {"input_delay": (0.05 * scale["dt"], 20.0 * scale["dt"])}
+
+
+class InputLag(Effect):
+    """First-order lag of the input path ``T_l dz/dt = x - z`` (driver bandwidth, current loop;
+    on the linear part the same as a first-order speed filter in the measurement)."""
+
+    name = "input_lag"
+    kind = "input"
+    nonlinear = ("lag_time_constant",)
+    units: ClassVar[dict[str, str]] = {"lag_time_constant": "s"}
+    signature = "after every change of u: the force builds up over T_l, the acceleration is rounded"
+    order = 3
+    structure = True
+
+    def transform(self, x: np.ndarray, dt: float, shape: dict[str, float]) -> np.ndarray:
+        if "input_delay" in shape:
+            return x  # the delay's transform applied the lag with it (one map)
+        return input_dynamics(x, dt, 0.0, shape["lag_time_constant"])
+
+    def bounds(self, scale: dict[str, float]) -> dict[str, tuple[float, float]]:
+        return {"lag_time_constant": (0.1 * scale["dt"], 100.0 * scale["dt"])}
+
+
+class StaticFriction(Effect):
+    """Static friction above the kinetic level: a drive at rest breaks away only when the net
+    force exceeds the kinetic level at 0± by ``ΔF_s`` [F]; moving, it slows against the kinetic
+    level alone, so it breaks away high and keeps moving down to a lower force (hysteresis).
+
+    It acts through the stick/slip rule of the free run only; the balance of the moving
+    samples does not see it, so a fit of the balance keeps the value it is given, and the
+    workflow fits and judges it on the free run
+    (:func:`~motorid.diagnose.workflow.fit_static_friction`).
+    """
+
+    name = "static_friction"
+    nonlinear = ("breakaway_excess",)
+    units: ClassVar[dict[str, str]] = {"breakaway_excess": "F"}
+    nonnegative = ("breakaway_excess",)
+    signature = "at rest only: the drive stays stuck under forces beyond its kinetic friction level"
+    rest_only = True
 
 
 _CLASSES: tuple[type[Effect], ...] = (
@@ -240,6 +317,9 @@ _CLASSES: tuple[type[Effect], ...] = (
     InputSaturation,
     Backlash,
     Offset,
+    InputDelay,
+    InputLag,
+    StaticFriction,
 )
 
 #: The library: effect name -> effect class, in the order of the drive's effects
@@ -304,9 +384,12 @@ __all__ = [
     "CoulombFriction",
     "Effect",
     "InputDeadZone",
+    "InputDelay",
+    "InputLag",
     "InputSaturation",
     "Offset",
     "QuadraticDrag",
+    "StaticFriction",
     "StribeckFriction",
     "ViscousFriction",
     "get_effect",

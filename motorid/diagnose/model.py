@@ -252,6 +252,7 @@ def fit_model(
     rows: np.ndarray | None = None,
     start: dict[str, float] | None = None,
     stribeck_shape: str = "exponential",
+    fixed: dict[str, float] | None = None,
 ) -> FitResult:
     """Fit a rigid model with ``effects`` to the torque balance of ``data``.
 
@@ -266,6 +267,9 @@ def fit_model(
         Initial shape-parameter values (e.g. from a previous fit).
     stribeck_shape : {"exponential", "gaussian"}
         Shape of the Stribeck decay of the model.
+    fixed : dict, optional
+        Shape parameters held at these values, not searched (the base structure's delay
+        and lag once chosen).
 
     Returns
     -------
@@ -277,12 +281,32 @@ def fit_model(
     effects = effect_order(tuple(effects))
     rows = data.moving if rows is None else rows & data.moving
     gain = float(data.input_gain)
-    shaped = [(p, get_effect(n).bounds(data.scale)[p]) for n in effects for p in get_effect(n).nonlinear]
-    shape: dict[str, float] = {}
+    # a rest-only effect (static friction) keeps the value it starts from: the moving samples
+    # do not see it
+    rest = {
+        p: float((start or {}).get(p, 0.0))
+        for n in effects
+        if get_effect(n).rest_only
+        for p in get_effect(n).nonlinear
+    }
+    fixed = {**rest, **(fixed or {})}
+    shaped = [
+        (p, get_effect(n).bounds(data.scale)[p])
+        for n in effects
+        for p in get_effect(n).nonlinear
+        if p not in fixed
+    ]
+    shape: dict[str, float] = {p: float(v) for p, v in fixed.items() if p in _shape_params(effects)}
     for p, (lo, hi) in shaped:
         shape[p] = math.sqrt(lo * hi) if not start or p not in start else float(start[p])
 
-    nonnegative = [p for n in effects if get_effect(n).nonlinear for p in get_effect(n).nonnegative]
+    nonnegative = [
+        p
+        for n in effects
+        if get_effect(n).nonlinear
+        for p in get_effect(n).nonnegative
+        if p in get_effect(n).linear
+    ]
 
     # the search's best point so far and its solve: the final fit is that point, solved once
     best: dict[str, object] = {"cost": math.inf, "point": None, "solve": None}
@@ -413,6 +437,10 @@ def bounded_minimum(
 def _sign(value: float) -> float:
     """+1 for value >= 0 (zero included), -1 below, NaN for NaN."""
     return 1.0 if value >= 0.0 else -1.0 if value < 0.0 else math.nan
+
+
+def _shape_params(effects: tuple[str, ...]) -> set[str]:
+    return {p for n in effects for p in get_effect(n).nonlinear}
 
 
 def _accel_rss(rss: float, inertia: float) -> float:

@@ -7,13 +7,14 @@ bearing losses as viscous friction. The rig is drawn at random around the
 paper's (inertias, motor constant, resistance, bearing losses, excitation)
 with a stiff shaft, since the grey-box model is rigid.
 
-Three effects the rig has no law for in the rigid sense of the library are
+The effects the rig has no law for in the rigid sense of the library are
 planted with the rigid drive's simulator at a finer step
 (:meth:`RigidDrive.free_run <motorid.plants.rigid.RigidDrive.free_run>` with 20 sub-steps) plus white measurement
 noise: ``quadratic_drag``, ``asymmetric_friction`` (the viscous asymmetry,
 which is what tells it from an offset) and ``backlash`` (the rig's backlash is
 a gap in a two-mass shaft whose signature in the load speed is an impact, not
-the lost-motion dwell the library models).
+the lost-motion dwell the library models), and the base structure ``input_delay``
+and ``input_lag`` and the stiction of ``static_friction``.
 """
 
 from __future__ import annotations
@@ -37,7 +38,9 @@ RIG_EFFECTS = (
     "offset",
 )
 #: Effects planted with the grey-box simulator.
-MODEL_EFFECTS = ("quadratic_drag", "asymmetric_friction", "backlash")
+MODEL_EFFECTS = (
+    "quadratic_drag", "asymmetric_friction", "backlash", "input_delay", "input_lag", "static_friction",
+)  # fmt: skip
 
 #: The model each single-effect test starts from: every other effect the record holds.
 BASE_FOR = {
@@ -50,6 +53,9 @@ BASE_FOR = {
     "quadratic_drag": ("viscous_friction", "coulomb_friction", "offset"),
     "asymmetric_friction": ("viscous_friction", "coulomb_friction", "offset"),
     "backlash": ("viscous_friction", "coulomb_friction", "offset"),
+    "input_delay": ("viscous_friction", "coulomb_friction", "offset"),
+    "input_lag": ("viscous_friction", "coulomb_friction", "offset"),
+    "static_friction": ("viscous_friction", "coulomb_friction", "offset"),
 }
 
 
@@ -106,7 +112,8 @@ def planted_record(
         Fix the main parameter of an effect instead of drawing it: ``coulomb``,
         ``stribeck``, ``stribeck_velocity``, ``dead_zone`` [V], ``saturation``
         (share of max |u|), ``offset`` [N m], ``quadratic_drag``,
-        ``viscous_asymmetry``, ``backlash_time``.
+        ``viscous_asymmetry``, ``backlash_time``, ``input_delay`` [s],
+        ``lag_time_constant`` [s], ``breakaway_excess`` [N m].
     excitation_seed : int, optional
         Draw the excitation and the noise from this seed instead: a second
         record of the same drive (for a held-out check).
@@ -241,6 +248,18 @@ def _model_record(
         tau = float(sizes.get("backlash_time", rng.uniform(0.06, 0.15)))
         params["backlash_time"] = tau
         planted["backlash"] = {"backlash_time": tau}
+    if "input_delay" in names:
+        delay = float(sizes.get("input_delay", rng.uniform(1.2, 3.5) * dt))
+        params["input_delay"] = delay
+        planted["input_delay"] = {"input_delay": delay}
+    if "input_lag" in names:
+        lag = float(sizes.get("lag_time_constant", rng.uniform(1.5, 4.0) * dt))
+        params["lag_time_constant"] = lag
+        planted["input_lag"] = {"lag_time_constant": lag}
+    if "static_friction" in names:
+        excess = float(sizes.get("breakaway_excess", rng.uniform(1e-2, 1.4e-2)))
+        params["breakaway_excess"] = excess
+        planted["static_friction"] = {"breakaway_excess": excess}
     if "coulomb_friction" in names:
         planted["coulomb_friction"] = {"coulomb": params["coulomb"]}
     model = RigidDrive((*effects, *names), params, dt)

@@ -978,6 +978,50 @@ def rigid_columns(terms: np.ndarray, omega: np.ndarray, rate: float, shape: int)
 
 
 @numba.njit(cache=True)
+def rigid_input_dynamics(x: np.ndarray, dt: float, delay: float, time_constant: float) -> np.ndarray:
+    """Mean over each sample of the held signal ``x`` delayed by ``delay`` [s] and then passed
+    through the first-order lag ``T dz/dt = x_d - z`` of time constant ``time_constant`` [s].
+
+    With ``delay = (m + f) dt`` (m whole samples, 0 <= f < 1; a negative delay is 0) the
+    delayed held signal covers sample k with ``x[k-m-1]`` for its first share f and
+    ``x[k-m]`` for the rest (``x[0]`` before the record). Over a piece of length L holding v
+    the lag, with ``e = exp(-L/T)``, integrates exactly::
+
+        ∫ z = v L + (z_0 - v) T (1 - e),    z_L = v + (z_0 - v) e
+
+    and the sample's value is the integral over it / dt, from ``z = x[0]`` (at rest on the
+    first input). ``T <= 0`` is no lag (then z follows the delayed signal), so without a lag
+    ``(1 - f) x[k-m] + f x[k-m-1]``. Exact for the held input, whole and fractional delays.
+    """
+    n = x.size
+    out = np.empty(n)
+    steps = max(delay, 0.0) / dt
+    m = int(steps)  # the whole samples
+    f = steps - m
+    lag = time_constant > 0.0
+    z = x[0] if n > 0 else 0.0
+    for k in range(n):
+        i = k - m
+        late = x[i] if i >= 0 else x[0]
+        early = x[i - 1] if i >= 1 else x[0]
+        total = 0.0
+        for piece in range(2):
+            v = early if piece == 0 else late
+            length = f * dt if piece == 0 else (1.0 - f) * dt
+            if length <= 0.0:
+                continue
+            if lag:
+                e = math.exp(-length / time_constant)
+                total += v * length + (z - v) * time_constant * (1.0 - e)
+                z = v + (z - v) * e
+            else:
+                total += v * length
+                z = v
+        out[k] = total / dt
+    return out
+
+
+@numba.njit(cache=True)
 def rigid_free_run(
     force: np.ndarray,
     dt: float,
@@ -987,6 +1031,7 @@ def rigid_free_run(
     rate: float,
     shape: int,
     w0: float,
+    breakaway_excess: float = 0.0,
 ) -> np.ndarray:
     """Speed of a rigid drive at the end of each sample for the input force [F] held over it.
 
@@ -997,7 +1042,9 @@ def rigid_free_run(
     (the speed terms implicit, so the step is stable for any h; the denominator is kept
     >= 0.1 for non-physical negative fits), with Karnopp's rule (:func:`stick_or_slip`)
     at ω == 0: the breakaway levels are the level terms at 0± minus the torque at rest
-    (the offset). A drive without (or with a non-physical negative) static friction at
+    (the offset), each raised by ``breakaway_excess`` [F] >= 0 (static friction above the
+    kinetic level: a drive at rest breaks away only beyond it, and once moving slows
+    against the kinetic level alone, so it keeps moving down to a lower force). A drive without (or with a non-physical negative) static friction at
     rest moves towards the side the net force exceeds most. A step that would carry a
     drive with static friction (or one starting at rest) through zero stops it at 0.
     """
@@ -1011,8 +1058,8 @@ def rigid_free_run(
         rest += coef[t] * rigid_level(t, 0.0, 0.0, rate, shape)
         up += coef[t] * rigid_level(t, 0.0, 1.0, rate, shape)
         down += coef[t] * rigid_level(t, 0.0, -1.0, rate, shape)
-    break_pos = up - rest
-    break_neg = rest - down
+    break_pos = up - rest + breakaway_excess
+    break_neg = rest - down + breakaway_excess
     static = break_pos > 0.0 or break_neg > 0.0
     w = w0
     for k in range(n):

@@ -4,7 +4,7 @@ Model (SI units; ``F`` is the force unit of ``g u``, N m for a rotary drive, N f
 linear one, or the input's unit when the gain is not known; ``v`` the velocity unit)::
 
     J dω/dt = F_in(u) - Σ_t θ_t T_t(ω)                                      [F]
-    F_in(u) = B(g · D(S(u)))                                                 (input path)
+    F_in(u) = B(g · L(Δ(D(S(u)))))                                           (input path)
 
 ========================= ============================================= ==============================
 effect                    term T (or input map)                         parameters [unit]
@@ -20,7 +20,19 @@ effect                    term T (or input map)                         paramete
 ``input_dead_zone``       D(u) = 0 for |u| <= d, u - d sgn(u) beyond    dead_zone [u]
 ``input_saturation``      S(u) = clip(u, -u_s, u_s)                     saturation [u]
 ``backlash``              B(F) = 0 for τ_b after each reversal of F     backlash_time [s]
+``input_delay``           Δ(x)(t) = x(t - τ_d), whole and fractional    input_delay [s]
+                          samples (transport delay, driver latency)
+``input_lag``             L: T_l dz/dt = x - z, first-order lag          lag_time_constant [s]
+                          (driver bandwidth, current loop)
+``static_friction``       breakaway at rest ΔF_s above the kinetic       breakaway_excess [F]
+                          level at 0± (Karnopp rule only: a moving
+                          drive slows against the kinetic level, so it
+                          breaks away high and keeps moving down low)
 ========================= ============================================= ==============================
+
+The delay and the lag act on the held input as one map (``rigid_input_dynamics``): each
+sample holds the mean over it of the delayed, then lagged signal, exact for a held input. A first-order lag of the measured speed (a speed filter) acts like the input
+lag on a drive's linear part; the model carries the input lag only.
 
 Every term is evaluated by the compiled functions of
 :mod:`~motorid.plants.fast_integrator` (``rigid_term``, ``stribeck_decay``,
@@ -66,6 +78,9 @@ RIGID_EFFECTS: dict[str, tuple[str, ...]] = {
     "input_saturation": ("saturation",),
     "backlash": ("backlash_time",),
     "offset": ("offset",),
+    "input_delay": ("input_delay",),
+    "input_lag": ("lag_time_constant",),
+    "static_friction": ("breakaway_excess",),
 }
 #: The compiled term of each parameter that enters the balance linearly.
 TERM_OF: dict[str, int] = {
@@ -81,7 +96,10 @@ TERM_OF: dict[str, int] = {
 DRIVE_PARAMETERS = ("inertia", "input_gain")
 #: Parameters that must be > 0 and >= 0 in a physical drive (a model file's).
 _POSITIVE = ("inertia", "input_gain", "stribeck_velocity", "saturation")
-_NONNEGATIVE = ("viscous", "coulomb", "stribeck", "quadratic_drag", "dead_zone", "backlash_time")
+_NONNEGATIVE = (
+    "viscous", "coulomb", "stribeck", "quadratic_drag", "dead_zone", "backlash_time",
+    "input_delay", "lag_time_constant", "breakaway_excess",
+)  # fmt: skip
 
 
 def effect_order(effects: tuple[str, ...] | list[str]) -> tuple[str, ...]:
@@ -121,6 +139,14 @@ def input_path(u: npt.ArrayLike, dead_zone: float = 0.0, saturation: float = mat
     (the amplifier's compiled map at unit gain)."""
     x = np.ascontiguousarray(np.asarray(u, dtype=float))
     return fi.armature_voltages(x, 1.0, float(dead_zone), float(saturation))
+
+
+def input_dynamics(x: npt.ArrayLike, dt: float, delay: float = 0.0, time_constant: float = 0.0) -> np.ndarray:
+    """``L(Δ(x))``: the held signal ``x`` delayed by ``delay`` [s] (whole and fractional samples),
+    then lagged with ``time_constant`` [s] (0: none), as the mean over each sample; one map, exact
+    for the held input (:func:`~motorid.plants.fast_integrator.rigid_input_dynamics`)."""
+    arr = np.ascontiguousarray(np.asarray(x, dtype=float))
+    return fi.rigid_input_dynamics(arr, float(dt), float(delay), float(time_constant))
 
 
 def backlash_dwell(force: np.ndarray, dt: float, backlash_time: float) -> np.ndarray:
@@ -244,6 +270,8 @@ class RigidDrive:
         """Force reaching the drive, F_in(u) [F], for the input [u] held over each sample."""
         p = self.params
         x = input_path(u, p.get("dead_zone", 0.0), p.get("saturation", math.inf))
+        if "input_delay" in self.effects or "input_lag" in self.effects:
+            x = input_dynamics(x, self.dt, p.get("input_delay", 0.0), p.get("lag_time_constant", 0.0))
         force = p["input_gain"] * x
         if "backlash" in self.effects:
             force = backlash_dwell(force, self.dt, p["backlash_time"])
@@ -293,7 +321,8 @@ class RigidDrive:
         vs = self.params.get("stribeck_velocity", 1.0)
         rate = 1.0 / vs if vs > 0.0 else 1.0
         shape = fi.STRIBECK_SHAPES.index(self.stribeck_shape)
-        return fi.rigid_free_run(force, self.dt, int(substeps), J, coef, rate, shape, float(w0))
+        excess = self.params.get("breakaway_excess", 0.0)
+        return fi.rigid_free_run(force, self.dt, int(substeps), J, coef, rate, shape, float(w0), excess)
 
     # -------------------------------------------------------------- records
     def simulate(self, u: npt.ArrayLike, w0: float = 0.0) -> pd.DataFrame:
@@ -345,6 +374,7 @@ __all__ = [
     "RigidDrive",
     "backlash_dwell",
     "effect_order",
+    "input_dynamics",
     "input_path",
     "term_columns",
     "time_since_reversal",
