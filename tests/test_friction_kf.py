@@ -26,8 +26,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from motorid.estimators import FilterDivergenceError, FrictionEKF, FrictionUKF, available, create
-from motorid.plants import CoulombFriction, measure_speed, paper_rig
-from motorid.plants import fast_integrator as fi
+from motorid.plants import CoulombFriction, measure_speed, paper_rig, physics
 from motorid.plants.signals import two_sine_signal
 from motorid.testing import check_estimator
 
@@ -125,7 +124,7 @@ def test_from_rig_takes_the_known_constants_and_the_sensor_variance():
     squared = (measure_speed(omega, rng.standard_normal(omega.size), rig.tacho, rig.adc) - omega) ** 2
     standard_error = squared.std() / math.sqrt(squared.size)
     assert abs(squared.mean() - ekf.R_speed) <= 5 * standard_error
-    assert ekf._c[fi.C_JL] == 1e-4
+    assert ekf._c[physics.C_JL] == 1e-4
     assert not ekf.has_current_state  # dt = 20 ms >> L_a/R_a = 0.5 ms
     assert FrictionEKF.from_rig(paper_rig(dt=0.002)).has_current_state
     with pytest.raises(ValueError, match="rig"):
@@ -216,7 +215,7 @@ def test_continuous_model_and_jacobian_against_numpy_reference(variant, s):
     n = ekf.dim_x
     f = np.zeros(n)
     A = np.zeros((n, n))
-    fi.filter_drift(x, v, ekf._c, s, False, f, A)
+    physics.filter_drift(x, v, ekf._c, s, False, f, A)
     # The compiled f and this restatement add the same terms in other orders: they
     # agree to a few roundings of the largest term, K_m i_a / J_m = 3.2e3 rad/s^2 here
     # (30 rad/s, 5 V), whose unit in the last place is 4.5e-13; atol 1e-9 is 2000 of them.
@@ -266,7 +265,7 @@ def test_rigid_drive_model_and_jacobian_against_numpy_reference(shape, s):
 
     f = np.zeros(5)
     A = np.zeros((5, 5))
-    fi.filter_drift(x, v, ekf._c, s, False, f, A)
+    physics.filter_drift(x, v, ekf._c, s, False, f, A)
     # the same terms summed in other orders: a few roundings of the largest, g v / J = 800 rad/s²
     np.testing.assert_allclose(f, reference(x), rtol=1e-12, atol=1e-10)
     # at the prior (the drive's own friction) the filter's torque is the drive's (offset included)
@@ -348,7 +347,7 @@ def test_sample_jacobian_against_finite_differences_away_from_zero(variant, s):
     v = 6.0 * s
     n = ekf.dim_x
     F = np.empty((n, n))
-    x_next = fi.filter_propagate(x, v, ekf._c, F, True)
+    x_next = physics.filter_propagate(x, v, ekf._c, F, True)
     assert np.sign(x_next[0]) == s and np.sign(x_next[1]) == s  # no reversal in the sample
     F_fd = np.empty((n, n))
     dummy = np.empty((0, 0))
@@ -358,8 +357,8 @@ def test_sample_jacobian_against_finite_differences_away_from_zero(variant, s):
         up[k] += step
         down[k] -= step
         F_fd[:, k] = (
-            fi.filter_propagate(up, v, ekf._c, dummy, False)
-            - fi.filter_propagate(down, v, ekf._c, dummy, False)
+            physics.filter_propagate(up, v, ekf._c, dummy, False)
+            - physics.filter_propagate(down, v, ekf._c, dummy, False)
         ) / (2 * step)
     scale = np.abs(F).max(axis=1, keepdims=True)
     np.testing.assert_allclose(F, F_fd, rtol=1e-5, atol=1e-7 * scale.max())
@@ -368,7 +367,7 @@ def test_sample_jacobian_against_finite_differences_away_from_zero(variant, s):
     ekf.predict(v + (0.6 * s))  # amplifier dead zone 0.6 V, gain 1
     assert ekf.v == pytest.approx(v, rel=4 * EPS)  # 6.6 - 0.6, rounded
     F_applied = np.empty((n, n))
-    fi.filter_propagate(x, ekf.v, ekf._c, F_applied, True)
+    physics.filter_propagate(x, ekf.v, ekf._c, F_applied, True)
     np.testing.assert_array_equal(ekf.F, F_applied)
 
 
@@ -382,17 +381,17 @@ def test_zero_speed_sticks_exactly_and_teaches_nothing_about_friction():
     F = np.empty((n, n))
     x = ekf.x.copy()  # at rest
     # 0.1 V past the 0.6 V dead zone: K_m * 0.1 / R_a = 2.1 mN m < 6 mN m
-    x_next = fi.filter_propagate(x, 0.1, ekf._c, F, True)
+    x_next = physics.filter_propagate(x, 0.1, ekf._c, F, True)
     assert x_next[0] == 0.0 and x_next[1] == 0.0
     assert np.all(F[0] == 0.0)
     assert F[1, ekf.state_names.index("coulomb")] == 0.0
     # 1 V: 21 mN m > 6 mN m breaks it away, forwards
-    assert fi.filter_propagate(x, 1.0, ekf._c, F, False)[0] > 0.0
+    assert physics.filter_propagate(x, 1.0, ekf._c, F, False)[0] > 0.0
     # coasting from 2 rad/s with no voltage: stops at exactly zero and stays
     x[:2] = 2.0
-    x1 = fi.filter_propagate(x, 0.0, ekf._c, F, True)
+    x1 = physics.filter_propagate(x, 0.0, ekf._c, F, True)
     assert x1[0] == 0.0 and np.all(F[0] == 0.0)
-    x2 = fi.filter_propagate(x1, 0.0, ekf._c, F, False)
+    x2 = physics.filter_propagate(x1, 0.0, ekf._c, F, False)
     assert x2[0] == 0.0
 
 
@@ -492,7 +491,7 @@ def test_ekf_equals_filterpy_extended_kalman_filter(paper_record):
 
     def predict_x(u=0):
         F = np.empty((n, n))
-        peer.x = fi.filter_propagate(peer.x.ravel(), state["v"], ours._c, F, True).reshape(n, 1)
+        peer.x = physics.filter_propagate(peer.x.ravel(), state["v"], ours._c, F, True).reshape(n, 1)
         peer.F = F
 
     peer.predict_x = predict_x

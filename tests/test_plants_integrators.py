@@ -94,7 +94,7 @@ def test_linear_rig_matches_analytic_response(integrator):
     substeps=st.integers(1, 50),
     seed=st.integers(0, 2**31),
 )
-def test_fast_integrator_is_exact_for_any_linear_rig(J_m, J_l, k_s, B_s, L_a, substeps, seed):
+def test_physics_is_exact_for_any_linear_rig(J_m, J_l, k_s, B_s, L_a, substeps, seed):
     rig = linear_rig(J_m=J_m, J_l=J_l, k_s=k_s, B_s=B_s, L_a=L_a, substeps=substeps, dt=0.01)
     u = np.random.default_rng(seed).uniform(-10, 10, 60)
     df = rig.simulate(u)
@@ -144,7 +144,7 @@ def test_integrators_agree_on_bidirectional_record(bidirectional_pair):
     assert np.sum(stuck_fast != stuck_ref) <= 4
 
 
-def test_fast_integrator_converges_to_reference(bidirectional_pair):
+def test_physics_converges_to_reference(bidirectional_pair):
     """The discrepancy is the event-time resolution: 8x finer internal steps, >= 4x smaller error."""
     rig, u, ref = bidirectional_pair
     errs = []

@@ -14,7 +14,7 @@ from motorid.diagnose import EFFECTS
 from motorid.errors import DataError
 from motorid.models import load_model
 from motorid.plants import RIGID_EFFECTS, RigidDrive
-from motorid.plants.fast_integrator import lugre_level, stribeck_decay
+from motorid.plants.physics import lugre_level, stribeck_decay
 from motorid.plants.rigid import input_dynamics, input_path, term_columns
 
 EVERY_TERM = {

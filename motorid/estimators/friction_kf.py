@@ -50,9 +50,9 @@ from numpy.typing import ArrayLike
 from motorid.estimators import friction_model as fm
 from motorid.estimators.base import BatchResult, Estimator, as_float_vector, first_bad_index
 from motorid.estimators.rls import check_order, check_positive
-from motorid.plants import fast_integrator as fi
-from motorid.plants.fast_integrator import armature_voltage, armature_voltages
+from motorid.plants import physics
 from motorid.plants.friction import LuGreFriction, StaticFriction
+from motorid.plants.physics import armature_voltage, armature_voltages
 from motorid.plants.rig import TwoMassRig, paper_rig
 from motorid.plants.rigid import RigidDrive
 
@@ -159,7 +159,12 @@ def friction_prior(model: TwoMassRig | RigidDrive, stribeck: bool = True) -> dic
                 forward += n * a[0]
                 backward += n * a[3]
                 parts.append(
-                    (n * a[1], n * a[4], a[2] if a[1] > 0.0 else a[5], fi.STRIBECK_SHAPES[law.shape_code()])
+                    (
+                        n * a[1],
+                        n * a[4],
+                        a[2] if a[1] > 0.0 else a[5],
+                        physics.STRIBECK_SHAPES[law.shape_code()],
+                    )
                 )
             elif isinstance(law, LuGreFriction):
                 forward += n * law.Fc
@@ -292,9 +297,9 @@ class _FrictionFilter(Estimator):
         rigid = isinstance(rig, RigidDrive)
         if self.friction_side not in ("motor", "load"):
             raise ValueError(f"friction_side must be 'motor' or 'load', got {self.friction_side!r}")
-        if self.stribeck_shape not in fi.STRIBECK_SHAPES:
+        if self.stribeck_shape not in physics.STRIBECK_SHAPES:
             raise ValueError(
-                f"stribeck_shape must be one of {', '.join(fi.STRIBECK_SHAPES)}, got {self.stribeck_shape!r}"
+                f"stribeck_shape must be one of {', '.join(physics.STRIBECK_SHAPES)}, got {self.stribeck_shape!r}"
             )
         if rigid:
             check_rigid_drive(rig)
@@ -496,7 +501,7 @@ class _FrictionFilter(Estimator):
         for key, value, shape in (("x", x, (n,)), ("P", P, (n, n)), ("nis_ring", ring, (self._window,))):
             if value.shape != shape:
                 raise ValueError(f"{key} must have shape {shape} for this filter, got {value.shape}")
-        if not (np.array_equal(P, P.T) and fi.is_healthy(x, P)):
+        if not (np.array_equal(P, P.T) and physics.is_healthy(x, P)):
             raise ValueError("P must be symmetric positive definite and x finite")
         self.x = self.x_prior = self.x_post = x
         self.P = self.P_prior = self.P_post = P
@@ -557,7 +562,7 @@ class _FrictionFilter(Estimator):
             if i >= 0:
                 x0[i] = self.x[i]
         v = armature_voltages(np.ascontiguousarray(u_arr), *self._amp)
-        return fi.filter_free_run(v, x0, self._c)[:, self._speed].copy()
+        return physics.filter_free_run(v, x0, self._c)[:, self._speed].copy()
 
     # ------------------------------------------------------------------ checks
     def _check_current(self, current: float | None) -> float | None:
@@ -602,7 +607,7 @@ class _FrictionFilter(Estimator):
     # ------------------------------------------------------------------ consistency
     def _record_nis(self, e: float, s: float) -> None:
         self.nis = e * e / s
-        self._nis_count, self.nis_mean = fi.push_nis(self._nis_ring, self._nis_count, self.nis)
+        self._nis_count, self.nis_mean = physics.push_nis(self._nis_ring, self._nis_count, self.nis)
 
     def _breakdown(self, sample: int) -> None:
         self.diverged = True
@@ -614,7 +619,7 @@ class _FrictionFilter(Estimator):
 
     def _check_health(self, sample: int) -> None:
         """Raise on a numerical breakdown; flag (and raise or warn) on a NIS excursion."""
-        if not fi.is_healthy(self.x, self.P):
+        if not physics.is_healthy(self.x, self.P):
             self._breakdown(sample)
         if self.nis_mean > self.divergence_nis:
             self._flag_divergence(sample, self.nis_mean)
@@ -749,7 +754,7 @@ class FrictionEKF(_FrictionFilter):
         if self._pending:
             self.update(None)
         v = armature_voltage(u, *self._amp)
-        x_prior, P_prior, F = fi.ekf_predict(self.x, self.P, v, self._c, self.Q)
+        x_prior, P_prior, F = physics.ekf_predict(self.x, self.P, v, self._c, self.Q)
         self.v = v
         self.F = F
         self.x = self.x_prior = x_prior
@@ -785,7 +790,7 @@ class FrictionEKF(_FrictionFilter):
             self.nis = math.nan
         else:
             self.z = value
-            x, P, K, e, s, count, nis_mean, healthy = fi.ekf_update_step(
+            x, P, K, e, s, count, nis_mean, healthy = physics.ekf_update_step(
                 self.x, self.P, self._h_speed, value, self._r, self._lower, self._nis_ring, self._nis_count
             )
             self.x, self.P, self.K = x, P, K
@@ -793,7 +798,7 @@ class FrictionEKF(_FrictionFilter):
             self.nis = self.y * self.y / self.S
             self._nis_count, self.nis_mean = count, nis_mean
         if i_meas is not None:
-            self.x, self.P, _, e, s = fi.joseph_update(
+            self.x, self.P, _, e, s = physics.joseph_update(
                 self.x,
                 self.P,
                 self._h_current,
@@ -803,9 +808,9 @@ class FrictionEKF(_FrictionFilter):
                 self._lower,
             )
             self.y_current, self.S_current = float(e), float(s)
-            healthy = fi.is_healthy(self.x, self.P)
+            healthy = physics.is_healthy(self.x, self.P)
         elif value is None:
-            healthy = fi.is_healthy(self.x, self.P)
+            healthy = physics.is_healthy(self.x, self.P)
         self.x_post, self.P_post = self.x, self.P
         if not healthy:
             self._breakdown(self.sample_index - 1)
@@ -847,7 +852,7 @@ class FrictionEKF(_FrictionFilter):
         (
             X, P_diag, y_hat, innovation, S, NIS, x, P, x_prior, P_prior, F, K, e, s,
             count, nis_mean, flag, flag_at, flag_mean, done,
-        ) = fi.ekf_batch(
+        ) = physics.ekf_batch(
             v, np.where(present, z_arr, 0.0), present, cur, cur_present, self.x.copy(), self.P.copy(),
             self._c, self.Q, self._r, float(self.R_current), self._h_speed, self._h_current,
             self._current_gain, self._lower, ring, self._nis_count, float(self.divergence_nis),
@@ -866,9 +871,9 @@ class FrictionEKF(_FrictionFilter):
             self.nis_mean = float(nis_mean)
             self._nis_ring, self._nis_count = ring, int(count)
             self.sample_index += done
-        if flag == fi.FLAG_BREAKDOWN:
+        if flag == physics.FLAG_BREAKDOWN:
             self._check_health(self.sample_index - 1)
-        elif flag == fi.FLAG_NIS:
+        elif flag == physics.FLAG_NIS:
             self.diverged = already
             self._flag_divergence(self.sample_index - (done - flag_at), float(flag_mean))
         return BatchResult(
@@ -939,7 +944,7 @@ class FrictionUKF(_FrictionFilter):
         i = self._speed
 
         def fx(x: np.ndarray, dt: float, v: float = 0.0) -> np.ndarray:
-            return fi.filter_propagate(x, v, c, empty, False)
+            return physics.filter_propagate(x, v, c, empty, False)
 
         def hx(x: np.ndarray) -> np.ndarray:
             return x[i : i + 1]

@@ -2,7 +2,7 @@
 its analytic Jacobian and its sub-stepped discretisation.
 
 The model is the drive's physics, so it is compiled where the drive's physics is:
-:mod:`motorid.plants.fast_integrator` (``filter_drift``, ``filter_direction``,
+:mod:`motorid.plants.physics` (``filter_drift``, ``filter_direction``,
 ``filter_propagate``, ``filter_free_run`` and the EKF's kernels ``ekf_predict``,
 ``joseph_update``, ``ekf_batch``). Its friction torque is eq. (11)'s ``friction_law``
 with the ``stribeck_decay`` (exponential or Gaussian) and its slope, and its stick/slip
@@ -97,7 +97,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from motorid.plants import fast_integrator as fi
+from motorid.plants import physics
 
 #: indices of the mechanical states in x (two-mass drive; a rigid drive's ω is at 0)
 I_OMEGA_M = 0
@@ -155,23 +155,29 @@ def pack_constants(
     input_gain: float = 0.0,
 ) -> np.ndarray:
     """The constant vector ``c`` the compiled model reads (SI units; indices ``C_*`` of
-    :mod:`motorid.plants.fast_integrator`). A layout with ``index["twist"] == -1`` is the
+    :mod:`motorid.plants.physics`). A layout with ``index["twist"] == -1`` is the
     rigid drive: ``J_m`` its inertia, ``T_d`` its offset torque, ``input_gain`` its g."""
-    c = np.zeros(fi.N_FILTER_CONSTANTS)
-    c[fi.C_JM], c[fi.C_JL], c[fi.C_KM], c[fi.C_RA], c[fi.C_LA] = J_m, J_l, K_m, R_a, L_a
-    c[fi.C_KS], c[fi.C_BS], c[fi.C_TD], c[fi.C_DECAY] = k_s, B_s, T_d, stribeck_decay
-    c[fi.C_SHAPE] = fi.STRIBECK_SHAPES.index(stribeck_shape)
-    c[fi.C_H] = dt / substeps
-    c[fi.C_NSUB] = substeps
-    c[fi.C_SIDE] = 0 if friction_side == "motor" else 1
-    c[fi.C_I_CURRENT] = index["i_a"]
-    c[fi.C_I_COULOMB] = index["coulomb"]
-    c[fi.C_I_VISCOUS] = index["viscous"]
-    c[fi.C_I_COULOMB_NEG] = index["coulomb_neg"]
-    c[fi.C_I_STRIBECK] = index["stribeck"]
-    c[fi.C_RIGID] = 1.0 if index["twist"] < 0 else 0.0
-    c[fi.C_GAIN] = input_gain
-    c[fi.C_I_SPEED] = index["speed"]
+    c = np.zeros(physics.N_FILTER_CONSTANTS)
+    c[physics.C_JM], c[physics.C_JL], c[physics.C_KM], c[physics.C_RA], c[physics.C_LA] = (
+        J_m,
+        J_l,
+        K_m,
+        R_a,
+        L_a,
+    )
+    c[physics.C_KS], c[physics.C_BS], c[physics.C_TD], c[physics.C_DECAY] = k_s, B_s, T_d, stribeck_decay
+    c[physics.C_SHAPE] = physics.STRIBECK_SHAPES.index(stribeck_shape)
+    c[physics.C_H] = dt / substeps
+    c[physics.C_NSUB] = substeps
+    c[physics.C_SIDE] = 0 if friction_side == "motor" else 1
+    c[physics.C_I_CURRENT] = index["i_a"]
+    c[physics.C_I_COULOMB] = index["coulomb"]
+    c[physics.C_I_VISCOUS] = index["viscous"]
+    c[physics.C_I_COULOMB_NEG] = index["coulomb_neg"]
+    c[physics.C_I_STRIBECK] = index["stribeck"]
+    c[physics.C_RIGID] = 1.0 if index["twist"] < 0 else 0.0
+    c[physics.C_GAIN] = input_gain
+    c[physics.C_I_SPEED] = index["speed"]
     return c
 
 
@@ -180,7 +186,7 @@ def stiffest_rate(c: np.ndarray, x: np.ndarray, v: float = 0.0) -> float:
     n = x.shape[0]
     f = np.zeros(n)
     A = np.zeros((n, n))
-    fi.filter_drift(x, v, c, 1.0, False, f, A)
+    physics.filter_drift(x, v, c, 1.0, False, f, A)
     return float(np.max(np.abs(np.linalg.eigvals(A))))
 
 

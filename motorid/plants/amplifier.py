@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from motorid.plants.fast_integrator import armature_voltages
+from motorid.plants.physics import armature_voltages
 
 
 @dataclass(frozen=True)

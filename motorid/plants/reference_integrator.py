@@ -1,6 +1,6 @@
 """Reference integrator of the two-mass drive: scipy ``solve_ivp`` with events.
 
-The same model as the fast path (:mod:`.fast_integrator`), written directly as
+The same model as the fast path (:mod:`.physics`), written directly as
 ordinary differential equations in plain Python and integrated with an
 adaptive Runge-Kutta method at tight tolerances. The friction laws and the
 stick/slip rule are the fast path's own compiled functions (each written once);
@@ -32,8 +32,8 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from motorid.plants.fast_integrator import lugre_rate, static_friction, stick_or_slip
 from motorid.plants.friction import LuGreFriction, pack_static_friction
+from motorid.plants.physics import lugre_rate, static_friction, stick_or_slip
 
 logger = logging.getLogger(__name__)
 

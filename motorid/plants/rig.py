@@ -35,7 +35,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from motorid.plants import fast_integrator as fi
+from motorid.plants import physics
 from motorid.plants.amplifier import Amplifier
 from motorid.plants.friction import (
     CoulombFriction,
@@ -282,7 +282,7 @@ class TwoMassRig:
     def _discretise(self, h: float) -> tuple[np.ndarray, np.ndarray]:
         import scipy.linalg  # here, not at the top: the rigid-drive users (the doctor) never need it
 
-        n, m = fi.N_LINEAR, 3
+        n, m = physics.N_LINEAR, 3
         phi = np.zeros((8, n, n))
         gam = np.zeros((8, n, m))
         for mode in range(8):
@@ -302,23 +302,23 @@ class TwoMassRig:
         return np.ascontiguousarray(phi), np.ascontiguousarray(gam)
 
     def _packed_parameters(self) -> np.ndarray:
-        p = np.zeros(fi.N_PARAMS)
-        p[fi.P_K] = self.K_m
-        p[fi.P_KS] = self.k_s
-        p[fi.P_BS] = self.B_s
-        p[fi.P_BACKLASH] = self.backlash
-        p[fi.P_H] = self.h
-        p[fi.P_NSUB] = int(self.substeps)
-        p[fi.P_AMP_GAIN] = self.amplifier.gain
-        p[fi.P_DEAD_ZONE] = self.amplifier.dead_zone
-        p[fi.P_VMAX] = self.amplifier.v_max
-        p[fi.P_TACHO_GAIN] = self.tacho.gain
-        p[fi.P_TACHO_NOISE] = self.tacho.noise_std
-        p[fi.P_ADC_BITS] = self.adc.bits
-        p[fi.P_ADC_VMIN] = self.adc.v_min
-        p[fi.P_ADC_VMAX] = self.adc.v_max
-        p[fi.P_BREAK_POS_M], p[fi.P_BREAK_NEG_M] = self.breakaway("motor")
-        p[fi.P_BREAK_POS_L], p[fi.P_BREAK_NEG_L] = self.breakaway("load")
+        p = np.zeros(physics.N_PARAMS)
+        p[physics.P_K] = self.K_m
+        p[physics.P_KS] = self.k_s
+        p[physics.P_BS] = self.B_s
+        p[physics.P_BACKLASH] = self.backlash
+        p[physics.P_H] = self.h
+        p[physics.P_NSUB] = int(self.substeps)
+        p[physics.P_AMP_GAIN] = self.amplifier.gain
+        p[physics.P_DEAD_ZONE] = self.amplifier.dead_zone
+        p[physics.P_VMAX] = self.amplifier.v_max
+        p[physics.P_TACHO_GAIN] = self.tacho.gain
+        p[physics.P_TACHO_NOISE] = self.tacho.noise_std
+        p[physics.P_ADC_BITS] = self.adc.bits
+        p[physics.P_ADC_VMIN] = self.adc.v_min
+        p[physics.P_ADC_VMAX] = self.adc.v_max
+        p[physics.P_BREAK_POS_M], p[physics.P_BREAK_NEG_M] = self.breakaway("motor")
+        p[physics.P_BREAK_POS_L], p[physics.P_BREAK_NEG_L] = self.breakaway("load")
         return p
 
     # ----------------------------------------------------------- online use
@@ -374,7 +374,9 @@ class TwoMassRig:
         noise = np.random.default_rng(seed).standard_normal(n)
         phi, gam, p, fric, lug = self._compiled
         if integrator == "fast":
-            rows = fi.simulate_kernel(np.zeros(fi.N_STATE), u_arr, t_d, noise, phi, gam, p, fric, lug)
+            rows = physics.simulate_kernel(
+                np.zeros(physics.N_STATE), u_arr, t_d, noise, phi, gam, p, fric, lug
+            )
             v_a = rows[:, 1]
             states = rows[:, 2:]
             y = rows[:, 0]
@@ -493,8 +495,8 @@ class RigSimulation:
             Seed of the noise generator; the measurements after ``reset(seed)``
             equal the ``y`` column of ``rig.simulate(u, seed=seed)`` for the same inputs.
         """
-        self._x = np.zeros(fi.N_STATE)
-        self._out = np.zeros(fi.N_OUT)
+        self._x = np.zeros(physics.N_STATE)
+        self._out = np.zeros(physics.N_OUT)
         self._rng = np.random.default_rng(seed)
         self._noise = np.empty(0)
         self._noise_pos = 0
@@ -528,7 +530,7 @@ class RigSimulation:
         self._noise_pos += 1
         self.sample_index += 1
         phi, gam, p, fric, lug = self.rig._compiled
-        return fi.advance_sample(self._x, u, t_d, noise, phi, gam, p, fric, lug, self._out)
+        return physics.advance_sample(self._x, u, t_d, noise, phi, gam, p, fric, lug, self._out)
 
     @property
     def state(self) -> dict[str, float]:

@@ -35,7 +35,7 @@ sample holds the mean over it of the delayed, then lagged signal, exact for a he
 lag on a drive's linear part; the model carries the input lag only.
 
 Every term is evaluated by the compiled functions of
-:mod:`~motorid.plants.fast_integrator` (``rigid_term``, ``stribeck_decay``,
+:mod:`~motorid.plants.physics` (``rigid_term``, ``stribeck_decay``,
 ``stick_or_slip``, ``rigid_free_run``; the input path by ``armature_voltages``, the
 amplifier's own dead zone and saturation at unit gain), the same ones the doctor's fit
 (:mod:`motorid.diagnose`) builds its regressor columns from.
@@ -64,7 +64,7 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from motorid.plants import fast_integrator as fi
+from motorid.plants import physics
 from motorid.plants.rig import check_input
 
 #: The effects of a rigid drive and their parameters, in the library's order.
@@ -84,13 +84,13 @@ RIGID_EFFECTS: dict[str, tuple[str, ...]] = {
 }
 #: The compiled term of each parameter that enters the balance linearly.
 TERM_OF: dict[str, int] = {
-    "viscous": fi.TERM_VISCOUS,
-    "viscous_asymmetry": fi.TERM_VISCOUS_ASYMMETRY,
-    "quadratic_drag": fi.TERM_QUADRATIC_DRAG,
-    "coulomb": fi.TERM_COULOMB,
-    "stribeck": fi.TERM_STRIBECK,
-    "coulomb_asymmetry": fi.TERM_COULOMB_ASYMMETRY,
-    "offset": fi.TERM_OFFSET,
+    "viscous": physics.TERM_VISCOUS,
+    "viscous_asymmetry": physics.TERM_VISCOUS_ASYMMETRY,
+    "quadratic_drag": physics.TERM_QUADRATIC_DRAG,
+    "coulomb": physics.TERM_COULOMB,
+    "stribeck": physics.TERM_STRIBECK,
+    "coulomb_asymmetry": physics.TERM_COULOMB_ASYMMETRY,
+    "offset": physics.TERM_OFFSET,
 }
 #: Parameters every rigid drive has: inertia J [F s/v] and input gain g [F/u].
 DRIVE_PARAMETERS = ("inertia", "input_gain")
@@ -138,15 +138,15 @@ def input_path(u: npt.ArrayLike, dead_zone: float = 0.0, saturation: float = mat
     """``D(S(u))`` [u]: saturation at ±``saturation``, then the dead zone of half-width ``dead_zone``
     (the amplifier's compiled map at unit gain)."""
     x = np.ascontiguousarray(np.asarray(u, dtype=float))
-    return fi.armature_voltages(x, 1.0, float(dead_zone), float(saturation))
+    return physics.armature_voltages(x, 1.0, float(dead_zone), float(saturation))
 
 
 def input_dynamics(x: npt.ArrayLike, dt: float, delay: float = 0.0, time_constant: float = 0.0) -> np.ndarray:
     """``L(Δ(x))``: the held signal ``x`` delayed by ``delay`` [s] (whole and fractional samples),
     then lagged with ``time_constant`` [s] (0: none), as the mean over each sample; one map, exact
-    for the held input (:func:`~motorid.plants.fast_integrator.rigid_input_dynamics`)."""
+    for the held input (:func:`~motorid.plants.physics.rigid_input_dynamics`)."""
     arr = np.ascontiguousarray(np.asarray(x, dtype=float))
-    return fi.rigid_input_dynamics(arr, float(dt), float(delay), float(time_constant))
+    return physics.rigid_input_dynamics(arr, float(dt), float(delay), float(time_constant))
 
 
 def backlash_dwell(force: np.ndarray, dt: float, backlash_time: float) -> np.ndarray:
@@ -159,10 +159,10 @@ def term_columns(
     params: tuple[str, ...], omega: np.ndarray, stribeck_velocity: float = 1.0, shape: str = "exponential"
 ) -> np.ndarray:
     """Torque per unit parameter of the linear ``params`` at each speed, shape (N, len(params)),
-    for a drive moving in the direction sgn(ω) (:func:`~motorid.plants.fast_integrator.rigid_columns`)."""
+    for a drive moving in the direction sgn(ω) (:func:`~motorid.plants.physics.rigid_columns`)."""
     terms = np.array([TERM_OF[p] for p in params], dtype=np.int64)
     w = np.ascontiguousarray(np.asarray(omega, dtype=float))
-    return fi.rigid_columns(terms, w, 1.0 / stribeck_velocity, fi.STRIBECK_SHAPES.index(shape))
+    return physics.rigid_columns(terms, w, 1.0 / stribeck_velocity, physics.STRIBECK_SHAPES.index(shape))
 
 
 @dataclass(frozen=True)
@@ -228,9 +228,9 @@ class RigidDrive:
         ):
             raise ValueError(f"dt must be a finite number > 0 [s], got {dt!r}")
         object.__setattr__(self, "dt", float(dt))
-        if self.stribeck_shape not in fi.STRIBECK_SHAPES:
+        if self.stribeck_shape not in physics.STRIBECK_SHAPES:
             raise ValueError(
-                f"stribeck_shape must be one of {', '.join(fi.STRIBECK_SHAPES)}, got {self.stribeck_shape!r}"
+                f"stribeck_shape must be one of {', '.join(physics.STRIBECK_SHAPES)}, got {self.stribeck_shape!r}"
             )
 
     # ------------------------------------------------------------------ parts
@@ -312,17 +312,17 @@ class RigidDrive:
         n = np.asarray(u).size
         if not J > 0.0:
             return np.full(n - start, np.nan)  # no free run without a positive inertia
-        coef = np.zeros(fi.N_TERMS)
+        coef = np.zeros(physics.N_TERMS)
         for name in self._terms():
             coef[TERM_OF[name]] = self.params[name]
         if substeps is None:
-            substeps = int(min(50, max(1, math.ceil(20.0 * self.dt * abs(coef[fi.TERM_VISCOUS]) / J))))
+            substeps = int(min(50, max(1, math.ceil(20.0 * self.dt * abs(coef[physics.TERM_VISCOUS]) / J))))
         force = np.ascontiguousarray(self.input_force(u)[start:], dtype=float)
         vs = self.params.get("stribeck_velocity", 1.0)
         rate = 1.0 / vs if vs > 0.0 else 1.0
-        shape = fi.STRIBECK_SHAPES.index(self.stribeck_shape)
+        shape = physics.STRIBECK_SHAPES.index(self.stribeck_shape)
         excess = self.params.get("breakaway_excess", 0.0)
-        return fi.rigid_free_run(force, self.dt, int(substeps), J, coef, rate, shape, float(w0), excess)
+        return physics.rigid_free_run(force, self.dt, int(substeps), J, coef, rate, shape, float(w0), excess)
 
     # -------------------------------------------------------------- records
     def simulate(self, u: npt.ArrayLike, w0: float = 0.0) -> pd.DataFrame:

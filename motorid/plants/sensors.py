@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from motorid.plants.fast_integrator import tacho_readings
+from motorid.plants.physics import tacho_readings
 
 
 def measure_speed(

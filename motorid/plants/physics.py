@@ -1,6 +1,9 @@
-"""Fast fixed-step integrator of the two-mass drive (numba, the product path).
+"""The drive's physics, compiled (numba): the effect laws, Karnopp's stick/slip rule, the
+two-mass rig's fast integrator, the rigid drive's terms and free run, and the friction
+filters' process model, in one module so numba's on-disk cache never holds a stale
+inlined copy of a law (it tracks only the file of the function it compiles).
 
-Method: exponential integration of the linear part with the nonlinear torques
+The two-mass rig's fixed-step integrator (the product path). Method: exponential integration of the linear part with the nonlinear torques
 held over each internal step (first-order exponential Euler), plus hybrid
 stick/slip switching.
 
