@@ -41,8 +41,10 @@ event times, resolved to h.
 The rigid drive (:class:`~motorid.plants.rigid.RigidDrive`, the doctor's model) is
 here too: its terms (:func:`rigid_term`, with the one Stribeck decay
 :func:`stribeck_decay`, exponential or Gaussian), their regressor columns
-(:func:`rigid_columns`) and its free run (:func:`rigid_free_run`, on
-:func:`stick_or_slip`).
+(:func:`rigid_columns`), its input path's maps with memory (:func:`rigid_input_dynamics`,
+:func:`backlash_dwell` on :func:`reversal_clock`), each on an explicit state so that a record
+in one call and the same record a sample at a time (``RigidDrive.simulation``) are one
+computation, and its free run (:func:`rigid_free_run`, on :func:`stick_or_slip`).
 
 So is the friction filters' process model (the EKF/UKF of
 :mod:`motorid.estimators.friction_kf`, state layout in

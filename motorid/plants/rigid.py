@@ -31,7 +31,9 @@ effect                    term T (or input map)                         paramete
 ========================= ============================================= ==============================
 
 The delay and the lag act on the held input as one map (``rigid_input_dynamics``): each
-sample holds the mean over it of the delayed, then lagged signal, exact for a held input. A first-order lag of the measured speed (a speed filter) acts like the input
+sample holds the mean over it of the delayed, then lagged signal, exact for a held input. The memory of the input path (the delay's last inputs, the lag's state,
+the dwell's clock) is an explicit :class:`InputPathState`, so :meth:`RigidDrive.simulation`
+steps the same record a sample at a time. A first-order lag of the measured speed (a speed filter) acts like the input
 lag on a drive's linear part; the model carries the input lag only.
 
 Every term is evaluated by the compiled functions of

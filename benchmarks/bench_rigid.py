@@ -1,0 +1,83 @@
+"""A rigid drive (the doctor's model) with every input-path memory: a whole record and a sample at a time.
+
+Run: ``.venv/bin/python benchmarks/bench_rigid.py [--seconds 600]``
+
+The drive has a dead zone, saturation, a fractional input delay, an input lag, a backlash dwell,
+Coulomb, Stribeck, viscous and static friction, at 100 Hz. ``simulate`` runs the record in one
+pass of the compiled maps; ``simulation().step`` runs the same record a sample at a time (what a
+simulated DAQ and ``motorid rig serve --model`` do), giving the same speeds to the last bit. The
+peer of the step is the default two-mass rig's ``step`` (the other plant a rig server hosts).
+Compilation is excluded (a warm-up first).
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+from _table import Row, print_rows
+
+from motorid.plants import RigidDrive, paper_rig
+
+TITLE = "Rigid drive: whole record and online steps"
+
+DRIVE = RigidDrive(
+    ("coulomb_friction", "stribeck_friction", "viscous_friction", "input_dead_zone", "input_saturation",
+     "backlash", "input_delay", "input_lag", "static_friction"),
+    {"inertia": 2e-3, "input_gain": 0.05, "coulomb": 0.02, "stribeck": 0.01, "stribeck_velocity": 2.0,
+     "viscous": 2e-3, "dead_zone": 0.4, "saturation": 8.0, "backlash_time": 0.03, "input_delay": 0.025,
+     "lag_time_constant": 0.02, "breakaway_excess": 0.01},
+    dt=0.01,
+)  # fmt: skip
+
+
+def measure(seconds: float = 600.0) -> list[Row]:
+    rng = np.random.default_rng(0)
+    n = round(seconds / DRIVE.dt)
+    u = np.repeat(rng.uniform(-8.0, 8.0, n // 20 + 1), 20)[:n]
+    DRIVE.simulate(u[:50])  # compile / load the cached kernels
+    t0 = time.perf_counter()
+    record = DRIVE.simulate(u)["y"].to_numpy()
+    whole = (time.perf_counter() - t0) / n
+
+    simulation = DRIVE.simulation()
+    simulation.step(0.0)
+    simulation.reset()
+    t0 = time.perf_counter()
+    steps = np.array([simulation.step(v) for v in u])
+    per_step = (time.perf_counter() - t0) / n
+    if not np.array_equal(steps, record):
+        raise AssertionError("the steps differ from the record")
+
+    rig = paper_rig().simulation(seed=0)
+    rig.step(0.0)
+    m = min(n, 20000)
+    t0 = time.perf_counter()
+    for v in u[:m]:
+        rig.step(v)
+    rig_step = (time.perf_counter() - t0) / m
+    return [
+        Row(
+            f"rigid drive simulate, per sample ({seconds:g} s at 100 Hz)", whole * 1e6, None, "us", "", False
+        ),
+        Row(
+            "rigid drive step() online, one sample",
+            per_step * 1e6,
+            rig_step * 1e6,
+            "us",
+            "two-mass rig step() (40 ms sample, 40 internal steps)",
+            False,
+        ),
+    ]
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=600.0)
+    args = parser.parse_args()
+    print_rows(measure(args.seconds), TITLE)
+
+
+if __name__ == "__main__":
+    main()
