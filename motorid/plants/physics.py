@@ -488,7 +488,8 @@ C_SHAPE = 17  # Stribeck shape code
 C_RIGID = 18  # 1: one rigid mass, x = [ω, friction...]
 C_GAIN = 19  # the rigid drive's input gain g [N m/V]
 C_I_SPEED = 20  # index of the measured speed in x
-N_FILTER_CONSTANTS = 21
+C_BREAKAWAY = 21  # static friction's breakaway excess ΔF_s [N m] above the kinetic levels at rest
+N_FILTER_CONSTANTS = 22
 
 
 @numba.njit(cache=True)
@@ -512,8 +513,8 @@ def filter_drift(
     """Continuous model ``f = dx/dt`` and its Jacobian ``A = df/dx`` for the friction
     direction ``s`` (+1 or -1) held fixed; ``stuck`` freezes the friction-side speed.
 
-    ``v`` is the armature voltage [V] (the rigid drive's input after its dead zone and
-    saturation). Fills ``f`` (n,) and ``A`` (n, n). The friction torque is
+    ``v`` is the armature voltage [V] (the rigid drive's input after its dead zone,
+    saturation, delay and lag: ``RigidDrive.input_signal``). Fills ``f`` (n,) and ``A`` (n, n). The friction torque is
     :func:`friction_law` with the forward level T_c, the backward level T_c- (T_c when
     symmetric) and the Stribeck excess T_s both ways, plus B ω.
     """
@@ -594,16 +595,17 @@ def filter_drift(
 @numba.njit(cache=True)
 def filter_direction(x: np.ndarray, v: float, c: np.ndarray) -> tuple[float, bool]:
     """``(s, stuck)`` for the friction side at the start of a sub-step: Karnopp's rule
-    (:func:`stick_or_slip`) with the breakaway levels T_c + T_s forwards and T_c- + T_s
-    backwards. A drive without static friction at rest (both levels 0) moves the way the
-    net torque pushes it (held still only by a net torque of exactly 0)."""
+    (:func:`stick_or_slip`) with the breakaway levels T_c + T_s + ΔF_s forwards and
+    T_c- + T_s + ΔF_s backwards (ΔF_s the static friction's excess, ``c[C_BREAKAWAY]``, as
+    in :func:`rigid_free_run`). A drive without static friction at rest (both levels 0)
+    moves the way the net torque pushes it (held still only by a net torque of exactly 0)."""
     w = x[int(c[C_SIDE])]
     i_c = int(c[C_I_COULOMB])
     i_n = int(c[C_I_COULOMB_NEG])
     i_s = int(c[C_I_STRIBECK])
     excess = x[i_s] if i_s >= 0 else 0.0
-    b_pos = x[i_c] + excess
-    b_neg = (x[i_n] if i_n >= 0 else x[i_c]) + excess
+    b_pos = x[i_c] + excess + c[C_BREAKAWAY]
+    b_neg = (x[i_n] if i_n >= 0 else x[i_c]) + excess + c[C_BREAKAWAY]
     t_net = _filter_drive_torque(x, v, c) if w == 0.0 else 0.0
     stuck, s = stick_or_slip(w, t_net, b_pos, b_neg)
     if stuck == 1:

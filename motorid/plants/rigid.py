@@ -305,22 +305,30 @@ class RigidDrive:
         """A copy holding ``effects`` with ``params`` (same dt and Stribeck shape)."""
         return dataclasses.replace(self, effects=tuple(effects), params=dict(params))
 
+    def input_signal(self, u: npt.ArrayLike, state: InputPathState | None = None) -> np.ndarray:
+        """``L(Δ(D(S(u))))`` [u]: the input after saturation, dead zone, delay and lag, before
+        the gain; ``state`` as in :meth:`input_force` (the friction filters' input)."""
+        p = self.params
+        x = input_path(u, p.get("dead_zone", 0.0), p.get("saturation", math.inf))
+        if "input_delay" in self.effects or "input_lag" in self.effects:
+            if state is None:
+                state = self.input_state()
+            x = input_dynamics(x, self.dt, p.get("input_delay", 0.0), p.get("lag_time_constant", 0.0), state)
+        return x
+
     def input_force(self, u: npt.ArrayLike, state: InputPathState | None = None) -> np.ndarray:
-        """Force reaching the drive, F_in(u) [F], for the input [u] held over each sample.
+        """Force reaching the drive, F_in(u) = B(g :meth:`input_signal`) [F], for the input [u]
+        held over each sample.
 
         ``state`` is the memory of the input path (delay, lag, backlash dwell), updated in
         place, so consecutive calls continue one record (what :meth:`simulation` does a sample
         at a time); None starts a record at rest on its first input.
         """
-        p = self.params
         if state is None:
             state = self.input_state()
-        x = input_path(u, p.get("dead_zone", 0.0), p.get("saturation", math.inf))
-        if "input_delay" in self.effects or "input_lag" in self.effects:
-            x = input_dynamics(x, self.dt, p.get("input_delay", 0.0), p.get("lag_time_constant", 0.0), state)
-        force = p["input_gain"] * x
+        force = self.params["input_gain"] * self.input_signal(u, state)
         if "backlash" in self.effects:
-            force = backlash_dwell(force, self.dt, p["backlash_time"], state)
+            force = backlash_dwell(force, self.dt, self.params["backlash_time"], state)
         return force
 
     def input_state(self) -> InputPathState:
