@@ -69,12 +69,11 @@ from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
-import scipy.optimize
 
 from motorid.diagnose.effects import EFFECTS, get_effect, param_unit
 from motorid.diagnose.kinematics import Kinematics, kinematics
 from motorid.diagnose.locate import Region, feature, features, locate
-from motorid.diagnose.model import BalanceData, FitResult, fit_model, model_balance
+from motorid.diagnose.model import BalanceData, FitResult, bounded_minimum, fit_model, model_balance
 from motorid.errors import DataError
 from motorid.plants.rigid import RigidDrive, effect_order
 from motorid.records import record_timing
@@ -309,11 +308,8 @@ def fit_static_friction(prep: Prepared, model: RigidDrive, samples: np.ndarray) 
     grid = np.linspace(0.0, top, 17)
     costs = [cost(e) for e in grid]
     i = int(np.argmin(costs))
-    res = scipy.optimize.minimize_scalar(
-        cost, bounds=(grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]), method="bounded",
-        options={"xatol": 1e-4 * top},
-    )  # fmt: skip
-    return with_excess(res.x if res.fun <= costs[i] else grid[i])
+    x, fx = bounded_minimum(cost, grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)], xatol=1e-4 * top)
+    return with_excess(x if fx <= costs[i] else grid[i])
 
 
 def _lag1(r: np.ndarray) -> float:
