@@ -610,6 +610,13 @@ class _FrictionFilter(Estimator):
         v = self.model_inputs(u_arr, None)
         return physics.filter_free_run(v, x0, self._c)[:, self._speed].copy()
 
+    def _sample_input(self, u: float) -> float:
+        """:meth:`model_inputs` of one command on the filter's running input memory (a two-mass
+        rig's amplifier has none: its element map :func:`armature_voltage` directly)."""
+        if self._input_state is None:
+            return float(armature_voltage(u, *self._amp))
+        return float(self.model_inputs(np.array([u]), self._input_state)[0])
+
     # ------------------------------------------------------------------ checks
     def _check_current(self, current: float | None) -> float | None:
         if current is not None and isinstance(self._rig, RigidDrive):
@@ -799,7 +806,7 @@ class FrictionEKF(_FrictionFilter):
         u = self.check_input(u)
         if self._pending:
             self.update(None)
-        v = float(self.model_inputs(np.array([u]), self._input_state)[0])
+        v = self._sample_input(u)
         x_prior, P_prior, F = physics.ekf_predict(self.x, self.P, v, self._c, self.Q)
         self.v = v
         self.F = F
@@ -1013,7 +1020,7 @@ class FrictionUKF(_FrictionFilter):
         u = self.check_input(u)
         if self._pending:
             self.update(None)
-        v = float(self.model_inputs(np.array([u]), self._input_state)[0])
+        v = self._sample_input(u)
         ukf = self.ukf
         ukf.x, ukf.P = self.x.copy(), self.P.copy()
         try:
