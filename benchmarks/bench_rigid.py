@@ -7,6 +7,8 @@ Coulomb, Stribeck, viscous and static friction, at 100 Hz. ``simulate`` runs the
 pass of the compiled maps; ``simulation().step`` runs the same record a sample at a time (what a
 simulated DAQ and ``motorid rig serve --model`` do), giving the same speeds to the last bit. The
 peer of the step is the default two-mass rig's ``step`` (the other plant a rig server hosts).
+The friction EKF on the drive (whose input path it runs with the same memory) is timed online
+(``predict`` + ``update`` per sample) beside the EKF on the drive without delay and lag.
 Compilation is excluded (a warm-up first).
 """
 
@@ -18,6 +20,7 @@ import time
 import numpy as np
 from _table import Row, print_rows
 
+from motorid.estimators import FrictionEKF
 from motorid.plants import RigidDrive, paper_rig
 
 TITLE = "Rigid drive: whole record and online steps"
@@ -30,6 +33,32 @@ DRIVE = RigidDrive(
      "lag_time_constant": 0.02, "breakaway_excess": 0.01},
     dt=0.01,
 )  # fmt: skip
+
+
+def without_memory(drive: RigidDrive) -> RigidDrive:
+    """``drive`` without its input delay and lag (and the backlash the filters do not hold)."""
+    effects = tuple(e for e in drive.effects if e not in ("input_delay", "input_lag", "backlash"))
+    drop = ("input_delay", "lag_time_constant", "backlash_time")
+    return drive.with_effects(effects, {k: v for k, v in drive.params.items() if k not in drop})
+
+
+def online_ekf(drive: RigidDrive, u: np.ndarray) -> float:
+    """Seconds per sample of the friction EKF's predict + update on ``drive`` (its backlash left
+    out: the filters do not hold it), measuring the drive's own free run."""
+    drive = drive.with_effects(
+        tuple(e for e in drive.effects if e != "backlash"),
+        {k: v for k, v in drive.params.items() if k != "backlash_time"},
+    )
+    y = drive.free_run(u)
+    ekf = FrictionEKF.from_rig(drive, R=0.04)
+    ekf.predict(0.0)
+    ekf.update(0.0)
+    ekf.reset()
+    t0 = time.perf_counter()
+    for k in range(u.size):
+        ekf.predict(u[k])
+        ekf.update(y[k])
+    return (time.perf_counter() - t0) / u.size
 
 
 def measure(seconds: float = 600.0) -> list[Row]:
@@ -57,6 +86,7 @@ def measure(seconds: float = 600.0) -> list[Row]:
     for v in u[:m]:
         rig.step(v)
     rig_step = (time.perf_counter() - t0) / m
+    ekf_online = [online_ekf(d, u[:m]) for d in (DRIVE, without_memory(DRIVE))]
     return [
         Row(
             f"rigid drive simulate, per sample ({seconds:g} s at 100 Hz)", whole * 1e6, None, "us", "", False
@@ -67,6 +97,14 @@ def measure(seconds: float = 600.0) -> list[Row]:
             rig_step * 1e6,
             "us",
             "two-mass rig step() (40 ms sample, 40 internal steps)",
+            False,
+        ),
+        Row(
+            "friction EKF online on it (delay, lag, static friction), one sample",
+            ekf_online[0] * 1e6,
+            ekf_online[1] * 1e6,
+            "us",
+            "the same EKF on the drive without delay and lag",
             False,
         ),
     ]
