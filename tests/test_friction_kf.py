@@ -13,6 +13,7 @@ drive every few seconds and holds it near zero speed in between.
 
 from __future__ import annotations
 
+import json
 import math
 import re
 import warnings
@@ -378,6 +379,7 @@ def test_rigid_drive_filter_online_equals_batch_and_reloads_its_input_memory(cls
     """predict(u) carries the input path's memory a sample at a time; batch_filter runs the same
     function over the record: the same estimates. A filter saved mid-record and reloaded goes
     on with the same memory (the delay's last inputs, the lag's state)."""
+    from motorid.errors import DataError
     from motorid.models import load_model
 
     drive = delayed_rigid_drive()
@@ -403,6 +405,13 @@ def test_rigid_drive_filter_online_equals_batch_and_reloads_its_input_memory(cls
     fresh = cls.from_rig(drive, R=0.04)
     with pytest.raises(ValueError, match=r"input_ring must have shape \(4,\) for this filter"):
         fresh.set_state({**batch.get_state(), "input_ring": np.zeros(3)})  # 2.7 samples of delay hold 4
+    data = json.loads((tmp_path / "filter.json").read_text())
+    data["model"]["state"]["input_ring"] = [0.0]
+    (tmp_path / "bad.json").write_text(json.dumps(data))
+    with pytest.raises(
+        DataError, match=r"bad.json: model.state.input_ring: must have shape \(4,\), got \(1,\)"
+    ):
+        load_model(tmp_path / "bad.json")
 
 
 def test_two_mass_friction_the_filter_cannot_hold_is_refused():
