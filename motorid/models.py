@@ -517,7 +517,10 @@ def _friction_filter(cls: Any, settings: Any, state: Any, where: str) -> Any:
             kw[name] = _text(value, key)
     est = _build(cls, kw, s_where)
     n, window = est.dim_x, est.nis_window
-    _keys(state, ("x", "P", "sample_index", "nis_ring", "nis_count", "nis_mean", "diverged"), x_where)
+    fixed = ("x", "P", "sample_index", "nis_ring", "nis_count", "nis_mean", "diverged")
+    fresh = est.get_state()  # a rigid drive with a delay or lag adds its input path's memory
+    memory = {k: np.shape(v) for k, v in fresh.items() if k not in fixed}
+    _keys(state, (*fixed, *memory), x_where)
     values = {
         "x": _array(state["x"], _join(x_where, "x"), (n,)),
         "P": _array(state["P"], _join(x_where, "P"), (n, n)),
@@ -526,6 +529,7 @@ def _friction_filter(cls: Any, settings: Any, state: Any, where: str) -> Any:
         "nis_count": _integer(state["nis_count"], _join(x_where, "nis_count")),
         "nis_mean": _number(state["nis_mean"], _join(x_where, "nis_mean"), none_is=math.nan),
         "diverged": _boolean(state["diverged"], _join(x_where, "diverged")),
+        **{k: _array(state[k], _join(x_where, k), shape) for k, shape in memory.items()},
     }
     try:
         est.set_state(values)

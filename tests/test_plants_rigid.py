@@ -9,13 +9,16 @@ import math
 import numpy as np
 import pytest
 import scipy.optimize
+from conftest import examples
+from hypothesis import given
+from hypothesis import strategies as st
 
 from motorid.diagnose import EFFECTS
 from motorid.errors import DataError
 from motorid.models import load_model
 from motorid.plants import RIGID_EFFECTS, RigidDrive
 from motorid.plants.physics import lugre_level, stribeck_decay
-from motorid.plants.rigid import input_dynamics, input_path, term_columns
+from motorid.plants.rigid import DRIVE_PARAMETERS, input_dynamics, input_path, term_columns
 
 EVERY_TERM = {
     "inertia": 2e-3, "input_gain": 0.05, "viscous": 2e-3, "coulomb": 0.02, "stribeck": 0.015,
@@ -236,3 +239,72 @@ def test_new_effects_round_trip_through_a_model_file_and_bad_values_are_named(tm
         (tmp_path / "bad.json").write_text(json.dumps(data))
         with pytest.raises(DataError, match=rf"bad.json: model.params.{key}: {key} must be >= 0"):
             load_model(tmp_path / "bad.json")
+
+
+# -- the running simulation: a record a sample at a time -------------------------------------------
+#: Ranges of each parameter for the drives drawn below (physical, the sizes of small drives).
+PARAMETER_RANGES = {
+    "inertia": (1e-4, 5e-2), "input_gain": (0.01, 1.0), "viscous": (0.0, 0.05), "coulomb": (0.0, 0.1),
+    "stribeck": (0.0, 0.1), "stribeck_velocity": (0.05, 10.0), "coulomb_asymmetry": (-0.02, 0.02),
+    "viscous_asymmetry": (-5e-3, 5e-3), "quadratic_drag": (0.0, 1e-3), "offset": (-0.02, 0.02),
+    "dead_zone": (0.0, 1.0), "saturation": (0.5, 12.0), "backlash_time": (0.0, 0.1),
+    "input_delay": (0.0, 0.1), "lag_time_constant": (0.0, 0.1), "breakaway_excess": (0.0, 0.05),
+}  # fmt: skip
+
+
+@st.composite
+def drives(draw) -> RigidDrive:
+    """A rigid drive with a random set of effects, parameters, sample time and Stribeck shape."""
+    effects = draw(st.lists(st.sampled_from(list(RIGID_EFFECTS)), unique=True))
+    names = [*DRIVE_PARAMETERS, *(p for e in effects for p in RIGID_EFFECTS[e])]
+    params = {n: draw(st.floats(*PARAMETER_RANGES[n])) for n in names}
+    dt = draw(st.sampled_from([0.001, 0.005, 0.01, 0.02]))
+    shape = draw(st.sampled_from(["exponential", "gaussian"]))
+    return RigidDrive(tuple(effects), params, dt=dt, stribeck_shape=shape)
+
+
+@st.composite
+def held_inputs(draw) -> np.ndarray:
+    """An input [u] held in levels of 1 to 30 samples, zeros and reversals included."""
+    levels = draw(st.lists(st.one_of(st.just(0.0), st.floats(-15.0, 15.0)), min_size=1, max_size=25))
+    lengths = draw(st.lists(st.integers(1, 30), min_size=len(levels), max_size=len(levels)))
+    return np.repeat(levels, lengths)
+
+
+@pytest.mark.cpu_sensitive
+@examples(200)
+@given(drive=drives(), u=held_inputs())
+def test_the_running_simulation_is_the_record_to_the_last_bit(drive, u):
+    record = drive.simulate(u)["y"].to_numpy()
+    simulation = drive.simulation(seed=3)
+    for _ in range(2):  # and reset gives the same again
+        steps = np.array([simulation.step(v) for v in u])
+        np.testing.assert_array_equal(steps, record)  # the same functions on the same state: exact
+        assert simulation.sample_index == u.size and simulation.state["omega"] == record[-1]
+        simulation.reset(seed=4)  # noise free: the seed changes nothing
+
+
+def test_the_running_simulation_refuses_a_non_finite_input_naming_the_sample():
+    simulation = RigidDrive(("viscous_friction", "coulomb_friction"), EVERY_TERM_SMALL, dt=0.01).simulation()
+    simulation.step(1.0)
+    with pytest.raises(ValueError, match=r"u must be finite, got nan at sample 1"):
+        simulation.step(math.nan)
+
+
+def numpy_backlash_dwell(force: np.ndarray, dt: float, backlash_time: float) -> np.ndarray:
+    """The dwell written out in NumPy: the force is 0 for ``backlash_time`` after each change of its
+    sign (zeros keep the last sign), untouched before the first change."""
+    s = np.sign(force)
+    last_sign = s[np.maximum.accumulate(np.where(s != 0, np.arange(s.size), 0))]
+    change = np.r_[False, (last_sign[1:] != last_sign[:-1]) & (last_sign[:-1] != 0)]
+    since = (np.arange(s.size) - np.maximum.accumulate(np.where(change, np.arange(s.size), 0))) * dt
+    since[: np.flatnonzero(change)[0] if change.any() else s.size] = math.inf
+    return force * (since >= backlash_time)
+
+
+@given(u=held_inputs(), backlash_time=st.floats(0.0, 0.2))
+def test_the_compiled_backlash_dwell_is_the_numpy_reference(u, backlash_time):
+    drive = RigidDrive(
+        ("backlash",), {"inertia": 1.0, "input_gain": 0.5, "backlash_time": backlash_time}, 0.01
+    )
+    np.testing.assert_array_equal(drive.input_force(u), numpy_backlash_dwell(0.5 * u, 0.01, backlash_time))

@@ -27,18 +27,25 @@ from .report import emit_json, say, say_params
 
 
 def cmd_rig_serve(args: argparse.Namespace) -> int:
-    """Serve the simulated rig (the default one or a model file's) over Modbus until Ctrl-C."""
+    """Serve the simulated rig (the default one or a model file's: a two-mass rig or a rigid
+    drive) over Modbus until Ctrl-C."""
     from motorid.io import RigServer
-    from motorid.plants import paper_rig
+    from motorid.plants import RigidDrive, paper_rig
 
-    from .simulation import rig_from_model_file
+    from .simulation import drive_model_from_file
 
-    rig = paper_rig() if args.model is None else rig_from_model_file(args.model)
-    u_max = rig.amplifier.v_max if args.u_max is None else args.u_max
-    if not math.isfinite(u_max):
-        raise DataError(
-            f"--model {args.model}: its amplifier has no saturation; give the rating with --u-max"
+    rig = paper_rig() if args.model is None else drive_model_from_file(args.model)
+    if isinstance(rig, RigidDrive):
+        served, rating, lacking = (
+            "rigid drive",
+            rig.params.get("saturation", math.inf),
+            "the rigid drive has no input saturation",
         )
+    else:
+        served, rating, lacking = "rig", rig.amplifier.v_max, "its amplifier has no saturation"
+    u_max = rating if args.u_max is None else args.u_max
+    if not math.isfinite(u_max):
+        raise DataError(f"--model {args.model}: {lacking}; give the rating with --u-max")
     server = RigServer(
         rig.simulation(), host=args.host, port=args.port, serial_port=args.serial, baudrate=args.baudrate,
         register_map=args.map, word_order=args.word_order, lockstep=not args.realtime, seed=args.plant_seed,
@@ -51,7 +58,7 @@ def cmd_rig_serve(args: argparse.Namespace) -> int:
 
     def banner() -> None:
         listening.append(True)
-        what = "simulated rig" if args.model is None else f"rig of {args.model}"
+        what = "simulated rig" if args.model is None else f"{served} of {args.model}"
         say(f"motorid rig serve: {what} on Modbus {server.url} "
             f"({'real time' if args.realtime else 'lock-step'}); Ctrl-C stops it")  # fmt: skip
 
@@ -138,7 +145,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
         p.set_defaults(func=func)
     serve = rig.choices["serve"]
     serve.add_argument("--model", type=Path, metavar="FILE",
-                       help="serve the rig of this model file (default: the default rig)")  # fmt: skip
+                       help="serve the model file's rig or rigid drive (default: the default rig)")  # fmt: skip
     serve.add_argument("--host", default="127.0.0.1", help="address to listen on (default: 127.0.0.1)")
     serve.add_argument("--port", type=number(int, low=1, high=65535), default=5020,
                        help="TCP port (default: 5020)")  # fmt: skip
@@ -150,7 +157,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                        help="heartbeat timeout [samples]; 0: off (default: 3)")  # fmt: skip
     serve.add_argument("--u-max", type=positive,
                        help="voltage rating [V]: commands are clamped to it (default: the rig's amplifier "
-                            "saturation)")  # fmt: skip
+                            "saturation, or the rigid drive's input saturation)")  # fmt: skip
 
     p = sub.add_parser("run", help="online identification on a DAQ")
     p.add_argument(

@@ -103,17 +103,6 @@ def rig_from_args(args: argparse.Namespace):
     return rig.replace(friction=tuple(friction), amplifier=amplifier, backlash=backlash)
 
 
-def rig_from_model_file(path: Path, option: str = "--model"):
-    """The :class:`~motorid.plants.rig.TwoMassRig` in the model file ``path``; DataError otherwise."""
-    from motorid.models import load_model
-    from motorid.plants import TwoMassRig
-
-    model = load_model(path)
-    if not isinstance(model, TwoMassRig):
-        raise DataError(f"{option} {path}: holds a {type(model).__name__}, not a rig model")
-    return model
-
-
 def drive_model_from_file(path: Path, option: str = "--model"):
     """The drive model in the model file ``path``: a two-mass rig or a rigid drive; DataError otherwise."""
     from motorid.models import load_model

@@ -308,7 +308,7 @@ def fit_static_friction(prep: Prepared, model: RigidDrive, samples: np.ndarray) 
     grid = np.linspace(0.0, top, 17)
     costs = [cost(e) for e in grid]
     i = int(np.argmin(costs))
-    x, fx = bounded_minimum(cost, grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)], 1e-4 * top)
+    x, fx = bounded_minimum(cost, grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)], xatol=1e-4 * top)
     return with_excess(x if fx <= costs[i] else grid[i])
 
 

@@ -5,7 +5,9 @@ The model, its state, the treatment of zero speed and of the armature current ar
 described in :mod:`motorid.estimators.friction_model`. Both filters use that one
 model; per sample k, with the command u[k] held over the sample (the rig's timing)::
 
-    predict:  v = amplifier(u)                          armature voltage [V]
+    predict:  v = amplifier(u)                          armature voltage [V] (a rigid
+                                                        drive: its input path, with the
+                                                        delay and lag's memory)
               x_prior = f_d(x, v)                       sub-stepped model, one sample
               P_prior = F P F^T + Q                     EKF: F = d f_d / d x (analytic)
                                                         UKF: unscented transform of f_d
@@ -38,6 +40,7 @@ raises it.
 
 from __future__ import annotations
 
+import copy
 import inspect
 import math
 import warnings
@@ -54,7 +57,7 @@ from motorid.plants import physics
 from motorid.plants.friction import LuGreFriction, StaticFriction
 from motorid.plants.physics import armature_voltage, armature_voltages
 from motorid.plants.rig import TwoMassRig, paper_rig
-from motorid.plants.rigid import RigidDrive
+from motorid.plants.rigid import InputPathState, RigidDrive
 
 OnDivergence = Literal["raise", "warn", "ignore"]
 
@@ -100,8 +103,13 @@ def tacho_variance(rig: TwoMassRig) -> float:
 #: Effects of a rigid drive the filters' model holds (the others are refused by name).
 RIGID_FILTER_EFFECTS = (
     "coulomb_friction", "stribeck_friction", "asymmetric_friction", "viscous_friction",
-    "offset", "input_dead_zone", "input_saturation",
+    "offset", "input_dead_zone", "input_saturation", "input_delay", "input_lag", "static_friction",
 )  # fmt: skip
+
+
+#: The parts of a rigid drive's input-path memory (its delay and lag) in a filter's state
+#: (``input_ring``, ``input_lag``; the filters hold no backlash, so no dwell clock).
+INPUT_STATE_KEYS = ("ring", "lag")
 
 
 def check_rigid_drive(drive: RigidDrive) -> None:
@@ -344,6 +352,7 @@ class _FrictionFilter(Estimator):
             constants = {
                 "J_m": rig.inertia, "J_l": 0.0, "K_m": 0.0, "R_a": 1.0, "L_a": 0.0, "k_s": 0.0, "B_s": 0.0,
                 "T_d": p.get("offset", 0.0), "input_gain": rig.input_gain,
+                "breakaway_excess": p.get("breakaway_excess", 0.0),
             }  # fmt: skip
             amp = (1.0, p.get("dead_zone", 0.0), p.get("saturation", math.inf))
         else:
@@ -450,6 +459,7 @@ class _FrictionFilter(Estimator):
         self.sample_index = 0
         self._nis_ring = np.zeros(self._window)
         self._nis_count = 0
+        self._input_state = self._rig.input_state() if isinstance(self._rig, RigidDrive) else None
         self._pending = False
 
     # ------------------------------------------------------------------ saving
@@ -469,13 +479,25 @@ class _FrictionFilter(Estimator):
         builds the same filter at its prior."""
         return {name: getattr(self, name) for name in self.parameter_annotations()}
 
+    @property
+    def _has_input_memory(self) -> bool:
+        """True on a rigid drive with an input delay or lag (an input path with memory)."""
+        rig = self._rig
+        return isinstance(rig, RigidDrive) and bool({"input_delay", "input_lag"} & set(rig.effects))
+
     def get_state(self) -> dict[str, Any]:
         """What :meth:`update` has learnt: ``x``, ``P``, ``sample_index``, the NIS window
-        (``nis_ring``, ``nis_count``, ``nis_mean``) and ``diverged``; :meth:`set_state`
-        puts it back. Refused between a :meth:`predict` and its :meth:`update`."""
+        (``nis_ring``, ``nis_count``, ``nis_mean``) and ``diverged``, and on a rigid drive with
+        an input delay or lag the memory of its input path (``input_ring``, ``input_lag``:
+        :class:`~motorid.plants.rigid.InputPathState`); :meth:`set_state` puts it back.
+        Refused between a :meth:`predict` and its :meth:`update`."""
         if self._pending:
             raise ValueError("the filter is between predict() and update(): call update() first")
+        memory = {}
+        if self._has_input_memory:
+            memory = {f"input_{k}": getattr(self._input_state, k).copy() for k in INPUT_STATE_KEYS}
         return {
+            **memory,
             "x": self.x.copy(),
             "P": self.P.copy(),
             "sample_index": self.sample_index,
@@ -498,11 +520,21 @@ class _FrictionFilter(Estimator):
         x = np.array(state["x"], dtype=float)
         P = np.array(state["P"], dtype=float)
         ring = np.array(state["nis_ring"], dtype=float)
-        for key, value, shape in (("x", x, (n,)), ("P", P, (n, n)), ("nis_ring", ring, (self._window,))):
+        checks = [("x", x, (n,)), ("P", P, (n, n)), ("nis_ring", ring, (self._window,))]
+        memory = None
+        if self._has_input_memory:
+            parts = {k: np.array(state[f"input_{k}"], dtype=float) for k in INPUT_STATE_KEYS}
+            memory = InputPathState(**parts, clock=InputPathState.fresh_clock())
+            checks += [
+                (f"input_{k}", parts[k], getattr(self._input_state, k).shape) for k in INPUT_STATE_KEYS
+            ]
+        for key, value, shape in checks:
             if value.shape != shape:
                 raise ValueError(f"{key} must have shape {shape} for this filter, got {value.shape}")
         if not (np.array_equal(P, P.T) and physics.is_healthy(x, P)):
             raise ValueError("P must be symmetric positive definite and x finite")
+        if memory is not None:
+            self._input_state = memory
         self.x = self.x_prior = self.x_post = x
         self.P = self.P_prior = self.P_post = P
         self.sample_index = int(state["sample_index"])
@@ -546,8 +578,22 @@ class _FrictionFilter(Estimator):
     param_units: ClassVar[dict[str, str]] = PARAM_UNITS
 
     def voltage(self, u: float) -> float:
-        """Armature voltage [V] for command ``u`` [V]: the rig's amplifier (known)."""
+        """Armature voltage [V] for command ``u`` [V]: the rig's amplifier (known); a rigid
+        drive's dead zone and saturation at unit gain (its delay and lag have memory: see
+        :meth:`model_inputs`)."""
         return float(armature_voltage(u, *self._amp))
+
+    def model_inputs(self, u: np.ndarray, state: InputPathState | None) -> np.ndarray:
+        """The model's input per sample for the commands ``u`` [V] held over each: a two-mass
+        rig's armature voltage [V] (its amplifier), a rigid drive's input after saturation,
+        dead zone, delay and lag (:meth:`RigidDrive.input_signal
+        <motorid.plants.rigid.RigidDrive.input_signal>`) on the input path's memory ``state``,
+        updated in place (None: a record from rest). The one input map of :meth:`predict`,
+        ``batch_filter`` and :meth:`simulate`."""
+        u = np.ascontiguousarray(u, dtype=float)
+        if isinstance(self._rig, RigidDrive):
+            return self._rig.input_signal(u, state)
+        return armature_voltages(u, *self._amp)
 
     def simulate(self, u: ArrayLike) -> np.ndarray:
         """Free-run load speed [rad/s] of the model with the current friction estimates,
@@ -561,8 +607,15 @@ class _FrictionFilter(Estimator):
             i = self._index[key]
             if i >= 0:
                 x0[i] = self.x[i]
-        v = armature_voltages(np.ascontiguousarray(u_arr), *self._amp)
+        v = self.model_inputs(u_arr, None)
         return physics.filter_free_run(v, x0, self._c)[:, self._speed].copy()
+
+    def _sample_input(self, u: float) -> float:
+        """:meth:`model_inputs` of one command on the filter's running input memory (a two-mass
+        rig's amplifier has none: its element map :func:`armature_voltage` directly)."""
+        if self._input_state is None:
+            return float(armature_voltage(u, *self._amp))
+        return float(self.model_inputs(np.array([u]), self._input_state)[0])
 
     # ------------------------------------------------------------------ checks
     def _check_current(self, current: float | None) -> float | None:
@@ -753,7 +806,7 @@ class FrictionEKF(_FrictionFilter):
         u = self.check_input(u)
         if self._pending:
             self.update(None)
-        v = armature_voltage(u, *self._amp)
+        v = self._sample_input(u)
         x_prior, P_prior, F = physics.ekf_predict(self.x, self.P, v, self._c, self.Q)
         self.v = v
         self.F = F
@@ -846,7 +899,8 @@ class FrictionEKF(_FrictionFilter):
         self._warn_nan_record(z)
         if self._pending:
             self.update(None)
-        v = armature_voltages(np.ascontiguousarray(u_arr), *self._amp)
+        state = copy.deepcopy(self._input_state)
+        v = self.model_inputs(u_arr, state)
         ring = self._nis_ring.copy()
         already = self.diverged
         (
@@ -871,6 +925,11 @@ class FrictionEKF(_FrictionFilter):
             self.nis_mean = float(nis_mean)
             self._nis_ring, self._nis_count = ring, int(count)
             self.sample_index += done
+            if state is not None:  # the input path's memory after the last sample filtered
+                if done < len(u_arr):
+                    state = copy.deepcopy(self._input_state)
+                    self.model_inputs(u_arr[:done], state)
+                self._input_state = state
         if flag == physics.FLAG_BREAKDOWN:
             self._check_health(self.sample_index - 1)
         elif flag == physics.FLAG_NIS:
@@ -961,7 +1020,7 @@ class FrictionUKF(_FrictionFilter):
         u = self.check_input(u)
         if self._pending:
             self.update(None)
-        v = armature_voltage(u, *self._amp)
+        v = self._sample_input(u)
         ukf = self.ukf
         ukf.x, ukf.P = self.x.copy(), self.P.copy()
         try:

@@ -63,8 +63,9 @@ model stick like the plant:
 - ω_j != 0 at the start: s = sgn(ω_j). If the sub-step ends with s ω_j < 0 (the
   mass passed through zero) ω_j is set to exactly 0.
 - ω_j == 0 at the start: the mass stays stuck (dω_j/dt = 0 over the sub-step)
-  while the net driving torque on it lies in [-(T_c- + T_s), T_c + T_s]; else it
-  breaks away with s the sign of that torque.
+  while the net driving torque on it lies in [-(T_c- + T_s + ΔF_s), T_c + T_s + ΔF_s]
+  (ΔF_s a rigid drive's static friction excess, known; 0 otherwise); else it breaks
+  away with s the sign of that torque.
 
 Within a sub-step the Stribeck decay is evaluated at the stage's own speed, d(ω_j);
 only its side (the level T_c or T_c- and the sign s) is frozen.
@@ -153,10 +154,12 @@ def pack_constants(
     friction_side: str,
     index: dict[str, int],
     input_gain: float = 0.0,
+    breakaway_excess: float = 0.0,
 ) -> np.ndarray:
     """The constant vector ``c`` the compiled model reads (SI units; indices ``C_*`` of
     :mod:`motorid.plants.physics`). A layout with ``index["twist"] == -1`` is the
-    rigid drive: ``J_m`` its inertia, ``T_d`` its offset torque, ``input_gain`` its g."""
+    rigid drive: ``J_m`` its inertia, ``T_d`` its offset torque, ``input_gain`` its g,
+    ``breakaway_excess`` its static friction's ΔF_s [N m] (the stick rule's levels at rest)."""
     c = np.zeros(physics.N_FILTER_CONSTANTS)
     c[physics.C_JM], c[physics.C_JL], c[physics.C_KM], c[physics.C_RA], c[physics.C_LA] = (
         J_m,
@@ -178,6 +181,7 @@ def pack_constants(
     c[physics.C_RIGID] = 1.0 if index["twist"] < 0 else 0.0
     c[physics.C_GAIN] = input_gain
     c[physics.C_I_SPEED] = index["speed"]
+    c[physics.C_BREAKAWAY] = breakaway_excess
     return c
 
 

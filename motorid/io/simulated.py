@@ -16,7 +16,8 @@ def plant_to_step(plant: object | None) -> Plant:
     """The running plant a simulated DAQ or the rig server steps.
 
     A drive model (a description with ``simulation()``, such as
-    ``motorid.plants.paper_rig()``) gives a new simulation of its own, so two
+    ``motorid.plants.paper_rig()`` or a ``RigidDrive``, the doctor's model) gives
+    a new simulation of its own, so two
     DAQs of one model never share a state; a :class:`Plant` (``dt``,
     ``reset``, ``step``) is stepped as it is; None is the paper's rig.
     """

@@ -41,8 +41,10 @@ event times, resolved to h.
 The rigid drive (:class:`~motorid.plants.rigid.RigidDrive`, the doctor's model) is
 here too: its terms (:func:`rigid_term`, with the one Stribeck decay
 :func:`stribeck_decay`, exponential or Gaussian), their regressor columns
-(:func:`rigid_columns`) and its free run (:func:`rigid_free_run`, on
-:func:`stick_or_slip`).
+(:func:`rigid_columns`), its input path's maps with memory (:func:`rigid_input_dynamics`,
+:func:`backlash_dwell` on :func:`reversal_clock`), each on an explicit state so that a record
+in one call and the same record a sample at a time (``RigidDrive.simulation``) are one
+computation, and its free run (:func:`rigid_free_run`, on :func:`stick_or_slip`).
 
 So is the friction filters' process model (the EKF/UKF of
 :mod:`motorid.estimators.friction_kf`, state layout in
@@ -486,7 +488,8 @@ C_SHAPE = 17  # Stribeck shape code
 C_RIGID = 18  # 1: one rigid mass, x = [ω, friction...]
 C_GAIN = 19  # the rigid drive's input gain g [N m/V]
 C_I_SPEED = 20  # index of the measured speed in x
-N_FILTER_CONSTANTS = 21
+C_BREAKAWAY = 21  # static friction's breakaway excess ΔF_s [N m] above the kinetic levels at rest
+N_FILTER_CONSTANTS = 22
 
 
 @numba.njit(cache=True)
@@ -510,8 +513,8 @@ def filter_drift(
     """Continuous model ``f = dx/dt`` and its Jacobian ``A = df/dx`` for the friction
     direction ``s`` (+1 or -1) held fixed; ``stuck`` freezes the friction-side speed.
 
-    ``v`` is the armature voltage [V] (the rigid drive's input after its dead zone and
-    saturation). Fills ``f`` (n,) and ``A`` (n, n). The friction torque is
+    ``v`` is the armature voltage [V] (the rigid drive's input after its dead zone,
+    saturation, delay and lag: ``RigidDrive.input_signal``). Fills ``f`` (n,) and ``A`` (n, n). The friction torque is
     :func:`friction_law` with the forward level T_c, the backward level T_c- (T_c when
     symmetric) and the Stribeck excess T_s both ways, plus B ω.
     """
@@ -592,16 +595,17 @@ def filter_drift(
 @numba.njit(cache=True)
 def filter_direction(x: np.ndarray, v: float, c: np.ndarray) -> tuple[float, bool]:
     """``(s, stuck)`` for the friction side at the start of a sub-step: Karnopp's rule
-    (:func:`stick_or_slip`) with the breakaway levels T_c + T_s forwards and T_c- + T_s
-    backwards. A drive without static friction at rest (both levels 0) moves the way the
-    net torque pushes it (held still only by a net torque of exactly 0)."""
+    (:func:`stick_or_slip`) with the breakaway levels T_c + T_s + ΔF_s forwards and
+    T_c- + T_s + ΔF_s backwards (ΔF_s the static friction's excess, ``c[C_BREAKAWAY]``, as
+    in :func:`rigid_free_run`). A drive without static friction at rest (both levels 0)
+    moves the way the net torque pushes it (held still only by a net torque of exactly 0)."""
     w = x[int(c[C_SIDE])]
     i_c = int(c[C_I_COULOMB])
     i_n = int(c[C_I_COULOMB_NEG])
     i_s = int(c[C_I_STRIBECK])
     excess = x[i_s] if i_s >= 0 else 0.0
-    b_pos = x[i_c] + excess
-    b_neg = (x[i_n] if i_n >= 0 else x[i_c]) + excess
+    b_pos = x[i_c] + excess + c[C_BREAKAWAY]
+    b_neg = (x[i_n] if i_n >= 0 else x[i_c]) + excess + c[C_BREAKAWAY]
     t_net = _filter_drive_torque(x, v, c) if w == 0.0 else 0.0
     stuck, s = stick_or_slip(w, t_net, b_pos, b_neg)
     if stuck == 1:
@@ -981,32 +985,53 @@ def rigid_columns(terms: np.ndarray, omega: np.ndarray, rate: float, shape: int)
 
 
 @numba.njit(cache=True)
-def rigid_input_dynamics(x: np.ndarray, dt: float, delay: float, time_constant: float) -> np.ndarray:
+def rigid_delay_samples(dt: float, delay: float) -> tuple[int, float]:
+    """``(m, f)`` of a delay [s] at sample time ``dt`` [s]: ``delay = (m + f) dt`` with m whole
+    samples and 0 <= f < 1 (a negative delay is 0). An input-dynamics ring holds m + 2 inputs."""
+    steps = max(delay, 0.0) / dt
+    m = int(steps)
+    return m, steps - m
+
+
+@numba.njit(cache=True)
+def rigid_input_dynamics(
+    x: np.ndarray, dt: float, delay: float, time_constant: float, ring: np.ndarray, state: np.ndarray
+) -> np.ndarray:
     """Mean over each sample of the held signal ``x`` delayed by ``delay`` [s] and then passed
     through the first-order lag ``T dz/dt = x_d - z`` of time constant ``time_constant`` [s].
 
-    With ``delay = (m + f) dt`` (m whole samples, 0 <= f < 1; a negative delay is 0) the
-    delayed held signal covers sample k with ``x[k-m-1]`` for its first share f and
-    ``x[k-m]`` for the rest (``x[0]`` before the record). Over a piece of length L holding v
-    the lag, with ``e = exp(-L/T)``, integrates exactly::
+    With ``delay = (m + f) dt`` (:func:`rigid_delay_samples`) the delayed held signal covers
+    sample k with ``x[k-m-1]`` for its first share f and ``x[k-m]`` for the rest. Over a piece
+    of length L holding v the lag, with ``e = exp(-L/T)``, integrates exactly::
 
         ∫ z = v L + (z_0 - v) T (1 - e),    z_L = v + (z_0 - v) e
 
-    and the sample's value is the integral over it / dt, from ``z = x[0]`` (at rest on the
-    first input). ``T <= 0`` is no lag (then z follows the delayed signal), so without a lag
-    ``(1 - f) x[k-m] + f x[k-m-1]``. Exact for the held input, whole and fractional delays.
+    and the sample's value is the integral over it / dt. ``T <= 0`` is no lag (then z follows
+    the delayed signal), so without a lag ``(1 - f) x[k-m] + f x[k-m-1]``. Exact for the held
+    input, whole and fractional delays.
+
+    The map runs on its state, updated in place: ``ring`` (m + 2 values) holds the latest
+    inputs (``x[k]`` at ``ring[k % (m + 2)]``) and ``state = [z, samples seen]``. A fresh state
+    (``state[1] == 0``) starts at rest on the first input: ``x[0]`` before the record and
+    ``z = x[0]``. So a record in one call and the same record a sample at a time (the running
+    simulation of a rigid drive) are the same computation.
     """
     n = x.size
     out = np.empty(n)
-    steps = max(delay, 0.0) / dt
-    m = int(steps)  # the whole samples
-    f = steps - m
+    m, f = rigid_delay_samples(dt, delay)
+    size = m + 2
+    if ring.size != size:
+        raise ValueError("rigid_input_dynamics: the ring must hold m + 2 inputs")
     lag = time_constant > 0.0
-    z = x[0] if n > 0 else 0.0
     for k in range(n):
-        i = k - m
-        late = x[i] if i >= 0 else x[0]
-        early = x[i - 1] if i >= 1 else x[0]
+        seen = int(state[1])
+        if seen == 0:
+            ring[:] = x[k]
+            state[0] = x[k]
+        ring[seen % size] = x[k]
+        late = ring[(seen + 2) % size]  # x[k-m]
+        early = ring[(seen + 1) % size]  # x[k-m-1]
+        z = state[0]
         total = 0.0
         for piece in range(2):
             v = early if piece == 0 else late
@@ -1020,7 +1045,45 @@ def rigid_input_dynamics(x: np.ndarray, dt: float, delay: float, time_constant: 
             else:
                 total += v * length
                 z = v
+        state[0] = z
+        state[1] = seen + 1
         out[k] = total / dt
+    return out
+
+
+@numba.njit(cache=True)
+def reversal_clock(x: np.ndarray, dt: float, before_first: float, clock: np.ndarray) -> np.ndarray:
+    """Time [s] since the last change of sign of ``x`` (zeros keep the previous sign).
+
+    Before the first reversal the time counts from the start, or is ``before_first`` when it
+    is not NaN. The clock runs on its state, updated in place: ``clock = [last non-zero sign,
+    samples since the last reversal (or the start), 1 once reversed]``, fresh ``[0, -1, 0]``;
+    a record in one call and a sample at a time are the same computation.
+    """
+    out = np.empty(x.size)
+    count_from_start = math.isnan(before_first)
+    for k in range(x.size):
+        v = x[k]
+        s = 1.0 if v > 0.0 else (-1.0 if v < 0.0 else 0.0)
+        clock[1] += 1.0
+        if s != 0.0:
+            if clock[0] != 0.0 and s != clock[0]:
+                clock[1] = 0.0
+                clock[2] = 1.0
+            clock[0] = s
+        out[k] = clock[1] * dt if (clock[2] == 1.0 or count_from_start) else before_first
+    return out
+
+
+@numba.njit(cache=True)
+def backlash_dwell(force: np.ndarray, dt: float, backlash_time: float, clock: np.ndarray) -> np.ndarray:
+    """``B(F)``: the force [F] is not transmitted for ``backlash_time`` [s] after each reversal
+    of its sign (before the first reversal it is), on the state ``clock`` of
+    :func:`reversal_clock`."""
+    since = reversal_clock(force, dt, math.inf, clock)
+    out = np.empty(force.size)
+    for k in range(force.size):
+        out[k] = force[k] * (1.0 if since[k] >= backlash_time else 0.0)
     return out
 
 

@@ -31,7 +31,9 @@ effect                    term T (or input map)                         paramete
 ========================= ============================================= ==============================
 
 The delay and the lag act on the held input as one map (``rigid_input_dynamics``): each
-sample holds the mean over it of the delayed, then lagged signal, exact for a held input. A first-order lag of the measured speed (a speed filter) acts like the input
+sample holds the mean over it of the delayed, then lagged signal, exact for a held input. The memory of the input path (the delay's last inputs, the lag's state,
+the dwell's clock) is an explicit :class:`InputPathState`, so :meth:`RigidDrive.simulation`
+steps the same record a sample at a time. A first-order lag of the measured speed (a speed filter) acts like the input
 lag on a drive's linear part; the model carries the input lag only.
 
 Every term is evaluated by the compiled functions of
@@ -115,23 +117,11 @@ def time_since_reversal(x: np.ndarray, dt: float, before_first: float | None = N
     """Time [s] since the last change of sign of ``x`` (zeros keep the previous sign).
 
     Before the first reversal the time counts from the start of the record, or
-    is ``before_first`` when given.
+    is ``before_first`` when given (:func:`~motorid.plants.physics.reversal_clock`).
     """
-    x = np.asarray(x, dtype=float)
-    s = np.sign(x)
-    # carry the last non-zero sign forwards
-    idx = np.where(s != 0, np.arange(s.size), 0)
-    np.maximum.accumulate(idx, out=idx)
-    s = s[idx]
-    change = np.zeros(s.size, dtype=bool)
-    change[1:] = (s[1:] != s[:-1]) & (s[:-1] != 0)
-    last = np.where(change, np.arange(s.size), 0)
-    np.maximum.accumulate(last, out=last)
-    out = (np.arange(s.size) - last) * dt
-    if before_first is not None:
-        first = np.flatnonzero(change)
-        out[: first[0] if first.size else s.size] = before_first
-    return out
+    arr = np.ascontiguousarray(np.asarray(x, dtype=float))
+    first = math.nan if before_first is None else float(before_first)
+    return physics.reversal_clock(arr, float(dt), first, InputPathState.fresh_clock())
 
 
 def input_path(u: npt.ArrayLike, dead_zone: float = 0.0, saturation: float = math.inf) -> np.ndarray:
@@ -141,18 +131,65 @@ def input_path(u: npt.ArrayLike, dead_zone: float = 0.0, saturation: float = mat
     return physics.armature_voltages(x, 1.0, float(dead_zone), float(saturation))
 
 
-def input_dynamics(x: npt.ArrayLike, dt: float, delay: float = 0.0, time_constant: float = 0.0) -> np.ndarray:
+def input_dynamics(
+    x: npt.ArrayLike,
+    dt: float,
+    delay: float = 0.0,
+    time_constant: float = 0.0,
+    state: InputPathState | None = None,
+) -> np.ndarray:
     """``L(Δ(x))``: the held signal ``x`` delayed by ``delay`` [s] (whole and fractional samples),
     then lagged with ``time_constant`` [s] (0: none), as the mean over each sample; one map, exact
-    for the held input (:func:`~motorid.plants.physics.rigid_input_dynamics`)."""
+    for the held input (:func:`~motorid.plants.physics.rigid_input_dynamics`). ``state``: the
+    running state of the map (updated in place); None starts at rest on the first input."""
     arr = np.ascontiguousarray(np.asarray(x, dtype=float))
-    return physics.rigid_input_dynamics(arr, float(dt), float(delay), float(time_constant))
+    if state is None:
+        state = InputPathState.fresh(dt, delay)
+    return physics.rigid_input_dynamics(
+        arr, float(dt), float(delay), float(time_constant), state.ring, state.lag
+    )
 
 
-def backlash_dwell(force: np.ndarray, dt: float, backlash_time: float) -> np.ndarray:
+def backlash_dwell(
+    force: np.ndarray, dt: float, backlash_time: float, state: InputPathState | None = None
+) -> np.ndarray:
     """``B(F)``: the force ``F`` is not transmitted for ``backlash_time`` [s] after each reversal
-    of its sign (lost motion crossed by the driving side; before the first reversal it is)."""
-    return force * (time_since_reversal(force, dt, before_first=math.inf) >= backlash_time)
+    of its sign (lost motion crossed by the driving side; before the first reversal it is);
+    :func:`~motorid.plants.physics.backlash_dwell`. ``state``: the running state (updated in
+    place); None starts before any reversal."""
+    arr = np.ascontiguousarray(np.asarray(force, dtype=float))
+    clock = InputPathState.fresh_clock() if state is None else state.clock
+    return physics.backlash_dwell(arr, float(dt), float(backlash_time), clock)
+
+
+@dataclass
+class InputPathState:
+    """The memory of a rigid drive's input path, updated in place as inputs pass.
+
+    Attributes
+    ----------
+    ring : numpy.ndarray
+        The latest m + 2 inputs of the delay (m whole samples of delay).
+    lag : numpy.ndarray
+        ``[z, samples seen]``: the lag's state and the samples the delay has seen.
+    clock : numpy.ndarray
+        The backlash dwell's clock (:func:`~motorid.plants.physics.reversal_clock`).
+    """
+
+    ring: np.ndarray
+    lag: np.ndarray
+    clock: np.ndarray
+
+    @staticmethod
+    def fresh_clock() -> np.ndarray:
+        """A reversal clock before any input: no sign yet, no reversal."""
+        return np.array([0.0, -1.0, 0.0])
+
+    @classmethod
+    def fresh(cls, dt: float, delay: float = 0.0) -> InputPathState:
+        """The state before the first input of a path with ``delay`` [s] at sample time ``dt`` [s]."""
+        m, _ = physics.rigid_delay_samples(float(dt), float(delay))
+        return cls(ring=np.zeros(m + 2), lag=np.zeros(2), clock=cls.fresh_clock())
 
 
 def term_columns(
@@ -170,7 +207,9 @@ class RigidDrive:
     """A rigid drive: inertia, input gain and a set of effects with their parameters.
 
     Same family as :class:`~motorid.plants.rig.TwoMassRig`: an immutable description,
-    :meth:`simulate` runs a record, :meth:`to_dict`/:meth:`from_dict` and :meth:`save`
+    :meth:`simulate` runs a record, :meth:`simulation` a running simulation stepped a sample at
+    a time (the same record to the last bit; both noise free, a rigid drive has no sensor),
+    :meth:`to_dict`/:meth:`from_dict` and :meth:`save`
     (a model file of kind ``rigid-drive``, read by :func:`motorid.load_model`). See the
     module notes for the model and for when it fits a measurement.
 
@@ -266,16 +305,35 @@ class RigidDrive:
         """A copy holding ``effects`` with ``params`` (same dt and Stribeck shape)."""
         return dataclasses.replace(self, effects=tuple(effects), params=dict(params))
 
-    def input_force(self, u: npt.ArrayLike) -> np.ndarray:
-        """Force reaching the drive, F_in(u) [F], for the input [u] held over each sample."""
+    def input_signal(self, u: npt.ArrayLike, state: InputPathState | None = None) -> np.ndarray:
+        """``L(Δ(D(S(u))))`` [u]: the input after saturation, dead zone, delay and lag, before
+        the gain; ``state`` as in :meth:`input_force` (the friction filters' input)."""
         p = self.params
         x = input_path(u, p.get("dead_zone", 0.0), p.get("saturation", math.inf))
         if "input_delay" in self.effects or "input_lag" in self.effects:
-            x = input_dynamics(x, self.dt, p.get("input_delay", 0.0), p.get("lag_time_constant", 0.0))
-        force = p["input_gain"] * x
+            if state is None:
+                state = self.input_state()
+            x = input_dynamics(x, self.dt, p.get("input_delay", 0.0), p.get("lag_time_constant", 0.0), state)
+        return x
+
+    def input_force(self, u: npt.ArrayLike, state: InputPathState | None = None) -> np.ndarray:
+        """Force reaching the drive, F_in(u) = B(g :meth:`input_signal`) [F], for the input [u]
+        held over each sample.
+
+        ``state`` is the memory of the input path (delay, lag, backlash dwell), updated in
+        place, so consecutive calls continue one record (what :meth:`simulation` does a sample
+        at a time); None starts a record at rest on its first input.
+        """
+        if state is None:
+            state = self.input_state()
+        force = self.params["input_gain"] * self.input_signal(u, state)
         if "backlash" in self.effects:
-            force = backlash_dwell(force, self.dt, p["backlash_time"])
+            force = backlash_dwell(force, self.dt, self.params["backlash_time"], state)
         return force
+
+    def input_state(self) -> InputPathState:
+        """The input path's memory before the first input (see :meth:`input_force`)."""
+        return InputPathState.fresh(self.dt, self.params.get("input_delay", 0.0))
 
     def _terms(self) -> list[str]:
         return [p for e in self.effects for p in RIGID_EFFECTS[e] if p in TERM_OF]
@@ -308,21 +366,36 @@ class RigidDrive:
             (the backlash dwell) still sees the whole input. The result has
             ``N - start`` samples.
         """
+        force = np.ascontiguousarray(self.input_force(u)[start:], dtype=float)
+        return self._free_run_force(self._free_run_setup(substeps), force, float(w0))
+
+    def _free_run_setup(self, substeps: int | None) -> tuple:
+        """The arguments of :func:`~motorid.plants.physics.rigid_free_run` other than the
+        force and the start speed: ``(dt, substeps, J, coef, rate, shape, breakaway_excess)``."""
         J = self.inertia
-        n = np.asarray(u).size
-        if not J > 0.0:
-            return np.full(n - start, np.nan)  # no free run without a positive inertia
         coef = np.zeros(physics.N_TERMS)
         for name in self._terms():
             coef[TERM_OF[name]] = self.params[name]
         if substeps is None:
             substeps = int(min(50, max(1, math.ceil(20.0 * self.dt * abs(coef[physics.TERM_VISCOUS]) / J))))
-        force = np.ascontiguousarray(self.input_force(u)[start:], dtype=float)
         vs = self.params.get("stribeck_velocity", 1.0)
         rate = 1.0 / vs if vs > 0.0 else 1.0
         shape = physics.STRIBECK_SHAPES.index(self.stribeck_shape)
         excess = self.params.get("breakaway_excess", 0.0)
-        return physics.rigid_free_run(force, self.dt, int(substeps), J, coef, rate, shape, float(w0), excess)
+        return self.dt, int(substeps), J, coef, rate, shape, excess
+
+    @staticmethod
+    def _free_run_force(setup: tuple, force: np.ndarray, w0: float) -> np.ndarray:
+        """The free run from ``w0`` for the input force ``force`` [F] (NaN without a positive inertia)."""
+        dt, substeps, J, coef, rate, shape, excess = setup
+        if not J > 0.0:
+            return np.full(force.size, np.nan)  # no free run without a positive inertia
+        return physics.rigid_free_run(force, dt, substeps, J, coef, rate, shape, w0, excess)
+
+    def simulation(self, seed: int | None = None) -> RigidSimulation:
+        """A running simulation of this drive at rest (``reset``, ``step``), the
+        :class:`~motorid.io.base.Plant` a simulated DAQ or the rig server steps."""
+        return RigidSimulation(self, seed)
 
     # -------------------------------------------------------------- records
     def simulate(self, u: npt.ArrayLike, w0: float = 0.0) -> pd.DataFrame:
@@ -369,9 +442,67 @@ class RigidDrive:
         save_model(self, path)
 
 
+class RigidSimulation:
+    """A running simulation of a :class:`RigidDrive`: the input path's memory and the speed.
+
+    The drive is the description; this object is what changes as samples are applied.
+    Its steps are :meth:`RigidDrive.simulate` a sample at a time, to the last bit: each
+    step passes one input through :meth:`RigidDrive.input_force` with the running
+    :class:`InputPathState` and continues the compiled free run from the last speed, the
+    same functions a whole record runs. A rigid drive has no sensor, so the speed is
+    noise free and the seed changes nothing (it is taken for the ``Plant`` protocol).
+
+    Parameters
+    ----------
+    drive : RigidDrive
+        The drive simulated (read only).
+    seed : int or None
+        Ignored: the record is noise free.
+
+    Attributes
+    ----------
+    drive : RigidDrive
+    sample_index : int
+        Samples applied since the last :meth:`reset`.
+    """
+
+    def __init__(self, drive: RigidDrive, seed: int | None = None) -> None:
+        self.drive = drive
+        self._setup = drive._free_run_setup(None)
+        self.reset(seed)
+
+    @property
+    def dt(self) -> float:
+        """Sample time [s] (the drive's)."""
+        return self.drive.dt
+
+    def reset(self, seed: int | None = None) -> None:
+        """Return to rest (speed 0, the input path before its first input); ``seed`` is ignored."""
+        self._input = self.drive.input_state()
+        self._w = 0.0
+        self.sample_index = 0
+
+    def step(self, u: float) -> float:
+        """Apply ``u`` [u] for one sample (zero-order hold); return the speed [v] at its end."""
+        u = float(u)
+        if not math.isfinite(u):
+            raise ValueError(f"u must be finite, got {u!r} at sample {self.sample_index}")
+        force = self.drive.input_force(np.array([u]), self._input)
+        self._w = float(self.drive._free_run_force(self._setup, force, self._w)[0])
+        self.sample_index += 1
+        return self._w
+
+    @property
+    def state(self) -> dict[str, float]:
+        """``t`` [s] and the speed ``omega`` [v] after the last :meth:`step`."""
+        return {"t": self.sample_index * self.drive.dt, "omega": self._w}
+
+
 __all__ = [
     "RIGID_EFFECTS",
+    "InputPathState",
     "RigidDrive",
+    "RigidSimulation",
     "backlash_dwell",
     "effect_order",
     "input_dynamics",
