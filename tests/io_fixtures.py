@@ -67,6 +67,24 @@ def wait_for(condition: Callable[[], bool], timeout: float = 20.0, what: str = "
         time.sleep(0.005)
 
 
+def start_rig_process(port: int, *options: str) -> subprocess.Popen:
+    """A real ``python -m motorid.cli -v rig serve --port PORT OPTIONS...`` process, returned once
+    it listens on 127.0.0.1:PORT (its stderr piped; the test fails if it exits first)."""
+    import sys
+
+    argv = ["-m", "motorid.cli", "-v", "rig", "serve", "--port", str(port), *options]
+    proc = subprocess.Popen([sys.executable, *argv], stderr=subprocess.PIPE, text=True)
+
+    def listening() -> bool:
+        if proc.poll() is not None:
+            pytest.fail(f"rig server process exited: {proc.stderr.read()}")
+        with socket.socket() as s:
+            return s.connect_ex(("127.0.0.1", port)) == 0
+
+    wait_for(listening, timeout=60, what="the rig server process to listen")
+    return proc
+
+
 class PlcDataHandler:
     """Factory of a pyModbusTCP data handler that acts as a small lock-step PLC.
 

@@ -9,8 +9,6 @@ from __future__ import annotations
 import math
 import signal
 import socket
-import subprocess
-import sys
 from collections.abc import Callable, Iterator
 
 import numpy as np
@@ -23,6 +21,7 @@ from io_fixtures import (
     make_plant,
     pty_pair,
     pymodbustcp_server,
+    start_rig_process,
     wait_for,
 )
 from pyModbusTCP.client import ModbusClient
@@ -359,36 +358,9 @@ def test_daq_from_url(rig_server):
 
 
 # -- a rig server in its own process: killed for real, stopped by SIGTERM ------------------------------
-def start_rig_process(port: int) -> subprocess.Popen:
-    # the real command line: motorid -v rig serve ...
-    argv = [
-        "-m",
-        "motorid.cli",
-        "-v",
-        "rig",
-        "serve",
-        "--port",
-        str(port),
-        "--plant-seed",
-        "1",
-        "--watchdog-periods",
-        "0",
-    ]
-    proc = subprocess.Popen([sys.executable, *argv], stderr=subprocess.PIPE, text=True)
-
-    def listening() -> bool:
-        if proc.poll() is not None:
-            pytest.fail(f"rig server process exited: {proc.stderr.read()}")
-        with socket.socket() as s:
-            return s.connect_ex(("127.0.0.1", port)) == 0
-
-    wait_for(listening, timeout=60, what="the rig server process to listen")
-    return proc
-
-
 def test_rig_process_killed_mid_run_and_sigterm(tmp_path):
     port = free_port()
-    proc = start_rig_process(port)
+    proc = start_rig_process(port, "--plant-seed", "1", "--watchdog-periods", "0")
     out = tmp_path / "sigkill.csv"
 
     def excitation(t):
@@ -406,7 +378,7 @@ def test_rig_process_killed_mid_run_and_sigterm(tmp_path):
         proc.wait(30)
     assert len(pd.read_csv(out)) == 20
 
-    proc = start_rig_process(port)
+    proc = start_rig_process(port, "--plant-seed", "1", "--watchdog-periods", "0")
     proc.send_signal(signal.SIGTERM)
     assert proc.wait(30) == 0
     assert "stopped" in proc.stderr.read()

@@ -3,14 +3,13 @@ Modbus by a real ``motorid rig serve --model`` process, against ``drive.simulate
 
 from __future__ import annotations
 
-import socket
 import subprocess
 import sys
 
 import numpy as np
 import pandas as pd
 import pytest
-from io_fixtures import free_port, wait_for
+from io_fixtures import free_port, start_rig_process
 
 from motorid.io import ModbusDAQ, RigServer, SimulatedDAQ, run_online
 from motorid.plants import RigidDrive
@@ -48,18 +47,8 @@ def served_drive(tmp_path):
     """A real ``motorid rig serve --model drive.json`` process on a free port of 127.0.0.1."""
     DRIVE.save(tmp_path / "drive.json")
     port = free_port()
-    argv = ["-m", "motorid.cli", "rig", "serve", "--model", str(tmp_path / "drive.json"), "--port", str(port),
-            "--watchdog-periods", "0"]  # fmt: skip
-    proc = subprocess.Popen([sys.executable, *argv], stderr=subprocess.PIPE, text=True)
-
-    def listening() -> bool:
-        if proc.poll() is not None:
-            pytest.fail(f"rig server process exited: {proc.stderr.read()}")
-        with socket.socket() as s:
-            return s.connect_ex(("127.0.0.1", port)) == 0
-
+    proc = start_rig_process(port, "--model", str(tmp_path / "drive.json"), "--watchdog-periods", "0")
     try:
-        wait_for(listening, timeout=60, what="the rig server process to listen")
         yield port
     finally:
         proc.terminate()
