@@ -22,17 +22,11 @@ from _table import Row, print_rows
 
 from motorid.estimators import FrictionEKF
 from motorid.plants import RigidDrive, paper_rig
+from motorid.testing import every_input_memory_drive
 
 TITLE = "Rigid drive: whole record and online steps"
 
-DRIVE = RigidDrive(
-    ("coulomb_friction", "stribeck_friction", "viscous_friction", "input_dead_zone", "input_saturation",
-     "backlash", "input_delay", "input_lag", "static_friction"),
-    {"inertia": 2e-3, "input_gain": 0.05, "coulomb": 0.02, "stribeck": 0.01, "stribeck_velocity": 2.0,
-     "viscous": 2e-3, "dead_zone": 0.4, "saturation": 8.0, "backlash_time": 0.03, "input_delay": 0.025,
-     "lag_time_constant": 0.02, "breakaway_excess": 0.01},
-    dt=0.01,
-)  # fmt: skip
+DRIVE = every_input_memory_drive()
 
 
 def without_memory(drive: RigidDrive) -> RigidDrive:

@@ -48,6 +48,7 @@ import numpy as np
 from filterpy.common import Saver
 
 from motorid.estimators.base import Estimator
+from motorid.plants.rigid import RigidDrive
 
 EstimatorFactory = Callable[[], Estimator]
 
@@ -57,6 +58,21 @@ ROUNDING_MARGIN = 1000.0
 #: Differences below this many units in the last place of an estimate's size pass
 #: even where the estimator does not respond to a last-bit change at all.
 _ULPS_ALWAYS_ALLOWED = 64.0
+
+
+def every_input_memory_drive() -> RigidDrive:
+    """A rigid drive at 100 Hz with every input-path memory and a stick/slip free run: dead zone
+    0.4 V, saturation 8 V (its rating), a 2.5-sample delay, a 20 ms lag, a 30 ms backlash dwell,
+    Coulomb, Stribeck, viscous and static friction (SI units). The drive the rig-server tests and
+    ``benchmarks/bench_rigid.py`` run."""
+    return RigidDrive(
+        ("coulomb_friction", "stribeck_friction", "viscous_friction", "input_dead_zone", "input_saturation",
+         "backlash", "input_delay", "input_lag", "static_friction"),
+        {"inertia": 2e-3, "input_gain": 0.05, "coulomb": 0.02, "stribeck": 0.01, "stribeck_velocity": 2.0,
+         "viscous": 2e-3, "dead_zone": 0.4, "saturation": 8.0, "backlash_time": 0.03, "input_delay": 0.025,
+         "lag_time_constant": 0.02, "breakaway_excess": 0.01},
+        dt=0.01,
+    )  # fmt: skip
 
 
 def conformance_record(n_samples: int = 300, seed: int = 0) -> tuple[np.ndarray, np.ndarray]:

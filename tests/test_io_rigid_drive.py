@@ -12,17 +12,9 @@ import pytest
 from io_fixtures import free_port, start_rig_process
 
 from motorid.io import ModbusDAQ, RigServer, SimulatedDAQ, run_online
-from motorid.plants import RigidDrive
+from motorid.testing import every_input_memory_drive
 
-#: A drive with every kind of input-path memory and a stick/slip free run (rating: its saturation).
-DRIVE = RigidDrive(
-    ("coulomb_friction", "stribeck_friction", "viscous_friction", "input_dead_zone", "input_saturation",
-     "backlash", "input_delay", "input_lag", "static_friction"),
-    {"inertia": 2e-3, "input_gain": 0.05, "coulomb": 0.02, "stribeck": 0.01, "stribeck_velocity": 2.0,
-     "viscous": 2e-3, "dead_zone": 0.4, "saturation": 8.0, "backlash_time": 0.03, "input_delay": 0.025,
-     "lag_time_constant": 0.02, "breakaway_excess": 0.01},
-    dt=0.01,
-)  # fmt: skip
+DRIVE = every_input_memory_drive()  # rating: its saturation
 
 
 def quarter_volts(n: int, seed: int) -> np.ndarray:

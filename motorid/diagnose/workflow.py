@@ -75,6 +75,7 @@ from motorid.diagnose.kinematics import Kinematics, kinematics
 from motorid.diagnose.locate import Region, feature, features, locate
 from motorid.diagnose.model import BalanceData, FitResult, bounded_minimum, fit_model, model_balance
 from motorid.errors import DataError
+from motorid.plants.rig import check_sample_time
 from motorid.plants.rigid import RigidDrive, effect_order
 from motorid.records import record_timing
 from motorid.validation import check_signals
@@ -152,14 +153,10 @@ def _sample_time(record: pd.DataFrame, dt: float | None) -> float:
             dt = float(np.median(np.diff(t)))
     if dt is None:
         raise DataError("dt is not given and the record has neither attrs['dt'] nor a 't' column")
-    if (
-        isinstance(dt, bool)
-        or not isinstance(dt, int | float | np.number)
-        or not math.isfinite(dt)
-        or dt <= 0
-    ):
-        raise DataError(f"dt must be a finite number > 0 [s], got {dt!r}")
-    return float(dt)
+    try:
+        return check_sample_time(dt)
+    except ValueError as exc:
+        raise DataError(str(exc)) from None
 
 
 def _units(

@@ -72,6 +72,18 @@ _NONNEGATIVE = ("B_m", "B_l", "B_s", "backlash")
 _NOISE_BLOCK = 1024
 
 
+def check_sample_time(dt: object) -> float:
+    """``dt`` [s] as a float; ValueError unless it is a finite real number > 0 (not a bool)."""
+    if (
+        isinstance(dt, bool)
+        or not isinstance(dt, int | float | np.number)
+        or not math.isfinite(dt)
+        or dt <= 0
+    ):
+        raise ValueError(f"dt must be a finite number > 0 [s], got {dt!r}")
+    return float(dt)
+
+
 def check_input(name: str, values: npt.ArrayLike) -> np.ndarray:
     """1-D float array; ValueError naming the first non-finite sample."""
     arr = np.asarray(values, dtype=float)

@@ -67,7 +67,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from motorid.plants import physics
-from motorid.plants.rig import check_input
+from motorid.plants.rig import check_input, check_sample_time
 
 #: The effects of a rigid drive and their parameters, in the library's order.
 RIGID_EFFECTS: dict[str, tuple[str, ...]] = {
@@ -258,15 +258,7 @@ class RigidDrive:
                 raise ValueError(f"{name} must be finite, got {value!r}")
             params[name] = float(value)
         object.__setattr__(self, "params", params)
-        dt = self.dt
-        if (
-            isinstance(dt, bool)
-            or not isinstance(dt, int | float | np.number)
-            or not math.isfinite(dt)
-            or dt <= 0
-        ):
-            raise ValueError(f"dt must be a finite number > 0 [s], got {dt!r}")
-        object.__setattr__(self, "dt", float(dt))
+        object.__setattr__(self, "dt", check_sample_time(self.dt))
         if self.stribeck_shape not in physics.STRIBECK_SHAPES:
             raise ValueError(
                 f"stribeck_shape must be one of {', '.join(physics.STRIBECK_SHAPES)}, got {self.stribeck_shape!r}"
