@@ -5,10 +5,12 @@ Run: ``.venv/bin/python benchmarks/bench_doctor.py [--repeat 5]`` (or within ``m
 
 Each figure is the median wall time [s] and the largest peak resident memory [MB] over
 ``--repeat`` fresh processes, the two commands alternated, after one warm-up run of each
-(the compiled kernels' caches are then on disk, as after any first run). The floor is a
-process that imports pandas and numba and runs one cached compiled function: the doctor reads
-its record into pandas and runs compiled kernels, so it cannot start faster or smaller than
-that. No peer does the doctor's work, so the rows have none. Not a test: it prints figures.
+(numba's caches are then on disk, as after any first run). The floor is a process that
+imports pandas and runs one kernel of the extension compiled ahead of time
+(:mod:`motorid.compiled`): the doctor reads its record into pandas and runs those kernels, so
+it cannot start faster or smaller than that. A third row is the doctor with every kernel
+through numba's JIT instead (``MOTORID_JIT_ONLY=1``), as it ran before the extension. No peer
+does the doctor's work, so the rows have none. Not a test: it prints figures.
 """
 
 from __future__ import annotations
@@ -26,49 +28,45 @@ if str(HERE) not in sys.path:
 import doctor_large  # noqa: E402
 from _table import Row, print_rows  # noqa: E402
 
-#: One compiled function, cached on disk like motorid's kernels.
-KERNEL = """
-import numba
-
-
-@numba.njit(cache=True)
-def total(x):
-    return x.sum()
-"""
+#: pandas and one kernel of the extension (numba is not imported: the check below says so).
 FLOOR = (
-    "import sys; sys.path.insert(0, sys.argv[1]); import numpy, pandas, kernel; kernel.total(numpy.zeros(3))"
+    "import sys, numpy, pandas; from motorid import compiled; "
+    "compiled.load('motorid.plants.physics').reversal_clock(numpy.zeros(3), 1.0, 0.0, numpy.zeros(3)); "
+    "assert 'numba' not in sys.modules, compiled.status()"
 )
 
 
 def measure_doctor(repeat: int = 5) -> list[Row]:
-    """The doctor's and the floor's median wall time and largest peak RSS over ``repeat`` runs."""
+    """The doctor's (with and without the extension) and the floor's median wall time and
+    largest peak RSS over ``repeat`` runs."""
     with tempfile.TemporaryDirectory() as tmp:
-        folder = Path(tmp)
-        record = folder / "rig_16000.csv"
+        record = Path(tmp) / "rig_16000.csv"
         doctor_large.make_record(record, 16_000, 0.005)
-        (folder / "kernel.py").write_text(KERNEL)
+        doctor = [str(doctor_large.MOTORID), "doctor", str(record), "--json"]
         runs = {
-            "doctor": [str(doctor_large.MOTORID), "doctor", str(record), "--json"],
-            "floor": [sys.executable, "-c", FLOOR, str(folder)],
+            "motorid doctor --json": doctor,
+            "motorid doctor --json, every kernel through numba's JIT": ["env", "MOTORID_JIT_ONLY=1", *doctor],
+            "start-up floor (import pandas, one kernel compiled ahead of time)": [
+                sys.executable,
+                "-c",
+                FLOOR,
+            ],
         }
         walls: dict[str, list[float]] = {name: [] for name in runs}
         peaks = dict.fromkeys(runs, 0.0)
         for attempt in range(repeat + 1):
             for name, argv in runs.items():
                 wall, peak, _ = doctor_large.measure(argv)
-                if attempt:  # the first run of each fills the compiled kernels' caches
+                if attempt:  # the first run of each fills numba's caches
                     walls[name].append(wall)
                     peaks[name] = max(peaks[name], peak)
     label = "80 s at 200 Hz (16,000 samples)"
-    floor = "start-up floor (import pandas and numba, one cached kernel)"
-    return [
-        Row(
-            f"motorid doctor --json, {label}, wall", statistics.median(walls["doctor"]), None, "s", "", False
-        ),
-        Row(f"motorid doctor --json, {label}, peak RSS", peaks["doctor"], None, "MB", "", False),
-        Row(f"{floor}, wall", statistics.median(walls["floor"]), None, "s", "", False),
-        Row(f"{floor}, peak RSS", peaks["floor"], None, "MB", "", False),
-    ]
+    rows = []
+    for name in runs:
+        where = f"{name}, {label}" if name.startswith("motorid") else name
+        rows.append(Row(f"{where}, wall", statistics.median(walls[name]), None, "s", "", False))
+        rows.append(Row(f"{where}, peak RSS", peaks[name], None, "MB", "", False))
+    return rows
 
 
 def measure() -> list[Row]:

@@ -7,10 +7,7 @@ The doctor's figures must not depend on which of the two ran, so every compariso
 
 from __future__ import annotations
 
-import json
 import math
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -128,26 +125,3 @@ def test_bounded_minimum_names_bad_bounds(bounds):
     with pytest.raises(ValueError, match=r"bounds must be finite with lo <= hi, got \["):
         bounded_minimum(lambda z: z, *bounds, 1e-3)
 
-
-def test_the_doctor_loads_neither_scipy_signal_nor_scipy_optimize(tmp_path):
-    """A fresh process runs the doctor on a short record: the designs and the search are the
-    package's own, so the two scipy subpackages (about 1 s and 55 MB of start-up) stay unloaded."""
-    from motorid.plants import paper_rig
-    from motorid.plants.signals import two_sine_signal
-    from motorid.records import write_record
-
-    dt = 0.005
-    _, u = two_sine_signal(duration=20.0, dt=dt, seed=1)
-    record = paper_rig(dt=dt).simulate(u, seed=1)[["t", "u", "y"]]
-    record.attrs = {"dt": dt, "units": {"t": "s", "u": "V", "y": "rad/s"}}
-    path = tmp_path / "rig.csv"
-    write_record(record, path)
-    probe = (
-        "import contextlib, io, json, sys\n"
-        "from motorid.cli import main\n"
-        "with contextlib.redirect_stdout(io.StringIO()):\n"
-        f"    code = main(['doctor', {str(path)!r}, '--json'])\n"
-        "print(json.dumps([code, sorted(m for m in ('scipy.signal', 'scipy.optimize') if m in sys.modules)]))\n"
-    )
-    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
-    assert json.loads(done.stdout.splitlines()[-1]) == [0, []]

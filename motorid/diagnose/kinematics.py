@@ -32,8 +32,9 @@ import math
 from dataclasses import dataclass
 from typing import Literal
 
-import numba
 import numpy as np
+
+from motorid import compiled
 
 OutputKind = Literal["velocity", "position"]
 
@@ -156,7 +157,7 @@ def lowpass_sections(poles: np.ndarray, gain: float, wn: float) -> np.ndarray:
 
 
 def steady_state(sos: np.ndarray) -> np.ndarray:
-    """The states of the sections (transposed direct form II, :func:`_sections`) at rest under a
+    """The states of the sections (transposed direct form II, :func:`motorid.diagnose.sections.run_sections`) at rest under a
     unit step input: per section ``(I - A) z = b[1:] - a[1:] b[0]`` with ``A`` the transpose of
     the companion matrix of ``a``, times the DC gain ``Π b / Π a`` of the sections before it
     (what ``scipy.signal.sosfilt_zi`` gives, bit for bit)."""
@@ -169,38 +170,6 @@ def steady_state(sos: np.ndarray) -> np.ndarray:
         zi[section] = scale * np.linalg.solve(system, bn[1:] - an[1:] * bn[0])
         scale *= np.sum(b) / np.sum(a)
     return zi
-
-
-@numba.njit(cache=True)
-def _sections(sos: np.ndarray, state: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:
-    """Run ``x`` through the cascade of second-order sections ``sos`` (transposed direct form
-    II, state ``state`` updated in place) into ``out``, from ``x[0]`` to ``x[-1]``::
-
-        y_s[k] = b0 x_s[k] + z0,  z0 = b1 x_s[k] - a1 y_s[k] + z1,  z1 = b2 x_s[k] - a2 y_s[k]
-    """
-    for k in range(x.size):
-        value = x[k]
-        for s in range(sos.shape[0]):
-            new = sos[s, 0] * value + state[s, 0]
-            state[s, 0] = sos[s, 1] * value - sos[s, 4] * new + state[s, 1]
-            state[s, 1] = sos[s, 2] * value - sos[s, 5] * new
-            value = new
-        out[k] = value
-
-
-@numba.njit(cache=True)
-def _zero_phase(sos: np.ndarray, zi: np.ndarray, x: np.ndarray, edge: int) -> np.ndarray:
-    n = x.size
-    ext = np.empty(n + 2 * edge)
-    for i in range(edge):  # odd extension: 2 x[0] - x[edge - i], ..., 2 x[-1] - x[-2 - i]
-        ext[i] = 2.0 * x[0] - x[edge - i]
-        ext[n + edge + i] = 2.0 * x[n - 1] - x[n - 2 - i]
-    ext[edge : n + edge] = x
-    forward = np.empty_like(ext)
-    _sections(sos, zi * ext[0], ext, forward)
-    backward = np.empty_like(ext)
-    _sections(sos, zi * forward[-1], forward[::-1], backward)
-    return backward[::-1][edge : n + edge].copy()
 
 
 def zero_phase(design: tuple[np.ndarray, np.ndarray], x: np.ndarray) -> np.ndarray:
@@ -218,7 +187,7 @@ def zero_phase(design: tuple[np.ndarray, np.ndarray], x: np.ndarray) -> np.ndarr
         raise ValueError(f"the signal has {x.size} samples; the zero-phase filter needs more than {edge}")
     # one compiled signature for every caller: a writable contiguous float64 array (copied only if not)
     x = np.require(x, dtype=np.float64, requirements=["C", "W"])
-    return _zero_phase(sos, zi, x, edge)
+    return compiled.load("motorid.diagnose.sections").zero_phase_run(sos, zi, x, edge)
 
 
 def decimation_factor(dt: float, band: float) -> int:

@@ -75,8 +75,7 @@ from motorid.diagnose.kinematics import Kinematics, kinematics
 from motorid.diagnose.locate import Region, feature, features, locate
 from motorid.diagnose.model import BalanceData, FitResult, bounded_minimum, fit_model, model_balance
 from motorid.errors import DataError
-from motorid.plants.rig import check_sample_time
-from motorid.plants.rigid import RigidDrive, effect_order
+from motorid.plants.rigid import RigidDrive, check_sample_time, effect_order
 from motorid.records import record_timing
 from motorid.validation import check_signals
 

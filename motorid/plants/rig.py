@@ -46,6 +46,7 @@ from motorid.plants.friction import (
     pack_static_friction,
     viscous_total,
 )
+from motorid.plants.rigid import check_input
 from motorid.plants.sensors import ADConverter, Encoder, Tachogenerator, measure_speed
 
 logger = logging.getLogger(__name__)
@@ -70,30 +71,6 @@ RECORD_UNITS: dict[str, str] = {
 _POSITIVE = ("R_a", "L_a", "K_m", "J_m", "J_l", "k_s", "dt")
 _NONNEGATIVE = ("B_m", "B_l", "B_s", "backlash")
 _NOISE_BLOCK = 1024
-
-
-def check_sample_time(dt: object) -> float:
-    """``dt`` [s] as a float; ValueError unless it is a finite real number > 0 (not a bool)."""
-    if (
-        isinstance(dt, bool)
-        or not isinstance(dt, int | float | np.number)
-        or not math.isfinite(dt)
-        or dt <= 0
-    ):
-        raise ValueError(f"dt must be a finite number > 0 [s], got {dt!r}")
-    return float(dt)
-
-
-def check_input(name: str, values: npt.ArrayLike) -> np.ndarray:
-    """1-D float array; ValueError naming the first non-finite sample."""
-    arr = np.asarray(values, dtype=float)
-    if arr.ndim != 1:
-        raise ValueError(f"{name} must be one-dimensional, got shape {arr.shape}")
-    bad = np.flatnonzero(~np.isfinite(arr))
-    if bad.size:
-        k = int(bad[0])
-        raise ValueError(f"{name} must be finite: {name}[{k}] = {arr[k]!r} at sample {k}")
-    return np.ascontiguousarray(arr)
 
 
 def _about(unit: str, meaning: str) -> dict[str, str]:

@@ -66,8 +66,10 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from motorid.plants import physics
-from motorid.plants.rig import check_input, check_sample_time
+from motorid import compiled
+
+#: The drive's compiled physics (:mod:`motorid.plants.physics`), ahead of time where built.
+physics = compiled.load("motorid.plants.physics")
 
 #: The effects of a rigid drive and their parameters, in the library's order.
 RIGID_EFFECTS: dict[str, tuple[str, ...]] = {
@@ -102,6 +104,30 @@ _NONNEGATIVE = (
     "viscous", "coulomb", "stribeck", "quadratic_drag", "dead_zone", "backlash_time",
     "input_delay", "lag_time_constant", "breakaway_excess",
 )  # fmt: skip
+
+
+def check_sample_time(dt: object) -> float:
+    """``dt`` [s] as a float; ValueError unless it is a finite real number > 0 (not a bool)."""
+    if (
+        isinstance(dt, bool)
+        or not isinstance(dt, int | float | np.number)
+        or not math.isfinite(dt)
+        or dt <= 0
+    ):
+        raise ValueError(f"dt must be a finite number > 0 [s], got {dt!r}")
+    return float(dt)
+
+
+def check_input(name: str, values: npt.ArrayLike) -> np.ndarray:
+    """1-D float array; ValueError naming the first non-finite sample."""
+    arr = np.asarray(values, dtype=float)
+    if arr.ndim != 1:
+        raise ValueError(f"{name} must be one-dimensional, got shape {arr.shape}")
+    bad = np.flatnonzero(~np.isfinite(arr))
+    if bad.size:
+        k = int(bad[0])
+        raise ValueError(f"{name} must be finite: {name}[{k}] = {arr[k]!r} at sample {k}")
+    return np.ascontiguousarray(arr)
 
 
 def effect_order(effects: tuple[str, ...] | list[str]) -> tuple[str, ...]:
