@@ -189,7 +189,7 @@ def checked(
 
     def call(*args: Any, **kwargs: Any) -> Any:
         values = args if len(args) == len(params) and not kwargs else bind(args, kwargs)
-        return function(*[check(value) for check, value in zip(checks, values)])
+        return function(*[check(value) for check, value in zip(checks, values, strict=True)])
 
     call.__name__ = call.__qualname__ = kernel.name
     call.__doc__ = f"{kernel.module}.{kernel.name}, compiled ahead of time (arguments checked)."
