@@ -124,4 +124,3 @@ def test_bounded_minimum_stops_after_max_calls_as_scipy_does():
 def test_bounded_minimum_names_bad_bounds(bounds):
     with pytest.raises(ValueError, match=r"bounds must be finite with lo <= hi, got \["):
         bounded_minimum(lambda z: z, *bounds, 1e-3)
-
