@@ -28,6 +28,7 @@ from __future__ import annotations
 import hashlib
 import importlib
 import json
+import logging
 import operator
 import os
 import sys
@@ -38,6 +39,8 @@ from types import ModuleType
 from typing import Any
 
 import numpy as np
+
+logger = logging.getLogger(__name__)
 
 #: The extension module's name, in this package.
 EXTENSION = "_kernels"
@@ -244,11 +247,15 @@ def load(module: str) -> ModuleType | BuiltModule:
     """The kernels of ``module``: the extension's when it is built from the current source
     (:func:`status`), else the module itself (compiled by numba at first call)."""
     if module not in _loaded:
-        if status() == "built":
+        state = status()
+        if state == "built":
             extension = importlib.import_module(f"{__package__}.{EXTENSION}")
             _loaded[module] = built_module(module, extension, json.loads(BUILD_RECORD.read_text()))
         else:
             _loaded[module] = importlib.import_module(module)
+        logger.debug(
+            "%s: kernels %s", module, "compiled ahead of time" if state == "built" else f"by numba ({state})"
+        )
     return _loaded[module]
 
 
