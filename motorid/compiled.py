@@ -156,10 +156,10 @@ def _describe(value: Any) -> str:
 
 
 def _checker(kind: str, written: bool, where: str) -> Callable[[Any], Any]:
-    if kind == "float":
-        return float
+    """The check of an ``int`` or array argument (a ``float`` one needs none: the extension
+    converts any real number and refuses anything else with a TypeError)."""
     if kind == "int":
-        return operator.index
+        return operator.index  # an int parameter refuses a float rather than truncate it
     dtype = np.float64 if kind.startswith("float") else np.int64
     return _array(dtype, kind.count(",") + 1, written, where)
 
@@ -171,7 +171,11 @@ def checked(
     the kernel's kinds; ``params`` are its parameter names, ``defaults`` the values of the
     last ones (as in the module)."""
     where = [f"{kernel.name}() argument {name!r}" for name in params]
-    checks = [_checker(kind, i in kernel.written, where[i]) for i, kind in enumerate(kernel.args)]
+    checks = [
+        (i, _checker(kind, i in kernel.written, where[i]))
+        for i, kind in enumerate(kernel.args)
+        if kind != "float"
+    ]
     first_default = len(params) - len(defaults)
 
     def bind(args: tuple[Any, ...], kwargs: dict[str, Any]) -> list[Any]:
@@ -191,8 +195,10 @@ def checked(
         return values
 
     def call(*args: Any, **kwargs: Any) -> Any:
-        values = args if len(args) == len(params) and not kwargs else bind(args, kwargs)
-        return function(*[check(value) for check, value in zip(checks, values, strict=True)])
+        values = list(args) if len(args) == len(params) and not kwargs else bind(args, kwargs)
+        for i, check in checks:
+            values[i] = check(values[i])
+        return function(*values)
 
     call.__name__ = call.__qualname__ = kernel.name
     call.__doc__ = f"{kernel.module}.{kernel.name}, compiled ahead of time (arguments checked)."
