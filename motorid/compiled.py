@@ -157,7 +157,7 @@ def _describe(value: Any) -> str:
 
 def _checker(kind: str, written: bool, where: str) -> Callable[[Any], Any]:
     """The check of an ``int`` or array argument (a ``float`` one needs none: the extension
-    converts any real number and refuses anything else with a TypeError)."""
+    converts it as ``float()`` does, with a TypeError for what ``float()`` refuses)."""
     if kind == "int":
         return operator.index  # an int parameter refuses a float rather than truncate it
     dtype = np.float64 if kind.startswith("float") else np.int64

@@ -115,8 +115,8 @@ def test_arguments_are_converted_or_refused_by_name(built):
     np.testing.assert_array_equal(kernels.armature_voltages([3, 0, 1], 1, 0.5, 2.0), [1.5, 0.0, 0.5])
     with pytest.raises(TypeError, match=r"armature_voltages\(\) argument 'u': expected 1 dimension"):
         kernels.armature_voltages(values, 1.0, 0.5, 2.0)
-    with pytest.raises(TypeError):  # a float parameter takes real numbers only
-        kernels.armature_voltages(strided, "1", 0.5, 2.0)
+    with pytest.raises(TypeError):  # a float parameter takes what float() takes
+        kernels.armature_voltages(strided, None, 0.5, 2.0)
     with pytest.raises(TypeError):  # an int parameter refuses a float rather than truncate it
         kernels.rigid_columns(np.zeros(1, dtype=np.int64), values[:, 1].copy(), 1.0, 0.5)
     # an array the kernel writes into is never silently copied: its writes would be lost
