@@ -58,6 +58,25 @@ def test_the_balance_solve_equals_plain_least_squares_and_its_inverse_normal_mat
     assert solve.rss == pytest.approx(float(np.sum(residual[rows] ** 2)), rel=1e-9)
 
 
+def test_a_search_over_the_input_path_reuses_the_regressors_and_solves_as_without(prep):
+    """Points of a dead-zone search change the force only: solved one after the other with the
+    regressors kept, each equals its solve from scratch to the bit (and the kept ones are
+    replaced when the columns change)."""
+    data = prep.data
+    effects = ("viscous_friction", "input_dead_zone", "offset")
+    last: dict = {}
+    for dead_zone in (0.05, 0.2, 0.4):
+        kept = _linear_solve(data, effects, {"dead_zone": dead_zone}, 1.0, data.moving, "exponential", last)
+        fresh = _linear_solve(data, effects, {"dead_zone": dead_zone}, 1.0, data.moving, "exponential")
+        assert kept.theta == fresh.theta and kept.rss == fresh.rss
+        np.testing.assert_array_equal(kept.residual, fresh.residual)
+    assert len(last) == 1
+    (regressors,) = last.values()
+    other = _linear_solve(data, ("coulomb_friction", "viscous_friction", "offset"), {}, 1.0, data.moving,
+                          "exponential", last)  # fmt: skip
+    assert len(last) == 1 and next(iter(last.values())) is not regressors and len(other.theta) == 4
+
+
 def test_a_column_that_repeats_the_offset_is_dropped_with_zero_estimate_and_covariance(prep):
     """While the drive moves, the Coulomb asymmetry |sgn w| is the offset's column: it adds no rank,
     its parameter is 0, its row and column of C are 0 and the rest is the fit without it."""

@@ -193,6 +193,29 @@ class LinearSolve:
         return unit_cov
 
 
+@dataclass
+class Regressors:
+    """The regressor columns of one solve: ``X`` (N decimated samples, k columns) for the
+    residual, and on the fitted rows (indices ``fitted``) the columns scaled to unit norm, one
+    per row of ``scaled`` (k, M), with their ``norms``."""
+
+    X: np.ndarray
+    fitted: np.ndarray
+    norms: np.ndarray
+    scaled: np.ndarray
+
+    @classmethod
+    def of(cls, cols: list[np.ndarray], rows: np.ndarray) -> Regressors:
+        X = np.column_stack(cols)
+        fitted = np.flatnonzero(rows)
+        norms = np.linalg.norm(X.take(fitted, axis=0), axis=0)
+        norms[norms == 0.0] = 1.0
+        scaled = np.empty((len(cols), fitted.size))
+        for j, col in enumerate(cols):
+            np.divide(col.take(fitted), norms[j], out=scaled[j])
+        return cls(X, fitted, norms, scaled)
+
+
 def _linear_solve(
     data: BalanceData,
     effects: tuple[str, ...],
@@ -200,8 +223,14 @@ def _linear_solve(
     gain: float,
     rows: np.ndarray,
     stribeck_shape: str,
+    last: dict[tuple[str, ...], Regressors] | None = None,
 ) -> LinearSolve:
-    """Least squares of the balance for fixed shape parameters (see the module notes)."""
+    """Least squares of the balance for fixed shape parameters (see the module notes).
+
+    ``last`` holds the regressors of the previous solve on the same ``rows``, by their columns'
+    keys: a search over an input-path shape (dead zone, delay, ...) changes the force only, and
+    reuses them.
+    """
     kin = data.kin
     input_effects = sorted(
         (get_effect(n) for n in effects if EFFECTS[n].kind == "input" and n != "backlash"),
@@ -222,6 +251,7 @@ def _linear_solve(
 
     target = data.decimated("F|" + "|".join(key_parts), balance_force)
     names = ["inertia"]
+    keys = ["a"]
     cols = [data.a]
     # an offset goes first, so a column that repeats it (the Coulomb asymmetry) is the one dropped
     for name in sorted(effects, key=lambda n: n != "offset"):
@@ -240,17 +270,20 @@ def _linear_solve(
 
         for j, pname in enumerate(eff.linear):
             names.append(pname)
-            cols.append(data.decimated(f"{key}|{j}", lambda j=j, column=column: column(j)))
+            keys.append(f"{key}|{j}")
+            cols.append(data.decimated(keys[-1], lambda j=j, column=column: column(j)))
     k = len(cols)
-    X = np.column_stack(cols)
-    fitted = np.flatnonzero(rows)
-    norms = np.linalg.norm(X.take(fitted, axis=0), axis=0)
-    norms[norms == 0.0] = 1.0
+    last = {} if last is None else last
+    regressors = last.get(tuple(keys))
+    if regressors is None:
+        regressors = Regressors.of(cols, rows)
+        last.clear()
+        last[tuple(keys)] = regressors
+    X, fitted, norms = regressors.X, regressors.fitted, regressors.norms
     # [Xs | y] on the fitted rows, the columns scaled to unit norm, one column after the other
     # (each contiguous: the QR works on columns)
     scaled_t = np.empty((k + 1, fitted.size))
-    for j, col in enumerate(cols):
-        np.divide(col.take(fitted), norms[j], out=scaled_t[j])
+    scaled_t[:k] = regressors.scaled
     target.take(fitted, out=scaled_t[k])
     # one QR of [Xs | y]: |R_jj| is the part of unit column j outside the span of those before
     # it (below 1e-3 it adds no rank), and ||Xs_keep θ - y|| = ||R_keep θ - R_y||, a small problem
@@ -359,11 +392,12 @@ def fit_model(
     ]
 
     # the search's best point so far and its solve: the final fit is that point, solved once
+    last: dict[tuple[str, ...], Regressors] = {}  # the regressors of the last solve on these rows
     best: dict[str, object] = {"cost": math.inf, "point": None, "solve": None}
 
     def cost(p: str, value: float) -> float:
         point = {**shape, p: value}
-        solved = _linear_solve(data, effects, point, gain, rows, stribeck_shape)
+        solved = _linear_solve(data, effects, point, gain, rows, stribeck_shape, last)
         if any(solved.theta[q] < 0.0 for q in nonnegative):
             return math.inf  # the shape that needs a negative level is not the physical effect
         value_cost = _accel_rss(solved.rss, solved.theta["inertia"])
@@ -385,7 +419,7 @@ def fit_model(
             shape[p] = math.exp(z) if fz <= costs[i] else float(grid[i])
     solved = best["solve"] if best["point"] == shape else None
     if not isinstance(solved, LinearSolve):
-        solved = _linear_solve(data, effects, shape, gain, rows, stribeck_shape)
+        solved = _linear_solve(data, effects, shape, gain, rows, stribeck_shape, last)
     theta, rss, k, residual = dict(solved.theta), solved.rss, solved.rank, solved.residual
     param_std = linear_param_std(list(theta), solved.unit_cov(), residual, rows, k)
     inertia = theta.pop("inertia")
@@ -502,6 +536,7 @@ __all__ = [
     "BalanceData",
     "FitResult",
     "LinearSolve",
+    "Regressors",
     "bounded_minimum",
     "fit_model",
     "linear_param_std",
