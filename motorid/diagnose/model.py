@@ -206,6 +206,7 @@ class Regressors:
 
     @classmethod
     def of(cls, cols: list[np.ndarray], rows: np.ndarray) -> Regressors:
+        """The regressors of the decimated columns ``cols`` fitted on the ``rows`` (bool)."""
         X = np.column_stack(cols)
         fitted = np.flatnonzero(rows)
         norms = np.linalg.norm(X.take(fitted, axis=0), axis=0)
