@@ -27,7 +27,7 @@ same compiled terms as the regressor columns here.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Hashable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -36,7 +36,6 @@ from motorid.diagnose.effects import EFFECTS, Effect, get_effect
 from motorid.diagnose.kinematics import Kinematics
 from motorid.plants.rigid import RigidDrive, effect_order
 
-# --------------------------------------------------------------------------- simulation kernel
 # --------------------------------------------------------------------------- data
 #: Memory [bytes] :meth:`BalanceData.decimated` may keep cached columns in (between 16 and
 #: 256 columns whatever their size).
@@ -93,7 +92,7 @@ class BalanceData:
     def n(self) -> int:
         return int(self.idx.size)
 
-    def decimated(self, key: str, column: np.ndarray | Callable[[], np.ndarray]) -> np.ndarray:
+    def decimated(self, key: Hashable, column: np.ndarray | Callable[[], np.ndarray]) -> np.ndarray:
         """Decimate a full-rate column, cached under ``key``.
 
         ``column`` is the column or a function that computes it, called only when
@@ -119,11 +118,23 @@ class BalanceData:
 
 
 # --------------------------------------------------------------------------- model
+def model_key(model: RigidDrive) -> tuple:
+    """All a rigid drive's free run and balance depend on, every number to the bit: two models
+    with equal keys give equal outputs."""
+    params = tuple((name, value.hex()) for name, value in model.params.items())
+    return model.effects, params, model.dt.hex(), model.stribeck_shape
+
+
 def model_balance(model: RigidDrive, data: BalanceData) -> tuple[np.ndarray, np.ndarray]:
-    """Measured and modelled force on the decimated samples: ``(F_in,d, J a_d + Σ T_e,d)``."""
+    """Measured and modelled force on the decimated samples: ``(F_in,d, J a_d + Σ T_e,d)``.
+
+    The decimated input force and friction of a model are kept in the cache of
+    :meth:`BalanceData.decimated` (the workflow asks for the same model's more than once).
+    """
     kin = data.kin
-    f_in = kin.decimate(data.balance_force(model.input_force(kin.u)))
-    f_model = model.inertia * data.a + kin.decimate(model.friction(kin.w))
+    key = model_key(model)
+    f_in = data.decimated(("input force", key), lambda: data.balance_force(model.input_force(kin.u)))
+    f_model = model.inertia * data.a + data.decimated(("friction", key), lambda: model.friction(kin.w))
     return f_in, f_model
 
 
@@ -145,6 +156,67 @@ class FitResult:
     param_std: dict[str, float] = field(default_factory=dict)
 
 
+@dataclass
+class LinearSolve:
+    """One least-squares solve of the balance for fixed shape parameters (:func:`_linear_solve`).
+
+    ``theta`` are the linear parameters θ [their units], ``rss`` the residual sum of squares on
+    the fitted rows [F²], ``rank`` the number of columns kept, ``residual`` ``F_in - X θ`` on
+    every decimated sample [F]. ``R_kept`` holds the columns kept (indices ``keep``) of the
+    triangular factor of the unit-norm columns, whose norms are ``norms``.
+    """
+
+    theta: dict[str, float]
+    rss: float
+    rank: int
+    residual: np.ndarray
+    R_kept: np.ndarray
+    keep: np.ndarray
+    norms: np.ndarray
+
+    def unit_cov(self) -> np.ndarray:
+        """C = (XᵀX)⁻¹ over the columns kept (zero rows and columns for a dropped one), in the
+        parameters' units: θ's covariance is σ² C. Asked for by the final fit only.
+
+        XsᵀXs = RᵀR on the kept unit columns; unscaling column j divides its row and column of
+        the inverse by norm_j.
+        """
+        k = self.norms.size
+        if self.keep.size == 0:
+            return np.zeros((k, k))
+        norms = self.norms[self.keep]
+        cov = np.linalg.inv(self.R_kept.T @ self.R_kept) / np.outer(norms, norms)
+        if self.keep.size == k:
+            return cov
+        unit_cov = np.zeros((k, k))
+        unit_cov[np.ix_(self.keep, self.keep)] = cov
+        return unit_cov
+
+
+@dataclass
+class Regressors:
+    """The regressor columns of one solve: ``X`` (N decimated samples, k columns) for the
+    residual, and on the fitted rows (indices ``fitted``) the columns scaled to unit norm, one
+    per row of ``scaled`` (k, M), with their ``norms``."""
+
+    X: np.ndarray
+    fitted: np.ndarray
+    norms: np.ndarray
+    scaled: np.ndarray
+
+    @classmethod
+    def of(cls, cols: list[np.ndarray], rows: np.ndarray) -> Regressors:
+        """The regressors of the decimated columns ``cols`` fitted on the ``rows`` (bool)."""
+        X = np.column_stack(cols)
+        fitted = np.flatnonzero(rows)
+        norms = np.linalg.norm(X.take(fitted, axis=0), axis=0)
+        norms[norms == 0.0] = 1.0
+        scaled = np.empty((len(cols), fitted.size))
+        for j, col in enumerate(cols):
+            np.divide(col.take(fitted), norms[j], out=scaled[j])
+        return cls(X, fitted, norms, scaled)
+
+
 def _linear_solve(
     data: BalanceData,
     effects: tuple[str, ...],
@@ -152,10 +224,14 @@ def _linear_solve(
     gain: float,
     rows: np.ndarray,
     stribeck_shape: str,
-) -> tuple[dict[str, float], float, int, np.ndarray, np.ndarray]:
-    """Least squares of the balance for fixed shape parameters: ``(θ, RSS [F²], rank,
-    residual, C)`` with C = (XᵀX)⁻¹ over the columns kept (zero rows and columns for a
-    dropped one), in the parameters' units: θ's covariance is σ² C."""
+    last: dict[tuple[str, ...], Regressors] | None = None,
+) -> LinearSolve:
+    """Least squares of the balance for fixed shape parameters (see the module notes).
+
+    ``last`` holds the regressors of the previous solve on the same ``rows``, by their columns'
+    keys: a search over an input-path shape (dead zone, delay, ...) changes the force only, and
+    reuses them.
+    """
     kin = data.kin
     input_effects = sorted(
         (get_effect(n) for n in effects if EFFECTS[n].kind == "input" and n != "backlash"),
@@ -176,6 +252,7 @@ def _linear_solve(
 
     target = data.decimated("F|" + "|".join(key_parts), balance_force)
     names = ["inertia"]
+    keys = ["a"]
     cols = [data.a]
     # an offset goes first, so a column that repeats it (the Coulomb asymmetry) is the one dropped
     for name in sorted(effects, key=lambda n: n != "offset"):
@@ -194,29 +271,36 @@ def _linear_solve(
 
         for j, pname in enumerate(eff.linear):
             names.append(pname)
-            cols.append(data.decimated(f"{key}|{j}", lambda j=j, column=column: column(j)))
+            keys.append(f"{key}|{j}")
+            cols.append(data.decimated(keys[-1], lambda j=j, column=column: column(j)))
     k = len(cols)
-    # [Xs | y] on the fitted rows, the columns scaled to unit norm in place (one copy of the rows)
-    scaled = np.column_stack([*cols, target])[rows]
-    norms = np.linalg.norm(scaled[:, :k], axis=0)
-    norms[norms == 0.0] = 1.0
-    scaled[:, :k] /= norms
+    last = {} if last is None else last
+    regressors = last.get(tuple(keys))
+    if regressors is None:
+        regressors = Regressors.of(cols, rows)
+        last.clear()
+        last[tuple(keys)] = regressors
+    X, fitted, norms = regressors.X, regressors.fitted, regressors.norms
+    # [Xs | y] on the fitted rows, the columns scaled to unit norm, one column after the other
+    # (each contiguous: the QR works on columns)
+    scaled_t = np.empty((k + 1, fitted.size))
+    scaled_t[:k] = regressors.scaled
+    target.take(fitted, out=scaled_t[k])
     # one QR of [Xs | y]: |R_jj| is the part of unit column j outside the span of those before
     # it (below 1e-3 it adds no rank), and ||Xs_keep θ - y|| = ||R_keep θ - R_y||, a small problem
-    R = np.linalg.qr(scaled, mode="r")
-    keep = np.flatnonzero(np.abs(np.diag(R)[:k]) > 1e-3).tolist()
+    R = np.linalg.qr(scaled_t.T, mode="r")
+    del scaled_t  # the rows' copy goes before the residual is computed on every sample
+    keep = np.flatnonzero(np.abs(np.diag(R)[:k]) > 1e-3)
     theta = np.zeros(k)
-    unit_cov = np.zeros((k, k))
-    if keep:
-        kept = R[:, keep]
+    kept = R[:, keep]
+    if keep.size:
         sol, *_ = np.linalg.lstsq(kept, R[:, k], rcond=None)
         theta[keep] = sol / norms[keep]
-        # XsᵀXs = RᵀR on the kept columns; unscaling column j divides its row and column by norm_j
-        unit_cov[np.ix_(keep, keep)] = np.linalg.inv(kept.T @ kept) / np.outer(norms[keep], norms[keep])
-    del scaled  # the rows' copy goes before the full-length columns are stacked again
-    residual = target - np.column_stack(cols) @ theta
-    rss = float(np.sum(residual[rows] ** 2))
-    return dict(zip(names, theta.tolist(), strict=True)), rss, len(keep), residual, unit_cov
+    residual = target - X @ theta
+    rss = float(np.sum(residual.take(fitted) ** 2))
+    return LinearSolve(
+        dict(zip(names, theta.tolist(), strict=True)), rss, int(keep.size), residual, kept, keep, norms
+    )
 
 
 def linear_param_std(
@@ -309,15 +393,15 @@ def fit_model(
     ]
 
     # the search's best point so far and its solve: the final fit is that point, solved once
+    last: dict[tuple[str, ...], Regressors] = {}  # the regressors of the last solve on these rows
     best: dict[str, object] = {"cost": math.inf, "point": None, "solve": None}
 
     def cost(p: str, value: float) -> float:
         point = {**shape, p: value}
-        solved = _linear_solve(data, effects, point, gain, rows, stribeck_shape)
-        theta, rss = solved[0], solved[1]
-        if any(theta[q] < 0.0 for q in nonnegative):
+        solved = _linear_solve(data, effects, point, gain, rows, stribeck_shape, last)
+        if any(solved.theta[q] < 0.0 for q in nonnegative):
             return math.inf  # the shape that needs a negative level is not the physical effect
-        value_cost = _accel_rss(rss, theta["inertia"])
+        value_cost = _accel_rss(solved.rss, solved.theta["inertia"])
         if value_cost <= best["cost"]:
             best.update(cost=value_cost, point=point, solve=solved)
         return value_cost
@@ -334,11 +418,11 @@ def fit_model(
                 lambda z, p=p: min(cost(p, math.exp(z)), 1e300), math.log(a), math.log(b), 1e-3
             )
             shape[p] = math.exp(z) if fz <= costs[i] else float(grid[i])
-    if best["point"] == shape:
-        theta, rss, k, residual, unit_cov = best["solve"]  # type: ignore[misc]
-    else:
-        theta, rss, k, residual, unit_cov = _linear_solve(data, effects, shape, gain, rows, stribeck_shape)
-    param_std = linear_param_std(list(theta), unit_cov, residual, rows, k)
+    solved = best["solve"] if best["point"] == shape else None
+    if not isinstance(solved, LinearSolve):
+        solved = _linear_solve(data, effects, shape, gain, rows, stribeck_shape, last)
+    theta, rss, k, residual = dict(solved.theta), solved.rss, solved.rank, solved.residual
+    param_std = linear_param_std(list(theta), solved.unit_cov(), residual, rows, k)
     inertia = theta.pop("inertia")
     params = {"inertia": inertia, "input_gain": gain, **theta, **shape}
     model = RigidDrive(effects, params, data.kin.dt, stribeck_shape)
@@ -449,4 +533,14 @@ def _accel_rss(rss: float, inertia: float) -> float:
     return rss / inertia**2 if inertia > 0.0 and math.isfinite(inertia) else math.inf
 
 
-__all__ = ["BalanceData", "FitResult", "bounded_minimum", "fit_model", "linear_param_std", "model_balance"]
+__all__ = [
+    "BalanceData",
+    "FitResult",
+    "LinearSolve",
+    "Regressors",
+    "bounded_minimum",
+    "fit_model",
+    "linear_param_std",
+    "model_balance",
+    "model_key",
+]

@@ -73,7 +73,14 @@ import pandas as pd
 from motorid.diagnose.effects import EFFECTS, get_effect, param_unit
 from motorid.diagnose.kinematics import Kinematics, kinematics
 from motorid.diagnose.locate import Region, feature, features, locate
-from motorid.diagnose.model import BalanceData, FitResult, bounded_minimum, fit_model, model_balance
+from motorid.diagnose.model import (
+    BalanceData,
+    FitResult,
+    bounded_minimum,
+    fit_model,
+    model_balance,
+    model_key,
+)
 from motorid.errors import DataError
 from motorid.plants.rigid import RigidDrive, check_sample_time, effect_order
 from motorid.records import record_timing
@@ -101,7 +108,8 @@ class Prepared:
     """One record made ready: kinematics, balance data, features and the free-run start.
 
     The features are kept on the decimated samples only (``feats_dec``); a
-    region's full-rate mask is computed when asked for (:meth:`region_mask`).
+    region's full-rate mask is computed when asked for (:meth:`region_mask`). Every
+    model's gaps (:func:`gaps`) are kept: the workflow asks for some more than once.
     """
 
     kin: Kinematics
@@ -110,6 +118,7 @@ class Prepared:
     timing: str
     units: dict[str, str]
     _masks: dict[Region, np.ndarray] = field(default_factory=dict, repr=False)
+    _gaps: dict[tuple, dict[str, float]] = field(default_factory=dict, repr=False)
 
     def region_mask(self, region: Region) -> np.ndarray:
         """Full-rate samples inside ``region`` (cached per region)."""
@@ -263,16 +272,18 @@ def _rms(x: np.ndarray) -> float:
 
 def gaps(model: RigidDrive, prep: Prepared, region: Region | None) -> dict[str, float]:
     """Output gap overall and in ``region`` [v] (free run) and force error [%]."""
-    w_sim = prep.simulate(model)
-    err = prep.kin.w - w_sim
-    valid = prep.kin.valid & np.isfinite(w_sim)
-    r, f_in = balance_residual(model, prep.data)
-    out = {
-        "overall": _rms(err[valid]),
-        "region": _rms(err[valid & prep.region_mask(region)]) if region is not None else float("nan"),
-        "force_error_percent": 100.0 * float(np.linalg.norm(r) / max(np.linalg.norm(f_in), 1e-300)),
-    }
-    return out
+    key = (model_key(model), region)
+    if key not in prep._gaps:
+        w_sim = prep.simulate(model)
+        err = prep.kin.w - w_sim
+        valid = prep.kin.valid & np.isfinite(w_sim)
+        r, f_in = balance_residual(model, prep.data)
+        prep._gaps[key] = {
+            "overall": _rms(err[valid]),
+            "region": _rms(err[valid & prep.region_mask(region)]) if region is not None else float("nan"),
+            "force_error_percent": 100.0 * float(np.linalg.norm(r) / max(np.linalg.norm(f_in), 1e-300)),
+        }
+    return dict(prep._gaps[key])
 
 
 def free_run_error(prep: Prepared, model: RigidDrive) -> np.ndarray:

@@ -1,0 +1,122 @@
+"""The doctor's balance fit against plain NumPy references: the least-squares solve and its
+covariance, the dropped column, and the per-model results the workflow keeps (decimated
+balance, gaps) returned for the model asked about and no other."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from motorid.diagnose.model import _linear_solve, model_balance, model_key
+from motorid.diagnose.synthetic import planted_record
+from motorid.diagnose.workflow import gaps, prepare
+from motorid.plants.rigid import RigidDrive, term_columns
+
+
+@pytest.fixture(scope="module")
+def prep():
+    planted = planted_record("coulomb_friction", 0, duration=10.0)
+    return prepare(planted.record)
+
+
+def reference_columns(prep, names: list[str]) -> np.ndarray:
+    """The decimated regressor columns written out: J's column a, then each term's column."""
+    kin, data = prep.kin, prep.data
+    terms = term_columns(tuple(names), kin.w, 1.0, "exponential")
+    return np.column_stack([data.a, *(kin.decimate(terms[:, j]) for j in range(len(names)))])
+
+
+def reference_target(prep) -> np.ndarray:
+    """F_in = g u (g = 1), held over the sample and taken at its end, decimated."""
+    kin = prep.kin
+    force = np.asarray(kin.u, dtype=float)
+    held = np.append(0.5 * (force[:-1] + force[1:]), force[-1])
+    return kin.decimate(held)
+
+
+def test_the_balance_solve_equals_plain_least_squares_and_its_inverse_normal_matrix(prep):
+    data = prep.data
+    rows = data.moving
+    solve = _linear_solve(
+        data, ("coulomb_friction", "viscous_friction", "offset"), {}, 1.0, rows, "exponential"
+    )
+    names = ["offset", "coulomb", "viscous"]  # the solve puts an offset first, then the library order
+    X = reference_columns(prep, names)[rows]
+    y = reference_target(prep)[rows]
+    theta, *_ = np.linalg.lstsq(X, y, rcond=None)
+    cov = np.linalg.inv(X.T @ X)
+    unit = X / np.linalg.norm(X, axis=0)
+    # two algorithms (QR of the unit-norm columns; SVD) agree to about cond * 1e-16 relative: the
+    # tolerance holds for a condition number up to 1e5, checked here
+    assert np.linalg.cond(unit) < 1e3
+    assert list(solve.theta) == ["inertia", *names]
+    np.testing.assert_allclose(list(solve.theta.values()), theta, rtol=1e-10)
+    np.testing.assert_allclose(solve.unit_cov(), cov, rtol=1e-10)
+    residual = reference_target(prep) - reference_columns(prep, names) @ theta
+    assert solve.rank == 4 and solve.residual.shape == (data.n,)
+    np.testing.assert_allclose(solve.residual, residual, rtol=0, atol=1e-10 * np.abs(y).max())
+    assert solve.rss == pytest.approx(float(np.sum(residual[rows] ** 2)), rel=1e-9)
+
+
+def test_a_search_over_the_input_path_reuses_the_regressors_and_solves_as_without(prep):
+    """Points of a dead-zone search change the force only: solved one after the other with the
+    regressors kept, each equals its solve from scratch to the bit (and the kept ones are
+    replaced when the columns change)."""
+    data = prep.data
+    effects = ("viscous_friction", "input_dead_zone", "offset")
+    last: dict = {}
+    for dead_zone in (0.05, 0.2, 0.4):
+        kept = _linear_solve(data, effects, {"dead_zone": dead_zone}, 1.0, data.moving, "exponential", last)
+        fresh = _linear_solve(data, effects, {"dead_zone": dead_zone}, 1.0, data.moving, "exponential")
+        assert kept.theta == fresh.theta and kept.rss == fresh.rss
+        np.testing.assert_array_equal(kept.residual, fresh.residual)
+    assert len(last) == 1
+    (regressors,) = last.values()
+    other = _linear_solve(data, ("coulomb_friction", "viscous_friction", "offset"), {}, 1.0, data.moving,
+                          "exponential", last)  # fmt: skip
+    assert len(last) == 1 and next(iter(last.values())) is not regressors and len(other.theta) == 4
+
+
+def test_a_column_that_repeats_the_offset_is_dropped_with_zero_estimate_and_covariance(prep):
+    """While the drive moves, the Coulomb asymmetry |sgn w| is the offset's column: it adds no rank,
+    its parameter is 0, its row and column of C are 0 and the rest is the fit without it."""
+    data = prep.data
+    effects = ("coulomb_friction", "asymmetric_friction", "viscous_friction", "offset")
+    solve = _linear_solve(data, effects, {}, 1.0, data.moving, "exponential")
+    names = list(solve.theta)
+    dropped = names.index("coulomb_asymmetry")
+    assert solve.rank == len(names) - 1 and solve.theta["coulomb_asymmetry"] == 0.0
+    cov = solve.unit_cov()
+    assert not cov[dropped].any() and not cov[:, dropped].any()
+    kept = [n for n in names[1:] if n != "coulomb_asymmetry"]
+    X = reference_columns(prep, kept)[data.moving]
+    theta, *_ = np.linalg.lstsq(X, reference_target(prep)[data.moving], rcond=None)
+    rest = [i for i in range(len(names)) if i != dropped]
+    # as above: QR against SVD on a well-conditioned matrix
+    np.testing.assert_allclose([solve.theta[n] for n in ["inertia", *kept]], theta, rtol=1e-10)
+    np.testing.assert_allclose(cov[np.ix_(rest, rest)], np.linalg.inv(X.T @ X), rtol=1e-10)
+
+
+def test_each_model_gets_its_own_balance_and_gaps_not_another_ones(prep):
+    """The workflow keeps each model's decimated balance and gaps; asking again, or for a model
+    one bit apart, gives that model's own."""
+    kin, data = prep.kin, prep.data
+    params = {"inertia": 0.01, "input_gain": 1.0, "viscous": 1e-3, "offset": 0.0, "coulomb": 5e-3}
+    one = RigidDrive(("coulomb_friction", "viscous_friction", "offset"), params, kin.dt)
+    bit_apart = one.with_params(coulomb=float(np.nextafter(5e-3, 1.0)))
+    other = one.with_params(coulomb=8e-3, offset=-0.0)
+    assert model_key(one) == model_key(one.with_params()) and model_key(one) != model_key(bit_apart)
+    assert model_key(one.with_params(offset=-0.0)) != model_key(one)  # -0.0 == 0.0, but not the same bits
+    for model in (one, other, one, bit_apart, other):
+        f_in, f_model = model_balance(model, data)
+        np.testing.assert_array_equal(f_in, kin.decimate(data.balance_force(model.input_force(kin.u))))
+        np.testing.assert_array_equal(f_model, model.inertia * data.a + kin.decimate(model.friction(kin.w)))
+    first = gaps(one, prep, None)
+    first["overall"] = -1.0  # the caller's copy: what is kept does not change
+    again, far = gaps(one, prep, None), gaps(other, prep, None)
+    assert again["overall"] > 0.0 and again["overall"] != far["overall"]
+    err = kin.w - prep.simulate(one)
+    ok = kin.valid & np.isfinite(err)
+    assert again["overall"] == pytest.approx(
+        np.sqrt(np.mean(err[ok] ** 2)), rel=1e-12
+    )  # the RMS; rel 1e-12 allows another summation order
