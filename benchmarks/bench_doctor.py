@@ -4,8 +4,9 @@ beside the start-up floor every such command pays before any work.
 Run: ``.venv/bin/python benchmarks/bench_doctor.py [--repeat 5]`` (or within ``make bench``).
 
 Each figure is the median wall time [s] and the largest peak resident memory [MB] over
-``--repeat`` fresh processes, the two commands alternated, after one warm-up run of each
-(numba's caches are then on disk, as after any first run). The floor is a process that
+``--repeat`` fresh processes, the commands alternated, after one warm-up run of each: numba's
+caches and Python's bytecode are then on disk, as after any first run (the processes write
+bytecode even where ``PYTHONDONTWRITEBYTECODE`` is set here, as a user's Python does). The floor is a process that
 imports pandas and runs one kernel of the extension compiled ahead of time
 (:mod:`motorid.compiled`): the doctor reads its record into pandas and runs those kernels, so
 it cannot start faster or smaller than that. A third row is the doctor with every kernel
@@ -16,6 +17,7 @@ does the doctor's work, so the rows have none. Not a test: it prints figures.
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import sys
 import tempfile
@@ -52,11 +54,12 @@ def measure_doctor(repeat: int = 5) -> list[Row]:
                 FLOOR,
             ],
         }
+        env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
         walls: dict[str, list[float]] = {name: [] for name in runs}
         peaks = dict.fromkeys(runs, 0.0)
         for attempt in range(repeat + 1):
             for name, argv in runs.items():
-                wall, peak, _ = doctor_large.measure(argv)
+                wall, peak, _ = doctor_large.measure(argv, env)
                 if attempt:  # the first run of each fills numba's caches
                     walls[name].append(wall)
                     peaks[name] = max(peaks[name], peak)

@@ -51,11 +51,12 @@ def make_record(path: Path, samples: int, dt: float) -> None:
     write_record(record, path)
 
 
-def measure(argv: list[str]) -> tuple[float, float, str]:
-    """Wall time [s], peak RSS [MB] and stderr of ``argv`` run in a fresh process."""
+def measure(argv: list[str], env: dict[str, str] | None = None) -> tuple[float, float, str]:
+    """Wall time [s], peak RSS [MB] and stderr of ``argv`` run in a fresh process (environment
+    ``env``, default this one's)."""
     t0 = time.perf_counter()
     done = subprocess.run(
-        [sys.executable, "-c", PEAK_OF_CHILD, *argv], capture_output=True, text=True, check=True
+        [sys.executable, "-c", PEAK_OF_CHILD, *argv], capture_output=True, text=True, check=True, env=env
     )
     wall = time.perf_counter() - t0
     return wall, int(done.stdout.split()[-1]) / 1024, done.stderr
