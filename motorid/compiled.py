@@ -48,7 +48,7 @@ EXTENSION = "_kernels"
 #: kernel's parameter names and defaults.
 BUILD_RECORD = Path(__file__).with_name(f"{EXTENSION}.json")
 
-#: Argument kinds: numba's type (for the build) and the Python type each argument must be.
+#: The kinds of argument and numba's type of each (for the build); :func:`checked` checks them at a call.
 KINDS: dict[str, str] = {
     "float": "f8",
     "int": "i8",
