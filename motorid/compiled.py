@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib
+import importlib.machinery
 import json
 import logging
 import operator
@@ -223,10 +224,11 @@ _loaded: dict[str, ModuleType | BuiltModule] = {}
 
 
 def status(folder: Path = _PACKAGE) -> str:
-    """Whether the extension in ``folder`` is used: ``"built"``, or why not: ``"not built"``,
-    ``"stale"`` (built from other source), ``"off"`` (``MOTORID_JIT_ONLY=1``: every kernel
-    through numba's JIT) or ``"off: NUMBA_DISABLE_JIT"`` (numba's switch to run kernels as
-    plain Python, for debugging)."""
+    """Whether the extension in ``folder`` is used: ``"built"``, or why not: ``"not built"``
+    (no build record, or no extension for this Python, as when another Python version built
+    it), ``"stale"`` (built from other source), ``"off"`` (``MOTORID_JIT_ONLY=1``: every
+    kernel through numba's JIT) or ``"off: NUMBA_DISABLE_JIT"`` (numba's switch to run kernels
+    as plain Python, for debugging)."""
     if os.environ.get("MOTORID_JIT_ONLY", "0") not in ("", "0"):
         return "off"
     if os.environ.get("NUMBA_DISABLE_JIT", "0") not in ("", "0"):
@@ -234,6 +236,10 @@ def status(folder: Path = _PACKAGE) -> str:
     try:
         record = json.loads((folder / BUILD_RECORD.name).read_text())
     except (OSError, ValueError):
+        return "not built"
+    if not any(
+        (folder / f"{EXTENSION}{suffix}").exists() for suffix in importlib.machinery.EXTENSION_SUFFIXES
+    ):
         return "not built"
     return "built" if record.get("digest") == source_digest() else "stale"
 

@@ -4,6 +4,7 @@ started without numba."""
 
 from __future__ import annotations
 
+import importlib.machinery
 import importlib.util
 import json
 import math
@@ -133,10 +134,15 @@ def test_arguments_are_converted_or_refused_by_name(built):
 def test_a_stale_or_missing_build_is_left_unused(tmp_path, monkeypatch):
     assert compiled.status(tmp_path) == "not built"
     record = tmp_path / compiled.BUILD_RECORD.name
+    record.write_text(json.dumps({"digest": compiled.source_digest()}))
+    assert compiled.status(tmp_path) == "not built"  # the record of a build, but no extension for this Python
+    (tmp_path / f"{compiled.EXTENSION}.cpython-399-x86_64-linux-gnu.so").touch()  # another Python's
+    assert compiled.status(tmp_path) == "not built"
+    (tmp_path / f"{compiled.EXTENSION}{importlib.machinery.EXTENSION_SUFFIXES[0]}").touch()
+    assert compiled.status(tmp_path) == "built"
     record.write_text(json.dumps({"digest": "0" * 64}))  # built from another source
     assert compiled.status(tmp_path) == "stale"
     record.write_text(json.dumps({"digest": compiled.source_digest()}))
-    assert compiled.status(tmp_path) == "built"
     monkeypatch.setenv("MOTORID_JIT_ONLY", "1")
     assert compiled.status(tmp_path) == "off"
     monkeypatch.setenv("MOTORID_JIT_ONLY", "0")
