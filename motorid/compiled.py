@@ -260,11 +260,20 @@ def load(module: str) -> ModuleType | BuiltModule:
     (:func:`status`), else the module itself (compiled by numba at first call)."""
     if module not in _loaded:
         state = status()
+        kernels: ModuleType | BuiltModule | None = None
         if state == "built":
-            extension = importlib.import_module(f"{__package__}.{EXTENSION}")
-            _loaded[module] = built_module(module, extension, json.loads(BUILD_RECORD.read_text()))
-        else:
-            _loaded[module] = importlib.import_module(module)
+            try:
+                extension = importlib.import_module(f"{__package__}.{EXTENSION}")
+            except ImportError as exc:  # e.g. built against another numpy: the JIT gives the same numbers
+                logger.warning(
+                    "the kernels compiled ahead of time do not load (%s); numba compiles them instead "
+                    "(python -m motorid.compiled --force rebuilds them)",
+                    exc,
+                )
+                state = "does not load"
+            else:
+                kernels = built_module(module, extension, json.loads(BUILD_RECORD.read_text()))
+        _loaded[module] = kernels if kernels is not None else importlib.import_module(module)
         logger.debug(
             "%s: kernels %s", module, "compiled ahead of time" if state == "built" else f"by numba ({state})"
         )

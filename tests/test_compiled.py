@@ -150,6 +150,15 @@ def test_a_stale_or_missing_build_is_left_unused(tmp_path, monkeypatch):
     assert compiled.status(tmp_path) == "off: NUMBA_DISABLE_JIT"
 
 
+def test_an_extension_that_does_not_load_leaves_the_jit(monkeypatch, caplog):
+    monkeypatch.setattr(compiled, "status", lambda folder=None: "built")
+    monkeypatch.setattr(compiled, "EXTENSION", "_no_such_extension")  # as if built against another numpy
+    monkeypatch.setattr(compiled, "_loaded", {})
+    with caplog.at_level("WARNING", logger="motorid.compiled"):
+        assert compiled.load(SECTIONS) is sections
+    assert "do not load" in caplog.text and "python -m motorid.compiled --force" in caplog.text
+
+
 def test_the_digest_covers_each_kernels_source():
     files = {compiled.module_file(k.module) for k in compiled.KERNELS}
     assert files == {Path(physics.__file__), Path(sections.__file__)}
