@@ -178,6 +178,20 @@ VARIANTS = {
 }
 
 
+def central_differences(fn, x: np.ndarray, floor) -> np.ndarray:
+    """The Jacobian of ``fn`` at ``x`` by central differences, column k with the step
+    1e-6 max(|x_k|, floor_k) (``floor``: a number or one per state)."""
+    floors = np.broadcast_to(np.asarray(floor, dtype=float), x.shape)
+    columns = []
+    for k in range(x.size):
+        step = 1e-6 * max(abs(x[k]), floors[k])
+        up, down = x.copy(), x.copy()
+        up[k] += step
+        down[k] -= step
+        columns.append((fn(up) - fn(down)) / (2 * step))
+    return np.column_stack(columns)
+
+
 def moving_state(ekf: FrictionEKF, speed: float = 40.0) -> np.ndarray:
     x = ekf.x.copy()
     x[:3] = [speed, speed - 0.3, 2e-3]
@@ -221,13 +235,7 @@ def test_continuous_model_and_jacobian_against_numpy_reference(variant, s):
     # agree to a few roundings of the largest term, K_m i_a / J_m = 3.2e3 rad/s^2 here
     # (30 rad/s, 5 V), whose unit in the last place is 4.5e-13; atol 1e-9 is 2000 of them.
     np.testing.assert_allclose(f, ref(x), rtol=1e-12, atol=1e-9)
-    A_fd = np.empty((n, n))
-    for k in range(n):
-        step = 1e-6 * max(abs(x[k]), 1e-3)
-        up, down = x.copy(), x.copy()
-        up[k] += step
-        down[k] -= step
-        A_fd[:, k] = (ref(up) - ref(down)) / (2 * step)
+    A_fd = central_differences(ref, x, 1e-3)
     np.testing.assert_allclose(A, A_fd, rtol=1e-6, atol=1e-6 * np.abs(A).max())
 
 
@@ -272,13 +280,7 @@ def test_rigid_drive_model_and_jacobian_against_numpy_reference(shape, s):
     # at the prior (the drive's own friction) the filter's torque is the drive's (offset included)
     t_drive = float(drive.friction(np.array([x[0]]))[0])
     assert (0.02 * v - f[0] * 1e-4) == pytest.approx(t_drive, rel=1e-12)
-    A_fd = np.empty((5, 5))
-    for k in range(5):
-        step = 1e-6 * max(abs(x[k]), 1e-3)
-        up, down = x.copy(), x.copy()
-        up[k] += step
-        down[k] -= step
-        A_fd[:, k] = (reference(up) - reference(down)) / (2 * step)
+    A_fd = central_differences(reference, x, 1e-3)
     np.testing.assert_allclose(A, A_fd, rtol=1e-6, atol=1e-6 * np.abs(A).max())
 
 
@@ -443,17 +445,11 @@ def test_sample_jacobian_against_finite_differences_away_from_zero(variant, s):
     F = np.empty((n, n))
     x_next = physics.filter_propagate(x, v, ekf._c, F, True)
     assert np.sign(x_next[0]) == s and np.sign(x_next[1]) == s  # no reversal in the sample
-    F_fd = np.empty((n, n))
     dummy = np.empty((0, 0))
-    for k in range(n):
-        step = 1e-6 * max(abs(x[k]), 1e-2 if k < 3 else 1e-5)
-        up, down = x.copy(), x.copy()
-        up[k] += step
-        down[k] -= step
-        F_fd[:, k] = (
-            physics.filter_propagate(up, v, ekf._c, dummy, False)
-            - physics.filter_propagate(down, v, ekf._c, dummy, False)
-        ) / (2 * step)
+    floors = [1e-2 if k < 3 else 1e-5 for k in range(n)]
+    F_fd = central_differences(
+        lambda state: physics.filter_propagate(state, v, ekf._c, dummy, False), x, floors
+    )
     scale = np.abs(F).max(axis=1, keepdims=True)
     np.testing.assert_allclose(F, F_fd, rtol=1e-5, atol=1e-7 * scale.max())
     # predict() leaves in ekf.F what this very propagate gives at the voltage it applied
