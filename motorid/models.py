@@ -51,6 +51,7 @@ from typing import Any
 import numpy as np
 
 from motorid.errors import DataError
+from motorid.json_input import MAX_INTEGER, parse_json
 from motorid.plants.amplifier import Amplifier
 from motorid.plants.friction import FRICTION_KINDS
 from motorid.plants.rig import TwoMassRig
@@ -79,6 +80,10 @@ __all__ = [
     "rigid_drive_from_dict",
     "save_model",
 ]
+
+
+#: Longest text a model file's value may hold (names, sides, basis specs are far shorter).
+_LONGEST_TEXT = 500
 
 
 class _BadKeyError(Exception):
@@ -206,13 +211,7 @@ def load_model(path: str | os.PathLike[str]) -> Any:
         raise DataError(f"{source}: cannot read the model file: {exc.strerror or exc}") from None
     except UnicodeDecodeError:
         raise DataError(f"{source}: not a model file (not UTF-8 text)") from None
-    try:
-        data = json.loads(text, parse_constant=lambda name: float(name))
-    except json.JSONDecodeError as exc:
-        raise DataError(
-            f"{source}: not a model file (invalid JSON at line {exc.lineno}: {exc.msg})"
-        ) from None
-    return model_from_dict(data, source=str(source))
+    return model_from_dict(parse_json(text, str(source)), source=str(source))
 
 
 def model_from_dict(data: Any, source: str = "model") -> Any:
@@ -225,7 +224,7 @@ def model_from_dict(data: Any, source: str = "model") -> Any:
             raise DataError(f'{source}: not a motorid model file (no "format": "{FORMAT}")')
         version = data.get("version")
         if isinstance(version, bool) or not isinstance(version, int):
-            raise DataError(f"{source}: version must be an integer, got {version!r}")
+            raise DataError(f"{source}: version must be an integer, got {_shown(version)}")
         if version > VERSION:
             raise DataError(
                 f"{source}: model file version {version} is newer than this motorid reads "
@@ -234,7 +233,7 @@ def model_from_dict(data: Any, source: str = "model") -> Any:
         if version < 1:
             raise DataError(f"{source}: unknown model file version {version} (known: 1 to {VERSION})")
         _keys(data, ("format", "version", "kind", "model"), "")
-        kind = data["kind"]
+        kind = _text(data["kind"], "kind")
         if kind == KIND_RIG:
             return _rig(data["model"], "model")
         if kind == KIND_RIGID:
@@ -299,11 +298,24 @@ def _join(where: str, key: str | int) -> str:
     return f"{where}.{key}" if where else key
 
 
+def _shown(value: Any) -> str:
+    """``value`` as JSON for a message, cut to 60 characters (a file may hold a 50 MB string)."""
+    try:
+        text = json.dumps(value)
+    except (TypeError, ValueError):  # an integer of more digits than Python converts to text
+        text = type(value).__name__
+    return text if len(text) <= 60 else f"{text[:57]}..."
+
+
 def _number(value: Any, key: str, *, none_is: float | None = None) -> float:
     if value is None and none_is is not None:
         return none_is
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise _BadKeyError(key, f"must be a number, got {json.dumps(value)}")
+        raise _BadKeyError(key, f"must be a number, got {_shown(value)}")
+    if isinstance(value, int) and abs(value) > MAX_INTEGER:
+        raise _BadKeyError(
+            key, f"must be a number within ±2**53, got an integer of {len(str(abs(value)))} digits"
+        )
     if not math.isfinite(value):
         raise _BadKeyError(key, f"must be finite, got {value!r}")
     return float(value)
@@ -311,19 +323,23 @@ def _number(value: Any, key: str, *, none_is: float | None = None) -> float:
 
 def _integer(value: Any, key: str) -> int:
     if isinstance(value, bool) or not isinstance(value, int):
-        raise _BadKeyError(key, f"must be an integer, got {json.dumps(value)}")
+        raise _BadKeyError(key, f"must be an integer, got {_shown(value)}")
+    if abs(value) > MAX_INTEGER:
+        raise _BadKeyError(key, f"must be an integer within ±2**53, got one of {len(str(abs(value)))} digits")
     return value
 
 
 def _boolean(value: Any, key: str) -> bool:
     if not isinstance(value, bool):
-        raise _BadKeyError(key, f"must be true or false, got {json.dumps(value)}")
+        raise _BadKeyError(key, f"must be true or false, got {_shown(value)}")
     return value
 
 
 def _text(value: Any, key: str) -> str:
     if not isinstance(value, str):
-        raise _BadKeyError(key, f"must be a string, got {json.dumps(value)}")
+        raise _BadKeyError(key, f"must be a string, got {_shown(value)}")
+    if len(value) > _LONGEST_TEXT:
+        raise _BadKeyError(key, f"must be a name of at most {_LONGEST_TEXT} characters, got {len(value)}")
     return value
 
 
@@ -339,8 +355,11 @@ def _array(value: Any, key: str, shape: tuple[int, ...]) -> np.ndarray:
     if bad.size:
         where = "".join(f"[{int(i)}]" for i in bad[0])
         raise _BadKeyError(key + where, f"must be finite, got {float(arr[tuple(bad[0])])!r}")
-    if any(isinstance(v, bool) for v in np.array(value, dtype=object).reshape(-1)):
-        raise _BadKeyError(key, "must hold numbers, not true/false")
+    if not all(
+        isinstance(v, int | float) and not isinstance(v, bool)
+        for v in np.array(value, dtype=object).reshape(-1)
+    ):
+        raise _BadKeyError(key, "must hold numbers, not text or true/false")
     return arr
 
 
@@ -373,7 +392,7 @@ def _scalars(cls: Any, data: Any, where: str) -> Any:
 def _friction(data: Any, where: str) -> Any:
     if not isinstance(data, dict):
         raise _BadKeyError(where, f"must be a JSON object, got {type(data).__name__}")
-    kind = data.get("kind")
+    kind = _text(data.get("kind"), _join(where, "kind"))
     if kind not in FRICTION_KINDS:
         raise _BadKeyError(
             _join(where, "kind"), f"unknown friction law {kind!r} (known: {', '.join(FRICTION_KINDS)})"
@@ -391,7 +410,7 @@ def _rig(data: Any, where: str) -> TwoMassRig:
         value = data[f.name]
         if f.name == "friction":
             if not isinstance(value, list):
-                raise _BadKeyError(key, f"must be a list of friction laws, got {json.dumps(value)}")
+                raise _BadKeyError(key, f"must be a list of friction laws, got {_shown(value)}")
             values[f.name] = tuple(_friction(item, _join(key, k)) for k, item in enumerate(value))
         elif f.name in parts:
             values[f.name] = _scalars(parts[f.name], value, key)
@@ -410,7 +429,7 @@ def _rigid_drive(data: Any, where: str) -> RigidDrive:
     _keys(data, ("effects", "params", "dt", "stribeck_shape"), where)
     e_where = _join(where, "effects")
     if not isinstance(data["effects"], list):
-        raise _BadKeyError(e_where, f"must be a list of effect names, got {json.dumps(data['effects'])}")
+        raise _BadKeyError(e_where, f"must be a list of effect names, got {_shown(data['effects'])}")
     effects = []
     for k, name in enumerate(data["effects"]):
         if _text(name, _join(e_where, k)) not in RIGID_EFFECTS:
@@ -438,7 +457,7 @@ def _estimator(data: Any, where: str) -> Any:
 
     _keys(data, ("estimator", "settings", "state"), where)
     classes = {cls.name: cls for cls in (ARXRLS, HammersteinRLS, FrictionEKF, FrictionUKF)}
-    name = data["estimator"]
+    name = _text(data["estimator"], _join(where, "estimator"))
     if name not in classes:
         raise _BadKeyError(
             _join(where, "estimator"), f"unknown estimator {name!r} (known: {', '.join(classes)})"
@@ -471,7 +490,7 @@ def _rls(cls: Any, settings: Any, state: Any, where: str) -> Any:
         kw["gamma_method"] = _text(settings["gamma_method"], _join(s_where, "gamma_method"))
     x0 = settings["x0"]
     if not isinstance(x0, list):
-        raise _BadKeyError(_join(s_where, "x0"), f"must be a list of numbers, got {json.dumps(x0)}")
+        raise _BadKeyError(_join(s_where, "x0"), f"must be a list of numbers, got {_shown(x0)}")
     kw["x0"] = _array(x0, _join(s_where, "x0"), (len(x0),))
     est = _build(cls, kw, s_where)
     n = est.dim_x
