@@ -470,6 +470,7 @@ def _estimator(data: Any, where: str) -> Any:
 
 def _rls(cls: Any, settings: Any, state: Any, where: str) -> Any:
     from motorid.estimators import HammersteinRLS
+    from motorid.estimators.base import check_covariance
 
     s_where, x_where = _join(where, "settings"), _join(where, "state")
     names = ["na", "nb", "lam", "delta", "direct_term", "max_trace", "R", "x0"]
@@ -497,6 +498,10 @@ def _rls(cls: Any, settings: Any, state: Any, where: str) -> Any:
     _keys(state, ("x", "P", "y_history", "g_history", "sample_index"), x_where)
     x = _array(state["x"], _join(x_where, "x"), (n,))
     P = _array(state["P"], _join(x_where, "P"), (n, n))
+    try:
+        P = check_covariance("P", P)
+    except ValueError as exc:
+        raise _BadKeyError(_join(x_where, "P"), str(exc)) from None
     y_history = _array(state["y_history"], _join(x_where, "y_history"), est.y_history.shape)
     g_history = _array(state["g_history"], _join(x_where, "g_history"), est.g_history.shape)
     sample_index = _integer(state["sample_index"], _join(x_where, "sample_index"))
