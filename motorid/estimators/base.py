@@ -103,16 +103,18 @@ def check_covariance(name: str, P: np.ndarray) -> np.ndarray:
     ``<= LARGEST_VARIANCE``, with ``rtol`` = :data:`COVARIANCE_RTOL`; returned as
     ``(P + Pᵀ)/2``, which is ``P`` bit for bit when ``P`` is exactly symmetric.
     """
-    scale = float(np.max(np.abs(P))) if P.size else 0.0
-    asymmetry = float(np.max(np.abs(P - P.T))) if P.size else 0.0
+    if not P.size:
+        return P
+    scale = float(np.max(np.abs(P)))
+    if scale > LARGEST_VARIANCE:  # |P_ij| <= sqrt(P_ii P_jj) <= the largest eigenvalue of a covariance
+        raise ValueError(f"{name} must have variances of at most {LARGEST_VARIANCE:g}, got an entry of {scale:.3g}")
+    asymmetry = float(np.max(np.abs(P - P.T)))
     if asymmetry > COVARIANCE_RTOL * scale:
         raise ValueError(
             f"{name} must be symmetric (within {COVARIANCE_RTOL:g} of its largest entry), "
             f"got max |P - P^T| = {asymmetry:.3g} beside max |P| = {scale:.3g}"
         )
     P = 0.5 * (P + P.T)
-    if not P.size:
-        return P
     eigenvalues = np.linalg.eigvalsh(P)
     if eigenvalues[0] < -COVARIANCE_RTOL * len(P) * scale:
         raise ValueError(f"{name} must be positive semi-definite, got an eigenvalue of {eigenvalues[0]:.3g}")
