@@ -30,7 +30,13 @@ file before it builds anything, and a bad file (not JSON, another format, a newe
 unknown version, a missing or unknown key, a wrong type, NaN, a value out of range
 such as a negative inertia, an unknown friction law) raises one
 :class:`~motorid.errors.DataError` naming the file and the key, e.g.
-``rig.json: model.J_m: J_m must be > 0, got -1.0``.
+``rig.json: model.J_m: J_m must be > 0, got -1.0``. Nothing a file says is trusted
+with memory or time: the file is at most :data:`LARGEST_FILE` bytes, its JSON at most
+32 levels deep with integers within ±2**53 (:mod:`motorid.json_input`), every drive
+parameter within its physical range (:mod:`motorid.plants.ranges`), every size an
+array is allocated with bounded (NIS window, delay line, orders, basis) before the
+array is made, and a covariance symmetric positive semi-definite within 1e-9
+relative (:func:`~motorid.estimators.base.check_covariance`).
 
 This module sits at the top of the package, beside :mod:`motorid.records`, because
 a model file holds either a drive model (:mod:`motorid.plants`) or an estimator
@@ -82,6 +88,9 @@ __all__ = [
 ]
 
 
+#: Largest model file [bytes]: an estimator of the most parameters (1000) writes a covariance of
+#: 10**6 numbers, about 25 MB.
+LARGEST_FILE = 64 * 2**20
 #: Longest text a model file's value may hold (names, sides, basis specs are far shorter).
 _LONGEST_TEXT = 500
 
@@ -206,6 +215,13 @@ def load_model(path: str | os.PathLike[str]) -> Any:
     """
     source = Path(path)
     try:
+        size = source.stat().st_size
+        if not source.is_file():  # a FIFO or a device would block or never end
+            raise DataError(f"{source}: cannot read the model file: not a regular file")
+        if size > LARGEST_FILE:
+            raise DataError(
+                f"{source}: not a model file: {size} bytes, more than the {LARGEST_FILE} a model file takes"
+            )
         text = source.read_text(encoding="utf-8")
     except OSError as exc:
         raise DataError(f"{source}: cannot read the model file: {exc.strerror or exc}") from None
@@ -343,8 +359,8 @@ def _text(value: Any, key: str) -> str:
     return value
 
 
-def _array(value: Any, key: str, shape: tuple[int, ...]) -> np.ndarray:
-    """A finite float array of ``shape`` from nested lists."""
+def _array(value: Any, key: str, shape: tuple[int, ...], largest: float = math.inf) -> np.ndarray:
+    """A finite float array of ``shape`` from nested lists, entries within ±``largest``."""
     try:
         arr = np.array(value, dtype=float)
     except (TypeError, ValueError):
@@ -355,6 +371,10 @@ def _array(value: Any, key: str, shape: tuple[int, ...]) -> np.ndarray:
     if bad.size:
         where = "".join(f"[{int(i)}]" for i in bad[0])
         raise _BadKeyError(key + where, f"must be finite, got {float(arr[tuple(bad[0])])!r}")
+    big = np.argwhere(np.abs(arr) > largest)
+    if big.size:
+        where = "".join(f"[{int(i)}]" for i in big[0])
+        raise _BadKeyError(key + where, f"must be within ±{largest:g}, got {float(arr[tuple(big[0])])!r}")
     if not all(
         isinstance(v, int | float) and not isinstance(v, bool)
         for v in np.array(value, dtype=object).reshape(-1)
@@ -470,7 +490,7 @@ def _estimator(data: Any, where: str) -> Any:
 
 def _rls(cls: Any, settings: Any, state: Any, where: str) -> Any:
     from motorid.estimators import HammersteinRLS
-    from motorid.estimators.base import check_covariance
+    from motorid.estimators.base import LARGEST_VALUE, check_covariance
 
     s_where, x_where = _join(where, "settings"), _join(where, "state")
     names = ["na", "nb", "lam", "delta", "direct_term", "max_trace", "R", "x0"]
@@ -492,18 +512,18 @@ def _rls(cls: Any, settings: Any, state: Any, where: str) -> Any:
     x0 = settings["x0"]
     if not isinstance(x0, list):
         raise _BadKeyError(_join(s_where, "x0"), f"must be a list of numbers, got {_shown(x0)}")
-    kw["x0"] = _array(x0, _join(s_where, "x0"), (len(x0),))
+    kw["x0"] = _array(x0, _join(s_where, "x0"), (len(x0),), LARGEST_VALUE)
     est = _build(cls, kw, s_where)
     n = est.dim_x
     _keys(state, ("x", "P", "y_history", "g_history", "sample_index"), x_where)
-    x = _array(state["x"], _join(x_where, "x"), (n,))
+    x = _array(state["x"], _join(x_where, "x"), (n,), LARGEST_VALUE)
     P = _array(state["P"], _join(x_where, "P"), (n, n))
     try:
         P = check_covariance("P", P)
     except ValueError as exc:
         raise _BadKeyError(_join(x_where, "P"), str(exc)) from None
-    y_history = _array(state["y_history"], _join(x_where, "y_history"), est.y_history.shape)
-    g_history = _array(state["g_history"], _join(x_where, "g_history"), est.g_history.shape)
+    y_history = _array(state["y_history"], _join(x_where, "y_history"), est.y_history.shape, LARGEST_VALUE)
+    g_history = _array(state["g_history"], _join(x_where, "g_history"), est.g_history.shape, LARGEST_VALUE)
     sample_index = _integer(state["sample_index"], _join(x_where, "sample_index"))
     if sample_index < 0:
         raise _BadKeyError(_join(x_where, "sample_index"), f"must be >= 0, got {sample_index}")

@@ -172,3 +172,117 @@ def test_mutated_record_attributes_read_or_are_refused_naming_the_file(tmp_path,
         return
     assert math.isclose(record.attrs["dt"], 0.04, rel_tol=1e-3)
     assert list(record.columns) == ["t", "u", "y"]
+
+
+# --------------------------------------------------------------------------- the bounds themselves
+def test_json_depth_and_integers_are_bounded_at_the_stated_limits():
+    from motorid.json_input import MAX_DEPTH, MAX_INTEGER, parse_json
+
+    deepest = parse_json("[" * MAX_DEPTH + "]" * MAX_DEPTH, "f.json")
+    for _ in range(MAX_DEPTH - 1):
+        (deepest,) = deepest
+    assert deepest == []
+    with pytest.raises(DataError, match=r"f.json: .*nested deeper than 32 levels"):
+        parse_json("[" * (MAX_DEPTH + 1) + "]" * (MAX_DEPTH + 1), "f.json")
+    with pytest.raises(DataError, match=r"^f.json: the JSON is nested deeper than 32 levels$"):
+        parse_json("[" * 100_000 + "]" * 100_000, "f.json")
+    assert parse_json(f'{{"n": [{MAX_INTEGER}, {-MAX_INTEGER}]}}', "f.json") == {
+        "n": [MAX_INTEGER, -MAX_INTEGER]
+    }
+    with pytest.raises(DataError, match=r"^f.json: n\[1\]: an integer of 16 digits is beyond ±2\*\*53"):
+        parse_json(f'{{"n": [1, {MAX_INTEGER + 1}]}}', "f.json")
+    with pytest.raises(DataError, match=r"^f.json: a.b: an integer of 5000 digits"):
+        parse_json('{"a": {"b": ' + "9" * 5000 + "}}", "f.json")
+    with pytest.raises(DataError, match=r"^f.json: invalid JSON at line 1 column 2"):
+        parse_json("{", "f.json")
+
+
+def test_a_covariance_is_accepted_within_the_stated_tolerance_and_symmetrised():
+    from motorid.estimators.base import COVARIANCE_RTOL, check_covariance
+
+    P = np.array([[2.0, 0.5], [0.5, 1.0]])
+    assert check_covariance("P", P) is not P
+    np.testing.assert_array_equal(check_covariance("P", P), P)  # exactly symmetric: the same bits
+    # written with 10 significant digits by another program: off by 5e-11 relative, accepted
+    rounded = P.copy()
+    rounded[0, 1] = 0.5 * (1 + 5e-11)
+    back = check_covariance("P", rounded)
+    np.testing.assert_array_equal(back, back.T)
+    assert abs(back[0, 1] - 0.5) <= COVARIANCE_RTOL
+    # an edit: asymmetric by order 1, refused
+    edited = P.copy()
+    edited[0, 1] = 0.6
+    with pytest.raises(ValueError, match="P must be symmetric"):
+        check_covariance("P", edited)
+    # singular (a parameter the data fixed exactly) passes; an eigenvalue of -1e-3 relative does not
+    np.testing.assert_array_equal(check_covariance("P", np.ones((2, 2))), np.ones((2, 2)))
+    with pytest.raises(ValueError, match="positive semi-definite"):
+        check_covariance("P", np.array([[1.0, 1.001], [1.001, 1.0]]))
+    with pytest.raises(ValueError, match="at most 1e\\+100"):
+        check_covariance("P", 1e300 * np.eye(2))
+
+
+def test_each_parameter_is_refused_outside_its_physical_range():
+    from motorid.plants import Amplifier, CoulombFriction, Encoder, Tachogenerator
+    from motorid.plants.ranges import LARGEST, SMALLEST, check_parameter
+
+    assert check_parameter("J", LARGEST, "kg m²", sign="> 0") == LARGEST
+    assert check_parameter("J", SMALLEST, "kg m²", sign="> 0") == SMALLEST
+    for sign, value in [
+        ("> 0", SMALLEST / 2),
+        ("> 0", 2 * LARGEST),
+        (">= 0", 2 * LARGEST),
+        ("any", -2 * LARGEST),
+    ]:
+        with pytest.raises(ValueError, match=r"J must be within \[.*\] kg m²"):
+            check_parameter("J", value, "kg m²", sign=sign)
+    for make, message in [
+        (lambda: paper_rig(dt=1e308), "dt must be within"),
+        (lambda: paper_rig(dt=1e-10), "dt must be within"),
+        (lambda: paper_rig(J_m=1e300), "J_m must be within"),
+        (lambda: paper_rig(substeps=10**9), "substeps must be an integer in"),
+        (lambda: CoulombFriction(alpha=1e13), "alpha must be within"),
+        (lambda: Amplifier(gain=1e300), "gain must be within"),
+        (lambda: Tachogenerator(noise_std=1e300), "noise_std must be within"),
+        (lambda: Encoder(counts_per_rev=2**40), "counts_per_rev must be an integer in"),
+        (lambda: RigidDrive(("viscous_friction",), {"inertia": 1.0, "input_gain": 1.0, "viscous": 1e308}, dt=0.01).check_physical(), "viscous must be within"),
+        (lambda: RigidDrive(("input_delay",), {"inertia": 1.0, "input_gain": 1.0, "input_delay": 1e6}, dt=1e-3), "input_delay must be at most 100000 samples"),
+        (lambda: FrictionEKF(nis_window=10**9), r"nis_window must be an integer in \[1, 100000\]"),
+        (lambda: FrictionEKF(speed_noise=1e308), "speed_noise must be within"),
+        (lambda: create("arx-rls", na=10**7, nb=1), "more than 1000"),
+        (lambda: create("arx-rls", na=2, nb=1, delta=1e300), "delta must be at most 1e\\+100"),
+    ]:  # fmt: skip
+        with pytest.raises(ValueError, match=message):
+            make()
+
+
+def test_record_attributes_are_checked_naming_the_key(tmp_path):
+    rows = "t,u,y\n0,0,0\n0.04,1,1\n0.08,1,2\n"
+    cases = [
+        ('{"dt": "abc"}', "attrs.dt must be a sample time"),
+        ('{"dt": true}', "attrs.dt must be a sample time"),
+        ('{"dt": 1e308}', "attrs.dt must be a sample time"),
+        ('{"units": [1]}', "attrs.units must be an object"),
+        ('{"units": {"y": 3}}', "the unit of column 'y' must be text"),
+        ('{"units": {"y": "furlongs"}}', "column 'y' has the unknown unit 'furlongs'"),
+        ('{"converted_from": {"u": "furlongs"}}', "attrs.converted_from: column 'u' has the unknown unit"),
+        ('{"timing": "soon"}', "attrs\\['timing'\\] must be one of"),
+        ('{"drive": 7}', "attrs.drive must be text"),
+        ('{"samples": -1}', "attrs.samples must be an integer >= 0"),
+        ('{"seed": 1.5}', "attrs.seed must be an integer >= 0"),
+        ('{"rig": []}', "attrs.rig must be an object"),
+        ("[1]", "are not a JSON object"),
+    ]
+    for attrs, message in cases:
+        path = tmp_path / "rec.csv"
+        path.write_text(ATTRS_MARKER + attrs + "\n" + rows)
+        with pytest.raises(
+            DataError, match=f"^{path}: the record attributes in the attribute line .*{message}"
+        ):
+            read_record(path)
+    path.write_text(
+        ATTRS_MARKER
+        + '{"dt": 0.04, "units": {"t": "s", "u": "%", "y": "rpm", "i": "A"}, "seed": null}\n'
+        + rows
+    )
+    assert read_record(path).attrs["units"]["y"] == "rpm"

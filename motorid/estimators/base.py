@@ -89,6 +89,9 @@ def as_float_vector(value: ArrayLike, name: str) -> np.ndarray:
 #: Largest variance a covariance may hold: an update forms P φ φᵀ P, which stays below 1e300
 #: for regressors up to 1e50 only while P's entries stay below 1e100.
 LARGEST_VARIANCE = 1e100
+#: Largest magnitude of a lagged regression's estimate, past output or basis value read back: a
+#: product of two (a term of φᵀx) stays below 1e200, far from overflow.
+LARGEST_VALUE = 1e100
 #: Relative tolerance of the symmetry and semi-definiteness of a covariance read back: a
 #: covariance another program wrote with 10 significant digits is off by 5e-11 relative per
 #: entry, and its eigenvalues by n times that; an edit or a wrong matrix is off by order 1.
@@ -107,7 +110,9 @@ def check_covariance(name: str, P: np.ndarray) -> np.ndarray:
         return P
     scale = float(np.max(np.abs(P)))
     if scale > LARGEST_VARIANCE:  # |P_ij| <= sqrt(P_ii P_jj) <= the largest eigenvalue of a covariance
-        raise ValueError(f"{name} must have variances of at most {LARGEST_VARIANCE:g}, got an entry of {scale:.3g}")
+        raise ValueError(
+            f"{name} must have variances of at most {LARGEST_VARIANCE:g}, got an entry of {scale:.3g}"
+        )
     asymmetry = float(np.max(np.abs(P - P.T)))
     if asymmetry > COVARIANCE_RTOL * scale:
         raise ValueError(

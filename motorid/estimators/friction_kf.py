@@ -56,7 +56,7 @@ from motorid.estimators.rls import check_positive
 from motorid.plants import physics
 from motorid.plants.friction import LuGreFriction, StaticFriction
 from motorid.plants.physics import armature_voltage, armature_voltages
-from motorid.plants.ranges import MOST_SUBSTEPS, check_count, check_parameter
+from motorid.plants.ranges import LARGEST, MOST_SUBSTEPS, check_count, check_parameter
 from motorid.plants.rig import TwoMassRig, paper_rig
 from motorid.plants.rigid import InputPathState, RigidDrive
 
@@ -543,6 +543,8 @@ class _FrictionFilter(Estimator):
             if value.shape != shape:
                 raise ValueError(f"{key} must have shape {shape} for this filter, got {value.shape}")
         P = check_covariance("P", P)
+        if np.any(np.abs(x) > LARGEST):
+            raise ValueError(f"x must be within ±{LARGEST:g} (the physical range of a drive's states)")
         if not physics.is_healthy(x, P):
             raise ValueError("P must be symmetric positive definite and x finite")
         for key in ("sample_index", "nis_count"):
