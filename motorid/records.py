@@ -379,13 +379,13 @@ def _read_hdf5(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[s
         handle = h5py.File(name, "r")
     except OSError as exc:
         raise DataError(f"{name} is not a readable HDF5 file: {exc}") from None
-    shapes: dict[str, tuple[int, ...]] = {}
-
-    def visit(key: str, item: Any) -> None:
-        if isinstance(item, h5py.Dataset) and not key.startswith("#"):  # '#refs#': MATLAB's own
-            shapes[key] = tuple(item.shape)
-
     with handle:
+        shapes: dict[str, tuple[int, ...]] = {}
+
+        def visit(key: str, item: Any) -> None:
+            if isinstance(item, h5py.Dataset) and not key.startswith("#"):  # '#refs#': MATLAB's own
+                shapes[key] = tuple(item.shape)
+
         try:
             handle.visititems(visit)
             attrs = _attrs_from_json(handle.attrs.get(ATTRS_KEY), name, f"the root attribute {ATTRS_KEY!r}")
