@@ -76,23 +76,26 @@ def parse_json(text: str, source: str, where: str = "") -> Any:
         ) from None
     except RecursionError:
         raise DataError(f"{source}: the JSON is nested deeper than {MAX_DEPTH} levels") from None
-    # walked without recursion: (value, key, depth)
-    stack: list[tuple[Any, str, int]] = [(value, where, 0)]
+    # walked without recursion, containers only on the stack: (container, key, depth)
+    if isinstance(value, dict | list):
+        stack: list[tuple[Any, str, int]] = [(value, where, 0)]
+    else:
+        stack = [([value], where, -1)]  # a lone scalar: checked as the one item of a list
     while stack:
-        item, key, depth = stack.pop()
-        if isinstance(item, dict | list):
-            if depth >= MAX_DEPTH:
-                raise DataError(
-                    f"{source}: {key or 'the top level'}: the JSON is nested deeper than {MAX_DEPTH} levels"
-                )
-            pairs = item.items() if isinstance(item, dict) else enumerate(item)
-            stack.extend((v, _key(key, k), depth + 1) for k, v in pairs)
-        elif isinstance(item, _HugeInteger) or (
-            isinstance(item, int) and not isinstance(item, bool) and abs(item) > MAX_INTEGER
-        ):
-            digits = item.digits if isinstance(item, _HugeInteger) else len(str(abs(item)))
+        container, key, depth = stack.pop()
+        if depth >= MAX_DEPTH:  # the container at depth d is level d + 1
             raise DataError(
-                f"{source}: {key or 'the top level'}: an integer of {digits} digits is beyond "
-                f"±2**53 = {MAX_INTEGER}, the largest a file may hold"
+                f"{source}: {key or 'the top level'}: the JSON is nested deeper than {MAX_DEPTH} levels"
             )
+        pairs = container.items() if isinstance(container, dict) else enumerate(container)
+        for name, item in pairs:
+            if isinstance(item, dict | list):
+                stack.append((item, _key(key, name), depth + 1))
+            elif isinstance(item, _HugeInteger) or (type(item) is int and abs(item) > MAX_INTEGER):
+                digits = item.digits if isinstance(item, _HugeInteger) else len(str(abs(item)))
+                at = key if depth < 0 else _key(key, name)
+                raise DataError(
+                    f"{source}: {at or 'the top level'}: an integer of {digits} digits is beyond "
+                    f"±2**53 = {MAX_INTEGER}, the largest a file may hold"
+                )
     return value
