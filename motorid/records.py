@@ -35,6 +35,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.errors import DataError
+from motorid.json_input import parse_json
 
 logger = logging.getLogger(__name__)
 
@@ -90,8 +91,8 @@ def record_timing(attrs: Mapping[str, Any], default: str = "hold") -> str:
     value = attrs.get("timing", default)
     if value in _LEGACY_TIMINGS:
         return "hold"
-    if value not in TIMINGS:
-        raise DataError(f"attrs['timing'] must be one of {sorted(TIMINGS)}, got {value!r}")
+    if not isinstance(value, str) or value not in TIMINGS:
+        raise DataError(f"attrs['timing'] must be one of {sorted(TIMINGS)}, got {value!r:.60}")
     return str(value)
 
 
@@ -258,20 +259,78 @@ def record_format(path: str | os.PathLike[str]) -> str:
 
 
 def _attrs_from_json(text: Any, name: str, where: str) -> dict[str, Any]:
-    """The attributes stored as JSON text (str or bytes) at ``where`` in file ``name``; {} when absent."""
+    """The attributes stored as JSON text (str or bytes) at ``where`` in file ``name``; {} when absent.
+
+    Parsed within bounds (:func:`motorid.json_input.parse_json`) and checked by :func:`check_attrs`.
+    """
     if text is None:
         return {}
     if isinstance(text, np.ndarray):  # a MATLAB char variable reads as an array of one string
         text = "".join(str(v) for v in text.ravel())
     if isinstance(text, bytes):
         text = text.decode("utf-8", errors="replace")
-    try:
-        attrs = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise DataError(f"{name}: the record attributes in {where} are not valid JSON: {exc}") from None
+    if not isinstance(text, str):
+        raise DataError(f"{name}: the record attributes in {where} are not text but {type(text).__name__}")
+    source = f"{name}: the record attributes in {where}"
+    attrs = parse_json(text, source, "attrs")
     if not isinstance(attrs, dict):
-        raise DataError(f"{name}: the record attributes in {where} are not a JSON object")
+        raise DataError(f"{source} are not a JSON object")
+    check_attrs(attrs, source)
     return attrs
+
+
+def check_attrs(attrs: Mapping[str, Any], source: str) -> None:
+    """Check the attributes motorid reads back for type and range (others are kept unread).
+
+    ``dt`` a sample time [s] in :data:`~motorid.plants.ranges.SAMPLE_TIME`; ``units`` and
+    ``converted_from`` objects of column -> unit, each unit one of
+    :data:`motorid.units.RECORD_UNITS`; ``timing`` a keyword of :data:`TIMINGS`;
+    ``drive``, ``time`` and ``integrator`` text; ``samples`` an integer >= 0 and
+    ``seed`` one or null; ``rig`` and ``model`` objects.
+
+    Raises
+    ------
+    DataError
+        ``{source}: attrs.dt must be ..., got "abc"``, naming the key.
+    """
+    from motorid.plants.ranges import SAMPLE_TIME
+    from motorid.units import check_unit
+
+    def shown(value: Any) -> str:
+        return f"{value!r:.60}"
+
+    if "dt" in attrs:
+        dt = attrs["dt"]
+        low, high = SAMPLE_TIME
+        if isinstance(dt, bool) or not isinstance(dt, int | float) or not low <= dt <= high:
+            raise DataError(
+                f"{source}: attrs.dt must be a sample time in [{low:g}, {high:g}] s, got {shown(dt)}"
+            )
+    for key in ("units", "converted_from"):
+        if key in attrs:
+            if not isinstance(attrs[key], dict):
+                raise DataError(
+                    f"{source}: attrs.{key} must be an object of column: unit, got {shown(attrs[key])}"
+                )
+            for column, unit in attrs[key].items():
+                check_unit(unit, column, f"{source}: attrs.{key}")
+    if "timing" in attrs:
+        try:
+            record_timing(attrs)
+        except DataError as exc:
+            raise DataError(f"{source}: {exc}") from None
+    for key in (DRIVE_ATTR, TIME_ATTR, "integrator"):
+        if key in attrs and not isinstance(attrs[key], str):
+            raise DataError(f"{source}: attrs.{key} must be text, got {shown(attrs[key])}")
+    for key, nullable in (("samples", False), ("seed", True)):
+        value = attrs.get(key, 0)
+        if not (value is None and nullable) and (
+            isinstance(value, bool) or not isinstance(value, int) or value < 0
+        ):
+            raise DataError(f"{source}: attrs.{key} must be an integer >= 0, got {shown(value)}")
+    for key in ("rig", "model"):
+        if key in attrs and not isinstance(attrs[key], dict):
+            raise DataError(f"{source}: attrs.{key} must be an object, got {shown(attrs[key])}")
 
 
 # A reader of a binary format: (file name, choose) -> (arrays by column name, attrs). ``choose`` is
@@ -327,10 +386,15 @@ def _read_hdf5(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[s
             if isinstance(item, h5py.Dataset) and not key.startswith("#"):  # '#refs#': MATLAB's own
                 shapes[key] = tuple(item.shape)
 
-        handle.visititems(visit)
-        attrs = _attrs_from_json(handle.attrs.get(ATTRS_KEY), name, f"the root attribute {ATTRS_KEY!r}")
-        chosen = choose(shapes)
-        return {key: np.asarray(handle[key][()]).reshape(-1) for key in chosen}, attrs
+        try:
+            handle.visititems(visit)
+            attrs = _attrs_from_json(handle.attrs.get(ATTRS_KEY), name, f"the root attribute {ATTRS_KEY!r}")
+            chosen = choose(shapes)
+            return {key: np.asarray(handle[key][()]).reshape(-1) for key in chosen}, attrs
+        except DataError:
+            raise
+        except (KeyError, OSError, RuntimeError, ValueError) as exc:  # HDF5's answers to damaged bytes
+            raise DataError(f"{name} is a damaged HDF5 file: {' '.join(str(exc).split())}") from None
 
 
 def _read_tdms(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
@@ -545,10 +609,7 @@ def _read_csv(
     attrs: dict[str, Any] = {}
     skip = 0
     if first.startswith(ATTRS_MARKER):
-        try:
-            attrs = json.loads(first[len(ATTRS_MARKER) :])
-        except json.JSONDecodeError as exc:
-            raise DataError(f"{name}: line 1: the attribute line is not valid JSON: {exc}") from exc
+        attrs = _attrs_from_json(first[len(ATTRS_MARKER) :], name, "the attribute line (line 1)")
         skip = 1
     with open(name, encoding="utf-8") as fh:
         header_text = [fh.readline() for _ in range(skip + 1)][-1]
@@ -635,6 +696,7 @@ __all__ = [
     "REQUIRED_COLUMNS",
     "TIME_ATTR",
     "TIMINGS",
+    "check_attrs",
     "count_data_lines",
     "read_record",
     "record_format",

@@ -20,7 +20,16 @@ import pandas as pd
 
 from motorid.errors import DataError
 
-__all__ = ["INPUT_UNITS", "OUTPUT_UNITS", "convert_record", "input_factor", "output_factor"]
+__all__ = [
+    "INPUT_UNITS",
+    "OTHER_UNITS",
+    "OUTPUT_UNITS",
+    "RECORD_UNITS",
+    "check_unit",
+    "convert_record",
+    "input_factor",
+    "output_factor",
+]
 
 #: Output units: name -> (factor to the SI unit, the SI unit).
 OUTPUT_UNITS: dict[str, tuple[float, str]] = {
@@ -41,6 +50,30 @@ OUTPUT_UNITS: dict[str, tuple[float, str]] = {
 
 #: Input units: name -> factor to volts; ``%`` (PWM duty) converts only with a supply voltage.
 INPUT_UNITS: dict[str, float | None] = {"V": 1.0, "mV": 1e-3, "%": None}
+
+#: Units of a record's other columns (time, armature current, torque, force), named and kept as they are.
+OTHER_UNITS: tuple[str, ...] = ("s", "A", "N m", "N")
+
+#: Every unit a record's ``attrs["units"]`` may name.
+RECORD_UNITS: tuple[str, ...] = tuple(dict.fromkeys((*OUTPUT_UNITS, *INPUT_UNITS, *OTHER_UNITS)))
+
+
+def check_unit(unit: object, column: object, where: str) -> str:
+    """``unit``, the unit a record's attrs give ``column``, if it is one of :data:`RECORD_UNITS`.
+
+    Raises
+    ------
+    DataError
+        ``{where}: column 'y' has the unknown unit 'furlongs' (known: ...)``, or a unit
+        that is not text.
+    """
+    if not isinstance(unit, str):
+        raise DataError(f"{where}: the unit of column {column!r} must be text, got {unit!r:.60}")
+    if unit not in RECORD_UNITS:
+        raise DataError(
+            f"{where}: column {column!r} has the unknown unit {unit!r:.60} (known: {', '.join(RECORD_UNITS)})"
+        )
+    return unit
 
 
 def output_factor(unit: str, option: str = "--output-unit") -> tuple[float, str]:
@@ -99,9 +132,10 @@ def convert_record(
         The units of ``u`` and ``y`` in the file. Given, they override
         ``attrs["units"]``; not given, the attrs say (a record written by
         motorid carries them). A record without either is used as it is, in
-        units nobody named (results then say "input units"), and a unit the
-        attrs name that this module has no factor for (a force input in N,
-        say) is kept as it is.
+        units nobody named (results then say "input units"), and a unit of
+        :data:`RECORD_UNITS` the attrs name that has no factor to the column's
+        unit (a force input in N, say) is kept as it is (:func:`check_unit`
+        refuses the others as the record is read).
     supply_voltage : float, optional
         Supply voltage [V] of a PWM drive, for ``input_unit="%"``.
 

@@ -268,7 +268,7 @@ def test_bad_attribute_json_is_named(tmp_path):
         fh.attrs[ATTRS_KEY] = "{not json"
     with pytest.raises(
         DataError,
-        match=rf"rec.h5: the record attributes in the root attribute '{ATTRS_KEY}' are not valid JSON",
+        match=rf"rec.h5: the record attributes in the root attribute '{ATTRS_KEY}': invalid JSON",
     ):
         read_record(path)
 
