@@ -224,7 +224,8 @@ def cmd_identify(args: argparse.Namespace) -> int:
         figure = write_identify_figure(tests, args.out, args.estimator)
         say(f"  wrote {figure}")
     if args.json:
-        emit_json({**payload, "figure": figure, "model": args.save_model, "validation": validation})
+        extra = {} if validation is None else {"validation": validation}
+        emit_json({**payload, "figure": figure, "model": args.save_model, **extra})
     return 0
 
 
