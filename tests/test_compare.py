@@ -112,6 +112,22 @@ def test_compare_json_structure(capsys, files):
     assert "motorid compare" in err  # human text on stderr, the JSON alone on stdout
 
 
+def test_compare_skip_and_low_speed_band(capsys, files):
+    true = str(files / "true.json")
+    code, out, err = run(capsys, "compare", str(files / "rec.csv"), "--model", true, "--skip", "100",
+                         "--low-speed-rpm", "50", "--json")  # fmt: skip
+    assert code == 0, err
+    record = read_record(files / "rec.csv")
+    y = record["y"].to_numpy()[100:]
+    y_sim = rig_reading(load_model(files / "true.json"), record["u"].to_numpy())[100:]
+    band = float(rpm_to_rad_s(50.0))
+    slow = np.abs(y) < band
+    row = out["models"][true]
+    assert out["scored_samples"] == 650 and out["low_speed_threshold"] == pytest.approx(band)
+    assert row["n_low_speed"] == int(slow.sum()) and row["rmse"] == pytest.approx(rmse(y, y_sim), rel=1e-9)
+    assert row["low_speed_rmse"] == pytest.approx(rmse(y[slow], y_sim[slow]), rel=1e-9)
+
+
 def test_compare_an_identified_estimator_equals_its_own_simulation(capsys, files, tmp_path):
     est_file = tmp_path / "est.json"
     code, _, err = run(
