@@ -21,10 +21,13 @@ whatever ``dt`` its file holds, and says so. An estimator is a discrete-time mod
 a friction filter whose rig's ``dt`` is not the record's is refused (an ARX or
 Hammerstein model file does not know its sample time; it is taken as the record's).
 
-Timing: every model's output ``y_sim[k]`` is the output at the end of the sample
-over which ``u[k]`` is held (the ``"hold"`` timing of :data:`motorid.records.TIMINGS`).
-A ``"sampled"`` record (``y[k]`` read before ``u[k]`` is applied) is brought to that
-by pairing ``u[k]`` with ``y[k+1]``, as the doctor does.
+Timing: a physical model (a drive model, a friction filter) gives the output at the
+end of the sample over which ``u[k]`` is held (the ``"hold"`` timing of
+:data:`motorid.records.TIMINGS`). On a ``"sampled"`` record (``y[k]`` read before
+``u[k]`` is applied) its output for ``u[k]`` is compared with ``y[k+1]``, as the doctor
+pairs them, and ``y[0]``, read before any input, with the rest it starts from
+(:func:`free_run_on_record`). An ARX or Hammerstein model learnt the pairing of the
+record it was identified on, as it was given, and runs on the input as given.
 
 Units: a model works in motorid's units (V in, rad/s out for a two-mass rig and the
 friction filters on it). A record whose input is PWM duty in % (no supply voltage
@@ -61,6 +64,8 @@ __all__ = [
     "Comparison",
     "ModelOnRecord",
     "compare_models",
+    "free_run_on_record",
+    "holds_input",
     "input_unit_note",
     "model_kind",
     "simulate_model",
@@ -180,6 +185,26 @@ def simulate_model(model: Any, u: np.ndarray, dt: float, name: str = "model") ->
     raise DataError(f"{name}: {model_kind(model)}")
 
 
+def holds_input(model: Any) -> bool:
+    """True for a physical model, whose output is at the end of the sample its input is held
+    over (a drive model, or an estimator that starts from one: a friction filter)."""
+    return isinstance(model, TwoMassRig | RigidDrive) or (
+        isinstance(model, Estimator) and hasattr(type(model), "from_rig")
+    )
+
+
+def free_run_on_record(model: Any, u: np.ndarray, dt: float, timing: str, name: str = "model") -> np.ndarray:
+    """:func:`simulate_model` on a record's input, paired with the record's outputs by its ``timing``.
+
+    ``y_sim[k]`` is the model's output for ``y[k]``. With ``timing="sampled"`` a physical
+    model (:func:`holds_input`) runs on ``u[:-1]`` and its outputs are those of ``y[1:]``;
+    ``y_sim[0]`` is 0, the rest it starts from.
+    """
+    if timing == "sampled" and holds_input(model):
+        return np.concatenate([[0.0], simulate_model(model, u[:-1], dt, name)])
+    return simulate_model(model, u, dt, name)
+
+
 @dataclass(frozen=True)
 class ModelOnRecord:
     """One model's free run on a record and its scores.
@@ -232,12 +257,8 @@ class ModelOnRecord:
 
 @dataclass
 class Comparison:
-    """Models on one record: the record's samples as scored and each model's run.
-
-    ``t``, ``u`` and ``y`` are aligned to the ``"hold"`` timing: ``y[k]`` is the
-    output after ``u[k]`` was held over a sample (a ``"sampled"`` record loses its first
-    output and last input); ``t[k]`` is the record's time stamp of ``y[k]`` [s].
-    """
+    """Models on one record: the record's samples (``t`` [s], ``u``, ``y``) and each model's
+    run, ``y_sim[k]`` its output for ``y[k]`` (:func:`free_run_on_record`)."""
 
     t: np.ndarray
     u: np.ndarray
@@ -330,8 +351,8 @@ def reversal_window(y: np.ndarray, width: int, threshold: float, skip: int = 0) 
     return slice(start, start + width)
 
 
-def _aligned(record: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, str]:
-    """``t``, ``u``, ``y`` of a record in the ``"hold"`` timing, its ``dt`` and its timing."""
+def _samples(record: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, str]:
+    """``t``, ``u``, ``y`` of a record, its ``dt`` and its timing."""
     if not isinstance(record, pd.DataFrame):
         raise DataError(f"record must be a pandas DataFrame, got {type(record).__name__}")
     for column in ("u", "y"):
@@ -344,10 +365,7 @@ def _aligned(record: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     u = record["u"].to_numpy(dtype=float)
     y = record["y"].to_numpy(dtype=float)
     t = record["t"].to_numpy(dtype=float) if "t" in record.columns else np.arange(y.size) * dt
-    timing = record_timing(record.attrs)
-    if timing == "sampled":
-        u, y, t = u[:-1], y[1:], t[1:]
-    return t, u, y, dt, timing
+    return t, u, y, dt, record_timing(record.attrs)
 
 
 def compare_models(
@@ -383,12 +401,12 @@ def compare_models(
     """
     if not models:
         raise DataError("no model to compare: give at least one")
-    t, u, y, dt, timing = _aligned(record)
+    t, u, y, dt, timing = _samples(record)
     if not isinstance(skip, int) or skip < 0:
         raise DataError(f"skip must be an integer >= 0, got {skip!r}")
     if y.size - skip < MIN_SCORED_SAMPLES:
         raise DataError(
-            f"the record has {y.size} samples{' (paired for its sampled timing)' if timing == 'sampled' else ''}; "
+            f"the record has {y.size} samples; "
             f"after the {skip} skipped at the start {max(y.size - skip, 0)} are left to score, "
             f"at least {MIN_SCORED_SAMPLES} are needed"
         )
@@ -403,7 +421,7 @@ def compare_models(
         own_dt = getattr(model, "dt", None)
         if isinstance(model, TwoMassRig | RigidDrive) and not math.isclose(own_dt, dt, rel_tol=1e-6):
             notes.append(f"{name}: simulated at the record's dt = {dt:g} s (its file says {own_dt:g} s)")
-        y_sim = simulate_model(model, u, dt, name)
+        y_sim = free_run_on_record(model, u, dt, timing, name)
         diverges = first_bad_index(y_sim)
         if diverges is not None:
             nan = math.nan

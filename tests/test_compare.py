@@ -161,7 +161,7 @@ def test_compare_a_rigid_drive_on_its_own_record_in_either_timing(capsys, files,
     write_record(sampled, tmp_path / "sampled.csv")
     code, out, err = run(capsys, "compare", str(tmp_path / "sampled.csv"), "--model", drive_file, "--json")
     assert code == 0, err
-    assert out["timing"] == "sampled" and out["samples"] == len(record) - 1
+    assert out["timing"] == "sampled" and out["samples"] == len(record)
     assert out["models"][drive_file]["rmse"] < 1e-9
 
 
@@ -222,6 +222,24 @@ def test_friction_ekf_from_a_rigid_drive_file_converges_to_its_friction(capsys, 
     # measured: coulomb 0.00410 (2.5 % off), viscous 9.92e-5 (0.8 % off); 5 % is twice the Coulomb error
     assert out["params"]["coulomb"] == pytest.approx(p["coulomb"], rel=0.05)
     assert out["params"]["viscous"] == pytest.approx(p["viscous"], rel=0.05)
+
+
+def test_friction_ekf_on_a_sampled_record_pairs_each_input_with_the_next_output(capsys, files, tmp_path):
+    """The drive's record logged by a sampled loop (y_s[k+1] = y[k]): the filter, a physical
+    model, is given u[k] with y_s[k+1] and finds the same friction as on the hold record."""
+    record = read_record(files / "drive_rec.csv")
+    sampled = record.copy()
+    sampled["y"] = np.concatenate([[0.0], record["y"].to_numpy()[:-1]])
+    sampled.attrs = {**record.attrs, "timing": "sampled"}
+    write_record(sampled, tmp_path / "sampled.csv")
+    code, out, err = run(capsys, "identify", str(tmp_path / "sampled.csv"), "--estimator", "friction-ekf",
+                         "--model", str(files / "drive.json"), "--param", "R=0.01", "--param", "coulomb0=0.001",
+                         "--param", "viscous0=0", "--json")  # fmt: skip
+    assert code == 0, err
+    p = load_model(files / "drive.json").params
+    assert out["params"]["coulomb"] == pytest.approx(p["coulomb"], rel=0.05)  # as on the hold record
+    assert out["params"]["viscous"] == pytest.approx(p["viscous"], rel=0.05)
+    assert "y[k+1]" in out["notes"][0] and "y[k+1]" in err
 
 
 def test_friction_ekf_from_the_true_rig_file(capsys, files):

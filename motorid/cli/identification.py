@@ -104,7 +104,9 @@ def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dic
     ``motorid fleet identify`` calls this very function on each record, so a fleet's rows equal
     the single-record command's output.
     """
+    from motorid.comparison import holds_input
     from motorid.estimators.base import first_bad_index
+    from motorid.records import record_timing
     from motorid.validation import (
         RPM_PER_RAD_S,
         check_signals,
@@ -116,6 +118,10 @@ def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dic
     est, notes = estimator_for_record(record, args)
     u, y = record["u"].to_numpy(), record["y"].to_numpy()
     check_signals({args.input: u, args.output: y})
+    if holds_input(est) and record_timing(record.attrs) == "sampled":
+        # a physical model's output is at the end of the sample its input is held over
+        u, y = u[:-1], y[1:]
+        notes.append("the record's timing is sampled: u[k] is paired with y[k+1], the output it drives")
     result = est.batch_filter(u, y)
     require_finite_estimate(args.estimator, result.x, u, y)
     predictions = {"one_step": result.y_hat}
