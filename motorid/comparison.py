@@ -45,7 +45,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -56,6 +56,9 @@ from motorid.plants.rig import TwoMassRig
 from motorid.plants.rigid import RigidDrive
 from motorid.records import record_timing
 from motorid.validation import low_speed_mask, score
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 logger = logging.getLogger(__name__)
 
@@ -290,15 +293,18 @@ class Comparison:
             "models": {m.name: m.scores() for m in self.models},
         }
 
-    def write_figure(self, path: str | Path, input_unit: str = "input units") -> Path:
-        """PNG: measured against each model over the record, at low speed and at a reversal.
+    def figure(self, input_unit: str = "input units") -> Figure:
+        """Measured against each model over the record, at low speed and at a reversal.
 
         Three panels share the legend's colours: the whole record; the window of
         :func:`motorid.figures.low_speed_window` (most samples below the band); the
         reversal of the measured output with the longest stay inside half the band
         (where stiction and Stribeck friction show), or a note when it never reverses.
+        Each panel's output axis spans the measurement's range in it, widened by half that
+        range on either side: a model far off leaves the panel rather than squash the
+        measurement; a diverged model is drawn until it diverges.
         """
-        from motorid.figures import low_speed_window, save, subplots
+        from motorid.figures import low_speed_window, subplots
 
         unit = self.output_unit
         n = self.y.size
@@ -318,18 +324,28 @@ class Comparison:
                 ax.text(0.5, 0.5, "the measured output never reverses", ha="center", va="center",
                         transform=ax.transAxes)  # fmt: skip
             else:
-                ax.plot(self.t[window], self.y[window], "k-", lw=1.2, label="measured")
+                y = self.y[window]
+                ax.plot(self.t[window], y, "k-", lw=1.2, label="measured")
                 for m in self.models:
-                    label = f"{m.name} (FIT {m.fit_percent:.1f} %)"
-                    ax.plot(self.t[window], m.y_sim[window], "--", lw=1.1, label=label)
+                    score = "diverges" if m.diverges_from is not None else f"FIT {m.fit_percent:.1f} %"
+                    y_sim = np.where(np.isfinite(m.y_sim[window]), m.y_sim[window], np.nan)
+                    ax.plot(self.t[window], y_sim, "--", lw=1.1, label=f"{m.name} ({score})")
                 ax.axhline(0.0, color="k", lw=0.5)
+                pad = 0.5 * max(float(np.ptp(y)), 1e-12)
+                ax.set_ylim(float(y.min()) - pad, float(y.max()) + pad)
                 ax.legend(loc="upper right", fontsize=7)
             ax.set_title(title, fontsize=10)
             ax.set_xlabel("time t [s]")
             ax.set_ylabel(f"output y [{unit}]")
             ax.grid(alpha=0.3)
         fig.suptitle(f"Measured and simulated (free run from rest on the recorded input, in {input_unit})")
-        return save(fig, path)
+        return fig
+
+    def write_figure(self, path: str | Path, input_unit: str = "input units") -> Path:
+        """:meth:`figure` as a PNG file at ``path``."""
+        from motorid.figures import save
+
+        return save(self.figure(input_unit), path)
 
 
 def reversal_window(y: np.ndarray, width: int, threshold: float, skip: int = 0) -> slice | None:

@@ -95,6 +95,32 @@ def test_compare_scores_the_true_model_at_the_sensor_noise_and_a_wrong_one_worse
     )
 
 
+def test_compare_figure_has_units_on_every_axis_and_a_legend(files):
+    from motorid.comparison import compare_models
+
+    record = read_record(files / "rec.csv")
+    models = {name: load_model(files / f"{name}.json") for name in ("true", "wrong")}
+    fig = compare_models(record, models, BAND, SKIP).figure("V")
+    axes = fig.axes
+    assert [ax.get_title() for ax in axes] == [
+        "whole record",
+        f"low speed (|y| < {BAND:.3g} rad/s)",
+        "a reversal of the measured output",
+    ]
+    for ax in axes:
+        assert ax.get_xlabel() == "time t [s]" and ax.get_ylabel() == "output y [rad/s]"
+        labels = [text.get_text() for text in ax.get_legend().get_texts()]
+        assert (
+            labels[0] == "measured"
+            and labels[1].startswith("true (FIT 99.")
+            and labels[2].startswith("wrong")
+        )
+    # the low-speed panel shows mostly slow samples; the reversal panel a change of sign
+    low, reversal = (ax.get_lines()[0].get_ydata() for ax in axes[1:])
+    assert np.mean(np.abs(low) < BAND) > 0.8 and low.size == 125
+    assert reversal.max() > 0.5 * BAND and reversal.min() < -0.5 * BAND
+
+
 def test_compare_json_structure(capsys, files):
     code, out, err = run(
         capsys, "compare", str(files / "rec.csv"), "--model", str(files / "true.json"), "--json"
