@@ -179,6 +179,11 @@ BAD_INPUT = [
         ["spaceship"],
     ),
     (
+        "fleet identify --model missing",
+        "fleet identify {d} --out {d}/fleet --estimator friction-ekf --model {d}/missing.json",
+        ["missing.json"],
+    ),
+    (
         "identify --model an estimator file",
         "identify {d}/good.csv --estimator friction-ekf --model {d}/arx.json",
         ["arx.json", "ARXRLS", "not a drive model"],

@@ -46,54 +46,66 @@ def require_finite_estimate(name: str, x: np.ndarray, u: np.ndarray, y: np.ndarr
 SIMULATED_RIG_ATTR = "rig"
 
 
+def start_model_from_args(args: argparse.Namespace) -> Any:
+    """The drive model of ``--model`` a friction filter starts from (None without ``--model``),
+    checked before any record is read: the estimator must start from a model (have
+    ``from_rig``), the file must hold a drive model, and a rigid drive needs ``--param R=``."""
+    from motorid.estimators import available, factory
+    from motorid.plants import RigidDrive
+
+    from .simulation import drive_model_from_file
+
+    model_file = getattr(args, "model", None)
+    if model_file is None:
+        return None
+    if args.estimator not in available() or not hasattr(factory(args.estimator), "from_rig"):
+        create_estimator(args.estimator, args)  # an unknown name is named first
+        raise DataError(
+            f"--model: estimator {args.estimator!r} identifies its model from the record alone; "
+            "--model starts a friction filter (friction-ekf, friction-ukf) from a drive model"
+        )
+    model = drive_model_from_file(model_file)
+    if isinstance(model, RigidDrive) and not any(p.partition("=")[0] == "R" for p in args.param):
+        raise DataError(
+            f"--model {model_file} is a rigid drive, which has no sensor model: give the variance of the "
+            "speed measurement with --param R=VALUE [(output unit)^2]"
+        )
+    return model
+
+
 def estimator_for_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[Any, list[str]]:
     """The estimator ``--estimator`` names, for this record, and what it assumes (notes for the user).
 
     An estimator that starts from a drive model (a friction filter, which has ``from_rig``)
     takes the constants and friction of ``--model FILE`` (a two-mass rig or the doctor's rigid
-    drive). Without ``--model`` it runs on the default rig's constants, which only motorid's
-    own simulation (a record whose attrs carry its rig) is known to share: any other record is
-    refused, naming ``--model``. The record's input unit must be what the model takes
-    (:func:`motorid.comparison.input_unit_note`): duty in % is refused by a model in volts.
+    drive: :func:`start_model_from_args`). Without ``--model`` it runs on the default rig's
+    constants, which only motorid's own simulation (a record whose attrs carry its rig) is
+    known to share: any other record is refused, naming ``--model``. The record's input unit
+    must be what the model takes (:func:`motorid.comparison.input_unit_note`): duty in % is
+    refused by a model in volts.
     """
     from motorid.comparison import input_unit_note
     from motorid.estimators import available, factory
-    from motorid.plants import RigidDrive, paper_rig
+    from motorid.plants import paper_rig
 
-    from .simulation import drive_model_from_file
-
-    model_file = getattr(args, "model", None)
-    if args.estimator not in available() or not hasattr(factory(args.estimator), "from_rig"):
-        if model_file is not None:
-            create_estimator(args.estimator, args)  # an unknown name is named first
-            raise DataError(
-                f"--model: estimator {args.estimator!r} identifies its model from the record alone; "
-                "--model starts a friction filter (friction-ekf, friction-ukf) from a drive model"
-            )
-        return create_estimator(args.estimator, args), []
+    model = start_model_from_args(args)
     units = record.attrs.get("units")
-    notes = []
-    if model_file is None:
-        if SIMULATED_RIG_ATTR not in record.attrs:
-            raise DataError(
-                f"{args.data}: the {args.estimator} needs the drive's model, and this record (not motorid's own "
-                "simulation) carries none: give it with --model FILE (motorid doctor --save-model writes one)"
-            )
-        note = input_unit_note(paper_rig(), units, "the default rig")
-        notes = [note] if note else []
-        notes.append(
-            "no --model: the filter runs on the default rig's constants (the record is motorid's simulation)"
-        )
-        return create_estimator(args.estimator, args), notes
-    model = drive_model_from_file(model_file)
-    name = f"--model {model_file}"
-    if isinstance(model, RigidDrive) and not any(p.partition("=")[0] == "R" for p in args.param):
+    if model is not None:
+        note = input_unit_note(model, units, f"--model {args.model}")
+        return create_estimator(args.estimator, args, rig=model), [note] if note else []
+    if args.estimator not in available() or not hasattr(factory(args.estimator), "from_rig"):
+        return create_estimator(args.estimator, args), []
+    if SIMULATED_RIG_ATTR not in record.attrs:
         raise DataError(
-            f"{name} is a rigid drive, which has no sensor model: give the variance of the speed "
-            "measurement with --param R=VALUE [(output unit)^2]"
+            f"{args.data}: the {args.estimator} needs the drive's model, and this record (not motorid's own "
+            "simulation) carries none: give it with --model FILE (motorid doctor --save-model writes one)"
         )
-    note = input_unit_note(model, units, name)
-    return create_estimator(args.estimator, args, rig=model), [note] if note else []
+    note = input_unit_note(paper_rig(), units, "the default rig")
+    notes = [note] if note else []
+    notes.append(
+        "no --model: the filter runs on the default rig's constants (the record is motorid's simulation)"
+    )
+    return create_estimator(args.estimator, args), notes
 
 
 def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dict[str, Any], list, Any]:
