@@ -140,10 +140,12 @@ def input_unit_note(model: Any, units: Mapping[str, str] | None, name: str = "mo
             )
         return None
     if unit == "%":
-        return (
-            f"{name}: the input in % duty goes through the model's input gain (per input unit, as it "
-            "was fitted): the model must have been fitted on duty too"
+        how = (
+            "goes through the model's input gain, per input unit as it was fitted"
+            if isinstance(model, RigidDrive) or isinstance(getattr(model, "rig", None), RigidDrive)
+            else "is used as it is, in the unit the model was identified in"
         )
+        return f"{name}: the input in % duty {how}: the model must have been fitted on duty too"
     return None
 
 

@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from cli_fixtures import run
+from emps_fixtures import real_motor_file
 
 from motorid import load_model
 from motorid.plants import RigidDrive, paper_rig
@@ -303,3 +304,36 @@ def test_a_warning_is_one_line_on_stderr(files):
     )
     assert not any(line.startswith(" ") and "warnings.warn" in line for line in lines)
     assert not any("Warning:" in line for line in lines)  # no "RuntimeWarning: ..." of Python's format
+
+
+WHEEL_TRAIN, WHEEL_VALIDATION = (
+    real_motor_file(f"wheel_free_{w}_motor1.csv") for w in ("train", "validation")
+)
+WHEEL_UNITS = ["--input-unit", "%", "--output-unit", "rev/s"]
+
+
+@pytest.mark.skipif(
+    not (WHEEL_TRAIN.exists() and WHEEL_VALIDATION.exists()),
+    reason=f"real motor data not found at {WHEEL_TRAIN.parent} (set MOTORID_DATA)",
+)
+def test_a_real_motors_model_on_its_validation_record(capsys, files, tmp_path):
+    """A lifted robot wheel (``realmotors/``: PWM duty in %, speed in rev/s): the doctor's model
+    fitted on the train record, compared on the validation record; the duty goes through its
+    input gain, and a rig whose input is volts, or a friction filter without a model, is refused."""
+    model = tmp_path / "wheel.json"
+    code, _, err = run(capsys, "doctor", str(WHEEL_TRAIN), *WHEEL_UNITS, "--save-model", str(model))
+    assert code == 0, err
+    code, out, err = run(
+        capsys, "compare", str(WHEEL_VALIDATION), *WHEEL_UNITS, "--model", str(model), "--json"
+    )
+    assert code == 0, err
+    row = out["models"][str(model)]
+    # measured FIT 92.3 %, RMSE 5.7 rad/s of speeds up to 80 rad/s; the output converted from rev/s
+    assert row["fit_percent"] > 85.0 and out["output_unit"] == "rad/s" and out["samples"] == 6000
+    assert "input gain" in row["notes"][0]
+    code, _, err = run(
+        capsys, "compare", str(WHEEL_VALIDATION), *WHEEL_UNITS, "--model", str(files / "true.json")
+    )
+    assert code == 2 and "--supply-voltage" in err
+    code, _, err = run(capsys, "identify", str(WHEEL_VALIDATION), *WHEEL_UNITS, "--estimator", "friction-ekf")
+    assert code == 2 and "--model" in err and len(err.strip().splitlines()) == 1
