@@ -64,8 +64,10 @@ logger = logging.getLogger(__name__)
 
 __all__ = [
     "MIN_SCORED_SAMPLES",
+    "POSITION_UNITS",
     "Comparison",
     "ModelOnRecord",
+    "check_output_unit",
     "compare_models",
     "free_run_on_record",
     "holds_input",
@@ -147,6 +149,33 @@ def input_unit_note(model: Any, units: Mapping[str, str] | None, name: str = "mo
         )
         return f"{name}: the input in % duty {how}: the model must have been fitted on duty too"
     return None
+
+
+#: Output units that are a position, not a velocity (:data:`motorid.units.OUTPUT_UNITS`, once converted).
+POSITION_UNITS = ("rad", "m")
+
+
+def check_output_unit(model: Any, units: Mapping[str, str] | None, name: str = "model") -> None:
+    """Refuse a record whose output the model does not give: a drive model gives a velocity
+    (a two-mass rig, and a friction filter on one, in rad/s); an ARX or Hammerstein model gives
+    the output it was identified on, whatever its unit.
+
+    Raises
+    ------
+    DataError
+        For a position output (rad, m) to a drive model or friction filter, or an output named
+        in another unit than rad/s to a model in rad/s.
+    """
+    unit = (units or {}).get("y")
+    if unit is None or not (isinstance(model, TwoMassRig | RigidDrive) or holds_input(model)):
+        return
+    if unit in POSITION_UNITS:
+        raise DataError(
+            f"{name}: the record's output is a position in {unit}; the model gives a velocity: "
+            "compare it on a velocity record"
+        )
+    if _takes_volts(model) and unit != "rad/s":
+        raise DataError(f"{name}: the model's output is the load speed in rad/s, the record's is in {unit}")
 
 
 def simulate_model(model: Any, u: np.ndarray, dt: float, name: str = "model") -> np.ndarray:
@@ -430,6 +459,8 @@ def compare_models(
         )
     units = record.attrs.get("units") or {}
     unit = units.get("y") or "output units"
+    for name, model in models.items():
+        check_output_unit(model, units, name)
     notes_of = {name: input_unit_note(model, units, name) for name, model in models.items()}
     low_speed_mask(y, low_speed_threshold)  # a bad threshold is refused before any simulation
     comparison = Comparison(t, u, y, dt, timing, skip, float(low_speed_threshold), unit)

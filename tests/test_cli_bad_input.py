@@ -184,6 +184,11 @@ BAD_INPUT = [
         ["missing.json"],
     ),
     (
+        "friction filter on a position record",
+        "identify {d}/good.csv --output-unit deg --estimator friction-ekf --model {d}/rigid.json --param R=1",
+        ["rigid.json", "position"],
+    ),
+    (
         "identify --model an estimator file",
         "identify {d}/good.csv --estimator friction-ekf --model {d}/arx.json",
         ["arx.json", "ARXRLS", "not a drive model"],

@@ -215,6 +215,19 @@ def test_compare_a_duty_record_through_a_rigid_drive_says_so(capsys, files, tmp_
     assert "input gain" in row["notes"][0] and row["rmse"] < 1e-9
 
 
+def test_compare_refuses_a_position_record_for_a_drive_model(capsys, files, tmp_path):
+    record = read_record(files / "drive_rec.csv")[["t", "u", "y"]]
+    record.to_csv(tmp_path / "position.csv", index=False)
+    code, _, err = run(capsys, "compare", str(tmp_path / "position.csv"), "--output-unit", "deg",
+                       "--model", str(files / "drive.json"))  # fmt: skip
+    assert (
+        code == 2 and "position in rad" in err and "drive.json" in err and len(err.strip().splitlines()) == 1
+    )
+    code, _, err = run(capsys, "compare", str(tmp_path / "position.csv"), "--output-unit", "m/s",
+                       "--model", str(files / "true.json"))  # fmt: skip
+    assert code == 2 and "rad/s" in err and "m/s" in err
+
+
 def test_identify_validate_equals_the_estimators_simulation_on_the_other_record(capsys, files, tmp_path):
     est_file = tmp_path / "est.json"
     code, out, err = run(capsys, "identify", str(files / "rec.csv"), "--basis", "u,sign", "--validate",

@@ -82,15 +82,16 @@ def estimator_for_record(record: pd.DataFrame, args: argparse.Namespace) -> tupl
     constants, which only motorid's own simulation (a record whose attrs carry its rig) is
     known to share: any other record is refused, naming ``--model``. The record's input unit
     must be what the model takes (:func:`motorid.comparison.input_unit_note`): duty in % is
-    refused by a model in volts.
+    refused by a model in volts; its output a velocity (:func:`motorid.comparison.check_output_unit`).
     """
-    from motorid.comparison import input_unit_note
+    from motorid.comparison import check_output_unit, input_unit_note
     from motorid.estimators import available, factory
     from motorid.plants import paper_rig
 
     model = start_model_from_args(args)
     units = record.attrs.get("units")
     if model is not None:
+        check_output_unit(model, units, f"--model {args.model}")
         note = input_unit_note(model, units, f"--model {args.model}")
         return create_estimator(args.estimator, args, rig=model), [note] if note else []
     if args.estimator not in available() or not hasattr(factory(args.estimator), "from_rig"):
@@ -100,6 +101,7 @@ def estimator_for_record(record: pd.DataFrame, args: argparse.Namespace) -> tupl
             f"{args.data}: the {args.estimator} needs the drive's model, and this record (not motorid's own "
             "simulation) carries none: give it with --model FILE (motorid doctor --save-model writes one)"
         )
+    check_output_unit(paper_rig(), units, "the default rig")
     note = input_unit_note(paper_rig(), units, "the default rig")
     notes = [note] if note else []
     notes.append(
