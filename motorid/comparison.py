@@ -459,13 +459,13 @@ def compare_models(
         )
     units = record.attrs.get("units") or {}
     unit = units.get("y") or "output units"
+    kinds = {name: model_kind(model) for name, model in models.items()}
     for name, model in models.items():
         check_output_unit(model, units, name)
     notes_of = {name: input_unit_note(model, units, name) for name, model in models.items()}
     low_speed_mask(y, low_speed_threshold)  # a bad threshold is refused before any simulation
     comparison = Comparison(t, u, y, dt, timing, skip, float(low_speed_threshold), unit)
     for name, model in models.items():
-        kind = model_kind(model)
         notes = [note for note in (notes_of[name],) if note]
         own_dt = getattr(model, "dt", None)
         if isinstance(model, TwoMassRig | RigidDrive) and not math.isclose(own_dt, dt, rel_tol=1e-6):
@@ -491,7 +491,13 @@ def compare_models(
             logger.info(note)
         comparison.models.append(
             ModelOnRecord(
-                name, kind, y_sim, n_low_speed=n_low, diverges_from=diverges, notes=tuple(notes), **scores
+                name,
+                kinds[name],
+                y_sim,
+                n_low_speed=n_low,
+                diverges_from=diverges,
+                notes=tuple(notes),
+                **scores,
             )
         )
     return comparison
