@@ -16,7 +16,8 @@ import pandas as pd
 import pytest
 
 from motorid.cli import main
-from motorid.plants import paper_rig
+from motorid.estimators import create
+from motorid.plants import RigidDrive, paper_rig
 from motorid.plants.signals import two_sine_signal
 from motorid.records import write_record
 
@@ -59,6 +60,14 @@ def folder(tmp_path_factory) -> Path:
     huge_u.loc[250, "u"] = 1e300
     _write_csv(root / "huge_u.csv", huge_u)
     (root / "existing.csv").write_text("keep me\n")
+    _write_csv(root / "short.csv", plain.iloc[:30])
+    paper_rig().save(root / "rig.json")
+    RigidDrive(effects=("coulomb_friction",), params={"inertia": 2e-4, "input_gain": 0.02, "coulomb": 0.004},
+               dt=0.04).save(root / "rigid.json")  # fmt: skip
+    create("arx-rls", na=2, nb=2).save(root / "arx.json")
+    (root / "spaceship.json").write_text(
+        '{"format": "motorid-model", "version": 1, "kind": "spaceship", "model": {}}'
+    )
     return root
 
 
@@ -130,6 +139,60 @@ BAD_INPUT = [
     ("time column as output", "doctor {d}/good.csv --output t", ["'t'"]),
     ("unknown output unit", "identify {d}/good.csv --output-unit rpms", ["--output-unit", "'rpms'", "rpm"]),
     ("supply voltage without duty", "identify {d}/good.csv --supply-voltage 12", ["--supply-voltage", "%"]),
+    ("compare: missing model file", "compare {d}/rec.csv --model {d}/missing.json", ["missing.json"]),
+    (
+        "compare: unknown model kind",
+        "compare {d}/rec.csv --model {d}/spaceship.json",
+        ["kind", "'spaceship'"],
+    ),
+    (
+        "compare: not a model file",
+        "compare {d}/rec.csv --model {d}/good.csv",
+        ["good.csv", "not a model file"],
+    ),
+    ("compare: too few samples", "compare {d}/short.csv --model {d}/rig.json", ["short.csv", "30 samples"]),
+    ("compare: no model", "compare {d}/rec.csv", ["--model"]),
+    (
+        "compare: duty to a rig in volts",
+        "compare {d}/good.csv --input-unit % --model {d}/rig.json",
+        ["rig.json", "%", "--supply-voltage"],
+    ),
+    ("identify --validate missing", "identify {d}/rec.csv --validate {d}/missing.csv", ["missing.csv"]),
+    (
+        "friction filter without a model",
+        "identify {d}/good.csv --estimator friction-ekf",
+        ["good.csv", "--model"],
+    ),
+    (
+        "--model for an estimator without one",
+        "identify {d}/rec.csv --estimator arx-rls --model {d}/rig.json",
+        ["--model", "'arx-rls'"],
+    ),
+    (
+        "rigid drive without R",
+        "identify {d}/good.csv --estimator friction-ekf --model {d}/rigid.json",
+        ["rigid.json", "--param R="],
+    ),
+    (
+        "identify --model of an unknown kind",
+        "identify {d}/good.csv --estimator friction-ukf --model {d}/spaceship.json",
+        ["spaceship"],
+    ),
+    (
+        "fleet identify --model missing",
+        "fleet identify {d} --out {d}/fleet --estimator friction-ekf --model {d}/missing.json",
+        ["missing.json"],
+    ),
+    (
+        "friction filter on a position record",
+        "identify {d}/good.csv --output-unit deg --estimator friction-ekf --model {d}/rigid.json --param R=1",
+        ["rigid.json", "position"],
+    ),
+    (
+        "identify --model an estimator file",
+        "identify {d}/good.csv --estimator friction-ekf --model {d}/arx.json",
+        ["arx.json", "ARXRLS", "not a drive model"],
+    ),
 ]
 
 

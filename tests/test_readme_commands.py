@@ -54,7 +54,7 @@ def listening(server: subprocess.Popen, port: int) -> bool:
 def test_readme_shows_each_subcommand():
     lines = shell_lines((ROOT / "README.md").read_text(encoding="utf-8"))
     used = {shlex.split(line)[1] for line in lines}
-    assert {"demo", "simulate", "identify", "sweep", "doctor", "rig", "run"} <= used
+    assert {"demo", "simulate", "identify", "sweep", "doctor", "compare", "rig", "run"} <= used
 
 
 def test_notebooks_hold_no_shell_lines():

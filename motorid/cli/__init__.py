@@ -15,7 +15,9 @@ import logging
 import os
 import sys
 import traceback
+import warnings
 from collections.abc import Sequence
+from typing import TextIO
 
 # Set before numpy is first imported (by the subcommands below). The commands' linear algebra is on
 # small matrices (the doctor solves ~600 least-squares problems of ~1,300 x 8 per record), where
@@ -26,12 +28,27 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from motorid.errors import DataError
 
-from . import doctor, fleet, identification, rig, simulation
+from . import comparison, doctor, fleet, identification, rig, simulation
 from .report import say
 
 __all__ = ["build_parser", "main"]
 
 logger = logging.getLogger("motorid")
+
+
+def show_warning(
+    message: Warning | str,
+    category: type[Warning],
+    filename: str,
+    lineno: int,
+    file: TextIO | None = None,
+    line: str | None = None,
+) -> None:
+    """A warning as one line on stderr, ``motorid: warning: <message>``: no source line, no file
+    name (what a user of the command can act on is the message; ``-v`` logs say where)."""
+    text = " ".join(str(message).split())
+    (file or sys.stderr).write(f"motorid: warning: {text}\n")
+    logger.debug("the warning above is a %s from %s:%s", category.__name__, filename, lineno)
 
 
 class _Parser(argparse.ArgumentParser):
@@ -49,7 +66,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-v", "--verbose", action="count", default=0,
                         help="more log output on stderr; the traceback of an internal error")  # fmt: skip
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=_Parser)
-    for module in (simulation, identification, doctor, rig, fleet):
+    for module in (simulation, identification, doctor, comparison, rig, fleet):
         module.add_commands(sub)
     return parser
 
@@ -68,7 +85,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     subcommand = getattr(args, "rig_command", None) or getattr(args, "fleet_command", None)
     command = " ".join(filter(None, (args.command, subcommand)))
     try:
-        return args.func(args)
+        with warnings.catch_warnings():  # the caller's own warning display is restored after the command
+            warnings.showwarning = show_warning
+            return args.func(args)
     except DataError as exc:
         say(f"motorid {command}: error: {exc}")
         return 2

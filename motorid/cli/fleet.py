@@ -21,7 +21,12 @@ from typing import Any
 from motorid.errors import DataError
 
 from .doctor import add_doctor_options, doctor_record, effect_list
-from .identification import add_identify_options, identify_record, write_identify_figure
+from .identification import (
+    add_identify_options,
+    identify_record,
+    start_model_from_args,
+    write_identify_figure,
+)
 from .options import (
     RECORD_FILES,
     add_json,
@@ -95,6 +100,7 @@ def _run(args: argparse.Namespace, command: str) -> int:
 
     if command == "identify":
         create_estimator(args.estimator, args)  # a bad option stops before any work
+        start_model_from_args(args)  # and a bad --model
     else:
         effect_list(args.base, "--base")
         if args.candidates:

@@ -41,6 +41,75 @@ def require_finite_estimate(name: str, x: np.ndarray, u: np.ndarray, y: np.ndarr
                         f"(u = {u[k]:.6g}, y = {y[k]:.6g} there); check the record around row {k}")  # fmt: skip
 
 
+#: The key of a record's attrs that holds the simulated rig (:meth:`motorid.plants.TwoMassRig.simulate`
+#: writes it): a record that has it is motorid's own simulation.
+SIMULATED_RIG_ATTR = "rig"
+
+
+def start_model_from_args(args: argparse.Namespace) -> Any:
+    """The drive model of ``--model`` a friction filter starts from (None without ``--model``),
+    checked before any record is read: the estimator must start from a model (have
+    ``from_rig``), the file must hold a drive model, and a rigid drive needs ``--param R=``."""
+    from motorid.estimators import available, factory
+    from motorid.plants import RigidDrive
+
+    from .simulation import drive_model_from_file
+
+    model_file = getattr(args, "model", None)
+    if model_file is None:
+        return None
+    if args.estimator not in available() or not hasattr(factory(args.estimator), "from_rig"):
+        create_estimator(args.estimator, args)  # an unknown name is named first
+        raise DataError(
+            f"--model: estimator {args.estimator!r} identifies its model from the record alone; "
+            "--model starts a friction filter (friction-ekf, friction-ukf) from a drive model"
+        )
+    model = drive_model_from_file(model_file)
+    if isinstance(model, RigidDrive) and not any(p.partition("=")[0] == "R" for p in args.param):
+        raise DataError(
+            f"--model {model_file} is a rigid drive, which has no sensor model: give the variance of the "
+            "speed measurement with --param R=VALUE [(output unit)^2]"
+        )
+    return model
+
+
+def estimator_for_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[Any, list[str]]:
+    """The estimator ``--estimator`` names, for this record, and what it assumes (notes for the user).
+
+    An estimator that starts from a drive model (a friction filter, which has ``from_rig``)
+    takes the constants and friction of ``--model FILE`` (a two-mass rig or the doctor's rigid
+    drive: :func:`start_model_from_args`). Without ``--model`` it runs on the default rig's
+    constants, which only motorid's own simulation (a record whose attrs carry its rig) is
+    known to share: any other record is refused, naming ``--model``. The record's input unit
+    must be what the model takes (:func:`motorid.comparison.input_unit_note`): duty in % is
+    refused by a model in volts; its output a velocity (:func:`motorid.comparison.check_output_unit`).
+    """
+    from motorid.comparison import check_output_unit, input_unit_note
+    from motorid.estimators import available, factory
+    from motorid.plants import paper_rig
+
+    model = start_model_from_args(args)
+    units = record.attrs.get("units")
+    if model is not None:
+        check_output_unit(model, units, f"--model {args.model}")
+        note = input_unit_note(model, units, f"--model {args.model}")
+        return create_estimator(args.estimator, args, rig=model), [note] if note else []
+    if args.estimator not in available() or not hasattr(factory(args.estimator), "from_rig"):
+        return create_estimator(args.estimator, args), []
+    if SIMULATED_RIG_ATTR not in record.attrs:
+        raise DataError(
+            f"{args.data}: the {args.estimator} needs the drive's model, and this record (not motorid's own "
+            "simulation) carries none: give it with --model FILE (motorid doctor --save-model writes one)"
+        )
+    check_output_unit(paper_rig(), units, "the default rig")
+    note = input_unit_note(paper_rig(), units, "the default rig")
+    notes = [note] if note else []
+    notes.append(
+        "no --model: the filter runs on the default rig's constants (the record is motorid's simulation)"
+    )
+    return create_estimator(args.estimator, args), notes
+
+
 def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dict[str, Any], list, Any]:
     """What ``motorid identify`` computes on a record with columns ``t``, ``u``, ``y``.
 
@@ -49,7 +118,9 @@ def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dic
     ``motorid fleet identify`` calls this very function on each record, so a fleet's rows equal
     the single-record command's output.
     """
+    from motorid.comparison import holds_input
     from motorid.estimators.base import first_bad_index
+    from motorid.records import record_timing
     from motorid.validation import (
         RPM_PER_RAD_S,
         check_signals,
@@ -58,9 +129,13 @@ def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dic
         score_predictions,
     )
 
-    est = create_estimator(args.estimator, args)
+    est, notes = estimator_for_record(record, args)
     u, y = record["u"].to_numpy(), record["y"].to_numpy()
     check_signals({args.input: u, args.output: y})
+    if holds_input(est) and record_timing(record.attrs) == "sampled":
+        # a physical model's output is at the end of the sample its input is held over
+        u, y = u[:-1], y[1:]
+        notes.append("the record's timing is sampled: u[k] is paired with y[k+1], the output it drives")
     result = est.batch_filter(u, y)
     require_finite_estimate(args.estimator, result.x, u, y)
     predictions = {"one_step": result.y_hat}
@@ -84,8 +159,35 @@ def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dic
         "residual_tests": {
             t.name: {"passed": t.passed, "fraction_outside": t.fraction_outside} for t in tests
         },
+        "notes": notes,
     }
     return payload, tests, est
+
+
+def validate_on_record(est: Any, record: pd.DataFrame, args: argparse.Namespace) -> dict[str, Any]:
+    """The identified model ``est`` on a second record, without refitting: its free run on that
+    record's input scored as ``identify`` scores its own (``validation`` of the ``--json`` output).
+
+    The free run is :func:`motorid.comparison.compare_models`'s (the record's timing and the
+    model's input unit minded, the first ``--skip`` samples left out).
+    """
+    from motorid.comparison import compare_models
+    from motorid.validation import RPM_PER_RAD_S, rpm_to_rad_s
+
+    run = compare_models(record, {args.estimator: est}, float(rpm_to_rad_s(args.low_speed_rpm)), args.skip)
+    model = run.models[0]
+    scores = {}
+    if model.diverges_from is None:
+        row = {"mse": model.mse, "rmse": model.rmse, "fit_percent": model.fit_percent,
+               "low_speed_mse": model.low_speed_mse, "n_low_speed": model.n_low_speed}  # fmt: skip
+        scores["free_run"] = {**row, "mse_rpm2": row["mse"] * RPM_PER_RAD_S**2}
+    return {
+        "record": args.validate,
+        "samples": len(record),
+        "scores": scores,
+        "free_run_diverges_from_sample": model.diverges_from,
+        "notes": list(model.notes),
+    }
 
 
 def write_identify_figure(tests: list, folder: Path, estimator: str) -> Path:
@@ -102,7 +204,11 @@ def cmd_identify(args: argparse.Namespace) -> int:
     from motorid.validation import RPM_PER_RAD_S
 
     record = read_record_from_args(args)
-    create_estimator(args.estimator, args)  # a bad estimator option stops before the folder is made
+    estimator_for_record(record, args)  # a bad estimator option or model stops before the folder is made
+    validation_record = None
+    if args.validate is not None:
+        # the same record options (columns, dt, units) as the record the model is identified on
+        validation_record = read_record_from_args(argparse.Namespace(**{**vars(args), "data": args.validate}))
     if args.out:
         check_out_folder(args.out)
     if args.save_model:
@@ -110,6 +216,8 @@ def cmd_identify(args: argparse.Namespace) -> int:
     payload, tests, est = identify_record(record, args)
     diverged = payload["free_run_diverges_from_sample"]
     say(f"{args.estimator} on {args.data} ({len(record)} samples)")
+    for note in payload["notes"]:
+        say(f"  note: {note}")
     say_params("", payload["params"])
     for kind, row in payload["scores"].items():
         say(
@@ -121,6 +229,10 @@ def cmd_identify(args: argparse.Namespace) -> int:
             "so it has no free-run score")  # fmt: skip
     for test in tests:
         say(f"  residual test {test.formula:<22} {'pass' if test.passed else 'FAIL'}")
+    validation = None
+    if validation_record is not None:
+        validation = validate_on_record(est, validation_record, args)
+        say_validation(validation)
     if args.save_model:
         try:
             est.save(args.save_model)
@@ -132,8 +244,28 @@ def cmd_identify(args: argparse.Namespace) -> int:
         figure = write_identify_figure(tests, args.out, args.estimator)
         say(f"  wrote {figure}")
     if args.json:
-        emit_json({**payload, "figure": figure, "model": args.save_model})
+        extra = {} if validation is None else {"validation": validation}
+        emit_json({**payload, "figure": figure, "model": args.save_model, **extra})
     return 0
+
+
+def say_validation(validation: dict[str, Any]) -> None:
+    """The human text of :func:`validate_on_record`."""
+    from motorid.validation import RPM_PER_RAD_S
+
+    say(
+        f"  on {validation['record']} ({validation['samples']} samples), the identified model without refitting:"
+    )
+    for note in validation["notes"]:
+        say(f"  note: {note}")
+    row = validation["scores"].get("free_run")
+    if row is None:
+        say(f"  free_run  diverges from sample {validation['free_run_diverges_from_sample']} on: no score")
+        return
+    say(
+        f"  free_run  MSE {row['mse']:.4g} (rad/s)^2 = {row['mse_rpm2']:.4g} rpm^2, "
+        f"low-speed MSE {row['low_speed_mse'] * RPM_PER_RAD_S**2:.4g} rpm^2, FIT {row['fit_percent']:.2f} %"
+    )
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
@@ -175,6 +307,10 @@ def add_identify_options(parser: argparse.ArgumentParser) -> None:
     add_skip(parser)
     parser.add_argument("--max-lag", type=number(int, low=1), default=25,
                         help="largest lag of the residual tests [samples] (default: 25)")  # fmt: skip
+    parser.add_argument("--model", type=Path, metavar="FILE",
+                        help="friction-ekf/ukf: start from this drive model file (a two-mass rig, or the "
+                             "doctor's rigid drive, which needs --param R=...); needed on a record that is "
+                             "not motorid's own simulation")  # fmt: skip
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
@@ -185,6 +321,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--save-model", type=Path, metavar="FILE",
                    help="write the identified estimator as a model file (JSON; motorid.load_model reads it)")  # fmt: skip
     p.add_argument("--overwrite", action="store_true", help="replace an existing --save-model file")
+    p.add_argument("--validate", type=Path, metavar="FILE",
+                   help="a second record of the same drive (read with the same options): the identified "
+                        "model's free run is scored on it without refitting")  # fmt: skip
     add_json(p)
     p.set_defaults(func=cmd_identify)
 

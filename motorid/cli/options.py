@@ -187,13 +187,19 @@ def _parse_value(text: str) -> Any:
     return text
 
 
-def create_estimator(name: str, args: argparse.Namespace):
-    """Build estimator ``name`` from the options; the paper's order 4 where it needs ``na``/``nb``."""
+def create_estimator(name: str, args: argparse.Namespace, rig: Any = None):
+    """Build estimator ``name`` from the options; the paper's order 4 where it needs ``na``/``nb``.
+
+    ``rig`` (a drive model) starts an estimator that has ``from_rig`` (the friction filters)
+    from that model's constants and friction; the options override its friction prior.
+    """
     from motorid.estimators import available, factory
 
     if name not in available():
         raise DataError(f"--estimator: unknown estimator {name!r}; known: {', '.join(available())}")
     make = factory(name)
+    if rig is not None and not hasattr(make, "from_rig"):
+        raise DataError(f"--model: estimator {name!r} does not start from a drive model")
     try:
         accepted = inspect.signature(make).parameters
     except (TypeError, ValueError):  # a factory without a signature takes what it is given
@@ -215,7 +221,7 @@ def create_estimator(name: str, args: argparse.Namespace):
             raise DataError(f"--param expects KEY=VALUE, got {item!r}")
         kwargs[key.replace("-", "_")] = _parse_value(value)
     try:
-        return make(**kwargs)
+        return make(**kwargs) if rig is None else make.from_rig(rig, **kwargs)
     except (TypeError, ValueError) as exc:  # the estimator's own check of the arguments the user gave
         raise DataError(f"estimator {name!r}: {exc}") from None
 
