@@ -49,7 +49,7 @@ def _key(where: str, key: str | int) -> str:
     return f"{where}.{key}" if where else key
 
 
-def parse_json(text: str, source: str, where: str = "") -> Any:
+def parse_json(text: str, source: str, where: str = "", invalid: str = "invalid JSON") -> Any:
     """The JSON value of ``text``, bounded in depth and integer size.
 
     Parameters
@@ -61,6 +61,9 @@ def parse_json(text: str, source: str, where: str = "") -> Any:
         file, where in it (``"rec.csv: line 1"``).
     where : str
         A prefix for the keys named in the messages (``"attrs"``: ``attrs.units``).
+    invalid : str
+        What text that is not JSON is called in the message (a model file: ``"not a
+        model file: invalid JSON"``).
 
     Raises
     ------
@@ -72,7 +75,7 @@ def parse_json(text: str, source: str, where: str = "") -> Any:
         value = json.loads(text, parse_int=_integer, parse_constant=float)
     except json.JSONDecodeError as exc:
         raise DataError(
-            f"{source}: invalid JSON at line {exc.lineno} column {exc.colno}: {exc.msg}"
+            f"{source}: {invalid} at line {exc.lineno} column {exc.colno}: {exc.msg}"
         ) from None
     except RecursionError:
         raise DataError(f"{source}: the JSON is nested deeper than {MAX_DEPTH} levels") from None

@@ -227,7 +227,8 @@ def load_model(path: str | os.PathLike[str]) -> Any:
         raise DataError(f"{source}: cannot read the model file: {exc.strerror or exc}") from None
     except UnicodeDecodeError:
         raise DataError(f"{source}: not a model file (not UTF-8 text)") from None
-    return model_from_dict(parse_json(text, str(source)), source=str(source))
+    data = parse_json(text, str(source), invalid="not a model file: invalid JSON")
+    return model_from_dict(data, source=str(source))
 
 
 def model_from_dict(data: Any, source: str = "model") -> Any:
