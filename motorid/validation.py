@@ -18,6 +18,7 @@ from numpy.typing import ArrayLike
 
 from motorid.errors import DataError
 from motorid.estimators.base import Estimator, as_float_vector, first_bad_index
+from motorid.progress import progress_bar
 
 RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
 
@@ -439,10 +440,8 @@ def order_sweep(
     skip : int
         Leading samples left out of the scores.
     progress : bool
-        Show a tqdm progress bar on stderr.
+        Show a progress bar on stderr (:func:`motorid.progress.progress_bar`).
     """
-    from tqdm import tqdm
-
     from motorid.estimators import ARXRLS, HammersteinRLS
 
     u_arr, y_arr = as_float_vector(u, "u"), as_float_vector(y, "y")
@@ -455,7 +454,7 @@ def order_sweep(
     order_rows: dict[int, dict[str, float]] = {}
     degree_rows: dict[int, dict[str, float]] = {}
     max_degree = max(degrees, default=1)
-    for kind, value in tqdm(jobs, desc="order sweep", disable=not progress):
+    for kind, value in progress_bar(jobs, show=progress, desc="order sweep", unit="model"):
         if kind == "order":
             models = {
                 "linear": ARXRLS(value, value, lam=lam, delta=delta),

@@ -795,7 +795,7 @@ def diagnose(
     max_steps : int
         Most effects added, >= 0.
     progress : bool
-        tqdm progress bar on stderr.
+        Show a progress bar on stderr (:func:`motorid.progress.progress_bar`).
     threshold : float
         ΔBIC a candidate needs to pass.
     min_holdout_gain, min_gap_shrink : float
@@ -830,7 +830,7 @@ def diagnose(
     -------
     Diagnosis
     """
-    from tqdm import tqdm
+    from motorid.progress import progress_bar
 
     if model is not None and not isinstance(model, RigidDrive):
         raise DataError(f"model must be a RigidDrive, got {type(model).__name__}")
@@ -920,7 +920,7 @@ def diagnose(
 
     current = tuple(base_names)
     # stages: the initial fit, each step, the final gaps (after the checks: an error shows no bar)
-    bar = tqdm(total=max_steps + 2, desc="doctor", disable=not progress, unit="stage")
+    bar = progress_bar(show=progress, total=max_steps + 2, desc="doctor", unit="stage")
     bar.set_postfix_str(f"initial fit on {data.n} decimated samples")
     # a rest-only effect of the user's model (static friction) keeps its value: the balance cannot refit it
     kept = (
@@ -978,7 +978,7 @@ def diagnose(
             )
             break
         ranking = []
-        for name in tqdm(remaining, desc="candidates", disable=not progress, leave=False):
+        for name in progress_bar(remaining, show=progress, desc="candidates", unit="effect", leave=False):
             if get_effect(name).rest_only:
                 # static friction: fitted and judged on the free run, the only place it shows
                 fitted = fit_static_friction(prep, fit0.model, all_full)
