@@ -85,6 +85,9 @@ def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dic
             t.name: {"passed": t.passed, "fraction_outside": t.fraction_outside} for t in tests
         },
     }
+    param_units = getattr(est, "param_units", None)  # declared by the friction filters
+    if param_units:
+        payload["units"] = {"params": dict(param_units)}
     return payload, tests, est
 
 

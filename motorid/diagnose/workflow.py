@@ -84,6 +84,7 @@ from motorid.diagnose.model import (
 from motorid.errors import DataError
 from motorid.plants.rigid import RigidDrive, check_sample_time, effect_order
 from motorid.records import record_timing
+from motorid.units import UNNAMED_OUTPUT, input_unit_name, rate
 from motorid.validation import check_signals
 
 logger = logging.getLogger(__name__)
@@ -174,15 +175,14 @@ def _units(
 
     The force unit is N (linear drive: velocity in m/s) or N m when the input
     gain is given; without it the model's forces are per input unit, so ``F``
-    is the input's unit (``attrs["units"][input]``, else ``"input units"``).
+    is the input's unit (``attrs["units"][input]``, else ``"input units"``). A
+    velocity whose unit the record does not name is in ``"output units"`` (per
+    second for a position): no unit is invented (:mod:`motorid.units`).
     """
     known = record.attrs.get("units") or {}
     unit = known.get(output)
-    if output_kind == "position":
-        v = f"{unit}/s" if unit else "rad/s"
-    else:
-        v = unit or "rad/s"
-    u = known.get(input) or "input units"
+    v = rate(unit) if output_kind == "position" else unit or UNNAMED_OUTPUT
+    u = input_unit_name(known.get(input))
     if gain_given:
         force = "N" if v.startswith("m/") else "N m"
     else:
