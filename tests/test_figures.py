@@ -247,4 +247,4 @@ def test_the_trend_figures_label_each_parameters_unit_and_what_is_marked(unit):
         assert fig.axes[-1].get_xlabel() == "record time [date]"
         legend = [t.get_text() for t in fig.axes[0].get_legend().get_texts()]
         assert "estimate per record ±2σ" in legend
-        assert ("an effect appeared" in legend) is (drive == "drive-00")
+        assert ("input_dead_zone appeared" in legend) is (drive == "drive-00")

@@ -179,7 +179,8 @@ def parameter_label(name: str, units: pd.Series) -> str:
 
 def trend_figure(drive: str, own: pd.DataFrame, reason: str = "", appeared: str = "") -> Figure:
     """One drive's friction parameters against record time: a panel per parameter, ±2σ bars
-    when known, the day an effect appeared marked; the title says why the drive is flagged.
+    when known, the day an effect appeared marked (and named in the legend); the title says
+    why the drive is flagged.
 
     Parameters
     ----------
@@ -196,7 +197,7 @@ def trend_figure(drive: str, own: pd.DataFrame, reason: str = "", appeared: str 
 
     names = list(dict.fromkeys(own["parameter"]))
     fig, axes = subplots(len(names), 1, figsize=(7, 1.9 * len(names) + 1.0), sharex=True, squeeze=False)
-    days = [pd.Timestamp(item.rsplit(" from ", 1)[1]) for item in filter(None, appeared.split(", "))]
+    days = [item.rsplit(" from ", 1) for item in filter(None, appeared.split(", "))]  # (effect, day)
     for ax, name in zip(axes[:, 0], names, strict=True):
         series = own[own["parameter"] == name]
         known = series["std"].notna().any()
@@ -204,8 +205,8 @@ def trend_figure(drive: str, own: pd.DataFrame, reason: str = "", appeared: str 
                     lw=1, capsize=2, label="estimate per record" + (" ±2σ" if known else ""))  # fmt: skip
         ax.set_ylabel(parameter_label(name, series["unit"]))
         ax.grid(alpha=0.3)
-        for i, day in enumerate(days):
-            ax.axvline(day, color="tab:red", ls="--", lw=1, label="an effect appeared" if i == 0 else None)
+        for effect, day in days:
+            ax.axvline(pd.Timestamp(day), color="tab:red", ls="--", lw=1, label=f"{effect} appeared")
         ax.legend(loc="best", fontsize=7)
     set_title(axes[0, 0], f"{drive}: " + (f"flagged ({reason})" if reason else "not flagged"), fontsize=10)
     axis = axes[-1, 0].xaxis
