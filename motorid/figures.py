@@ -49,7 +49,8 @@ def set_title(target: Axes | Figure, text: str, **kwargs: Any) -> None:
     The width of each line is measured with the font the title is drawn in, so a
     long title (a model's name with a note) breaks between words instead of
     running past the figure's edge; ``kwargs`` go to ``set_title``/``suptitle``
-    (``fontsize`` among them).
+    (``fontsize`` among them). An axes title may take the figure's width less
+    the room of the axis labels at its left: the figures here have one column.
     """
     from matplotlib.backends.backend_agg import RendererAgg
     from matplotlib.font_manager import FontProperties

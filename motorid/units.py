@@ -15,7 +15,9 @@ nothing downstream ever takes rpm for rad/s.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from types import MappingProxyType
 
 import pandas as pd
 
@@ -59,8 +61,8 @@ OUTPUT_UNITS: dict[str, tuple[float, str]] = {
 INPUT_UNITS: dict[str, float | None] = {"V": 1.0, "mV": 1e-3, "%": None}
 
 
-#: The units of a record motorid simulates or records: time, input and output.
-MOTORID_RECORD_UNITS: dict[str, str] = {"t": "s", "u": "V", "y": "rad/s"}
+#: The units of a record motorid simulates or records: time, input and output (read-only).
+MOTORID_RECORD_UNITS: Mapping[str, str] = MappingProxyType({"t": "s", "u": "V", "y": "rad/s"})
 
 #: What a figure or a report calls the unit of an input or output the record does not name:
 #: the numbers are in the record's own units, whatever they are.
