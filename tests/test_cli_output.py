@@ -20,6 +20,7 @@ import sys
 import termios
 from pathlib import Path
 
+import pandas as pd
 import pytest
 from cli_fixtures import run
 
@@ -255,3 +256,59 @@ def test_quiet_still_prints_an_error(capsys, tmp_path):
     code, out, err = run(capsys, "--quiet", "identify", str(tmp_path / "missing.csv"))
     assert code == 2 and out == ""
     assert err.count("\n") == 1 and "missing.csv" in err and err.startswith("motorid identify: error:")
+
+
+def test_rig_serve_with_quiet_serves_and_stops_without_a_word(tmp_path):
+    """The long-running command: no banner with --quiet, the Modbus server still answers."""
+    import signal
+    import socket
+
+    from io_fixtures import wait_for
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    server = subprocess.Popen([str(MOTORID), "rig", "serve", "--port", str(port), "--quiet"],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=environment())  # fmt: skip
+    try:
+
+        def listening() -> bool:
+            assert server.poll() is None, server.stderr.read()
+            with socket.socket() as probe:
+                return probe.connect_ex(("127.0.0.1", port)) == 0
+
+        wait_for(listening, timeout=60, what="motorid rig serve --quiet to listen")
+        done = piped(["run", "--daq", f"modbus://127.0.0.1:{port}", "--estimator", "arx-rls", "--duration", "1",
+                      "--out", str(tmp_path / "run.csv"), "-q"])  # fmt: skip
+        assert done.returncode == 0 and done.stderr == "", done.stderr
+    finally:
+        server.send_signal(signal.SIGINT)
+        out, err = server.communicate(timeout=30)
+    assert server.returncode == 0 and err == "" and out == ""
+    assert len(pd.read_csv(tmp_path / "run.csv", comment="#")) == 25  # 1 s at the rig's 40 ms
+
+
+def test_fleet_identify_with_quiet_prints_nothing_but_the_records_that_failed(tmp_path, capsys):
+    """A fleet run on its own local cluster of one worker: nothing on stderr when every record
+    is done; a line saying how many failed when some did (their rows say why)."""
+    assert main(["fleet", "generate", "--drives", "1", "--days", "2", "--duration", "5", "--out",
+                 str(tmp_path / "fleet"), "-q"]) == 0  # fmt: skip
+    fleet = [
+        "fleet",
+        "identify",
+        str(tmp_path / "fleet"),
+        "--workers",
+        "1",
+        "--estimator",
+        "arx-rls",
+        "--quiet",
+    ]
+    code, out, err = run(capsys, *fleet, "--max-lag", "5", "--out", str(tmp_path / "done"))
+    assert code == 0 and err == "" and out == ""
+    rows = pd.read_csv(tmp_path / "done" / "results.csv")
+    assert len(rows) == 2 and (rows["status"] == "ok").all()
+    # 5 s at 40 ms is too short for the default 25 lags of the residual tests: both records fail
+    code, out, err = run(capsys, *fleet, "--out", str(tmp_path / "failed"))
+    assert code == 0 and out == ""
+    assert err.count("\n") == 1
+    assert err.startswith("motorid fleet identify: 2 records failed: their errors are in the 'error' column")

@@ -120,8 +120,8 @@ def _run(args: argparse.Namespace, command: str) -> int:
     )
     if run.failed:
         # also with --quiet: a run that lost records says so
-        say_error(f"  {run.failed} records failed: their errors are in the 'error' column of "
-                  f"{args.out / 'results.csv'}")  # fmt: skip
+        say_error(f"motorid fleet {command}: {run.failed} records failed: their errors are in the 'error' "
+                  f"column of {args.out / 'results.csv'}")  # fmt: skip
     if args.json:
         emit_json({"records": run.records, "skipped": run.skipped, "done": run.done, "failed": run.failed,
                    "seconds": run.seconds, "results": args.out / "results.parquet"})  # fmt: skip
