@@ -15,6 +15,9 @@ nothing downstream ever takes rpm for rad/s.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from types import MappingProxyType
 
 import pandas as pd
 
@@ -22,13 +25,22 @@ from motorid.errors import DataError
 
 __all__ = [
     "INPUT_UNITS",
+    "MOTORID_RECORD_UNITS",
     "OTHER_UNITS",
     "OUTPUT_UNITS",
     "RECORD_UNITS",
+    "SHOWN_AS",
+    "UNNAMED_INPUT",
+    "UNNAMED_OUTPUT",
+    "ShownOutput",
     "check_unit",
     "convert_record",
     "input_factor",
+    "input_unit_name",
     "output_factor",
+    "per",
+    "rate",
+    "shown_output",
 ]
 
 #: Output units: name -> (factor to the SI unit, the SI unit).
@@ -74,6 +86,72 @@ def check_unit(unit: object, column: object, where: str) -> str:
             f"{where}: column {column!r} has the unknown unit {unit!r:.60} (known: {', '.join(RECORD_UNITS)})"
         )
     return unit
+
+
+#: The units of a record motorid simulates or records: time, input and output (read-only).
+MOTORID_RECORD_UNITS: Mapping[str, str] = MappingProxyType({"t": "s", "u": "V", "y": "rad/s"})
+
+#: What a figure or a report calls the unit of an input or output the record does not name:
+#: the numbers are in the record's own units, whatever they are.
+UNNAMED_INPUT = "input units"
+UNNAMED_OUTPUT = "output units"
+
+#: Units an output is shown in at the edge (figures, tables) instead of the unit held inside:
+#: speeds in rpm, as the paper reports them.
+SHOWN_AS: dict[str, str] = {"rad/s": "rpm"}
+
+#: The quantity an output's SI unit measures.
+_QUANTITY = {"rad/s": "speed", "m/s": "speed", "rad": "position", "m": "position"}
+
+
+@dataclass(frozen=True)
+class ShownOutput:
+    """How an output is shown: ``shown = factor * y``, in ``unit``, a ``quantity`` (speed,
+    position or output)."""
+
+    quantity: str
+    factor: float
+    unit: str
+
+
+def shown_output(unit: str | None) -> ShownOutput:
+    """How an output held in ``unit`` is shown in a figure or a report.
+
+    ``rad/s`` is shown in rpm (:data:`SHOWN_AS`), a unit of :data:`OUTPUT_UNITS`
+    as it is, and an output whose unit nobody named (``None``) in its own
+    numbers, called :data:`UNNAMED_OUTPUT`: no unit is invented for it.
+
+    Examples
+    --------
+    >>> shown_output("rad/s").unit, round(shown_output("rad/s").factor, 4)
+    ('rpm', 9.5493)
+    >>> shown_output(None)
+    ShownOutput(quantity='output', factor=1.0, unit='output units')
+    """
+    if unit is None:
+        return ShownOutput("output", 1.0, UNNAMED_OUTPUT)
+    quantity = _QUANTITY.get(OUTPUT_UNITS[unit][1], "output") if unit in OUTPUT_UNITS else "output"
+    shown = SHOWN_AS.get(unit)
+    if shown is None:
+        return ShownOutput(quantity, 1.0, unit)
+    return ShownOutput(quantity, OUTPUT_UNITS[unit][0] / OUTPUT_UNITS[shown][0], shown)
+
+
+def input_unit_name(unit: str | None) -> str:
+    """The name of an input's unit in a figure or a report: ``unit``, or :data:`UNNAMED_INPUT`."""
+    return unit or UNNAMED_INPUT
+
+
+def rate(unit: str | None) -> str:
+    """The unit of the rate of change of a quantity in ``unit`` (``rad`` -> ``rad/s``; no unit:
+    ``output units/s``)."""
+    return f"{unit or UNNAMED_OUTPUT}/s"
+
+
+def per(numerator: str, denominator: str) -> str:
+    """A unit ratio in words: ``per("rad/s", "V") == "rad/s per V"``, and an unnamed input
+    unit in the singular (``output units per input unit``)."""
+    return f"{numerator} per {'input unit' if denominator == UNNAMED_INPUT else denominator}"
 
 
 def output_factor(unit: str, option: str = "--output-unit") -> tuple[float, str]:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -18,6 +19,10 @@ from numpy.typing import ArrayLike
 
 from motorid.errors import DataError
 from motorid.estimators.base import Estimator, as_float_vector, first_bad_index
+from motorid.progress import progress_bar
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
 
@@ -356,23 +361,37 @@ def residual_tests(
     return tests
 
 
-def plot_residual_tests(tests: list[CorrelationTest], path: str, title: str = "Residual analysis") -> None:
-    """One PNG figure with a panel per test: correlation against lag, band shaded."""
-    from motorid.figures import save, subplots
+def residual_tests_figure(tests: list[CorrelationTest], title: str = "Residual analysis") -> Figure:
+    """A panel per test: the normalised correlation [-] against the lag [samples],
+    the per-lag band shaded and the band for all lags at once dashed (the test's verdict)."""
+    from motorid.figures import set_title, subplots
 
-    fig, axes = subplots(len(tests), 1, figsize=(8, 2.0 * len(tests)))
+    fig, axes = subplots(len(tests), 1, figsize=(8, 2.0 * len(tests) + 0.6))
     for ax, test in zip(np.atleast_1d(axes), tests, strict=True):
         ax.axhspan(-test.band, test.band, color="tab:blue", alpha=0.15, label="per-lag band")
         for level in (-test.simultaneous_band, test.simultaneous_band):
-            ax.axhline(level, color="tab:red", lw=0.8, ls="--")
-        ax.stem(test.lags, test.values, basefmt=" ")
+            ax.axhline(
+                level, color="tab:red", lw=0.8, ls="--", label="band for all lags at once (the verdict)"
+            )
+        ax.stem(test.lags, test.values, basefmt=" ", label="correlation at each lag")
         verdict = "pass" if test.passed else "FAIL"
-        ax.set_title(f"{test.formula}: {verdict} ({test.fraction_outside:.0%} of lags outside)", fontsize=9)
+        set_title(ax, f"{test.formula}: {verdict} ({test.fraction_outside:.0%} of lags outside the per-lag band)",
+                  fontsize=9)  # fmt: skip
         ax.set_ylabel("correlation [-]")
         ax.set_ylim(-1.05, 1.05)
-    np.atleast_1d(axes)[-1].set_xlabel("lag tau [samples]")
-    fig.suptitle(title)
-    save(fig, path)
+        ax.set_xlabel("lag tau [samples]")
+    set_title(fig, title)
+    handles, labels = np.atleast_1d(axes)[0].get_legend_handles_labels()
+    shown = dict(zip(labels, handles, strict=True))  # the two dashed lines under one entry
+    fig.legend(shown.values(), shown.keys(), loc="outside lower center", ncols=3, fontsize=8)
+    return fig
+
+
+def plot_residual_tests(tests: list[CorrelationTest], path: str, title: str = "Residual analysis") -> None:
+    """Write :func:`residual_tests_figure` as PNG at ``path``."""
+    from motorid.figures import save
+
+    save(residual_tests_figure(tests, title), path)
 
 
 # --------------------------------------------------------------------------- the paper's experiment
@@ -439,10 +458,8 @@ def order_sweep(
     skip : int
         Leading samples left out of the scores.
     progress : bool
-        Show a tqdm progress bar on stderr.
+        Show a progress bar on stderr (:func:`motorid.progress.progress_bar`).
     """
-    from tqdm import tqdm
-
     from motorid.estimators import ARXRLS, HammersteinRLS
 
     u_arr, y_arr = as_float_vector(u, "u"), as_float_vector(y, "y")
@@ -455,7 +472,7 @@ def order_sweep(
     order_rows: dict[int, dict[str, float]] = {}
     degree_rows: dict[int, dict[str, float]] = {}
     max_degree = max(degrees, default=1)
-    for kind, value in tqdm(jobs, desc="order sweep", disable=not progress):
+    for kind, value in progress_bar(jobs, show=progress, desc="order sweep", unit="model"):
         if kind == "order":
             models = {
                 "linear": ARXRLS(value, value, lam=lam, delta=delta),

@@ -79,6 +79,8 @@ def test_every_readme_command_runs_as_printed(tmp_path):
                 continue
             done = subprocess.run(argv, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
             assert done.returncode == 0, f"{line!r} exited with {done.returncode}:\n{done.stderr[-3000:]}"
+            if "--quiet" in argv:  # as the README says: nothing on stderr for a command that succeeds
+                assert done.stderr == "", f"{line!r} printed on stderr: {done.stderr[-3000:]}"
     finally:
         for server in servers:
             server.send_signal(signal.SIGINT)

@@ -3,6 +3,10 @@
 Each subcommand prints human text on stderr and, with ``--json``, one JSON object
 on stdout. Figures are PNG files written where ``--out`` says.
 
+With ``--quiet`` (before or after the subcommand) a command prints only its
+errors and warnings on stderr: no progress bar, no report. Progress bars show
+only when stderr is a terminal (:func:`motorid.cli.report.show_progress`).
+
 Exit status: 0 done; 2 the user's input cannot be used (an option, a file, a
 column, a value: one line names it); 1 a bug in motorid (one line, the
 traceback with ``-v``); 130 interrupted.
@@ -29,7 +33,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 from motorid.errors import DataError
 
 from . import comparison, doctor, fleet, identification, rig, simulation
-from .report import say
+from .report import configure, say_error
 
 __all__ = ["build_parser", "main"]
 
@@ -52,7 +56,14 @@ def show_warning(
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse with a one-line error that names the option and where to find help."""
+    """argparse with a one-line error that names the option and where to find help, and
+    ``--quiet`` on every command, before or after the subcommand's name."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        # SUPPRESS: a subcommand's parser leaves the value the main parser set alone
+        self.add_argument("-q", "--quiet", action="store_true", default=argparse.SUPPRESS,
+                          help="print only errors and warnings on stderr: no progress bar, no report")  # fmt: skip
 
     def error(self, message: str) -> None:  # type: ignore[override]
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
@@ -78,6 +89,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse has printed the help or the one-line error
         return int(exc.code or 0)
+    configure(quiet=getattr(args, "quiet", False), json=getattr(args, "json", False))
     level = logging.WARNING - 10 * min(args.verbose, 2)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
     # the cluster's own log (a worker lost and its tasks rerun) only with -v: the run reports what matters
@@ -89,18 +101,18 @@ def main(argv: Sequence[str] | None = None) -> int:
             warnings.showwarning = show_warning
             return args.func(args)
     except DataError as exc:
-        say(f"motorid {command}: error: {exc}")
+        say_error(f"motorid {command}: error: {exc}")
         return 2
     except KeyboardInterrupt:
-        say(f"motorid {command}: interrupted")
+        say_error(f"motorid {command}: interrupted")
         return 130
     except OSError as exc:  # the machine's answer about a file or a port the user named
-        say(f"motorid {command}: error: {exc}")
+        say_error(f"motorid {command}: error: {exc}")
         return 2
     except Exception as exc:
         if args.verbose:
             traceback.print_exc()
-        say(
+        say_error(
             f"motorid {command}: internal error: {type(exc).__name__}: {exc}. This is a bug in motorid; "
             + (
                 "please report it with the traceback above."

@@ -19,7 +19,7 @@ from .options import (
     positive,
     read_record_from_args,
 )
-from .report import emit_json, say
+from .report import emit_json, say, show_progress
 
 if TYPE_CHECKING:
     from motorid.diagnose.workflow import Diagnosis
@@ -39,11 +39,12 @@ def effect_list(text: str | None, option: str) -> list[str]:
     return names
 
 
-def doctor_record(record: pd.DataFrame, args: argparse.Namespace, progress: bool = True) -> Diagnosis:
+def doctor_record(record: pd.DataFrame, args: argparse.Namespace, progress: bool = False) -> Diagnosis:
     """What ``motorid doctor`` computes on a record with columns ``t``, ``u``, ``y``.
 
-    ``motorid fleet doctor`` calls this very function on each record (without the progress
-    bar), so a fleet's rows equal the single-record command's ``--json`` output.
+    ``progress`` shows the doctor's progress bar. ``motorid fleet doctor`` calls this very
+    function on each record (without the bar), so a fleet's rows equal the single-record
+    command's ``--json`` output.
     """
     from motorid.diagnose import diagnose
 
@@ -91,7 +92,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         validation = read_record_from_args(argparse.Namespace(**{**vars(args), "data": args.validate}))
     if args.out:
         check_out_folder(args.out)
-    diagnosis = doctor_record(record, args)
+    diagnosis = doctor_record(record, args, progress=show_progress())
     units, param_units = diagnosis.units, diagnosis.param_units
     start = f"the model in {args.model}" if args.model is not None else "inertia, input gain"
     say(f"motorid doctor on {args.data} ({len(record)} samples), base model: {start}"

@@ -36,7 +36,7 @@ from .options import (
     number,
     positive,
 )
-from .report import emit_json, frame_records, jsonable, say
+from .report import emit_json, frame_records, jsonable, say, say_error, show_progress
 
 
 @dataclass(frozen=True)
@@ -116,7 +116,8 @@ def _run(args: argparse.Namespace, command: str) -> int:
     say(f"motorid fleet {command}: {len(paths)} records on {where}; results in {args.out}/")
     if pending_records(paths, args.out, args.retry_failed):
         with fleet_client(args.scheduler, args.workers) as client:
-            run = run_fleet(paths, task, args.out, client, given=given, retry_failed=args.retry_failed)
+            run = run_fleet(paths, task, args.out, client, given=given, retry_failed=args.retry_failed,
+                            progress=show_progress())  # fmt: skip
     else:  # every record is in the results: no cluster to start
         run = FleetRun(records=len(paths), skipped=len(paths), done=0, failed=0, seconds=0.0)
     say(
@@ -124,7 +125,9 @@ def _run(args: argparse.Namespace, command: str) -> int:
         f"({run.seconds:.1f} s); results: {args.out / 'results.parquet'}/ and {args.out / 'results.csv'}"
     )
     if run.failed:
-        say(f"  the failed records' errors are in the 'error' column of {args.out / 'results.csv'}")
+        # also with --quiet: a run that lost records says so
+        say_error(f"motorid fleet {command}: {run.failed} records failed: their errors are in the 'error' "
+                  f"column of {args.out / 'results.csv'}")  # fmt: skip
     if args.json:
         emit_json({"records": run.records, "skipped": run.skipped, "done": run.done, "failed": run.failed,
                    "seconds": run.seconds, "results": args.out / "results.parquet"})  # fmt: skip

@@ -25,7 +25,7 @@ from .options import (
     number,
     read_record_from_args,
 )
-from .report import emit_json, frame_records, say, say_params
+from .report import emit_json, frame_records, say, say_params, show_progress
 
 
 def require_finite_estimate(name: str, x: np.ndarray, u: np.ndarray, y: np.ndarray) -> None:
@@ -161,6 +161,9 @@ def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dic
         },
         "notes": notes,
     }
+    param_units = getattr(est, "param_units", None)  # declared by the friction filters
+    if param_units:
+        payload["units"] = {"params": dict(param_units)}
     return payload, tests, est
 
 
@@ -277,7 +280,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     tables = order_sweep(
         record["u"].to_numpy(), record["y"].to_numpy(), args.orders, args.degrees,
         degree=args.degree, order=args.order, lam=args.lam, prediction=args.prediction,
-        low_speed_threshold=float(rpm_to_rad_s(args.low_speed_rpm)), skip=args.skip, progress=True,
+        low_speed_threshold=float(rpm_to_rad_s(args.low_speed_rpm)), skip=args.skip, progress=show_progress(),
     )  # fmt: skip
     with pd.option_context("display.width", 140, "display.max_columns", 12):
         say(f"Table 1: MSE [rpm^2] per model order (degree {args.degree}), {args.prediction} prediction")

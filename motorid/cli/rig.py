@@ -23,7 +23,7 @@ from .options import (
     number,
     positive,
 )
-from .report import emit_json, say, say_params
+from .report import emit_json, say, say_error, say_params, show_progress
 
 
 def cmd_rig_serve(args: argparse.Namespace) -> int:
@@ -108,13 +108,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     )  # fmt: skip
     excitation = excitation_from_args(args, daq.dt)
     try:
-        record = run_online(daq, estimators, excitation, args.duration, out=args.out, progress=True,
+        record = run_online(daq, estimators, excitation, args.duration, out=args.out, progress=show_progress(),
                             overwrite=args.overwrite)  # fmt: skip
     except DAQError as exc:
         notes = " ".join(getattr(exc, "__notes__", []))
         raise DataError(f"run stopped: {exc}. {notes}".strip()) from None
     except KeyboardInterrupt as exc:  # exit 130 (main), after saying what is on disk
-        say(f"motorid run: {exc or 'interrupted'}; " + " ".join(getattr(exc, "__notes__", [])))
+        say_error(f"motorid run: {exc or 'interrupted'}; " + " ".join(getattr(exc, "__notes__", [])))
         raise
     say(f"wrote {args.out}: {record.attrs['samples']} samples")
     for name, est in estimators.items():

@@ -84,6 +84,7 @@ from motorid.diagnose.model import (
 from motorid.errors import DataError
 from motorid.plants.rigid import RigidDrive, check_sample_time, effect_order
 from motorid.records import record_timing
+from motorid.units import UNNAMED_OUTPUT, input_unit_name, rate
 from motorid.validation import check_signals
 
 logger = logging.getLogger(__name__)
@@ -174,15 +175,14 @@ def _units(
 
     The force unit is N (linear drive: velocity in m/s) or N m when the input
     gain is given; without it the model's forces are per input unit, so ``F``
-    is the input's unit (``attrs["units"][input]``, else ``"input units"``).
+    is the input's unit (``attrs["units"][input]``, else ``"input units"``). A
+    velocity whose unit the record does not name is in ``"output units"`` (per
+    second for a position): no unit is invented (:mod:`motorid.units`).
     """
     known = record.attrs.get("units") or {}
     unit = known.get(output)
-    if output_kind == "position":
-        v = f"{unit}/s" if unit else "rad/s"
-    else:
-        v = unit or "rad/s"
-    u = known.get(input) or "input units"
+    v = rate(unit) if output_kind == "position" else unit or UNNAMED_OUTPUT
+    u = input_unit_name(known.get(input))
     if gain_given:
         force = "N" if v.startswith("m/") else "N m"
     else:
@@ -795,7 +795,7 @@ def diagnose(
     max_steps : int
         Most effects added, >= 0.
     progress : bool
-        tqdm progress bar on stderr.
+        Show a progress bar on stderr (:func:`motorid.progress.progress_bar`).
     threshold : float
         ΔBIC a candidate needs to pass.
     min_holdout_gain, min_gap_shrink : float
@@ -830,7 +830,7 @@ def diagnose(
     -------
     Diagnosis
     """
-    from tqdm import tqdm
+    from motorid.progress import progress_bar
 
     if model is not None and not isinstance(model, RigidDrive):
         raise DataError(f"model must be a RigidDrive, got {type(model).__name__}")
@@ -920,7 +920,7 @@ def diagnose(
 
     current = tuple(base_names)
     # stages: the initial fit, each step, the final gaps (after the checks: an error shows no bar)
-    bar = tqdm(total=max_steps + 2, desc="doctor", disable=not progress, unit="stage")
+    bar = progress_bar(show=progress, total=max_steps + 2, desc="doctor", unit="stage")
     bar.set_postfix_str(f"initial fit on {data.n} decimated samples")
     # a rest-only effect of the user's model (static friction) keeps its value: the balance cannot refit it
     kept = (
@@ -978,7 +978,7 @@ def diagnose(
             )
             break
         ranking = []
-        for name in tqdm(remaining, desc="candidates", disable=not progress, leave=False):
+        for name in progress_bar(remaining, show=progress, desc="candidates", unit="effect", leave=False):
             if get_effect(name).rest_only:
                 # static friction: fitted and judged on the free run, the only place it shows
                 fitted = fit_static_friction(prep, fit0.model, all_full)

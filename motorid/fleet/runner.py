@@ -29,9 +29,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from tqdm import tqdm
-
 from motorid.fleet.results import ResultsStore
+from motorid.progress import progress_bar
 
 logger = logging.getLogger(__name__)
 
@@ -107,7 +106,7 @@ def run_fleet(
     client: Any,
     given: dict[str, dict[str, Any]] | None = None,
     retry_failed: bool = False,
-    progress: bool = True,
+    progress: bool = False,
     csv_every: float = 5.0,
 ) -> FleetRun:
     """Run ``task`` on every record of ``paths`` not yet in ``out``'s results; store each row.
@@ -127,7 +126,8 @@ def run_fleet(
     retry_failed : bool
         Rerun the records whose row says failed (default: skip every record in the results).
     progress : bool
-        A progress bar on stderr with the counts of done and failed records.
+        A progress bar on stderr with the counts of done and failed records
+        (:func:`motorid.progress.progress_bar`).
     csv_every : float
         Seconds between rewrites of ``results.csv`` during the run [s].
     """
@@ -140,7 +140,7 @@ def run_fleet(
     given = given or {}
     run = FleetRun(records=len(records), skipped=len(records) - len(todo), done=0, failed=0, seconds=0.0)
     logger.info("%d records, %d already in %s, %d to run", run.records, run.skipped, out, len(todo))
-    bar = tqdm(total=len(todo), desc="fleet", unit="record", disable=not progress)
+    bar = progress_bar(show=progress, total=len(todo), desc="fleet", unit="record")
     bar.set_postfix(done=0, failed=0)
     futures = client.map(task, todo, [given.get(p, {}) for p in todo], pure=False)
     path_of = {future.key: path for future, path in zip(futures, todo, strict=True)}

@@ -7,7 +7,6 @@ import csv
 import logging
 import math
 import signal
-import sys
 import threading
 from collections import deque
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -17,7 +16,8 @@ from typing import Any, Protocol
 
 import numpy as np
 import pandas as pd
-from tqdm import tqdm
+
+from motorid.progress import progress_bar
 
 from .base import DAQ, Sample
 
@@ -268,7 +268,7 @@ def run_online(
     excitation: Excitation,
     duration: float | None,
     out: str | Path | None = None,
-    progress: bool = True,
+    progress: bool = False,
     *,
     flush_every: int = 1,
     overwrite: bool = False,
@@ -299,7 +299,7 @@ def run_online(
         first sample). An existing file is refused before the DAQ is opened
         unless ``overwrite`` is true.
     progress : bool
-        Show a tqdm progress bar on stderr.
+        Show a progress bar on stderr (:func:`motorid.progress.progress_bar`).
     flush_every : int
         Flush the CSV every this many samples (1: every sample).
     overwrite : bool
@@ -362,9 +362,7 @@ def run_online(
         keep = KEEP_WITH_FILE
     recorder = RunRecorder(out, flush_every=flush_every, overwrite=overwrite, keep=keep)
     warm_up(named)
-    bar = tqdm(
-        total=n, file=sys.stderr, disable=not progress, unit="sample", desc="online", dynamic_ncols=True
-    )
+    bar = progress_bar(show=progress, total=n, unit="sample", desc="online")
     try:
         with StopRequest().installed() as stop:
             daq.open()
