@@ -66,7 +66,14 @@ def fleet_client(scheduler: str | None = None, workers: int | None = None) -> It
     n = workers or os.cpu_count() or 1
     with (
         LocalCluster(
-            n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=level
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            # the scheduler's HTTP endpoints on a free loopback port: its default, 8787, is taken by
+            # a second fleet run and would warn
+            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+            silence_logs=level,
         ) as cluster,
         Client(cluster) as client,
     ):
