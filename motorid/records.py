@@ -236,12 +236,15 @@ def _fields(line: str, sep: str) -> list[str]:
         return [line]
 
 
-def _dialect(name: str, header: str, lines: list[str], sep: str | None, decimal: str | None) -> tuple[str, str]:
+def _dialect(
+    name: str, header: str, lines: list[str], sep: str | None, decimal: str | None
+) -> tuple[str, str]:
     """The separator and decimal mark of a CSV: as given, else detected from its header and first lines.
 
     A decimal comma is detected when the separator is not a comma and a cell of
     the first lines is a number written with one (``1,25``).
     """
+    given = (sep, decimal)
     if sep is None:
         best = (1, ",")
         for candidate in SEPARATORS:
@@ -249,25 +252,24 @@ def _dialect(name: str, header: str, lines: list[str], sep: str | None, decimal:
             if counts[0] > best[0] and all(c == counts[0] for c in counts[1:]):
                 best = (counts[0], candidate)
         sep = best[1]
-        detected = "detected"
-    else:
-        detected = "given"
     if decimal is None:
         cells = (cell for line in lines for cell in _fields(line, sep))
         decimal = "," if sep != "," and any(_DECIMAL_COMMA.match(cell) for cell in cells) else "."
-        detected += ", decimal mark detected"
-    logger.info("%s: separator %r, decimal mark %r (%s)", name, sep, decimal, detected)
+    logger.info("%s: separator %r (%s), decimal mark %r (%s)", name, sep, "detected" if given[0] is None else "given",
+                decimal, "detected" if given[1] is None else "given")  # fmt: skip
     return sep, decimal
 
 
 def check_dialect(sep: str | None, decimal: str | None) -> None:
     """Refuse a CSV separator or decimal mark the reader cannot use (one character each, not the same)."""
-    if sep is not None and (not isinstance(sep, str) or len(sep) != 1 or sep in "\r\n\"."):
+    if sep is not None and (not isinstance(sep, str) or len(sep) != 1 or sep in '\r\n".'):
         raise DataError(f"sep (--sep) must be one character such as ',', ';' or a tab, got {sep!r}")
     if decimal is not None and decimal not in (".", ","):
         raise DataError(f"decimal (--decimal) must be '.' or ',', got {decimal!r}")
     if sep is not None and sep == decimal:
-        raise DataError(f"sep (--sep) and decimal (--decimal) are both {sep!r}: a CSV cannot use one for both")
+        raise DataError(
+            f"sep (--sep) and decimal (--decimal) are both {sep!r}: a CSV cannot use one for both"
+        )
 
 
 def _count_lines_and(path: str, sep: str, chunk_bytes: int = 1 << 24) -> tuple[int, int]:
@@ -622,7 +624,10 @@ class RecordOptions:
             value = getattr(self, key)
             if value is not None and (not isinstance(value, str) or not value.strip()):
                 raise DataError(f"{key} must name a column (a non-empty text), got {value!r}")
-        named = [(key, getattr(self, key) or canonical) for key, canonical in zip(("time", "input", "output"), REQUIRED_COLUMNS, strict=True)]
+        named = [
+            (key, getattr(self, key) or canonical)
+            for key, canonical in zip(("time", "input", "output"), REQUIRED_COLUMNS, strict=True)
+        ]
         for position, (key, column) in enumerate(named):
             for other, first in named[:position]:
                 if first == column:
@@ -634,7 +639,9 @@ class RecordOptions:
                                     or not math.isfinite(self.dt) or self.dt <= 0.0):  # fmt: skip
             raise DataError(f"dt must be finite and > 0, got {self.dt!r}")
         if self.time_unit is not None and self.time_unit not in TIME_UNITS:
-            raise DataError(f"time_unit (--time-unit) must be one of {', '.join(TIME_UNITS)}, got {self.time_unit!r}")
+            raise DataError(
+                f"time_unit (--time-unit) must be one of {', '.join(TIME_UNITS)}, got {self.time_unit!r}"
+            )
         if not isinstance(self.resample, bool):
             raise DataError(f"resample must be True or False, got {self.resample!r}")
 
@@ -865,7 +872,7 @@ def normalise_record(
             bad = np.flatnonzero(~np.isfinite(numbers))
             if bad.size:
                 if key in mapping:
-                    raise DataError(f"column {str(column)!r} is not a finite number at row {int(bad[0])}: "
+                    raise DataError(f"column {str(column)!r} is not a finite number at sample {int(bad[0])}: "
                                     f"{series.iloc[int(bad[0])]!r}")  # fmt: skip
                 continue  # another column that is not numbers is left out, as the readers do
             values = numbers
@@ -874,7 +881,7 @@ def normalise_record(
     if time_unit_of_dates is not None:
         options = replace(options, time_unit=time_unit_of_dates)
     names = {canonical: mapping[canonical] for canonical in REQUIRED_COLUMNS if canonical in mapping}
-    return _normalised("the record", rec, attrs, lambda row: f"row {row}", options, min_samples, names)
+    return _normalised("the record", rec, attrs, lambda row: f"sample {row}", options, min_samples, names)
 
 
 def _read_csv(
@@ -967,7 +974,8 @@ def _normalised(
     units = attrs.get("units")
     if isinstance(units, dict):  # the units of the named columns follow them to their new names
         renamed = {v: k for k, v in names.items()}
-        attrs["units"] = {renamed.get(k, k): v for k, v in units.items() if k in renamed or k not in names}
+        attrs["units"] = {k: v for k, v in units.items() if k not in renamed}
+        attrs["units"].update({renamed[k]: v for k, v in units.items() if k in renamed})
     dt, file_dt = options.dt, attrs.get("dt")
     if dt is not None and file_dt is not None and not math.isclose(dt, file_dt, rel_tol=options.dt_rtol):
         raise DataError(f"dt = {dt!r} was asked for but {name} says dt = {file_dt!r}")
@@ -1019,7 +1027,7 @@ def _on_uniform_time(
     if raw[0] != 0:
         attrs["time_origin"] = float(raw[0]) * scale
     steps = np.diff(t)
-    median = float(np.median(steps)) if steps.size else None
+    median = float(np.median(steps_raw)) * scale if steps.size else None  # from the file's numbers: exact
     if dt is not None and median is not None and not math.isclose(dt, median, rel_tol=options.dt_rtol):
         within = np.abs(steps - median) <= JITTER_LIMIT * median
         mean = float(np.mean(steps[within])) if within.any() else median
@@ -1044,7 +1052,9 @@ def _on_uniform_time(
         return rec
     ratio = steps / expected
     gaps = np.flatnonzero((ratio > 1.0 + JITTER_LIMIT) & (np.rint(ratio) >= 2))
-    odd = np.flatnonzero((np.abs(ratio - 1.0) > JITTER_LIMIT) & ~((ratio > 1.0 + JITTER_LIMIT) & (np.rint(ratio) >= 2)))
+    odd = np.flatnonzero(
+        (np.abs(ratio - 1.0) > JITTER_LIMIT) & ~((ratio > 1.0 + JITTER_LIMIT) & (np.rint(ratio) >= 2))
+    )
     if not options.resample:
         if gaps.size and (not odd.size or gaps[0] < odd[0]):
             row = int(gaps[0]) + 1
@@ -1084,15 +1094,15 @@ __all__ = [
     "ATTRS_KEY",
     "ATTRS_MARKER",
     "DRIVE_ATTR",
+    "JITTER_LIMIT",
     "MAT_ATTRS_VARIABLE",
     "RECORD_FORMATS",
     "REQUIRED_COLUMNS",
     "SEPARATORS",
-    "TIME_UNITS",
-    "RecordOptions",
-    "JITTER_LIMIT",
     "TIME_ATTR",
+    "TIME_UNITS",
     "TIMINGS",
+    "RecordOptions",
     "count_data_lines",
     "normalise_record",
     "read_record",

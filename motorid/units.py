@@ -196,7 +196,9 @@ def convert_record(
     converted = dict(out.attrs.get("converted_from") or {})
     for name, given in (("u", input_unit), ("y", output_unit)):
         unit = given or units.get(name)
-        if unit is None or name not in record.columns:  # nothing says: the column is taken as it is and its unit stays unnamed
+        if (
+            unit is None or name not in record.columns
+        ):  # nothing says: the column is taken as it is and its unit stays unnamed
             continue
         table = INPUT_UNITS if name == "u" else OUTPUT_UNITS
         if given is None and unit not in table:  # a unit the file declares without a factor here
@@ -204,7 +206,9 @@ def convert_record(
         if name == "u":
             check_input_range(record["u"].to_numpy(), unit, input_full_scale, where, column)
         factor, si = (
-            input_factor(unit, supply_voltage, full_scale=input_full_scale) if name == "u" else output_factor(unit)
+            input_factor(unit, supply_voltage, full_scale=input_full_scale)
+            if name == "u"
+            else output_factor(unit)
         )
         if factor != 1.0:
             out[name] = record[name] * factor

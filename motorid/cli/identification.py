@@ -22,6 +22,7 @@ from .options import (
     check_out_folder,
     create_estimator,
     int_range,
+    low_speed_band,
     number,
     read_record_from_args,
 )
@@ -50,13 +51,7 @@ def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dic
     the single-record command's output.
     """
     from motorid.estimators.base import first_bad_index
-    from motorid.validation import (
-        RPM_PER_RAD_S,
-        check_signals,
-        residual_tests,
-        rpm_to_rad_s,
-        score_predictions,
-    )
+    from motorid.validation import RPM_PER_RAD_S, check_signals, residual_tests, score_predictions
 
     est = create_estimator(args.estimator, args)
     u, y = record["u"].to_numpy(), record["y"].to_numpy()
@@ -68,19 +63,21 @@ def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dic
     diverged = first_bad_index(free_run)
     if diverged is None:
         predictions["free_run"] = free_run
-    threshold = float(rpm_to_rad_s(args.low_speed_rpm))
+    unit, threshold, _ = low_speed_band(record, args.low_speed_rpm)
     scores = score_predictions(y, predictions, threshold, args.skip)
+    in_rpm = unit == "rad/s"
     tests = residual_tests(u[args.skip :], (y - result.y_hat)[args.skip :], max_lag=args.max_lag)
     payload = {
         "estimator": args.estimator,
         "samples": len(record),
         "params": est.params,
         "scores": {
-            kind: {**row, "mse_rpm2": row["mse"] * RPM_PER_RAD_S**2}
+            kind: {**row, **({"mse_rpm2": row["mse"] * RPM_PER_RAD_S**2} if in_rpm else {})}
             for kind, row in scores.to_dict("index").items()
         },
         "free_run_diverges_from_sample": diverged,
-        "low_speed_threshold_rad_s": threshold,
+        "output_unit": unit,
+        ("low_speed_threshold_rad_s" if in_rpm else "low_speed_threshold"): threshold,
         "residual_tests": {
             t.name: {"passed": t.passed, "fraction_outside": t.fraction_outside} for t in tests
         },
@@ -109,13 +106,19 @@ def cmd_identify(args: argparse.Namespace) -> int:
         check_out_file(args.save_model, args.overwrite, "--save-model")
     payload, tests, est = identify_record(record, args)
     diverged = payload["free_run_diverges_from_sample"]
+    unit, _, band = low_speed_band(record, args.low_speed_rpm)
     say(f"{args.estimator} on {args.data} ({len(record)} samples)")
     say_params("", payload["params"])
     for kind, row in payload["scores"].items():
-        say(
-            f"  {kind:<9} MSE {row['mse']:.4g} (rad/s)^2 = {row['mse'] * RPM_PER_RAD_S**2:.4g} rpm^2, "
-            f"low-speed MSE {row['low_speed_mse'] * RPM_PER_RAD_S**2:.4g} rpm^2, FIT {row['fit_percent']:.2f} %"
-        )
+        if unit == "rad/s":
+            mse = f"MSE {row['mse']:.4g} (rad/s)^2 = {row['mse'] * RPM_PER_RAD_S**2:.4g} rpm^2"
+            low = f"low-speed MSE {row['low_speed_mse'] * RPM_PER_RAD_S**2:.4g} rpm^2"
+        else:  # the record's own unit, or none named: no rpm is invented
+            square = f"({unit or 'output units'})^2"
+            mse, low = f"MSE {row['mse']:.4g} {square}", f"low-speed MSE {row['low_speed_mse']:.4g} {square}"
+        say(f"  {kind:<9} {mse}, {low}, FIT {row['fit_percent']:.2f} %")
+    if unit != "rad/s":
+        say(f"  low speed: {band}")
     if diverged is not None:
         say(f"  free_run  diverges from sample {diverged} on: the identified model is unstable on this input, "
             "so it has no free-run score")  # fmt: skip
@@ -138,19 +141,22 @@ def cmd_identify(args: argparse.Namespace) -> int:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     """The paper's Tables 1 and 2 on a record."""
-    from motorid.validation import check_signals, order_sweep, rpm_to_rad_s
+    from motorid.validation import check_signals, order_sweep
 
     record = read_record_from_args(args)
     check_signals({args.input: record["u"], args.output: record["y"]})
+    unit, threshold, band = low_speed_band(record, args.low_speed_rpm)
     tables = order_sweep(
         record["u"].to_numpy(), record["y"].to_numpy(), args.orders, args.degrees,
         degree=args.degree, order=args.order, lam=args.lam, prediction=args.prediction,
-        low_speed_threshold=float(rpm_to_rad_s(args.low_speed_rpm)), skip=args.skip, progress=True,
+        low_speed_threshold=threshold, skip=args.skip, progress=True, output_unit=unit,
     )  # fmt: skip
+    mse_unit = tables.orders.attrs["units"]["mse"]
     with pd.option_context("display.width", 140, "display.max_columns", 12):
-        say(f"Table 1: MSE [rpm^2] per model order (degree {args.degree}), {args.prediction} prediction")
+        say(f"Table 1: MSE [{mse_unit}] per model order (degree {args.degree}), {args.prediction} prediction"
+            f"; low speed: {band}")  # fmt: skip
         say(tables.orders.round(3).to_string())
-        say(f"\nTable 2: MSE [rpm^2] and gamma per polynomial degree (order {args.order})")
+        say(f"\nTable 2: MSE [{mse_unit}] and gamma per polynomial degree (order {args.order})")
         say(tables.degrees.to_string(float_format=lambda v: f"{v:.5g}"))
     if not all(
         np.isfinite(table.filter(like="mse").to_numpy()).all() for table in (tables.orders, tables.degrees)
@@ -161,7 +167,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             {
                 "table1": frame_records(tables.orders),
                 "table2": frame_records(tables.degrees),
-                "low_speed_threshold_rad_s": tables.low_speed_threshold,
+                ("low_speed_threshold_rad_s" if unit == "rad/s" else "low_speed_threshold"): threshold,
+                "mse_unit": mse_unit,
                 "prediction": tables.prediction,
             }
         )
