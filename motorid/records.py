@@ -388,6 +388,13 @@ def _attrs_from_json(text: Any, name: str, where: str) -> dict[str, Any]:
     return attrs
 
 
+def _reason(exc: BaseException) -> str:
+    """An exception of a format library as one line: its kind and the first line of its message."""
+    lines = str(exc).strip().splitlines()
+    text = lines[0] if lines else ""
+    return f"{type(exc).__name__}: {text[:300]}" if text else type(exc).__name__
+
+
 # A reader of a binary format: (file name, choose) -> (arrays by column name, attrs). ``choose`` is
 # given the shape of every column the file holds and returns the names to load (it raises on a
 # missing, ambiguous, misshapen or too long column), so nothing is loaded before it is checked.
@@ -401,12 +408,17 @@ def _read_parquet(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dic
     try:
         parquet = pq.ParquetFile(name)
     except (pa.ArrowException, OSError) as exc:
-        raise DataError(f"{name} is not a readable Parquet file: {exc}") from None
+        raise DataError(f"{name} is not a readable Parquet file: {_reason(exc)}") from None
     schema = parquet.schema_arrow
     attrs = _attrs_from_json((schema.metadata or {}).get(ATTRS_KEY.encode()), name, "the schema metadata")
     rows = parquet.metadata.num_rows
     chosen = choose({column: (rows,) for column in schema.names})
-    table = parquet.read(columns=chosen)
+    try:
+        table = parquet.read(columns=chosen)
+    except (pa.ArrowException, OSError) as exc:  # a corrupt page or a cut file
+        raise DataError(
+            f"{name}: its Parquet data cannot be read (corrupt or cut?): {_reason(exc)}"
+        ) from None
     return {column: table.column(column).to_numpy() for column in chosen}, attrs
 
 
@@ -418,11 +430,14 @@ def _read_mat(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[st
     except NotImplementedError:  # a MATLAB v7.3 file is an HDF5 file
         return _read_hdf5(name, choose)
     except Exception as exc:  # scipy raises many kinds on a file that is not MATLAB's
-        raise DataError(f"{name} is not a readable MATLAB file: {type(exc).__name__}: {exc}") from None
+        raise DataError(f"{name} is not a readable MATLAB file: {_reason(exc)}") from None
     shapes = {var: tuple(shape) for var, shape, _ in listing if var != MAT_ATTRS_VARIABLE}
     chosen = choose(shapes)
     extra = [MAT_ATTRS_VARIABLE] if len(shapes) < len(listing) else []
-    mat = scipy.io.loadmat(name, variable_names=chosen + extra)
+    try:
+        mat = scipy.io.loadmat(name, variable_names=chosen + extra)
+    except Exception as exc:  # a cut or corrupt file: zlib, struct, OSError ... depending on where
+        raise DataError(f"{name}: its MATLAB data cannot be read (cut or corrupt?): {_reason(exc)}") from None
     attrs = _attrs_from_json(mat.get(MAT_ATTRS_VARIABLE), name, f"the variable {MAT_ATTRS_VARIABLE}")
     return {var: np.asarray(mat[var]).reshape(-1) for var in chosen}, attrs
 
@@ -433,7 +448,7 @@ def _read_hdf5(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[s
     try:
         handle = h5py.File(name, "r")
     except OSError as exc:
-        raise DataError(f"{name} is not a readable HDF5 file: {exc}") from None
+        raise DataError(f"{name} is not a readable HDF5 file: {_reason(exc)}") from None
     with handle:
         shapes: dict[str, tuple[int, ...]] = {}
 
@@ -441,28 +456,76 @@ def _read_hdf5(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[s
             if isinstance(item, h5py.Dataset) and not key.startswith("#"):  # '#refs#': MATLAB's own
                 shapes[key] = tuple(item.shape)
 
-        handle.visititems(visit)
-        attrs = _attrs_from_json(handle.attrs.get(ATTRS_KEY), name, f"the root attribute {ATTRS_KEY!r}")
+        try:
+            handle.visititems(visit)
+            text = handle.attrs.get(ATTRS_KEY)
+        except (OSError, RuntimeError, KeyError, ValueError, TypeError) as exc:  # a damaged file
+            raise DataError(f"{name}: its HDF5 structure cannot be read (corrupt?): {_reason(exc)}") from None
+        attrs = _attrs_from_json(text, name, f"the root attribute {ATTRS_KEY!r}")
         chosen = choose(shapes)
-        return {key: np.asarray(handle[key][()]).reshape(-1) for key in chosen}, attrs
+        try:
+            return {key: np.asarray(handle[key][()]).reshape(-1) for key in chosen}, attrs
+        except (OSError, RuntimeError, KeyError, ValueError, TypeError) as exc:
+            raise DataError(f"{name}: its HDF5 data cannot be read (corrupt?): {_reason(exc)}") from None
+
+
+class _Collected(logging.Handler):
+    """The distinct messages a library logs while a file is read (to be said once, with the file's name)."""
+
+    def __init__(self) -> None:
+        super().__init__(logging.WARNING)
+        self.messages: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        text = record.getMessage()
+        text = text if len(text) <= 200 else text[:200] + " ..."
+        if text not in self.messages:
+            self.messages.append(text)
 
 
 def _read_tdms(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-    """Columns ``group/channel``; ``dt`` from the channels' ``wf_increment`` when the file has no attrs' dt."""
-    from nptdms import TdmsFile
+    """Columns ``group/channel``; ``dt`` from the channels' ``wf_increment`` when the file has no attrs' dt.
 
+    npTDMS's own warnings (printed by its handler and again through the root logger) are
+    collected while the file is read and logged once each, naming the file, when it is read.
+    """
+    from nptdms import TdmsFile
+    from nptdms.log import log_manager
+
+    collected = _Collected()
+    loggers = [(log, log.propagate, list(log.handlers)) for log in log_manager.loggers.values()]
+    for log, _, _ in loggers:
+        log.propagate, log.handlers = False, [collected]
     try:
-        tdms = TdmsFile.open(name)
+        columns = _tdms_columns(name, choose, TdmsFile)
+    finally:
+        for log, propagate, handlers in loggers:
+            log.propagate, log.handlers = propagate, handlers
+    for message in collected.messages:  # a refused file says only why it is refused
+        logger.warning("%s: %s", name, message)
+    return columns
+
+
+def _tdms_columns(name: str, choose: Choose, tdms_file: Any) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    try:
+        tdms = tdms_file.open(name)
     except Exception as exc:  # npTDMS raises ValueError, KeyError, struct errors ... on a foreign file
-        raise DataError(f"{name} is not a readable TDMS file: {type(exc).__name__}: {exc}") from None
+        raise DataError(f"{name} is not a readable TDMS file: {_reason(exc)}") from None
     with tdms:
         channels = {f"{g.name}/{c.name}": c for g in tdms.groups() for c in g.channels()}
+        if not channels:  # a header and then bytes that hold no channel
+            raise DataError(f"{name} is not a readable TDMS file: it holds no channel")
         attrs = _attrs_from_json(tdms.properties.get(ATTRS_KEY), name, f"the file property {ATTRS_KEY!r}")
         chosen = choose({key: (len(channel),) for key, channel in channels.items()})
         increments = {channels[key].properties.get("wf_increment") for key in chosen}
         if "dt" not in attrs and len(increments) == 1 and None not in increments:
             attrs["dt"] = float(increments.pop())
-        return {key: np.asarray(channels[key][:]) for key in chosen}, attrs
+        try:
+            return {key: np.asarray(channels[key][:]) for key in chosen}, attrs
+        except Exception as exc:  # a damaged data segment
+            raise DataError(
+                f"{name}: its TDMS data cannot be read (corrupt or cut?): {_reason(exc)}"
+            ) from None
 
 
 _READERS: dict[str, Callable[[str, Choose], tuple[dict[str, np.ndarray], dict[str, Any]]]] = {
