@@ -345,8 +345,14 @@ def _name_bad_cell(path: str, reader: Any, names: list[str], header_line: int, d
                     kind = "an infinite"
                 else:
                     kind = "a non-numeric"
+                hint = (
+                    "; is it a decimal comma? (--decimal ,)"
+                    if decimal == "." and _DECIMAL_COMMA.match(raw)
+                    else ""
+                )
                 raise DataError(
                     f"column {name!r} has {kind} value {raw!r} at row {row} (line {header_line + 1 + row} of {path})"
+                    + hint
                 )
 
 
@@ -632,6 +638,9 @@ TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 #: logger's jitter (``millis()`` stamps a 10 ms loop 9, 10 or 11 ms apart) rather than a fault:
 #: such a record is put on a uniform grid. A step of 1.5 sample times or more is a gap.
 JITTER_LIMIT = 0.4
+#: Sample times [s] a time column may give without a stated ``dt``: a median step outside them is a
+#: time column read in the wrong unit (``millis()`` read as seconds gives 10 s; ms read as ns, 10 ns).
+SAMPLE_TIMES = (1e-6, 1.0)
 #: How far the mean step of a jittered record may be from a ``dt`` given for it (relative).
 JITTER_DT_RTOL = 0.02
 
@@ -652,8 +661,9 @@ class RecordOptions:
         Sample time [s]; a time column that says otherwise is refused.
     time_unit : {"s", "ms", "us", "ns"}, optional
         Unit of the time column (default: the record's ``attrs["units"]["t"]``,
-        else seconds). A column read as seconds whose median step is 1 or more is
-        refused with a message naming the option: loggers stamp in ms or µs.
+        else seconds). Unless ``dt`` is given or in the file, a column whose median
+        step is outside :data:`SAMPLE_TIMES` in this unit (``millis()`` read as
+        seconds: 10 s) is refused with a message naming the option.
     input_unit, output_unit : str, optional
         Units of the input and output columns (:data:`motorid.units.INPUT_UNITS`,
         :data:`motorid.units.OUTPUT_UNITS`), converted as they are read
@@ -1079,13 +1089,18 @@ def _on_uniform_time(
     unit = options.time_unit or (declared if declared in TIME_UNITS else None)
     dt, file_dt = options.dt, attrs.get("dt")
     median_raw = float(np.median(steps_raw)) if steps_raw.size else 0.0
-    if unit is None and median_raw >= 1.0 and dt is None and file_dt is None:
-        raise DataError(
-            f"column {column!r} of {name} steps by {median_raw:g} per sample: read as seconds that is "
-            f"a sample time of {median_raw:g} s; time stamps of a logger are in ms, us or ns: say which "
-            f"with --time-unit (time_unit=...), or give the sample time with --dt"
-        )
     scale = TIME_UNITS[unit or "s"]
+    if (
+        steps_raw.size
+        and dt is None
+        and file_dt is None
+        and not SAMPLE_TIMES[0] <= median_raw * scale < SAMPLE_TIMES[1]
+    ):
+        raise DataError(
+            f"column {column!r} of {name} steps by {median_raw:g} per sample: read in {unit or 's'} that is a "
+            f"sample time of {median_raw * scale:g} s; loggers stamp in s, ms, us or ns: say which with "
+            "--time-unit (time_unit=...), or give the sample time with --dt"
+        )
     t = (raw - raw[0]).astype(np.float64) * scale  # the origin off first, in the file's numbers: exact
     if raw[0] != 0:
         attrs["time_origin"] = float(raw[0]) * scale
