@@ -1057,7 +1057,10 @@ def _normalised(
     elif dt is not None:
         attrs["dt"] = float(dt)
     if "dt" not in attrs:
-        raise DataError(f"{name}: no time column {names.get('t', 't')!r} and no dt given (--time, --dt)")
+        raise DataError(
+            f"{name}: no time column {names.get('t', 't')!r} and no dt given: name the time column with --time "
+            "(time=...) or give the sample time with --dt"
+        )
     if "t" not in rec.columns and len(rec.columns):
         rec.insert(0, "t", np.arange(len(rec)) * float(attrs["dt"]))  # the time the sample time gives
         attrs.setdefault("units", {})["t"] = "s"
