@@ -1163,10 +1163,14 @@ def _on_uniform_time(
         f"{name}: time stamps jitter by up to {_seconds(jitter)} ({100 * jitter / expected:.0f} % of dt "
         f"{_seconds(expected)}); resampled to a uniform {_seconds(expected)} grid"
     )
+    if gaps.size:
+        message += (f", across {gaps.size} gap{'s' if gaps.size > 1 else ''} of missing samples (the first "
+                    f"before {where(int(gaps[0]) + 1)})")  # fmt: skip
+    if odd.size:
+        message += (f", across {odd.size} step{'s' if odd.size > 1 else ''} beyond the jitter limit (the first "
+                    f"before {where(int(odd[0]) + 1)})")  # fmt: skip
     if gaps.size or odd.size:
-        irregular = np.union1d(gaps, odd)
-        message += (f", across {irregular.size} irregular step{'s' if irregular.size > 1 else ''} "
-                    f"(the first before {where(int(irregular[0]) + 1)}) as --resample asks")  # fmt: skip
+        message += " as --resample asks"
     logger.warning(message + f": input held, output interpolated ({len(rec)} -> {len(out)} samples)")
     return out
 
