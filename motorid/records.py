@@ -1132,10 +1132,10 @@ def _on_uniform_time(
         rec["t"] = t
         return rec
     ratio = steps / expected
-    gaps = np.flatnonzero((ratio > 1.0 + JITTER_LIMIT) & (np.rint(ratio) >= 2))
-    odd = np.flatnonzero(
-        (np.abs(ratio - 1.0) > JITTER_LIMIT) & ~((ratio > 1.0 + JITTER_LIMIT) & (np.rint(ratio) >= 2))
-    )
+    jittered = np.abs(ratio - 1.0) <= JITTER_LIMIT
+    missing_samples = (ratio > 1.0 + JITTER_LIMIT) & (np.rint(ratio) >= 2)  # about a whole sample or more
+    gaps = np.flatnonzero(missing_samples)
+    odd = np.flatnonzero(~jittered & ~missing_samples)
     if not options.resample:
         if gaps.size and (not odd.size or gaps[0] < odd[0]):
             row = int(gaps[0]) + 1
@@ -1152,17 +1152,17 @@ def _on_uniform_time(
                 f"expected dt = {expected:.6g} s (jitter up to {JITTER_LIMIT:.0%} of it is resampled; "
                 "--resample resamples any)"
             )
-    jitter = float(np.max(deviation[np.abs(ratio - 1.0) <= JITTER_LIMIT], initial=0.0))
+    jitter = float(np.max(deviation[jittered], initial=0.0))
     grid = np.arange(int(np.floor(t[-1] / expected * (1.0 + 1e-12))) + 1) * expected
     held = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, len(t) - 1)
     out = pd.DataFrame(
         {key: grid if key == "t" else rec[key].to_numpy()[held] if key == "u" else
          np.interp(grid, t, rec[key].to_numpy(dtype=np.float64)) for key in rec.columns}
     )  # fmt: skip
-    message = (
-        f"{name}: time stamps jitter by up to {_seconds(jitter)} ({100 * jitter / expected:.0f} % of dt "
-        f"{_seconds(expected)}); resampled to a uniform {_seconds(expected)} grid"
-    )
+    message = f"{name}: "
+    if jitter > options.dt_rtol * expected:
+        message += f"time stamps jitter by up to {_seconds(jitter)} ({100 * jitter / expected:.0f} % of dt {_seconds(expected)}); "
+    message += f"resampled to a uniform {_seconds(expected)} grid"
     if gaps.size:
         message += (f", across {gaps.size} gap{'s' if gaps.size > 1 else ''} of missing samples (the first "
                     f"before {where(int(gaps[0]) + 1)})")  # fmt: skip
