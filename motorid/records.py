@@ -18,7 +18,14 @@ from the argument or from the time column.
 :func:`read_record` also reads the files DAQs and analysis tools write, by
 extension (:data:`RECORD_FORMATS`): Parquet, MATLAB ``.mat`` (a variable per
 column), NI TDMS (a channel per column) and HDF5 (a dataset per column), with the
-same checks and the same errors as a CSV.
+same checks and the same errors as a CSV, and CSV as loggers write it (any
+separator, decimal commas, a BOM).
+
+Every reader ends in one place, which brings the columns to motorid's names and
+units with the options of :class:`RecordOptions` (the command line's ``--time``,
+``--time-unit``, ``--input-unit`` ...): time in s from 0, jittered stamps put on a
+uniform grid, units converted. :func:`normalise_record` applies the same to a
+DataFrame from the user's own code (:func:`motorid.diagnose.diagnose` calls it).
 """
 
 from __future__ import annotations
