@@ -411,3 +411,18 @@ def test_tdms_warnings_once_random_bytes_refused_and_time_from_the_increment(tmp
         assert len(read_record(tmp_path / "cut.tdms", columns=["u"], other_columns=False)) == n
     warned = [r for r in caplog.records if "less data than expected" in r.getMessage()]
     assert len(warned) == 1 and "cut.tdms" in warned[0].getMessage() and warned[0].name == "motorid.records"
+
+
+def test_the_records_own_attrs_name_the_time_unit(tmp_path):
+    """A record whose attrs say its time is in ms reads as --time-unit ms says, with no option."""
+    n = 50
+    df = pd.DataFrame({"t": 7 + 10 * np.arange(n), "u": np.sin(np.arange(n)), "y": np.cos(np.arange(n))})
+    df.attrs["units"] = {"t": "ms", "u": "V", "y": "rad/s"}
+    write_record(df, tmp_path / "ms.csv")
+    rec = read_record(tmp_path / "ms.csv")
+    assert (
+        rec.attrs["dt"] == DT and rec.attrs["units"]["t"] == "s" and rec.attrs["converted_from"]["t"] == "ms"
+    )
+    np.testing.assert_array_equal(rec["t"], np.arange(n) * 10 * 1e-3)
+    with pytest.raises(DataError, match="--time-unit"):  # the option overrides the attrs
+        read_record(tmp_path / "ms.csv", time_unit="s")
