@@ -74,9 +74,7 @@ def parse_json(text: str, source: str, where: str = "", invalid: str = "invalid 
     try:
         value = json.loads(text, parse_int=_integer, parse_constant=float)
     except json.JSONDecodeError as exc:
-        raise DataError(
-            f"{source}: {invalid} at line {exc.lineno} column {exc.colno}: {exc.msg}"
-        ) from None
+        raise DataError(f"{source}: {invalid} at line {exc.lineno} column {exc.colno}: {exc.msg}") from None
     except RecursionError:
         raise DataError(f"{source}: the JSON is nested deeper than {MAX_DEPTH} levels") from None
     # walked without recursion, containers only on the stack: (container, key, depth)

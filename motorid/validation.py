@@ -433,6 +433,7 @@ def order_sweep(
     prediction: str = "one_step",
     skip: int = 0,
     progress: bool = False,
+    output_unit: str | None = "rad/s",
 ) -> SweepTables:
     """Identify ARX-RLS and Hammerstein-RLS on one record over model orders and
     polynomial degrees, as in the paper's Tables 1 and 2.
@@ -459,6 +460,10 @@ def order_sweep(
         Leading samples left out of the scores.
     progress : bool
         Show a progress bar on stderr (:func:`motorid.progress.progress_bar`).
+    output_unit : str or None
+        Unit of ``y``: the MSE is in rpm^2 (the paper's) when it is rad/s, else in
+        the square of this unit, or of "output units" when it is None (no label
+        is invented for a record that names no unit).
     """
     from motorid.estimators import ARXRLS, HammersteinRLS
 
@@ -467,7 +472,8 @@ def order_sweep(
     if prediction not in ("one_step", "free_run"):
         raise ValueError(f"prediction must be 'one_step' or 'free_run', got {prediction!r}")
     threshold = 0.1 * float(np.max(np.abs(y_arr))) if low_speed_threshold is None else low_speed_threshold
-    to_rpm2 = RPM_PER_RAD_S**2
+    to_rpm2 = RPM_PER_RAD_S**2 if output_unit == "rad/s" else 1.0
+    mse_unit = "rpm^2" if output_unit == "rad/s" else f"({output_unit or 'output units'})^2"
     jobs = [("order", n) for n in orders] + [("degree", d) for d in degrees]
     order_rows: dict[int, dict[str, float]] = {}
     degree_rows: dict[int, dict[str, float]] = {}
@@ -498,5 +504,5 @@ def order_sweep(
     degrees_df = pd.DataFrame.from_dict(degree_rows, orient="index")
     degrees_df.index.name = "degree"
     for df in (orders_df, degrees_df):
-        df.attrs["units"] = {"mse": "rpm^2", "gamma": "-"}
+        df.attrs["units"] = {"mse": mse_unit, "gamma": "-"}
     return SweepTables(orders_df, degrees_df, threshold, prediction)

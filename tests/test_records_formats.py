@@ -135,7 +135,8 @@ def test_tdms_columns_are_group_and_channel_and_wf_increment_gives_dt(tmp_path):
             ]
         )
     rec = read_record(path, columns=["command/voltage", "tacho"])  # no time column: dt from the file
-    assert list(rec.columns) == ["command/voltage", "tacho", "speed/voltage"] and rec.attrs["dt"] == 0.01
+    assert list(rec.columns) == ["t", "command/voltage", "tacho", "speed/voltage"] and rec.attrs["dt"] == 0.01
+    np.testing.assert_array_equal(rec["t"], np.arange(n) * 0.01)  # the time the increment gives
     np.testing.assert_array_equal(rec["tacho"], np.linspace(0, 3, n))
     with pytest.raises(DataError, match=r"column 'voltage' is ambiguous in .*rec.tdms.*command/voltage"):
         read_record(path, columns=["voltage", "tacho"])

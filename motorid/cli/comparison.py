@@ -13,6 +13,7 @@ from .options import (
     add_record_input,
     add_skip,
     check_out_folder,
+    low_speed_band,
     read_record_from_args,
 )
 from .report import emit_json, say
@@ -22,13 +23,13 @@ def cmd_compare(args: argparse.Namespace) -> int:
     """Each model simulated free on the record's input: FIT, RMSE and low-speed RMSE, and a figure."""
     from motorid.comparison import MIN_SCORED_SAMPLES, compare_models
     from motorid.models import load_model
-    from motorid.validation import rpm_to_rad_s
 
     models = {
         str(path): load_model(path) for path in args.model
     }  # a bad file stops before the record is read
     record = read_record_from_args(args, min_samples=args.skip + MIN_SCORED_SAMPLES)
-    comparison = compare_models(record, models, float(rpm_to_rad_s(args.low_speed_rpm)), args.skip)
+    _, threshold, band = low_speed_band(record, args.low_speed_rpm)
+    comparison = compare_models(record, models, threshold, args.skip)
     if args.out:
         check_out_folder(args.out)
     unit = comparison.output_unit
@@ -43,9 +44,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     })  # fmt: skip
     with pd.option_context("display.width", 160, "display.max_colwidth", 40):
         say(table.to_string(float_format=lambda v: f"{v:.4g}"))
-    say(
-        f"  low speed: |y| < {comparison.low_speed_threshold:.4g} {unit} (--low-speed-rpm {args.low_speed_rpm:g})"
-    )
+    say(f"  low speed: {band}")
     for model in comparison.models:
         if model.diverges_from is not None:
             say(f"  {model.name}: its free run diverges from sample {model.diverges_from} on (unstable on this "

@@ -22,6 +22,7 @@ from .options import (
     check_out_folder,
     create_estimator,
     int_range,
+    low_speed_band,
     number,
     read_record_from_args,
 )
@@ -125,7 +126,6 @@ def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dic
         RPM_PER_RAD_S,
         check_signals,
         residual_tests,
-        rpm_to_rad_s,
         score_predictions,
     )
 
@@ -143,19 +143,21 @@ def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dic
     diverged = first_bad_index(free_run)
     if diverged is None:
         predictions["free_run"] = free_run
-    threshold = float(rpm_to_rad_s(args.low_speed_rpm))
+    unit, threshold, _ = low_speed_band(record, args.low_speed_rpm)
     scores = score_predictions(y, predictions, threshold, args.skip)
+    in_rpm = unit == "rad/s"
     tests = residual_tests(u[args.skip :], (y - result.y_hat)[args.skip :], max_lag=args.max_lag)
     payload = {
         "estimator": args.estimator,
         "samples": len(record),
         "params": est.params,
         "scores": {
-            kind: {**row, "mse_rpm2": row["mse"] * RPM_PER_RAD_S**2}
+            kind: {**row, **({"mse_rpm2": row["mse"] * RPM_PER_RAD_S**2} if in_rpm else {})}
             for kind, row in scores.to_dict("index").items()
         },
         "free_run_diverges_from_sample": diverged,
-        "low_speed_threshold_rad_s": threshold,
+        "output_unit": unit,
+        ("low_speed_threshold_rad_s" if in_rpm else "low_speed_threshold"): threshold,
         "residual_tests": {
             t.name: {"passed": t.passed, "fraction_outside": t.fraction_outside} for t in tests
         },
@@ -175,20 +177,25 @@ def validate_on_record(est: Any, record: pd.DataFrame, args: argparse.Namespace)
     model's input unit minded, the first ``--skip`` samples left out).
     """
     from motorid.comparison import compare_models
-    from motorid.validation import RPM_PER_RAD_S, rpm_to_rad_s
+    from motorid.validation import RPM_PER_RAD_S
 
-    run = compare_models(record, {args.estimator: est}, float(rpm_to_rad_s(args.low_speed_rpm)), args.skip)
+    unit, threshold, _ = low_speed_band(record, args.low_speed_rpm)
+    run = compare_models(record, {args.estimator: est}, threshold, args.skip)
     model = run.models[0]
     scores = {}
     if model.diverges_from is None:
         row = {"mse": model.mse, "rmse": model.rmse, "fit_percent": model.fit_percent,
                "low_speed_mse": model.low_speed_mse, "n_low_speed": model.n_low_speed}  # fmt: skip
-        scores["free_run"] = {**row, "mse_rpm2": row["mse"] * RPM_PER_RAD_S**2}
+        scores["free_run"] = {
+            **row,
+            **({"mse_rpm2": row["mse"] * RPM_PER_RAD_S**2} if unit == "rad/s" else {}),
+        }
     return {
         "record": args.validate,
         "samples": len(record),
         "scores": scores,
         "free_run_diverges_from_sample": model.diverges_from,
+        "output_unit": unit,
         "notes": list(model.notes),
     }
 
@@ -218,15 +225,21 @@ def cmd_identify(args: argparse.Namespace) -> int:
         check_out_file(args.save_model, args.overwrite, "--save-model")
     payload, tests, est = identify_record(record, args)
     diverged = payload["free_run_diverges_from_sample"]
+    unit, _, band = low_speed_band(record, args.low_speed_rpm)
     say(f"{args.estimator} on {args.data} ({len(record)} samples)")
     for note in payload["notes"]:
         say(f"  note: {note}")
     say_params("", payload["params"])
     for kind, row in payload["scores"].items():
-        say(
-            f"  {kind:<9} MSE {row['mse']:.4g} (rad/s)^2 = {row['mse'] * RPM_PER_RAD_S**2:.4g} rpm^2, "
-            f"low-speed MSE {row['low_speed_mse'] * RPM_PER_RAD_S**2:.4g} rpm^2, FIT {row['fit_percent']:.2f} %"
-        )
+        if unit == "rad/s":
+            mse = f"MSE {row['mse']:.4g} (rad/s)^2 = {row['mse'] * RPM_PER_RAD_S**2:.4g} rpm^2"
+            low = f"low-speed MSE {row['low_speed_mse'] * RPM_PER_RAD_S**2:.4g} rpm^2"
+        else:  # the record's own unit, or none named: no rpm is invented
+            square = f"({unit or 'output units'})^2"
+            mse, low = f"MSE {row['mse']:.4g} {square}", f"low-speed MSE {row['low_speed_mse']:.4g} {square}"
+        say(f"  {kind:<9} {mse}, {low}, FIT {row['fit_percent']:.2f} %")
+    if unit != "rad/s":
+        say(f"  low speed: {band}")
     if diverged is not None:
         say(f"  free_run  diverges from sample {diverged} on: the identified model is unstable on this input, "
             "so it has no free-run score")  # fmt: skip
@@ -265,27 +278,34 @@ def say_validation(validation: dict[str, Any]) -> None:
     if row is None:
         say(f"  free_run  diverges from sample {validation['free_run_diverges_from_sample']} on: no score")
         return
-    say(
-        f"  free_run  MSE {row['mse']:.4g} (rad/s)^2 = {row['mse_rpm2']:.4g} rpm^2, "
-        f"low-speed MSE {row['low_speed_mse'] * RPM_PER_RAD_S**2:.4g} rpm^2, FIT {row['fit_percent']:.2f} %"
-    )
+    unit = validation["output_unit"]
+    if unit == "rad/s":
+        mse = f"MSE {row['mse']:.4g} (rad/s)^2 = {row['mse_rpm2']:.4g} rpm^2"
+        low = f"low-speed MSE {row['low_speed_mse'] * RPM_PER_RAD_S**2:.4g} rpm^2"
+    else:  # the record's own unit, or none named
+        square = f"({unit or 'output units'})^2"
+        mse, low = f"MSE {row['mse']:.4g} {square}", f"low-speed MSE {row['low_speed_mse']:.4g} {square}"
+    say(f"  free_run  {mse}, {low}, FIT {row['fit_percent']:.2f} %")
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     """The paper's Tables 1 and 2 on a record."""
-    from motorid.validation import check_signals, order_sweep, rpm_to_rad_s
+    from motorid.validation import check_signals, order_sweep
 
     record = read_record_from_args(args)
     check_signals({args.input: record["u"], args.output: record["y"]})
+    unit, threshold, band = low_speed_band(record, args.low_speed_rpm)
     tables = order_sweep(
         record["u"].to_numpy(), record["y"].to_numpy(), args.orders, args.degrees,
         degree=args.degree, order=args.order, lam=args.lam, prediction=args.prediction,
-        low_speed_threshold=float(rpm_to_rad_s(args.low_speed_rpm)), skip=args.skip, progress=show_progress(),
+        low_speed_threshold=threshold, skip=args.skip, progress=show_progress(), output_unit=unit,
     )  # fmt: skip
+    mse_unit = tables.orders.attrs["units"]["mse"]
     with pd.option_context("display.width", 140, "display.max_columns", 12):
-        say(f"Table 1: MSE [rpm^2] per model order (degree {args.degree}), {args.prediction} prediction")
+        say(f"Table 1: MSE [{mse_unit}] per model order (degree {args.degree}), {args.prediction} prediction"
+            f"; low speed: {band}")  # fmt: skip
         say(tables.orders.round(3).to_string())
-        say(f"\nTable 2: MSE [rpm^2] and gamma per polynomial degree (order {args.order})")
+        say(f"\nTable 2: MSE [{mse_unit}] and gamma per polynomial degree (order {args.order})")
         say(tables.degrees.to_string(float_format=lambda v: f"{v:.5g}"))
     if not all(
         np.isfinite(table.filter(like="mse").to_numpy()).all() for table in (tables.orders, tables.degrees)
@@ -296,7 +316,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
             {
                 "table1": frame_records(tables.orders),
                 "table2": frame_records(tables.degrees),
-                "low_speed_threshold_rad_s": tables.low_speed_threshold,
+                ("low_speed_threshold_rad_s" if unit == "rad/s" else "low_speed_threshold"): threshold,
+                "mse_unit": mse_unit,
                 "prediction": tables.prediction,
             }
         )

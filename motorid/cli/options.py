@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.errors import DataError
-from motorid.units import INPUT_UNITS, OUTPUT_UNITS, convert_record
+from motorid.units import INPUT_UNITS, OUTPUT_UNITS
 
 #: The paper's low-speed band, |y| < 150 rpm (its Figs. 9-11).
 LOW_SPEED_RPM = 150.0
@@ -99,56 +99,88 @@ def add_record_input(parser: argparse.ArgumentParser) -> None:
 
 
 def add_record_columns(parser: argparse.ArgumentParser) -> None:
-    """How a record is read: columns, sample time, size limit."""
+    """How a record is read: columns, time, separator, units, size limit (:class:`motorid.records.RecordOptions`)."""
+    from motorid.records import TIME_UNITS
+
     group = parser.add_argument_group("record")
-    group.add_argument("--time", metavar="COL", help="time column [s] (default: t; optional with --dt)")
+    group.add_argument("--time", metavar="COL",
+                       help="time column, any name (default: t; optional when the sample time is known)")  # fmt: skip
     group.add_argument("--input", default="u", metavar="COL", help="input column (default: u)")
     group.add_argument("--output", default="y", metavar="COL", help="output column (default: y)")
-    group.add_argument("--dt", type=positive, help="sample time [s] (default: from the file)")
+    group.add_argument("--time-unit", choices=TIME_UNITS,
+                       help="unit of the time column (default: the file's, else s); its origin is free: "
+                            "the time is shifted to start at 0")  # fmt: skip
+    group.add_argument("--dt", type=positive, help="sample time [s] (default: from the file); a time "
+                       "column that says otherwise is refused")  # fmt: skip
+    group.add_argument("--resample", action="store_true",
+                       help="put a record with gaps (missing samples) on a uniform grid too, instead of "
+                            "refusing it (jittered time stamps are always resampled)")  # fmt: skip
+    group.add_argument("--sep", type=separator, metavar="CHAR",
+                       help="CSV separator: one character, or 'tab' (default: detected; -v says which)")  # fmt: skip
+    group.add_argument("--decimal", choices=(".", ","),
+                       help="CSV decimal mark (default: detected, ',' with a ';' or tab separator)")  # fmt: skip
     as_read = "(default: the unit the file names; none: the numbers are used as they are)"
     group.add_argument("--input-unit", metavar="UNIT", choices=INPUT_UNITS,
                        help=f"unit of the input column, converted to V as it is read: "
-                       f"{', '.join(INPUT_UNITS).replace('%', '%%')} {as_read}; %% is PWM duty, "
-                       "converted with --supply-voltage")  # fmt: skip
+                       f"{', '.join(INPUT_UNITS).replace('%', '%%')} {as_read}; %% is PWM duty (|u| <= 100), "
+                       "converted with --supply-voltage; counts is a PWM count, --input-full-scale of it "
+                       "is 100 %%")  # fmt: skip
+    group.add_argument("--input-full-scale", type=positive, metavar="N",
+                       help="the count of full duty for --input-unit counts (255 for an 8-bit PWM)")  # fmt: skip
     group.add_argument("--output-unit", metavar="UNIT", choices=OUTPUT_UNITS,
                        help=f"unit of the output column, converted to rad/s, rad, m/s or m as it is read: "
                        f"{', '.join(OUTPUT_UNITS)} {as_read}")  # fmt: skip
     group.add_argument("--supply-voltage", type=positive, metavar="V",
-                       help="supply voltage of a PWM drive [V]: --input-unit %% becomes volts")  # fmt: skip
+                       help="supply voltage of a PWM drive [V]: --input-unit %% or counts becomes volts")  # fmt: skip
     group.add_argument(
         "--max-samples", type=number(int, low=1), default=2_000_000,
         help="refuse a longer record (default: 2000000); decimate a longer one first",
     )  # fmt: skip
 
 
-def read_record_from_args(args: argparse.Namespace, min_samples: int = 20) -> pd.DataFrame:
-    """Read the record named by :func:`add_record_input`'s options, with columns ``t``, ``u``, ``y``.
+def separator(text: str) -> str:
+    """An argparse type: a CSV separator, one character (``tab`` or ``\\t`` for a tab)."""
+    value = {"tab": "\t", "\\t": "\t"}.get(text, text)
+    if len(value) != 1 or value in '\r\n".':
+        raise argparse.ArgumentTypeError(f"expected one character such as ',' ';' or tab, got {text!r}")
+    return value
 
-    Without ``--time``, a file with no ``t`` column reads when ``--dt`` is given.
-    The input and output are converted to motorid's units as they are read
-    (:func:`motorid.units.convert_record`).
+
+def read_record_from_args(args: argparse.Namespace, min_samples: int = 20) -> pd.DataFrame:
+    """Read the record named by :func:`add_record_input`'s options, with columns ``t`` [s], ``u``, ``y``.
+
+    :func:`motorid.records.read_record` with the options by their names: the time
+    column is optional when the sample time is known (``--dt``, the file's attrs),
+    and the input and output are converted to motorid's units as they are read.
     """
     from motorid.records import read_record
 
-    columns = [args.input, args.output]
-    if args.time is not None or args.dt is None:
-        columns.insert(0, args.time or "t")
-    options = ["--time", "--input", "--output"][-len(columns) :]
-    for position, name in enumerate(columns):
-        if name in columns[:position]:
-            first = options[columns.index(name)]
-            raise DataError(
-                f"{options[position]} {name!r} is the same column as {first}: each must name its own column"
-            )
-    record = read_record(args.data, dt=args.dt, columns=columns, min_samples=min_samples,
-                         max_samples=args.max_samples, other_columns=False)  # fmt: skip
-    names = dict(zip(columns, ("t", "u", "y")[-len(columns) :], strict=True))
-    renamed = record.rename(columns=names)
-    renamed.attrs = dict(record.attrs)
-    units = record.attrs.get("units")
-    if isinstance(units, dict):
-        renamed.attrs["units"] = {names.get(k, k): v for k, v in units.items()}
-    return convert_record(renamed, args.input_unit, args.output_unit, args.supply_voltage)
+    return read_record(
+        args.data, dt=args.dt, min_samples=min_samples, max_samples=args.max_samples, other_columns=False,
+        time=args.time, input=args.input, output=args.output, time_unit=args.time_unit,
+        input_unit=args.input_unit, output_unit=args.output_unit, supply_voltage=args.supply_voltage,
+        input_full_scale=args.input_full_scale, resample=args.resample, sep=args.sep, decimal=args.decimal,
+    )  # fmt: skip
+
+
+def low_speed_band(record: pd.DataFrame, low_speed_rpm: float) -> tuple[str | None, float, str]:
+    """The output's unit (None when the record names none), the low-speed threshold in it, and words for it.
+
+    ``--low-speed-rpm`` is a speed in rpm: it applies to an output in rad/s. An
+    output in another unit, or in none, gets 10 % of its largest magnitude, and
+    no rpm or rad/s label is given to numbers whose unit nobody named.
+    """
+    unit = (record.attrs.get("units") or {}).get("y")
+    if unit == "rad/s":
+        threshold = low_speed_rpm * 2.0 * math.pi / 60.0
+        return unit, threshold, f"|y| < {low_speed_rpm:g} rpm"
+    threshold = 0.1 * float(np.max(np.abs(record["y"].to_numpy())))
+    label = unit or "output units"
+    return (
+        unit,
+        threshold,
+        f"|y| < {threshold:.4g} {label} (10 % of max |y|: --low-speed-rpm needs an output in a speed unit)",
+    )
 
 
 def add_estimator_options(parser: argparse.ArgumentParser, repeatable: bool = False) -> None:

@@ -582,8 +582,9 @@ class Diagnosis:
 
         No refitting: the models found here are simulated on ``record``'s input
         and their torque balance evaluated on its data. Column names, output
-        kind, input gain, timing and band are those of this diagnosis unless
-        overridden (``input=``, ``output=``, ``dt=`` ...).
+        kind, input gain, timing and band, and the way the record is read (its
+        columns and units, :func:`motorid.records.normalise_record`), are those of
+        this diagnosis unless overridden (``input=``, ``output=``, ``dt=`` ...).
 
         Returns
         -------
@@ -592,10 +593,16 @@ class Diagnosis:
             and ``region`` [v] (the region located on this record's initial
             residual) and ``force_error_percent`` [%].
         """
-        keys = ("input", "output", "output_kind", "input_gain", "timing", "band")
+        from motorid.records import normalise_record
+
+        reading = {"input": self.settings["input"], "output": self.settings["output"], "dt": None,
+                   **self.settings.get("reading", {})}  # fmt: skip
+        reading.update({k: v for k, v in overrides.items() if k in reading})
+        record = normalise_record(record, **reading)
+        keys = ("output_kind", "input_gain", "timing", "band")
         opts = {k: self.settings[k] for k in keys}
-        opts.update(overrides)
-        prep = prepare(record, **opts)
+        opts.update({k: v for k, v in overrides.items() if k not in reading})
+        prep = prepare(record, input="u", output="y", dt=reading["dt"], **opts)
         rows = {label: gaps(model, prep, self.region) for label, model in self.models}
         df = pd.DataFrame.from_dict(rows, orient="index")
         df.index.name = "model"
@@ -763,17 +770,27 @@ def diagnose(
     band: float | None = None,
     model: RigidDrive | None = None,
     structure: bool = True,
+    time: str | None = None,
+    time_unit: str | None = None,
+    input_unit: str | None = None,
+    output_unit: str | None = None,
+    supply_voltage: float | None = None,
+    input_full_scale: float | None = None,
+    resample: bool = False,
 ) -> Diagnosis:
     """Find the effects missing from a rigid drive model of ``record`` (see the module notes).
 
     Parameters
     ----------
     record : pandas.DataFrame
-        The measurement; ``attrs["dt"]`` is used when ``dt`` is None.
+        The measurement, as the user's own code holds it: the columns and units
+        are named by the options below, the same as the command line's, and
+        brought to motorid's by :func:`motorid.records.normalise_record`;
+        ``attrs["dt"]`` is used when ``dt`` is None.
     dt : float, optional
-        Sample time [s], > 0; default from ``attrs["dt"]`` or the ``t`` column.
+        Sample time [s], > 0; default from ``attrs["dt"]`` or the time column.
     input, output : str
-        Column names of the input (e.g. [V]) and the output.
+        Column names of the input (e.g. [V]) and the output, any text.
     output_kind : {"velocity", "position"}
         What the output is. Position records are differentiated (zero-phase
         low-pass and central differences); their output gap is then measured
@@ -825,13 +842,26 @@ def diagnose(
         Choose the input delay and lag from the record before any other effect is
         judged (:func:`choose_structure`; skipped when the base already holds one);
         the chosen values are held in every later fit. False: the base as given.
+    time, time_unit, input_unit, output_unit, supply_voltage, input_full_scale, resample
+        The time column (default ``t``; none needed when ``dt`` is known) and the
+        record's units, as :class:`motorid.records.RecordOptions` (``--time``,
+        ``--time-unit``, ``--input-unit``, ... on the command line): e.g.
+        ``diagnose(df, input="pwm", output="rpm", input_unit="%", output_unit="rpm")``.
 
     Returns
     -------
     Diagnosis
     """
     from motorid.progress import progress_bar
+    from motorid.records import normalise_record
 
+    columns = {"time": time, "input": input, "output": output}
+    reading = {"dt": dt, "time_unit": time_unit, "input_unit": input_unit, "output_unit": output_unit,
+               "supply_voltage": supply_voltage, "input_full_scale": input_full_scale, "resample": resample}  # fmt: skip
+    record = normalise_record(record, **columns, **reading)
+    if isinstance(holdout, pd.DataFrame):
+        holdout = normalise_record(holdout, **columns, **reading)
+    input, output = "u", "y"
     if model is not None and not isinstance(model, RigidDrive):
         raise DataError(f"model must be a RigidDrive, got {type(model).__name__}")
     if model is not None and base is not None:
@@ -880,7 +910,8 @@ def diagnose(
     else:
         prep = prepare(record, timing=timing, **opts)
     data = prep.data
-    settings = {**opts, "dt": prep.kin.dt, "timing": prep.timing, "band": prep.kin.band,
+    settings = {**opts, "input": columns["input"], "output": columns["output"], "dt": prep.kin.dt,
+                "reading": {"time": time, **{k: v for k, v in reading.items() if k != "dt"}}, "timing": prep.timing, "band": prep.kin.band,
                 "base": list(base_names), "candidates": list(cand_names), "threshold": threshold,
                 "noise_shrink": noise_shrink, "missing_factor": missing_factor,
                 "holdout": "record" if isinstance(holdout, pd.DataFrame) else holdout,
