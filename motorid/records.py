@@ -46,6 +46,7 @@ import pandas as pd
 
 from motorid.errors import DataError
 from motorid.json_input import parse_json
+from motorid.units import TIME_UNITS
 
 logger = logging.getLogger(__name__)
 
@@ -446,6 +447,10 @@ def check_attrs(attrs: Mapping[str, Any], source: str) -> None:
             record_timing(attrs)
         except DataError as exc:
             raise DataError(f"{source}: {exc}") from None
+    if "time_origin" in attrs:
+        origin = attrs["time_origin"]
+        if isinstance(origin, bool) or not isinstance(origin, int | float) or not math.isfinite(origin):
+            raise DataError(f"{source}: attrs.time_origin must be a time in s, got {shown(origin)}")
     for key in (DRIVE_ATTR, TIME_ATTR, "integrator"):
         if key in attrs and not isinstance(attrs[key], str):
             raise DataError(f"{source}: attrs.{key} must be text, got {shown(attrs[key])}")
@@ -699,7 +704,6 @@ def _short_name(key: str, keys: list[str]) -> str:
 
 
 #: Units a time column may be in, with their factor to seconds.
-TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
 #: Largest deviation of a time step from the sample time, as a share of it, that is taken for a
 #: logger's jitter (``millis()`` stamps a 10 ms loop 9, 10 or 11 ms apart) rather than a fault:
 #: such a record is put on a uniform grid. A step of 1.5 sample times or more is a gap.

@@ -31,6 +31,7 @@ __all__ = [
     "OUTPUT_UNITS",
     "RECORD_UNITS",
     "SHOWN_AS",
+    "TIME_UNITS",
     "UNNAMED_INPUT",
     "UNNAMED_OUTPUT",
     "ShownOutput",
@@ -66,11 +67,14 @@ OUTPUT_UNITS: dict[str, tuple[float, str]] = {
 #: ``counts`` (a PWM compare value, e.g. 0..255 for 8 bits) becomes duty with the full-scale count.
 INPUT_UNITS: dict[str, float | None] = {"V": 1.0, "mV": 1e-3, "%": None, "counts": None}
 
-#: Units of a record's other columns (time, armature current, torque, force), named and kept as they are.
-OTHER_UNITS: tuple[str, ...] = ("s", "A", "N m", "N")
+#: Units of a record's time column: name -> factor to seconds.
+TIME_UNITS: dict[str, float] = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9}
+
+#: Units of a record's other columns (armature current, torque, force), named and kept as they are.
+OTHER_UNITS: tuple[str, ...] = ("A", "N m", "N")
 
 #: Every unit a record's ``attrs["units"]`` may name.
-RECORD_UNITS: tuple[str, ...] = tuple(dict.fromkeys((*OUTPUT_UNITS, *INPUT_UNITS, *OTHER_UNITS)))
+RECORD_UNITS: tuple[str, ...] = tuple(dict.fromkeys((*OUTPUT_UNITS, *INPUT_UNITS, *TIME_UNITS, *OTHER_UNITS)))
 
 
 def check_unit(unit: object, column: object, where: str) -> str:

@@ -285,4 +285,5 @@ def test_record_attributes_are_checked_naming_the_key(tmp_path):
         + '{"dt": 0.04, "units": {"t": "s", "u": "%", "y": "rpm", "i": "A"}, "seed": null}\n'
         + rows
     )
-    assert read_record(path).attrs["units"]["y"] == "rpm"
+    attrs = read_record(path).attrs  # known units are read and the output converted to SI
+    assert attrs["units"]["y"] == "rad/s" and attrs["converted_from"]["y"] == "rpm"

@@ -100,7 +100,7 @@ def add_record_input(parser: argparse.ArgumentParser) -> None:
 
 def add_record_columns(parser: argparse.ArgumentParser) -> None:
     """How a record is read: columns, time, separator, units, size limit (:class:`motorid.records.RecordOptions`)."""
-    from motorid.records import TIME_UNITS
+    from motorid.units import TIME_UNITS
 
     group = parser.add_argument_group("record")
     group.add_argument("--time", metavar="COL",
