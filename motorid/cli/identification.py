@@ -123,7 +123,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
         say(f"  residual test {test.formula:<22} {'pass' if test.passed else 'FAIL'}")
     if args.save_model:
         try:
-            est.save(args.save_model)
+            est.save(args.save_model, overwrite=args.overwrite)
         except ValueError as exc:
             raise DataError(f"--save-model {args.save_model}: {exc}") from None
         say(f"  wrote {args.save_model}: the identified model (motorid.load_model reads it)")

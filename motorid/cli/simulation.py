@@ -132,10 +132,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         rig = drive_model_from_file(args.model)
     else:
         rig = rig_from_args(args)
-    if args.save_model is not None:
-        rig.save(args.save_model)
-        say(f"wrote {args.save_model}: the rig's model file")
     if args.out is None:
+        rig.save(args.save_model, overwrite=args.overwrite)
+        say(f"wrote {args.save_model}: the rig's model file")
         if args.json:
             emit_json({"model": args.save_model, "rig": rig.to_dict()})
         return 0
@@ -144,7 +143,15 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         record = rig.simulate(u)
     else:
         record = rig.simulate(u, seed=args.plant_seed, integrator=args.integrator)
-    write_record(record, args.out)
+    write_record(record, args.out, overwrite=args.overwrite)
+    if args.save_model is not None:
+        try:
+            rig.save(args.save_model, overwrite=args.overwrite)
+        except OSError:  # a refused command changes nothing: the record written a moment ago goes too
+            if not args.overwrite:
+                args.out.unlink()
+            raise
+        say(f"wrote {args.save_model}: the rig's model file")
     y = record["y"].to_numpy()
     say(f"wrote {args.out}: {len(record)} samples at dt = {rig.dt:g} s, |y| max {np.abs(y).max():.1f} rad/s")
     if args.json:

@@ -1,0 +1,127 @@
+"""One writer per output, a full disk, names from data: motorid.outputs and the commands that write."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from motorid.errors import OutputError
+from motorid.outputs import write_file
+
+
+def motorid_process(*argv: str, cwd: Path) -> subprocess.Popen:
+    """A real ``python -m motorid.cli ARGV`` process in ``cwd`` (stdout and stderr piped)."""
+    return subprocess.Popen(
+        [sys.executable, "-m", "motorid.cli", *argv],
+        cwd=cwd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+
+
+def finish(proc: subprocess.Popen, timeout: float = 300) -> tuple[int, str, str]:
+    out, err = proc.communicate(timeout=timeout)
+    return proc.returncode, out, err
+
+
+@pytest.fixture
+def small_disk(tmp_path: Path):
+    """A 64 kB tmpfs mounted at a folder of the test; skipped where mounting is not permitted."""
+    folder = tmp_path / "disk"
+    folder.mkdir()
+    if os.name != "posix" or os.geteuid() != 0:
+        pytest.skip("mounting a small tmpfs needs root on Linux: no full disk to write to here")
+    done = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(folder)], capture_output=True, text=True
+    )
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.strip()}")
+    try:
+        yield folder
+    finally:
+        subprocess.run(["umount", "-l", str(folder)], check=False)
+
+
+def leftovers(folder: Path) -> list[str]:
+    return sorted(p.name for p in folder.iterdir())
+
+
+# -- write_file: one step from check to create ------------------------------------------------
+def test_write_file_refuses_a_name_another_writer_took_meanwhile(tmp_path):
+    target = tmp_path / "x.csv"
+
+    def write(fh):
+        fh.write("ours\n")
+        target.write_text("theirs\n")  # another process creates the file while ours is written
+
+    with pytest.raises(OutputError, match=r"x\.csv: the file exists .*nothing was written"):
+        write_file(target, write)
+    assert target.read_text() == "theirs\n"
+    assert leftovers(tmp_path) == ["x.csv"]  # no temporary file left behind
+
+
+def test_write_file_replaces_whole_with_overwrite_and_keeps_the_old_file_on_error(tmp_path):
+    target = tmp_path / "x.json"
+    target.write_text("old\n")
+    write_file(target, lambda fh: fh.write("new\n"), overwrite=True)
+    assert target.read_text() == "new\n"
+
+    def fail(fh):
+        fh.write("half")
+        raise ValueError("not serialisable")
+
+    with pytest.raises(ValueError, match="not serialisable"):
+        write_file(target, fail, overwrite=True)
+    assert target.read_text() == "new\n"
+    assert leftovers(tmp_path) == ["x.json"]
+
+
+def test_write_file_gives_a_normal_file_mode(tmp_path):
+    """The temporary file is created as open() creates a file (0666 less the umask), not 0600."""
+    mask = os.umask(0o022)
+    os.umask(mask)
+    path = write_file(tmp_path / "m.txt", lambda fh: fh.write("x"))
+    assert path.stat().st_mode & 0o777 == 0o666 & ~mask
+
+
+def test_two_simulate_runs_into_one_out_exactly_one_wins(tmp_path):
+    argv = ("simulate", "--out", "race.csv", "--duration", "5")
+    procs = [motorid_process(*argv, cwd=tmp_path) for _ in range(2)]
+    results = sorted(finish(p) for p in procs)
+    (ok, _, ok_err), (refused, _, refused_err) = results
+    assert (ok, refused) == (0, 2), results
+    assert "wrote race.csv" in ok_err
+    assert len(refused_err.strip().splitlines()) == 1 and "race.csv" in refused_err
+    assert "the file exists" in refused_err
+    assert leftovers(tmp_path) == ["race.csv"]
+    from motorid.records import read_record
+
+    assert len(read_record(tmp_path / "race.csv")) == 125  # 5 s at 40 ms: one whole record
+
+
+# -- a full disk ----------------------------------------------------------------------------------
+def test_simulate_on_a_full_disk_leaves_no_file(small_disk):
+    code, _, err = finish(
+        motorid_process("simulate", "--out", "big.csv", "--duration", "120", cwd=small_disk)
+    )
+    assert code == 2
+    assert err.strip().splitlines() == [
+        "motorid simulate: error: big.csv: the disk is full (No space left on device); nothing was written"
+    ]
+    assert leftovers(small_disk) == []
+
+
+def test_simulate_overwrite_on_a_full_disk_keeps_the_old_file(small_disk):
+    old = small_disk / "big.csv"
+    old.write_text("an old record\n")
+    argv = ("simulate", "--out", "big.csv", "--duration", "120", "--overwrite")
+    code, _, err = finish(motorid_process(*argv, cwd=small_disk))
+    assert code == 2
+    assert "big.csv: the disk is full" in err and "big.csv is as it was" in err
+    assert old.read_text() == "an old record\n"
+    assert leftovers(small_disk) == ["big.csv"]
