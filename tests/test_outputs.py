@@ -125,3 +125,85 @@ def test_simulate_overwrite_on_a_full_disk_keeps_the_old_file(small_disk):
     assert "big.csv: the disk is full" in err and "big.csv is as it was" in err
     assert old.read_text() == "an old record\n"
     assert leftovers(small_disk) == ["big.csv"]
+
+
+def test_run_on_a_full_disk_ends_on_a_whole_row_and_says_how_many(small_disk):
+    argv = ("run", "--estimator", "arx-rls", "--duration", "600", "--out", "run.csv")
+    code, _, err = finish(motorid_process(*argv, cwd=small_disk))
+    assert code == 2
+    lines = err.strip().splitlines()
+    assert lines[-1].startswith("motorid run: error: run.csv: the disk is full (No space left on device): ")
+    rows = int(lines[-1].split("the file holds the first ")[1].split(" of ")[0])
+    data = (small_disk / "run.csv").read_bytes()
+    assert data.endswith(b"\n")
+    import pandas as pd
+
+    table = pd.read_csv(small_disk / "run.csv")
+    assert len(table) == rows > 0
+    assert table["seq"].tolist() == list(range(1, rows + 1))  # every row whole, none lost before the cut
+    assert not table.isna().any().any()
+    assert leftovers(small_disk) == ["run.csv"]
+
+
+def test_run_without_a_server_says_nothing_was_written(tmp_path, capsys):
+    from cli_fixtures import run
+    from io_fixtures import free_port
+
+    out = tmp_path / "run_noserver.csv"
+    argv = ("run", "--daq", f"modbus://127.0.0.1:{free_port()}", "--estimator", "arx-rls",
+            "--duration", "1", "--out", str(out), "--timeout", "0.5")  # fmt: skip
+    code, _, err = run(capsys, *argv)
+    assert code == 2
+    assert "cannot connect" in err and f"nothing written to {out}" in err
+    assert "recorded" not in err and "rows in" not in err
+    assert not out.exists()
+
+
+class StallingARX:
+    """An ARX-RLS estimator whose 10th update stalls for 1 s, as a machine that hangs a moment."""
+
+    def __init__(self, **kw):
+        from motorid.estimators import create
+
+        self.inner = create("arx-rls", na=2, nb=2)
+        self.updates = 0
+        self.params = self.inner.params
+
+    def predict(self, u):
+        return self.inner.predict(u)
+
+    def update(self, y):
+        import time
+
+        self.updates += 1
+        if self.updates == 10:
+            time.sleep(1.0)  # 25 sample periods of 40 ms: the rig's watchdog (3 periods) trips
+        self.inner.update(y)
+        self.params = self.inner.params
+
+
+def test_run_stopped_by_the_watchdog_tells_what_to_type(tmp_path, capsys):
+    from cli_fixtures import run
+
+    from motorid.estimators import register, unregister
+    from motorid.io import RigServer
+    from motorid.plants import paper_rig
+
+    register("stalling-arx", StallingARX)
+    out = tmp_path / "run.csv"
+    try:
+        with RigServer(paper_rig(), port=0, seed=1, watchdog_periods=3.0) as server:
+            argv = ("run", "--daq", server.url, "--estimator", "stalling-arx", "--duration", "2",
+                    "--out", str(out), "--timeout", "2")  # fmt: skip
+            code, _, err = run(capsys, *argv)
+    finally:
+        unregister("stalling-arx")
+    assert code == 2
+    last = err.strip().splitlines()[-1].split("\r")[-1]  # after the progress bar
+    assert last.startswith("motorid run: error: run stopped: the rig at modbus://")
+    assert "reports fault watchdog" in last and "start motorid run again" in last
+    assert "reset_faults" not in err
+    rows = int(last.split(" rows in ")[0].rsplit("(", 1)[1])
+    import pandas as pd
+
+    assert rows >= 9 and len(pd.read_csv(out)) == rows  # the stall came after the 10th sample
