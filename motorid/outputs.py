@@ -104,9 +104,10 @@ def write_file(
     Raises
     ------
     motorid.errors.OutputError
-        ``path`` exists (without ``overwrite``), or the disk is full, or the folder
-        cannot be written: the message names the file and says it was left as it
-        was. An exception of ``write`` itself passes through, with nothing written.
+        ``path`` exists (without ``overwrite``; ``errno`` is ``EEXIST``), or the disk
+        is full, or the folder cannot be written: the message names the file and
+        says it was left as it was. An exception of ``write`` itself passes
+        through, with nothing written.
     """
     target = Path(path)
     existed = target.exists()
@@ -121,9 +122,11 @@ def write_file(
             os.fsync(fh.fileno())
         _put_in_place(tmp, target, overwrite)
     except FileExistsError:
-        raise OutputError(
+        taken = OutputError(
             f"{target}: the file exists (another writer created it meanwhile); nothing was written"
-        ) from None
+        )
+        taken.errno = errno.EEXIST  # for a caller that takes the next free name
+        raise taken from None
     except OSError as exc:
         if disk_full(exc):
             raise OutputError(f"{target}: the disk is full ({exc.strerror}); {kept}") from None
@@ -173,13 +176,16 @@ class FolderLock:
         return self._fd is not None
 
     def holder(self) -> str:
-        """What the lock file says of its holder: ``process PID on HOST (COMMAND)``, or ``an unknown process``."""
+        """What the lock file says of its holder: ``process PID on HOST``, or ``an unknown process``.
+
+        The file's line is ``PID HOST COMMAND``.
+        """
         try:
-            text = self.path.read_text(encoding="utf-8", errors="replace").strip()
+            text = self.path.read_text(encoding="utf-8", errors="replace")
         except OSError:
             text = ""
-        pid, _, rest = text.partition(" ")
-        return f"process {pid} {rest}".strip() if pid.isdigit() else "an unknown process"
+        pid, host = ([*text.split(maxsplit=2), "", ""])[:2]
+        return f"process {pid} on {host}" if pid.isdigit() else "an unknown process"
 
     def acquire(self) -> FolderLock:
         """Take the lock (waiting for it with ``wait``); returns ``self``."""
@@ -195,13 +201,13 @@ class FolderLock:
                 holder = self.holder()
                 if not self.wait:
                     raise OutputError(
-                        f"{self.folder}: another run writes this folder ({holder}; lock file {self.path})"
+                        f"{self.folder}: another run writes this folder: {holder} holds its lock file {self.path}"
                     ) from None
                 logger.warning("%s: waiting for %s to finish (lock file %s)", self.folder, holder, self.path)
                 fcntl.flock(fd, fcntl.LOCK_EX)
             command = " ".join(os.path.basename(a) if i == 0 else a for i, a in enumerate(sys.argv))
             os.ftruncate(fd, 0)
-            os.pwrite(fd, f"{os.getpid()} on {socket.gethostname()} ({command[:200]})\n".encode(), 0)
+            os.pwrite(fd, f"{os.getpid()} {socket.gethostname()} {command[:200]}\n".encode(), 0)
         except BaseException:
             os.close(fd)
             raise

@@ -13,8 +13,10 @@ from motorid.errors import DataError
 from .options import (
     add_json,
     add_record_input,
+    add_wait,
     check_out_file,
     check_out_folder,
+    hold_out_folder,
     number,
     positive,
     read_record_from_args,
@@ -91,6 +93,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         validation = read_record_from_args(argparse.Namespace(**{**vars(args), "data": args.validate}))
     if args.out:
         check_out_folder(args.out)
+        hold_out_folder(args, args.out)
     diagnosis = doctor_record(record, args)
     units, param_units = diagnosis.units, diagnosis.param_units
     start = f"the model in {args.model}" if args.model is not None else "inertia, input gain"
@@ -183,6 +186,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     add_record_input(p)
     add_doctor_options(p)
     p.add_argument("--out", type=Path, help="folder for the figures and the table (replaced if there)")
+    add_wait(p)
     p.add_argument("--model", type=Path, metavar="FILE",
                    help="start from your own rigid-drive model file: the first gap is it as given")  # fmt: skip
     p.add_argument("--validate", type=Path, metavar="FILE",

@@ -26,8 +26,10 @@ from .options import (
     RECORD_FILES,
     add_json,
     add_record_columns,
+    add_wait,
     check_out_folder,
     create_estimator,
+    hold_out_folder,
     number,
     positive,
 )
@@ -50,6 +52,7 @@ class RecordTask:
     def __call__(self, path: str, given: dict[str, Any]) -> dict[str, Any]:
         from motorid.fleet.results import flatten
         from motorid.fleet.sources import identity
+        from motorid.outputs import safe_file_name
 
         from .options import read_record_from_args
 
@@ -64,7 +67,12 @@ class RecordTask:
                 record = read_record_from_args(args)
                 drive, when = identity(path, record.attrs, given)
                 row.update(drive=drive, time=when)
-                folder = self.figures / drive / Path(path).stem if self.figures is not None else None
+                # names from data are file names, never paths: everything stays under --out
+                folder = (
+                    self.figures / safe_file_name(drive) / safe_file_name(Path(path).stem)
+                    if self.figures is not None
+                    else None
+                )
                 if folder is not None:
                     folder.mkdir(parents=True, exist_ok=True)
                 if self.command == "identify":
@@ -105,6 +113,7 @@ def _run(args: argparse.Namespace, command: str) -> int:
         pattern = FilenamePattern(args.pattern)
         given = {os.path.abspath(p): pattern.parse(p) for p in paths}
     check_out_folder(args.out)
+    hold_out_folder(args, args.out)
     task = RecordTask(command, argparse.Namespace(**vars(args)), args.out.resolve() if args.figures else None)
     where = args.scheduler or f"a local cluster of {args.workers or os.cpu_count()} worker processes"
     say(f"motorid fleet {command}: {len(paths)} records on {where}; results in {args.out}/")
@@ -206,6 +215,7 @@ def _add_run_options(p: argparse.ArgumentParser) -> None:
                    help="worker processes of the local cluster (default: the cores)")  # fmt: skip
     p.add_argument("--no-figures", dest="figures", action="store_false", help="write no figure per record")
     p.add_argument("--retry-failed", action="store_true", help="rerun the records whose row says failed")
+    add_wait(p)
     add_record_columns(p)
     add_json(p)
 

@@ -18,9 +18,11 @@ from .options import (
     add_low_speed_band,
     add_record_input,
     add_skip,
+    add_wait,
     check_out_file,
     check_out_folder,
     create_estimator,
+    hold_out_folder,
     int_range,
     number,
     read_record_from_args,
@@ -105,6 +107,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
     create_estimator(args.estimator, args)  # a bad estimator option stops before the folder is made
     if args.out:
         check_out_folder(args.out)
+        hold_out_folder(args, args.out)
     if args.save_model:
         check_out_file(args.save_model, args.overwrite, "--save-model")
     payload, tests, est = identify_record(record, args)
@@ -182,6 +185,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     add_record_input(p)
     add_identify_options(p)
     p.add_argument("--out", type=Path, help="folder for the residual-test figure (replaced if there)")
+    add_wait(p)
     p.add_argument("--save-model", type=Path, metavar="FILE",
                    help="write the identified estimator as a model file (JSON; motorid.load_model reads it)")  # fmt: skip
     p.add_argument("--overwrite", action="store_true", help="replace an existing --save-model file")

@@ -17,9 +17,11 @@ from .options import (
     add_out_file,
     add_plant_seed,
     add_signal_options,
+    add_wait,
     check_out_file,
     check_out_folder,
     excitation_from_args,
+    hold_out_folder,
     non_negative,
     number,
     positive,
@@ -34,6 +36,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
     out = Path(args.out)
     check_out_folder(out)
+    hold_out_folder(args, out)
     say(f"motorid demo: simulating the default rig for {args.duration:g} s and identifying online ...")
     experiment = run_paper_experiment(
         duration=args.duration, seed=args.seed, low_speed_rpm=args.low_speed_rpm
@@ -171,6 +174,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("demo", help="the paper's experiment on the simulated rig: tables and figures")
     p.add_argument("--out", type=Path, default=Path("out"),
                    help="folder for figures, tables and the record, replaced if there (default: out)")  # fmt: skip
+    add_wait(p)
     p.add_argument("--duration", type=positive, default=120.0, help="record length [s] (default: 120)")
     p.add_argument("--seed", type=number(int, low=0), default=0,
                    help="seed of the experiment: test signal and sensor noise (default: 0)")  # fmt: skip

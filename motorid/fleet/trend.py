@@ -165,6 +165,8 @@ def plot_trends(trends: pd.DataFrame, flags: pd.DataFrame, out: str | os.PathLik
     the day an effect appeared marked; the title says why the drive is flagged. The paths."""
     import matplotlib.pyplot as plt
 
+    from motorid.outputs import safe_file_name
+
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     reasons = dict(zip(flags["drive"], flags["reason"], strict=True))
@@ -188,7 +190,7 @@ def plot_trends(trends: pd.DataFrame, flags: pd.DataFrame, out: str | os.PathLik
         axes[-1, 0].set_xlabel("record time")
         fig.autofmt_xdate()
         fig.tight_layout()
-        path = folder / f"{drive}.png"
+        path = folder / f"{safe_file_name(drive)}.png"  # a drive id from data is never a path
         fig.savefig(path, dpi=80)
         plt.close(fig)
         paths.append(path)
