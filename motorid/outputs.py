@@ -75,6 +75,7 @@ def write_file(
     *,
     overwrite: bool = False,
     binary: bool = False,
+    sync: bool = True,
 ) -> Path:
     """Write a file whole: ``write(fh)`` fills a temporary file, which then takes the name ``path``.
 
@@ -95,6 +96,10 @@ def write_file(
         one another process created while ``write`` ran.
     binary : bool
         Open the temporary file in binary mode.
+    sync : bool
+        Flush the content to the disk before the file takes its name, so that not
+        even a power cut leaves the name on an empty file (False for what is cheap
+        to make again, such as a figure).
 
     Returns
     -------
@@ -119,7 +124,8 @@ def write_file(
         with os.fdopen(fd, "wb" if binary else "w", **text) as fh:
             write(fh)
             fh.flush()
-            os.fsync(fh.fileno())
+            if sync:
+                os.fsync(fh.fileno())
         _put_in_place(tmp, target, overwrite)
     except FileExistsError:
         taken = OutputError(

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 import pandas as pd
 
 from motorid.errors import DataError
+from motorid.outputs import write_file
 
 from .options import (
     add_json,
@@ -146,7 +147,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     if args.out:
         say(f"  writing figures in {args.out}/")
         figures = diagnosis.write_figures(args.out)
-        table.to_csv(args.out / "doctor_table.csv")
+        write_file(args.out / "doctor_table.csv", table.to_csv, overwrite=True)
         say(f"  wrote {len(figures)} figures and doctor_table.csv in {args.out}/")
     if args.json:
         out = {**diagnosis.to_dict(), "figures": figures}

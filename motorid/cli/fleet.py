@@ -150,6 +150,7 @@ def cmd_fleet_trend(args: argparse.Namespace) -> int:
 
     from motorid.fleet.results import load_results
     from motorid.fleet.trend import flag_drives, friction_trends, plot_trends
+    from motorid.outputs import write_file
 
     results = load_results(args.results)
     trends = friction_trends(results)
@@ -169,7 +170,7 @@ def cmd_fleet_trend(args: argparse.Namespace) -> int:
     out = args.out or args.results / "trend"
     check_out_folder(out)
     figures = plot_trends(trends, flags, out)
-    flags.to_csv(out / "flags.csv", index=False)
+    write_file(out / "flags.csv", lambda fh: flags.to_csv(fh, index=False), overwrite=True)
     say(f"  wrote flags.csv and {len(figures)} figures in {out}/")
     if args.json:
         emit_json({"flagged": frame_records(flagged.set_index("drive")), "drives": len(flags),

@@ -32,6 +32,7 @@ from .report import emit_json, say
 def cmd_demo(args: argparse.Namespace) -> int:
     """The paper's experiment on the simulated rig: tables, figures, record."""
     from motorid.experiment import run_paper_experiment
+    from motorid.outputs import write_file
     from motorid.records import write_record
 
     out = Path(args.out)
@@ -44,7 +45,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     record_path = out / "demo_record.csv"
     write_record(experiment.record, record_path)
     table = experiment.table()
-    table.to_csv(out / "demo_table.csv")
+    write_file(out / "demo_table.csv", table.to_csv, overwrite=True)
     figures = experiment.write_figures(out)
     with pd.option_context("display.width", 140, "display.max_columns", 10):
         say(f"\nMSE [rpm^2] over the whole record and at low speed (|y| < {args.low_speed_rpm:g} rpm):")

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import logging
 import os
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -165,7 +166,7 @@ def plot_trends(trends: pd.DataFrame, flags: pd.DataFrame, out: str | os.PathLik
     the day an effect appeared marked; the title says why the drive is flagged. The paths."""
     import matplotlib.pyplot as plt
 
-    from motorid.outputs import safe_file_name
+    from motorid.outputs import safe_file_name, write_file
 
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
@@ -191,7 +192,7 @@ def plot_trends(trends: pd.DataFrame, flags: pd.DataFrame, out: str | os.PathLik
         fig.autofmt_xdate()
         fig.tight_layout()
         path = folder / f"{safe_file_name(drive)}.png"  # a drive id from data is never a path
-        fig.savefig(path, dpi=80)
+        write_file(path, partial(fig.savefig, dpi=80, format="png"), overwrite=True, binary=True, sync=False)
         plt.close(fig)
         paths.append(path)
     return paths
