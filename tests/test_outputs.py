@@ -3,14 +3,18 @@
 from __future__ import annotations
 
 import os
+import socket
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from motorid.errors import OutputError
-from motorid.outputs import write_file
+from motorid.outputs import MAX_NAME_BYTES, FolderLock, safe_file_name, write_file
 
 
 def motorid_process(*argv: str, cwd: Path) -> subprocess.Popen:
@@ -207,3 +211,102 @@ def test_run_stopped_by_the_watchdog_tells_what_to_type(tmp_path, capsys):
     import pandas as pd
 
     assert rows >= 9 and len(pd.read_csv(out)) == rows  # the stall came after the 10th sample
+
+
+# -- names from data -------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    "name", ["../../x", "/etc/passwd", "a\x00b", "d" * 10_000, ".", "..", "", " .hidden"]
+)
+def test_a_hostile_name_becomes_one_file_name_in_its_folder(tmp_path, name):
+    safe = safe_file_name(name)
+    assert safe not in ("", ".", "..") and not safe.startswith(".")
+    assert "/" not in safe and "\x00" not in safe and len(safe.encode()) <= MAX_NAME_BYTES
+    path = tmp_path / safe
+    path.write_text("x")  # the file system takes it, in this folder
+    assert path.resolve().parent == tmp_path.resolve()
+
+
+def test_safe_names_keep_plain_ids_and_tell_changed_ids_apart():
+    assert safe_file_name("drive-01") == "drive-01"
+    assert safe_file_name("Motor 3_ü.v2") == "Motor 3_ü.v2"
+    assert safe_file_name("../../x") == "_.._x-9cdf6a50"  # the README's example
+    # unsafe characters all become "_", so the hash keeps these three apart
+    assert len({safe_file_name("a/b"), safe_file_name("a\\b"), safe_file_name("a_b")}) == 3
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.text(min_size=0, max_size=300), st.text(min_size=0, max_size=300))
+def test_every_text_gives_a_safe_name_and_two_texts_two_names(text, other):
+    safe = safe_file_name(text)
+    assert safe and not safe.startswith((".", " ")) and not safe.endswith(" ")
+    assert all(c.isalnum() or c in "-_.+=@ " for c in safe)
+    assert len(safe.encode("utf-8")) <= MAX_NAME_BYTES
+    assert safe_file_name(safe) == safe  # a safe name is kept as it is
+    if other != text:
+        assert safe_file_name(other) != safe
+
+
+# -- a folder's lock ---------------------------------------------------------------------------------
+def hold_lock(folder: Path) -> subprocess.Popen:
+    """Another process holding the folder's lock, returned once it holds it."""
+    code = "import sys, time\nfrom motorid.outputs import FolderLock\nFolderLock(sys.argv[1]).acquire()\nprint('held', flush=True)\ntime.sleep(600)\n"
+    proc = subprocess.Popen([sys.executable, "-c", code, str(folder)], stdout=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().strip() == "held"
+    return proc
+
+
+def test_a_lock_names_its_holder_and_is_taken_over_when_the_holder_dies(tmp_path):
+    holder = hold_lock(tmp_path)
+    try:
+        with pytest.raises(
+            OutputError, match=rf"process {holder.pid} on \S+ holds its lock file .*\.motorid\.lock"
+        ):
+            FolderLock(tmp_path).acquire()
+    finally:
+        holder.kill()  # SIGKILL: the holder cannot clean up; the kernel releases its lock
+        holder.wait(30)
+    with FolderLock(tmp_path) as lock:
+        assert lock.held and lock.holder() == f"process {os.getpid()} on {socket.gethostname()}"
+    assert not lock.held
+    with FolderLock(tmp_path):  # released: taken again at once
+        pass
+
+
+def test_wait_takes_the_lock_once_the_holder_lets_it_go(tmp_path):
+    holder = hold_lock(tmp_path)
+    released = threading.Timer(0.5, holder.kill)
+    released.start()
+    try:
+        with FolderLock(tmp_path, wait=True) as lock:
+            assert lock.held
+            assert holder.wait(30) is not None  # it only came once the holder was gone
+    finally:
+        released.cancel()
+        holder.kill()
+        holder.wait(30)
+
+
+def test_identify_into_a_locked_folder_is_refused_and_changes_nothing(tmp_path, capsys):
+    from cli_fixtures import run
+
+    record = tmp_path / "rec.csv"
+    assert run(capsys, "simulate", "--out", str(record), "--duration", "10")[0] == 0
+    out = tmp_path / "figures"
+    out.mkdir()
+    holder = hold_lock(out)
+    argv = ("identify", str(record), "--estimator", "arx-rls", "--out", str(out))
+    try:
+        code, _, err = run(capsys, *argv)
+    finally:
+        holder.kill()
+        holder.wait(30)
+    assert code == 2
+    assert err.strip().splitlines() == [
+        f"motorid identify: error: --out {out}: another run writes this folder: process {holder.pid} on "
+        f"{socket.gethostname()} holds its lock file {out / '.motorid.lock'}; pass --wait to wait for it, "
+        "or choose another folder"
+    ]
+    assert leftovers(out) == [".motorid.lock"]
+    assert run(capsys, *argv)[0] == 0  # the dead holder's lock is taken over
+    assert run(capsys, *argv)[0] == 0  # and released when the command returned
+    assert (out / "residual_tests.png").stat().st_size > 0
