@@ -310,3 +310,35 @@ def test_identify_into_a_locked_folder_is_refused_and_changes_nothing(tmp_path, 
     assert run(capsys, *argv)[0] == 0  # the dead holder's lock is taken over
     assert run(capsys, *argv)[0] == 0  # and released when the command returned
     assert (out / "residual_tests.png").stat().st_size > 0
+
+
+# -- the run's recorder --------------------------------------------------------------------------------
+@pytest.mark.parametrize("flush_every", [1, 7])
+def test_a_recorder_on_a_full_disk_keeps_whole_rows_and_counts_them(small_disk, flush_every):
+    from motorid.io.online import RunRecorder
+
+    recorder = RunRecorder(small_disk / "run.csv", flush_every=flush_every)
+    with pytest.raises(
+        OutputError, match=r"run\.csv: the disk is full .*: the file holds the first \d+ of"
+    ) as info:
+        for k in range(100_000):
+            recorder.append({"t": k * 0.04, "seq": k + 1, "u": 1.0 / 3.0, "y": float(k) / 7.0})
+    recorder.close()
+    import pandas as pd
+
+    table = pd.read_csv(small_disk / "run.csv")
+    assert len(table) == recorder.on_disk == int(str(info.value).split("first ")[1].split(" of")[0])
+    assert table["seq"].tolist() == list(range(1, len(table) + 1))
+    assert (small_disk / "run.csv").read_bytes().endswith(b"\n")
+    assert 1 <= recorder.count - recorder.on_disk <= flush_every  # only rows of the write the disk refused
+
+
+def test_a_recorder_refuses_a_file_another_writer_created_after_its_check(tmp_path):
+    from motorid.io.online import RunRecorder
+
+    out = tmp_path / "run.csv"
+    recorder = RunRecorder(out)  # checks: no file yet
+    out.write_text("the other run's rows\n")  # another run creates it before our first sample
+    with pytest.raises(OutputError, match=r"run\.csv: the file exists .*nothing was written"):
+        recorder.append({"t": 0.0, "seq": 1, "u": 0.0, "y": 0.0})
+    assert out.read_text() == "the other run's rows\n" and not recorder.created

@@ -21,6 +21,9 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
+from motorid.errors import OutputError
+from motorid.outputs import disk_full
+
 from .base import DAQ, Sample
 
 logger = logging.getLogger(__name__)
@@ -130,6 +133,8 @@ class RunRecorder:
         Rows recorded.
     on_disk : int
         Rows in the file (not counting the header): ``count`` after each flush.
+    created : bool
+        True once this recorder has created (or, with ``overwrite``, truncated) the file.
 
     Raises
     ------
@@ -155,6 +160,7 @@ class RunRecorder:
         self.rows: deque[dict[str, float | int]] = deque(maxlen=keep)
         self.count = 0
         self.on_disk = 0
+        self.created = False
         self.columns: list[str] | None = None
         self._fd: int | None = None
         self._size = 0  # bytes in the file, ending on a whole line
@@ -190,7 +196,15 @@ class RunRecorder:
             if self.path is not None:
                 self.path.parent.mkdir(parents=True, exist_ok=True)
                 exclusive = 0 if self.overwrite else os.O_EXCL
-                self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | exclusive, 0o666)
+                try:
+                    self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | exclusive, 0o666)
+                except FileExistsError:
+                    raise OutputError(
+                        f"{self.path}: the file exists (another writer created it meanwhile); nothing was written"
+                    ) from None
+                except OSError as exc:
+                    raise OutputError(f"{self.path}: cannot create the file: {exc.strerror or exc}") from None
+                self.created = True
                 self._pending.append(self._csv_line(self.columns))
         self.rows.append(row)
         self.count += 1
@@ -215,9 +229,6 @@ class RunRecorder:
         self.on_disk = self.count
 
     def _cut_to_whole_line(self, lines: list[bytes], written: int, exc: OSError) -> None:
-        from motorid.errors import OutputError
-        from motorid.outputs import disk_full
-
         whole_bytes = whole_lines = 0
         for line in lines:
             if whole_bytes + len(line) > written:
@@ -494,8 +505,6 @@ def run_online(
 
 def _close_recording(recorder: RunRecorder, exc: BaseException) -> str:
     """Close the recording of a run stopped by ``exc``; what is on disk now, for the note on ``exc``."""
-    from motorid.errors import OutputError
-
     try:
         recorder.close()
     except OutputError as closing:  # a full disk at the last flush: the note says what the file holds
@@ -504,6 +513,6 @@ def _close_recording(recorder: RunRecorder, exc: BaseException) -> str:
             exc.add_note(str(closing))
     if recorder.path is None:
         return "kept in memory"
-    if recorder.columns is None or not recorder.path.exists():
+    if not recorder.created or not recorder.path.exists():
         return f"nothing written to {recorder.path}"
     return f"{recorder.on_disk} rows in {recorder.path}"
