@@ -391,6 +391,20 @@ def test_two_runs_into_one_folder_started_together_lose_no_row(fleet_folder, add
     assert sorted(load_results(out)["record"]) == sorted(os.path.abspath(p) for p in done)
 
 
+def test_a_full_disk_stops_the_run_saying_what_is_kept(fleet_folder, address, small_disk, capsys):
+    out = small_disk / "results"
+    argv = ["fleet", "doctor", *map(str, records(fleet_folder)[:12]), "--out", str(out), "--scheduler", address,
+            "--no-figures", *DOCTOR]  # fmt: skip
+    assert main(argv) == 2  # a part holds at least 27 kB (its schema): 64 kB hold two
+    line = capsys.readouterr().err.strip().splitlines()[-1].split("\r")[-1]
+    assert line.startswith(f"motorid fleet doctor: error: {out}/")  # a part, or results.csv
+    assert "the disk is full (No space left on device); " in line
+    stored = int(line.split("; the ")[1].split(" rows")[0])
+    assert stored >= 1 and f"are in {out / 'results.parquet'}/" in line
+    assert len(load_results(out)) == stored  # every row it says is stored is whole and readable
+    assert not [p.name for p in (out / "results.parquet").iterdir() if p.name.startswith(".")]
+
+
 # --------------------------------------------------------------------------- names from data
 def test_drive_ids_from_attrs_never_leave_the_out_folder(fleet_folder, address, tmp_path, capsys):
     from motorid.records import read_record, write_record

@@ -10,7 +10,7 @@ import threading
 from pathlib import Path
 
 import pytest
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from motorid.errors import OutputError
@@ -31,24 +31,6 @@ def motorid_process(*argv: str, cwd: Path) -> subprocess.Popen:
 def finish(proc: subprocess.Popen, timeout: float = 300) -> tuple[int, str, str]:
     out, err = proc.communicate(timeout=timeout)
     return proc.returncode, out, err
-
-
-@pytest.fixture
-def small_disk(tmp_path: Path):
-    """A 64 kB tmpfs mounted at a folder of the test; skipped where mounting is not permitted."""
-    folder = tmp_path / "disk"
-    folder.mkdir()
-    if os.name != "posix" or os.geteuid() != 0:
-        pytest.skip("mounting a small tmpfs needs root on Linux: no full disk to write to here")
-    done = subprocess.run(
-        ["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(folder)], capture_output=True, text=True
-    )
-    if done.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.strip()}")
-    try:
-        yield folder
-    finally:
-        subprocess.run(["umount", "-l", str(folder)], check=False)
 
 
 def leftovers(folder: Path) -> list[str]:
@@ -234,7 +216,6 @@ def test_safe_names_keep_plain_ids_and_tell_changed_ids_apart():
     assert len({safe_file_name("a/b"), safe_file_name("a\\b"), safe_file_name("a_b")}) == 3
 
 
-@settings(max_examples=200, deadline=None)
 @given(st.text(min_size=0, max_size=300), st.text(min_size=0, max_size=300))
 def test_every_text_gives_a_safe_name_and_two_texts_two_names(text, other):
     safe = safe_file_name(text)

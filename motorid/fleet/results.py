@@ -188,8 +188,13 @@ class ResultsStore:
             return
         import pyarrow as pa
 
+        from motorid.errors import OutputError
+
         merged = pa.Table.from_pandas(self.rows(), preserve_index=False)  # NaN in text columns: null
-        path = self._write_part(merged)
+        try:
+            path = self._write_part(merged)
+        except OutputError as exc:  # a full disk: nothing merged, nothing deleted
+            raise OutputError(f"{exc}; every row is in the parts of {self.parts}/ as before") from None
         for part in merged_parts:
             part.unlink(missing_ok=True)
         self._tables, self._paths = [merged], [path]
