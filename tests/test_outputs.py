@@ -67,6 +67,23 @@ def test_write_file_replaces_whole_with_overwrite_and_keeps_the_old_file_on_erro
     assert leftovers(tmp_path) == ["x.json"]
 
 
+def test_without_hard_links_the_name_is_still_claimed_in_one_step(tmp_path, monkeypatch):
+    """A file system without hard links (some network and FUSE ones): the name is taken with O_EXCL."""
+    import errno
+
+    def no_link(src, dst):
+        raise OSError(errno.EPERM, "Operation not permitted")
+
+    monkeypatch.setattr(os, "link", no_link)
+    target = tmp_path / "x.csv"
+    write_file(target, lambda fh: fh.write("first\n"))
+    assert target.read_text() == "first\n"
+    with pytest.raises(OutputError, match="the file exists"):
+        write_file(target, lambda fh: fh.write("second\n"))
+    assert target.read_text() == "first\n"
+    assert leftovers(tmp_path) == ["x.csv"]
+
+
 def test_write_file_gives_a_normal_file_mode(tmp_path):
     """The temporary file is created as open() creates a file (0666 less the umask), not 0600."""
     mask = os.umask(0o022)
