@@ -57,10 +57,8 @@ def _put_in_place(tmp: Path, target: Path, overwrite: bool) -> None:
         return
     try:
         os.link(tmp, target)  # fails if target exists: one step, one winner
-    except FileExistsError:
-        raise
     except OSError as exc:
-        if exc.errno not in _NO_LINKS:
+        if exc.errno not in _NO_LINKS:  # FileExistsError among them
             raise
         # no hard links here: claim the name exclusively (an empty file for a moment), then fill it whole
         os.close(os.open(target, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
@@ -164,7 +162,7 @@ class FolderLock:
     ------
     motorid.errors.OutputError
         From :meth:`acquire`: another process holds the lock (and ``wait`` is
-        false); :attr:`holder` of the lock then says which.
+        false); the message names it (:meth:`holder`) and the lock file.
     """
 
     def __init__(self, folder: str | os.PathLike[str], *, wait: bool = False) -> None:
@@ -246,8 +244,9 @@ def safe_file_name(text: str) -> str:
     ``\\``, NUL, control characters, ``:``) becomes ``_``; leading dots and spaces
     are dropped (no ``.``, ``..`` or hidden name), trailing spaces too; the name is
     cut to :data:`MAX_NAME_BYTES` bytes. A name that had to change ends in ``-`` and
-    8 hex digits of a hash of ``text``, so two different ids never share a name:
-    ``"drive_1"`` stays ``"drive_1"``, ``"../../x"`` becomes ``"_.._x-<hash>"``.
+    8 hex digits of a SHA-256 of ``text``, so two different ids get two names (but
+    for a collision of those 32 bits): ``"drive_1"`` stays ``"drive_1"``,
+    ``"../../x"`` becomes ``"_.._x-9cdf6a50"``.
     """
     text = str(text)
     kept = "".join(c if c.isalnum() or c in _NAME_CHARACTERS else "_" for c in text)

@@ -113,8 +113,8 @@ def _run(args: argparse.Namespace, command: str) -> int:
         pattern = FilenamePattern(args.pattern)
         given = {os.path.abspath(p): pattern.parse(p) for p in paths}
     check_out_folder(args.out)
-    hold_out_folder(args, args.out)
     task = RecordTask(command, argparse.Namespace(**vars(args)), args.out.resolve() if args.figures else None)
+    hold_out_folder(args, args.out)  # after the task took its copy of the options: the lock stays here
     where = args.scheduler or f"a local cluster of {args.workers or os.cpu_count()} worker processes"
     say(f"motorid fleet {command}: {len(paths)} records on {where}; results in {args.out}/")
     if pending_records(paths, args.out, args.retry_failed):
