@@ -340,3 +340,21 @@ def test_a_recorder_refuses_a_file_another_writer_created_after_its_check(tmp_pa
     with pytest.raises(OutputError, match=r"run\.csv: the file exists .*nothing was written"):
         recorder.append({"t": 0.0, "seq": 1, "u": 0.0, "y": 0.0})
     assert out.read_text() == "the other run's rows\n" and not recorder.created
+
+
+def test_two_recorders_with_overwrite_never_write_one_file(tmp_path):
+    from motorid.io.online import RunRecorder
+
+    out = tmp_path / "run.csv"
+    out.write_text("an old run\n")
+    first, second = RunRecorder(out, overwrite=True), RunRecorder(out, overwrite=True)
+    first.append({"t": 0.0, "seq": 1, "u": 0.0, "y": 0.0})
+    with pytest.raises(OutputError, match=r"run\.csv: another run is writing this file"):
+        second.append({"t": 0.0, "seq": 1, "u": 5.0, "y": 5.0})
+    first.append({"t": 0.04, "seq": 2, "u": 0.0, "y": 0.0})
+    first.close()
+    assert out.read_text() == "t,seq,u,y\n0.0,1,0.0,0.0\n0.04,2,0.0,0.0\n"
+    third = RunRecorder(out, overwrite=True)  # the first let go of it when it closed
+    third.append({"t": 0.0, "seq": 1, "u": 1.0, "y": 2.0})
+    third.close()
+    assert out.read_text() == "t,seq,u,y\n0.0,1,1.0,2.0\n"

@@ -195,15 +195,7 @@ class RunRecorder:
             self.columns = list(row)
             if self.path is not None:
                 self.path.parent.mkdir(parents=True, exist_ok=True)
-                exclusive = 0 if self.overwrite else os.O_EXCL
-                try:
-                    self._fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | exclusive, 0o666)
-                except FileExistsError:
-                    raise OutputError(
-                        f"{self.path}: the file exists (another writer created it meanwhile); nothing was written"
-                    ) from None
-                except OSError as exc:
-                    raise OutputError(f"{self.path}: cannot create the file: {exc.strerror or exc}") from None
+                self._fd = self._open_alone()
                 self.created = True
                 self._pending.append(self._csv_line(self.columns))
         self.rows.append(row)
@@ -212,6 +204,30 @@ class RunRecorder:
             self._pending.append(self._csv_line([_format(row.get(c, math.nan)) for c in self.columns]))
             if self.count % self.flush_every == 0:
                 self.flush()
+
+    def _open_alone(self) -> int:
+        """Open the file for this recorder alone: created exclusively, or with ``overwrite`` locked
+        (:func:`fcntl.flock`, held until :meth:`close`) before it is emptied, so no two runs write one file."""
+        import fcntl
+
+        exclusive = 0 if self.overwrite else os.O_EXCL
+        try:
+            fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | exclusive, 0o666)
+        except FileExistsError:
+            raise OutputError(
+                f"{self.path}: the file exists (another writer created it meanwhile); nothing was written"
+            ) from None
+        except OSError as exc:
+            raise OutputError(f"{self.path}: cannot create the file: {exc.strerror or exc}") from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            os.close(fd)
+            raise OutputError(
+                f"{self.path}: another run is writing this file; it was left as it was"
+            ) from None
+        os.ftruncate(fd, 0)
+        return fd
 
     def flush(self) -> None:
         """Write the rows not yet written; on an error, cut the file back to its last whole row."""
