@@ -107,6 +107,18 @@ def test_two_simulate_runs_into_one_out_exactly_one_wins(tmp_path):
     assert len(read_record(tmp_path / "race.csv")) == 125  # 5 s at 40 ms: one whole record
 
 
+def test_two_simulate_runs_with_overwrite_leave_one_whole_record(tmp_path):
+    from motorid.records import read_record
+
+    (tmp_path / "race.csv").write_text("an old record\n")
+    argv = ("simulate", "--out", "race.csv", "--overwrite", "--duration", "5", "--seed")
+    procs = [motorid_process(*argv, str(seed), cwd=tmp_path) for seed in (1, 2)]
+    assert [finish(p)[0] for p in procs] == [0, 0]
+    assert leftovers(tmp_path) == ["race.csv"]
+    record = read_record(tmp_path / "race.csv")
+    assert len(record) == 125  # one of the two records, whole, not a mix or a part
+
+
 # -- a full disk ----------------------------------------------------------------------------------
 def test_simulate_on_a_full_disk_leaves_no_file(small_disk):
     code, _, err = finish(
