@@ -131,6 +131,15 @@ def test_simulate_on_a_full_disk_leaves_no_file(small_disk):
     assert leftovers(small_disk) == []
 
 
+def test_simulate_refused_for_its_record_leaves_no_model_file(small_disk, tmp_path):
+    """The record does not fit: the model file written a moment before (on another disk) goes too."""
+    model = tmp_path / "rig.json"
+    argv = ("simulate", "--out", "big.csv", "--save-model", str(model), "--duration", "120")
+    code, _, err = finish(motorid_process(*argv, cwd=small_disk))
+    assert code == 2 and "big.csv: the disk is full" in err
+    assert not model.exists() and leftovers(small_disk) == []
+
+
 def test_simulate_overwrite_on_a_full_disk_keeps_the_old_file(small_disk):
     old = small_disk / "big.csv"
     old.write_text("an old record\n")

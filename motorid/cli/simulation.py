@@ -147,14 +147,15 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         record = rig.simulate(u)
     else:
         record = rig.simulate(u, seed=args.plant_seed, integrator=args.integrator)
-    write_record(record, args.out, overwrite=args.overwrite)
     if args.save_model is not None:
-        try:
-            rig.save(args.save_model, overwrite=args.overwrite)
-        except OSError:  # a refused command changes nothing: the record written a moment ago goes too
-            if not args.overwrite:
-                args.out.unlink()
-            raise
+        rig.save(args.save_model, overwrite=args.overwrite)
+    try:
+        write_record(record, args.out, overwrite=args.overwrite)
+    except Exception:  # a refused command changes nothing: the model file written a moment ago goes too
+        if args.save_model is not None and not args.overwrite:
+            args.save_model.unlink()
+        raise
+    if args.save_model is not None:
         say(f"wrote {args.save_model}: the rig's model file")
     y = record["y"].to_numpy()
     say(f"wrote {args.out}: {len(record)} samples at dt = {rig.dt:g} s, |y| max {np.abs(y).max():.1f} rad/s")
