@@ -187,7 +187,8 @@ def plot_trends(trends: pd.DataFrame, flags: pd.DataFrame, out: str | os.PathLik
             for item in filter(None, str(appeared.get(drive, "")).split(", ")):
                 ax.axvline(pd.Timestamp(item.rsplit(" from ", 1)[1]), color="tab:red", ls="--", lw=1)
         reason = reasons.get(drive, "")
-        axes[0, 0].set_title(f"{drive}: " + (f"flagged ({reason})" if reason else "not flagged"), fontsize=10)
+        shown = drive if str(drive).isprintable() else repr(drive)  # a control character from data, escaped
+        axes[0, 0].set_title(f"{shown}: " + (f"flagged ({reason})" if reason else "not flagged"), fontsize=10)
         axes[-1, 0].set_xlabel("record time")
         fig.autofmt_xdate()
         fig.tight_layout()
