@@ -86,11 +86,15 @@ def _rc_size(size: Any) -> Any:
 
 
 def save(fig: Figure, path: str | Path) -> Path:
-    """Write ``fig`` as PNG at :data:`DPI`, creating the folder; returns the path."""
+    """Write ``fig`` as PNG at :data:`DPI`, whole (:func:`motorid.outputs.write_file`), creating the
+    folder; returns the path."""
+    from motorid.outputs import write_file
+
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=DPI)
-    return path
+    return write_file(
+        path, lambda fh: fig.savefig(fh, dpi=DPI, format="png"), overwrite=True, binary=True, sync=False
+    )
 
 
 def input_label(units: Mapping[str, str]) -> str:

@@ -50,7 +50,6 @@ import json
 import logging
 import math
 import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -128,19 +127,18 @@ def model_to_dict(model: Any) -> dict[str, Any]:
     )
 
 
-def save_model(model: Any, path: str | os.PathLike[str]) -> None:
-    """Write ``model`` as a model file at ``path`` (replaced whole, never left half-written)."""
+def save_model(model: Any, path: str | os.PathLike[str], *, overwrite: bool = True) -> None:
+    """Write ``model`` as a model file at ``path``, whole (:func:`motorid.outputs.write_file`).
+
+    ``overwrite=False`` refuses an existing file, also one another process created
+    meanwhile (:class:`~motorid.errors.OutputError`, as for a full disk; ``path``
+    is then as it was).
+    """
+    from motorid.outputs import write_file
+
     text = json.dumps(model_to_dict(model), indent=2, allow_nan=False) + "\n"
-    target = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent or Path("."))
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, target)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    logger.info("wrote model file %s (%s)", target, type(model).__name__)
+    write_file(path, lambda fh: fh.write(text), overwrite=overwrite)
+    logger.info("wrote model file %s (%s)", path, type(model).__name__)
 
 
 def _estimator_to_dict(est: Any) -> dict[str, Any]:

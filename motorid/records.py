@@ -119,11 +119,12 @@ def _jsonable(value: Any) -> Any:
     return value
 
 
-def write_record(df: pd.DataFrame, path: str | os.PathLike[str]) -> None:
+def write_record(df: pd.DataFrame, path: str | os.PathLike[str], *, overwrite: bool = True) -> None:
     """Write a record as CSV with its ``attrs`` as JSON in a commented first line.
 
     Floats are written with full precision (``repr``), so a record read back
-    equals the one written.
+    equals the one written. The file is written whole
+    (:func:`motorid.outputs.write_file`): a reader never sees part of it.
 
     Parameters
     ----------
@@ -132,14 +133,28 @@ def write_record(df: pd.DataFrame, path: str | os.PathLike[str]) -> None:
         converted).
     path : str or path-like
         Destination file.
+    overwrite : bool
+        Replace an existing file (the default); False refuses one, also one
+        another process created meanwhile.
+
+    Raises
+    ------
+    motorid.errors.OutputError
+        The file exists (without ``overwrite``) or the disk is full; ``path`` is
+        as it was.
     """
+    from motorid.outputs import write_file
+
     attrs = _jsonable(dict(df.attrs))
     header = ATTRS_MARKER + json.dumps(attrs, separators=(",", ":"), allow_nan=False)
     if "\n" in header:
         raise ValueError("attrs must not contain line breaks")
-    with open(path, "w", newline="", encoding="utf-8") as fh:
+
+    def write(fh: Any) -> None:
         fh.write(header + "\n")
         df.to_csv(fh, index=False, float_format=None, lineterminator="\n")
+
+    write_file(path, write, overwrite=overwrite)
     logger.debug("wrote record %s: %d rows, columns %s", path, len(df), list(df.columns))
 
 

@@ -121,3 +121,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
         )
         return 1
+    finally:
+        lock = getattr(args, "out_lock", None)  # the --out folder a command held (options.hold_out_folder)
+        if lock is not None:
+            lock.release()

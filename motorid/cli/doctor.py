@@ -9,12 +9,15 @@ from typing import TYPE_CHECKING
 import pandas as pd
 
 from motorid.errors import DataError
+from motorid.outputs import write_file
 
 from .options import (
     add_json,
     add_record_input,
+    add_wait,
     check_out_file,
     check_out_folder,
+    hold_out_folder,
     number,
     positive,
     read_record_from_args,
@@ -92,6 +95,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         validation = read_record_from_args(argparse.Namespace(**{**vars(args), "data": args.validate}))
     if args.out:
         check_out_folder(args.out)
+        hold_out_folder(args, args.out)
     diagnosis = doctor_record(record, args, progress=show_progress())
     units, param_units = diagnosis.units, diagnosis.param_units
     start = f"the model in {args.model}" if args.model is not None else "inertia, input gain"
@@ -144,7 +148,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     if args.out:
         say(f"  writing figures in {args.out}/")
         figures = diagnosis.write_figures(args.out)
-        table.to_csv(args.out / "doctor_table.csv")
+        write_file(args.out / "doctor_table.csv", table.to_csv, overwrite=True)
         say(f"  wrote {len(figures)} figures and doctor_table.csv in {args.out}/")
     if args.json:
         out = {**diagnosis.to_dict(), "figures": figures}
@@ -184,6 +188,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     add_record_input(p)
     add_doctor_options(p)
     p.add_argument("--out", type=Path, help="folder for the figures and the table (replaced if there)")
+    add_wait(p)
     p.add_argument("--model", type=Path, metavar="FILE",
                    help="start from your own rigid-drive model file: the first gap is it as given")  # fmt: skip
     p.add_argument("--validate", type=Path, metavar="FILE",

@@ -31,8 +31,10 @@ from .options import (
     RECORD_FILES,
     add_json,
     add_record_columns,
+    add_wait,
     check_out_folder,
     create_estimator,
+    hold_out_folder,
     number,
     positive,
 )
@@ -55,6 +57,7 @@ class RecordTask:
     def __call__(self, path: str, given: dict[str, Any]) -> dict[str, Any]:
         from motorid.fleet.results import flatten
         from motorid.fleet.sources import identity
+        from motorid.outputs import safe_file_name
 
         from .options import read_record_from_args
 
@@ -69,7 +72,12 @@ class RecordTask:
                 record = read_record_from_args(args)
                 drive, when = identity(path, record.attrs, given)
                 row.update(drive=drive, time=when)
-                folder = self.figures / drive / Path(path).stem if self.figures is not None else None
+                # names from data are file names, never paths: everything stays under --out
+                folder = (
+                    self.figures / safe_file_name(drive) / safe_file_name(Path(path).stem)
+                    if self.figures is not None
+                    else None
+                )
                 if folder is not None:
                     folder.mkdir(parents=True, exist_ok=True)
                 if self.command == "identify":
@@ -112,6 +120,7 @@ def _run(args: argparse.Namespace, command: str) -> int:
         given = {os.path.abspath(p): pattern.parse(p) for p in paths}
     check_out_folder(args.out)
     task = RecordTask(command, argparse.Namespace(**vars(args)), args.out.resolve() if args.figures else None)
+    hold_out_folder(args, args.out)  # after the task took its copy of the options: the lock stays here
     where = args.scheduler or f"a local cluster of {args.workers or os.cpu_count()} worker processes"
     say(f"motorid fleet {command}: {len(paths)} records on {where}; results in {args.out}/")
     if pending_records(paths, args.out, args.retry_failed):
@@ -150,6 +159,7 @@ def cmd_fleet_trend(args: argparse.Namespace) -> int:
 
     from motorid.fleet.results import load_results
     from motorid.fleet.trend import flag_drives, friction_trends, plot_trends
+    from motorid.outputs import write_file
 
     results = load_results(args.results)
     trends = friction_trends(results)
@@ -169,7 +179,7 @@ def cmd_fleet_trend(args: argparse.Namespace) -> int:
     out = args.out or args.results / "trend"
     check_out_folder(out)
     figures = plot_trends(trends, flags, out)
-    flags.to_csv(out / "flags.csv", index=False)
+    write_file(out / "flags.csv", lambda fh: flags.to_csv(fh, index=False), overwrite=True)
     say(f"  wrote flags.csv and {len(figures)} figures in {out}/")
     if args.json:
         emit_json({"flagged": frame_records(flagged.set_index("drive")), "drives": len(flags),
@@ -215,6 +225,7 @@ def _add_run_options(p: argparse.ArgumentParser) -> None:
                    help="worker processes of the local cluster (default: the cores)")  # fmt: skip
     p.add_argument("--no-figures", dest="figures", action="store_false", help="write no figure per record")
     p.add_argument("--retry-failed", action="store_true", help="rerun the records whose row says failed")
+    add_wait(p)
     add_record_columns(p)
     add_json(p)
 

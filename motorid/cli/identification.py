@@ -18,9 +18,11 @@ from .options import (
     add_low_speed_band,
     add_record_input,
     add_skip,
+    add_wait,
     check_out_file,
     check_out_folder,
     create_estimator,
+    hold_out_folder,
     int_range,
     low_speed_band,
     number,
@@ -221,6 +223,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
         validation_record = read_record_from_args(argparse.Namespace(**{**vars(args), "data": args.validate}))
     if args.out:
         check_out_folder(args.out)
+        hold_out_folder(args, args.out)
     if args.save_model:
         check_out_file(args.save_model, args.overwrite, "--save-model")
     payload, tests, est = identify_record(record, args)
@@ -251,7 +254,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
         say_validation(validation)
     if args.save_model:
         try:
-            est.save(args.save_model)
+            est.save(args.save_model, overwrite=args.overwrite)
         except ValueError as exc:
             raise DataError(f"--save-model {args.save_model}: {exc}") from None
         say(f"  wrote {args.save_model}: the identified model (motorid.load_model reads it)")
@@ -342,6 +345,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     add_record_input(p)
     add_identify_options(p)
     p.add_argument("--out", type=Path, help="folder for the residual-test figure (replaced if there)")
+    add_wait(p)
     p.add_argument("--save-model", type=Path, metavar="FILE",
                    help="write the identified estimator as a model file (JSON; motorid.load_model reads it)")  # fmt: skip
     p.add_argument("--overwrite", action="store_true", help="replace an existing --save-model file")

@@ -336,6 +336,31 @@ def check_out_folder(path: Path, option: str = "--out") -> None:
     _check_folder_writable(path, option, path)
 
 
+def add_wait(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--wait", action="store_true",
+                        help="when another run writes the --out folder, wait for it to finish instead of "
+                             "refusing")  # fmt: skip
+
+
+def hold_out_folder(args: argparse.Namespace, path: Path, option: str = "--out") -> None:
+    """Lock the folder ``path`` for the rest of the command (:class:`motorid.outputs.FolderLock`).
+
+    A second run into the folder is refused with one line naming the lock file and
+    the first run's process, or waits for it with ``--wait``. The lock is kept in
+    ``args.out_lock``; :func:`motorid.cli.main` releases it when the command returns
+    (and the kernel, if the process dies first).
+    """
+    from motorid.errors import OutputError
+    from motorid.outputs import FolderLock
+
+    lock = FolderLock(path, wait=getattr(args, "wait", False))
+    try:
+        lock.acquire()
+    except OutputError as exc:
+        raise DataError(f"{option} {exc}; pass --wait to wait for it, or choose another folder") from None
+    args.out_lock = lock
+
+
 def _check_folder_writable(folder: Path, option: str, path: Path) -> None:
     if not folder.is_dir():
         raise DataError(f"{option} {path}: the folder {folder} does not exist")

@@ -365,12 +365,14 @@ class Estimator(ABC):
                 saver.save()
         return BatchResult(x_hist, p_diag, y_hat, innovation, s_hist, self.state_names)
 
-    def save(self, path: str | os.PathLike[str]) -> None:
+    def save(self, path: str | os.PathLike[str], *, overwrite: bool = True) -> None:
         """Write the estimator as a model file; ``motorid.load_model`` reads it back
-        (the format and what is saved: :mod:`motorid.models`)."""
+        (the format and what is saved: :mod:`motorid.models`).
+
+        Written whole; ``overwrite=False`` refuses an existing file (:func:`motorid.models.save_model`)."""
         from motorid.models import save_model
 
-        save_model(self, path)
+        save_model(self, path, overwrite=overwrite)
 
     def __repr__(self) -> str:
         lines = [f"{type(self).__name__} object"]

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from motorid.errors import OutputError
 from motorid.fleet.results import ResultsStore
 from motorid.progress import progress_bar
 
@@ -167,21 +168,42 @@ def run_fleet(
                               "status": "failed", "error": f"{type(exc).__name__}: {exc}"}  # fmt: skip
                 rows.append(result)
                 future.release()
-            store.append(rows)
+            with _saying_what_is_kept(run, store):
+                store.append(rows)
             failed = sum(row["status"] != "ok" for row in rows)
             run.done += len(rows) - failed
             run.failed += failed
             bar.update(len(rows))
             bar.set_postfix(done=run.done, failed=run.failed)
             if time.monotonic() - last_csv > csv_every:
-                store.write_csv()
+                with _saying_what_is_kept(run, store):
+                    store.write_csv()
                 last_csv = time.monotonic()
-    finally:
+    except BaseException:
         bar.close()
+        try:
+            store.write_csv(reread=True)
+        except OutputError as exc:  # the error already on its way says what matters
+            logger.info("%s", exc)
+        raise
+    bar.close()
+    with _saying_what_is_kept(run, store):
         store.write_csv(reread=True)
     store.compact()
     run.seconds = time.perf_counter() - start
     return run
+
+
+@contextlib.contextmanager
+def _saying_what_is_kept(run: FleetRun, store: ResultsStore) -> Iterator[None]:
+    """Add to a write's OutputError (a full disk) the rows the run has stored."""
+    try:
+        yield
+    except OutputError as exc:
+        raise OutputError(
+            f"{exc}; the {run.done + run.failed} rows of this run stored so far are in {store.parts}/ "
+            "(a rerun once there is room does the rest)"
+        ) from None
 
 
 __all__ = ["FleetRun", "Task", "fleet_client", "pending_records", "run_fleet"]

@@ -208,7 +208,8 @@ def trend_figure(drive: str, own: pd.DataFrame, reason: str = "", appeared: str 
         for effect, day in days:
             ax.axvline(pd.Timestamp(day), color="tab:red", ls="--", lw=1, label=f"{effect} appeared")
         ax.legend(loc="best", fontsize=7)
-    set_title(axes[0, 0], f"{drive}: " + (f"flagged ({reason})" if reason else "not flagged"), fontsize=10)
+    shown = drive if str(drive).isprintable() else repr(drive)  # a control character from data, escaped
+    set_title(axes[0, 0], f"{shown}: " + (f"flagged ({reason})" if reason else "not flagged"), fontsize=10)
     axis = axes[-1, 0].xaxis
     locator = mdates.AutoDateLocator()
     axis.set_major_locator(locator)
@@ -220,6 +221,7 @@ def trend_figure(drive: str, own: pd.DataFrame, reason: str = "", appeared: str 
 def plot_trends(trends: pd.DataFrame, flags: pd.DataFrame, out: str | os.PathLike[str]) -> list[Path]:
     """One PNG per drive, ``<drive>.png`` (:func:`trend_figure`). The paths."""
     from motorid.figures import save
+    from motorid.outputs import safe_file_name
 
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
@@ -228,7 +230,7 @@ def plot_trends(trends: pd.DataFrame, flags: pd.DataFrame, out: str | os.PathLik
     return [
         save(
             trend_figure(drive, own, reasons.get(drive, ""), str(appeared.get(drive, "") or "")),
-            folder / f"{drive}.png",
+            folder / f"{safe_file_name(drive)}.png",  # a drive id from data is never a path
         )
         for drive, own in trends.groupby("drive", sort=True)
     ]

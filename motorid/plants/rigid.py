@@ -463,11 +463,13 @@ class RigidDrive:
 
         return rigid_drive_from_dict(data)
 
-    def save(self, path: str | Path) -> None:
-        """Write the drive as a model file (:mod:`motorid.models`); :func:`motorid.load_model` reads it."""
+    def save(self, path: str | Path, *, overwrite: bool = True) -> None:
+        """Write the drive as a model file (:mod:`motorid.models`); :func:`motorid.load_model` reads it.
+
+        Written whole; ``overwrite=False`` refuses an existing file (:func:`motorid.models.save_model`)."""
         from motorid.models import save_model
 
-        save_model(self, path)
+        save_model(self, path, overwrite=overwrite)
 
 
 class RigidSimulation:
