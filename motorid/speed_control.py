@@ -34,12 +34,10 @@ from motorid.compensation import FrictionCompensation
 from motorid.io.base import DAQ
 from motorid.io.online import RunRecorder, StopRequest
 from motorid.plants.rigid import RigidDrive, check_sample_time
-from motorid.validation import rpm_to_rad_s
 
 logger = logging.getLogger(__name__)
 
 __all__ = [
-    "LOW_SPEED_RPM",
     "REFERENCES",
     "SpeedController",
     "SpeedPI",
@@ -50,8 +48,6 @@ __all__ = [
     "tracking_metrics",
 ]
 
-#: The paper's low-speed band, |speed| < 150 rpm (its Figs. 9-11), for the tracking metrics.
-LOW_SPEED_RPM = 150.0
 #: Built-in references (:func:`reversing_reference`).
 REFERENCES = ("triangle", "sine")
 
@@ -243,9 +239,7 @@ def reversing_reference(
 
 
 # --------------------------------------------------------------------------- metrics
-def tracking_metrics(
-    record: pd.DataFrame, low_speed: float | None = None, moving: float = 1.0
-) -> dict[str, float]:
+def tracking_metrics(record: pd.DataFrame, low_speed: float, moving: float = 1.0) -> dict[str, float]:
     """How well the speed followed the reference in a closed-loop record.
 
     Parameters
@@ -253,9 +247,9 @@ def tracking_metrics(
     record : DataFrame
         Columns ``t`` [s], ``reference`` and ``y`` [rad/s] at the same instants
         (:func:`run_closed_loop`'s record).
-    low_speed : float, optional
-        The low-speed band [rad/s]: samples with |reference| below it; default
-        :data:`LOW_SPEED_RPM` (150 rpm).
+    low_speed : float
+        The low-speed band [rad/s]: samples with |reference| below it (the paper's is
+        150 rpm, 15.7 rad/s, ``motorid control``'s default).
     moving : float
         Speed [rad/s] beyond which the drive counts as moving in a direction.
 
@@ -269,7 +263,9 @@ def tracking_metrics(
         the largest over the record (the time to the end for a drive that never does;
         NaN without a reversal), and ``reversals``.
     """
-    band = float(rpm_to_rad_s(LOW_SPEED_RPM)) if low_speed is None else float(low_speed)
+    band = float(low_speed)
+    if not (math.isfinite(band) and band > 0):
+        raise ValueError(f"low_speed must be a finite speed > 0 [rad/s], got {low_speed!r}")
     t = record["t"].to_numpy(dtype=float)
     r = record["reference"].to_numpy(dtype=float)
     y = record["y"].to_numpy(dtype=float)
@@ -288,7 +284,7 @@ def tracking_metrics(
         "rms_error": float(np.sqrt(np.mean(e**2))),
         "low_speed_rms_error": float(np.sqrt(np.mean(e[low] ** 2))) if low.any() else math.nan,
         "low_speed_samples": int(low.sum()),
-        "largest_stuck_after_reversal": max(stuck) if stuck else math.nan,
+        "largest_stuck_after_reversal": float(max(stuck)) if stuck else math.nan,
         "reversals": len(stuck),
     }
 

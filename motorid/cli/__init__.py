@@ -26,7 +26,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from motorid.errors import DataError
 
-from . import doctor, fleet, identification, rig, simulation
+from . import control, doctor, fleet, identification, rig, simulation
 from .report import say
 
 __all__ = ["build_parser", "main"]
@@ -49,7 +49,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-v", "--verbose", action="count", default=0,
                         help="more log output on stderr; the traceback of an internal error")  # fmt: skip
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=_Parser)
-    for module in (simulation, identification, doctor, rig, fleet):
+    for module in (simulation, identification, doctor, rig, control, fleet):
         module.add_commands(sub)
     return parser
 
