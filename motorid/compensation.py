@@ -21,7 +21,8 @@ ramp across the *input band* x_b [u]: around zero the compensation fades in line
 instead of switching between ±F_c and ±d, so that noise on a speed near zero, or a
 controller output near zero, does not make it chatter. The terms are evaluated by the
 drive's own compiled law (:func:`~motorid.plants.physics.rigid_term`, with the ramp as the
-direction), the same one the simulation and the doctor's fit use.
+direction, summed in one call by :func:`~motorid.plants.physics.rigid_friction`), the same
+one the simulation and the doctor's fit use.
 
 Which speed ω_c drives the friction term (``source``):
 
@@ -46,6 +47,8 @@ saturation is the controller's limit (:class:`~motorid.speed_control.SpeedContro
 from __future__ import annotations
 
 import math
+
+import numpy as np
 
 from motorid.plants import physics
 from motorid.plants.rigid import RIGID_EFFECTS, TERM_OF, RigidDrive
@@ -108,7 +111,9 @@ class FrictionCompensation:
             raise ValueError(f"input_band must be a finite number > 0 [u], got {input_band!r}")
         self.input_band = float(input_band)
         names = [p for e in drive.effects for p in RIGID_EFFECTS[e] if p in TERM_OF]
-        self._terms = tuple((TERM_OF[p], drive.params[p]) for p in names if drive.params[p] != 0.0)
+        kept = [p for p in names if drive.params[p] != 0.0]
+        self._terms = np.array([TERM_OF[p] for p in kept], dtype=np.int64)
+        self._coefs = np.array([drive.params[p] for p in kept])
         vs = drive.params.get("stribeck_velocity", 1.0)
         self._rate = 1.0 / vs
         self._shape = physics.STRIBECK_SHAPES.index(drive.stribeck_shape)
@@ -119,10 +124,7 @@ class FrictionCompensation:
         w = float(speed)
         s = w / self.speed_band
         s = 1.0 if s > 1.0 else (-1.0 if s < -1.0 else s)
-        total = 0.0
-        for term, value in self._terms:
-            total += value * physics.rigid_term(term, w, s, self._rate, self._shape)
-        return total
+        return physics.rigid_friction(self._terms, self._coefs, w, s, self._rate, self._shape)
 
     def feedforward(self, speed: float) -> float:
         """F̃(ω)/g [u]: the input that balances the friction at ``speed`` [v]."""

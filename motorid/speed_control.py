@@ -166,7 +166,7 @@ class SpeedController:
         I ← I + dt (K_i e + (u_sat - u) / T_t)                  (anti-windup)
 
     and returns u_sat. The state is the integral I [u] alone (:meth:`reset` zeroes it).
-    Plain floats: about a microsecond and a half of Python a step with compensation
+    A step is a few microseconds with compensation, half a microsecond without
     (``benchmarks/bench_control.py``).
 
     Parameters
