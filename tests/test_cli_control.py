@@ -180,3 +180,16 @@ def test_ctrl_c_stops_the_loop_with_zero_volts_at_the_rig_and_whole_rows_on_disk
     finally:
         server.terminate()
         server.wait(30)
+
+
+def test_the_built_in_sine_reference_bandwidth_and_low_speed_band(capsys, files, tmp_path):
+    out = control(capsys, files, "--model", str(files / "plant.json"), "--shape", "sine", "--amplitude", "20",
+                  "--period", "2", "--duration", "4", "--bandwidth", "8", "--low-speed-rpm", "60",
+                  "--out", str(tmp_path / "run.csv"))  # fmt: skip
+    record = pd.read_csv(tmp_path / "run.csv")
+    assert out["samples"] == 100  # 4 s at 40 ms
+    np.testing.assert_allclose(record["reference"], 20.0 * np.sin(2 * np.pi * record["t"] / 2.0), atol=1e-9)
+    assert out["pi"]["bandwidth"] == 8.0 and out["reversals"] == 3
+    band = 60.0 * 2 * np.pi / 60.0
+    assert out["low_speed_band"] == pytest.approx(band)
+    assert out["low_speed_samples"] == int((record["reference"].abs() < band).sum())
