@@ -40,7 +40,9 @@ Which speed ω_c drives the friction term (``source``):
     compensation to break away with (σ(0) = 0): the integral action must do that.
 
 The input path's memory (delay, lag, backlash) is not inverted: a feed-forward cannot
-undo a delay (drive it with the reference advanced by the delay for that). The input
+undo a delay (drive it with the reference advanced by the delay for that). Static friction's
+breakaway excess (``static_friction``) is not fed forward either: it holds only at rest, for
+the instant of a breakaway, where a feed-forward of it would overshoot once the drive moves. The input
 saturation is the controller's limit (:class:`~motorid.speed_control.SpeedController`).
 """
 

@@ -17,7 +17,6 @@ controller reads y[k], measured at t[k], and holds u[k] over [t[k], t[k] + dt).
 from __future__ import annotations
 
 import copy
-import itertools
 import logging
 import math
 import sys
@@ -32,7 +31,7 @@ from tqdm import tqdm
 
 from motorid.compensation import FrictionCompensation
 from motorid.io.base import DAQ
-from motorid.io.online import RunRecorder, StopRequest
+from motorid.io.online import KEEP_WITH_FILE, RunRecorder, StopRequest
 from motorid.plants.rigid import RigidDrive, check_sample_time
 
 logger = logging.getLogger(__name__)
@@ -41,6 +40,7 @@ __all__ = [
     "REFERENCES",
     "SpeedController",
     "SpeedPI",
+    "TrackingMetrics",
     "default_bandwidth",
     "design_speed_pi",
     "reversing_reference",
@@ -239,54 +239,84 @@ def reversing_reference(
 
 
 # --------------------------------------------------------------------------- metrics
-def tracking_metrics(record: pd.DataFrame, low_speed: float, moving: float = 1.0) -> dict[str, float]:
-    """How well the speed followed the reference in a closed-loop record.
+class TrackingMetrics:
+    """How well the speed follows the reference, accumulated a sample at a time (in constant
+    memory, so a loop of days gets its figures without keeping its record).
 
     Parameters
     ----------
-    record : DataFrame
-        Columns ``t`` [s], ``reference`` and ``y`` [rad/s] at the same instants
-        (:func:`run_closed_loop`'s record).
     low_speed : float
         The low-speed band [rad/s]: samples with |reference| below it (the paper's is
         150 rpm, 15.7 rad/s, ``motorid control``'s default).
     moving : float
         Speed [rad/s] beyond which the drive counts as moving in a direction.
-
-    Returns
-    -------
-    dict
-        ``rms_error`` [rad/s] (RMS of r - y over the record), ``low_speed_rms_error``
-        [rad/s] (over |r| < low_speed; NaN if none), ``low_speed_samples``,
-        ``largest_stuck_after_reversal`` [s]: after each change of sign of the reference,
-        the time until the measured speed moves beyond ``moving`` in the new direction,
-        the largest over the record (the time to the end for a drive that never does;
-        NaN without a reversal), and ``reversals``.
     """
-    band = float(low_speed)
-    if not (math.isfinite(band) and band > 0):
-        raise ValueError(f"low_speed must be a finite speed > 0 [rad/s], got {low_speed!r}")
-    t = record["t"].to_numpy(dtype=float)
-    r = record["reference"].to_numpy(dtype=float)
-    y = record["y"].to_numpy(dtype=float)
-    e = r - y
-    low = np.abs(r) < band
-    sign = np.sign(r)
-    nonzero = np.flatnonzero(sign != 0)
-    stuck: list[float] = []
-    for i, j in itertools.pairwise(nonzero):
-        if sign[i] == sign[j]:
-            continue
-        s = sign[j]
-        gone = np.flatnonzero(s * y[j:] > moving)
-        stuck.append((t[j + gone[0]] if gone.size else t[-1]) - t[j])
-    return {
-        "rms_error": float(np.sqrt(np.mean(e**2))),
-        "low_speed_rms_error": float(np.sqrt(np.mean(e[low] ** 2))) if low.any() else math.nan,
-        "low_speed_samples": int(low.sum()),
-        "largest_stuck_after_reversal": float(max(stuck)) if stuck else math.nan,
-        "reversals": len(stuck),
-    }
+
+    def __init__(self, low_speed: float, moving: float = 1.0) -> None:
+        for name, value in (("low_speed", low_speed), ("moving", moving)):
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a finite speed > 0 [rad/s], got {value!r}")
+        self.low_speed = float(low_speed)
+        self.moving = float(moving)
+        self._n = self._n_low = self._reversals = 0
+        self._sum = self._sum_low = 0.0
+        self._sign = 0.0  # the reference's last non-zero sign
+        self._since: float | None = None  # time of a reversal the drive has not followed yet
+        self._largest = math.nan
+        self._t = 0.0
+
+    def _close_reversal(self, t: float) -> None:
+        stuck = t - self._since
+        self._largest = stuck if not self._largest >= stuck else self._largest
+        self._since = None
+
+    def add(self, t: float, reference: float, measured: float) -> None:
+        """One sample: the reference and the measured speed [rad/s] at the time ``t`` [s]."""
+        e = reference - measured
+        self._n += 1
+        self._sum += e * e
+        if abs(reference) < self.low_speed:
+            self._n_low += 1
+            self._sum_low += e * e
+        s = 1.0 if reference > 0.0 else (-1.0 if reference < 0.0 else 0.0)
+        if s != 0.0 and self._sign != 0.0 and s != self._sign:
+            if self._since is not None:  # reversed again before the drive followed
+                self._close_reversal(t)
+            self._since = t
+            self._reversals += 1
+        if s != 0.0:
+            self._sign = s
+        if self._since is not None and self._sign * measured > self.moving:
+            self._close_reversal(t)
+        self._t = t
+
+    def result(self) -> dict[str, float]:
+        """``rms_error`` [rad/s] (RMS of r - y over the samples), ``low_speed_rms_error`` [rad/s]
+        (over |r| < low_speed; NaN if none), ``low_speed_samples``,
+        ``largest_stuck_after_reversal`` [s]: after each change of sign of the reference, the
+        time until the measured speed moves beyond ``moving`` in the new direction (or until
+        the next reversal, or the last sample, when it does not), the largest (NaN without a
+        reversal), and ``reversals``."""
+        largest = self._largest
+        if self._since is not None:
+            largest = max(self._t - self._since, 0.0 if math.isnan(largest) else largest)
+        return {
+            "rms_error": math.sqrt(self._sum / self._n) if self._n else math.nan,
+            "low_speed_rms_error": math.sqrt(self._sum_low / self._n_low) if self._n_low else math.nan,
+            "low_speed_samples": self._n_low,
+            "largest_stuck_after_reversal": largest,
+            "reversals": self._reversals,
+        }
+
+
+def tracking_metrics(record: pd.DataFrame, low_speed: float, moving: float = 1.0) -> dict[str, float]:
+    """:class:`TrackingMetrics` of a closed-loop record: columns ``t`` [s], ``reference`` and ``y``
+    [rad/s] at the same instants (:func:`run_closed_loop`'s record)."""
+    metrics = TrackingMetrics(low_speed, moving)
+    columns = (record[c].to_numpy(dtype=float).tolist() for c in ("t", "reference", "y"))
+    for t, r, y in zip(*columns, strict=True):
+        metrics.add(t, r, y)
+    return metrics.result()
 
 
 # --------------------------------------------------------------------------- the loop
@@ -305,6 +335,8 @@ def run_closed_loop(
     progress: bool = True,
     *,
     overwrite: bool = False,
+    metrics: TrackingMetrics | None = None,
+    keep: int | None = None,
 ) -> pd.DataFrame:
     """Close the speed loop on a DAQ: read the speed, step the controller, command, record.
 
@@ -328,6 +360,13 @@ def run_closed_loop(
         an existing file is refused before the DAQ is opened unless ``overwrite``.
     progress : bool
         A tqdm progress bar on stderr.
+    overwrite : bool
+        Replace an existing ``out``.
+    metrics : TrackingMetrics, optional
+        Fed every sample (the figures of the whole run, whatever ``keep`` holds).
+    keep : int, optional
+        Rows kept in memory and returned. None: every row without ``out``, the last
+        :data:`~motorid.io.online.KEEP_WITH_FILE` with it (the file holds them all).
 
     Returns
     -------
@@ -369,7 +408,9 @@ def run_closed_loop(
     bad = np.flatnonzero(~np.isfinite(r))
     if bad.size:
         raise ValueError(f"run_closed_loop: reference[{bad[0]}] = {r[bad[0]]!r} is not finite")
-    recorder = RunRecorder(out, overwrite=overwrite, keep=None)
+    if keep is None and out is not None:
+        keep = KEEP_WITH_FILE
+    recorder = RunRecorder(out, overwrite=overwrite, keep=keep)
     controller.reset()
     warm_up(controller)
     bar = tqdm(
@@ -387,6 +428,8 @@ def run_closed_loop(
                 sample = daq.read()
                 recorder.append({"t": k * dt, "reference": float(r[k]), "u": sample.u, "y": y,
                                  "clamped": int(sample.clamped)})  # fmt: skip
+                if metrics is not None:
+                    metrics.add(k * dt, float(r[k]), y)
                 y = sample.y
                 bar.update()
     except BaseException as exc:

@@ -16,6 +16,7 @@ from motorid.plants.rigid import input_path
 from motorid.speed_control import (
     SpeedController,
     SpeedPI,
+    TrackingMetrics,
     design_speed_pi,
     reversing_reference,
     run_closed_loop,
@@ -184,7 +185,31 @@ def test_tracking_metrics_of_a_known_record():
     assert metrics["low_speed_rms_error"] == pytest.approx(metrics["rms_error"])
 
 
+def test_a_drive_that_never_follows_a_reversal_counts_as_stuck_until_the_next_one():
+    t = np.arange(600) * DT
+    r = np.where(t < 2.0, 10.0, np.where(t < 4.0, -10.0, 10.0))
+    y = np.where(t < 2.0, 10.0, 0.0)  # stops at the first reversal and stays at rest
+    metrics = tracking_metrics(pd.DataFrame({"t": t, "reference": r, "y": y}), low_speed=15.0)
+    # stuck 2 s until the reference reverses again, then from 4 s to the last sample (5.99 s)
+    assert metrics["reversals"] == 2
+    assert metrics["largest_stuck_after_reversal"] == pytest.approx(2.0)
+    with pytest.raises(ValueError, match="low_speed"):
+        TrackingMetrics(low_speed=0.0)
+
+
 # --------------------------------------------------------------------------- the loop
+def test_the_loops_metrics_cover_the_whole_run_whatever_it_keeps(tmp_path):
+    drive = doctor_like_drive()
+    ctrl = SpeedController(design_speed_pi(drive, DT), DT, FrictionCompensation(drive))
+    _, r = reversing_reference(duration=8.0, dt=DT)
+    fed = TrackingMetrics(low_speed=15.0)
+    kept = run_closed_loop(SimulatedDAQ(drive), ctrl, r, out=tmp_path / "run.csv", progress=False, metrics=fed,
+                           keep=100)  # fmt: skip
+    assert len(kept) == 100 and kept.attrs["samples"] == r.size
+    whole = pd.read_csv(tmp_path / "run.csv")
+    assert fed.result() == tracking_metrics(whole, low_speed=15.0)
+
+
 def test_closed_loop_record_file_and_zero_volts_at_the_end(tmp_path):
     drive = doctor_like_drive()
     ctrl = SpeedController(design_speed_pi(drive, DT), DT, FrictionCompensation(drive))

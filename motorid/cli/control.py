@@ -67,10 +67,10 @@ def cmd_control(args: argparse.Namespace) -> int:
     from motorid.plants import RigidDrive
     from motorid.speed_control import (
         SpeedController,
+        TrackingMetrics,
         design_speed_pi,
         reversing_reference,
         run_closed_loop,
-        tracking_metrics,
     )
     from motorid.validation import rpm_to_rad_s
 
@@ -116,18 +116,18 @@ def cmd_control(args: argparse.Namespace) -> int:
     say(f"motorid control: PI K_p = {pi.kp:.4g}, K_i = {pi.ki:.4g} for a bandwidth of {pi.bandwidth:.3g} rad/s, "
         + ("no friction compensation" if compensation is None else f"friction compensation from the {source} "
            f"speed") + f"; {reference.size} samples at dt = {dt:g} s on {args.daq}")  # fmt: skip
+    band = float(rpm_to_rad_s(args.low_speed_rpm))
+    tracking = TrackingMetrics(low_speed=band)
     try:
-        record = run_closed_loop(
-            daq, controller, reference, out=args.out, progress=True, overwrite=args.overwrite
-        )
+        record = run_closed_loop(daq, controller, reference, out=args.out, progress=True, overwrite=args.overwrite,
+                                 metrics=tracking)  # fmt: skip
     except DAQError as exc:
         notes = " ".join(getattr(exc, "__notes__", []))
         raise DataError(f"control stopped: {exc}. {notes}".strip()) from None
     except KeyboardInterrupt as exc:  # exit 130 (main), after saying what is on disk
         say(f"motorid control: {exc or 'interrupted'}; " + " ".join(getattr(exc, "__notes__", [])))
         raise
-    band = float(rpm_to_rad_s(args.low_speed_rpm))
-    metrics = tracking_metrics(record, low_speed=band)
+    metrics = tracking.result()
     if args.out is not None:
         say(f"wrote {args.out}: {record.attrs['samples']} samples (t, reference, u, y)")
     say(f"RMS tracking error {metrics['rms_error']:.3g} rad/s; at low speed (|r| < {args.low_speed_rpm:g} rpm) "
