@@ -74,13 +74,18 @@ def test_a_reference_file_and_the_measured_speed_source(capsys, files, tmp_path)
 
 def test_the_loop_over_modbus_against_rig_serve_gives_the_simulated_figures(capsys, files, tmp_path):
     port = free_port()
+    # a register map of the rig's (float32 in CDAB word order): server and client read it from --map
+    code, toml, err = run(capsys, "rig", "map", "--word-order", "CDAB")
+    assert code == 0, err
+    (tmp_path / "cdab.toml").write_text(toml)
     # the watchdog stays armed (25 periods, 1 s: a loaded test machine may pause longer than 3);
     # every command the loop writes feeds it
     proc = start_rig_process(port, "--model", str(files / "plant.json"), "--plant-seed", PLANT_SEED,
-                             "--watchdog-periods", "25")  # fmt: skip
+                             "--watchdog-periods", "25", "--map", str(tmp_path / "cdab.toml"))  # fmt: skip
     try:
         over_modbus = control(capsys, files, "--daq", f"modbus://127.0.0.1:{port}", "--dt", "0.04",
-                              "--timeout", "2", "--out", str(tmp_path / "modbus.csv"))  # fmt: skip
+                              "--timeout", "2", "--map", str(tmp_path / "cdab.toml"),
+                              "--out", str(tmp_path / "modbus.csv"))  # fmt: skip
     finally:
         proc.terminate()
         assert proc.wait(30) == 0
