@@ -19,6 +19,7 @@ from .options import (
     positive,
 )
 from .report import emit_json, say
+from .rig import add_register_map
 
 
 def reference_from_file(path: Path, dt: float, duration: float | None) -> np.ndarray:
@@ -176,7 +177,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--dt", type=positive, help="sample time [s] (default: the simulated plant's; Modbus: 0.04)"
     )
-    p.add_argument("--map", help="register map TOML file (default: the built-in map)")
+    add_register_map(p)
     p.add_argument("--timeout", type=positive, help="Modbus timeout [s]")
     add_u_max(p, "voltage limit of the command")
     p.add_argument("--low-speed-rpm", type=positive, default=LOW_SPEED_RPM,
