@@ -113,6 +113,8 @@ def _digests(folder: Path) -> dict[str, str]:
     [
         (["--design", "{plant}"], "--design"),
         (["--design", "{drive}", "--daq", "modbus://127.0.0.1:1", "--model", "{plant}"], "--model applies to --daq sim"),
+        (["--design", "{drive}", "--daq", "modbus://127.0.0.1:1", "--dead-zone", "1"], "--dead-zone applies to --daq sim"),
+        (["--design", "{drive}", "--model", "{plant}", "--coulomb-motor", "0.01"], "cannot be combined with --model"),
         (["--design", "{drive}", "--reference", "{bad_ref}"], "no column 'r'"),
         (["--design", "{drive}", "--reference", "{nan_ref}"], "column 'r' row 2"),
         (["--design", "{drive}", "--reference", "{back_ref}", "--duration", "1"], "must increase, row 2"),
@@ -198,3 +200,17 @@ def test_the_built_in_sine_reference_bandwidth_and_low_speed_band(capsys, files,
     band = 60.0 * 2 * np.pi / 60.0
     assert out["low_speed_band"] == pytest.approx(band)
     assert out["low_speed_samples"] == int((record["reference"].abs() < band).sum())
+
+
+def test_the_rig_options_make_the_simulated_plant_as_motorid_simulate_does(capsys, files, tmp_path):
+    code, _, err = run(capsys, "simulate", "--save-model", str(tmp_path / "rig.json"), "--dead-zone", "1.1",
+                       "--coulomb-motor", "0.008", "--stribeck", "0.002", "0.1")  # fmt: skip
+    assert code == 0, err
+    options = ("--dead-zone", "1.1", "--coulomb-motor", "0.008", "--stribeck", "0.002", "0.1")
+    by_options = control(capsys, files, *options, "--out", str(tmp_path / "a.csv"))
+    by_file = control(capsys, files, "--model", str(tmp_path / "rig.json"), "--out", str(tmp_path / "b.csv"))
+    assert by_options == {**by_file, "out": by_options["out"]}
+    # and it is not the default rig: a wider dead zone and more friction stick longer without compensation
+    default = control(capsys, files, "--no-compensation")
+    wider = control(capsys, files, *options, "--no-compensation")
+    assert wider["largest_stuck_after_reversal"] > default["largest_stuck_after_reversal"]

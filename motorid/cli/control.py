@@ -20,6 +20,7 @@ from .options import (
 )
 from .report import emit_json, say
 from .rig import add_register_map
+from .simulation import add_rig_options
 
 
 def reference_from_file(path: Path, dt: float, duration: float | None) -> np.ndarray:
@@ -75,23 +76,34 @@ def cmd_control(args: argparse.Namespace) -> int:
     )
     from motorid.validation import rpm_to_rad_s
 
-    from .simulation import drive_model_from_file
+    from .simulation import RIG_OPTIONS, drive_model_from_file, rig_from_args
 
     if args.out is not None:
         check_out_file(args.out, args.overwrite)
     simulated = args.daq.strip() in ("sim", "sim://", "simulated")
+    # the rig options of motorid simulate (its --u-max here is the command's limit, the rig's rating too)
+    rig_given = [
+        "--" + name.replace("_", "-")
+        for name in RIG_OPTIONS
+        if name != "u_max" and getattr(args, name) is not None
+    ]
     if not simulated:
-        for option, value in (("--model", args.model), ("--plant-seed", args.plant_seed)):
-            if value is not None:
-                raise DataError(f"{option} applies to --daq sim only; the rig behind {args.daq} is its own "
-                                "(motorid rig serve --model, --plant-seed)")  # fmt: skip
+        given = [o for o, v in (("--model", args.model), ("--plant-seed", args.plant_seed)) if v is not None]
+        if given or rig_given:
+            raise DataError(f"{(given + rig_given)[0]} applies to --daq sim only; the rig behind {args.daq} is its "
+                            "own (motorid rig serve --model, --plant-seed)")  # fmt: skip
+    if args.model is not None and rig_given:
+        raise DataError(f"{rig_given[0]} cannot be combined with --model: the model file describes the rig")
     if args.no_compensation and (args.source is not None or args.speed_band is not None):
         raise DataError("--source and --speed-band set the compensation, which --no-compensation leaves out")
     design = drive_model_from_file(args.design, option="--design")
     if not isinstance(design, RigidDrive):
         raise DataError(f"--design {args.design}: holds a {type(design).__name__}; the controller is designed "
                         "on a rigid-drive model (a file motorid doctor --save-model wrote)")  # fmt: skip
-    plant = drive_model_from_file(args.model) if args.model is not None else None
+    if args.model is not None:
+        plant = drive_model_from_file(args.model)
+    else:  # the default rig, changed by the rig options given (u_max: the rating)
+        plant = rig_from_args(args) if rig_given else None
     try:
         daq = daq_from_url(
             args.daq, plant=plant, seed=(args.plant_seed or 0) if simulated else None, dt=args.dt,
@@ -153,9 +165,11 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                    help="sim, modbus://HOST:PORT or modbus-rtu:///dev/X (default: sim)")  # fmt: skip
     p.add_argument("--design", type=Path, required=True, metavar="FILE",
                    help="the rigid-drive model the controller is designed on (motorid doctor --save-model)")  # fmt: skip
-    p.add_argument("--model", type=Path, metavar="FILE",
-                   help="--daq sim: the plant's model file, a two-mass rig or a rigid drive (default: the default rig)")  # fmt: skip
-    add_plant_seed(p, default=None)
+    group = p.add_argument_group("the simulated plant of --daq sim (default: the default rig)")
+    add_rig_options(
+        group, "the plant's model file, a two-mass rig or a rigid drive, instead of the options below"
+    )
+    add_plant_seed(group, default=None)
     group = p.add_argument_group("controller")
     group.add_argument("--no-compensation", action="store_true", help="the PI alone (the baseline)")
     group.add_argument("--source", choices=("reference", "measured"),
