@@ -236,6 +236,18 @@ def nonlinear_system(drive: RigidDrive | TwoMassRig, name: str | None = None) ->
     (the rig's true load speed, without the tachogenerator's noise and quantisation). Start
     from :func:`rest_state` (``initial_state=`` of ``input_output_response``), the drive at
     rest before its first input.
+
+    Parameters
+    ----------
+    drive : RigidDrive or TwoMassRig
+        The drive model (its sample time is the system's).
+    name : str, optional
+        The system's name in an ``interconnect`` (python-control names it otherwise).
+
+    Returns
+    -------
+    control.NonlinearIOSystem
+        Discrete, ``dt = drive.dt``; input ``u``, output ``y``.
     """
     import control
 

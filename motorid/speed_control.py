@@ -219,6 +219,18 @@ def reversing_reference(
     4 amplitude / period (the drive spends time at every low speed); ``sine``:
     amplitude sin(2π t / period), slowest at the peaks and fastest through zero. Both start
     at zero speed rising.
+
+    Parameters
+    ----------
+    kind : {"triangle", "sine"}
+    amplitude : float
+        Peak speed [rad/s], > 0.
+    period : float
+        [s], > 0: two reversals a period.
+    duration : float
+        [s]: ``round(duration / dt)`` samples.
+    dt : float
+        The loop's sample time [s].
     """
     if kind not in REFERENCES:
         raise ValueError(f"kind must be one of {', '.join(REFERENCES)}, got {kind!r}")
