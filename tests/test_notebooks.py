@@ -33,6 +33,7 @@ def test_there_are_notebooks():
         "03_find_the_missing_effect",
         "04_modbus_rig",
         "05_fleet",
+        "06_model_to_controller",
     }
 
 

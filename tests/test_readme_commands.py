@@ -20,6 +20,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pandas as pd
 import pytest
 from io_fixtures import wait_for
 
@@ -56,7 +57,7 @@ def listening(server: subprocess.Popen, port: int) -> bool:
 def test_readme_shows_each_subcommand():
     lines = shell_lines((ROOT / "README.md").read_text(encoding="utf-8"))
     used = {shlex.split(line)[1] for line in lines}
-    assert {"demo", "simulate", "identify", "sweep", "doctor", "compare", "rig", "run"} <= used
+    assert {"demo", "simulate", "identify", "sweep", "doctor", "compare", "rig", "run", "control"} <= used
 
 
 def test_notebooks_hold_no_shell_lines():
@@ -115,3 +116,4 @@ def test_every_readme_command_runs_as_printed(tmp_path):
     for server in servers:
         assert server.returncode == 0, server.stderr.read()
     assert (tmp_path / "rec.csv").exists() and (tmp_path / "run.csv").exists()
+    assert len(pd.read_csv(tmp_path / "control.csv")) == 300  # motorid control over Modbus: 12 s at 40 ms

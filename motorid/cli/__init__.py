@@ -32,7 +32,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from motorid.errors import DataError
 
-from . import comparison, doctor, fleet, identification, rig, simulation
+from . import comparison, control, doctor, fleet, identification, rig, simulation
 from .report import configure, say_error
 
 __all__ = ["build_parser", "main"]
@@ -77,7 +77,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-v", "--verbose", action="count", default=0,
                         help="more log output on stderr; the traceback of an internal error")  # fmt: skip
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=_Parser)
-    for module in (simulation, identification, doctor, comparison, rig, fleet):
+    for module in (simulation, identification, doctor, comparison, rig, control, fleet):
         module.add_commands(sub)
     return parser
 

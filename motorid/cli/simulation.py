@@ -172,6 +172,21 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+def add_rig_options(group: argparse._ActionsContainer, model_help: str) -> None:
+    """The simulated drive: ``--model FILE``, or the default rig changed by the rig options
+    (:data:`RIG_OPTIONS` but ``--u-max``, which each command declares with its own meaning)."""
+    group.add_argument("--model", type=Path, metavar="FILE", help=model_help)
+    group.add_argument("--coulomb-motor", type=non_negative, help="Coulomb torque, motor side [N m]")
+    group.add_argument("--coulomb-load", type=non_negative, help="Coulomb torque, load side [N m]")
+    group.add_argument("--stribeck", type=non_negative, nargs=2, metavar=("ALPHA1", "ALPHA2"),
+                       help="Stribeck excess [N m] and decay [s/rad], motor side")  # fmt: skip
+    group.add_argument("--stribeck-shape", choices=("exponential", "gaussian"),
+                       help="the Stribeck decay: exp(-ALPHA2 |w|) (eq. 9, the default) or exp(-(ALPHA2 w)^2)")  # fmt: skip
+    group.add_argument("--viscous", type=non_negative, help="extra viscous friction, motor side [N m s/rad]")
+    group.add_argument("--dead-zone", type=non_negative, help="amplifier dead zone half-width [V]")
+    group.add_argument("--backlash", type=non_negative, help="shaft backlash, half-width of the gap [rad]")
+
+
 def add_commands(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("demo", help="the paper's experiment on the simulated rig: tables and figures")
     p.add_argument("--out", type=Path, default=Path("out"),
@@ -191,18 +206,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     add_signal_options(p, duration=120.0)
     add_plant_seed(p, default=0)
     rig = p.add_argument_group("rig (default: the default rig's value, as --save-model writes it)")
-    rig.add_argument("--model", type=Path, metavar="FILE",
-                     help="the drive from a model file, instead of the options below: a two-mass rig, "
-                          "or a rigid drive (motorid doctor --save-model; its record is noise free)")  # fmt: skip
-    rig.add_argument("--coulomb-motor", type=non_negative, help="Coulomb torque, motor side [N m]")
-    rig.add_argument("--coulomb-load", type=non_negative, help="Coulomb torque, load side [N m]")
-    rig.add_argument("--stribeck", type=non_negative, nargs=2, metavar=("ALPHA1", "ALPHA2"),
-                     help="Stribeck excess [N m] and decay [s/rad], motor side")  # fmt: skip
-    rig.add_argument("--stribeck-shape", choices=("exponential", "gaussian"),
-                     help="the Stribeck decay: exp(-ALPHA2 |w|) (eq. 9, the default) or exp(-(ALPHA2 w)^2)")  # fmt: skip
-    rig.add_argument("--viscous", type=non_negative, help="extra viscous friction, motor side [N m s/rad]")
-    rig.add_argument("--dead-zone", type=non_negative, help="amplifier dead zone half-width [V]")
-    rig.add_argument("--backlash", type=non_negative, help="shaft backlash, half-width of the gap [rad]")
+    add_rig_options(rig, "the drive from a model file, instead of the options below: a two-mass rig, "
+                         "or a rigid drive (motorid doctor --save-model; its record is noise free)")  # fmt: skip
     rig.add_argument("--u-max", type=positive, help="amplifier saturation [V]")
     rig.add_argument("--integrator", choices=("fast", "reference"), default="fast")
     add_json(p)

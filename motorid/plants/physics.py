@@ -985,6 +985,18 @@ def rigid_columns(terms: np.ndarray, omega: np.ndarray, rate: float, shape: int)
 
 
 @numba.njit(cache=True)
+def rigid_friction(
+    terms: np.ndarray, coefs: np.ndarray, omega: float, direction: float, rate: float, shape: int
+) -> float:
+    """Σ_j coefs[j] T_terms[j](ω) [F] at one speed ω for motion in ``direction`` (a fraction of ±1
+    ramps the level terms: the friction compensation's smoothed sign), in one call."""
+    total = 0.0
+    for j in range(terms.size):
+        total += coefs[j] * rigid_term(terms[j], omega, direction, rate, shape)
+    return total
+
+
+@numba.njit(cache=True)
 def rigid_delay_samples(dt: float, delay: float) -> tuple[int, float]:
     """``(m, f)`` of a delay [s] at sample time ``dt`` [s]: ``delay = (m + f) dt`` with m whole
     samples and 0 <= f < 1 (a negative delay is 0). An input-dynamics ring holds m + 2 inputs."""

@@ -1,0 +1,303 @@
+"""The hand-off to control design: identified models and drive models as python-control systems.
+
+- :func:`transfer_function` and :func:`state_space`: the linear part ``B(q^-1)/A(q^-1)`` of an
+  identified ARX or Hammerstein model as a discrete ``control.TransferFunction`` (or
+  ``control.StateSpace``) with its sample time. With a direct term, ``b_0`` is the system's
+  feed-through (the record's ``y[k]`` answers ``u[k]`` held over the same sample, motorid's
+  ``"hold"`` timing); without one, the numerator starts at ``z^-1``.
+- :func:`linearise`: a drive model (the doctor's :class:`~motorid.plants.rigid.RigidDrive` or the
+  two-mass :class:`~motorid.plants.rig.TwoMassRig`) linearised about a speed as a continuous
+  ``control.StateSpace``; input the command u [V], output the (load) speed [rad/s].
+- :func:`nonlinear_system`: the whole drive, friction and input path included, as a
+  discrete-time ``control.NonlinearIOSystem`` at the drive's sample time, so that
+  ``control.input_output_response`` simulates it inside a user's closed loop.
+
+Timing. A python-control discrete system's output at step k is the one of its state at the
+start of sample k; motorid's records hold the speed at the end of the sample (``"hold"``).
+So for an input ``u``, python-control's ``y[k + 1]`` is motorid's ``y[k]`` for the state-space
+exports of the drive, and the identified transfer function (whose direct term makes
+``y[k]`` answer ``u[k]``) gives motorid's ``y[k]`` at step k.
+
+python-control is imported where it is used: the rest of motorid never needs it.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from motorid.plants.rig import TwoMassRig
+from motorid.plants.rigid import InputPathState, RigidDrive, check_sample_time
+
+if TYPE_CHECKING:
+    import control
+
+logger = logging.getLogger(__name__)
+
+__all__ = [
+    "friction_slope", "linearise", "nonlinear_system", "rest_state", "state_space", "transfer_function",
+]  # fmt: skip
+
+
+def _polynomials(estimator: Any) -> tuple[np.ndarray, np.ndarray]:
+    """``(num, den)`` in powers of z (highest first) of the estimator's ``B(q^-1)/A(q^-1)``."""
+    params = getattr(estimator, "params", None)
+    if not isinstance(params, dict) or "a" not in params or "b" not in params:
+        raise ValueError(
+            f"estimator: expected an ARX or Hammerstein estimator with params 'a' and 'b', got {type(estimator).__name__}"
+        )
+    a = np.asarray(params["a"], dtype=float).ravel()
+    b = np.asarray(params["b"], dtype=float).ravel()
+    k0 = int(getattr(estimator, "k0", 0))
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(b))):
+        raise ValueError("estimator: its a or b holds NaN or inf (has it seen data yet?)")
+    b_full = np.concatenate([np.zeros(k0), b])  # coefficients of q^0, q^-1, ..., q^-nb
+    n = max(a.size, b_full.size - 1)
+    num = np.zeros(n + 1)
+    num[: b_full.size] = b_full
+    den = np.zeros(n + 1)
+    den[0] = 1.0
+    den[1 : a.size + 1] = a
+    return num, den
+
+
+def transfer_function(estimator: Any, dt: float) -> control.TransferFunction:
+    """The identified linear part ``B(q^-1)/A(q^-1)`` as a discrete transfer function.
+
+    ``A(q^-1) = 1 + a_1 q^-1 + ... + a_na q^-na`` and ``B(q^-1) = b_0 + ... + b_nb q^-nb``
+    (without a direct term ``b_1 q^-1 + ...``), multiplied through by ``z^n``,
+    ``n = max(na, nb)``::
+
+        H(z) = (b_0 z^n + b_1 z^(n-1) + ... + b_nb z^(n-nb)) / (z^n + a_1 z^(n-1) + ... + a_na z^(n-na))
+
+    For a Hammerstein model this is the block after the static map: its input is
+    ``x = Σ_j γ_j g_j(u)`` (``params["gamma"]``, γ_1 = 1), in the unit of u.
+
+    Parameters
+    ----------
+    estimator : ARXRLS or HammersteinRLS
+        An identified estimator (its current ``params``).
+    dt : float
+        Sample time of the record it was identified on [s].
+
+    Returns
+    -------
+    control.TransferFunction
+        Discrete, sample time ``dt``; input ``u`` [V] (or x), output ``y`` [rad/s].
+    """
+    import control
+
+    dt = check_sample_time(dt)
+    num, den = _polynomials(estimator)
+    return control.tf(num, den, dt, inputs="u", outputs="y")
+
+
+def state_space(estimator: Any, dt: float) -> control.StateSpace:
+    """:func:`transfer_function` as a discrete state-space system (a minimal realisation of it;
+    ``D`` holds the direct term b_0)."""
+    import control
+
+    return control.ss(transfer_function(estimator, dt))
+
+
+def friction_slope(drive: RigidDrive, speed: float, direction: float = 1.0) -> float:
+    """d/dω of the rigid drive's friction Σ θ_t T_t(ω) at ``speed`` [F s/v].
+
+    For motion in the direction sgn(speed), or ``direction`` (±1) at zero speed: the
+    one-sided slope on that side (viscous, the viscous asymmetry, twice the quadratic drag
+    times |ω|, and the Stribeck decay's slope). Levels (Coulomb, asymmetry, offset) have
+    no slope: their jump at zero speed is not linear.
+    """
+    from motorid.plants import physics
+
+    p = drive.params
+    s = math.copysign(1.0, speed) if speed != 0.0 else math.copysign(1.0, direction)
+    slope = p.get("viscous", 0.0) + s * p.get("viscous_asymmetry", 0.0)
+    slope += 2.0 * p.get("quadratic_drag", 0.0) * abs(speed)
+    if "stribeck_friction" in drive.effects:
+        rate = 1.0 / p["stribeck_velocity"]
+        shape = physics.STRIBECK_SHAPES.index(drive.stribeck_shape)
+        slope += p["stribeck"] * s * physics.stribeck_decay_slope(float(speed), rate, shape, s)
+    return float(slope)
+
+
+def linearise(
+    drive: RigidDrive | TwoMassRig, speed: float = 0.0, direction: float = 1.0, pade_order: int = 1
+) -> control.StateSpace:
+    """A drive model linearised about the constant ``speed`` [rad/s], as a continuous system.
+
+    Rigid drive (input lag T_l and delay τ_d when the model has them)::
+
+        J dω/dt = g z - β ω,      T_l dz/dt = u - z   (z = u without a lag),
+        β = dF/dω at the speed (:func:`friction_slope`)
+
+    and the delay as a Padé approximant of ``pade_order`` in front. Two-mass rig: the
+    linear part of eqs. (1)-(7) (:meth:`TwoMassRig.linear_system`, state
+    ``[i_a, ω_m, ω_L, δ]``, θ_L dropped) with the slope of each mass's static friction laws
+    at the speed added to its viscous term, input ``G u`` (the amplifier's gain).
+
+    What is linear here: the drive beyond its dead zone and inside its saturation (slope
+    1 of the input map), where the friction is smooth. At zero speed the friction has a
+    jump (Coulomb, Stribeck, asymmetry), which no linear model holds: the slope is the
+    one-sided slope for motion in ``direction``, and the jump, with the dead zone, is what
+    :class:`~motorid.compensation.FrictionCompensation` cancels ahead of the linear part
+    the controller is designed on. Backlash (the rigid drive's dwell or the rig's gap) is
+    left out.
+
+    Parameters
+    ----------
+    drive : RigidDrive or TwoMassRig
+    speed : float
+        Operating speed ω_0 [rad/s] (the load speed on the rig).
+    direction : float
+        Side of zero speed to take the slopes on when ``speed == 0``: +1 or -1.
+    pade_order : int
+        Order of the Padé approximant of the rigid drive's input delay (>= 1).
+
+    Returns
+    -------
+    control.StateSpace
+        Continuous; input ``u`` [V], output ``y`` [rad/s] (the speed deviation from ω_0 for a
+        deviation of u from its value there).
+    """
+    import control
+
+    speed = float(speed)
+    if not math.isfinite(speed):
+        raise ValueError(f"speed must be finite [rad/s], got {speed!r}")
+    if direction not in (1, -1, 1.0, -1.0):
+        raise ValueError(f"direction must be +1 or -1, got {direction!r}")
+    if isinstance(drive, RigidDrive):
+        J, g = drive.inertia, drive.input_gain
+        beta = friction_slope(drive, speed, direction)
+        T_l = drive.params.get("lag_time_constant", 0.0)
+        if T_l > 0.0:
+            A = np.array([[-beta / J, g / J], [0.0, -1.0 / T_l]])
+            B = np.array([[0.0], [1.0 / T_l]])
+            C = np.array([[1.0, 0.0]])
+            states = ["omega", "lag"]
+        else:
+            A, B, C, states = np.array([[-beta / J]]), np.array([[g / J]]), np.array([[1.0]]), ["omega"]
+        sys = control.ss(A, B, C, np.zeros((1, 1)), inputs="u", outputs="y", states=states)
+        delay = drive.params.get("input_delay", 0.0)
+        if delay > 0.0:
+            if isinstance(pade_order, bool) or not isinstance(pade_order, int) or pade_order < 1:
+                raise ValueError(f"pade_order must be an integer >= 1, got {pade_order!r}")
+            num, den = control.pade(delay, pade_order)
+            sys = control.series(control.ss(control.tf(num, den)), sys)
+            sys = control.ss(sys.A, sys.B, sys.C, sys.D, inputs="u", outputs="y")
+        if "backlash" in drive.effects:
+            logger.info("linearise: the rigid drive's backlash dwell is not in the linear model")
+        return sys
+    if isinstance(drive, TwoMassRig):
+        if drive.has_lugre:
+            raise ValueError("linearise: LuGre friction has an internal state; it is not linearised here")
+        A5, B5 = drive.linear_system()
+        A = A5[:4, :4].copy()
+        for k, (side, J) in ((1, ("motor", drive.J_m)), (2, ("load", drive.J_l))):
+            A[k, k] -= _rig_static_slope(drive, side, speed, direction) / J
+        B = B5[:4, :1] * drive.amplifier.gain
+        C = np.array([[0.0, 0.0, 1.0, 0.0]])
+        return control.ss(A, B, C, np.zeros((1, 1)), inputs="u", outputs="y",
+                          states=["i_a", "omega_m", "omega_l", "twist"])  # fmt: skip
+    raise ValueError(f"drive must be a RigidDrive or a TwoMassRig, got {type(drive).__name__}")
+
+
+def _rig_static_slope(rig: TwoMassRig, side: str, speed: float, direction: float) -> float:
+    """d/dω of the static friction laws on ``side`` of the rig at ``speed`` [N m s/rad]."""
+    from motorid.plants import physics
+    from motorid.plants.friction import StaticFriction
+
+    s = math.copysign(1.0, speed) if speed != 0.0 else math.copysign(1.0, direction)
+    slope = 0.0
+    for f in rig.friction:
+        if isinstance(f, StaticFriction) and side in f.sides():
+            a = f.coefficients()
+            level, rate = (a[1], a[2]) if s > 0 else (-a[4], a[5])
+            slope += level * physics.stribeck_decay_slope(speed, rate, f.shape_code(), s)
+    return slope
+
+
+def nonlinear_system(drive: RigidDrive | TwoMassRig, name: str | None = None) -> control.NonlinearIOSystem:
+    """The whole drive as a discrete-time ``control.NonlinearIOSystem`` at its sample time.
+
+    Its state update is one sample of motorid's own simulation (the same compiled
+    functions, :meth:`RigidDrive.simulation` and :meth:`TwoMassRig.simulation`), so
+    ``control.input_output_response`` of it equals motorid's record bit for bit, one step
+    later (see the module notes): friction with stick/slip, the input path (dead zone,
+    saturation, delay, lag, backlash) and, on the rig, the shaft.
+
+    State: the rigid drive's ``[ω, the input path's memory...]`` (its delay ring, lag and
+    dwell clock, :class:`~motorid.plants.rigid.InputPathState`), or the rig's 7 states
+    ``[i_a, ω_m, ω_L, δ, θ_L, z_m, z_L]``. Input ``u`` [V]; output ``y``: the speed [rad/s]
+    (the rig's true load speed, without the tachogenerator's noise and quantisation). Start
+    from :func:`rest_state` (``initial_state=`` of ``input_output_response``), the drive at
+    rest before its first input.
+
+    Parameters
+    ----------
+    drive : RigidDrive or TwoMassRig
+        The drive model (its sample time is the system's).
+    name : str, optional
+        The system's name in an ``interconnect`` (python-control names it otherwise).
+
+    Returns
+    -------
+    control.NonlinearIOSystem
+        Discrete, ``dt = drive.dt``; input ``u``, output ``y``.
+    """
+    import control
+
+    if isinstance(drive, RigidDrive):
+        fresh = drive.input_state()
+        sizes = (fresh.ring.size, fresh.lag.size, fresh.clock.size)
+        setup = drive._free_run_setup(None)
+
+        def update(t: float, x: np.ndarray, u: np.ndarray, params: dict) -> np.ndarray:
+            n1, n2 = 1 + sizes[0], 1 + sizes[0] + sizes[1]
+            state = InputPathState(ring=x[1:n1].copy(), lag=x[n1:n2].copy(), clock=x[n2:].copy())
+            force = drive.input_force(np.array([float(u[0])]), state)
+            w = drive._free_run_force(setup, force, float(x[0]))[0]
+            return np.concatenate([[w], state.ring, state.lag, state.clock])
+
+        n_states = 1 + sum(sizes)
+        names = ["omega", *(f"ring{i}" for i in range(sizes[0])), "lag", "lag_samples",
+                 "clock_sign", "clock_samples", "clock_reversed"]  # fmt: skip
+    elif isinstance(drive, TwoMassRig):
+        from motorid.plants import physics
+
+        phi, gam, p, fric, lug = drive._compiled
+
+        def update(t: float, x: np.ndarray, u: np.ndarray, params: dict) -> np.ndarray:
+            xn = np.array(x, dtype=float)
+            physics.advance_sample(
+                xn, float(u[0]), drive.T_d, 0.0, phi, gam, p, fric, lug, np.zeros(physics.N_OUT)
+            )
+            return xn
+
+        n_states = physics.N_STATE
+        names = ["i_a", "omega_m", "omega_l", "twist", "theta_l", "z_m", "z_l"]
+    else:
+        raise ValueError(f"drive must be a RigidDrive or a TwoMassRig, got {type(drive).__name__}")
+    speed_index = 0 if isinstance(drive, RigidDrive) else 2
+
+    def output(t: float, x: np.ndarray, u: np.ndarray, params: dict) -> np.ndarray:
+        return np.array([x[speed_index]])
+
+    return control.nlsys(update, output, inputs=["u"], outputs=["y"], states=names[:n_states],
+                         dt=drive.dt, name=name)  # fmt: skip
+
+
+def rest_state(drive: RigidDrive | TwoMassRig) -> np.ndarray:
+    """The state of :func:`nonlinear_system` for the drive at rest before its first input."""
+    if isinstance(drive, RigidDrive):
+        fresh = drive.input_state()
+        return np.concatenate([[0.0], fresh.ring, fresh.lag, fresh.clock])
+    if isinstance(drive, TwoMassRig):
+        from motorid.plants import physics
+
+        return np.zeros(physics.N_STATE)
+    raise ValueError(f"drive must be a RigidDrive or a TwoMassRig, got {type(drive).__name__}")

@@ -1,0 +1,463 @@
+"""A speed controller designed on the drive model, and the closed speed loop on a DAQ.
+
+- :func:`design_speed_pi`: a PI tuned from a rigid drive model for a stated bandwidth.
+- :class:`SpeedController`: the PI with anti-windup against the input limit, after the
+  friction compensation of :mod:`motorid.compensation` (or without it: the baseline).
+- :func:`reversing_reference`: triangle and sine references through zero speed.
+- :func:`run_closed_loop`: the loop on a DAQ (the simulated rig, or Modbus: a PLC or
+  ``motorid rig serve``), with ``motorid run``'s safety: 0 V on every way out, the
+  watchdog fed by every command, Ctrl-C stopping between two samples.
+- :func:`tracking_metrics`: RMS tracking error overall and at low speed, and the
+  largest interval the drive stays stuck after a reversal of the reference.
+
+The loop's timing is ``"sampled"`` (:data:`motorid.records.TIMINGS`): at sample k the
+controller reads y[k], measured at t[k], and holds u[k] over [t[k], t[k] + dt).
+"""
+
+from __future__ import annotations
+
+import copy
+import logging
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from motorid.compensation import FrictionCompensation
+from motorid.io.base import DAQ
+from motorid.io.online import KEEP_WITH_FILE, RunRecorder, StopRequest
+from motorid.plants.rigid import RigidDrive, check_sample_time
+from motorid.progress import progress_bar
+
+logger = logging.getLogger(__name__)
+
+__all__ = [
+    "REFERENCES",
+    "SpeedController",
+    "SpeedPI",
+    "TrackingMetrics",
+    "default_bandwidth",
+    "design_speed_pi",
+    "reversing_reference",
+    "run_closed_loop",
+    "tracking_metrics",
+]
+
+#: Built-in references (:func:`reversing_reference`).
+REFERENCES = ("triangle", "sine")
+
+
+@dataclass(frozen=True)
+class SpeedPI:
+    """PI gains of a speed loop and the limit of its command.
+
+    ``v = K_p e + I``, ``dI/dt = K_i e + (u_sat - u) / T_t`` (back-calculation
+    anti-windup, Åström & Hägglund: while the command ``u`` is clipped to ``u_sat`` the
+    integral is pulled back with time constant T_t, so it does not wind up on the limit).
+
+    Attributes
+    ----------
+    kp : float
+        K_p [u/(v)], e.g. V per rad/s.
+    ki : float
+        K_i = K_p / T_i [u/(v s)].
+    tracking_time : float
+        T_t [s] of the anti-windup (T_i by the design rule).
+    u_max : float
+        The command's limit ±u_max [u] (the drive's rating or input saturation).
+    bandwidth : float
+        The crossover ω_c [rad/s] the gains were designed for.
+    """
+
+    kp: float
+    ki: float
+    tracking_time: float
+    u_max: float
+    bandwidth: float
+
+    def __post_init__(self) -> None:
+        for name in ("kp", "ki", "tracking_time", "u_max", "bandwidth"):
+            value = getattr(self, name)
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+
+    def transfer_function(self) -> Any:
+        """C(s) = K_p + K_i / s as a continuous ``control.TransferFunction`` (e [v] -> v [u])."""
+        import control
+
+        return control.tf([self.kp, self.ki], [1.0, 0.0], inputs="e", outputs="v")
+
+
+def default_bandwidth(drive: RigidDrive, dt: float) -> float:
+    """ω_c = 0.2 / (dt + τ_d + T_l) [rad/s]: the loop's sample time (half a sample of hold, half
+    a sample of computation), the model's input delay τ_d and lag T_l cost a phase of
+    ω_c (dt + τ_d + T_l) = 0.2 rad (11°) at the crossover."""
+    dead = (
+        check_sample_time(dt)
+        + drive.params.get("input_delay", 0.0)
+        + drive.params.get("lag_time_constant", 0.0)
+    )
+    return 0.2 / dead
+
+
+def design_speed_pi(
+    drive: RigidDrive,
+    dt: float,
+    bandwidth: float | None = None,
+    u_max: float = 12.0,
+    damping: float | None = None,
+) -> SpeedPI:
+    """A PI for the speed loop of ``drive``, tuned for the crossover ``bandwidth``.
+
+    The rule, on the drive's linear part ``G(s) = g / (J s + B)`` (input gain g [F/u],
+    inertia J [F s/v], viscous friction B [F s/v]; its other friction is the compensation's)::
+
+        K_p = ω_c J / g,        T_i = min(J / B, 4 / ω_c),        K_i = K_p / T_i,   T_t = T_i
+
+    When the mechanical pole B/J is faster than ω_c/4 the integral zero cancels it and the
+    loop is ``L(s) = ω_c / s``: a first-order closed loop of bandwidth ω_c, no overshoot.
+    A slower pole (or B = 0) would leave a slow closed-loop pole at the zero, so T_i is
+    held at 4/ω_c, where ``L(s) ≈ ω_c (s + ω_c/4) / s²`` crosses near ω_c with about 76°
+    of phase margin. The anti-windup's tracking time is T_i.
+
+    Parameters
+    ----------
+    drive : RigidDrive
+        The drive model (the doctor's).
+    dt : float
+        The loop's sample time [s] (for the default bandwidth).
+    bandwidth : float, optional
+        ω_c [rad/s]; default :func:`default_bandwidth`.
+    u_max : float
+        The command's limit [u]; the model's input saturation when lower.
+    damping : float, optional
+        B [F s/v] to design on; default the model's viscous friction. Pass 0 when a
+        compensation from the measured speed cancels it inside the loop.
+    """
+    if not isinstance(drive, RigidDrive):
+        raise ValueError(f"drive must be a RigidDrive (the doctor's model), got {type(drive).__name__}")
+    drive.check_physical()
+    w_c = default_bandwidth(drive, dt) if bandwidth is None else float(bandwidth)
+    if not (math.isfinite(w_c) and w_c > 0):
+        raise ValueError(f"bandwidth must be a finite number > 0 [rad/s], got {bandwidth!r}")
+    J, g = drive.inertia, drive.input_gain
+    B = drive.params.get("viscous", 0.0) if damping is None else float(damping)
+    if not (math.isfinite(B) and B >= 0):
+        raise ValueError(f"damping must be a finite number >= 0, got {damping!r}")
+    kp = w_c * J / g
+    ti = min(J / B, 4.0 / w_c) if B > 0 else 4.0 / w_c
+    limit = min(float(u_max), drive.params.get("saturation", math.inf))
+    return SpeedPI(kp=kp, ki=kp / ti, tracking_time=ti, u_max=limit, bandwidth=w_c)
+
+
+class SpeedController:
+    """A speed controller stepped once a sample: the PI, then the friction compensation.
+
+    Each :meth:`step` computes, with e = r - y [v]::
+
+        v = K_p e + I                                            (PI)               [u]
+        u = D̃⁻¹(v + F̃(ω_c)/g)   (FrictionCompensation.command; u = v without)     [u]
+        u_sat = clip(u, -u_max, u_max)
+        I ← I + dt (K_i e + (u_sat - u) / T_t)                  (anti-windup)
+
+    and returns u_sat. The state is the integral I [u] alone (:meth:`reset` zeroes it).
+    A step is a few microseconds with compensation, half a microsecond without
+    (``benchmarks/bench_control.py``).
+
+    Parameters
+    ----------
+    pi : SpeedPI
+    dt : float
+        The loop's sample time [s].
+    compensation : FrictionCompensation, optional
+        None: the PI alone (the baseline).
+    """
+
+    def __init__(self, pi: SpeedPI, dt: float, compensation: FrictionCompensation | None = None) -> None:
+        if not isinstance(pi, SpeedPI):
+            raise ValueError(f"pi must be a SpeedPI, got {type(pi).__name__}")
+        if compensation is not None and not isinstance(compensation, FrictionCompensation):
+            raise ValueError(f"compensation must be a FrictionCompensation or None, got {compensation!r}")
+        self.pi = pi
+        self.dt = check_sample_time(dt)
+        self.compensation = compensation
+        self._kp, self._ki, self._tt, self._limit = pi.kp, pi.ki, pi.tracking_time, pi.u_max
+        self.integral = 0.0
+
+    def reset(self) -> None:
+        """Zero the integral (a new run)."""
+        self.integral = 0.0
+
+    def step(self, reference: float, measured: float) -> float:
+        """The command u [u] for this sample from the reference and measured speeds [v]."""
+        e = reference - measured
+        v = self._kp * e + self.integral
+        comp = self.compensation
+        u = v if comp is None else comp.command(v, reference, measured)
+        limit = self._limit
+        u_sat = limit if u > limit else (-limit if u < -limit else u)
+        self.integral += self.dt * (self._ki * e + (u_sat - u) / self._tt)
+        return u_sat
+
+
+# --------------------------------------------------------------------------- references
+def reversing_reference(
+    kind: str = "triangle",
+    amplitude: float = 40.0,
+    period: float = 4.0,
+    duration: float = 12.0,
+    dt: float = 0.01,
+) -> tuple[np.ndarray, np.ndarray]:
+    """A reference speed that reverses through zero: ``(t, r)`` [s], [rad/s] at each sample.
+
+    ``triangle``: ramps between ±amplitude, crossing zero at a constant rate
+    4 amplitude / period (the drive spends time at every low speed); ``sine``:
+    amplitude sin(2π t / period), slowest at the peaks and fastest through zero. Both start
+    at zero speed rising.
+
+    Parameters
+    ----------
+    kind : {"triangle", "sine"}
+    amplitude : float
+        Peak speed [rad/s], > 0.
+    period : float
+        [s], > 0: two reversals a period.
+    duration : float
+        [s]: ``round(duration / dt)`` samples.
+    dt : float
+        The loop's sample time [s].
+    """
+    if kind not in REFERENCES:
+        raise ValueError(f"kind must be one of {', '.join(REFERENCES)}, got {kind!r}")
+    for name, value in (("amplitude", amplitude), ("period", period), ("duration", duration)):
+        if not (math.isfinite(value) and value > 0):
+            raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+    dt = check_sample_time(dt)
+    n = round(duration / dt)
+    if n < 1:
+        raise ValueError(f"duration {duration!r} s is shorter than one sample ({dt!r} s)")
+    t = np.arange(n) * dt
+    phase = (t / period) % 1.0
+    if kind == "sine":
+        r = amplitude * np.sin(2.0 * np.pi * phase)
+    else:
+        r = amplitude * (1.0 - np.abs(((4.0 * phase + 1.0) % 4.0) - 2.0))
+    return t, r
+
+
+# --------------------------------------------------------------------------- metrics
+class TrackingMetrics:
+    """How well the speed follows the reference, accumulated a sample at a time (in constant
+    memory, so a loop of days gets its figures without keeping its record).
+
+    Parameters
+    ----------
+    low_speed : float
+        The low-speed band [rad/s]: samples with |reference| below it (the paper's is
+        150 rpm, 15.7 rad/s, ``motorid control``'s default).
+    moving : float
+        Speed [rad/s] beyond which the drive counts as moving in a direction.
+    """
+
+    def __init__(self, low_speed: float, moving: float = 1.0) -> None:
+        for name, value in (("low_speed", low_speed), ("moving", moving)):
+            if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be a finite speed > 0 [rad/s], got {value!r}")
+        self.low_speed = float(low_speed)
+        self.moving = float(moving)
+        self._n = self._n_low = self._reversals = 0
+        self._sum = self._sum_low = 0.0
+        self._sign = 0.0  # the reference's last non-zero sign
+        self._since: float | None = None  # time of a reversal the drive has not followed yet
+        self._largest = math.nan
+        self._t = 0.0
+
+    def _close_reversal(self, t: float) -> None:
+        stuck = t - self._since
+        self._largest = stuck if not self._largest >= stuck else self._largest
+        self._since = None
+
+    def add(self, t: float, reference: float, measured: float) -> None:
+        """One sample: the reference and the measured speed [rad/s] at the time ``t`` [s]."""
+        e = reference - measured
+        self._n += 1
+        self._sum += e * e
+        if abs(reference) < self.low_speed:
+            self._n_low += 1
+            self._sum_low += e * e
+        s = 1.0 if reference > 0.0 else (-1.0 if reference < 0.0 else 0.0)
+        if s != 0.0 and self._sign != 0.0 and s != self._sign:
+            if self._since is not None:  # reversed again before the drive followed
+                self._close_reversal(t)
+            self._since = t
+            self._reversals += 1
+        if s != 0.0:
+            self._sign = s
+        if self._since is not None and self._sign * measured > self.moving:
+            self._close_reversal(t)
+        self._t = t
+
+    def result(self) -> dict[str, float]:
+        """``rms_error`` [rad/s] (RMS of r - y over the samples), ``low_speed_rms_error`` [rad/s]
+        (over |r| < low_speed; NaN if none), ``low_speed_samples``,
+        ``largest_stuck_after_reversal`` [s]: after each change of sign of the reference, the
+        time until the measured speed moves beyond ``moving`` in the new direction (or until
+        the next reversal, or the last sample, when it does not), the largest (NaN without a
+        reversal), and ``reversals``."""
+        largest = self._largest
+        if self._since is not None:
+            largest = max(self._t - self._since, 0.0 if math.isnan(largest) else largest)
+        return {
+            "rms_error": math.sqrt(self._sum / self._n) if self._n else math.nan,
+            "low_speed_rms_error": math.sqrt(self._sum_low / self._n_low) if self._n_low else math.nan,
+            "low_speed_samples": self._n_low,
+            "largest_stuck_after_reversal": largest,
+            "reversals": self._reversals,
+        }
+
+
+def tracking_metrics(record: pd.DataFrame, low_speed: float, moving: float = 1.0) -> dict[str, float]:
+    """:class:`TrackingMetrics` of a closed-loop record: columns ``t`` [s], ``reference`` and ``y``
+    [rad/s] at the same instants (:func:`run_closed_loop`'s record)."""
+    metrics = TrackingMetrics(low_speed, moving)
+    columns = (record[c].to_numpy(dtype=float).tolist() for c in ("t", "reference", "y"))
+    for t, r, y in zip(*columns, strict=True):
+        metrics.add(t, r, y)
+    return metrics.result()
+
+
+# --------------------------------------------------------------------------- the loop
+def warm_up(controller: SpeedController) -> None:
+    """One step of a copy of the controller before the DAQ is opened: the compiled friction law
+    compiles at its first call (longer than a rig's watchdog allows between two samples)."""
+    copy.deepcopy(controller).step(1.0, 0.0)
+
+
+def run_closed_loop(
+    daq: DAQ,
+    controller: SpeedController,
+    reference: np.ndarray | Callable[[float], float],
+    duration: float | None = None,
+    out: str | Path | None = None,
+    progress: bool = False,
+    *,
+    overwrite: bool = False,
+    metrics: TrackingMetrics | None = None,
+    keep: int | None = None,
+) -> pd.DataFrame:
+    """Close the speed loop on a DAQ: read the speed, step the controller, command, record.
+
+    The loop first commands 0 V for one sample and reads the speed (the drive's state
+    before the run), then each sample k: the controller's command from the reference
+    r[k] and the speed y[k] read last, written to the DAQ (each write also feeds the
+    rig's heartbeat watchdog), and the next speed read.
+
+    Parameters
+    ----------
+    daq : DAQ
+        The rig (opened here; always closed on return, which commands 0 V).
+    controller : SpeedController
+        Stepped once a sample (reset first); warmed up on a copy before the DAQ is opened.
+    reference : array or callable
+        The reference speed [rad/s] per sample, or a function of time t [s].
+    duration : float, optional
+        Length [s]; default the whole array.
+    out : path, optional
+        CSV written row by row as the loop runs (:class:`~motorid.io.online.RunRecorder`);
+        an existing file is refused before the DAQ is opened unless ``overwrite``.
+    progress : bool
+        A progress bar on stderr (:func:`motorid.progress.progress_bar`).
+    overwrite : bool
+        Replace an existing ``out``.
+    metrics : TrackingMetrics, optional
+        Fed every sample (the figures of the whole run, whatever ``keep`` holds).
+    keep : int, optional
+        Rows kept in memory and returned. None: every row without ``out``, the last
+        :data:`~motorid.io.online.KEEP_WITH_FILE` with it (the file holds them all).
+
+    Returns
+    -------
+    DataFrame
+        Columns ``t`` [s], ``reference`` [rad/s], ``u`` [V] (the command held over
+        [t, t + dt), after the DAQ's clamp), ``y`` [rad/s] (measured at t), ``clamped``;
+        ``attrs``: ``dt``, ``units``, ``timing`` (``"sampled"``), ``samples``.
+
+    Raises
+    ------
+    DAQError
+        The rig failed; 0 V where it can, the DAQ closed, the CSV holds every sample taken
+        (a note on the exception says how many).
+    KeyboardInterrupt
+        Ctrl-C or SIGTERM: the loop stops before the next sample, with the same clean-up.
+    """
+    dt = float(daq.dt)
+    if duration is None:
+        if callable(reference):
+            raise ValueError("run_closed_loop: duration is required with a callable reference")
+        n = len(reference)
+    else:
+        if not (math.isfinite(duration) and duration > 0):
+            raise ValueError(f"run_closed_loop: duration must be a positive time [s], got {duration!r}")
+        n = round(duration / dt)
+        if n < 1:
+            raise ValueError(
+                f"run_closed_loop: duration {duration!r} s is shorter than one sample ({dt!r} s)"
+            )
+    if callable(reference):
+        r = np.array([float(reference(k * dt)) for k in range(n)])
+    else:
+        r = np.asarray(reference, dtype=float)
+        if r.ndim != 1 or r.size < n:
+            raise ValueError(
+                f"run_closed_loop: reference must be 1-D with at least {n} samples, got shape {r.shape}"
+            )
+        r = r[:n]
+    bad = np.flatnonzero(~np.isfinite(r))
+    if bad.size:
+        raise ValueError(f"run_closed_loop: reference[{bad[0]}] = {r[bad[0]]!r} is not finite")
+    if keep is None and out is not None:
+        keep = KEEP_WITH_FILE
+    recorder = RunRecorder(out, overwrite=overwrite, keep=keep)
+    controller.reset()
+    warm_up(controller)
+    bar = progress_bar(show=progress, total=n, unit="sample", desc="control")
+    try:
+        with StopRequest().installed() as stop:
+            daq.open()
+            daq.write(0.0)
+            y = daq.read().y
+            for k in range(n):
+                stop.check()
+                u = controller.step(r[k], y)
+                daq.write(u)
+                sample = daq.read()
+                recorder.append({"t": k * dt, "reference": float(r[k]), "u": sample.u, "y": y,
+                                 "clamped": int(sample.clamped)})  # fmt: skip
+                if metrics is not None:
+                    metrics.add(k * dt, float(r[k]), y)
+                y = sample.y
+                bar.update()
+    except BaseException as exc:
+        where = f" in {recorder.path}" if recorder.path is not None else ""
+        msg = f"run_closed_loop stopped after {recorder.count} of {n} samples (recorded{where})"
+        logger.error("%s: %s: %s", msg, type(exc).__name__, exc or "interrupted")
+        exc.add_note(msg)
+        raise
+    finally:
+        bar.close()
+        try:
+            daq.close()  # commands 0 V where it can
+        finally:
+            recorder.close()
+    df = pd.DataFrame(
+        list(recorder.rows), columns=recorder.columns or ["t", "reference", "u", "y", "clamped"]
+    )
+    df.attrs["dt"] = dt
+    df.attrs["units"] = {"t": "s", "reference": "rad/s", "u": "V", "y": "rad/s"}
+    df.attrs["timing"] = "sampled"  # a keyword of motorid.records.TIMINGS
+    df.attrs["samples"] = recorder.count
+    return df
