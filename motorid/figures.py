@@ -63,14 +63,18 @@ def set_title(target: Axes | Figure, text: str, **kwargs: Any) -> None:
     room = (fig.get_figwidth() - margin) * fig.dpi
     renderer = RendererAgg(1, 1, fig.dpi)
 
-    def fits(line: str) -> bool:
-        return renderer.get_text_width_height_descent(line, font, ismath=False)[0] <= room
+    def width_of(line: str) -> float:
+        return renderer.get_text_width_height_descent(line, font, ismath=False)[0]
 
-    width = len(text)
     lines = [text]
-    while width > 10 and not all(fits(line) for line in lines):
-        width -= 2
-        lines = textwrap.wrap(text, width, break_long_words=False)
+    if width_of(text) > room:
+        # from the characters a line holds at the text's mean character width, narrower until each
+        # line fits (a few steps: the measure of a long title is not repeated per character)
+        width = max(10, int(len(text) * room / width_of(text)))
+        lines = textwrap.wrap(text, width)
+        while width > 10 and not all(width_of(line) <= room for line in lines):
+            width = max(10, width - max(1, width // 20))
+            lines = textwrap.wrap(text, width)
     wrapped = "\n".join(lines)
     if is_figure:
         target.suptitle(wrapped, **kwargs)

@@ -209,6 +209,7 @@ def trend_figure(drive: str, own: pd.DataFrame, reason: str = "", appeared: str 
             ax.axvline(pd.Timestamp(day), color="tab:red", ls="--", lw=1, label=f"{effect} appeared")
         ax.legend(loc="best", fontsize=7)
     shown = drive if str(drive).isprintable() else repr(drive)  # a control character from data, escaped
+    shown = shown if len(shown) <= 80 else shown[:77] + "..."  # an id from data of any length
     set_title(axes[0, 0], f"{shown}: " + (f"flagged ({reason})" if reason else "not flagged"), fontsize=10)
     axis = axes[-1, 0].xaxis
     locator = mdates.AutoDateLocator()
