@@ -1,8 +1,7 @@
 """Kernels compiled ahead of time, so a short command runs them without numba.
 
-The hot loops of :mod:`motorid.plants.physics` and :mod:`motorid.diagnose.sections` are
-numba functions, compiled at their first call and cached on disk. A command that runs once
-pays numba's start before any work: importing numba, setting up LLVM and loading each cached
+The hot loops of :mod:`motorid.plants.physics` are numba functions, compiled at their first
+call and cached on disk. A command that runs once pays numba's start before any work: importing numba, setting up LLVM and loading each cached
 kernel cost about 0.8 s and 130 MB, more than ``motorid doctor`` spends on a 16,000-sample
 record. So the kernels of a rigid drive and of the doctor (:data:`KERNELS`) are also compiled
 ahead of time, from the same source, into one extension module next to this file::
@@ -85,7 +84,6 @@ class Kernel:
 
 
 _PHYSICS = "motorid.plants.physics"
-_SECTIONS = "motorid.diagnose.sections"
 #: The kernels in the extension: what a rigid drive (simulated whole or a sample at a time)
 #: and ``motorid doctor`` run.
 KERNELS: tuple[Kernel, ...] = (
@@ -102,7 +100,6 @@ KERNELS: tuple[Kernel, ...] = (
         _PHYSICS, "rigid_free_run",
         ("float[]", "float", "int", "float", "float[]", "float", "int", "float", "float"), "f8[::1]",
     ),
-    Kernel(_SECTIONS, "zero_phase_run", ("float[,]", "float[,]", "float[]", "int"), "f8[::1]"),
 )  # fmt: skip
 
 _PACKAGE = Path(__file__).parent

@@ -17,11 +17,9 @@ import numpy as np
 import pytest
 
 from motorid import compiled
-from motorid.diagnose import kinematics, sections
 from motorid.plants import physics
 
 PHYSICS = "motorid.plants.physics"
-SECTIONS = "motorid.diagnose.sections"
 
 
 @pytest.fixture(scope="module")
@@ -34,15 +32,14 @@ def built(tmp_path_factory: pytest.TempPathFactory) -> dict[str, compiled.BuiltM
     extension = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(extension)
     record = json.loads((folder / compiled.BUILD_RECORD.name).read_text())
-    return {module: compiled.built_module(module, extension, record) for module in (PHYSICS, SECTIONS)}
+    return {PHYSICS: compiled.built_module(PHYSICS, extension, record)}
 
 
 def run_both(built: dict[str, compiled.BuiltModule], module: str, name: str, *args: object) -> tuple:
     """``name`` run from the extension and by numba's JIT on copies of the same arguments;
     (results, arguments after) of each, so in-place writes are compared too."""
-    jit = {PHYSICS: physics, SECTIONS: sections}[module]
     runs = []
-    for kernels in (built[module], jit):
+    for kernels in (built[module], physics):
         copies = [a.copy() if isinstance(a, np.ndarray) else a for a in args]
         runs.append((getattr(kernels, name)(*copies), copies))
     return runs[0], runs[1]
@@ -85,10 +82,6 @@ def test_every_kernel_built_ahead_equals_numba_jit_bit_for_bit(built, seed):
     for name, *args in cases:
         ahead, jit = run_both(built, PHYSICS, name, *args)
         assert_same(ahead, jit)
-    sos, zi = kinematics._anti_alias(4)  # one of the doctor's own filters
-    edge = 3 * (2 * sos.shape[0] + 1)
-    ahead, jit = run_both(built, SECTIONS, "zero_phase_run", sos, zi, x, edge)
-    assert_same(ahead, jit)
 
 
 def test_defaults_and_keywords_are_the_modules(built):
@@ -155,13 +148,13 @@ def test_an_extension_that_does_not_load_leaves_the_jit(monkeypatch, caplog):
     monkeypatch.setattr(compiled, "EXTENSION", "_no_such_extension")  # as if built against another numpy
     monkeypatch.setattr(compiled, "_loaded", {})
     with caplog.at_level("WARNING", logger="motorid.compiled"):
-        assert compiled.load(SECTIONS) is sections
+        assert compiled.load(PHYSICS) is physics
     assert "do not load" in caplog.text and "python -m motorid.compiled --force" in caplog.text
 
 
 def test_the_digest_covers_each_kernels_source():
     files = {compiled.module_file(k.module) for k in compiled.KERNELS}
-    assert files == {Path(physics.__file__), Path(sections.__file__)}
+    assert files == {Path(physics.__file__)}
     with pytest.raises(ValueError, match="not a module of motorid"):
         compiled.module_file("numpy.linalg")
 
@@ -173,14 +166,14 @@ def doctor_probe(path: Path) -> str:
         "out = io.StringIO()\n"
         "with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):\n"
         f"    code = main(['doctor', {str(path)!r}, '--json'])\n"
-        "loaded = sorted(m for m in ('numba', 'llvmlite', 'scipy') if m in sys.modules)\n"
+        "loaded = sorted(m for m in ('numba', 'llvmlite') if m in sys.modules)\n"
         "print(json.dumps([code, loaded, json.loads(out.getvalue())]))\n"
     )
 
 
 def test_the_doctor_starts_without_numba_and_gives_the_jits_numbers(tmp_path):
-    """A fresh ``motorid doctor`` process runs every kernel from the extension: numba, LLVM and
-    scipy (about 0.8 s and 130 MB of start-up) stay unloaded, and the report is the one the same
+    """A fresh ``motorid doctor`` process runs every kernel from the extension: numba and LLVM
+    stay unloaded (SciPy designs the doctor's filters and runs its scalar searches), and the report is the one the same
     command gives with every kernel through numba's JIT."""
     assert compiled.status() == "built", (
         f"the kernels are {compiled.status()}: `make` builds them (python -m motorid.compiled)"
