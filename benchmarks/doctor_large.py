@@ -35,11 +35,13 @@ from motorid.records import read_record
 d = diagnose(read_record(sys.argv[1], max_samples=10**8))
 print(d.named)
 """
-#: Runs its arguments as the one child of a fresh process and prints that child's peak RSS [kB].
+#: Runs its arguments as the one child of a fresh process and prints that child's peak RSS [kB]
+#: and CPU time (user + system) [s].
 PEAK_OF_CHILD = """
 import resource, subprocess, sys
 subprocess.run(sys.argv[1:], stdout=subprocess.DEVNULL, check=True)
-print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)
+usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+print(usage.ru_maxrss, usage.ru_utime + usage.ru_stime)
 """
 
 
@@ -51,15 +53,16 @@ def make_record(path: Path, samples: int, dt: float) -> None:
     write_record(record, path)
 
 
-def measure(argv: list[str], env: dict[str, str] | None = None) -> tuple[float, float, str]:
-    """Wall time [s], peak RSS [MB] and stderr of ``argv`` run in a fresh process (environment
-    ``env``, default this one's)."""
+def measure(argv: list[str], env: dict[str, str] | None = None) -> tuple[float, float, float, str]:
+    """Wall time [s], peak RSS [MB], CPU time [s] and stderr of ``argv`` run in a fresh process
+    (environment ``env``, default this one's)."""
     t0 = time.perf_counter()
     done = subprocess.run(
         [sys.executable, "-c", PEAK_OF_CHILD, *argv], capture_output=True, text=True, check=True, env=env
     )
     wall = time.perf_counter() - t0
-    return wall, int(done.stdout.split()[-1]) / 1024, done.stderr
+    peak_kb, cpu = done.stdout.split()[-2:]
+    return wall, int(peak_kb) / 1024, float(cpu), done.stderr
 
 
 def main() -> None:
@@ -90,7 +93,7 @@ def main() -> None:
             shown: dict[str, str] = {}
             for _ in range(args.repeat):
                 for name, argv in runs.items():
-                    wall, peak, err = measure(argv)
+                    wall, peak, _, err = measure(argv)
                     walls[name].append(wall)
                     peaks[name] = max(peaks[name], peak)
                     shown[name] = "yes" if "doctor:" in err and "stage" in err else "-"
