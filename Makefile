@@ -1,6 +1,5 @@
-# motorid: every target creates .venv when it is missing and installs the project into it, then
-# compiles the kernels a short command runs ahead of time (python -m motorid.compiled: only when
-# they are missing or their source changed; without them numba compiles the same source at first call).
+# motorid: every target creates .venv when it is missing and installs the project into it (numba
+# compiles the kernels at their first call and caches them on disk, beside their source).
 PYTHON ?= python3
 VENV := .venv
 BIN := $(VENV)/bin
@@ -10,7 +9,6 @@ BENCH_STAMP := $(VENV)/.installed-bench
 .PHONY: venv test demo bench lint clean
 
 venv: $(STAMP)
-	$(BIN)/python -m motorid.compiled
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
@@ -40,4 +38,4 @@ lint: $(STAMP)
 	$(BIN)/ruff format --check motorid tests benchmarks scripts notebooks
 
 clean:
-	rm -rf $(VENV) out .pytest_cache .hypothesis motorid/_kernels.*
+	rm -rf $(VENV) out .pytest_cache .hypothesis

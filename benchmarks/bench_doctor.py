@@ -3,15 +3,17 @@ beside the start-up floor every such command pays before any work.
 
 Run: ``.venv/bin/python benchmarks/bench_doctor.py [--repeat 5]`` (or within ``make bench``).
 
-Each figure is the median wall time [s] and the largest peak resident memory [MB] over
+Each figure is the median wall time [s], the median CPU time (user + system, steadier than
+the wall time on a loaded machine) [s] and the largest peak resident memory [MB] over
 ``--repeat`` fresh processes, the commands alternated, after one warm-up run of each: numba's
 caches and Python's bytecode are then on disk, as after any first run (the processes write
 bytecode even where ``PYTHONDONTWRITEBYTECODE`` is set here, as a user's Python does). The floor is a process that
-imports pandas and runs one kernel of the extension compiled ahead of time
-(:mod:`motorid.compiled`): the doctor reads its record into pandas and runs those kernels, so
-it cannot start faster or smaller than that. A third row is the doctor with every kernel
-through numba's JIT instead (``MOTORID_JIT_ONLY=1``), as it ran before the extension. No peer
-does the doctor's work, so the rows have none. Not a test: it prints figures.
+imports pandas and the parts of SciPy the doctor uses (``scipy.signal``, ``scipy.optimize``)
+and runs one of the drive's kernels from numba's cache: the doctor reads its record into
+pandas, filters and searches with SciPy and runs those kernels, so it cannot start faster or
+smaller than that. A last row is the load average over the runs (the median of the 1-minute
+figure read before each run): on a machine shared with other work the wall times grow with it.
+No peer does the doctor's work, so the rows have none. Not a test: it prints figures.
 
 Peak RSS counts the resident pages of the shared libraries each process maps (pyarrow's,
 which pandas imports, are the largest). Right after the libraries are installed, their pages
@@ -36,45 +38,55 @@ if str(HERE) not in sys.path:
 import doctor_large  # noqa: E402
 from _table import Row, print_rows  # noqa: E402
 
-#: pandas and one kernel of the extension (numba is not imported: the check below says so).
+#: pandas, SciPy's filters and scalar searches, and one kernel of the drive from numba's cache.
 FLOOR = (
-    "import sys, numpy, pandas; from motorid import compiled; "
-    "compiled.load('motorid.plants.physics').reversal_clock(numpy.zeros(3), 1.0, 0.0, numpy.zeros(3)); "
-    "assert 'numba' not in sys.modules, compiled.status()"
+    "import numpy, pandas, scipy.optimize, scipy.signal; from motorid.plants import physics; "
+    "physics.reversal_clock(numpy.zeros(3), 1.0, 0.0, numpy.zeros(3))"
 )
 
 
 def measure_doctor(repeat: int = 5) -> list[Row]:
-    """The doctor's (with and without the extension) and the floor's median wall time and
-    largest peak RSS over ``repeat`` runs."""
+    """The doctor's and the floor's median wall and CPU time and largest peak RSS over ``repeat``
+    runs, and the median load average."""
     with tempfile.TemporaryDirectory() as tmp:
         record = Path(tmp) / "rig_16000.csv"
         doctor_large.make_record(record, 16_000, 0.005)
-        doctor = [str(doctor_large.MOTORID), "doctor", str(record), "--json"]
         runs = {
-            "motorid doctor --json": doctor,
-            "motorid doctor --json, every kernel through numba's JIT": ["env", "MOTORID_JIT_ONLY=1", *doctor],
-            "start-up floor (import pandas, one kernel compiled ahead of time)": [
-                sys.executable,
-                "-c",
-                FLOOR,
-            ],
+            "motorid doctor --json": [str(doctor_large.MOTORID), "doctor", str(record), "--json"],
+            "start-up floor (import pandas and SciPy, one cached kernel run)": [sys.executable, "-c", FLOOR],
         }
         env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
         walls: dict[str, list[float]] = {name: [] for name in runs}
+        cpus: dict[str, list[float]] = {name: [] for name in runs}
         peaks = dict.fromkeys(runs, 0.0)
+        loads: list[float] = []
         for attempt in range(repeat + 1):
             for name, argv in runs.items():
-                wall, peak, _ = doctor_large.measure(argv, env)
+                load = os.getloadavg()[0]
+                wall, peak, cpu, _ = doctor_large.measure(argv, env)
                 if attempt:  # the first run of each fills numba's caches
                     walls[name].append(wall)
+                    cpus[name].append(cpu)
                     peaks[name] = max(peaks[name], peak)
+                    loads.append(load)
     label = "80 s at 200 Hz (16,000 samples)"
     rows = []
     for name in runs:
         where = f"{name}, {label}" if name.startswith("motorid") else name
         rows.append(Row(f"{where}, wall", statistics.median(walls[name]), None, "s", "", False))
+        rows.append(Row(f"{where}, CPU", statistics.median(cpus[name]), None, "s", "", False))
         rows.append(Row(f"{where}, peak RSS", peaks[name], None, "MB", "", False))
+    cores = os.cpu_count()
+    rows.append(
+        Row(
+            f"load average (1 min) during the runs, {cores} cores",
+            statistics.median(loads),
+            None,
+            "",
+            "",
+            False,
+        )
+    )
     return rows
 
 

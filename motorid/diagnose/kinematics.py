@@ -34,8 +34,6 @@ from typing import Literal
 
 import numpy as np
 
-from motorid import compiled
-
 OutputKind = Literal["velocity", "position"]
 
 
@@ -45,7 +43,7 @@ def default_band(dt: float) -> float:
 
 
 def lowpass(x: np.ndarray, dt: float, cutoff: float, order: int = 4) -> np.ndarray:
-    """Zero-phase Butterworth low-pass of ``x`` (forward-backward, ``sosfiltfilt``).
+    """Zero-phase Butterworth low-pass of ``x`` (forward-backward, :func:`zero_phase`).
 
     Parameters
     ----------
@@ -60,134 +58,34 @@ def lowpass(x: np.ndarray, dt: float, cutoff: float, order: int = 4) -> np.ndarr
     """
     nyquist = 0.5 / dt
     wn = min(cutoff / nyquist, 0.95)
-    return zero_phase(_butterworth(order, wn), np.asarray(x, dtype=float))
+    return zero_phase(_butterworth(order, wn), x)
 
 
 @functools.cache
-def _butterworth(order: int, wn: float) -> tuple[np.ndarray, np.ndarray]:
-    """Second-order sections of a digital Butterworth low-pass (``wn``: cut-off / Nyquist) and
-    their steady-state initial conditions for a unit step (:func:`zero_phase`)."""
-    sos = lowpass_sections(*butterworth_prototype(order), wn)
-    return sos, steady_state(sos)
+def _butterworth(order: int, wn: float) -> np.ndarray:
+    """Second-order sections of a digital Butterworth low-pass (``wn``: cut-off / Nyquist)."""
+    from scipy.signal import butter
+
+    return butter(order, wn, output="sos")
 
 
-def butterworth_prototype(order: int) -> tuple[np.ndarray, float]:
-    """Poles and gain of the analog Butterworth low-pass of order N = ``order``, cut-off 1 rad/s
-    (no zeros), for :func:`lowpass_sections`::
-
-        p_m = -exp(j π m / (2 N)),  m = -N+1, -N+3, ..., N-1;  k = 1
-    """
-    m = np.arange(-order + 1, order, 2, dtype=np.float64)
-    return -np.exp(1j * np.pi * m / (2 * order)), 1.0
-
-
-def chebyshev1_prototype(order: int, ripple: float) -> tuple[np.ndarray, float]:
-    """Poles and gain of the analog Chebyshev type I low-pass of order N = ``order`` with a
-    ripple of ``ripple`` [dB] in the pass band up to 1 rad/s (no zeros), for :func:`lowpass_sections`::
-
-        ε = sqrt(10^(ripple/10) - 1),  μ = asinh(1/ε) / N,
-        p_m = -sinh(μ + j π m / (2 N)),  k = Π(-p_m) / sqrt(1 + ε²) (N even; without it for N odd)
-    """
-    eps = math.sqrt(10 ** (0.1 * ripple) - 1.0)
-    mu = 1.0 / order * math.asinh(1 / eps)
-    m = np.arange(-order + 1, order, 2, dtype=np.float64)
-    poles = -np.sinh(mu + 1j * (np.pi * m / (2 * order)))
-    gain = float(np.real(np.prod(-poles, axis=0)))
-    return poles, gain / math.sqrt(1 + eps * eps) if order % 2 == 0 else gain
-
-
-def lowpass_sections(poles: np.ndarray, gain: float, wn: float) -> np.ndarray:
-    """Second-order sections of the digital low-pass made of an analog all-pole prototype of even
-    order N (cut-off 1 rad/s) by the bilinear transform, cut-off ``wn`` (fraction of Nyquist).
-
-    The prototype is scaled to the pre-warped cut-off ``ω = 4 tan(π wn / 2)`` (sampling at 2)
-    and mapped by ``z = (4 + s) / (4 - s)``: its N zeros at infinity go to z = -1 and its gain
-    becomes ``k ω^N Re(1 / Π(4 - ω p))``. Each section is a pair of conjugate poles with a double
-    zero at -1, ``b = [1, 2, 1]``, ``a = [1, -2 Re p, |p|²]``; the pairs closest to the unit
-    circle go last and the gain goes into the first section's numerator. This is the design
-    ``scipy.signal.butter`` / ``cheby1`` give with ``output="sos"``, operation for operation
-    (a test holds them equal bit for bit), so the doctor's figures do not depend on which ran.
-
-    Parameters
-    ----------
-    poles : ndarray of complex, shape (N,)
-        The prototype's poles (:func:`butterworth_prototype`, :func:`chebyshev1_prototype`).
-    gain : float
-        The prototype's gain.
-    wn : float
-        Cut-off as a fraction of the Nyquist frequency, in (0, 1).
-
-    Returns
-    -------
-    ndarray, shape (N/2, 6)
-        One section per row, ``[b0, b1, b2, 1, a1, a2]``, for :func:`zero_phase`.
+def zero_phase(sos: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Forward-backward run of the second-order sections ``sos`` over ``x``:
+    ``scipy.signal.sosfiltfilt`` with ``x`` extended at each end by ``3 (2 n_sections + 1)``
+    samples of its odd reflection, each pass started from the sections' steady state.
 
     Raises
     ------
     ValueError
-        For an odd order (a real pole, which the doctor's filters do not have) or ``wn``
-        outside (0, 1).
+        When ``x`` has no more samples than that extension.
     """
-    order = poles.size
-    if order % 2 or not 0.0 < wn < 1.0:
-        raise ValueError(f"the low-pass order must be even and 0 < wn < 1; got order {order}, wn {wn!r}")
-    warped = float(4.0 * np.tan(np.pi * np.float64(wn) / 2.0))
-    analog = warped * poles
-    digital = (4.0 + analog) / (4.0 - analog)
-    gain = gain * warped**order * float(np.real(1.0 / np.prod(4.0 - analog)))
-    # one pole of each conjugate pair (the one above the real axis) and its mirror, both in order
-    # of real part, averaged so that the pair is exactly conjugate
-    digital = digital[np.lexsort((np.abs(digital.imag), digital.real))]
-    upper, lower = digital[digital.imag > 0], digital[digital.imag < 0]
-    if upper.size != order // 2 or lower.size != order // 2:
-        raise ValueError(f"the prototype's poles {poles} are not {order // 2} conjugate pairs")
-    pending = (upper + lower.conj()) / 2
-    sos = np.zeros((order // 2, 6))
-    for section in range(order // 2 - 1, -1, -1):
-        nearest = np.argmin(np.abs(1 - np.abs(pending)))  # the pole closest to the unit circle
-        pole = pending[nearest]
-        pending = np.delete(pending, nearest)
-        denominator = np.ones(1, dtype=np.complex128)
-        for root in (pole, pole.conj()):
-            denominator = np.convolve(denominator, np.array([1.0 + 0.0j, -root]))
-        sos[section, :3] = (1.0, 2.0, 1.0)
-        sos[section, 3:] = denominator.real
-    sos[0, :3] *= gain
-    return sos
+    from scipy.signal import sosfiltfilt
 
-
-def steady_state(sos: np.ndarray) -> np.ndarray:
-    """The states of the sections (transposed direct form II, :func:`motorid.diagnose.sections.run_sections`) at rest under a
-    unit step input: per section ``(I - A) z = b[1:] - a[1:] b[0]`` with ``A`` the transpose of
-    the companion matrix of ``a``, times the DC gain ``Π b / Π a`` of the sections before it
-    (what ``scipy.signal.sosfilt_zi`` gives, bit for bit)."""
-    zi = np.empty((sos.shape[0], 2))
-    scale = 1.0
-    for section in range(sos.shape[0]):
-        b, a = sos[section, :3], sos[section, 3:]
-        bn, an = (b / a[0], a / a[0]) if a[0] != 1.0 else (b, a)
-        system = np.array([[1.0 + an[1], -1.0], [an[2], 1.0]])
-        zi[section] = scale * np.linalg.solve(system, bn[1:] - an[1:] * bn[0])
-        scale *= np.sum(b) / np.sum(a)
-    return zi
-
-
-def zero_phase(design: tuple[np.ndarray, np.ndarray], x: np.ndarray) -> np.ndarray:
-    """Forward-backward run of the sections ``design = (sos, zi)`` over ``x`` (float64, 1-D).
-
-    The filtfilt recipe of Gustafsson's initial conditions: ``x`` extended at each end by
-    ``3 (2 n_sections + 1)`` samples of its odd reflection (``2 x[0] - x[i]``), run forwards
-    from the steady state ``zi x_ext[0]``, then backwards from ``zi y[-1]``, and the
-    extension cut off; the result equals ``scipy.signal.sosfiltfilt(sos, x)`` bit for bit.
-    """
-    sos, zi = design
-    taps = 2 * sos.shape[0] + 1 - min(int(np.sum(sos[:, 2] == 0)), int(np.sum(sos[:, 5] == 0)))
-    edge = 3 * taps
+    x = np.asarray(x, dtype=float)
+    edge = 3 * (2 * sos.shape[0] + 1)
     if x.size <= edge:
         raise ValueError(f"the signal has {x.size} samples; the zero-phase filter needs more than {edge}")
-    # one compiled signature for every caller: a writable contiguous float64 array (copied only if not)
-    x = np.require(x, dtype=np.float64, requirements=["C", "W"])
-    return compiled.load("motorid.diagnose.sections").zero_phase_run(sos, zi, x, edge)
+    return sosfiltfilt(sos, x, padlen=edge)
 
 
 def decimation_factor(dt: float, band: float) -> int:
@@ -196,11 +94,12 @@ def decimation_factor(dt: float, band: float) -> int:
 
 
 @functools.cache
-def _anti_alias(factor: int) -> tuple[np.ndarray, np.ndarray]:
-    """Second-order sections of the decimation filter (that of ``scipy.signal.decimate``'s "iir")
-    and their steady-state initial conditions (:func:`zero_phase`)."""
-    sos = lowpass_sections(*chebyshev1_prototype(8, 0.05), 0.8 / factor)
-    return sos, steady_state(sos)
+def _anti_alias(factor: int) -> np.ndarray:
+    """Second-order sections of the decimation filter (that of ``scipy.signal.decimate``'s
+    "iir": an 8th-order Chebyshev type I low-pass, 0.05 dB ripple, at 0.8 / ``factor`` of Nyquist)."""
+    from scipy.signal import cheby1
+
+    return cheby1(8, 0.05, 0.8 / factor, output="sos")
 
 
 def anti_alias(x: np.ndarray, factor: int) -> np.ndarray:
@@ -208,7 +107,7 @@ def anti_alias(x: np.ndarray, factor: int) -> np.ndarray:
     for ``factor`` 1)."""
     if factor <= 1:
         return np.array(x, dtype=float)
-    return zero_phase(_anti_alias(factor), np.asarray(x, dtype=float))
+    return zero_phase(_anti_alias(factor), x)
 
 
 @dataclass(frozen=True)
@@ -329,13 +228,9 @@ def kinematics(
 __all__ = [
     "Kinematics",
     "anti_alias",
-    "butterworth_prototype",
-    "chebyshev1_prototype",
     "decimation_factor",
     "default_band",
     "kinematics",
     "lowpass",
-    "lowpass_sections",
-    "steady_state",
     "zero_phase",
 ]

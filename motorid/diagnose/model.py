@@ -14,8 +14,9 @@ of w) of::
 
 and, for effects with shape parameters (Stribeck velocity, dead zone,
 saturation level, backlash time), a coarse logarithmic grid refined by a
-bounded scalar search around the best point, each point solved by least
-squares (variable projection), coordinate-wise over the shape parameters.
+bounded scalar search around the best point (SciPy's bounded Brent search),
+each point solved by least squares (variable projection), coordinate-wise over
+the shape parameters.
 Columns that add no rank to those before them (the Coulomb asymmetry beside an
 offset) are dropped and their parameter reported as 0.
 
@@ -362,6 +363,8 @@ def fit_model(
         all parameters in SI units), the residual sum of squares
         [F²] on ``rows``, their number and the number of free parameters.
     """
+    from scipy.optimize import minimize_scalar
+
     effects = effect_order(tuple(effects))
     rows = data.moving if rows is None else rows & data.moving
     gain = float(data.input_gain)
@@ -414,10 +417,13 @@ def fit_model(
             if not np.isfinite(costs[i]):
                 continue
             a, b = grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]
-            z, fz = bounded_minimum(
-                lambda z, p=p: min(cost(p, math.exp(z)), 1e300), math.log(a), math.log(b), 1e-3
+            found = minimize_scalar(
+                lambda z, p=p: min(cost(p, math.exp(z)), 1e300),
+                bounds=(math.log(a), math.log(b)),
+                method="bounded",
+                options={"xatol": 1e-3, "maxiter": 500},
             )
-            shape[p] = math.exp(z) if fz <= costs[i] else float(grid[i])
+            shape[p] = math.exp(found.x) if found.fun <= costs[i] else float(grid[i])
     solved = best["solve"] if best["point"] == shape else None
     if not isinstance(solved, LinearSolve):
         solved = _linear_solve(data, effects, shape, gain, rows, stribeck_shape, last)
@@ -429,98 +435,6 @@ def fit_model(
     return FitResult(
         model, _accel_rss(rss, inertia), rss, int(rows.sum()), k + len(shaped), residual, param_std
     )
-
-
-def bounded_minimum(
-    func: Callable[[float], float], lo: float, hi: float, xatol: float, max_calls: int = 500
-) -> tuple[float, float]:
-    """Brent's minimisation of a scalar function on ``[lo, hi]``: golden-section steps, and
-    parabolic steps through the three best points when they fall inside and shrink.
-
-    The first point is ``lo + (3 - √5)/2 (hi - lo)``; the search stops when the best point
-    ``x`` is within ``2 tol - (b - a)/2`` of the middle of the bracket ``[a, b]``, with
-    ``tol = √(2.2e-16) |x| + xatol / 3``, or after ``max_calls`` calls. This is the method and
-    the arithmetic of ``scipy.optimize.minimize_scalar(method="bounded")`` step for step (a
-    test holds the two equal bit for bit), so the doctor's fits do not depend on which ran.
-
-    Parameters
-    ----------
-    func : callable
-        ``f(x) -> float``, called once per point.
-    lo, hi : float
-        The bounds, finite, ``lo <= hi``.
-    xatol : float
-        Absolute tolerance on x.
-    max_calls : int
-        Most calls of ``func``.
-
-    Returns
-    -------
-    x, f(x) : float
-        The best point found and its value.
-    """
-    if not (math.isfinite(lo) and math.isfinite(hi)) or lo > hi:
-        raise ValueError(f"the bounds must be finite with lo <= hi, got [{lo!r}, {hi!r}]")
-    sqrt_eps = math.sqrt(2.2e-16)
-    golden_mean = 0.5 * (3.0 - math.sqrt(5.0))
-    a, b = lo, hi
-    # x: best point so far, w: second best, v: the previous w (and their values)
-    x = w = v = a + golden_mean * (b - a)
-    fx = fw = fv = func(x)
-    calls = 1
-    step = previous_step = 0.0
-    middle = 0.5 * (a + b)
-    tol = sqrt_eps * abs(x) + xatol / 3.0
-    while abs(x - middle) > 2.0 * tol - 0.5 * (b - a):
-        golden = True
-        if abs(previous_step) > tol:  # try a parabola through x, w, v
-            golden = False
-            r = (x - w) * (fx - fv)
-            q = (x - v) * (fx - fw)
-            p = (x - v) * q - (x - w) * r
-            q = 2.0 * (q - r)
-            if q > 0.0:
-                p = -p
-            q = abs(q)
-            r, previous_step = previous_step, step
-            if abs(p) < abs(0.5 * q * r) and q * (a - x) < p < q * (b - x):
-                step = (p + 0.0) / q
-                trial = x + step
-                if (trial - a) < 2.0 * tol or (b - trial) < 2.0 * tol:  # too near a bound
-                    step = tol * _sign(middle - x)
-            else:
-                golden = True
-        if golden:
-            previous_step = (a if x >= middle else b) - x
-            step = golden_mean * previous_step
-        u = x + _sign(step) * max(abs(step), tol)
-        fu = func(u)
-        calls += 1
-        if fu <= fx:
-            if u >= x:
-                a = x
-            else:
-                b = x
-            v, fv, w, fw, x, fx = w, fw, x, fx, u, fu
-        else:
-            if u < x:
-                a = u
-            else:
-                b = u
-            if fu <= fw or w == x:
-                v, fv, w, fw = w, fw, u, fu
-            elif fu <= fv or v == x or v == w:
-                v, fv = u, fu
-        middle = 0.5 * (a + b)
-        tol = sqrt_eps * abs(x) + xatol / 3.0
-        if calls >= max_calls:
-            break
-    return x, fx
-
-
-def _sign(value: float) -> float:
-    """+1 for value >= 0 (zero included), -1 below, NaN for NaN."""
-    return 1.0 if value >= 0.0 else -1.0 if value < 0.0 else math.nan
 
 
 def _shape_params(effects: tuple[str, ...]) -> set[str]:
@@ -538,7 +452,6 @@ __all__ = [
     "FitResult",
     "LinearSolve",
     "Regressors",
-    "bounded_minimum",
     "fit_model",
     "linear_param_std",
     "model_balance",

@@ -76,7 +76,6 @@ from motorid.diagnose.locate import Region, feature, features, locate
 from motorid.diagnose.model import (
     BalanceData,
     FitResult,
-    bounded_minimum,
     fit_model,
     model_balance,
     model_key,
@@ -301,6 +300,8 @@ def fit_static_friction(prep: Prepared, model: RigidDrive, samples: np.ndarray) 
     balance of the moving samples cannot fit it: a grid of 17 values on [0, half the largest
     input force] and a bounded search between the best one's neighbours, on the free run.
     """
+    from scipy.optimize import minimize_scalar
+
     effects = tuple(dict.fromkeys((*model.effects, "static_friction")))
     top = 0.5 * prep.data.scale["u_max"] * abs(model.input_gain)
 
@@ -315,8 +316,13 @@ def fit_static_friction(prep: Prepared, model: RigidDrive, samples: np.ndarray) 
     grid = np.linspace(0.0, top, 17)
     costs = [cost(e) for e in grid]
     i = int(np.argmin(costs))
-    x, fx = bounded_minimum(cost, grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)], xatol=1e-4 * top)
-    return with_excess(x if fx <= costs[i] else grid[i])
+    found = minimize_scalar(
+        cost,
+        bounds=(grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]),
+        method="bounded",
+        options={"xatol": 1e-4 * top, "maxiter": 500},
+    )
+    return with_excess(found.x if found.fun <= costs[i] else grid[i])
 
 
 def _lag1(r: np.ndarray) -> float:

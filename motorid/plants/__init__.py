@@ -6,25 +6,48 @@
 >>> y = sim.step(3.0)               # one 40 ms sample at 3 V; measured load speed [rad/s]
 """
 
-from motorid.lazy import lazy_names
+from motorid.plants.amplifier import Amplifier
+from motorid.plants.friction import (
+    AsymmetricFriction,
+    CoulombFriction,
+    Friction,
+    LuGreFriction,
+    StaticFriction,
+    StribeckFriction,
+    ViscousFriction,
+    friction_from_dict,
+)
+from motorid.plants.rig import (
+    PHYSICAL_DEFAULTS,
+    RECORD_UNITS,
+    RigSimulation,
+    TwoMassRig,
+    paper_rig,
+    steady_state_speed,
+)
+from motorid.plants.rigid import RIGID_EFFECTS, RigidDrive
+from motorid.plants.sensors import ADConverter, Encoder, Tachogenerator, measure_speed
 
-#: The module of each name: imported at the name's first use, so that a rigid drive (and the
-#: doctor) runs without loading the two-mass rig and its compiled physics.
-_HOMES = {
-    "Amplifier": "amplifier",
-    **dict.fromkeys(
-        ("AsymmetricFriction", "CoulombFriction", "Friction", "LuGreFriction", "StaticFriction",
-         "StribeckFriction", "ViscousFriction", "friction_from_dict"),
-        "friction",
-    ),
-    **dict.fromkeys(
-        ("PHYSICAL_DEFAULTS", "RECORD_UNITS", "RigSimulation", "TwoMassRig", "paper_rig", "steady_state_speed"),
-        "rig",
-    ),
-    "RIGID_EFFECTS": "rigid",
-    "RigidDrive": "rigid",
-    **dict.fromkeys(("ADConverter", "Encoder", "Tachogenerator", "measure_speed"), "sensors"),
-}  # fmt: skip
-
-__getattr__, __dir__ = lazy_names(__name__, _HOMES)
-__all__ = sorted(_HOMES)
+__all__ = [
+    "PHYSICAL_DEFAULTS",
+    "RECORD_UNITS",
+    "RIGID_EFFECTS",
+    "ADConverter",
+    "Amplifier",
+    "AsymmetricFriction",
+    "CoulombFriction",
+    "Encoder",
+    "Friction",
+    "LuGreFriction",
+    "RigSimulation",
+    "RigidDrive",
+    "StaticFriction",
+    "StribeckFriction",
+    "Tachogenerator",
+    "TwoMassRig",
+    "ViscousFriction",
+    "friction_from_dict",
+    "measure_speed",
+    "paper_rig",
+    "steady_state_speed",
+]

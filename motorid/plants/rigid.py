@@ -66,11 +66,8 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from motorid import compiled
+from motorid.plants import physics
 from motorid.plants.ranges import MOST_DELAY_SAMPLES, SAMPLE_TIME, check_parameter
-
-#: The drive's compiled physics (:mod:`motorid.plants.physics`), ahead of time where built.
-physics = compiled.load("motorid.plants.physics")
 
 #: The effects of a rigid drive and their parameters, in the library's order.
 RIGID_EFFECTS: dict[str, tuple[str, ...]] = {

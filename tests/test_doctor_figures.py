@@ -1,0 +1,84 @@
+"""The doctor's results held on two records: the names it gives, why it stops, and its figures.
+
+The figures were recorded with SciPy designing and running the zero-phase filters and doing the
+bounded scalar searches; before that the doctor ran its own copies of both, and its JSON on
+these records (and on EMPS and the wheel motors) was byte for byte the same. A later SciPy, or a
+CPU whose vector code rounds differently, may change a last bit of a filtered signal. Such a
+change can move the end of a bounded search anywhere within its tolerance (``xatol`` 1e-3 in the
+logarithm of a shape parameter: 0.1 %; 1e-4 of the searched range for the breakaway excess), and
+the figures that follow from the parameter by as much: ``REL`` is twice that. A larger move is a
+changed result, not rounding.
+"""
+
+from __future__ import annotations
+
+import pytest
+from cli_fixtures import run
+from emps_fixtures import real_motor_file
+
+#: Relative tolerance of every figure (see the module notes).
+REL = 2e-3
+
+STAIRCASE = real_motor_file("l298n_staircase.csv")
+
+
+def assert_figures(found: dict[str, float], expected: dict[str, float]) -> None:
+    assert set(found) >= set(expected)
+    for key, value in expected.items():
+        assert found[key] == pytest.approx(value, rel=REL), key
+
+
+def test_the_readme_record_coulomb_friction_and_a_dead_zone(capsys, tmp_path):
+    """The README's simulated record (the default rig with a 0.6 V dead zone and extra Coulomb
+    friction on the motor), diagnosed as the README does."""
+    record = tmp_path / "rec.csv"
+    argv = ["--out", str(record), "--duration", "120", "--dead-zone", "0.6", "--coulomb-motor", "0.004"]
+    code, _, err = run(capsys, "simulate", *argv)
+    assert code == 0, err
+    code, out, err = run(capsys, "doctor", str(record), "--input-gain", "0.02142", "--json")
+    assert code == 0, err
+    assert out["structure"]["effects"] == []
+    assert [s["effect"] for s in out["steps"]] == ["coulomb_friction", "input_dead_zone"]
+    assert out["stop_reason"].startswith(
+        "no candidate passes the evidence threshold: the best, asymmetric_friction, has ΔBIC = "
+    ) and out["stop_reason"].endswith("at the noise floor, nothing more to explain")
+    assert out["model"]["effects"] == ["coulomb_friction", "viscous_friction", "input_dead_zone", "offset"]
+    assert_figures(out["initial_gap"], {"overall": 8.738, "force_error_percent": 23.682})
+    assert_figures(out["steps"][0]["gap_after"], {"overall": 0.9030, "force_error_percent": 7.2893})
+    assert_figures(out["final_gap"], {"overall": 0.5520, "force_error_percent": 6.5956})
+    assert out["noise_floor"] == pytest.approx(0.28148, rel=REL)
+    assert_figures(
+        out["model"]["params"],
+        {"inertia": 1.00508e-4, "coulomb": 4.9474e-3, "viscous": 9.4224e-4, "dead_zone": 0.65578},
+    )
+
+
+@pytest.mark.skipif(
+    not STAIRCASE.exists(), reason=f"real motor data not found at {STAIRCASE} (set MOTORID_DATA)"
+)
+def test_the_l298n_staircase_an_input_lag_and_static_friction(capsys):
+    """The L298N staircase of ``realmotors/`` (volts in, rpm out): the README's figures."""
+    code, out, err = run(
+        capsys, "doctor", str(STAIRCASE), "--input-unit", "V", "--output-unit", "rpm", "--json"
+    )
+    assert code == 0, err
+    assert out["structure"]["effects"] == ["input_lag"]
+    assert [s["effect"] for s in out["steps"]] == ["static_friction"]
+    assert (
+        out["stop_reason"].startswith(
+            "no candidate improves held-out data and shrinks the free-run gap beyond the noise: "
+            "coulomb_friction (held-out error "
+        )
+        and "something is still missing" in out["stop_reason"]
+    )
+    assert [r["effect"] for r in out["rejected"]] == [
+        "stribeck_friction", "coulomb_friction", "input_dead_zone", "stribeck_friction",
+    ]  # fmt: skip
+    assert out["structure"]["params"]["lag_time_constant"] == pytest.approx(0.041724, rel=REL)
+    assert_figures(out["initial_gap"], {"overall": 3.1633, "force_error_percent": 28.914})
+    assert_figures(out["final_gap"], {"overall": 1.3170, "force_error_percent": 13.298})
+    assert out["noise_floor"] == pytest.approx(0.091089, rel=REL)
+    assert_figures(
+        out["model"]["params"],
+        {"inertia": 0.035540, "viscous": 0.37313, "offset": 0.17546, "breakaway_excess": 3.8241},
+    )
