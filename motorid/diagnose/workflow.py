@@ -76,10 +76,12 @@ from motorid.diagnose.locate import Region, feature, features, locate
 from motorid.diagnose.model import (
     BalanceData,
     FitResult,
+    PooledBalance,
     bounded_minimum,
     fit_model,
     model_balance,
     model_key,
+    stacked,
 )
 from motorid.errors import DataError
 from motorid.plants.rigid import RigidDrive, check_sample_time, effect_order
@@ -118,7 +120,7 @@ class Prepared:
     timing: str
     units: dict[str, str]
     _masks: dict[Region, np.ndarray] = field(default_factory=dict, repr=False)
-    _gaps: dict[tuple, dict[str, float]] = field(default_factory=dict, repr=False)
+    _gaps: dict[tuple, tuple[dict[str, float], dict[str, float]]] = field(default_factory=dict, repr=False)
 
     def region_mask(self, region: Region) -> np.ndarray:
         """Full-rate samples inside ``region`` (cached per region)."""
@@ -272,18 +274,31 @@ def _rms(x: np.ndarray) -> float:
 
 def gaps(model: RigidDrive, prep: Prepared, region: Region | None) -> dict[str, float]:
     """Output gap overall and in ``region`` [v] (free run) and force error [%]."""
+    return dict(_gaps_and_weights(model, prep, region)[0])
+
+
+def _gaps_and_weights(
+    model: RigidDrive, prep: Prepared, region: Region | None
+) -> tuple[dict[str, float], dict[str, float]]:
+    """:func:`gaps` and what a pool weighs them by: the samples each RMS is over (``overall``,
+    ``region``) and the norm of the commanded force (``force_error_percent``)."""
     key = (model_key(model), region)
     if key not in prep._gaps:
         w_sim = prep.simulate(model)
         err = prep.kin.w - w_sim
         valid = prep.kin.valid & np.isfinite(w_sim)
+        in_region = valid & prep.region_mask(region) if region is not None else np.zeros_like(valid)
         r, f_in = balance_residual(model, prep.data)
-        prep._gaps[key] = {
-            "overall": _rms(err[valid]),
-            "region": _rms(err[valid & prep.region_mask(region)]) if region is not None else float("nan"),
-            "force_error_percent": 100.0 * float(np.linalg.norm(r) / max(np.linalg.norm(f_in), 1e-300)),
-        }
-    return dict(prep._gaps[key])
+        f_norm = float(np.linalg.norm(f_in))
+        prep._gaps[key] = (
+            {
+                "overall": _rms(err[valid]),
+                "region": _rms(err[in_region]) if region is not None else float("nan"),
+                "force_error_percent": 100.0 * float(np.linalg.norm(r) / max(f_norm, 1e-300)),
+            },
+            {"overall": int(valid.sum()), "region": int(in_region.sum()), "force_error_percent": f_norm},
+        )
+    return prep._gaps[key]
 
 
 def free_run_error(prep: Prepared, model: RigidDrive) -> np.ndarray:
@@ -293,22 +308,120 @@ def free_run_error(prep: Prepared, model: RigidDrive) -> np.ndarray:
     return err
 
 
-def fit_static_friction(prep: Prepared, model: RigidDrive, samples: np.ndarray) -> RigidDrive:
+# --------------------------------------------------------------------------- records of one drive
+@dataclass
+class Pool:
+    """The records of one drive, prepared, fitted and judged as one model.
+
+    The parameters are shared; each record keeps its own kinematics, filter edges, moving
+    samples and decimation, its own initial state (its free run starts from its own measured
+    speed) and its own time origin (each record's free run is compared with that record only).
+    The torque balance stacks the records' decimated rows (:class:`PooledBalance`), and every
+    figure of merit is pooled over the samples it is an RMS of:
+
+        gap = sqrt(Σ_i n_i gap_i² / Σ_i n_i),    σ_w = sqrt(Σ_i n_i σ_i² / Σ_i n_i),
+        force error = 100 sqrt(Σ_i ||r_i||²) / sqrt(Σ_i ||F_in,i||²)
+
+    (n_i the settled samples of record i). A pool of one record is that record: every figure
+    is the record's own, computed as for it alone.
+    """
+
+    parts: list[Prepared]
+    labels: list[str]
+    data: BalanceData | PooledBalance = field(init=False)
+    feats_dec: dict[str, np.ndarray] = field(init=False)
+    noise: float = field(init=False)
+
+    def __post_init__(self) -> None:
+        first = self.parts[0]
+        if len(self.parts) == 1:
+            self.data, self.feats_dec, self.noise = first.data, first.feats_dec, first.kin.noise
+            return
+        for label, part in zip(self.labels[1:], self.parts[1:], strict=True):
+            if abs(part.kin.dt - first.kin.dt) > 1e-6 * first.kin.dt or part.kin.factor != first.kin.factor:
+                raise DataError(
+                    f"{label}: sample time {part.kin.dt:.9g} s (decimation {part.kin.factor}) differs from "
+                    f"{self.labels[0]}'s {first.kin.dt:.9g} s ({first.kin.factor}): the records of one drive "
+                    "are pooled at one sample time (resample them first)"
+                )
+            if part.units != first.units:
+                raise DataError(
+                    f"{label}: units {part.units} differ from {self.labels[0]}'s {first.units}: the records "
+                    "of one drive are pooled in the same units"
+                )
+        counts = [int(p.kin.valid.sum()) for p in self.parts]
+        self.noise = math.sqrt(
+            sum(n * p.kin.noise**2 for n, p in zip(counts, self.parts, strict=True)) / max(sum(counts), 1)
+        )
+        self.data = PooledBalance(tuple(p.data for p in self.parts), self.noise)
+        self.feats_dec = {k: np.concatenate([p.feats_dec[k] for p in self.parts]) for k in first.feats_dec}
+
+    @property
+    def units(self) -> dict[str, str]:
+        return self.parts[0].units
+
+    @property
+    def dt(self) -> float:
+        return self.parts[0].kin.dt
+
+    def gaps(self, model: RigidDrive, region: Region | None) -> dict[str, float]:
+        """The pooled :func:`gaps` (see the class notes)."""
+        if len(self.parts) == 1:
+            return gaps(model, self.parts[0], region)
+        pairs = [_gaps_and_weights(model, p, region) for p in self.parts]
+        out = {}
+        for key in ("overall", "region", "force_error_percent"):
+            # a gap is an RMS over n samples, the force error a norm ratio: pool the squares
+            power = 2 if key == "force_error_percent" else 1
+            terms = [(g[key], w[key] ** power) for g, w in pairs]
+            terms = [(g, wt) for g, wt in terms if wt > 0 and math.isfinite(g)]
+            total = sum(wt for _, wt in terms)
+            out[key] = math.sqrt(sum(g * g * wt for g, wt in terms) / total) if total > 0 else float("nan")
+        return out
+
+    def record_gaps(self, model: RigidDrive, region: Region | None) -> list[dict[str, float]]:
+        """:func:`gaps` of each record."""
+        return [gaps(model, p, region) for p in self.parts]
+
+    def balance_residual(self, model: RigidDrive) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`balance_residual` of each record, stacked as the pooled rows are."""
+        if len(self.parts) == 1:
+            return balance_residual(model, self.parts[0].data)
+        pairs = [balance_residual(model, p.data) for p in self.parts]
+        return np.concatenate([r for r, _ in pairs]), np.concatenate([f for _, f in pairs])
+
+    def free_run_error(self, model: RigidDrive, samples: list[np.ndarray] | None = None) -> np.ndarray:
+        """:func:`free_run_error` of each record (on its full-rate ``samples``), stacked."""
+        errors = [free_run_error(p, model) for p in self.parts]
+        if samples is not None:
+            errors = [e[m] for e, m in zip(errors, samples, strict=True)]
+        return stacked(errors)
+
+    def holdout_rows(self, fraction: float) -> np.ndarray:
+        """Each record's held-out decimated rows (:func:`holdout_rows`), stacked."""
+        return stacked([holdout_rows(p.data.n, fraction) for p in self.parts])
+
+    def holdout_samples(self, fraction: float) -> list[np.ndarray]:
+        """Each record's held-out full-rate samples: the same blocks as :meth:`holdout_rows`."""
+        return [holdout_rows(p.kin.n, fraction) for p in self.parts]
+
+
+def fit_static_friction(pool: Pool, model: RigidDrive, samples: list[np.ndarray]) -> RigidDrive:
     """``model`` with ``static_friction``, its ``breakaway_excess`` ΔF_s [F] the one that minimises
-    the free-run gap on the full-rate ``samples``.
+    the free-run gap on the full-rate ``samples`` of each record of ``pool``.
 
     Static friction acts on a drive at rest only (the stick/slip rule of the free run), so the
     balance of the moving samples cannot fit it: a grid of 17 values on [0, half the largest
     input force] and a bounded search between the best one's neighbours, on the free run.
     """
     effects = tuple(dict.fromkeys((*model.effects, "static_friction")))
-    top = 0.5 * prep.data.scale["u_max"] * abs(model.input_gain)
+    top = 0.5 * pool.data.scale["u_max"] * abs(model.input_gain)
 
     def with_excess(excess: float) -> RigidDrive:
         return model.with_effects(effects, {**model.params, "breakaway_excess": float(excess)})
 
     def cost(excess: float) -> float:
-        err = free_run_error(prep, with_excess(excess))[samples]
+        err = pool.free_run_error(with_excess(excess), samples)
         err = err[np.isfinite(err)]
         return float(np.mean(err**2)) if err.size else math.inf
 
@@ -412,6 +525,9 @@ class Step:
         ΔBIC and its threshold, held-out errors [F], the candidate ranking.
     model : RigidDrive
         The refitted model after this step.
+    record_gaps : list of dict
+        Several records: each record's ``record`` label and overall ``gap_before`` and
+        ``gap_after`` [v] (the step's gaps are the pooled ones); empty for one record.
     """
 
     effect: str
@@ -421,9 +537,10 @@ class Step:
     gap_after: dict[str, float]
     evidence: dict[str, Any]
     model: RigidDrive
+    record_gaps: list[dict[str, Any]] = field(default_factory=list)
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        out = {
             "effect": self.effect,
             "params": self.params,
             "region": self.region.to_dict(),
@@ -432,6 +549,9 @@ class Step:
             "evidence": self.evidence,
             "model_params": self.model.params,
         }
+        if self.record_gaps:
+            out["record_gaps"] = self.record_gaps
+        return out
 
 
 @dataclass
@@ -474,6 +594,11 @@ class Diagnosis:
         Standard error of each linear parameter of the final model (inertia and the
         effects' levels, in the units of ``param_units``), from the fit's residual
         (:func:`motorid.diagnose.model.linear_param_std`); shape parameters have none.
+    records : list of dict
+        Several records of one drive (:class:`Pool`): per record its ``record`` label,
+        ``samples``, ``noise_floor`` [v], ``initial_gap`` and ``final_gap`` (as above, of that
+        record alone) and ``final_gap_noise_floors``; the gaps above are the pooled ones.
+        Empty for one record.
     """
 
     initial_gap: dict[str, float]
@@ -493,7 +618,8 @@ class Diagnosis:
     param_std: dict[str, float] = field(default_factory=dict)
     structure: Structure = field(default_factory=Structure)
     structure_model: RigidDrive | None = None
-    _prep: Prepared | None = field(default=None, repr=False)
+    records: list[dict[str, Any]] = field(default_factory=list)
+    _pool: Pool | None = field(default=None, repr=False)
 
     @property
     def named(self) -> list[str]:
@@ -550,6 +676,7 @@ class Diagnosis:
             },
             "refitted_gap": self.refitted_gap,
             "structure": self.structure.to_dict(),
+            **({"records": self.records} if self.records else {}),
         }
 
     def table(self) -> pd.DataFrame:
@@ -607,15 +734,44 @@ class Diagnosis:
         return df
 
     def write_figures(self, out_dir: str | Path) -> list[Path]:
-        """PNG figures: residual against speed before/after each step; simulation against measurement."""
+        """PNG figures: residual against speed before/after each step; simulation against measurement.
+
+        Several records: one pair of figures per record, named with its number (``doctor_2_...``).
+        """
         from motorid.diagnose.figures import write_figures
 
-        if self._prep is None:
+        if self._pool is None:
             raise ValueError("this diagnosis holds no record data to plot")
-        return write_figures(self, self._prep, Path(out_dir))
+        parts = self._pool.parts
+        if len(parts) == 1:
+            return write_figures(self, parts[0], Path(out_dir))
+        return [
+            path
+            for k, prep in enumerate(parts, 1)
+            for path in write_figures(self, prep, Path(out_dir), prefix=f"doctor_{k}_")
+        ]
 
 
 # --------------------------------------------------------------------------- workflow
+def record_summaries(
+    pool: Pool, initial: RigidDrive, final: RigidDrive, region: Region
+) -> list[dict[str, Any]]:
+    """Each record's gaps of the ``initial`` and ``final`` models and its noise floor
+    (:attr:`Diagnosis.records`); none for a pool of one record."""
+    if len(pool.parts) == 1:
+        return []
+    out = []
+    for label, prep, before, after in zip(
+        pool.labels, pool.parts, pool.record_gaps(initial, region), pool.record_gaps(final, region), strict=True
+    ):
+        floor = prep.kin.noise
+        out.append({
+            "record": label, "samples": prep.kin.n, "noise_floor": floor, "initial_gap": before,
+            "final_gap": after, "final_gap_noise_floors": after["overall"] / floor if floor > 0 else math.inf,
+        })  # fmt: skip
+    return out
+
+
 def _against_noise(
     gap: float, region_gap: float, region: Region, floor: float, missing_factor: float, unit: str
 ) -> str:
@@ -635,7 +791,7 @@ STRUCTURES: tuple[tuple[str, ...], ...] = (("input_delay",), ("input_lag",), ("i
 
 
 def choose_structure(
-    prep: Prepared,
+    pool: Pool,
     base: tuple[str, ...],
     start: dict[str, float],
     stribeck_shape: str,
@@ -643,7 +799,7 @@ def choose_structure(
     min_gap_shrink: float,
     noise_shrink: float,
 ) -> Structure:
-    """Choose the input delay and lag of the drive from the record, before friction is judged.
+    """Choose the input delay and lag of the drive from its records, before friction is judged.
 
     The base and Coulomb friction (the probe) are fitted to the torque balance on the moving
     samples with each structure of :data:`STRUCTURES` added (the delay and the time constant
@@ -652,11 +808,11 @@ def choose_structure(
     ``threshold`` and its free-run output gap shrinks by more than ``min_gap_shrink`` of the
     probe's and by more than ``noise_shrink`` noise floors: the same rules as a step.
     """
-    data = prep.data
-    floor = prep.kin.noise
+    data = pool.data
+    floor = pool.noise
     probe = effect_order((*base, "coulomb_friction"))
     fit_p = fit_model(data, probe, start=start, stribeck_shape=stribeck_shape)
-    gap_p = gaps(fit_p.model, prep, None)["overall"]
+    gap_p = pool.gaps(fit_p.model, None)["overall"]
     tried: list[dict[str, Any]] = []
     fits: dict[tuple[str, ...], FitResult] = {}
 
@@ -703,7 +859,7 @@ def choose_structure(
     reasons = []
     for row in passing:
         names = tuple(row["effects"])
-        row["gap"] = gap1 = gaps(fits[names].model, prep, None)["overall"]
+        row["gap"] = gap1 = pool.gaps(fits[names].model, None)["overall"]
         shrink = (gap_p - gap1) / floor if floor > 0 else math.inf
         if gap1 < (1.0 - min_gap_shrink) * gap_p and shrink > noise_shrink:
             reason = (
@@ -742,7 +898,7 @@ def _names(value: Sequence[str] | str | None, what: str) -> tuple[str, ...]:
 
 
 def diagnose(
-    record: pd.DataFrame,
+    record: pd.DataFrame | Sequence[pd.DataFrame],
     dt: float | None = None,
     input: str = "u",
     output: str = "y",
@@ -763,13 +919,18 @@ def diagnose(
     band: float | None = None,
     model: RigidDrive | None = None,
     structure: bool = True,
+    labels: Sequence[str] | None = None,
 ) -> Diagnosis:
     """Find the effects missing from a rigid drive model of ``record`` (see the module notes).
 
     Parameters
     ----------
-    record : pandas.DataFrame
-        The measurement; ``attrs["dt"]`` is used when ``dt`` is None.
+    record : pandas.DataFrame or sequence of DataFrame
+        The measurement; ``attrs["dt"]`` is used when ``dt`` is None. Several records of one
+        drive (at one sample time, read with the same options) are fitted as one model
+        (:class:`Pool`): shared parameters, each record its own initial state and time origin;
+        each candidate is judged on the pooled evidence, and :attr:`Diagnosis.records` holds
+        the gaps of each record.
     dt : float, optional
         Sample time [s], > 0; default from ``attrs["dt"]`` or the ``t`` column.
     input, output : str
@@ -825,6 +986,8 @@ def diagnose(
         Choose the input delay and lag from the record before any other effect is
         judged (:func:`choose_structure`; skipped when the base already holds one);
         the chosen values are held in every later fit. False: the base as given.
+    labels : sequence of str, optional
+        A name for each record in the report (e.g. its file); default ``record 1``, ``record 2``...
 
     Returns
     -------
@@ -852,8 +1015,22 @@ def diagnose(
     if not isinstance(holdout, pd.DataFrame):
         if isinstance(holdout, bool) or not isinstance(holdout, int | float) or not 0.0 < holdout < 0.9:
             raise DataError(f"holdout must be a fraction in (0, 0.9) or a DataFrame, got {holdout!r}")
+    records = [record] if isinstance(record, pd.DataFrame) else record
+    if isinstance(records, str) or not isinstance(records, Sequence) or not records:
+        raise DataError(
+            f"record must be a pandas DataFrame or a non-empty sequence of them, got {type(record).__name__}"
+        )
+    labels = [f"record {k + 1}" for k in range(len(records))] if labels is None else [str(x) for x in labels]
+    if len(labels) != len(records):
+        raise DataError(f"labels: {len(labels)} labels for {len(records)} records")
     if timing is None:
-        timing = record_timing(getattr(record, "attrs", {}))
+        own = [record_timing(getattr(r, "attrs", {})) for r in records]
+        if len(set(own)) > 1:
+            raise DataError(
+                f"the records say different timings ({', '.join(f'{x}: {t}' for x, t in zip(labels, own, strict=True))}): "
+                "pass timing= for all of them"
+            )
+        timing = own[0]
     if timing not in ("auto", "hold", "sampled"):
         raise DataError(f"timing must be 'auto', 'hold' or 'sampled', got {timing!r}")
     if not isinstance(structure, bool):
@@ -867,36 +1044,48 @@ def diagnose(
 
     opts = {"dt": dt, "input": input, "output": output, "output_kind": output_kind,
             "input_gain": input_gain, "band": band}  # fmt: skip
+
+    def pooled(timing: str) -> Pool:
+        parts = []
+        for label, r in zip(labels, records, strict=True):
+            try:
+                parts.append(prepare(r, timing=timing, **opts))
+            except DataError as exc:
+                raise DataError(f"{label}: {exc}" if len(records) > 1 else str(exc)) from None
+        return Pool(parts, labels)
+
     if timing == "auto":
-        preps = [prepare(record, timing=t, **opts) for t in ("hold", "sampled")]
+        pools = [pooled(t) for t in ("hold", "sampled")]
         scores = []
-        for p in preps:
+        for p in pools:
             fit = fit_model(p.data, base_names, stribeck_shape=stribeck_shape)
-            scores.append(
-                fit.rss / max(float(np.sum(p.data.kin.decimate(p.data.kin.u)[p.data.moving] ** 2)), 1e-300)
-            )
-        prep = preps[int(np.argmin(scores))]
-        preps.clear()  # the other timing's arrays go now
+            commanded = sum(float(np.sum(q.data.kin.decimate(q.data.kin.u)[q.data.moving] ** 2)) for q in p.parts)
+            scores.append(fit.rss / max(commanded, 1e-300))
+        pool = pools[int(np.argmin(scores))]
+        pools.clear()  # the other timing's arrays go now
     else:
-        prep = prepare(record, timing=timing, **opts)
-    data = prep.data
-    settings = {**opts, "dt": prep.kin.dt, "timing": prep.timing, "band": prep.kin.band,
+        pool = pooled(timing)
+    data = pool.data
+    first = pool.parts[0]
+    settings = {**opts, "dt": first.kin.dt, "timing": first.timing, "band": first.kin.band,
                 "base": list(base_names), "candidates": list(cand_names), "threshold": threshold,
                 "noise_shrink": noise_shrink, "missing_factor": missing_factor,
                 "holdout": "record" if isinstance(holdout, pd.DataFrame) else holdout,
                 "max_steps": int(max_steps), "model": "given" if model is not None else "fitted",
                 "stribeck_shape": stribeck_shape, "structure": structure}  # fmt: skip
+    if len(records) > 1:
+        settings["records"] = list(labels)
 
     if isinstance(holdout, pd.DataFrame):
-        other = prepare(holdout, **{**opts, "dt": None if dt is None else dt}, timing=prep.timing)
+        other = prepare(holdout, **opts, timing=first.timing)
         train = np.ones(data.n, dtype=bool)
-        held_data, held_rows = other.data, other.data.moving
+        held_rows = other.data.moving
     else:
-        held = holdout_rows(data.n, float(holdout))
-        train, held_data, held_rows = ~held, data, held & data.moving
+        held = pool.holdout_rows(float(holdout))
+        train, held_rows = ~held, held & data.moving
     # the same blocks at full rate, for effects judged on the free run (static friction)
-    held_full = None if isinstance(holdout, pd.DataFrame) else holdout_rows(prep.kin.n, float(holdout))
-    all_full = np.ones(prep.kin.n, dtype=bool)
+    held_full = None if isinstance(holdout, pd.DataFrame) else pool.holdout_samples(float(holdout))
+    all_full = [np.ones(p.kin.n, dtype=bool) for p in pool.parts]
 
     def held_free_run(model: RigidDrive, fitted_on_train: RigidDrive | None) -> float:
         """Free-run gap [v] on the held-out samples (or the second record) of ``model``, or, for a
@@ -905,7 +1094,7 @@ def diagnose(
             model = fitted_on_train
         if held_full is None:
             return _rms(free_run_error(other, model))
-        return _rms(free_run_error(prep, model)[held_full])
+        return _rms(pool.free_run_error(model, held_full))
 
     fixed: dict[str, float] = {}  # the structure's delay and lag once chosen
 
@@ -915,7 +1104,10 @@ def diagnose(
         inertia = fit.model.params["inertia"]
         if not inertia > 0:
             return math.inf
-        r, _ = balance_residual(fit.model, held_data)
+        if held_full is None:
+            r, _ = balance_residual(fit.model, other.data)
+        else:
+            r, _ = pool.balance_residual(fit.model)
         return _rms(r[held_rows]) / inertia
 
     current = tuple(base_names)
@@ -930,15 +1122,15 @@ def diagnose(
     )
     fit0 = fit_model(data, current, stribeck_shape=stribeck_shape, start=kept or None)
     # the user's model as given (at the record's sample time), else the fitted base
-    initial_model = fit0.model if model is None else model.replace(dt=prep.kin.dt)
-    r0, _ = balance_residual(initial_model, data)
+    initial_model = fit0.model if model is None else model.replace(dt=pool.dt)
+    r0, _ = pool.balance_residual(initial_model)
     refitted_model = fit0.model
-    first_region = locate(r0, prep.feats_dec, prep.units)
+    first_region = locate(r0, pool.feats_dec, pool.units)
     steps: list[Step] = []
     rejected: list[dict[str, Any]] = []
     stop_reason = f"max_steps = {max_steps} reached"
-    floor = prep.kin.noise
-    v = prep.units["v"]
+    floor = pool.noise
+    v = pool.units["v"]
     chosen = Structure(
         reason="not searched: " + ("structure=False" if not structure else "the base holds it")
     )
@@ -946,7 +1138,7 @@ def diagnose(
     if structure and not any(EFFECTS[n].structure for n in current):
         bar.set_postfix_str("base structure")
         chosen = choose_structure(
-            prep, current, fit0.model.params, stribeck_shape, threshold, min_gap_shrink, noise_shrink
+            pool, current, fit0.model.params, stribeck_shape, threshold, min_gap_shrink, noise_shrink
         )
         if chosen.effects:
             fixed.update(chosen.params)
@@ -966,11 +1158,11 @@ def diagnose(
         if not remaining:
             stop_reason = "every candidate effect is already in the model (or needs one that is not)"
             break
-        r_cur, _ = balance_residual(fit0.model, data)
+        r_cur, _ = pool.balance_residual(fit0.model)
         region = (
-            first_region if not steps and not chosen.effects else locate(r_cur, prep.feats_dec, prep.units)
+            first_region if not steps and not chosen.effects else locate(r_cur, pool.feats_dec, pool.units)
         )
-        gap0 = gaps(fit0.model, prep, region)
+        gap0 = pool.gaps(fit0.model, region)
         if steps and gap0["overall"] <= (1.0 + noise_shrink) * floor:
             stop_reason = (
                 f"the free-run gap {gap0['overall']:.4g} {v} is {gap0['overall'] / floor:.2f} x the noise "
@@ -981,8 +1173,8 @@ def diagnose(
         for name in tqdm(remaining, desc="candidates", disable=not progress, leave=False):
             if get_effect(name).rest_only:
                 # static friction: fitted and judged on the free run, the only place it shows
-                fitted = fit_static_friction(prep, fit0.model, all_full)
-                err0, err1 = free_run_error(prep, fit0.model), free_run_error(prep, fitted)
+                fitted = fit_static_friction(pool, fit0.model, all_full)
+                err0, err1 = pool.free_run_error(fit0.model), pool.free_run_error(fitted)
                 ok = np.isfinite(err0) & np.isfinite(err1)
                 fit = FitResult(
                     fitted, fit0.rss, fit0.rss_force, fit0.n_rows, fit0.n_params + 1, fit0.residual
@@ -1019,7 +1211,7 @@ def diagnose(
         drop_best = fit0.rss - best["fit"].rss
         alike = [c for c in passing if fit0.rss - c["fit"].rss >= ALIKE * drop_best]
         for c in alike:
-            c["free_run_gap"] = gaps(c["fit"].model, prep, region)["overall"]
+            c["free_run_gap"] = pool.gaps(c["fit"].model, region)["overall"]
         order = list(passing)
         if len(alike) > 1:
             pick = min(alike, key=lambda c: np.nan_to_num(c["free_run_gap"], nan=np.inf))
@@ -1032,12 +1224,14 @@ def diagnose(
         for c in order:
             name = c["effect"]
             if get_effect(name).rest_only:  # held out on the free run: ΔF_s fitted on the training samples
-                trained = fit_static_friction(prep, fit0.model, all_full if held_full is None else ~held_full)
+                trained = fit_static_friction(
+                    pool, fit0.model, all_full if held_full is None else [~m for m in held_full]
+                )
                 base_held_c, cand_held = held_free_run(fit0.model, None), held_free_run(fit0.model, trained)
             else:
                 base_held_c = base_held
                 cand_held = held_error((*current, name), c["fit"].model.params)
-            gap1 = gaps(c["fit"].model, prep, region)
+            gap1 = pool.gaps(c["fit"].model, region)
             ok_held = cand_held < (1.0 - min_holdout_gain) * base_held_c
             ok_gap = gap1["overall"] < (1.0 - min_gap_shrink) * gap0["overall"]
             shrink = (gap0["overall"] - gap1["overall"]) / floor if floor > 0 else math.inf
@@ -1052,7 +1246,7 @@ def diagnose(
                 break
             why = []
             if not ok_held:
-                unit = prep.units["v"] if get_effect(name).rest_only else prep.units["v"] + "/s"
+                unit = v if get_effect(name).rest_only else v + "/s"
                 why.append(f"held-out error {cand_held:.4g} vs {base_held_c:.4g} {unit}")
             if not ok_gap:
                 why.append(f"free-run gap {gap1['overall']:.4g} vs {gap0['overall']:.4g} {v}")
@@ -1082,7 +1276,15 @@ def diagnose(
             "chosen_by": "free-run gap among alike candidates" if c is not passing[0] else "evidence",
             "ranking": table,
         }  # fmt: skip
-        steps.append(Step(c["effect"], params, region, gap0, gap1, ev, fit1.model))
+        record_gaps = [
+            {"record": label, "gap_before": before["overall"], "gap_after": after["overall"]}
+            for label, before, after in zip(
+                labels, pool.record_gaps(fit0.model, region), pool.record_gaps(fit1.model, region), strict=True
+            )
+        ]
+        steps.append(
+            Step(c["effect"], params, region, gap0, gap1, ev, fit1.model, record_gaps if len(labels) > 1 else [])
+        )
         logger.info("added %s: %s", c["effect"], params)
         current = fit1.model.effects
         fit0 = fit1
@@ -1090,15 +1292,15 @@ def diagnose(
     bar.total = bar.n + 1  # a diagnosis that stops early skips the steps it did not take
     bar.set_postfix_str("final gaps")
     final_model = fit0.model
-    initial_gap = gaps(initial_model, prep, first_region)
-    refitted_gap = None if model is None else gaps(refitted_model, prep, first_region)
+    initial_gap = pool.gaps(initial_model, first_region)
+    refitted_gap = None if model is None else pool.gaps(refitted_model, first_region)
     if steps or chosen.effects:
-        final_gap = gaps(final_model, prep, first_region)
+        final_gap = pool.gaps(final_model, first_region)
     else:
         final_gap = dict(initial_gap if refitted_gap is None else refitted_gap)
-    final_region = locate(balance_residual(final_model, data)[0], prep.feats_dec, prep.units)
+    final_region = locate(pool.balance_residual(final_model)[0], pool.feats_dec, pool.units)
     stop_reason += "; " + _against_noise(
-        final_gap["overall"], gaps(final_model, prep, final_region)["region"], final_region, floor,
+        final_gap["overall"], pool.gaps(final_model, final_region)["region"], final_region, floor,
         missing_factor, v,
     )  # fmt: skip
     bar.update(1)
@@ -1106,10 +1308,10 @@ def diagnose(
     return Diagnosis(
         initial_gap=initial_gap, final_gap=final_gap, steps=steps, stop_reason=stop_reason,
         noise_floor=floor, final_region=final_region,
-        model=final_model, initial_model=initial_model, region=first_region, units=prep.units,
+        model=final_model, initial_model=initial_model, region=first_region, units=pool.units,
         settings=settings, rejected=rejected, refitted_model=None if model is None else refitted_model,
         refitted_gap=refitted_gap, param_std=fit0.param_std, structure=chosen, structure_model=structure_model,
-        _prep=prep,
+        records=record_summaries(pool, initial_model, final_model, first_region), _pool=pool,
     )  # fmt: skip
 
 
@@ -1118,6 +1320,7 @@ __all__ = [
     "DEFAULT_THRESHOLD",
     "STRUCTURES",
     "Diagnosis",
+    "Pool",
     "Prepared",
     "Step",
     "Structure",
