@@ -317,7 +317,10 @@ def _linear_solve(
         return part.balance_force(force)
 
     target = stacked(
-        [part.decimated("F|" + "|".join(key_parts), lambda part=part: balance_force(part)) for part in data.parts]
+        [
+            part.decimated("F|" + "|".join(key_parts), lambda part=part: balance_force(part))
+            for part in data.parts
+        ]
     )
     names = ["inertia"]
     keys = ["a"]

@@ -762,7 +762,11 @@ def record_summaries(
         return []
     out = []
     for label, prep, before, after in zip(
-        pool.labels, pool.parts, pool.record_gaps(initial, region), pool.record_gaps(final, region), strict=True
+        pool.labels,
+        pool.parts,
+        pool.record_gaps(initial, region),
+        pool.record_gaps(final, region),
+        strict=True,
     ):
         floor = prep.kin.noise
         out.append({
@@ -1059,7 +1063,9 @@ def diagnose(
         scores = []
         for p in pools:
             fit = fit_model(p.data, base_names, stribeck_shape=stribeck_shape)
-            commanded = sum(float(np.sum(q.data.kin.decimate(q.data.kin.u)[q.data.moving] ** 2)) for q in p.parts)
+            commanded = sum(
+                float(np.sum(q.data.kin.decimate(q.data.kin.u)[q.data.moving] ** 2)) for q in p.parts
+            )
             scores.append(fit.rss / max(commanded, 1e-300))
         pool = pools[int(np.argmin(scores))]
         pools.clear()  # the other timing's arrays go now
@@ -1276,15 +1282,14 @@ def diagnose(
             "chosen_by": "free-run gap among alike candidates" if c is not passing[0] else "evidence",
             "ranking": table,
         }  # fmt: skip
-        record_gaps = [
-            {"record": label, "gap_before": before["overall"], "gap_after": after["overall"]}
-            for label, before, after in zip(
-                labels, pool.record_gaps(fit0.model, region), pool.record_gaps(fit1.model, region), strict=True
-            )
+        before, after = pool.record_gaps(fit0.model, region), pool.record_gaps(fit1.model, region)
+        per_record = [
+            {"record": label, "gap_before": g0["overall"], "gap_after": g1["overall"]}
+            for label, g0, g1 in zip(labels, before, after, strict=True)
         ]
-        steps.append(
-            Step(c["effect"], params, region, gap0, gap1, ev, fit1.model, record_gaps if len(labels) > 1 else [])
-        )
+        step = Step(c["effect"], params, region, gap0, gap1, ev, fit1.model)
+        step.record_gaps = per_record if len(labels) > 1 else []
+        steps.append(step)
         logger.info("added %s: %s", c["effect"], params)
         current = fit1.model.effects
         fit0 = fit1
