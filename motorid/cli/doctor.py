@@ -127,6 +127,8 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     for step in diagnosis.steps:
         params = ", ".join(f"{k} = {v:.5g} {param_units[k]}" for k, v in step.params.items())
         say(f"  + {step.effect}: {params} (ΔBIC {step.evidence['delta_bic']:.1f})")
+        if step.lookalike is not None:
+            say(f"    {step.lookalike.describe(units)}")
     say(
         f"  gap {diagnosis.initial_gap['overall']:.4g} -> {diagnosis.final_gap['overall']:.4g} {units['v']}, "
         f"force error {diagnosis.initial_gap['force_error_percent']:.2f} % -> "

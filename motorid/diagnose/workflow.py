@@ -39,6 +39,24 @@ The workflow (:func:`diagnose`):
    candidate passes, all are in the model or ``max_steps`` is reached.
    :attr:`Diagnosis.stop_reason` says which, and how far the final gap is from
    the noise floor.
+
+   **Lookalikes**: effects that are forms of one physics
+   (:meth:`Effect.physics <motorid.diagnose.effects.Effect.physics>`: Coulomb
+   friction, an input dead zone and, in a model without either, a Stribeck decay
+   are kinetic friction; beside a kinetic level, Stribeck and static friction are
+   breakaway friction) fit alike when both pass the evidence threshold and their
+   free-run gaps lie within ``noise_shrink`` noise floors of each other: the data
+   cannot tell them apart (a drive that never reverses while moving is held back
+   alike by Coulomb friction and a dead zone). **The rule**: of effects that fit
+   alike, the first in the library's order
+   (:data:`~motorid.diagnose.effects.EFFECTS`: ``coulomb_friction``,
+   ``stribeck_friction``, ..., ``input_dead_zone``, ..., ``static_friction``) is
+   named, whichever the evidence ranked first, so one physics gets one name on
+   every record of a motor; the step reports the others beside it with their
+   levels and free-run gaps (:class:`Lookalike`). It prefers the effect the
+   balance of the moving drive measures (a Coulomb or Stribeck level, with a
+   standard error) over one that only a dead zone's input path or the free run
+   at rest sees.
 5. **Show**: the gaps before and after each step (:meth:`Diagnosis.table`) and
    figures (:meth:`Diagnosis.write_figures`).
 
@@ -62,7 +80,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -508,6 +526,49 @@ class Structure:
 
 
 @dataclass
+class Lookalike:
+    """Effects the data cannot tell apart: one physics, fitted alike by two or more effects.
+
+    Attributes
+    ----------
+    physics : str
+        What they are forms of (:meth:`Effect.physics <motorid.diagnose.effects.Effect.physics>`),
+        e.g. ``kinetic friction``.
+    named : str
+        The effect the lookalike rule named (:func:`diagnose`, step 4).
+    gaps : dict
+        Effect -> free-run gap [v] of the model with it, the named one first.
+    levels : dict
+        Effect -> the size of the physics in that model [F] (:meth:`Effect.level <motorid.diagnose.effects.Effect.level>`).
+    tolerance : float
+        Two gaps closer than this [v] fit alike: ``noise_shrink`` noise floors.
+    """
+
+    physics: str
+    named: str
+    gaps: dict[str, float]
+    levels: dict[str, float]
+    tolerance: float
+
+    def describe(self, units: dict[str, str]) -> str:
+        """One line, e.g. ``kinetic friction 0.73 V: coulomb_friction and input_dead_zone fit alike
+        (free-run gap 4.77 vs 4.80 rad/s); named coulomb_friction by the lookalike rule``."""
+        names = list(self.gaps)
+        figures = " vs ".join(f"{g:.3g}" for g in self.gaps.values())
+        return (
+            f"{self.physics} {self.levels[self.named]:.3g} {units['F']}: {' and '.join(names)} fit alike "
+            f"(free-run gap {figures} {units['v']}, within {self.tolerance:.3g} {units['v']}); named "
+            f"{self.named} by the lookalike rule (the first in the library's order)"
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "physics": self.physics, "named": self.named, "effects": list(self.gaps),
+            "free_run_gaps": self.gaps, "levels": self.levels, "tolerance": self.tolerance,
+        }  # fmt: skip
+
+
+@dataclass
 class Step:
     """One accepted effect.
 
@@ -528,6 +589,8 @@ class Step:
     record_gaps : list of dict
         Several records: each record's ``record`` label and overall ``gap_before`` and
         ``gap_after`` [v] (the step's gaps are the pooled ones); empty for one record.
+    lookalike : Lookalike or None
+        The effects that fit alike here, and which one the lookalike rule named.
     """
 
     effect: str
@@ -538,6 +601,7 @@ class Step:
     evidence: dict[str, Any]
     model: RigidDrive
     record_gaps: list[dict[str, Any]] = field(default_factory=list)
+    lookalike: Lookalike | None = None
 
     def to_dict(self) -> dict[str, Any]:
         out = {
@@ -551,6 +615,8 @@ class Step:
         }
         if self.record_gaps:
             out["record_gaps"] = self.record_gaps
+        if self.lookalike is not None:
+            out["lookalike"] = self.lookalike.to_dict()
         return out
 
 
@@ -627,6 +693,11 @@ class Diagnosis:
         return [s.effect for s in self.steps]
 
     @property
+    def lookalikes(self) -> list[Lookalike]:
+        """The steps' lookalikes: effects that fit alike and the one the rule named."""
+        return [s.lookalike for s in self.steps if s.lookalike is not None]
+
+    @property
     def param_units(self) -> dict[str, str]:
         """Concrete unit of each parameter of the final model, e.g. ``{"coulomb": "N m"}``."""
         return {name: param_unit(name, self.units) for name in self.model.params}
@@ -677,6 +748,7 @@ class Diagnosis:
             "refitted_gap": self.refitted_gap,
             "structure": self.structure.to_dict(),
             **({"records": self.records} if self.records else {}),
+            **({"lookalikes": [x.to_dict() for x in self.lookalikes]} if self.lookalikes else {}),
         }
 
     def table(self) -> pd.DataFrame:
@@ -753,6 +825,52 @@ class Diagnosis:
 
 
 # --------------------------------------------------------------------------- workflow
+def _lookalike_rule(
+    accepted: tuple[dict[str, Any], dict[str, float], dict[str, Any]],
+    passing: list[dict[str, Any]],
+    judge: Callable[[dict[str, Any]], tuple[bool, dict[str, float], dict[str, Any]]],
+    pool: Pool,
+    region: Region,
+    tolerance: float,
+    model: tuple[str, ...],
+) -> tuple[tuple[dict[str, Any], dict[str, float], dict[str, Any]], Lookalike | None]:
+    """The lookalike rule (step 4 of the module notes): among the accepted candidate and the
+    passing candidates of the same physics (:meth:`Effect.physics
+    <motorid.diagnose.effects.Effect.physics>` in the ``model`` they are added to) whose
+    free-run gap lies within ``tolerance`` [v] of its own, the first in the library's order
+    (:data:`~motorid.diagnose.effects.EFFECTS`) is named, when it passes :func:`diagnose`'s
+    checks too. Returns the candidate accepted and the lookalike (None when nothing fits alike).
+    """
+    c, gap1, _ = accepted
+    physics = get_effect(c["effect"]).physics(model)
+    if not physics:
+        return accepted, None
+    alike = [(c, gap1)]
+    for m in passing:
+        if m is not c and get_effect(m["effect"]).physics(model) == physics:
+            gap_m = pool.gaps(m["fit"].model, region)
+            if abs(gap_m["overall"] - gap1["overall"]) <= tolerance:
+                alike.append((m, gap_m))
+    if len(alike) == 1:
+        return accepted, None
+    order = list(EFFECTS)
+    preferred = min(alike, key=lambda item: order.index(item[0]["effect"]))[0]
+    if preferred is not c:
+        ok, gap_p, record_p = judge(preferred)
+        if ok:
+            accepted = (preferred, gap_p, record_p)
+    named = accepted[0]
+    alike.sort(key=lambda item: item[0] is not named)
+    lookalike = Lookalike(
+        physics=physics,
+        named=named["effect"],
+        gaps={m["effect"]: g["overall"] for m, g in alike},
+        levels={m["effect"]: get_effect(m["effect"]).level(m["fit"].model.params) for m, _ in alike},
+        tolerance=tolerance,
+    )
+    return accepted, lookalike
+
+
 def record_summaries(
     pool: Pool, initial: RigidDrive, final: RigidDrive, region: Region
 ) -> list[dict[str, Any]]:
@@ -1224,10 +1342,20 @@ def diagnose(
             if pick["free_run_gap"] < 0.98 * best["free_run_gap"]:
                 order.remove(pick)
                 order.insert(0, pick)
-        accepted = None
-        reasons = []
         base_held = held_error(current, fit0.model.params)
-        for c in order:
+
+        def judge(
+            c: dict[str, Any],
+            fit0: FitResult = fit0,
+            base_held: float = base_held,
+            region: Region = region,
+            gap0: dict[str, float] = gap0,
+            current: tuple[str, ...] = current,
+            v: str = v,
+        ) -> tuple[bool, dict[str, float], dict[str, Any]]:
+            """Whether candidate ``c`` improves held-out data and shrinks the free-run gap beyond the
+            noise (against this step's model ``fit0``); its gaps; and its record (with the reason
+            when it does not)."""  # fmt: skip
             name = c["effect"]
             if get_effect(name).rest_only:  # held out on the free run: ΔF_s fitted on the training samples
                 trained = fit_static_friction(
@@ -1247,9 +1375,6 @@ def diagnose(
                 "held_out_error_after": cand_held, "gap_before": gap0["overall"], "gap_after": gap1["overall"],
                 "gap_shrink_noise_floors": shrink,
             }  # fmt: skip
-            if ok_held and ok_gap and ok_noise:
-                accepted = (c, gap1, record_c)
-                break
             why = []
             if not ok_held:
                 unit = v if get_effect(name).rest_only else v + "/s"
@@ -1261,15 +1386,28 @@ def diagnose(
                     f"free-run gap {gap1['overall']:.4g} vs {gap0['overall']:.4g} {v}, a shrink of {shrink:.2f} "
                     f"noise floors ({floor:.3g} {v}), not above {noise_shrink:g}"
                 )
-            record_c["reason"] = "; ".join(why)
+            if why:
+                record_c["reason"] = "; ".join(why)
+            return not why, gap1, record_c
+
+        accepted = None
+        reasons = []
+        for c in order:
+            ok, gap1, record_c = judge(c)
+            if ok:
+                accepted = (c, gap1, record_c)
+                break
             rejected.append({"step": len(steps) + 1, **record_c})
-            reasons.append(f"{name} ({record_c['reason']})")
+            reasons.append(f"{c['effect']} ({record_c['reason']})")
         if accepted is None:
             stop_reason = (
                 "no candidate improves held-out data and shrinks the free-run gap beyond the noise: "
                 + ", ".join(reasons)
             )
             break
+        accepted, lookalike = _lookalike_rule(
+            accepted, passing, judge, pool, region, noise_shrink * floor, current
+        )
         c, gap1, record_c = accepted
         fit1: FitResult = c["fit"]
         eff = get_effect(c["effect"])
@@ -1282,12 +1420,14 @@ def diagnose(
             "chosen_by": "free-run gap among alike candidates" if c is not passing[0] else "evidence",
             "ranking": table,
         }  # fmt: skip
+        if lookalike is not None:
+            ev["chosen_by"] = "the lookalike rule"
         before, after = pool.record_gaps(fit0.model, region), pool.record_gaps(fit1.model, region)
         per_record = [
             {"record": label, "gap_before": g0["overall"], "gap_after": g1["overall"]}
             for label, g0, g1 in zip(labels, before, after, strict=True)
         ]
-        step = Step(c["effect"], params, region, gap0, gap1, ev, fit1.model)
+        step = Step(c["effect"], params, region, gap0, gap1, ev, fit1.model, lookalike=lookalike)
         step.record_gaps = per_record if len(labels) > 1 else []
         steps.append(step)
         logger.info("added %s: %s", c["effect"], params)
@@ -1325,6 +1465,7 @@ __all__ = [
     "DEFAULT_THRESHOLD",
     "STRUCTURES",
     "Diagnosis",
+    "Lookalike",
     "Pool",
     "Prepared",
     "Step",
