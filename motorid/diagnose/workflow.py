@@ -552,9 +552,10 @@ class Lookalike:
 
     def describe(self, units: dict[str, str]) -> str:
         """One line, e.g. ``kinetic friction 0.73 V: coulomb_friction and input_dead_zone fit alike
-        (free-run gap 4.77 vs 4.80 rad/s); named coulomb_friction by the lookalike rule``."""
+        (free-run gap 4.771 vs 4.802 rad/s, within 0.21 rad/s); named coulomb_friction by the
+        lookalike rule (the first in the library's order)``."""
         names = list(self.gaps)
-        figures = " vs ".join(f"{g:.3g}" for g in self.gaps.values())
+        figures = " vs ".join(f"{g:.4g}" for g in self.gaps.values())
         return (
             f"{self.physics} {self.levels[self.named]:.3g} {units['F']}: {' and '.join(names)} fit alike "
             f"(free-run gap {figures} {units['v']}, within {self.tolerance:.3g} {units['v']}); named "
