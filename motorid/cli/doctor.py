@@ -14,11 +14,13 @@ from .options import (
     RECORD_FILES,
     add_json,
     add_record_columns,
+    add_trim_options,
     check_out_file,
     check_out_folder,
     number,
     positive,
     read_record_from_args,
+    trim_record,
 )
 from .report import emit_json, say
 
@@ -66,6 +68,12 @@ def doctor_record(
     )  # fmt: skip
 
 
+def read_trimmed(args: argparse.Namespace, path: Path) -> pd.DataFrame:
+    """The record ``path``, read with the command's record options and trimmed to --start/--stop."""
+    record = read_record_from_args(argparse.Namespace(**{**vars(args), "data": path}))
+    return trim_record(record, args.start, args.stop, path)
+
+
 def rigid_drive_from_file(path: Path) -> RigidDrive:
     """The rigid drive of the model file ``path`` (``--model``); DataError for another model."""
     from motorid.models import load_model
@@ -91,14 +99,12 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         rigid_drive_from_file(args.model)
     if args.save_model is not None:
         check_out_file(args.save_model, True, "--save-model")
-    records = [
-        read_record_from_args(argparse.Namespace(**{**vars(args), "data": path})) for path in args.data
-    ]
+    records = [read_trimmed(args, path) for path in args.data]
     labels = [str(path) for path in args.data]
     validation = None
     if args.validate is not None:
-        # the same record options (columns, dt, units) as the record the models are fitted on
-        validation = read_record_from_args(argparse.Namespace(**{**vars(args), "data": args.validate}))
+        # the same record options (columns, dt, units, span) as the records the models are fitted on
+        validation = read_trimmed(args, args.validate)
     if args.out:
         check_out_folder(args.out)
     diagnosis = doctor_record(records[0] if len(records) == 1 else records, args, labels=labels)
@@ -111,6 +117,8 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     say(
         f"motorid doctor on {on}, base model: {start}" + "".join(f", {b}" for b in diagnosis.settings["base"])
     )
+    for note in diagnosis.notes:
+        say(f"  note: {note}")
     if diagnosis.refitted_gap is not None:
         say(f"  gap of the given model {diagnosis.initial_gap['overall']:.4g} {units['v']}, "
             f"refitted {diagnosis.refitted_gap['overall']:.4g} {units['v']}")  # fmt: skip
@@ -222,6 +230,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                    help=f"record file ({RECORD_FILES}); several records of one drive are fitted as one model "
                         "(shared parameters, each record its own start) and judged on the pooled evidence")  # fmt: skip
     add_record_columns(p)
+    add_trim_options(p)
     add_doctor_options(p)
     p.add_argument("--out", type=Path, help="folder for the figures and the table (replaced if there)")
     p.add_argument("--model", type=Path, metavar="FILE",

@@ -88,6 +88,7 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
+from motorid.diagnose.artefacts import clean_output
 from motorid.diagnose.effects import EFFECTS, get_effect, param_unit
 from motorid.diagnose.kinematics import Kinematics, kinematics
 from motorid.diagnose.locate import Region, feature, features, locate
@@ -125,7 +126,8 @@ MISSING_FACTOR = 3.5
 # --------------------------------------------------------------------------- prepared record
 @dataclass
 class Prepared:
-    """One record made ready: kinematics, balance data, features and the free-run start.
+    """One record made ready: kinematics, balance data, features and the free-run start, and a
+    note for each logging artefact left out (:mod:`.artefacts`).
 
     The features are kept on the decimated samples only (``feats_dec``); a
     region's full-rate mask is computed when asked for (:meth:`region_mask`). Every
@@ -137,6 +139,7 @@ class Prepared:
     feats_dec: dict[str, np.ndarray]
     timing: str
     units: dict[str, str]
+    notes: list[str] = field(default_factory=list)
     _masks: dict[Region, np.ndarray] = field(default_factory=dict, repr=False)
     _gaps: dict[tuple, tuple[dict[str, float], dict[str, float]]] = field(default_factory=dict, repr=False)
 
@@ -251,6 +254,11 @@ def prepare(
     u = _column(record, input, "input")
     y = _column(record, output, "output")
     check_signals({input: u, output: y})
+    units = _units(record, input, output, output_kind, gain_given)
+    y_unit = units["v"] if output_kind == "velocity" else (record.attrs.get("units") or {}).get(output, "")
+    u, y, notes = clean_output(u, y, dt, (units["u"], y_unit), start=output_kind == "velocity")
+    for note in notes:
+        logger.info("%s", note)
     if timing == "sampled":
         u, y = u[:-1], y[1:]
     kin = kinematics(u, y, dt, output_kind, band)  # type: ignore[arg-type]
@@ -261,7 +269,7 @@ def prepare(
         )
     data = BalanceData(kin, float(input_gain))
     feats = features(kin.w, kin.a, kin.u, dt, data.w_threshold, at=data.idx)
-    return Prepared(kin, data, feats, timing, _units(record, input, output, output_kind, gain_given))
+    return Prepared(kin, data, feats, timing, units, notes)
 
 
 # --------------------------------------------------------------------------- measures
@@ -661,6 +669,9 @@ class Diagnosis:
         Standard error of each linear parameter of the final model (inertia and the
         effects' levels, in the units of ``param_units``), from the fit's residual
         (:func:`motorid.diagnose.model.linear_param_std`); shape parameters have none.
+    notes : list of str
+        One line per logging artefact left out of a record (a held start, drop-out spikes:
+        :mod:`.artefacts`); with several records each begins with the record's label.
     records : list of dict
         Several records of one drive (:class:`Pool`): per record its ``record`` label,
         ``samples``, ``noise_floor`` [v], ``initial_gap`` and ``final_gap`` (as above, of that
@@ -686,6 +697,7 @@ class Diagnosis:
     structure: Structure = field(default_factory=Structure)
     structure_model: RigidDrive | None = None
     records: list[dict[str, Any]] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
     _pool: Pool | None = field(default=None, repr=False)
 
     @property
@@ -750,6 +762,7 @@ class Diagnosis:
             "structure": self.structure.to_dict(),
             **({"records": self.records} if self.records else {}),
             **({"lookalikes": [x.to_dict() for x in self.lookalikes]} if self.lookalikes else {}),
+            **({"notes": self.notes} if self.notes else {}),
         }
 
     def table(self) -> pd.DataFrame:
@@ -1458,6 +1471,11 @@ def diagnose(
         settings=settings, rejected=rejected, refitted_model=None if model is None else refitted_model,
         refitted_gap=refitted_gap, param_std=fit0.param_std, structure=chosen, structure_model=structure_model,
         records=record_summaries(pool, initial_model, final_model, first_region), _pool=pool,
+        notes=[
+            f"{label}: {note}" if len(labels) > 1 else note
+            for label, prep in zip(labels, pool.parts, strict=True)
+            for note in prep.notes
+        ],
     )  # fmt: skip
 
 
