@@ -145,6 +145,16 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     if diagnosis.records:
         say(f"  gaps per record [{units['v']}] (above: pooled over the records):")
         say(record_table(diagnosis).to_string())
+    bands = ", ".join(
+        f"{b['noise_floor']:.3g} "
+        + (f"below {b['speed_to']:.3g}" if k == 0 else f"at {b['speed_from']:.3g}-{b['speed_to']:.3g}")
+        for k, b in enumerate(diagnosis.noise_bands)
+    )
+    step = diagnosis.quantisation_step
+    say(
+        f"  noise floor by speed [{units['v']}]: {bands}"
+        + (f"; the output steps by {step:.4g}" if step else "")
+    )
     say(f"  stopped: {diagnosis.stop_reason}")
     final = ", ".join(
         f"{k} = {v:.5g}"

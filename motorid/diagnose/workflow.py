@@ -90,7 +90,7 @@ import pandas as pd
 
 from motorid.diagnose.artefacts import clean_output
 from motorid.diagnose.effects import EFFECTS, get_effect, param_unit
-from motorid.diagnose.kinematics import Kinematics, kinematics
+from motorid.diagnose.kinematics import Kinematics, kinematics, noise_bands, quantisation_step
 from motorid.diagnose.locate import Region, feature, features, locate
 from motorid.diagnose.model import (
     BalanceData,
@@ -118,6 +118,9 @@ DEFAULT_BASE = ("viscous_friction", "offset")
 #: Smallest free-run gap shrink of a second or later step, in noise floors σ_w: a second effect
 #: was named on 1 of 900 one-effect records with it, on 14 without (:mod:`.calibration`).
 NOISE_SHRINK = 0.5
+#: The speed bands the noise floor is reported in, as shares of the largest |w|: near rest
+#: (where static friction and Stribeck act), low, middle and high speed.
+SPEED_BANDS = (0.0, 0.1, 0.3, 0.6, 1.0)
 #: A final gap above this many noise floors says an effect is still missing: above the largest
 #: final gap (3.18) of 899 models that found their one planted effect (:mod:`.calibration`).
 MISSING_FACTOR = 3.5
@@ -140,6 +143,7 @@ class Prepared:
     timing: str
     units: dict[str, str]
     notes: list[str] = field(default_factory=list)
+    quantisation: float | None = None
     _masks: dict[Region, np.ndarray] = field(default_factory=dict, repr=False)
     _gaps: dict[tuple, tuple[dict[str, float], dict[str, float]]] = field(default_factory=dict, repr=False)
 
@@ -269,7 +273,7 @@ def prepare(
         )
     data = BalanceData(kin, float(input_gain))
     feats = features(kin.w, kin.a, kin.u, dt, data.w_threshold, at=data.idx)
-    return Prepared(kin, data, feats, timing, units, notes)
+    return Prepared(kin, data, feats, timing, units, notes, quantisation_step(y))
 
 
 # --------------------------------------------------------------------------- measures
@@ -422,6 +426,25 @@ class Pool:
         if samples is not None:
             errors = [e[m] for e, m in zip(errors, samples, strict=True)]
         return stacked(errors)
+
+    def noise_bands(self) -> list[dict[str, float]]:
+        """The noise floor per speed band (:func:`~motorid.diagnose.kinematics.noise_bands`) over
+        the settled samples of every record, the bands :data:`SPEED_BANDS` of the largest |w|."""
+        speed = stacked([np.abs(p.kin.w[p.kin.valid]) for p in self.parts])
+        if speed.size == 0:
+            return []
+        hf = stacked([p.kin.hf[p.kin.valid] for p in self.parts])
+        edges = np.asarray(SPEED_BANDS) * float(np.max(speed))
+        kin = self.parts[0].kin
+        return noise_bands(speed, hf, edges, kin.band, kin.dt)
+
+    @property
+    def quantisation(self) -> float | None:
+        """The output's quantisation step [its unit] when every record shows the same one (1 %)."""
+        steps = [p.quantisation for p in self.parts]
+        if any(q is None for q in steps) or max(steps) > 1.01 * min(steps):  # type: ignore[type-var]
+            return None
+        return steps[0]
 
     def holdout_rows(self, fraction: float) -> np.ndarray:
         """Each record's held-out decimated rows (:func:`holdout_rows`), stacked."""
@@ -669,6 +692,13 @@ class Diagnosis:
         Standard error of each linear parameter of the final model (inertia and the
         effects' levels, in the units of ``param_units``), from the fit's residual
         (:func:`motorid.diagnose.model.linear_param_std`); shape parameters have none.
+    noise_bands : list of dict
+        The noise floor per speed band (:meth:`Pool.noise_bands`): ``speed_from``, ``speed_to``
+        [v], ``samples``, ``noise_floor`` [v]. An encoder's noise grows with speed, and
+        ``noise_floor`` is their pooled figure.
+    quantisation_step : float or None
+        The step the output is quantised in [its unit] (an encoder's count per sample), when it
+        shows (:func:`~motorid.diagnose.kinematics.quantisation_step`).
     notes : list of str
         One line per logging artefact left out of a record (a held start, drop-out spikes:
         :mod:`.artefacts`); with several records each begins with the record's label.
@@ -698,6 +728,8 @@ class Diagnosis:
     structure_model: RigidDrive | None = None
     records: list[dict[str, Any]] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
+    noise_bands: list[dict[str, float]] = field(default_factory=list)
+    quantisation_step: float | None = None
     _pool: Pool | None = field(default=None, repr=False)
 
     @property
@@ -734,6 +766,8 @@ class Diagnosis:
             "steps": [s.to_dict() for s in self.steps],
             "stop_reason": self.stop_reason,
             "noise_floor": self.noise_floor,
+            "noise_bands": self.noise_bands,
+            "quantisation_step": self.quantisation_step,
             "region": self.region.to_dict(),
             "final_region": self.final_region.to_dict(),
             "model": {
@@ -1471,6 +1505,7 @@ def diagnose(
         settings=settings, rejected=rejected, refitted_model=None if model is None else refitted_model,
         refitted_gap=refitted_gap, param_std=fit0.param_std, structure=chosen, structure_model=structure_model,
         records=record_summaries(pool, initial_model, final_model, first_region), _pool=pool,
+        noise_bands=pool.noise_bands(), quantisation_step=pool.quantisation,
         notes=[
             f"{label}: {note}" if len(labels) > 1 else note
             for label, prep in zip(labels, pool.parts, strict=True)
