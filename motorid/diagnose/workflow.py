@@ -668,7 +668,8 @@ class Diagnosis:
         many times it ("something is still missing") and where it concentrates.
     noise_floor : float
         σ_w [v]: standard deviation of the noise on the measured velocity the free
-        run is compared with, estimated from the record (see the module notes).
+        run is compared with, estimated from the record (see the module notes; several
+        records: pooled over them, :class:`Pool`).
     final_region : Region
         Where the final model's torque-balance residual concentrates.
     model : RigidDrive
@@ -694,8 +695,8 @@ class Diagnosis:
         (:func:`motorid.diagnose.model.linear_param_std`); shape parameters have none.
     noise_bands : list of dict
         The noise floor per speed band (:meth:`Pool.noise_bands`): ``speed_from``, ``speed_to``
-        [v], ``samples``, ``noise_floor`` [v]. An encoder's noise grows with speed, and
-        ``noise_floor`` is their pooled figure.
+        [v], ``samples``, ``noise_floor`` [v]. An encoder's noise often grows with speed, where
+        :attr:`noise_floor` is one figure over every speed.
     quantisation_step : float or None
         The step the output is quantised in [its unit] (an encoder's count per sample), when it
         shows (:func:`~motorid.diagnose.kinematics.quantisation_step`).
