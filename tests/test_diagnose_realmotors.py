@@ -5,6 +5,9 @@ validation without refitting (``motorid doctor TRAIN --validate VAL``), closes m
 
 from __future__ import annotations
 
+import importlib.util
+from pathlib import Path
+
 import pytest
 from cli_fixtures import run
 from emps_fixtures import real_motor_file
@@ -13,6 +16,18 @@ WHEEL = [
     real_motor_file(f"wheel_free_{w}_motor{m}.csv") for m in (1, 2, 3, 4) for w in ("train", "validation")
 ]
 UNITS = ["--input-unit", "%", "--output-unit", "rev/s", "--json"]
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def realmotors_script():
+    """scripts/realmotors_doctor.py, imported from its path (scripts/ is not a package)."""
+    spec = importlib.util.spec_from_file_location(
+        "realmotors_doctor", ROOT / "scripts" / "realmotors_doctor.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
 
 pytestmark = pytest.mark.skipif(
     not all(p.exists() for p in WHEEL),
@@ -99,3 +114,23 @@ def test_the_kit_motor_gets_one_verdict_from_its_six_records():
     finals = [r["final_gap"]["overall"] for r in joint.records]
     assert all(r["final_gap"]["overall"] < 0.6 * r["initial_gap"]["overall"] for r in joint.records)
     assert min(finals) < joint.final_gap["overall"] < max(finals)
+    # README's table holds these very figures (all but the wall time)
+    script = realmotors_script()
+    shown = script.readme_rows((ROOT / "README.md").read_text(encoding="utf-8"))
+    runs = [*(p.stem for p in KIT), script.joint_label(len(KIT))]
+    for run_name, d in zip(runs, [*singles, joint], strict=True):
+        fresh = script.without_time(script.row("kit", run_name, d, 0.0))
+        assert shown[("kit", run_name)] == fresh, (
+            "README's real-motor table is stale: run scripts/realmotors_doctor.py"
+        )
+
+
+def test_the_readme_table_of_the_wheel_motors_equals_a_fresh_run():
+    script = realmotors_script()
+    shown = script.readme_rows((ROOT / "README.md").read_text(encoding="utf-8"))
+    for motor in (f"wheel {m}" for m in (1, 2, 3, 4)):
+        for line in script.motor_rows(motor):
+            key = tuple(cell.strip() for cell in line.split("|")[1:3])
+            assert shown[key] == script.without_time(line), (
+                "README's table is stale: run scripts/realmotors_doctor.py"
+            )
