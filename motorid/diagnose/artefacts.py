@@ -19,8 +19,8 @@
   deviation from the neighbours' mean) and q the smallest step of the output (its quantisation:
   a quantised record's median deviation may be 0). A drop-out lands far from the speed (a
   tenth of the record's range at least): a one-sample blip of a speed estimate where the input
-  steps (the wheel motors of ``realmotors/`` show 4 % of their range) is the sensor's, and kept. It is replaced by m_k: the record
-  keeps its uniform sample time.
+  steps (the wheel motors of ``realmotors/`` show 4 % of their range) is the sensor's, and
+  kept. A spike is replaced by m_k, so the record keeps its uniform sample time.
 
 Each artefact left out gets a one-line note (:func:`clean_output`).
 """
