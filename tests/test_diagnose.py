@@ -312,7 +312,7 @@ def test_force_units_follow_the_input_gain_in_json_text_and_figure_labels():
         units = d.to_dict()["units"]
         assert units["force"] == force and units["params"]["coulomb"] == force
         assert units["params"]["viscous"] == f"{force} s/({velocity})"
-        fig = residual_figure(d, d._prep)
+        fig = residual_figure(d, d._pool.parts[0])
         assert all(ax.get_ylabel() == f"F_in - F_model [{force}]" for ax in fig.axes)
         assert all(ax.get_xlabel() == f"velocity w [{velocity}]" for ax in fig.axes)
     # the same drive: a force per volt is the force in N m divided by the gain
@@ -358,21 +358,23 @@ def test_a_long_record_is_diagnosed_in_few_full_rate_columns_and_drawn_thinned(m
         tracemalloc.stop()
     assert d.named == ["coulomb_friction"]
     assert peak < 25 * 8 * n, f"peak {peak / 8 / n:.1f} full-rate columns"
-    assert len(d._prep.data._cache) <= 16
-    sim = simulation_figure(d, d._prep)
+    assert len(d._pool.parts[0].data._cache) <= 16
+    sim = simulation_figure(d, d._pool.parts[0])
     assert all(np.size(line.get_xdata()) <= 2 * MAX_BUCKETS for ax in sim.axes for line in ax.get_lines())
     assert "minimum and maximum of every 75 samples shown" in sim.axes[0].get_title()
     measured = sim.axes[0].get_lines()[0].get_ydata()
-    assert measured.max() == d._prep.kin.w.max() and measured.min() == d._prep.kin.w.min()
-    res = residual_figure(d, d._prep)
+    assert measured.max() == d._pool.parts[0].kin.w.max() and measured.min() == d._pool.parts[0].kin.w.min()
+    res = residual_figure(d, d._pool.parts[0])
     assert all(np.size(line.get_xdata()) <= MAX_SCATTER for line in res.axes[0].get_lines())
-    assert f"1 in 2 of {d._prep.data.n} decimated samples shown" in " ".join(res.axes[0].get_title().split())
+    assert f"1 in 2 of {d._pool.parts[0].data.n} decimated samples shown" in " ".join(
+        res.axes[0].get_title().split()
+    )
 
 
 def test_the_column_cache_keeps_the_columns_used_last(monkeypatch):
     import motorid.diagnose.model as model_module
 
-    data = diagnose(planted_record(None, 0, duration=5.0).record, max_steps=0)._prep.data
+    data = diagnose(planted_record(None, 0, duration=5.0).record, max_steps=0)._pool.parts[0].data
     data._cache.clear()
     shared = data.decimated("shared", data.kin.w)
     for i in range(40):

@@ -5,6 +5,9 @@ validation without refitting (``motorid doctor TRAIN --validate VAL``), closes m
 
 from __future__ import annotations
 
+import importlib.util
+from pathlib import Path
+
 import pytest
 from cli_fixtures import run
 from emps_fixtures import real_motor_file
@@ -13,6 +16,18 @@ WHEEL = [
     real_motor_file(f"wheel_free_{w}_motor{m}.csv") for m in (1, 2, 3, 4) for w in ("train", "validation")
 ]
 UNITS = ["--input-unit", "%", "--output-unit", "rev/s", "--json"]
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def realmotors_script():
+    """scripts/realmotors_doctor.py, imported from its path (scripts/ is not a package)."""
+    spec = importlib.util.spec_from_file_location(
+        "realmotors_doctor", ROOT / "scripts" / "realmotors_doctor.py"
+    )
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
 
 pytestmark = pytest.mark.skipif(
     not all(p.exists() for p in WHEEL),
@@ -46,3 +61,76 @@ def test_a_wheel_motor_gets_the_same_names_on_train_and_validation(capsys, motor
     )
     assert fitted["final_gap"]["overall"] < 0.6 * fitted["initial_gap"]["overall"]
     assert "base structure: input_delay = " in err and "samples)" in err
+
+
+@pytest.mark.parametrize("motor", [1, 2, 3, 4])
+def test_the_joint_run_of_a_wheel_motor_names_what_each_record_names(capsys, motor):
+    """One model of both records (``motorid doctor TRAIN VAL``): the input delay and Coulomb
+    friction each record gets alone (the test above), the level between the two records' own."""
+    paths = [str(real_motor_file(f"wheel_free_{w}_motor{motor}.csv")) for w in ("train", "validation")]
+    code, joint, err = run(capsys, "doctor", *paths, *UNITS)
+    assert code == 0, err
+    assert joint["structure"]["effects"] == ["input_delay"]
+    assert [s["effect"] for s in joint["steps"]] == ["coulomb_friction"]
+    assert [r["record"] for r in joint["records"]] == paths and "gaps per record" in err
+    singles = []
+    for path in paths:
+        code, single, err = run(capsys, "doctor", path, *UNITS)
+        assert code == 0, err
+        singles.append(single["model"]["params"]["coulomb"])
+    # one level for the motor: between the records' own (which scatter by 7-13 % between them)
+    assert min(singles) < joint["model"]["params"]["coulomb"] < max(singles)
+    # where Coulomb friction and a dead zone fit alike, the report says so with both gaps
+    look = joint["steps"][0].get("lookalike")
+    if look is not None:
+        assert look["named"] == "coulomb_friction" and "input_dead_zone" in look["effects"]
+
+
+KIT = [real_motor_file(f"kit_{s}_run{r}.csv") for s in ("sine_0.5hz", "sine_1hz", "chirp") for r in (1, 2)]
+
+
+@pytest.mark.skipif(not all(p.exists() for p in KIT), reason=f"kit motor data not found at {KIT[0].parent}")
+def test_the_kit_motor_gets_one_verdict_from_its_six_records():
+    """The teaching-kit motor: two runs each of a 0.5 Hz sine, a 1 Hz sine and a chirp. Each record
+    alone names Coulomb friction first (its lookalike, a dead zone, named by the rule where they fit
+    alike); the joint run names it too, and every effect a record names alone is one the joint run
+    names (the sines add a direction asymmetry; on a chirp it shrinks the gap by less than half a
+    noise floor)."""
+    from motorid.diagnose import diagnose
+    from motorid.records import read_record
+
+    records = [read_record(p) for p in KIT]
+    singles = [diagnose(r) for r in records]
+    joint = diagnose(records, labels=[p.name for p in KIT])
+    assert joint.named[0] == "coulomb_friction"
+    for path, d in zip(KIT, singles, strict=True):
+        assert d.named[0] == "coulomb_friction", (path.name, d.named)
+        assert set(d.named) <= set(joint.named), (path.name, d.named, joint.named)
+        # the kinetic friction level of one motor: the records' levels (6.6-7.1 % duty) lie within
+        # 6 % of the joint one (6.95 %)
+        assert d.model.params["coulomb"] == pytest.approx(joint.model.params["coulomb"], rel=0.06)
+    # each record's gaps, in the joint run: the joint model leaves every record below its own
+    # initial gap, and the pooled gap between the records' own
+    finals = [r["final_gap"]["overall"] for r in joint.records]
+    assert all(r["final_gap"]["overall"] < 0.6 * r["initial_gap"]["overall"] for r in joint.records)
+    assert min(finals) < joint.final_gap["overall"] < max(finals)
+    # README's table holds these very figures (all but the wall time)
+    script = realmotors_script()
+    shown = script.readme_rows((ROOT / "README.md").read_text(encoding="utf-8"))
+    runs = [*(p.stem for p in KIT), script.joint_label(len(KIT))]
+    for run_name, d in zip(runs, [*singles, joint], strict=True):
+        fresh = script.without_time(script.row("kit", run_name, d, 0.0))
+        assert shown[("kit", run_name)] == fresh, (
+            "README's real-motor table is stale: run scripts/realmotors_doctor.py"
+        )
+
+
+def test_the_readme_table_of_the_wheel_motors_equals_a_fresh_run():
+    script = realmotors_script()
+    shown = script.readme_rows((ROOT / "README.md").read_text(encoding="utf-8"))
+    for motor in (f"wheel {m}" for m in (1, 2, 3, 4)):
+        for line in script.motor_rows(motor):
+            key = tuple(cell.strip() for cell in line.split("|")[1:3])
+            assert shown[key] == script.without_time(line), (
+                "README's table is stale: run scripts/realmotors_doctor.py"
+            )

@@ -12,8 +12,10 @@ from motorid.errors import DataError
 from motorid.outputs import write_file
 
 from .options import (
+    RECORD_FILES,
     add_json,
-    add_record_input,
+    add_record_columns,
+    add_trim_options,
     add_wait,
     check_out_file,
     check_out_folder,
@@ -21,6 +23,7 @@ from .options import (
     number,
     positive,
     read_record_from_args,
+    trim_record,
 )
 from .report import emit_json, say, show_progress
 
@@ -42,8 +45,14 @@ def effect_list(text: str | None, option: str) -> list[str]:
     return names
 
 
-def doctor_record(record: pd.DataFrame, args: argparse.Namespace, progress: bool = False) -> Diagnosis:
-    """What ``motorid doctor`` computes on a record with columns ``t``, ``u``, ``y``.
+def doctor_record(
+    record: pd.DataFrame | list[pd.DataFrame],
+    args: argparse.Namespace,
+    progress: bool = False,
+    labels: list[str] | None = None,
+) -> Diagnosis:
+    """What ``motorid doctor`` computes on a record with columns ``t``, ``u``, ``y`` (or on
+    several records of one drive, fitted as one model; ``labels`` name them).
 
     ``progress`` shows the doctor's progress bar. ``motorid fleet doctor`` calls this very
     function on each record (without the bar), so a fleet's rows equal the single-record
@@ -59,8 +68,14 @@ def doctor_record(record: pd.DataFrame, args: argparse.Namespace, progress: bool
         record, dt=args.dt, input="u", output="y", output_kind=args.output_kind,
         input_gain=args.input_gain, base=base, candidates=candidates,
         holdout=args.holdout, max_steps=args.max_steps, progress=progress, timing=args.timing,
-        model=model, structure=not args.no_structure,
+        model=model, structure=not args.no_structure, labels=labels,
     )  # fmt: skip
+
+
+def read_trimmed(args: argparse.Namespace, path: Path) -> pd.DataFrame:
+    """The record ``path``, read with the command's record options and trimmed to --start/--stop."""
+    record = read_record_from_args(argparse.Namespace(**{**vars(args), "data": path}))
+    return trim_record(record, args.start, args.stop, path)
 
 
 def rigid_drive_from_file(path: Path) -> RigidDrive:
@@ -88,19 +103,29 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         rigid_drive_from_file(args.model)
     if args.save_model is not None:
         check_out_file(args.save_model, True, "--save-model")
-    record = read_record_from_args(args)
+    records = [read_trimmed(args, path) for path in args.data]
+    labels = [str(path) for path in args.data]
     validation = None
     if args.validate is not None:
-        # the same record options (columns, dt, units) as the record the models are fitted on
-        validation = read_record_from_args(argparse.Namespace(**{**vars(args), "data": args.validate}))
+        # the same record options (columns, dt, units, span) as the records the models are fitted on
+        validation = read_trimmed(args, args.validate)
     if args.out:
         check_out_folder(args.out)
         hold_out_folder(args, args.out)
-    diagnosis = doctor_record(record, args, progress=show_progress())
+    diagnosis = doctor_record(
+        records[0] if len(records) == 1 else records, args, progress=show_progress(), labels=labels
+    )
     units, param_units = diagnosis.units, diagnosis.param_units
     start = f"the model in {args.model}" if args.model is not None else "inertia, input gain"
-    say(f"motorid doctor on {args.data} ({len(record)} samples), base model: {start}"
-        + "".join(f", {b}" for b in diagnosis.settings["base"]))  # fmt: skip
+    if len(records) == 1:
+        on = f"{args.data[0]} ({len(records[0])} samples)"
+    else:
+        on = f"{len(records)} records of one drive ({sum(len(r) for r in records)} samples), one model"
+    say(
+        f"motorid doctor on {on}, base model: {start}" + "".join(f", {b}" for b in diagnosis.settings["base"])
+    )
+    for note in diagnosis.notes:
+        say(f"  note: {note}")
     if diagnosis.refitted_gap is not None:
         say(f"  gap of the given model {diagnosis.initial_gap['overall']:.4g} {units['v']}, "
             f"refitted {diagnosis.refitted_gap['overall']:.4g} {units['v']}")  # fmt: skip
@@ -117,10 +142,25 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     for step in diagnosis.steps:
         params = ", ".join(f"{k} = {v:.5g} {param_units[k]}" for k, v in step.params.items())
         say(f"  + {step.effect}: {params} (ΔBIC {step.evidence['delta_bic']:.1f})")
+        if step.lookalike is not None:
+            say(f"    {step.lookalike.describe(units)}")
     say(
         f"  gap {diagnosis.initial_gap['overall']:.4g} -> {diagnosis.final_gap['overall']:.4g} {units['v']}, "
         f"force error {diagnosis.initial_gap['force_error_percent']:.2f} % -> "
         f"{diagnosis.final_gap['force_error_percent']:.2f} %"
+    )
+    if diagnosis.records:
+        say(f"  gaps per record [{units['v']}] (above: pooled over the records):")
+        say(record_table(diagnosis).to_string())
+    bands = ", ".join(
+        f"{b['noise_floor']:.3g} "
+        + (f"below {b['speed_to']:.3g}" if k == 0 else f"at {b['speed_from']:.3g}-{b['speed_to']:.3g}")
+        for k, b in enumerate(diagnosis.noise_bands)
+    )
+    step = diagnosis.quantisation_step
+    say(
+        f"  noise floor by speed [{units['v']}]: {bands}"
+        + (f"; the output steps by {step:.4g}" if step else "")
     )
     say(f"  stopped: {diagnosis.stop_reason}")
     final = ", ".join(
@@ -158,6 +198,24 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     return 0
 
 
+def record_table(diagnosis: Diagnosis) -> pd.DataFrame:
+    """Each record's noise floor and gaps [v], initial and final model, and the final gap in noise floors."""
+    rows = {
+        r["record"]: {
+            "samples": r["samples"],
+            "noise_floor": round(r["noise_floor"], 4),
+            "gap_initial": round(r["initial_gap"]["overall"], 4),
+            "gap_final": round(r["final_gap"]["overall"], 4),
+            "floors": round(r["final_gap_noise_floors"], 2),
+            "force_error_final_percent": round(r["final_gap"]["force_error_percent"], 3),
+        }
+        for r in diagnosis.records
+    }
+    table = pd.DataFrame.from_dict(rows, orient="index")
+    table.index.name = "record"
+    return table
+
+
 def add_doctor_options(parser: argparse.ArgumentParser) -> None:
     """The options of ``motorid doctor`` besides the record and --out (``fleet doctor`` takes them too)."""
     parser.add_argument("--output-kind", choices=("velocity", "position"), default="velocity",
@@ -185,7 +243,11 @@ def add_doctor_options(parser: argparse.ArgumentParser) -> None:
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("doctor", help="find the effect missing from a drive model and show the gap shrink")
-    add_record_input(p)
+    p.add_argument("data", type=Path, nargs="+",
+                   help=f"record file ({RECORD_FILES}); several records of one drive are fitted as one model "
+                        "(shared parameters, each record its own start) and judged on the pooled evidence")  # fmt: skip
+    add_record_columns(p)
+    add_trim_options(p)
     add_doctor_options(p)
     p.add_argument("--out", type=Path, help="folder for the figures and the table (replaced if there)")
     add_wait(p)

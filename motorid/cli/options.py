@@ -183,6 +183,47 @@ def low_speed_band(record: pd.DataFrame, low_speed_rpm: float) -> tuple[str | No
     )
 
 
+def add_trim_options(parser: argparse.ArgumentParser) -> None:
+    """--start and --stop: the span of each record a command uses (:func:`trim_record`)."""
+    group = parser.add_argument_group("span")
+    group.add_argument("--start", type=number(float, low=0.0, unit="s"), metavar="SECONDS",
+                       help="leave out the samples before this time [s] of the record's time column "
+                            "(without one: k dt from its first sample)")  # fmt: skip
+    group.add_argument("--stop", type=number(float, low=0.0, low_open=True, unit="s"), metavar="SECONDS",
+                       help="leave out the samples after this time [s]")  # fmt: skip
+
+
+def trim_record(record: pd.DataFrame, start: float | None, stop: float | None, path: Path) -> pd.DataFrame:
+    """The samples of ``record`` (read from ``path``) with ``start <= t <= stop`` [s], ``attrs`` kept.
+
+    ``t`` is the record's time column, else ``k dt`` from its first sample. DataError, naming the
+    option and the file, when the span is empty or holds no sample.
+    """
+    if start is None and stop is None:
+        return record
+    if start is not None and stop is not None and stop <= start:
+        raise DataError(f"--stop {stop:g} must be after --start {start:g} [s]")
+    if "t" in record.columns:
+        t = pd.to_numeric(record["t"], errors="coerce").to_numpy(dtype=float)
+    else:
+        t = np.arange(len(record)) * float(record.attrs["dt"])
+    keep = np.ones(len(record), dtype=bool)
+    if start is not None:
+        keep &= t >= start
+    if stop is not None:
+        keep &= t <= stop
+    if not keep.any():
+        span = " and ".join(
+            f"{option} {value:g} s"
+            for option, value in (("--start", start), ("--stop", stop))
+            if value is not None
+        )
+        raise DataError(f"{path}: no sample within {span}; the record runs from {t[0]:g} to {t[-1]:g} s")
+    trimmed = record.loc[keep].reset_index(drop=True)
+    trimmed.attrs = dict(record.attrs)
+    return trimmed
+
+
 def add_estimator_options(parser: argparse.ArgumentParser, repeatable: bool = False) -> None:
     """--estimator and its arguments; an argument is passed only to estimators that take it."""
     group = parser.add_argument_group("estimator")

@@ -8,8 +8,9 @@ missing physical effect, add it and show the gap shrink.
 
 Modules: :mod:`.effects` (the effect library), :mod:`.model` (the fit of
 the rigid drive, :class:`motorid.plants.RigidDrive`, whose free run the plants compile), :mod:`.kinematics`
-(zero-phase differentiation and decimation), :mod:`.locate`, :mod:`.workflow`
-(:func:`diagnose`, :class:`Diagnosis`), :mod:`.figures`, :mod:`.synthetic`
+(zero-phase differentiation and decimation, noise floors), :mod:`.artefacts` (a held start
+and drop-out spikes, left out), :mod:`.locate`, :mod:`.workflow` (:func:`diagnose` of one
+record or of several records of one drive, :class:`Diagnosis`), :mod:`.figures`, :mod:`.synthetic`
 (records with planted effects) and :mod:`.calibration` (false-alarm rate).
 """
 

@@ -43,6 +43,13 @@ With the base structure (input delay and lag, chosen before the steps) and ``sta
   second on 4 of 100 (54 without the rule). A planted Stribeck drive does break away above the
   fitted kinetic level: the level at rest fitted from the moving samples is low, and the
   breakaway excess makes up for it, shrinking the free-run gap by just over half a noise floor.
+
+With the lookalike rule (effects of one physics whose free-run gaps lie within half a noise
+floor of each other named by the library's order, :func:`~motorid.diagnose.workflow.diagnose`
+step 4), measured again with the same commands: nothing named on 0 of 200 no-effect records
+(ΔBIC median -5.1, 99th percentile 6.7); the planted effect named first on 199 of 200 and a
+second effect on 1 (14 without the noise rule); final gap of the found models at most 3.21
+noise floors. The rule changes which of two lookalikes is named, not how often one is.
 """
 
 from __future__ import annotations

@@ -44,6 +44,13 @@ from motorid.plants.rigid import (
     term_columns,
 )
 
+#: The effects that give a model a kinetic friction level (a force that holds back a moving drive
+#: at any speed): the Stribeck decay is one only in a model without them.
+KINETIC = ("coulomb_friction", "input_dead_zone")
+#: The physics effects are forms of (:meth:`Effect.physics`).
+KINETIC_FRICTION = "kinetic friction"
+BREAKAWAY_FRICTION = "breakaway friction above the kinetic level"
+
 
 class Effect:
     """One physical effect of the library (a stateless description).
@@ -94,6 +101,17 @@ class Effect:
     structure: ClassVar[bool] = False
     rest_only: ClassVar[bool] = False
 
+    def physics(self, model: tuple[str, ...]) -> str:
+        """The physics this effect is one form of when added to a model with the effects
+        ``model``: effects of one physics are what a record may not tell apart (``kinetic
+        friction``: Coulomb friction and an input dead zone on a drive that never reverses while
+        moving). Empty for none. :meth:`level` gives its size."""
+        return ""
+
+    def level(self, params: dict[str, float]) -> float:
+        """The size of its :meth:`physics` in a model's ``params`` [F] (NaN for an effect without one)."""
+        return math.nan
+
     def columns(
         self, w: np.ndarray, shape: dict[str, float], stribeck_shape: str = "exponential"
     ) -> np.ndarray:
@@ -138,6 +156,13 @@ class CoulombFriction(Effect):
     nonnegative = ("coulomb",)
     signature = "constant level whose sign follows sgn(w); dominates at low |w| and holds a resting drive"
 
+    def physics(self, model: tuple[str, ...]) -> str:
+        return KINETIC_FRICTION
+
+    def level(self, params: dict[str, float]) -> float:
+        """The Coulomb level F_c [F]."""
+        return float(params["coulomb"])
+
 
 class StribeckFriction(Effect):
     """Stribeck excess ``T = F_s exp(-|w|/v_s) sgn(w)`` [F] (paper eq. 9, α1 and α2 = 1/v_s)."""
@@ -148,6 +173,16 @@ class StribeckFriction(Effect):
     units: ClassVar[dict[str, str]] = {"stribeck": "F", "stribeck_velocity": "v"}
     nonnegative = ("stribeck",)
     signature = "sign follows sgn(w), confined to |w| below a few v_s and decaying with |w|"
+
+    def physics(self, model: tuple[str, ...]) -> str:
+        """Breakaway friction beside a kinetic level; without one, its decay slow enough to hold
+        back a moving drive at every speed (a Stribeck velocity far above the low speeds) makes
+        it the model's kinetic friction."""
+        return BREAKAWAY_FRICTION if any(n in model for n in KINETIC) else KINETIC_FRICTION
+
+    def level(self, params: dict[str, float]) -> float:
+        """The excess F_s at rest over the kinetic level [F]."""
+        return float(params["stribeck"])
 
     def bounds(self, scale: dict[str, float]) -> dict[str, tuple[float, float]]:
         lo = max(2.0 * scale["w_noise"], 1e-3 * scale["w_max"])
@@ -199,6 +234,13 @@ class InputDeadZone(Effect):
     units: ClassVar[dict[str, str]] = {"dead_zone": "u"}
     signature = "at small |u| and wherever u drives: a force deficit whose sign follows sgn(u)"
     order = 1
+
+    def physics(self, model: tuple[str, ...]) -> str:
+        return KINETIC_FRICTION
+
+    def level(self, params: dict[str, float]) -> float:
+        """The force g d the dead zone withholds [F]."""
+        return float(params["input_gain"] * params["dead_zone"])
 
     def transform(self, x: np.ndarray, dt: float, shape: dict[str, float]) -> np.ndarray:
         return input_path(x, dead_zone=shape["dead_zone"])
@@ -305,6 +347,14 @@ class StaticFriction(Effect):
     nonnegative = ("breakaway_excess",)
     signature = "at rest only: the drive stays stuck under forces beyond its kinetic friction level"
     rest_only = True
+
+    def physics(self, model: tuple[str, ...]) -> str:
+        """Breakaway friction, in a model with a kinetic level to break away above."""
+        return BREAKAWAY_FRICTION if any(n in model for n in (*KINETIC, "stribeck_friction")) else ""
+
+    def level(self, params: dict[str, float]) -> float:
+        """The breakaway excess ΔF_s [F]."""
+        return float(params["breakaway_excess"])
 
 
 _CLASSES: tuple[type[Effect], ...] = (

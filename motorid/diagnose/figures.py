@@ -126,11 +126,11 @@ def plot_simulation(diagnosis: Diagnosis, prep: Prepared, path: Path) -> Path:
     return save(simulation_figure(diagnosis, prep), path)
 
 
-def write_figures(diagnosis: Diagnosis, prep: Prepared, out_dir: Path) -> list[Path]:
-    """Write ``doctor_residual_vs_speed.png`` and ``doctor_simulation.png`` in ``out_dir``."""
+def write_figures(diagnosis: Diagnosis, prep: Prepared, out_dir: Path, prefix: str = "doctor_") -> list[Path]:
+    """Write ``{prefix}residual_vs_speed.png`` and ``{prefix}simulation.png`` in ``out_dir``."""
     return [
-        plot_residual_vs_speed(diagnosis, prep, out_dir / "doctor_residual_vs_speed.png"),
-        plot_simulation(diagnosis, prep, out_dir / "doctor_simulation.png"),
+        plot_residual_vs_speed(diagnosis, prep, out_dir / f"{prefix}residual_vs_speed.png"),
+        plot_simulation(diagnosis, prep, out_dir / f"{prefix}simulation.png"),
     ]
 
 

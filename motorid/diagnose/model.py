@@ -20,6 +20,11 @@ the shape parameters.
 Columns that add no rank to those before them (the Coulomb asymmetry beside an
 offset) are dropped and their parameter reported as 0.
 
+Several records of one drive (:class:`PooledBalance`) are fitted as one model: each
+record's force and columns are built and decimated on its own (its own filters, edges
+and moving samples), and their rows stacked into one least-squares problem, so the
+parameters are shared and the residual sum of squares is the pooled one.
+
 Free run: :meth:`RigidDrive.free_run <motorid.plants.rigid.RigidDrive.free_run>`
 (semi-implicit Euler with Karnopp's stick/slip rule, compiled in the plants), on the
 same compiled terms as the regressor columns here.
@@ -93,6 +98,16 @@ class BalanceData:
     def n(self) -> int:
         return int(self.idx.size)
 
+    @property
+    def dt(self) -> float:
+        """Sample time [s]."""
+        return self.kin.dt
+
+    @property
+    def parts(self) -> tuple[BalanceData, ...]:
+        """The records whose rows a fit stacks: this one."""
+        return (self,)
+
     def decimated(self, key: Hashable, column: np.ndarray | Callable[[], np.ndarray]) -> np.ndarray:
         """Decimate a full-rate column, cached under ``key``.
 
@@ -116,6 +131,57 @@ class BalanceData:
         out[:-1] = 0.5 * (force[:-1] + force[1:])
         out[-1] = force[-1]
         return out
+
+
+@dataclass
+class PooledBalance:
+    """The balance data of several records of one drive, fitted as one model: their decimated
+    rows stacked, record after record (each record keeps its own filters, edges and moving
+    samples; :func:`fit_model` builds each column on each record and stacks them).
+
+    Parameters
+    ----------
+    parts : tuple of BalanceData
+        The records, at one sample time (to a part in 10⁶), decimated alike, at one input gain.
+    noise : float
+        The pooled noise floor [v] the Stribeck search bounds are set from.
+    """
+
+    parts: tuple[BalanceData, ...]
+    noise: float
+    a: np.ndarray = field(init=False)
+    w: np.ndarray = field(init=False)
+    moving: np.ndarray = field(init=False)
+    scale: dict[str, float] = field(init=False)
+
+    def __post_init__(self) -> None:
+        first = self.parts[0]
+        self.a = stacked([p.a for p in self.parts])
+        self.w = stacked([p.w for p in self.parts])
+        self.moving = stacked([p.moving for p in self.parts])
+        self.scale = {
+            **first.scale,
+            "w_max": max(p.scale["w_max"] for p in self.parts),
+            "u_max": max(p.scale["u_max"] for p in self.parts),
+            "w_noise": self.noise,
+        }
+
+    @property
+    def n(self) -> int:
+        return int(self.moving.size)
+
+    @property
+    def dt(self) -> float:
+        return self.parts[0].dt
+
+    @property
+    def input_gain(self) -> float:
+        return self.parts[0].input_gain
+
+
+def stacked(columns: list[np.ndarray]) -> np.ndarray:
+    """The columns of the records of a pool one after the other (one record's column itself)."""
+    return columns[0] if len(columns) == 1 else np.concatenate(columns)
 
 
 # --------------------------------------------------------------------------- model
@@ -219,7 +285,7 @@ class Regressors:
 
 
 def _linear_solve(
-    data: BalanceData,
+    data: BalanceData | PooledBalance,
     effects: tuple[str, ...],
     shape: dict[str, float],
     gain: float,
@@ -233,7 +299,6 @@ def _linear_solve(
     keys: a search over an input-path shape (dead zone, delay, ...) changes the force only, and
     reuses them.
     """
-    kin = data.kin
     input_effects = sorted(
         (get_effect(n) for n in effects if EFFECTS[n].kind == "input" and n != "backlash"),
         key=lambda e: e.order,
@@ -242,16 +307,22 @@ def _linear_solve(
     if "backlash" in effects:
         key_parts.append(f"backlash={shape['backlash_time']:.12g}")
 
-    def balance_force() -> np.ndarray:
+    def balance_force(part: BalanceData) -> np.ndarray:
+        kin = part.kin
         x = np.asarray(kin.u, dtype=float)
         for eff in input_effects:
             x = eff.transform(x, kin.dt, shape)
         force = gain * x
         if "backlash" in effects:
             force = get_effect("backlash").transform(force, kin.dt, shape)
-        return data.balance_force(force)
+        return part.balance_force(force)
 
-    target = data.decimated("F|" + "|".join(key_parts), balance_force)
+    target = stacked(
+        [
+            part.decimated("F|" + "|".join(key_parts), lambda part=part: balance_force(part))
+            for part in data.parts
+        ]
+    )
     names = ["inertia"]
     keys = ["a"]
     cols = [data.a]
@@ -263,17 +334,22 @@ def _linear_solve(
         key = name + "|" + "|".join(f"{p}={shape[p]:.12g}" for p in eff.nonlinear)
         if eff.nonlinear:
             key += "|" + stribeck_shape
-        full: list[np.ndarray] = []  # the effect's columns, computed on the first cache miss
+        full: list[list[np.ndarray]] = [[] for _ in data.parts]  # computed on a cache miss, per record
 
-        def column(j: int, eff: Effect = eff, full: list[np.ndarray] = full) -> np.ndarray:
-            if not full:
-                full.append(eff.columns(kin.w, shape, stribeck_shape))
-            return full[0][:, j]
+        def column(k: int, j: int, eff: Effect = eff, full: list[list[np.ndarray]] = full) -> np.ndarray:
+            if not full[k]:
+                full[k].append(eff.columns(data.parts[k].kin.w, shape, stribeck_shape))
+            return full[k][0][:, j]
 
         for j, pname in enumerate(eff.linear):
             names.append(pname)
             keys.append(f"{key}|{j}")
-            cols.append(data.decimated(keys[-1], lambda j=j, column=column: column(j)))
+            cols.append(
+                stacked([
+                    part.decimated(keys[-1], lambda k=k, j=j, column=column: column(k, j))
+                    for k, part in enumerate(data.parts)
+                ])
+            )  # fmt: skip
     k = len(cols)
     last = {} if last is None else last
     regressors = last.get(tuple(keys))
@@ -332,7 +408,7 @@ def linear_param_std(
 
 
 def fit_model(
-    data: BalanceData,
+    data: BalanceData | PooledBalance,
     effects: tuple[str, ...],
     rows: np.ndarray | None = None,
     start: dict[str, float] | None = None,
@@ -343,7 +419,8 @@ def fit_model(
 
     Parameters
     ----------
-    data : BalanceData
+    data : BalanceData or PooledBalance
+        One record's balance data, or several records' of one drive (one model fitted to all).
     effects : tuple of str
         Effects in the model (besides inertia and input gain).
     rows : ndarray of bool, optional
@@ -431,7 +508,7 @@ def fit_model(
     param_std = linear_param_std(list(theta), solved.unit_cov(), residual, rows, k)
     inertia = theta.pop("inertia")
     params = {"inertia": inertia, "input_gain": gain, **theta, **shape}
-    model = RigidDrive(effects, params, data.kin.dt, stribeck_shape)
+    model = RigidDrive(effects, params, data.dt, stribeck_shape)
     return FitResult(
         model, _accel_rss(rss, inertia), rss, int(rows.sum()), k + len(shaped), residual, param_std
     )
@@ -451,6 +528,7 @@ __all__ = [
     "BalanceData",
     "FitResult",
     "LinearSolve",
+    "PooledBalance",
     "Regressors",
     "fit_model",
     "linear_param_std",

@@ -39,6 +39,24 @@ The workflow (:func:`diagnose`):
    candidate passes, all are in the model or ``max_steps`` is reached.
    :attr:`Diagnosis.stop_reason` says which, and how far the final gap is from
    the noise floor.
+
+   **Lookalikes**: effects that are forms of one physics
+   (:meth:`Effect.physics <motorid.diagnose.effects.Effect.physics>`: Coulomb
+   friction, an input dead zone and, in a model without either, a Stribeck decay
+   are kinetic friction; beside a kinetic level, Stribeck and static friction are
+   breakaway friction) fit alike when both pass the evidence threshold and their
+   free-run gaps lie within ``noise_shrink`` noise floors of each other: the data
+   cannot tell them apart (a drive that never reverses while moving is held back
+   alike by Coulomb friction and a dead zone). **The rule**: of effects that fit
+   alike, the first in the library's order
+   (:data:`~motorid.diagnose.effects.EFFECTS`: ``coulomb_friction``,
+   ``stribeck_friction``, ..., ``input_dead_zone``, ..., ``static_friction``) is
+   named, whichever the evidence ranked first, so one physics gets one name on
+   every record of a motor; the step reports the others beside it with their
+   levels and free-run gaps (:class:`Lookalike`). It prefers the effect the
+   balance of the moving drive measures (a Coulomb or Stribeck level, with a
+   standard error) over one that only a dead zone's input path or the free run
+   at rest sees.
 5. **Show**: the gaps before and after each step (:meth:`Diagnosis.table`) and
    figures (:meth:`Diagnosis.write_figures`).
 
@@ -62,7 +80,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -70,15 +88,18 @@ from typing import Any, Literal
 import numpy as np
 import pandas as pd
 
+from motorid.diagnose.artefacts import clean_output
 from motorid.diagnose.effects import EFFECTS, get_effect, param_unit
-from motorid.diagnose.kinematics import Kinematics, kinematics
+from motorid.diagnose.kinematics import Kinematics, kinematics, noise_bands, quantisation_step
 from motorid.diagnose.locate import Region, feature, features, locate
 from motorid.diagnose.model import (
     BalanceData,
     FitResult,
+    PooledBalance,
     fit_model,
     model_balance,
     model_key,
+    stacked,
 )
 from motorid.errors import DataError
 from motorid.plants.rigid import RigidDrive, check_sample_time, effect_order
@@ -97,6 +118,9 @@ DEFAULT_BASE = ("viscous_friction", "offset")
 #: Smallest free-run gap shrink of a second or later step, in noise floors σ_w: a second effect
 #: was named on 1 of 900 one-effect records with it, on 14 without (:mod:`.calibration`).
 NOISE_SHRINK = 0.5
+#: The speed bands the noise floor is reported in, as shares of the largest |w|: near rest
+#: (where static friction and Stribeck act), low, middle and high speed.
+SPEED_BANDS = (0.0, 0.1, 0.3, 0.6, 1.0)
 #: A final gap above this many noise floors says an effect is still missing: above the largest
 #: final gap (3.18) of 899 models that found their one planted effect (:mod:`.calibration`).
 MISSING_FACTOR = 3.5
@@ -105,7 +129,8 @@ MISSING_FACTOR = 3.5
 # --------------------------------------------------------------------------- prepared record
 @dataclass
 class Prepared:
-    """One record made ready: kinematics, balance data, features and the free-run start.
+    """One record made ready: kinematics, balance data, features and the free-run start, and a
+    note for each logging artefact left out (:mod:`.artefacts`).
 
     The features are kept on the decimated samples only (``feats_dec``); a
     region's full-rate mask is computed when asked for (:meth:`region_mask`). Every
@@ -117,8 +142,10 @@ class Prepared:
     feats_dec: dict[str, np.ndarray]
     timing: str
     units: dict[str, str]
+    notes: list[str] = field(default_factory=list)
+    quantisation: float | None = None
     _masks: dict[Region, np.ndarray] = field(default_factory=dict, repr=False)
-    _gaps: dict[tuple, dict[str, float]] = field(default_factory=dict, repr=False)
+    _gaps: dict[tuple, tuple[dict[str, float], dict[str, float]]] = field(default_factory=dict, repr=False)
 
     def region_mask(self, region: Region) -> np.ndarray:
         """Full-rate samples inside ``region`` (cached per region)."""
@@ -230,6 +257,11 @@ def prepare(
     u = _column(record, input, "input")
     y = _column(record, output, "output")
     check_signals({input: u, output: y})
+    units = _units(record, input, output, output_kind, gain_given)
+    y_unit = units["v"] if output_kind == "velocity" else (record.attrs.get("units") or {}).get(output, "")
+    u, y, notes = clean_output(u, y, dt, (units["u"], y_unit), start=output_kind == "velocity")
+    for note in notes:
+        logger.info("%s", note)
     if timing == "sampled":
         u, y = u[:-1], y[1:]
     kin = kinematics(u, y, dt, output_kind, band)  # type: ignore[arg-type]
@@ -240,7 +272,7 @@ def prepare(
         )
     data = BalanceData(kin, float(input_gain))
     feats = features(kin.w, kin.a, kin.u, dt, data.w_threshold, at=data.idx)
-    return Prepared(kin, data, feats, timing, _units(record, input, output, output_kind, gain_given))
+    return Prepared(kin, data, feats, timing, units, notes, quantisation_step(y))
 
 
 # --------------------------------------------------------------------------- measures
@@ -271,18 +303,31 @@ def _rms(x: np.ndarray) -> float:
 
 def gaps(model: RigidDrive, prep: Prepared, region: Region | None) -> dict[str, float]:
     """Output gap overall and in ``region`` [v] (free run) and force error [%]."""
+    return dict(_gaps_and_weights(model, prep, region)[0])
+
+
+def _gaps_and_weights(
+    model: RigidDrive, prep: Prepared, region: Region | None
+) -> tuple[dict[str, float], dict[str, float]]:
+    """:func:`gaps` and what a pool weighs them by: the samples each RMS is over (``overall``,
+    ``region``) and the norm of the commanded force (``force_error_percent``)."""
     key = (model_key(model), region)
     if key not in prep._gaps:
         w_sim = prep.simulate(model)
         err = prep.kin.w - w_sim
         valid = prep.kin.valid & np.isfinite(w_sim)
+        in_region = valid & prep.region_mask(region) if region is not None else np.zeros_like(valid)
         r, f_in = balance_residual(model, prep.data)
-        prep._gaps[key] = {
-            "overall": _rms(err[valid]),
-            "region": _rms(err[valid & prep.region_mask(region)]) if region is not None else float("nan"),
-            "force_error_percent": 100.0 * float(np.linalg.norm(r) / max(np.linalg.norm(f_in), 1e-300)),
-        }
-    return dict(prep._gaps[key])
+        f_norm = float(np.linalg.norm(f_in))
+        prep._gaps[key] = (
+            {
+                "overall": _rms(err[valid]),
+                "region": _rms(err[in_region]) if region is not None else float("nan"),
+                "force_error_percent": 100.0 * float(np.linalg.norm(r) / max(f_norm, 1e-300)),
+            },
+            {"overall": int(valid.sum()), "region": int(in_region.sum()), "force_error_percent": f_norm},
+        )
+    return prep._gaps[key]
 
 
 def free_run_error(prep: Prepared, model: RigidDrive) -> np.ndarray:
@@ -292,9 +337,126 @@ def free_run_error(prep: Prepared, model: RigidDrive) -> np.ndarray:
     return err
 
 
-def fit_static_friction(prep: Prepared, model: RigidDrive, samples: np.ndarray) -> RigidDrive:
+# --------------------------------------------------------------------------- records of one drive
+@dataclass
+class Pool:
+    """The records of one drive, prepared, fitted and judged as one model.
+
+    The parameters are shared; each record keeps its own kinematics, filter edges, moving
+    samples and decimation, its own initial state (its free run starts from its own measured
+    speed) and its own time origin (each record's free run is compared with that record only).
+    The torque balance stacks the records' decimated rows (:class:`PooledBalance`), and every
+    figure of merit is pooled over the samples it is an RMS of:
+
+        gap = sqrt(Σ_i n_i gap_i² / Σ_i n_i),    σ_w = sqrt(Σ_i n_i σ_i² / Σ_i n_i),
+        force error = 100 sqrt(Σ_i ||r_i||²) / sqrt(Σ_i ||F_in,i||²)
+
+    (n_i the settled samples of record i). A pool of one record is that record: every figure
+    is the record's own, computed as for it alone.
+    """
+
+    parts: list[Prepared]
+    labels: list[str]
+    data: BalanceData | PooledBalance = field(init=False)
+    feats_dec: dict[str, np.ndarray] = field(init=False)
+    noise: float = field(init=False)
+
+    def __post_init__(self) -> None:
+        first = self.parts[0]
+        if len(self.parts) == 1:
+            self.data, self.feats_dec, self.noise = first.data, first.feats_dec, first.kin.noise
+            return
+        for label, part in zip(self.labels[1:], self.parts[1:], strict=True):
+            if abs(part.kin.dt - first.kin.dt) > 1e-6 * first.kin.dt or part.kin.factor != first.kin.factor:
+                raise DataError(
+                    f"{label}: sample time {part.kin.dt:.9g} s (decimation {part.kin.factor}) differs from "
+                    f"{self.labels[0]}'s {first.kin.dt:.9g} s ({first.kin.factor}): the records of one drive "
+                    "are pooled at one sample time (resample them first)"
+                )
+            if part.units != first.units:
+                raise DataError(
+                    f"{label}: units {part.units} differ from {self.labels[0]}'s {first.units}: the records "
+                    "of one drive are pooled in the same units"
+                )
+        counts = [int(p.kin.valid.sum()) for p in self.parts]
+        self.noise = math.sqrt(
+            sum(n * p.kin.noise**2 for n, p in zip(counts, self.parts, strict=True)) / max(sum(counts), 1)
+        )
+        self.data = PooledBalance(tuple(p.data for p in self.parts), self.noise)
+        self.feats_dec = {k: np.concatenate([p.feats_dec[k] for p in self.parts]) for k in first.feats_dec}
+
+    @property
+    def units(self) -> dict[str, str]:
+        return self.parts[0].units
+
+    @property
+    def dt(self) -> float:
+        return self.parts[0].kin.dt
+
+    def gaps(self, model: RigidDrive, region: Region | None) -> dict[str, float]:
+        """The pooled :func:`gaps` (see the class notes)."""
+        if len(self.parts) == 1:
+            return gaps(model, self.parts[0], region)
+        pairs = [_gaps_and_weights(model, p, region) for p in self.parts]
+        out = {}
+        for key in ("overall", "region", "force_error_percent"):
+            # a gap is an RMS over n samples, the force error a norm ratio: pool the squares
+            power = 2 if key == "force_error_percent" else 1
+            terms = [(g[key], w[key] ** power) for g, w in pairs]
+            terms = [(g, wt) for g, wt in terms if wt > 0 and math.isfinite(g)]
+            total = sum(wt for _, wt in terms)
+            out[key] = math.sqrt(sum(g * g * wt for g, wt in terms) / total) if total > 0 else float("nan")
+        return out
+
+    def record_gaps(self, model: RigidDrive, region: Region | None) -> list[dict[str, float]]:
+        """:func:`gaps` of each record."""
+        return [gaps(model, p, region) for p in self.parts]
+
+    def balance_residual(self, model: RigidDrive) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`balance_residual` of each record, stacked as the pooled rows are."""
+        if len(self.parts) == 1:
+            return balance_residual(model, self.parts[0].data)
+        pairs = [balance_residual(model, p.data) for p in self.parts]
+        return np.concatenate([r for r, _ in pairs]), np.concatenate([f for _, f in pairs])
+
+    def free_run_error(self, model: RigidDrive, samples: list[np.ndarray] | None = None) -> np.ndarray:
+        """:func:`free_run_error` of each record (on its full-rate ``samples``), stacked."""
+        errors = [free_run_error(p, model) for p in self.parts]
+        if samples is not None:
+            errors = [e[m] for e, m in zip(errors, samples, strict=True)]
+        return stacked(errors)
+
+    def noise_bands(self) -> list[dict[str, float]]:
+        """The noise floor per speed band (:func:`~motorid.diagnose.kinematics.noise_bands`) over
+        the settled samples of every record, the bands :data:`SPEED_BANDS` of the largest |w|."""
+        speed = stacked([np.abs(p.kin.w[p.kin.valid]) for p in self.parts])
+        if speed.size == 0:
+            return []
+        hf = stacked([p.kin.hf[p.kin.valid] for p in self.parts])
+        edges = np.asarray(SPEED_BANDS) * float(np.max(speed))
+        kin = self.parts[0].kin
+        return noise_bands(speed, hf, edges, kin.band, kin.dt)
+
+    @property
+    def quantisation(self) -> float | None:
+        """The output's quantisation step [its unit] when every record shows the same one (1 %)."""
+        steps = [p.quantisation for p in self.parts]
+        if any(q is None for q in steps) or max(steps) > 1.01 * min(steps):  # type: ignore[type-var]
+            return None
+        return steps[0]
+
+    def holdout_rows(self, fraction: float) -> np.ndarray:
+        """Each record's held-out decimated rows (:func:`holdout_rows`), stacked."""
+        return stacked([holdout_rows(p.data.n, fraction) for p in self.parts])
+
+    def holdout_samples(self, fraction: float) -> list[np.ndarray]:
+        """Each record's held-out full-rate samples: the same blocks as :meth:`holdout_rows`."""
+        return [holdout_rows(p.kin.n, fraction) for p in self.parts]
+
+
+def fit_static_friction(pool: Pool, model: RigidDrive, samples: list[np.ndarray]) -> RigidDrive:
     """``model`` with ``static_friction``, its ``breakaway_excess`` ΔF_s [F] the one that minimises
-    the free-run gap on the full-rate ``samples``.
+    the free-run gap on the full-rate ``samples`` of each record of ``pool``.
 
     Static friction acts on a drive at rest only (the stick/slip rule of the free run), so the
     balance of the moving samples cannot fit it: a grid of 17 values on [0, half the largest
@@ -303,13 +465,13 @@ def fit_static_friction(prep: Prepared, model: RigidDrive, samples: np.ndarray) 
     from scipy.optimize import minimize_scalar
 
     effects = tuple(dict.fromkeys((*model.effects, "static_friction")))
-    top = 0.5 * prep.data.scale["u_max"] * abs(model.input_gain)
+    top = 0.5 * pool.data.scale["u_max"] * abs(model.input_gain)
 
     def with_excess(excess: float) -> RigidDrive:
         return model.with_effects(effects, {**model.params, "breakaway_excess": float(excess)})
 
     def cost(excess: float) -> float:
-        err = free_run_error(prep, with_excess(excess))[samples]
+        err = pool.free_run_error(with_excess(excess), samples)
         err = err[np.isfinite(err)]
         return float(np.mean(err**2)) if err.size else math.inf
 
@@ -401,6 +563,50 @@ class Structure:
 
 
 @dataclass
+class Lookalike:
+    """Effects the data cannot tell apart: one physics, fitted alike by two or more effects.
+
+    Attributes
+    ----------
+    physics : str
+        What they are forms of (:meth:`Effect.physics <motorid.diagnose.effects.Effect.physics>`),
+        e.g. ``kinetic friction``.
+    named : str
+        The effect the lookalike rule named (:func:`diagnose`, step 4).
+    gaps : dict
+        Effect -> free-run gap [v] of the model with it, the named one first.
+    levels : dict
+        Effect -> the size of the physics in that model [F] (:meth:`Effect.level <motorid.diagnose.effects.Effect.level>`).
+    tolerance : float
+        Two gaps closer than this [v] fit alike: ``noise_shrink`` noise floors.
+    """
+
+    physics: str
+    named: str
+    gaps: dict[str, float]
+    levels: dict[str, float]
+    tolerance: float
+
+    def describe(self, units: dict[str, str]) -> str:
+        """One line, e.g. ``kinetic friction 0.73 V: coulomb_friction and input_dead_zone fit alike
+        (free-run gap 4.771 vs 4.802 rad/s, within 0.21 rad/s); named coulomb_friction by the
+        lookalike rule (the first in the library's order)``."""
+        names = list(self.gaps)
+        figures = " vs ".join(f"{g:.4g}" for g in self.gaps.values())
+        return (
+            f"{self.physics} {self.levels[self.named]:.3g} {units['F']}: {' and '.join(names)} fit alike "
+            f"(free-run gap {figures} {units['v']}, within {self.tolerance:.3g} {units['v']}); named "
+            f"{self.named} by the lookalike rule (the first in the library's order)"
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "physics": self.physics, "named": self.named, "effects": list(self.gaps),
+            "free_run_gaps": self.gaps, "levels": self.levels, "tolerance": self.tolerance,
+        }  # fmt: skip
+
+
+@dataclass
 class Step:
     """One accepted effect.
 
@@ -418,6 +624,11 @@ class Step:
         ΔBIC and its threshold, held-out errors [F], the candidate ranking.
     model : RigidDrive
         The refitted model after this step.
+    record_gaps : list of dict
+        Several records: each record's ``record`` label and overall ``gap_before`` and
+        ``gap_after`` [v] (the step's gaps are the pooled ones); empty for one record.
+    lookalike : Lookalike or None
+        The effects that fit alike here, and which one the lookalike rule named.
     """
 
     effect: str
@@ -427,9 +638,11 @@ class Step:
     gap_after: dict[str, float]
     evidence: dict[str, Any]
     model: RigidDrive
+    record_gaps: list[dict[str, Any]] = field(default_factory=list)
+    lookalike: Lookalike | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        return {
+        out = {
             "effect": self.effect,
             "params": self.params,
             "region": self.region.to_dict(),
@@ -438,6 +651,11 @@ class Step:
             "evidence": self.evidence,
             "model_params": self.model.params,
         }
+        if self.record_gaps:
+            out["record_gaps"] = self.record_gaps
+        if self.lookalike is not None:
+            out["lookalike"] = self.lookalike.to_dict()
+        return out
 
 
 @dataclass
@@ -456,7 +674,8 @@ class Diagnosis:
         many times it ("something is still missing") and where it concentrates.
     noise_floor : float
         σ_w [v]: standard deviation of the noise on the measured velocity the free
-        run is compared with, estimated from the record (see the module notes).
+        run is compared with, estimated from the record (see the module notes; several
+        records: pooled over them, :class:`Pool`).
     final_region : Region
         Where the final model's torque-balance residual concentrates.
     model : RigidDrive
@@ -480,6 +699,21 @@ class Diagnosis:
         Standard error of each linear parameter of the final model (inertia and the
         effects' levels, in the units of ``param_units``), from the fit's residual
         (:func:`motorid.diagnose.model.linear_param_std`); shape parameters have none.
+    noise_bands : list of dict
+        The noise floor per speed band (:meth:`Pool.noise_bands`): ``speed_from``, ``speed_to``
+        [v], ``samples``, ``noise_floor`` [v]. An encoder's noise often grows with speed, where
+        :attr:`noise_floor` is one figure over every speed.
+    quantisation_step : float or None
+        The step the output is quantised in [its unit] (an encoder's count per sample), when it
+        shows (:func:`~motorid.diagnose.kinematics.quantisation_step`).
+    notes : list of str
+        One line per logging artefact left out of a record (a held start, drop-out spikes:
+        :mod:`.artefacts`); with several records each begins with the record's label.
+    records : list of dict
+        Several records of one drive (:class:`Pool`): per record its ``record`` label,
+        ``samples``, ``noise_floor`` [v], ``initial_gap`` and ``final_gap`` (as above, of that
+        record alone) and ``final_gap_noise_floors``; the gaps above are the pooled ones.
+        Empty for one record.
     """
 
     initial_gap: dict[str, float]
@@ -499,12 +733,21 @@ class Diagnosis:
     param_std: dict[str, float] = field(default_factory=dict)
     structure: Structure = field(default_factory=Structure)
     structure_model: RigidDrive | None = None
-    _prep: Prepared | None = field(default=None, repr=False)
+    records: list[dict[str, Any]] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    noise_bands: list[dict[str, float]] = field(default_factory=list)
+    quantisation_step: float | None = None
+    _pool: Pool | None = field(default=None, repr=False)
 
     @property
     def named(self) -> list[str]:
         """The effects added, in order."""
         return [s.effect for s in self.steps]
+
+    @property
+    def lookalikes(self) -> list[Lookalike]:
+        """The steps' lookalikes: effects that fit alike and the one the rule named."""
+        return [s.lookalike for s in self.steps if s.lookalike is not None]
 
     @property
     def param_units(self) -> dict[str, str]:
@@ -530,6 +773,8 @@ class Diagnosis:
             "steps": [s.to_dict() for s in self.steps],
             "stop_reason": self.stop_reason,
             "noise_floor": self.noise_floor,
+            "noise_bands": self.noise_bands,
+            "quantisation_step": self.quantisation_step,
             "region": self.region.to_dict(),
             "final_region": self.final_region.to_dict(),
             "model": {
@@ -556,6 +801,9 @@ class Diagnosis:
             },
             "refitted_gap": self.refitted_gap,
             "structure": self.structure.to_dict(),
+            **({"records": self.records} if self.records else {}),
+            **({"lookalikes": [x.to_dict() for x in self.lookalikes]} if self.lookalikes else {}),
+            **({"notes": self.notes} if self.notes else {}),
         }
 
     def table(self) -> pd.DataFrame:
@@ -620,15 +868,94 @@ class Diagnosis:
         return df
 
     def write_figures(self, out_dir: str | Path) -> list[Path]:
-        """PNG figures: residual against speed before/after each step; simulation against measurement."""
+        """PNG figures: residual against speed before/after each step; simulation against measurement.
+
+        Several records: one pair of figures per record, named with its number (``doctor_2_...``).
+        """
         from motorid.diagnose.figures import write_figures
 
-        if self._prep is None:
+        if self._pool is None:
             raise ValueError("this diagnosis holds no record data to plot")
-        return write_figures(self, self._prep, Path(out_dir))
+        parts = self._pool.parts
+        if len(parts) == 1:
+            return write_figures(self, parts[0], Path(out_dir))
+        return [
+            path
+            for k, prep in enumerate(parts, 1)
+            for path in write_figures(self, prep, Path(out_dir), prefix=f"doctor_{k}_")
+        ]
 
 
 # --------------------------------------------------------------------------- workflow
+def _lookalike_rule(
+    accepted: tuple[dict[str, Any], dict[str, float], dict[str, Any]],
+    passing: list[dict[str, Any]],
+    judge: Callable[[dict[str, Any]], tuple[bool, dict[str, float], dict[str, Any]]],
+    pool: Pool,
+    region: Region,
+    tolerance: float,
+    model: tuple[str, ...],
+) -> tuple[tuple[dict[str, Any], dict[str, float], dict[str, Any]], Lookalike | None]:
+    """The lookalike rule (step 4 of the module notes): among the accepted candidate and the
+    passing candidates of the same physics (:meth:`Effect.physics
+    <motorid.diagnose.effects.Effect.physics>` in the ``model`` they are added to) whose
+    free-run gap lies within ``tolerance`` [v] of its own, the first in the library's order
+    (:data:`~motorid.diagnose.effects.EFFECTS`) is named, when it passes :func:`diagnose`'s
+    checks too. Returns the candidate accepted and the lookalike (None when nothing fits alike).
+    """
+    c, gap1, _ = accepted
+    physics = get_effect(c["effect"]).physics(model)
+    if not physics:
+        return accepted, None
+    alike = [(c, gap1)]
+    for m in passing:
+        if m is not c and get_effect(m["effect"]).physics(model) == physics:
+            gap_m = pool.gaps(m["fit"].model, region)
+            if abs(gap_m["overall"] - gap1["overall"]) <= tolerance:
+                alike.append((m, gap_m))
+    if len(alike) == 1:
+        return accepted, None
+    order = list(EFFECTS)
+    preferred = min(alike, key=lambda item: order.index(item[0]["effect"]))[0]
+    if preferred is not c:
+        ok, gap_p, record_p = judge(preferred)
+        if ok:
+            accepted = (preferred, gap_p, record_p)
+    named = accepted[0]
+    alike.sort(key=lambda item: item[0] is not named)
+    lookalike = Lookalike(
+        physics=physics,
+        named=named["effect"],
+        gaps={m["effect"]: g["overall"] for m, g in alike},
+        levels={m["effect"]: get_effect(m["effect"]).level(m["fit"].model.params) for m, _ in alike},
+        tolerance=tolerance,
+    )
+    return accepted, lookalike
+
+
+def record_summaries(
+    pool: Pool, initial: RigidDrive, final: RigidDrive, region: Region
+) -> list[dict[str, Any]]:
+    """Each record's gaps of the ``initial`` and ``final`` models and its noise floor
+    (:attr:`Diagnosis.records`); none for a pool of one record."""
+    if len(pool.parts) == 1:
+        return []
+    out = []
+    for label, prep, before, after in zip(
+        pool.labels,
+        pool.parts,
+        pool.record_gaps(initial, region),
+        pool.record_gaps(final, region),
+        strict=True,
+    ):
+        floor = prep.kin.noise
+        out.append({
+            "record": label, "samples": prep.kin.n, "noise_floor": floor, "initial_gap": before,
+            "final_gap": after, "final_gap_noise_floors": after["overall"] / floor if floor > 0 else math.inf,
+        })  # fmt: skip
+    return out
+
+
 def _against_noise(
     gap: float, region_gap: float, region: Region, floor: float, missing_factor: float, unit: str
 ) -> str:
@@ -648,7 +975,7 @@ STRUCTURES: tuple[tuple[str, ...], ...] = (("input_delay",), ("input_lag",), ("i
 
 
 def choose_structure(
-    prep: Prepared,
+    pool: Pool,
     base: tuple[str, ...],
     start: dict[str, float],
     stribeck_shape: str,
@@ -656,7 +983,7 @@ def choose_structure(
     min_gap_shrink: float,
     noise_shrink: float,
 ) -> Structure:
-    """Choose the input delay and lag of the drive from the record, before friction is judged.
+    """Choose the input delay and lag of the drive from its records, before friction is judged.
 
     The base and Coulomb friction (the probe) are fitted to the torque balance on the moving
     samples with each structure of :data:`STRUCTURES` added (the delay and the time constant
@@ -665,11 +992,11 @@ def choose_structure(
     ``threshold`` and its free-run output gap shrinks by more than ``min_gap_shrink`` of the
     probe's and by more than ``noise_shrink`` noise floors: the same rules as a step.
     """
-    data = prep.data
-    floor = prep.kin.noise
+    data = pool.data
+    floor = pool.noise
     probe = effect_order((*base, "coulomb_friction"))
     fit_p = fit_model(data, probe, start=start, stribeck_shape=stribeck_shape)
-    gap_p = gaps(fit_p.model, prep, None)["overall"]
+    gap_p = pool.gaps(fit_p.model, None)["overall"]
     tried: list[dict[str, Any]] = []
     fits: dict[tuple[str, ...], FitResult] = {}
 
@@ -716,7 +1043,7 @@ def choose_structure(
     reasons = []
     for row in passing:
         names = tuple(row["effects"])
-        row["gap"] = gap1 = gaps(fits[names].model, prep, None)["overall"]
+        row["gap"] = gap1 = pool.gaps(fits[names].model, None)["overall"]
         shrink = (gap_p - gap1) / floor if floor > 0 else math.inf
         if gap1 < (1.0 - min_gap_shrink) * gap_p and shrink > noise_shrink:
             reason = (
@@ -755,7 +1082,7 @@ def _names(value: Sequence[str] | str | None, what: str) -> tuple[str, ...]:
 
 
 def diagnose(
-    record: pd.DataFrame,
+    record: pd.DataFrame | Sequence[pd.DataFrame],
     dt: float | None = None,
     input: str = "u",
     output: str = "y",
@@ -783,16 +1110,21 @@ def diagnose(
     supply_voltage: float | None = None,
     input_full_scale: float | None = None,
     resample: bool = False,
+    labels: Sequence[str] | None = None,
 ) -> Diagnosis:
     """Find the effects missing from a rigid drive model of ``record`` (see the module notes).
 
     Parameters
     ----------
-    record : pandas.DataFrame
+    record : pandas.DataFrame or sequence of DataFrame
         The measurement, as the user's own code holds it: the columns and units
         are named by the options below, the same as the command line's, and
         brought to motorid's by :func:`motorid.records.normalise_record`;
-        ``attrs["dt"]`` is used when ``dt`` is None.
+        ``attrs["dt"]`` is used when ``dt`` is None. Several records of one
+        drive (at one sample time, read with the same options) are fitted as one model
+        (:class:`Pool`): shared parameters, each record its own initial state and time origin;
+        each candidate is judged on the pooled evidence, and :attr:`Diagnosis.records` holds
+        the gaps of each record.
     dt : float, optional
         Sample time [s], > 0; default from ``attrs["dt"]`` or the time column.
     input, output : str
@@ -853,6 +1185,8 @@ def diagnose(
         record's units, as :class:`motorid.records.RecordOptions` (``--time``,
         ``--time-unit``, ``--input-unit``, ... on the command line): e.g.
         ``diagnose(df, input="pwm", output="rpm", input_unit="%", output_unit="rpm")``.
+    labels : sequence of str, optional
+        A name for each record in the report (e.g. its file); default ``record 1``, ``record 2``...
 
     Returns
     -------
@@ -864,7 +1198,6 @@ def diagnose(
     columns = {"time": time, "input": input, "output": output}
     reading = {"dt": dt, "time_unit": time_unit, "input_unit": input_unit, "output_unit": output_unit,
                "supply_voltage": supply_voltage, "input_full_scale": input_full_scale, "resample": resample}  # fmt: skip
-    record = normalise_record(record, **columns, **reading)
     if isinstance(holdout, pd.DataFrame):
         holdout = normalise_record(holdout, **columns, **reading)
     input, output = "u", "y"
@@ -888,8 +1221,23 @@ def diagnose(
     if not isinstance(holdout, pd.DataFrame):
         if isinstance(holdout, bool) or not isinstance(holdout, int | float) or not 0.0 < holdout < 0.9:
             raise DataError(f"holdout must be a fraction in (0, 0.9) or a DataFrame, got {holdout!r}")
+    records = [record] if isinstance(record, pd.DataFrame) else record
+    if isinstance(records, str) or not isinstance(records, Sequence) or not records:
+        raise DataError(
+            f"record must be a pandas DataFrame or a non-empty sequence of them, got {type(record).__name__}"
+        )
+    labels = [f"record {k + 1}" for k in range(len(records))] if labels is None else [str(x) for x in labels]
+    if len(labels) != len(records):
+        raise DataError(f"labels: {len(labels)} labels for {len(records)} records")
+    records = [normalise_record(r, **columns, **reading) for r in records]
     if timing is None:
-        timing = record_timing(getattr(record, "attrs", {}))
+        own = [record_timing(getattr(r, "attrs", {})) for r in records]
+        if len(set(own)) > 1:
+            raise DataError(
+                f"the records say different timings ({', '.join(f'{x}: {t}' for x, t in zip(labels, own, strict=True))}): "
+                "pass timing= for all of them"
+            )
+        timing = own[0]
     if timing not in ("auto", "hold", "sampled"):
         raise DataError(f"timing must be 'auto', 'hold' or 'sampled', got {timing!r}")
     if not isinstance(structure, bool):
@@ -903,37 +1251,52 @@ def diagnose(
 
     opts = {"dt": dt, "input": input, "output": output, "output_kind": output_kind,
             "input_gain": input_gain, "band": band}  # fmt: skip
+
+    def pooled(timing: str) -> Pool:
+        parts = []
+        for label, r in zip(labels, records, strict=True):
+            try:
+                parts.append(prepare(r, timing=timing, **opts))
+            except DataError as exc:
+                raise DataError(f"{label}: {exc}" if len(records) > 1 else str(exc)) from None
+        return Pool(parts, labels)
+
     if timing == "auto":
-        preps = [prepare(record, timing=t, **opts) for t in ("hold", "sampled")]
+        pools = [pooled(t) for t in ("hold", "sampled")]
         scores = []
-        for p in preps:
+        for p in pools:
             fit = fit_model(p.data, base_names, stribeck_shape=stribeck_shape)
-            scores.append(
-                fit.rss / max(float(np.sum(p.data.kin.decimate(p.data.kin.u)[p.data.moving] ** 2)), 1e-300)
+            commanded = sum(
+                float(np.sum(q.data.kin.decimate(q.data.kin.u)[q.data.moving] ** 2)) for q in p.parts
             )
-        prep = preps[int(np.argmin(scores))]
-        preps.clear()  # the other timing's arrays go now
+            scores.append(fit.rss / max(commanded, 1e-300))
+        pool = pools[int(np.argmin(scores))]
+        pools.clear()  # the other timing's arrays go now
     else:
-        prep = prepare(record, timing=timing, **opts)
-    data = prep.data
-    settings = {**opts, "input": columns["input"], "output": columns["output"], "dt": prep.kin.dt,
-                "reading": {"time": time, **{k: v for k, v in reading.items() if k != "dt"}}, "timing": prep.timing, "band": prep.kin.band,
+        pool = pooled(timing)
+    data = pool.data
+    first = pool.parts[0]
+    settings = {**opts, "input": columns["input"], "output": columns["output"], "dt": first.kin.dt,
+                "reading": {"time": time, **{k: v for k, v in reading.items() if k != "dt"}},
+                "timing": first.timing, "band": first.kin.band,
                 "base": list(base_names), "candidates": list(cand_names), "threshold": threshold,
                 "noise_shrink": noise_shrink, "missing_factor": missing_factor,
                 "holdout": "record" if isinstance(holdout, pd.DataFrame) else holdout,
                 "max_steps": int(max_steps), "model": "given" if model is not None else "fitted",
                 "stribeck_shape": stribeck_shape, "structure": structure}  # fmt: skip
+    if len(records) > 1:
+        settings["records"] = list(labels)
 
     if isinstance(holdout, pd.DataFrame):
-        other = prepare(holdout, **{**opts, "dt": None if dt is None else dt}, timing=prep.timing)
+        other = prepare(holdout, **opts, timing=first.timing)
         train = np.ones(data.n, dtype=bool)
-        held_data, held_rows = other.data, other.data.moving
+        held_rows = other.data.moving
     else:
-        held = holdout_rows(data.n, float(holdout))
-        train, held_data, held_rows = ~held, data, held & data.moving
+        held = pool.holdout_rows(float(holdout))
+        train, held_rows = ~held, held & data.moving
     # the same blocks at full rate, for effects judged on the free run (static friction)
-    held_full = None if isinstance(holdout, pd.DataFrame) else holdout_rows(prep.kin.n, float(holdout))
-    all_full = np.ones(prep.kin.n, dtype=bool)
+    held_full = None if isinstance(holdout, pd.DataFrame) else pool.holdout_samples(float(holdout))
+    all_full = [np.ones(p.kin.n, dtype=bool) for p in pool.parts]
 
     def held_free_run(model: RigidDrive, fitted_on_train: RigidDrive | None) -> float:
         """Free-run gap [v] on the held-out samples (or the second record) of ``model``, or, for a
@@ -942,7 +1305,7 @@ def diagnose(
             model = fitted_on_train
         if held_full is None:
             return _rms(free_run_error(other, model))
-        return _rms(free_run_error(prep, model)[held_full])
+        return _rms(pool.free_run_error(model, held_full))
 
     fixed: dict[str, float] = {}  # the structure's delay and lag once chosen
 
@@ -952,7 +1315,10 @@ def diagnose(
         inertia = fit.model.params["inertia"]
         if not inertia > 0:
             return math.inf
-        r, _ = balance_residual(fit.model, held_data)
+        if held_full is None:
+            r, _ = balance_residual(fit.model, other.data)
+        else:
+            r, _ = pool.balance_residual(fit.model)
         return _rms(r[held_rows]) / inertia
 
     current = tuple(base_names)
@@ -967,15 +1333,15 @@ def diagnose(
     )
     fit0 = fit_model(data, current, stribeck_shape=stribeck_shape, start=kept or None)
     # the user's model as given (at the record's sample time), else the fitted base
-    initial_model = fit0.model if model is None else model.replace(dt=prep.kin.dt)
-    r0, _ = balance_residual(initial_model, data)
+    initial_model = fit0.model if model is None else model.replace(dt=pool.dt)
+    r0, _ = pool.balance_residual(initial_model)
     refitted_model = fit0.model
-    first_region = locate(r0, prep.feats_dec, prep.units)
+    first_region = locate(r0, pool.feats_dec, pool.units)
     steps: list[Step] = []
     rejected: list[dict[str, Any]] = []
     stop_reason = f"max_steps = {max_steps} reached"
-    floor = prep.kin.noise
-    v = prep.units["v"]
+    floor = pool.noise
+    v = pool.units["v"]
     chosen = Structure(
         reason="not searched: " + ("structure=False" if not structure else "the base holds it")
     )
@@ -983,7 +1349,7 @@ def diagnose(
     if structure and not any(EFFECTS[n].structure for n in current):
         bar.set_postfix_str("base structure")
         chosen = choose_structure(
-            prep, current, fit0.model.params, stribeck_shape, threshold, min_gap_shrink, noise_shrink
+            pool, current, fit0.model.params, stribeck_shape, threshold, min_gap_shrink, noise_shrink
         )
         if chosen.effects:
             fixed.update(chosen.params)
@@ -1003,11 +1369,11 @@ def diagnose(
         if not remaining:
             stop_reason = "every candidate effect is already in the model (or needs one that is not)"
             break
-        r_cur, _ = balance_residual(fit0.model, data)
+        r_cur, _ = pool.balance_residual(fit0.model)
         region = (
-            first_region if not steps and not chosen.effects else locate(r_cur, prep.feats_dec, prep.units)
+            first_region if not steps and not chosen.effects else locate(r_cur, pool.feats_dec, pool.units)
         )
-        gap0 = gaps(fit0.model, prep, region)
+        gap0 = pool.gaps(fit0.model, region)
         if steps and gap0["overall"] <= (1.0 + noise_shrink) * floor:
             stop_reason = (
                 f"the free-run gap {gap0['overall']:.4g} {v} is {gap0['overall'] / floor:.2f} x the noise "
@@ -1018,8 +1384,8 @@ def diagnose(
         for name in progress_bar(remaining, show=progress, desc="candidates", unit="effect", leave=False):
             if get_effect(name).rest_only:
                 # static friction: fitted and judged on the free run, the only place it shows
-                fitted = fit_static_friction(prep, fit0.model, all_full)
-                err0, err1 = free_run_error(prep, fit0.model), free_run_error(prep, fitted)
+                fitted = fit_static_friction(pool, fit0.model, all_full)
+                err0, err1 = pool.free_run_error(fit0.model), pool.free_run_error(fitted)
                 ok = np.isfinite(err0) & np.isfinite(err1)
                 fit = FitResult(
                     fitted, fit0.rss, fit0.rss_force, fit0.n_rows, fit0.n_params + 1, fit0.residual
@@ -1056,25 +1422,37 @@ def diagnose(
         drop_best = fit0.rss - best["fit"].rss
         alike = [c for c in passing if fit0.rss - c["fit"].rss >= ALIKE * drop_best]
         for c in alike:
-            c["free_run_gap"] = gaps(c["fit"].model, prep, region)["overall"]
+            c["free_run_gap"] = pool.gaps(c["fit"].model, region)["overall"]
         order = list(passing)
         if len(alike) > 1:
             pick = min(alike, key=lambda c: np.nan_to_num(c["free_run_gap"], nan=np.inf))
             if pick["free_run_gap"] < 0.98 * best["free_run_gap"]:
                 order.remove(pick)
                 order.insert(0, pick)
-        accepted = None
-        reasons = []
         base_held = held_error(current, fit0.model.params)
-        for c in order:
+
+        def judge(
+            c: dict[str, Any],
+            fit0: FitResult = fit0,
+            base_held: float = base_held,
+            region: Region = region,
+            gap0: dict[str, float] = gap0,
+            current: tuple[str, ...] = current,
+            v: str = v,
+        ) -> tuple[bool, dict[str, float], dict[str, Any]]:
+            """Whether candidate ``c`` improves held-out data and shrinks the free-run gap beyond the
+            noise (against this step's model ``fit0``); its gaps; and its record (with the reason
+            when it does not)."""  # fmt: skip
             name = c["effect"]
             if get_effect(name).rest_only:  # held out on the free run: ΔF_s fitted on the training samples
-                trained = fit_static_friction(prep, fit0.model, all_full if held_full is None else ~held_full)
+                trained = fit_static_friction(
+                    pool, fit0.model, all_full if held_full is None else [~m for m in held_full]
+                )
                 base_held_c, cand_held = held_free_run(fit0.model, None), held_free_run(fit0.model, trained)
             else:
                 base_held_c = base_held
                 cand_held = held_error((*current, name), c["fit"].model.params)
-            gap1 = gaps(c["fit"].model, prep, region)
+            gap1 = pool.gaps(c["fit"].model, region)
             ok_held = cand_held < (1.0 - min_holdout_gain) * base_held_c
             ok_gap = gap1["overall"] < (1.0 - min_gap_shrink) * gap0["overall"]
             shrink = (gap0["overall"] - gap1["overall"]) / floor if floor > 0 else math.inf
@@ -1084,12 +1462,9 @@ def diagnose(
                 "held_out_error_after": cand_held, "gap_before": gap0["overall"], "gap_after": gap1["overall"],
                 "gap_shrink_noise_floors": shrink,
             }  # fmt: skip
-            if ok_held and ok_gap and ok_noise:
-                accepted = (c, gap1, record_c)
-                break
             why = []
             if not ok_held:
-                unit = prep.units["v"] if get_effect(name).rest_only else prep.units["v"] + "/s"
+                unit = v if get_effect(name).rest_only else v + "/s"
                 why.append(f"held-out error {cand_held:.4g} vs {base_held_c:.4g} {unit}")
             if not ok_gap:
                 why.append(f"free-run gap {gap1['overall']:.4g} vs {gap0['overall']:.4g} {v}")
@@ -1098,15 +1473,28 @@ def diagnose(
                     f"free-run gap {gap1['overall']:.4g} vs {gap0['overall']:.4g} {v}, a shrink of {shrink:.2f} "
                     f"noise floors ({floor:.3g} {v}), not above {noise_shrink:g}"
                 )
-            record_c["reason"] = "; ".join(why)
+            if why:
+                record_c["reason"] = "; ".join(why)
+            return not why, gap1, record_c
+
+        accepted = None
+        reasons = []
+        for c in order:
+            ok, gap1, record_c = judge(c)
+            if ok:
+                accepted = (c, gap1, record_c)
+                break
             rejected.append({"step": len(steps) + 1, **record_c})
-            reasons.append(f"{name} ({record_c['reason']})")
+            reasons.append(f"{c['effect']} ({record_c['reason']})")
         if accepted is None:
             stop_reason = (
                 "no candidate improves held-out data and shrinks the free-run gap beyond the noise: "
                 + ", ".join(reasons)
             )
             break
+        accepted, lookalike = _lookalike_rule(
+            accepted, passing, judge, pool, region, noise_shrink * floor, current
+        )
         c, gap1, record_c = accepted
         fit1: FitResult = c["fit"]
         eff = get_effect(c["effect"])
@@ -1119,7 +1507,16 @@ def diagnose(
             "chosen_by": "free-run gap among alike candidates" if c is not passing[0] else "evidence",
             "ranking": table,
         }  # fmt: skip
-        steps.append(Step(c["effect"], params, region, gap0, gap1, ev, fit1.model))
+        if lookalike is not None:
+            ev["chosen_by"] = "the lookalike rule"
+        before, after = pool.record_gaps(fit0.model, region), pool.record_gaps(fit1.model, region)
+        per_record = [
+            {"record": label, "gap_before": g0["overall"], "gap_after": g1["overall"]}
+            for label, g0, g1 in zip(labels, before, after, strict=True)
+        ]
+        step = Step(c["effect"], params, region, gap0, gap1, ev, fit1.model, lookalike=lookalike)
+        step.record_gaps = per_record if len(labels) > 1 else []
+        steps.append(step)
         logger.info("added %s: %s", c["effect"], params)
         current = fit1.model.effects
         fit0 = fit1
@@ -1127,15 +1524,15 @@ def diagnose(
     bar.total = bar.n + 1  # a diagnosis that stops early skips the steps it did not take
     bar.set_postfix_str("final gaps")
     final_model = fit0.model
-    initial_gap = gaps(initial_model, prep, first_region)
-    refitted_gap = None if model is None else gaps(refitted_model, prep, first_region)
+    initial_gap = pool.gaps(initial_model, first_region)
+    refitted_gap = None if model is None else pool.gaps(refitted_model, first_region)
     if steps or chosen.effects:
-        final_gap = gaps(final_model, prep, first_region)
+        final_gap = pool.gaps(final_model, first_region)
     else:
         final_gap = dict(initial_gap if refitted_gap is None else refitted_gap)
-    final_region = locate(balance_residual(final_model, data)[0], prep.feats_dec, prep.units)
+    final_region = locate(pool.balance_residual(final_model)[0], pool.feats_dec, pool.units)
     stop_reason += "; " + _against_noise(
-        final_gap["overall"], gaps(final_model, prep, final_region)["region"], final_region, floor,
+        final_gap["overall"], pool.gaps(final_model, final_region)["region"], final_region, floor,
         missing_factor, v,
     )  # fmt: skip
     bar.update(1)
@@ -1143,10 +1540,16 @@ def diagnose(
     return Diagnosis(
         initial_gap=initial_gap, final_gap=final_gap, steps=steps, stop_reason=stop_reason,
         noise_floor=floor, final_region=final_region,
-        model=final_model, initial_model=initial_model, region=first_region, units=prep.units,
+        model=final_model, initial_model=initial_model, region=first_region, units=pool.units,
         settings=settings, rejected=rejected, refitted_model=None if model is None else refitted_model,
         refitted_gap=refitted_gap, param_std=fit0.param_std, structure=chosen, structure_model=structure_model,
-        _prep=prep,
+        records=record_summaries(pool, initial_model, final_model, first_region), _pool=pool,
+        noise_bands=pool.noise_bands(), quantisation_step=pool.quantisation,
+        notes=[
+            f"{label}: {note}" if len(labels) > 1 else note
+            for label, prep in zip(labels, pool.parts, strict=True)
+            for note in prep.notes
+        ],
     )  # fmt: skip
 
 
@@ -1155,6 +1558,8 @@ __all__ = [
     "DEFAULT_THRESHOLD",
     "STRUCTURES",
     "Diagnosis",
+    "Lookalike",
+    "Pool",
     "Prepared",
     "Step",
     "Structure",

@@ -1,0 +1,111 @@
+"""Logging artefacts a record may carry, found and left out before the doctor fits it.
+
+- **A held start**: a logger that records before the speed stream starts writes one output value
+  (zero, or the first value it got) for the first samples while the input already moves. The
+  samples before the output first changes are left out when they are at least
+  :data:`MIN_HELD` and the input moves over them by more than :data:`INPUT_MOVES` of its range,
+  and either the held value is not zero (a drive at speed does not hold a constant reading while
+  its input moves) or the input reaches beyond :data:`REST_MARGIN` times the largest input under
+  which the drive rests later in the record (the output reads zero for at least
+  :data:`MIN_HELD` samples in a row; a drive at rest under an input below its breakaway level is
+  physics and is kept).
+- **Drop-out spikes**: a serial link that loses a sample reports one value far from both its
+  neighbours, which agree with each other. Sample k is one when
+
+      |y_k - m_k| > max(SPIKE_FACTOR max(s, q), SPIKE_SHARE range(y))
+      and   |y_k+1 - y_k-1| < NEIGHBOURS |y_k - m_k|,       m_k = (y_k-1 + y_k+1) / 2,
+
+  with s = 1.4826 median |y_k - m_k| over the record (a robust standard deviation of the
+  deviation from the neighbours' mean) and q the smallest step of the output (its quantisation:
+  a quantised record's median deviation may be 0). A drop-out lands far from the speed (a
+  tenth of the record's range at least): a one-sample blip of a speed estimate where the input
+  steps (the wheel motors of ``realmotors/`` show 4 % of their range) is the sensor's, and
+  kept. A spike is replaced by m_k, so the record keeps its uniform sample time.
+
+Each artefact left out gets a one-line note (:func:`clean_output`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: Fewest held samples at the start that count as a held start.
+MIN_HELD = 10
+#: Share of the input's range the input must move over a held start.
+INPUT_MOVES = 0.05
+#: A held zero start is an artefact when the input reaches beyond this many times the largest
+#: input under which the drive rests later (a breakaway a little higher than elsewhere is kept).
+REST_MARGIN = 1.2
+#: A spike deviates from its neighbours' mean by more than this many robust deviations: for
+#: Gaussian noise a false alarm once in about 10^23 samples.
+SPIKE_FACTOR = 10.0
+#: A spike's neighbours differ by less than this share of its deviation.
+NEIGHBOURS = 0.25
+#: A spike deviates from its neighbours' mean by more than this share of the output's range.
+SPIKE_SHARE = 0.1
+
+
+def held_start(u: np.ndarray, y: np.ndarray) -> int:
+    """Number of samples at the start of a record whose output is held by the logger (see the
+    module notes); 0 for none."""
+    changes = np.flatnonzero(y != y[0])
+    if changes.size == 0 or changes[0] < MIN_HELD:
+        return 0
+    k0 = int(changes[0])
+    span = float(np.ptp(u[:k0]))
+    if span <= INPUT_MOVES * float(np.ptp(u)):
+        return 0
+    if y[0] != 0.0:
+        return k0
+    # samples inside runs of at least MIN_HELD zero readings after the start: the drive at rest
+    zero = np.concatenate([[False], y[k0:] == 0.0, [False]])
+    edges = np.flatnonzero(np.diff(zero.astype(np.int8)))
+    runs = [(a, b) for a, b in zip(edges[::2], edges[1::2], strict=True) if b - a >= MIN_HELD]
+    rest_input = max((float(np.max(np.abs(u[k0 + a : k0 + b]))) for a, b in runs), default=0.0)
+    return k0 if float(np.max(np.abs(u[:k0]))) > REST_MARGIN * rest_input else 0
+
+
+def dropout_spikes(y: np.ndarray) -> np.ndarray:
+    """Indices of single-sample drop-out spikes in ``y`` (see the module notes)."""
+    if y.size < 3:
+        return np.zeros(0, dtype=int)
+    mid = 0.5 * (y[:-2] + y[2:])
+    dev = np.abs(y[1:-1] - mid)
+    steps = np.abs(np.diff(y))
+    steps = steps[steps > 0.0]
+    quantum = float(np.min(steps)) if steps.size else 0.0
+    scale = max(1.4826 * float(np.median(dev)), quantum)
+    limit = max(SPIKE_FACTOR * scale, SPIKE_SHARE * float(np.ptp(y)))
+    spike = (dev > limit) & (np.abs(y[2:] - y[:-2]) < NEIGHBOURS * dev)
+    return np.flatnonzero(spike) + 1
+
+
+def clean_output(
+    u: np.ndarray, y: np.ndarray, dt: float, units: tuple[str, str] = ("", ""), start: bool = True
+) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """``u`` and ``y`` without a held start (looked for when ``start``: a velocity output; a
+    resting drive holds its position) and with drop-out spikes replaced, and a note for each
+    artefact left out (``units``: the input's and the output's, for the notes; ``dt`` [s])."""
+    u_unit, y_unit = (f" {x}" if x else "" for x in units)
+    notes = []
+    k0 = held_start(u, y) if start else 0
+    if k0:
+        notes.append(
+            f"the output holds {y[0]:.4g}{y_unit} over the first {k0} samples ({k0 * dt:.3g} s) while the "
+            f"input moves (to {np.max(np.abs(u[:k0])):.3g}{u_unit}): a logging artefact, left out"
+        )
+        u, y = u[k0:], y[k0:]
+    spikes = dropout_spikes(y)
+    if spikes.size:
+        y = y.copy()
+        first = int(spikes[0])
+        y[spikes] = 0.5 * (y[spikes - 1] + y[spikes + 1])
+        notes.append(
+            f"{spikes.size} drop-out spike{'s' if spikes.size > 1 else ''} in the output (single samples far "
+            f"from both neighbours, the first at sample {first + k0}, t = {(first + k0) * dt:.4g} s from "
+            "the start): replaced by the mean of the neighbours"
+        )
+    return u, y, notes
+
+
+__all__ = ["clean_output", "dropout_spikes", "held_start"]

@@ -1,0 +1,101 @@
+"""Lookalikes said as lookalikes: effects of one physics that a record cannot tell apart are
+reported side by side with both figures, and the lookalike rule names the same one whichever
+of them the drive really has (``diagnose`` step 4)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from cli_fixtures import run
+
+from motorid.diagnose import diagnose
+from motorid.diagnose.synthetic import planted_record
+from motorid.plants.rigid import RigidDrive
+from motorid.records import write_record
+
+KINETIC = 1.0  # V: the kinetic friction level planted, as a Coulomb level or a dead zone (input gain 1)
+
+
+def slow_sine_record(effect: str, level: float = KINETIC, seed: int = 0) -> pd.DataFrame:
+    """A drive whose speed follows its input within 20 ms, on two slow sines (0.5 and 1.35 Hz): it
+    comes to rest before every reversal, so a Coulomb level and an input dead zone of the same
+    size hold it back alike. Speed noise 1 % of the largest speed."""
+    dt, tau, inertia = 0.01, 0.02, 1e-3
+    params = {"inertia": inertia, "input_gain": 1.0, "viscous": inertia / tau, "offset": 0.0}
+    params.update({"coulomb": level} if effect == "coulomb_friction" else {"dead_zone": level})
+    drive = RigidDrive(("viscous_friction", "offset", effect), params, dt)
+    t = np.arange(3000) * dt
+    u = 6.0 * np.sin(2 * np.pi * 0.5 * t) + 1.5 * np.sin(2 * np.pi * 1.35 * t + 1.0)
+    w = drive.free_run(u, substeps=20)
+    y = w + 0.01 * np.max(np.abs(w)) * np.random.default_rng(seed).standard_normal(u.size)
+    record = pd.DataFrame({"t": t, "u": u, "y": y})
+    record.attrs.update(dt=dt, units={"t": "s", "u": "V", "y": "rad/s"})
+    return record
+
+
+@pytest.mark.parametrize("planted", ["coulomb_friction", "input_dead_zone"])
+def test_coulomb_friction_and_a_dead_zone_that_fit_alike_get_one_name(planted, capsys, tmp_path):
+    path = tmp_path / "slow.csv"
+    write_record(slow_sine_record(planted), path)
+    code, out, err = run(capsys, "doctor", str(path), "--max-steps", "1", "--json")
+    assert code == 0, err
+    # the same physics gets the same name whichever form the drive has: the first in the library
+    assert [s["effect"] for s in out["steps"]] == ["coulomb_friction"]
+    look = out["steps"][0]["lookalike"]
+    assert out["lookalikes"] == [look]
+    assert look["physics"] == "kinetic friction" and look["named"] == "coulomb_friction"
+    assert look["effects"] == ["coulomb_friction", "input_dead_zone"]
+    gaps = look["free_run_gaps"]
+    # they fit alike: the gaps within half a noise floor of each other
+    assert abs(gaps["coulomb_friction"] - gaps["input_dead_zone"]) <= look["tolerance"]
+    assert look["tolerance"] == pytest.approx(0.5 * out["noise_floor"])
+    # both levels are the kinetic friction planted (5 %: the four fits came within 3.3 % of it)
+    for level in look["levels"].values():
+        assert level == pytest.approx(KINETIC, rel=0.05)
+    line = (
+        f"kinetic friction {look['levels']['coulomb_friction']:.3g} V: coulomb_friction and input_dead_zone "
+        f"fit alike (free-run gap {gaps['coulomb_friction']:.4g} vs {gaps['input_dead_zone']:.4g} rad/s, "
+        f"within {look['tolerance']:.3g} rad/s); named coulomb_friction by the lookalike rule"
+    )
+    assert line in err, err
+
+
+def test_stribeck_and_static_friction_that_fit_alike_are_said_alike(capsys, tmp_path):
+    """A Stribeck excess that decays within a few rad/s: the free run breaks away and slows
+    alike with it and with static friction of about twice its level."""
+    planted = planted_record("stribeck_friction", 2, sizes={"stribeck": 0.004, "stribeck_velocity": 6.0})
+    path = tmp_path / "stribeck.csv"
+    write_record(planted.record, path)
+    code, out, err = run(
+        capsys, "doctor", str(path), "--input-gain", repr(planted.input_gain), "--base",
+        ",".join(planted.base), "--max-steps", "1", "--json",
+    )  # fmt: skip
+    assert code == 0, err
+    assert [s["effect"] for s in out["steps"]] == ["stribeck_friction"]
+    look = out["steps"][0]["lookalike"]
+    assert look["physics"] == "breakaway friction above the kinetic level"
+    assert look["effects"] == ["stribeck_friction", "static_friction"]
+    gaps, levels = look["free_run_gaps"], look["levels"]
+    assert abs(gaps["stribeck_friction"] - gaps["static_friction"]) <= look["tolerance"]
+    # the Stribeck level is the one planted (10 %); static friction, a step at rest, needs more
+    assert levels["stribeck_friction"] == pytest.approx(0.004, rel=0.1)
+    assert levels["static_friction"] > levels["stribeck_friction"]
+    line = (
+        f"breakaway friction above the kinetic level {levels['stribeck_friction']:.3g} N m: stribeck_friction "
+        f"and static_friction fit alike (free-run gap {gaps['stribeck_friction']:.4g} vs "
+        f"{gaps['static_friction']:.4g} rad/s"
+    )
+    assert line in err, err
+
+
+def test_effects_the_record_tells_apart_are_not_lookalikes():
+    """Static friction planted: the balance of the moving drive gives the Stribeck excess a negative
+    level, so the two are told apart; a dead zone on a record that reverses while moving is told
+    from Coulomb friction by the free run (1.3 noise floors apart on this one)."""
+    planted = planted_record("static_friction", 2)
+    d = diagnose(planted.record, input_gain=planted.input_gain, base=planted.base, max_steps=1)
+    assert d.named == ["static_friction"] and d.lookalikes == []
+    planted = planted_record("input_dead_zone", 2, sizes={"dead_zone": 0.5})
+    d = diagnose(planted.record, input_gain=planted.input_gain, base=planted.base, max_steps=1)
+    assert d.named == ["input_dead_zone"] and d.lookalikes == [] and "lookalikes" not in d.to_dict()
