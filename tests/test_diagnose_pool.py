@@ -107,7 +107,7 @@ def test_records_that_cannot_be_pooled_are_named(drive):
         diagnose([rec, rec, rec], labels=["a", "b"])
     bad = rec.copy()
     bad.loc[5, "y"] = np.nan
-    with pytest.raises(ValueError, match=r"b\.csv: column 'y' is not finite at sample 5"):
+    with pytest.raises(ValueError, match=r"b\.csv: column 'y' is not a finite number at sample 5"):
         diagnose([rec, bad], labels=["a.csv", "b.csv"])
     with pytest.raises(ValueError, match="different timings"):
         held = rec.copy()

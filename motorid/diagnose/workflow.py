@@ -1229,7 +1229,21 @@ def diagnose(
     labels = [f"record {k + 1}" for k in range(len(records))] if labels is None else [str(x) for x in labels]
     if len(labels) != len(records):
         raise DataError(f"labels: {len(labels)} labels for {len(records)} records")
-    records = [normalise_record(r, **columns, **reading) for r in records]
+
+    def normalised(r: pd.DataFrame, label: str) -> pd.DataFrame:
+        # only the columns the doctor reads are brought over (a simulated record's true states stay behind)
+        part = r
+        if isinstance(r, pd.DataFrame):
+            named = [c for c in (time or "t", input, output) if c in r.columns]
+            if len(named) == 3 or (len(named) == 2 and time is None):
+                part = r[named]
+                part.attrs = dict(r.attrs)
+        try:
+            return normalise_record(part, **columns, **reading)
+        except DataError as exc:
+            raise DataError(f"{label}: {exc}" if len(records) > 1 else str(exc)) from None
+
+    records = [normalised(r, label) for r, label in zip(records, labels, strict=True)]
     if timing is None:
         own = [record_timing(getattr(r, "attrs", {})) for r in records]
         if len(set(own)) > 1:
@@ -1274,6 +1288,7 @@ def diagnose(
         pools.clear()  # the other timing's arrays go now
     else:
         pool = pooled(timing)
+    records.clear()  # the normalised copies go: each part holds what it needs
     data = pool.data
     first = pool.parts[0]
     settings = {**opts, "input": columns["input"], "output": columns["output"], "dt": first.kin.dt,
@@ -1284,7 +1299,7 @@ def diagnose(
                 "holdout": "record" if isinstance(holdout, pd.DataFrame) else holdout,
                 "max_steps": int(max_steps), "model": "given" if model is not None else "fitted",
                 "stribeck_shape": stribeck_shape, "structure": structure}  # fmt: skip
-    if len(records) > 1:
+    if len(labels) > 1:
         settings["records"] = list(labels)
 
     if isinstance(holdout, pd.DataFrame):
