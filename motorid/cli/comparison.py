@@ -43,8 +43,11 @@ def cmd_compare(args: argparse.Namespace) -> int:
     })  # fmt: skip
     with pd.option_context("display.width", 160, "display.max_colwidth", 40):
         say(table.to_string(float_format=lambda v: f"{v:.4g}"))
+    band = "|y|" if comparison.speed is None else "|dy/dt|, the speed of the positions,"
+    speed_unit = unit if comparison.speed is None else f"{unit}/s"
     say(
-        f"  low speed: |y| < {comparison.low_speed_threshold:.4g} {unit} (--low-speed-rpm {args.low_speed_rpm:g})"
+        f"  low speed: {band} < {comparison.low_speed_threshold:.4g} {speed_unit} "
+        f"(--low-speed-rpm {args.low_speed_rpm:g})"
     )
     for model in comparison.models:
         if model.diverges_from is not None:
