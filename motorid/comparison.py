@@ -9,7 +9,8 @@ output) and is scored against the measurement, as MATLAB's ``compare`` does::
 
 (:mod:`motorid.validation`'s metrics), after the first ``skip`` samples (the start
 from rest). On a record of positions the low-speed band is judged on the speed derived from
-them (central differences, ``numpy.gradient``). The models it takes are those of a model file (:func:`motorid.load_model`):
+them (central differences, ``numpy.gradient``). The models it takes are those of a model
+file (:func:`motorid.load_model`):
 
 - a two-mass rig (``two-mass-rig``): simulated with its sensors noise free, so the
   prediction is its tacho and A/D reading of the load speed [rad/s];

@@ -44,8 +44,8 @@ here too: its terms (:func:`rigid_term`, with the one Stribeck decay
 (:func:`rigid_columns`), its input path's maps with memory (:func:`rigid_input_dynamics`,
 :func:`backlash_dwell` on :func:`reversal_clock`), each on an explicit state so that a record
 in one call and the same record a sample at a time (``RigidDrive.simulation``) are one
-computation, and its free run (:func:`rigid_motion`: speed and position; :func:`rigid_free_run`: the speed alone,
-on :func:`stick_or_slip`).
+computation, and its free run on :func:`stick_or_slip` (:func:`rigid_motion`: speed and
+position; :func:`rigid_free_run`: the speed alone).
 
 So is the friction filters' process model (the EKF/UKF of
 :mod:`motorid.estimators.friction_kf`, state layout in
