@@ -8,11 +8,15 @@ output) and is scored against the measurement, as MATLAB's ``compare`` does::
     low-speed RMSE: the same over the samples with |y| < threshold
 
 (:mod:`motorid.validation`'s metrics), after the first ``skip`` samples (the start
-from rest). The models it takes are those of a model file (:func:`motorid.load_model`):
+from rest). On a record of positions the low-speed band is judged on the speed derived from
+them (central differences, ``numpy.gradient``). The models it takes are those of a model
+file (:func:`motorid.load_model`):
 
 - a two-mass rig (``two-mass-rig``): simulated with its sensors noise free, so the
   prediction is its tacho and A/D reading of the load speed [rad/s];
-- a rigid drive (``rigid-drive``, the doctor's model): its free run [its velocity unit];
+- a rigid drive (``rigid-drive``, the doctor's model): its free run [its velocity unit], or on
+  a record of positions (output in rad or m) its position from rest, placed at the first
+  measured position, integrated inside the same free run (:meth:`~motorid.plants.RigidDrive.motion`);
 - an identified estimator (``estimator``): its ``simulate(u)``, the identified model
   frozen as saved.
 
@@ -155,19 +159,24 @@ def input_unit_note(model: Any, units: Mapping[str, str] | None, name: str = "mo
 POSITION_UNITS = ("rad", "m")
 
 
-def check_output_unit(model: Any, units: Mapping[str, str] | None, name: str = "model") -> None:
+def check_output_unit(
+    model: Any, units: Mapping[str, str] | None, name: str = "model", position_run: bool = False
+) -> None:
     """Refuse a record whose output the model does not give: a drive model gives a velocity
     (a two-mass rig, and a friction filter on one, in rad/s); an ARX or Hammerstein model gives
-    the output it was identified on, whatever its unit.
+    the output it was identified on, whatever its unit. With ``position_run`` (where the caller
+    runs a rigid drive in position, :func:`compare_models`) a rigid drive takes a position too.
 
     Raises
     ------
     DataError
-        For a position output (rad, m) to a drive model or friction filter, or an output named
-        in another unit than rad/s to a model in rad/s.
+        For a position output (rad, m) to a drive model or friction filter (but a rigid drive
+        with ``position_run``), or an output named in another unit than rad/s to a model in rad/s.
     """
     unit = (units or {}).get("y")
     if unit is None or not (isinstance(model, TwoMassRig | RigidDrive) or holds_input(model)):
+        return
+    if unit in POSITION_UNITS and position_run and isinstance(model, RigidDrive):
         return
     if unit in POSITION_UNITS:
         raise DataError(
@@ -227,13 +236,28 @@ def holds_input(model: Any) -> bool:
     )
 
 
-def free_run_on_record(model: Any, u: np.ndarray, dt: float, timing: str, name: str = "model") -> np.ndarray:
+def free_run_on_record(
+    model: Any,
+    u: np.ndarray,
+    dt: float,
+    timing: str,
+    name: str = "model",
+    start_position: float | None = None,
+) -> np.ndarray:
     """:func:`simulate_model` on a record's input, paired with the record's outputs by its ``timing``.
 
     ``y_sim[k]`` is the model's output for ``y[k]``. With ``timing="sampled"`` a physical
     model (:func:`holds_input`) runs on ``u[:-1]`` and its outputs are those of ``y[1:]``;
-    ``y_sim[0]`` is 0, the rest it starts from.
+    ``y_sim[0]`` is 0, the rest it starts from. ``start_position`` (a rigid drive on a record
+    of positions): its position instead, from rest, placed so that its first position is
+    ``start_position`` (the first measured one).
     """
+    if start_position is not None and isinstance(model, RigidDrive):
+        drive = model.replace(dt=dt)
+        if timing == "sampled":
+            return np.concatenate([[start_position], drive.motion(u[:-1], q0=start_position)[1]])
+        position = drive.motion(u)[1]
+        return position + (start_position - position[0])
     if timing == "sampled" and holds_input(model):
         return np.concatenate([[0.0], simulate_model(model, u[:-1], dt, name)])
     return simulate_model(model, u, dt, name)
@@ -292,7 +316,8 @@ class ModelOnRecord:
 @dataclass
 class Comparison:
     """Models on one record: the record's samples (``t`` [s], ``u``, ``y``) and each model's
-    run, ``y_sim[k]`` its output for ``y[k]`` (:func:`free_run_on_record`)."""
+    run, ``y_sim[k]`` its output for ``y[k]`` (:func:`free_run_on_record`); ``speed``, on a
+    record of positions, the speed derived from them, which the low-speed band is judged on."""
 
     t: np.ndarray
     u: np.ndarray
@@ -303,6 +328,7 @@ class Comparison:
     low_speed_threshold: float
     output_unit: str
     models: list[ModelOnRecord] = field(default_factory=list)
+    speed: np.ndarray | None = None
 
     def table(self) -> pd.DataFrame:
         """One row per model: FIT [%], RMSE and low-speed RMSE [output unit], samples in the band."""
@@ -340,13 +366,14 @@ class Comparison:
         unit = self.output_unit
         n = self.y.size
         width = int(min(max(round(5.0 / self.dt), 10), max(n // 4, 10)))
+        band, band_name = (self.y, f"|y| < {self.low_speed_threshold:.3g} {unit}")
+        if self.speed is not None:
+            band, band_name = self.speed, f"|dy/dt| < {self.low_speed_threshold:.3g} {unit}/s"
         windows = {
             "whole record": slice(0, n),
-            f"low speed (|y| < {self.low_speed_threshold:.3g} {unit})": low_speed_window(
-                self.y, width, self.low_speed_threshold, self.skip
-            ),
+            f"low speed ({band_name})": low_speed_window(band, width, self.low_speed_threshold, self.skip),
             "a reversal of the measured output": reversal_window(
-                self.y, width, self.low_speed_threshold, self.skip
+                band, width, self.low_speed_threshold, self.skip
             ),
         }
         fig, axes = subplots(len(windows), 1, figsize=(9, 8.5))
@@ -461,16 +488,19 @@ def compare_models(
     unit = units.get("y") or "output units"
     kinds = {name: model_kind(model) for name, model in models.items()}
     for name, model in models.items():
-        check_output_unit(model, units, name)
+        check_output_unit(model, units, name, position_run=True)
     notes_of = {name: input_unit_note(model, units, name) for name, model in models.items()}
-    low_speed_mask(y, low_speed_threshold)  # a bad threshold is refused before any simulation
-    comparison = Comparison(t, u, y, dt, timing, skip, float(low_speed_threshold), unit)
+    positions = units.get("y") in POSITION_UNITS
+    speed = np.gradient(y, dt) if positions else None
+    band = y if speed is None else speed
+    low_speed_mask(band, low_speed_threshold)  # a bad threshold is refused before any simulation
+    comparison = Comparison(t, u, y, dt, timing, skip, float(low_speed_threshold), unit, speed=speed)
     for name, model in models.items():
         notes = [note for note in (notes_of[name],) if note]
         own_dt = getattr(model, "dt", None)
         if isinstance(model, TwoMassRig | RigidDrive) and not math.isclose(own_dt, dt, rel_tol=1e-6):
             notes.append(f"{name}: simulated at the record's dt = {dt:g} s (its file says {own_dt:g} s)")
-        y_sim = free_run_on_record(model, u, dt, timing, name)
+        y_sim = free_run_on_record(model, u, dt, timing, name, float(y[0]) if positions else None)
         diverges = first_bad_index(y_sim)
         if diverges is not None:
             nan = math.nan
@@ -481,9 +511,9 @@ def compare_models(
                 "mse": nan,
                 "low_speed_mse": nan,
             }
-            n_low = int(low_speed_mask(y[skip:], low_speed_threshold).sum())
+            n_low = int(low_speed_mask(band[skip:], low_speed_threshold).sum())
         else:
-            s = score(y[skip:], y_sim[skip:], low_speed_threshold)
+            s = score(y[skip:], y_sim[skip:], low_speed_threshold, band[skip:])
             scores = {"fit_percent": s.fit_percent, "rmse": s.rmse, "low_speed_rmse": math.sqrt(s.low_speed_mse),
                       "mse": s.mse, "low_speed_mse": s.low_speed_mse}  # fmt: skip
             n_low = s.n_low_speed

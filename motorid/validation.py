@@ -134,14 +134,15 @@ def low_speed_mask(y: ArrayLike, threshold: float) -> np.ndarray:
     return np.abs(as_float_vector(y, "y")) < threshold
 
 
-def low_speed_mse(y: ArrayLike, y_hat: ArrayLike, threshold: float) -> float:
-    """MSE over the samples with ``|y| < threshold`` only [unit^2].
+def low_speed_mse(y: ArrayLike, y_hat: ArrayLike, threshold: float, speed: ArrayLike | None = None) -> float:
+    """MSE over the samples with ``|y| < threshold`` only [unit^2]; ``speed``, when given, is
+    what the band is judged on instead of ``y`` (the speed of a position record).
 
     NaN when no sample is that slow (rather than an error, so that sweeps over
     many records still tabulate).
     """
     y_arr, y_hat_arr = _pair(y, y_hat)
-    mask = low_speed_mask(y_arr, threshold)
+    mask = low_speed_mask(y_arr if speed is None else speed, threshold)
     if not mask.any():
         return float("nan")
     with np.errstate(over="ignore", invalid="ignore"):
@@ -162,15 +163,19 @@ class PredictionScores:
     n_low_speed: int
 
 
-def score(y: ArrayLike, y_hat: ArrayLike, low_speed_threshold: float) -> PredictionScores:
-    """Every metric of this module for one prediction."""
+def score(
+    y: ArrayLike, y_hat: ArrayLike, low_speed_threshold: float, speed: ArrayLike | None = None
+) -> PredictionScores:
+    """Every metric of this module for one prediction; the low-speed band on ``speed`` when
+    given (:func:`low_speed_mse`)."""
     y_arr, y_hat_arr = _pair(y, y_hat)
+    band = y_arr if speed is None else speed
     return PredictionScores(
         mse=mse(y_arr, y_hat_arr),
         rmse=rmse(y_arr, y_hat_arr),
         fit_percent=fit_percent(y_arr, y_hat_arr),
-        low_speed_mse=low_speed_mse(y_arr, y_hat_arr, low_speed_threshold),
-        n_low_speed=int(low_speed_mask(y_arr, low_speed_threshold).sum()),
+        low_speed_mse=low_speed_mse(y_arr, y_hat_arr, low_speed_threshold, band),
+        n_low_speed=int(low_speed_mask(band, low_speed_threshold).sum()),
     )
 
 

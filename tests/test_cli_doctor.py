@@ -176,8 +176,15 @@ def test_doctor_improves_the_users_model_and_the_saved_model_predicts_a_fresh_me
     assert rms["improved"] < 1.4 * noise
     assert rms["datasheet"] > 2.5 * noise
 
-    # the friction filter started from the improved model tracks the fresh measurement online
     from motorid import load_model
+
+    # a rigid drive's record holds its position too, from the same compiled free run as its speed
+    simulated = read_record(tmp_path / "improved_sim.csv")
+    speed, position = load_model(tmp_path / "improved.json").motion(simulated["u"].to_numpy())
+    np.testing.assert_array_equal(simulated["y"].to_numpy(), speed)  # the CSV keeps every digit
+    np.testing.assert_array_equal(simulated["position"].to_numpy(), position)
+
+    # the friction filter started from the improved model tracks the fresh measurement online
     from motorid.estimators import FrictionEKF
     from motorid.estimators.friction_kf import tacho_variance
 

@@ -215,13 +215,32 @@ def test_compare_a_duty_record_through_a_rigid_drive_says_so(capsys, files, tmp_
     assert "input gain" in row["notes"][0] and row["rmse"] < 1e-9
 
 
-def test_compare_refuses_a_position_record_for_a_drive_model(capsys, files, tmp_path):
-    record = read_record(files / "drive_rec.csv")[["t", "u", "y"]]
-    record.to_csv(tmp_path / "position.csv", index=False)
+def test_compare_runs_a_rigid_drive_in_position_on_a_record_of_positions(capsys, files, tmp_path):
+    """The drive's own record of positions (its ``position`` column as ``y``, in rad): the drive,
+    from rest and placed at the first measured position, repeats it: its start is the record's,
+    and the sample time read back from the plain CSV's time column, 0.04 s to 2e-14, moves
+    positions of up to 2e3 rad by about 2e-11 rad, so 1e-9 rad bounds it. The low-speed band is judged on the speed of the positions. A two-mass rig
+    gives a velocity and still refuses a position."""
+    record = read_record(files / "drive_rec.csv")
+    positions = record[["t", "u", "position"]].rename(columns={"position": "y"})
+    positions.to_csv(tmp_path / "position.csv", index=False)
+    wrong = load_model(files / "drive.json").with_params(coulomb=0.006)
+    wrong.save(tmp_path / "wrong_drive.json")
+    code, out, err = run(capsys, "compare", str(tmp_path / "position.csv"), "--output-unit", "rad",
+                         "--model", str(files / "drive.json"), "--model", str(tmp_path / "wrong_drive.json"),
+                         "--skip", str(SKIP), "--out", str(tmp_path / "figs"), "--json")  # fmt: skip
+    assert code == 0, err
+    own, other = out["models"][str(files / "drive.json")], out["models"][str(tmp_path / "wrong_drive.json")]
+    assert np.max(np.abs(positions["y"])) < 2e3
+    assert own["rmse"] < 1e-9 and own["fit_percent"] == pytest.approx(100.0, abs=1e-9)
+    assert other["rmse"] > 0.05 and other["fit_percent"] < own["fit_percent"]
+    y = positions["y"].to_numpy()
+    assert own["n_low_speed"] == int(np.sum(np.abs(np.gradient(y, 0.04)[SKIP:]) < BAND))
+    assert "|dy/dt|" in err and (tmp_path / "figs" / "compare.png").exists()
     code, _, err = run(capsys, "compare", str(tmp_path / "position.csv"), "--output-unit", "deg",
-                       "--model", str(files / "drive.json"))  # fmt: skip
+                       "--model", str(files / "true.json"))  # fmt: skip
     assert (
-        code == 2 and "position in rad" in err and "drive.json" in err and len(err.strip().splitlines()) == 1
+        code == 2 and "position in rad" in err and "true.json" in err and len(err.strip().splitlines()) == 1
     )
     code, _, err = run(capsys, "compare", str(tmp_path / "position.csv"), "--output-unit", "m/s",
                        "--model", str(files / "true.json"))  # fmt: skip

@@ -10,20 +10,24 @@ validation set ``DATA_EMPS_PULSES.mat`` without refitting.
 
 from __future__ import annotations
 
+import importlib.util
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
 from emps_fixtures import emps_folder, requires_emps
 
 from motorid.cli import main
-from motorid.datasets import EMPS_REFERENCE, load_emps
+from motorid.datasets import EMPS_REFERENCE, emps_benchmark_rmse, load_emps
 from motorid.diagnose import diagnose
+from motorid.diagnose.position import refit_in_position
 from motorid.records import write_record
 
 pytestmark = requires_emps
 
 BASE = ("viscous_friction", "offset")
+README = Path(__file__).resolve().parents[1] / "README.md"
 
 
 @pytest.fixture(scope="module")
@@ -104,3 +108,55 @@ def test_doctor_command_on_the_measurement(estimation, tmp_path, capsys):
     assert report["steps"][0]["params"]["coulomb"] == pytest.approx(EMPS_REFERENCE["coulomb"], rel=0.05)
     assert report["final_gap"]["force_error_percent"] < 5.0
     assert len(list((tmp_path / "out").glob("*.png"))) >= 2
+
+
+# --------------------------------------------------------------------------- the benchmark's figure
+@pytest.fixture(scope="module")
+def emps_benchmark_script():
+    """scripts/emps_benchmark.py, imported from its path (scripts/ is not a package)."""
+    path = Path(__file__).resolve().parents[1] / "scripts" / "emps_benchmark.py"
+    spec = importlib.util.spec_from_file_location("emps_benchmark", path)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def test_set():
+    return load_emps(emps_folder(), which="validation")
+
+
+def test_the_doctors_models_by_the_benchmarks_protocol(diagnosis, estimation, test_set):
+    """Measured: 20.37 mm at the start, 6.72 with Coulomb friction, 9.06 with asymmetric friction
+    too; refitted in position on the train set 5.39 and 7.02. The bounds leave 10 % for rounding
+    across machines (a free-run position drifts with the slow force balance); the black-box
+    baselines (5.17-5.53 mm) are not yet reached."""
+    figures = {label: emps_benchmark_rmse(model, test_set) for label, model in diagnosis.models}
+    assert figures["initial"] > 15.0
+    assert figures["+coulomb_friction"] < 7.4 and figures["+asymmetric_friction"] < 10.0
+    coulomb = refit_in_position(diagnosis.steps[0].model, estimation)
+    assert emps_benchmark_rmse(coulomb, test_set) < 5.9
+    assert emps_benchmark_rmse(refit_in_position(diagnosis.model, estimation), test_set) < 7.7
+
+
+def test_the_final_effects_refitted_on_the_test_set_reach_a_millimetre(diagnosis, estimation, test_set):
+    """README's reading of the figures: the structure can follow the test set (0.84 mm when its
+    parameters are refitted there, below every published baseline but dynoNet's 0.452 mm), with a
+    Coulomb level 0.6 N above the train set's (22.0 against 21.4 N)."""
+    on_test = refit_in_position(diagnosis.model, test_set)
+    assert emps_benchmark_rmse(on_test, test_set) < 1.0
+    on_train = refit_in_position(diagnosis.model, estimation)
+    assert on_test.params["coulomb"] - on_train.params["coulomb"] == pytest.approx(0.63, abs=0.1)
+
+
+def test_readme_shows_the_benchmark_table_of_the_script(
+    emps_benchmark_script, diagnosis, estimation, test_set
+):
+    text = README.read_text(encoding="utf-8")
+    begin, end = emps_benchmark_script.BEGIN, emps_benchmark_script.END
+    shown = text[text.index(begin) + len(begin) : text.index(end)].strip()
+    assert shown == emps_benchmark_script.benchmark_table(diagnosis, estimation, test_set), (
+        "README.md's EMPS benchmark table is stale: run python scripts/emps_benchmark.py and paste its table"
+    )
+    assert emps_benchmark_script.BASE == BASE  # the script runs the doctor as these tests do

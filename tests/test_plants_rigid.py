@@ -106,14 +106,50 @@ def test_free_run_stays_at_rest_below_breakaway_and_follows_the_linear_solution(
     assert np.all(held.free_run(np.full(200, -1.02 * backwards / params["input_gain"]))[5:] < 0.0)
 
 
+@pytest.mark.parametrize("shape", ["exponential", "gaussian"])
+def test_position_is_the_trapezoidal_integral_of_the_free_run_speed(shape):
+    """One internal step per sample: the compiled position is q0 plus the trapezoidal sum of the
+    speeds at the sample ends, computed here by SciPy. Both add the same N terms, in other
+    orders: rounding bounds the difference by N eps max|q| (N = 2000, |q| < 1: about 4e-13)."""
+    import scipy.integrate
+
+    drive = RigidDrive((*FRICTION_EFFECTS, "static_friction"), {**EVERY_TERM, "breakaway_excess": 0.005},
+                       dt=0.01, stribeck_shape=shape)  # fmt: skip
+    u = np.repeat(np.random.default_rng(3).normal(0.0, 1.5, 200), 10)  # rests, breakaways and reversals
+    w0, q0 = 0.4, -0.25
+    speed, position = drive.motion(u, w0=w0, q0=q0, substeps=1)
+    assert np.array_equal(speed, drive.free_run(u, w0=w0, substeps=1))  # the speed, to the last bit
+    assert np.any(speed == 0.0) and np.any(speed > 0.0) and np.any(speed < 0.0)
+    reference = q0 + scipy.integrate.cumulative_trapezoid(np.r_[w0, speed], dx=drive.dt)
+    bound = u.size * np.finfo(float).eps * max(1.0, np.max(np.abs(reference)))
+    np.testing.assert_allclose(position, reference, rtol=0.0, atol=bound)
+    stuck = np.flatnonzero((speed[1:] == 0.0) & (speed[:-1] == 0.0)) + 1
+    assert stuck.size and np.all(position[stuck] == position[stuck - 1])  # a drive at rest stays put
+
+
+def test_position_with_substeps_follows_the_linear_solution():
+    """J dw/dt = g u - B w from rest: w = F/B (1 - e^(-t/τ)), q = F/B (t - τ (1 - e^(-t/τ))), τ = J/B.
+    With h = 1e-4 s the implicit Euler speed lags the exact one by about (h/2) dw/dt; integrated,
+    the position lags by about (h/2) (w(T) - w(0)) = 1e-4 m: twice that bounds it."""
+    dt = 0.001
+    drive = RigidDrive(("viscous_friction",), {"inertia": 0.5, "input_gain": 2.0, "viscous": 1.0}, dt)
+    t = (np.arange(3000) + 1) * dt
+    _, position = drive.motion(np.ones(3000), q0=1.0, substeps=10)
+    exact = 1.0 + 2.0 * (t - 0.5 * (1.0 - np.exp(-t / 0.5)))
+    assert np.allclose(position, exact, rtol=0.0, atol=2e-4)
+    assert np.max(np.abs(position - exact)) > 0.0  # a real integration, not the formula
+
+
 def test_simulate_record_and_model_file_round_trip(tmp_path):
     drive = RigidDrive((*FRICTION_EFFECTS, "input_dead_zone", "backlash"),
                        {**EVERY_TERM, "dead_zone": 0.3, "backlash_time": 0.05}, dt=0.005,
                        stribeck_shape="gaussian")  # fmt: skip
     u = 4.0 * np.sin(np.linspace(0.0, 12.0, 800))
     record = drive.simulate(u)
-    assert list(record.columns) == ["t", "u", "y"] and record.attrs["dt"] == 0.005
+    assert list(record.columns) == ["t", "u", "y", "position"] and record.attrs["dt"] == 0.005
     assert np.array_equal(record["y"].to_numpy(), drive.free_run(u))
+    assert np.array_equal(record["position"].to_numpy(), drive.motion(u)[1])
+    assert record.attrs["units"]["position"] == "rad"
     drive.save(tmp_path / "drive.json")
     again = load_model(tmp_path / "drive.json")
     assert again == drive

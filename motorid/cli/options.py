@@ -164,22 +164,28 @@ def read_record_from_args(args: argparse.Namespace, min_samples: int = 20) -> pd
 
 
 def low_speed_band(record: pd.DataFrame, low_speed_rpm: float) -> tuple[str | None, float, str]:
-    """The output's unit (None when the record names none), the low-speed threshold in it, and words for it.
+    """The output's unit (None when the record names none), the low-speed threshold, and words for it.
 
-    ``--low-speed-rpm`` is a speed in rpm: it applies to an output in rad/s. An
-    output in another unit, or in none, gets 10 % of its largest magnitude, and
-    no rpm or rad/s label is given to numbers whose unit nobody named.
+    The band is judged on the output's speed: the output itself, or on a record of
+    positions (rad, m) the speed derived from them (``motorid compare``). ``--low-speed-rpm``
+    is a speed in rpm: it applies to a speed in rad/s. Any other speed, or one in
+    no named unit, gets 10 % of its largest magnitude, and no rpm or rad/s label is
+    given to numbers whose unit nobody named.
     """
     unit = (record.attrs.get("units") or {}).get("y")
-    if unit == "rad/s":
-        threshold = low_speed_rpm * 2.0 * math.pi / 60.0
-        return unit, threshold, f"|y| < {low_speed_rpm:g} rpm"
-    threshold = 0.1 * float(np.max(np.abs(record["y"].to_numpy())))
-    label = unit or "output units"
+    y = record["y"].to_numpy()
+    if unit in ("rad", "m"):
+        speed, name, speed_unit = np.gradient(y, float(record.attrs["dt"])), "|dy/dt|", f"{unit}/s"
+    else:
+        speed, name, speed_unit = y, "|y|", unit
+    if speed_unit == "rad/s":
+        return unit, low_speed_rpm * 2.0 * math.pi / 60.0, f"{name} < {low_speed_rpm:g} rpm"
+    threshold = 0.1 * float(np.max(np.abs(speed)))
+    label = speed_unit or "output units"
     return (
         unit,
         threshold,
-        f"|y| < {threshold:.4g} {label} (10 % of max |y|: --low-speed-rpm needs an output in a speed unit)",
+        f"{name} < {threshold:.4g} {label} (10 % of its max: --low-speed-rpm needs a speed in rad/s)",
     )
 
 

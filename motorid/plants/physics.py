@@ -44,7 +44,8 @@ here too: its terms (:func:`rigid_term`, with the one Stribeck decay
 (:func:`rigid_columns`), its input path's maps with memory (:func:`rigid_input_dynamics`,
 :func:`backlash_dwell` on :func:`reversal_clock`), each on an explicit state so that a record
 in one call and the same record a sample at a time (``RigidDrive.simulation``) are one
-computation, and its free run (:func:`rigid_free_run`, on :func:`stick_or_slip`).
+computation, and its free run on :func:`stick_or_slip` (:func:`rigid_motion`: speed and
+position; :func:`rigid_free_run`: the speed alone).
 
 So is the friction filters' process model (the EKF/UKF of
 :mod:`motorid.estimators.friction_kf`, state layout in
@@ -1111,7 +1112,26 @@ def rigid_free_run(
     w0: float,
     breakaway_excess: float = 0.0,
 ) -> np.ndarray:
-    """Speed of a rigid drive at the end of each sample for the input force [F] held over it.
+    """Speed of a rigid drive at the end of each sample for the input force [F] held over it:
+    the speed of :func:`rigid_motion` (from position 0; the speed does not depend on it)."""
+    return rigid_motion(force, dt, nsub, inertia, coef, rate, shape, w0, 0.0, breakaway_excess)[0]
+
+
+@numba.njit(cache=True)
+def rigid_motion(
+    force: np.ndarray,
+    dt: float,
+    nsub: int,
+    inertia: float,
+    coef: np.ndarray,
+    rate: float,
+    shape: int,
+    w0: float,
+    q0: float,
+    breakaway_excess: float = 0.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Speed and position of a rigid drive at the end of each sample for the input force [F]
+    held over it, from speed ``w0`` [v] and position ``q0`` [v s: rad or m].
 
     ``coef[t]`` is the parameter θ_t of term t. Fixed step h = dt/nsub, semi-implicit Euler::
 
@@ -1125,9 +1145,15 @@ def rigid_free_run(
     against the kinetic level alone, so it keeps moving down to a lower force). A drive without (or with a non-physical negative) static friction at
     rest moves towards the side the net force exceeds most. A step that would carry a
     drive with static friction (or one starting at rest) through zero stops it at 0.
+
+    The position advances over the same internal steps by the trapezoidal rule on the
+    speed, ``q+ = q + h (ω + ω+)/2`` (exact for the speed's straight course over a step; a
+    stuck step leaves it), so ``q[k] = q0 + Σ`` of the steps, no second integrator.
+    Returns ``(speed, position)``, each of shape (N,).
     """
     n = force.size
     out = np.empty(n)
+    position = np.empty(n)
     h = dt / nsub
     rest = 0.0
     up = 0.0
@@ -1140,6 +1166,7 @@ def rigid_free_run(
     break_neg = rest - down + breakaway_excess
     static = break_pos > 0.0 or break_neg > 0.0
     w = w0
+    q = q0
     for k in range(n):
         f = force[k]
         for _ in range(nsub):
@@ -1165,6 +1192,8 @@ def rigid_free_run(
             wn = (w + h / inertia * (f - level)) / den
             if (static or at_rest) and wn * s < 0.0:
                 wn = 0.0
+            q += 0.5 * h * (w + wn)
             w = wn
         out[k] = w
-    return out
+        position[k] = q
+    return out, position

@@ -38,7 +38,7 @@ lag on a drive's linear part; the model carries the input lag only.
 
 Every term is evaluated by the compiled functions of
 :mod:`~motorid.plants.physics` (``rigid_term``, ``stribeck_decay``,
-``stick_or_slip``, ``rigid_free_run``; the input path by ``armature_voltages``, the
+``stick_or_slip``, ``rigid_motion``: speed and position; the input path by ``armature_voltages``, the
 amplifier's own dead zone and saturation at unit gain), the same ones the doctor's fit
 (:mod:`motorid.diagnose`) builds its regressor columns from.
 
@@ -394,6 +394,33 @@ class RigidDrive:
         force = np.ascontiguousarray(self.input_force(u)[start:], dtype=float)
         return self._free_run_force(self._free_run_setup(substeps), force, float(w0))
 
+    def motion(
+        self,
+        u: npt.ArrayLike,
+        w0: float = 0.0,
+        q0: float = 0.0,
+        substeps: int | None = None,
+        start: int = 0,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Free-run velocity [v] and position [v s: rad or m] at the end of each sample for the
+        input ``u`` [u] held over it, from velocity ``w0`` and position ``q0``.
+
+        The position is integrated inside the compiled free run, over its internal steps
+        (:func:`~motorid.plants.physics.rigid_motion`); the velocity is :meth:`free_run`'s to the
+        last bit. Parameters as in :meth:`free_run`.
+
+        Returns
+        -------
+        velocity, position : numpy.ndarray
+            Each of shape (N - start,); NaN without a positive inertia.
+        """
+        force = np.ascontiguousarray(self.input_force(u)[start:], dtype=float)
+        dt, nsub, J, coef, rate, shape, excess = self._free_run_setup(substeps)
+        if not J > 0.0:
+            nan = np.full(force.size, np.nan)
+            return nan, nan.copy()
+        return physics.rigid_motion(force, dt, nsub, J, coef, rate, shape, float(w0), float(q0), excess)
+
     def _free_run_setup(self, substeps: int | None) -> tuple:
         """The arguments of :func:`~motorid.plants.physics.rigid_free_run` other than the
         force and the start speed: ``(dt, substeps, J, coef, rate, shape, breakaway_excess)``."""
@@ -423,21 +450,22 @@ class RigidDrive:
         return RigidSimulation(self, seed)
 
     # -------------------------------------------------------------- records
-    def simulate(self, u: npt.ArrayLike, w0: float = 0.0) -> pd.DataFrame:
-        """A record of the drive from speed ``w0`` [v] for the input ``u`` [u] held over each sample.
+    def simulate(self, u: npt.ArrayLike, w0: float = 0.0, q0: float = 0.0) -> pd.DataFrame:
+        """A record of the drive from speed ``w0`` [v] and position ``q0`` for the input ``u`` [u]
+        held over each sample.
 
         Returns
         -------
         pandas.DataFrame
-            Columns ``t`` [s] (start of each sample), ``u`` and ``y`` (the velocity at the
-            end of the sample, noise free); ``attrs``: ``dt``, ``units``, ``timing``
-            (``"hold"``) and ``model`` (:meth:`to_dict`).
+            Columns ``t`` [s] (start of each sample), ``u``, ``y`` (the velocity at the end of
+            the sample, noise free) and ``position`` (at the end of the sample, :meth:`motion`);
+            ``attrs``: ``dt``, ``units``, ``timing`` (``"hold"``) and ``model`` (:meth:`to_dict`).
         """
         arr = check_input("u", u)
-        y = self.free_run(arr, w0=w0)
-        df = pd.DataFrame({"t": np.arange(arr.size) * self.dt, "u": arr, "y": y})
+        y, position = self.motion(arr, w0=w0, q0=q0)
+        df = pd.DataFrame({"t": np.arange(arr.size) * self.dt, "u": arr, "y": y, "position": position})
         df.attrs["dt"] = self.dt
-        df.attrs["units"] = {"t": "s", "u": "V", "y": "rad/s"}
+        df.attrs["units"] = {"t": "s", "u": "V", "y": "rad/s", "position": "rad"}
         df.attrs["timing"] = "hold"
         df.attrs["model"] = self.to_dict()
         return df
