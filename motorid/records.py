@@ -374,22 +374,12 @@ def _samples(shape: tuple[int, ...]) -> int | None:
     return math.prod(shape) if sum(n > 1 for n in shape) <= 1 else None
 
 
-def _read_binary(
-    name: str, kind: str, mapping: dict[str, str], other_columns: bool, max_samples: int | None
-) -> tuple[pd.DataFrame, dict[str, Any]]:
-    """The columns of a Parquet, MATLAB, HDF5 or TDMS record as float64, checked as a CSV's are.
-
-    Other columns (``other_columns``) are those of the same length that are numbers, named as in
-    the file (a nested one by its last part when that is unique); the rest of the file (scalars,
-    matrices, text) is left out.
-    """
-    if os.path.isdir(name):
-        raise DataError(f"{name} is a folder, not a record file")
-    if not os.path.exists(name):
-        raise DataError(f"{name}: no such file")
-    if os.path.getsize(name) == 0:
-        raise DataError(f"{name} is empty")
-    found: dict[str, str] = {}
+def _column_chooser(
+    name: str, mapping: dict[str, str], other_columns: bool, max_samples: int | None, found: dict[str, str]
+) -> Choose:
+    """The ``choose`` of a binary reader: it checks the columns of ``mapping`` against the shapes the
+    file holds, records each one's key in ``found`` (key in the file -> canonical name) and returns
+    the keys to load (with the other columns of the same length when ``other_columns``)."""
 
     def choose(shapes: dict[str, tuple[int, ...]]) -> list[str]:
         present = list(shapes)
@@ -421,6 +411,26 @@ def _read_binary(
         )
         return [k for k in present if k in found or k in others]
 
+    return choose
+
+
+def _read_binary(
+    name: str, kind: str, mapping: dict[str, str], other_columns: bool, max_samples: int | None
+) -> tuple[pd.DataFrame, dict[str, Any]]:
+    """The columns of a Parquet, MATLAB, HDF5 or TDMS record as float64, checked as a CSV's are.
+
+    Other columns (``other_columns``) are those of the same length that are numbers, named as in
+    the file (a nested one by its last part when that is unique); the rest of the file (scalars,
+    matrices, text) is left out.
+    """
+    if os.path.isdir(name):
+        raise DataError(f"{name} is a folder, not a record file")
+    if not os.path.exists(name):
+        raise DataError(f"{name}: no such file")
+    if os.path.getsize(name) == 0:
+        raise DataError(f"{name} is empty")
+    found: dict[str, str] = {}
+    choose = _column_chooser(name, mapping, other_columns, max_samples, found)
     arrays, attrs = _READERS[kind](name, choose)
     columns: dict[str, np.ndarray] = {}
     for key, values in arrays.items():
@@ -428,15 +438,22 @@ def _read_binary(
             if key in found:
                 raise DataError(f"column {key!r} of {name} is not numeric (its values are {values.dtype})")
             continue
-        values = values.astype(np.float64)
-        bad = np.flatnonzero(~np.isfinite(values))
-        if bad.size:
-            kind_of = "a NaN" if np.isnan(values[bad[0]]) else "an infinite"
-            raise DataError(
-                f"column {key!r} has {kind_of} value {values[bad[0]]!r} at row {int(bad[0])} of {name}"
-            )
+        values = _finite_floats(name, key, values)
         columns[found[key] if key in found else _short_name(key, list(arrays))] = values
     return pd.DataFrame(columns), attrs
+
+
+def _finite_floats(name: str, key: str, values: np.ndarray, first_row: int = 0) -> np.ndarray:
+    """A numeric column of file ``name`` as float64, or a DataError naming its first NaN or infinite
+    value by row (``first_row`` is the row of ``values[0]`` in the file)."""
+    values = values.astype(np.float64)
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        kind_of = "a NaN" if np.isnan(values[bad[0]]) else "an infinite"
+        raise DataError(
+            f"column {key!r} has {kind_of} value {values[bad[0]]!r} at row {first_row + int(bad[0])} of {name}"
+        )
+    return values
 
 
 def _short_name(key: str, keys: list[str]) -> str:
@@ -524,23 +541,38 @@ def read_record(
     kind = record_format(name)
     if kind == "CSV":
         rec, attrs, header_line = _read_csv(name, mapping, other_columns, max_samples)
-
-        def where(row: int) -> str:
-            return f"row {row} (line {header_line + 1 + row} of {name})"
-
+        where = _row_place(name, header_line)
     else:
         rec, attrs = _read_binary(name, kind, mapping, other_columns, max_samples)
-
-        def where(row: int) -> str:
-            return f"row {row} of {name}"
-
+        where = _row_place(name, None)
     return _checked(name, rec, attrs, where, dt, dt_rtol, min_samples)
+
+
+def _row_place(name: str, header_line: int | None) -> Callable[[int], str]:
+    """How an error names data row ``row`` of file ``name``: with its line in a CSV (whose header is
+    on line ``header_line``), by the row alone in the other formats."""
+    if header_line is None:
+        return lambda row: f"row {row} of {name}"
+    return lambda row: f"row {row} (line {header_line + 1 + row} of {name})"
 
 
 def _read_csv(
     name: str, mapping: dict[str, str], other_columns: bool, max_samples: int | None
 ) -> tuple[pd.DataFrame, dict[str, Any], int]:
     """The columns of a CSV record, its attrs and the line number of its header."""
+    attrs, skip, present = _csv_layout(name, mapping)
+    rows = count_data_lines(name) - skip - 1
+    if rows <= 0:
+        raise DataError(f"{name} has a header but no data rows")
+    check_row_limit(name, rows, max_samples)
+    wanted = present if other_columns else [c for c in present if c in mapping.values()]
+    rec = _parse_columns(name, skip, wanted).rename(columns={v: k for k, v in mapping.items() if v != k})
+    return rec.reset_index(drop=True), attrs, skip + 1
+
+
+def _csv_layout(name: str, mapping: dict[str, str]) -> tuple[dict[str, Any], int, list[str]]:
+    """A CSV record's attrs, the number of lines before its header and its column names, once the
+    columns of ``mapping`` are found in the header."""
     first = _open_checked(name)
     attrs: dict[str, Any] = {}
     skip = 0
@@ -562,13 +594,7 @@ def _read_csv(
                 + (f" (needed as {canonical!r})" if column != canonical else "")
                 + f"; columns are {present}"
             )
-    rows = count_data_lines(name) - skip - 1
-    if rows <= 0:
-        raise DataError(f"{name} has a header but no data rows")
-    check_row_limit(name, rows, max_samples)
-    wanted = present if other_columns else [c for c in present if c in mapping.values()]
-    rec = _parse_columns(name, skip, wanted).rename(columns={v: k for k, v in mapping.items() if v != k})
-    return rec.reset_index(drop=True), attrs, skip + 1
+    return attrs, skip, present
 
 
 def _checked(
