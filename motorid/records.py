@@ -201,17 +201,30 @@ def _parse_columns(path: str, skip: int, names: list[str], chunk_rows: int = 1_0
     are the cells read as text, in chunks of ``chunk_rows`` rows (bounded memory),
     to find and name the first bad one.
     """
-    header_line = skip + 1
     try:
-        data = pd.read_csv(path, skiprows=skip, usecols=names, dtype=np.float64, **_EXACT_FLOATS)
+        data = pd.read_csv(path, **csv_data_options(skip, names), dtype=np.float64)
         if all(np.isfinite(data[name].to_numpy()).all() for name in names):
             return data[names]
     except ValueError:
         pass  # a cell that is not a number: find and name it below
+    raise_bad_cell(path, skip, names, chunk_rows)
+
+
+def csv_data_options(skip: int, names: list[str]) -> dict[str, Any]:
+    """The options of :func:`pandas.read_csv` that parse the data rows of a CSV record (the
+    ``skip`` lines before the header, the columns ``names``): one place for the whole-record read
+    and the read in blocks (:mod:`motorid.record_chunks`)."""
+    return {"skiprows": skip, "usecols": names, **_EXACT_FLOATS}
+
+
+def raise_bad_cell(path: str, skip: int, names: list[str], chunk_rows: int = 1_000_000) -> None:
+    """Raise a DataError naming the first non-numeric, NaN or infinite cell of the columns ``names``
+    of a CSV record, read as text from the start in chunks of ``chunk_rows`` rows (bounded memory)."""
+    options = {k: v for k, v in csv_data_options(skip, names).items() if k not in _EXACT_FLOATS}
     with pd.read_csv(
-        path, skiprows=skip, usecols=names, dtype=str, keep_default_na=False, chunksize=chunk_rows
+        path, **options, dtype=str, keep_default_na=False, chunksize=chunk_rows
     ) as reader:  # closed when a bad cell is raised
-        _name_bad_cell(path, reader, names, header_line)
+        _name_bad_cell(path, reader, names, skip + 1)
     raise DataError(f"{path}: the columns {names} do not parse as numbers")  # the fast path failed on a quirk
 
 
@@ -280,7 +293,8 @@ def _attrs_from_json(text: Any, name: str, where: str) -> dict[str, Any]:
 Choose = Callable[[dict[str, tuple[int, ...]]], list[str]]
 
 
-def _read_parquet(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+def _parquet_file(name: str) -> tuple[Any, dict[str, Any]]:
+    """A Parquet file opened (a ``pyarrow.parquet.ParquetFile``) and its record attributes."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -288,8 +302,13 @@ def _read_parquet(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dic
         parquet = pq.ParquetFile(name)
     except (pa.ArrowException, OSError) as exc:
         raise DataError(f"{name} is not a readable Parquet file: {exc}") from None
+    metadata = parquet.schema_arrow.metadata or {}
+    return parquet, _attrs_from_json(metadata.get(ATTRS_KEY.encode()), name, "the schema metadata")
+
+
+def _read_parquet(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    parquet, attrs = _parquet_file(name)
     schema = parquet.schema_arrow
-    attrs = _attrs_from_json((schema.metadata or {}).get(ATTRS_KEY.encode()), name, "the schema metadata")
     rows = parquet.metadata.num_rows
     chosen = choose({column: (rows,) for column in schema.names})
     table = parquet.read(columns=chosen)
@@ -313,22 +332,33 @@ def _read_mat(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[st
     return {var: np.asarray(mat[var]).reshape(-1) for var in chosen}, attrs
 
 
-def _read_hdf5(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+def _hdf5_file(name: str) -> tuple[Any, dict[str, tuple[int, ...]], dict[str, Any]]:
+    """An HDF5 file opened (an ``h5py.File``), the shape of each of its datasets by path, and its
+    record attributes."""
     import h5py
 
     try:
         handle = h5py.File(name, "r")
     except OSError as exc:
         raise DataError(f"{name} is not a readable HDF5 file: {exc}") from None
-    with handle:
-        shapes: dict[str, tuple[int, ...]] = {}
+    shapes: dict[str, tuple[int, ...]] = {}
 
-        def visit(key: str, item: Any) -> None:
-            if isinstance(item, h5py.Dataset) and not key.startswith("#"):  # '#refs#': MATLAB's own
-                shapes[key] = tuple(item.shape)
+    def visit(key: str, item: Any) -> None:
+        if isinstance(item, h5py.Dataset) and not key.startswith("#"):  # '#refs#': MATLAB's own
+            shapes[key] = tuple(item.shape)
 
+    try:
         handle.visititems(visit)
         attrs = _attrs_from_json(handle.attrs.get(ATTRS_KEY), name, f"the root attribute {ATTRS_KEY!r}")
+    except BaseException:
+        handle.close()
+        raise
+    return handle, shapes, attrs
+
+
+def _read_hdf5(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    handle, shapes, attrs = _hdf5_file(name)
+    with handle:
         chosen = choose(shapes)
         return {key: np.asarray(handle[key][()]).reshape(-1) for key in chosen}, attrs
 
@@ -434,9 +464,7 @@ def _read_binary(
     arrays, attrs = _READERS[kind](name, choose)
     columns: dict[str, np.ndarray] = {}
     for key, values in arrays.items():
-        if values.dtype.kind not in "fiub":
-            if key in found:
-                raise DataError(f"column {key!r} of {name} is not numeric (its values are {values.dtype})")
+        if values.dtype.kind not in "fiub" and key not in found:
             continue
         values = _finite_floats(name, key, values)
         columns[found[key] if key in found else _short_name(key, list(arrays))] = values
@@ -444,8 +472,10 @@ def _read_binary(
 
 
 def _finite_floats(name: str, key: str, values: np.ndarray, first_row: int = 0) -> np.ndarray:
-    """A numeric column of file ``name`` as float64, or a DataError naming its first NaN or infinite
-    value by row (``first_row`` is the row of ``values[0]`` in the file)."""
+    """A column of file ``name`` as float64, or a DataError naming it when it is not numeric, or
+    its first NaN or infinite value by row (``first_row`` is the row of ``values[0]`` in the file)."""
+    if values.dtype.kind not in "fiub":
+        raise DataError(f"column {key!r} of {name} is not numeric (its values are {values.dtype})")
     values = values.astype(np.float64)
     bad = np.flatnonzero(~np.isfinite(values))
     if bad.size:
