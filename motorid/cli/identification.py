@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -22,14 +23,18 @@ from .options import (
     check_out_folder,
     create_estimator,
     int_range,
+    iter_record_from_args,
     number,
     read_record_from_args,
 )
 from .report import emit_json, frame_records, say, say_params
 
 
-def require_finite_estimate(name: str, x: np.ndarray, u: np.ndarray, y: np.ndarray) -> None:
-    """Refuse an estimate that stopped being finite, naming the first sample where it did.
+def require_finite_estimate(
+    name: str, x: np.ndarray, u: np.ndarray, y: np.ndarray, first_row: int = 0
+) -> None:
+    """Refuse an estimate that stopped being finite, naming the first sample where it did
+    (``first_row``: the record's row of ``x[0]``, when ``x`` is a block of it).
 
     A result with NaN or inf is never reported as a success: it means the record
     drove the estimator out of floating-point range (an outlier, a unit mistake).
@@ -37,8 +42,9 @@ def require_finite_estimate(name: str, x: np.ndarray, u: np.ndarray, y: np.ndarr
     bad = ~np.isfinite(x).all(axis=1)
     if bad.any():
         k = int(np.argmax(bad))
-        raise DataError(f"estimator {name!r}: its estimate is not finite from sample {k} on "
-                        f"(u = {u[k]:.6g}, y = {y[k]:.6g} there); check the record around row {k}")  # fmt: skip
+        row = first_row + k
+        raise DataError(f"estimator {name!r}: its estimate is not finite from sample {row} on "
+                        f"(u = {u[k]:.6g}, y = {y[k]:.6g} there); check the record around row {row}")  # fmt: skip
 
 
 def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dict[str, Any], list, Any]:
@@ -47,9 +53,22 @@ def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dic
     Returns the ``--json`` payload (without ``figure``), the residual tests (for the figure) and
     the identified estimator (for ``--save-model``).
     ``motorid fleet identify`` calls this very function on each record, so a fleet's rows equal
-    the single-record command's output.
+    the single-record command's output. An estimator that runs in blocks (:func:`runs_in_blocks`)
+    is run over the record in the blocks ``motorid identify`` reads a file in
+    (:func:`identify_blocks`), so the numbers are those of the file read in blocks.
     """
     from motorid.estimators.base import first_bad_index
+    from motorid.record_chunks import CHUNK_ROWS
+
+    if runs_in_blocks(create_estimator(args.estimator, args)):
+        u_all, y_all = record["u"].to_numpy(), record["y"].to_numpy()
+        return identify_blocks(
+            lambda: (
+                (u_all[k : k + CHUNK_ROWS], y_all[k : k + CHUNK_ROWS])
+                for k in range(0, len(record), CHUNK_ROWS)
+            ),
+            args,
+        )
     from motorid.validation import (
         RPM_PER_RAD_S,
         check_signals,
@@ -74,6 +93,7 @@ def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dic
     payload = {
         "estimator": args.estimator,
         "samples": len(record),
+        "residual_tests_samples": len(record) - args.skip,
         "params": est.params,
         "scores": {
             kind: {**row, "mse_rpm2": row["mse"] * RPM_PER_RAD_S**2}
@@ -86,6 +106,114 @@ def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dic
         },
     }
     return payload, tests, est
+
+
+def runs_in_blocks(estimator: Any) -> bool:
+    """Whether ``estimator`` is identified on a record in blocks (:func:`identify_blocks`): an RLS
+    on a lagged regression, whose state (estimate, covariance, past outputs and inputs) carries
+    from one ``batch_filter`` call to the next and whose free run carries its own
+    (:class:`motorid.estimators.rls.FreeRun`). The friction filters need the whole record."""
+    from motorid.estimators.rls import LaggedRegressionRLS
+
+    return isinstance(estimator, LaggedRegressionRLS)
+
+
+def identify_blocks(
+    blocks: Callable[[], Iterable[tuple[np.ndarray, np.ndarray]]], args: argparse.Namespace
+) -> tuple[dict[str, Any], list, Any]:
+    """:func:`identify_record` over a record given in consecutive blocks, in memory that does not
+    grow with the record.
+
+    ``blocks()`` yields the record's ``(u, y)`` blocks from its start; it is called twice. The
+    first pass runs ``batch_filter`` block after block (the estimator carries its state, so the
+    estimate is that of one call on the whole record, bit for bit), checks each block as
+    :func:`motorid.validation.check_signals` checks a record (outliers against the block's own
+    median and spread) and scores the one-step prediction with running sums
+    (:class:`motorid.validation.RunningScore`); the second runs the identified model's free run
+    over the same blocks (:class:`motorid.estimators.rls.FreeRun`) and scores it. The residual
+    tests are computed on the last :data:`motorid.validation.RESIDUAL_WINDOW` samples of the
+    one-step residual (the whole record when it is no longer; ``residual_tests_samples`` in the
+    payload says how many). Returns what :func:`identify_record` returns.
+    """
+    from motorid.estimators.base import first_bad_index
+    from motorid.estimators.rls import FreeRun
+    from motorid.validation import (
+        RPM_PER_RAD_S,
+        ResidualWindow,
+        RunningScore,
+        check_signal_block,
+        raise_constant,
+        residual_tests,
+        rpm_to_rad_s,
+    )
+
+    est = create_estimator(args.estimator, args)
+    threshold = float(rpm_to_rad_s(args.low_speed_rpm))
+    one_step, window = RunningScore(threshold), ResidualWindow()
+    names = (args.input, args.output)
+    first: tuple[float, float] | None = None  # the first sample, to tell a constant column
+    varies = [False, False]
+    samples = 0
+    for u, y in blocks():
+        for name, values in zip(names, (u, y), strict=True):
+            check_signal_block(name, values, samples)
+        if first is None and len(u):
+            first = (float(u[0]), float(y[0]))
+        if first is not None:
+            varies = [v or bool(np.any(x != x0)) for v, x, x0 in zip(varies, (u, y), first, strict=True)]
+        result = est.batch_filter(u, y)
+        require_finite_estimate(args.estimator, result.x, u, y, samples)
+        scored = slice(max(0, args.skip - samples), None)
+        one_step.add(y[scored], result.y_hat[scored])
+        window.add(u[scored], (y - result.y_hat)[scored])
+        samples += len(u)
+    if not 0 <= args.skip < samples:
+        raise ValueError(f"skip must be in [0, {samples}), got {args.skip}")
+    for name, changes, value in zip(names, varies, first or (0.0, 0.0), strict=True):
+        if not changes:
+            raise_constant(name, value, samples)
+    free_run, simulate = RunningScore(threshold), FreeRun(est)
+    diverged = None
+    for u, y in blocks():
+        start = simulate.sample_index
+        y_sim = simulate(u)
+        bad = first_bad_index(y_sim)
+        if bad is not None:
+            diverged = start + bad
+            break
+        scored = slice(max(0, args.skip - start), None)
+        free_run.add(y[scored], y_sim[scored])
+    scores = {
+        "one_step": one_step.result(),
+        **({} if diverged is not None else {"free_run": free_run.result()}),
+    }
+    tests = residual_tests(*window.arrays(), max_lag=args.max_lag)
+    payload = {
+        "estimator": args.estimator,
+        "samples": samples,
+        "residual_tests_samples": min(window.samples, window.size),
+        "params": est.params,
+        "scores": {
+            kind: {**vars(row), "mse_rpm2": row.mse * RPM_PER_RAD_S**2} for kind, row in scores.items()
+        },
+        "free_run_diverges_from_sample": diverged,
+        "low_speed_threshold_rad_s": threshold,
+        "residual_tests": {
+            t.name: {"passed": t.passed, "fraction_outside": t.fraction_outside} for t in tests
+        },
+    }
+    return payload, tests, est
+
+
+def identify_file_in_blocks(args: argparse.Namespace) -> tuple[dict[str, Any], list, Any]:
+    """:func:`identify_blocks` on the record file of ``args``, read in blocks
+    (:func:`.options.iter_record_from_args`): memory does not grow with the record."""
+
+    def blocks() -> Iterator[tuple[np.ndarray, np.ndarray]]:
+        for block in iter_record_from_args(args):
+            yield block["u"].to_numpy(), block["y"].to_numpy()
+
+    return identify_blocks(blocks, args)
 
 
 def write_identify_figure(tests: list, folder: Path, estimator: str) -> Path:
@@ -101,15 +229,17 @@ def cmd_identify(args: argparse.Namespace) -> int:
     """Identify one estimator on a record; report params, MSE, FIT and residual tests."""
     from motorid.validation import RPM_PER_RAD_S
 
-    record = read_record_from_args(args)
-    create_estimator(args.estimator, args)  # a bad estimator option stops before the folder is made
-    if args.out:
+    in_blocks = runs_in_blocks(create_estimator(args.estimator, args))
+    record = None if in_blocks else read_record_from_args(args)
+    if args.out and (record is not None or args.out.exists()):  # else made once the record has passed
         check_out_folder(args.out)
     if args.save_model:
         check_out_file(args.save_model, args.overwrite, "--save-model")
-    payload, tests, est = identify_record(record, args)
+    payload, tests, est = identify_file_in_blocks(args) if record is None else identify_record(record, args)
+    if args.out:
+        check_out_folder(args.out)
     diverged = payload["free_run_diverges_from_sample"]
-    say(f"{args.estimator} on {args.data} ({len(record)} samples)")
+    say(f"{args.estimator} on {args.data} ({payload['samples']} samples)")
     say_params("", payload["params"])
     for kind, row in payload["scores"].items():
         say(
@@ -119,6 +249,9 @@ def cmd_identify(args: argparse.Namespace) -> int:
     if diverged is not None:
         say(f"  free_run  diverges from sample {diverged} on: the identified model is unstable on this input, "
             "so it has no free-run score")  # fmt: skip
+    if payload["residual_tests_samples"] < payload["samples"] - args.skip:
+        say(f"  residual tests on the last {payload['residual_tests_samples']} samples of the record "
+            "(a bounded window: a record read in blocks is not held whole)")  # fmt: skip
     for test in tests:
         say(f"  residual test {test.formula:<22} {'pass' if test.passed else 'FAIL'}")
     if args.save_model:

@@ -10,7 +10,7 @@ import argparse
 import inspect
 import math
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -130,6 +130,31 @@ def read_record_from_args(args: argparse.Namespace, min_samples: int = 20) -> pd
     """
     from motorid.records import read_record
 
+    columns = record_columns(args)
+    record = read_record(args.data, dt=args.dt, columns=columns, min_samples=min_samples,
+                         max_samples=args.max_samples, other_columns=False)  # fmt: skip
+    return canonical_record(record, columns, args)
+
+
+def iter_record_from_args(
+    args: argparse.Namespace, chunk_rows: int | None = None, min_samples: int = 20
+) -> Iterator[pd.DataFrame]:
+    """The record of :func:`read_record_from_args` in consecutive blocks of ``chunk_rows`` rows
+    (default :data:`motorid.record_chunks.CHUNK_ROWS`), each read, checked and converted as the
+    whole record is (:func:`motorid.record_chunks.iter_record`); ``--max-samples`` does not
+    apply, since memory does not grow with the record."""
+    from motorid.record_chunks import CHUNK_ROWS, iter_record
+
+    columns = record_columns(args)
+    blocks = iter_record(args.data, dt=args.dt, columns=columns, min_samples=min_samples,
+                         chunk_rows=chunk_rows or CHUNK_ROWS)  # fmt: skip
+    for block in blocks:
+        yield canonical_record(block, columns, args)
+
+
+def record_columns(args: argparse.Namespace) -> list[str]:
+    """The columns of the record in the file, in the order t, u, y (t left out with ``--dt`` and
+    no ``--time``); a DataError when two options name one column."""
     columns = [args.input, args.output]
     if args.time is not None or args.dt is None:
         columns.insert(0, args.time or "t")
@@ -140,8 +165,12 @@ def read_record_from_args(args: argparse.Namespace, min_samples: int = 20) -> pd
             raise DataError(
                 f"{options[position]} {name!r} is the same column as {first}: each must name its own column"
             )
-    record = read_record(args.data, dt=args.dt, columns=columns, min_samples=min_samples,
-                         max_samples=args.max_samples, other_columns=False)  # fmt: skip
+    return columns
+
+
+def canonical_record(record: pd.DataFrame, columns: list[str], args: argparse.Namespace) -> pd.DataFrame:
+    """``record`` (or a block of it) with the ``columns`` renamed ``t``, ``u``, ``y`` and converted
+    to motorid's units (:func:`motorid.units.convert_record`)."""
     names = dict(zip(columns, ("t", "u", "y")[-len(columns) :], strict=True))
     renamed = record.rename(columns=names)
     renamed.attrs = dict(record.attrs)
