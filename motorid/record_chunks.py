@@ -47,10 +47,10 @@ from motorid.records import (
     record_format,
 )
 
-#: Rows per block by default: 131,072 rows of three float64 columns are 3 MB, and what an
+#: Rows per block by default: 65,536 rows of three float64 columns are 1.5 MB, and what an
 #: estimator's ``batch_filter`` returns per block (estimate and covariance diagonal per sample,
-#: 19 parameters) 40 MB.
-CHUNK_ROWS = 1 << 17
+#: 19 parameters) 20 MB.
+CHUNK_ROWS = 1 << 16
 
 # A source of blocks: a generator that yields the record's attrs, then the line number of a CSV's
 # header (None in the other formats), then each block as {canonical name: float64 array}.
