@@ -340,7 +340,7 @@ class ResidualWindow:
         Samples kept, >= 1.
     """
 
-    def __init__(self, size: int = RESIDUAL_WINDOW):
+    def __init__(self, size: int):
         if not isinstance(size, int) or size < 1:
             raise ValueError(f"size must be an integer >= 1, got {size!r}")
         self.size = size

@@ -138,6 +138,7 @@ def identify_blocks(
     from motorid.estimators.base import first_bad_index
     from motorid.estimators.rls import FreeRun
     from motorid.validation import (
+        RESIDUAL_WINDOW,
         RPM_PER_RAD_S,
         ResidualWindow,
         RunningScore,
@@ -149,7 +150,7 @@ def identify_blocks(
 
     est = create_estimator(args.estimator, args)
     threshold = float(rpm_to_rad_s(args.low_speed_rpm))
-    one_step, window = RunningScore(threshold), ResidualWindow()
+    one_step, window = RunningScore(threshold), ResidualWindow(RESIDUAL_WINDOW)
     names = (args.input, args.output)
     first: tuple[float, float] | None = None  # the first sample, to tell a constant column
     varies = [False, False]
