@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -15,6 +16,7 @@ from .options import (
     add_record_input,
     check_out_file,
     check_out_folder,
+    iter_record_from_args,
     number,
     positive,
     read_record_from_args,
@@ -59,6 +61,29 @@ def doctor_record(record: pd.DataFrame, args: argparse.Namespace, progress: bool
     )  # fmt: skip
 
 
+def read_record_segment(args: argparse.Namespace, min_samples: int = 20) -> tuple[pd.DataFrame, bool]:
+    """The record of ``args`` as :func:`.options.read_record_from_args` reads it, when it has at
+    most ``--max-samples`` rows; else its first ``--max-samples`` rows (a segment). Returns the
+    record and whether it is a segment.
+
+    The record is read in blocks of ``--max-samples`` rows (:func:`.options.iter_record_from_args`):
+    the first block is the record or the segment (checked as a whole record is), and the start of
+    a second one tells that there is more. So the doctor's memory is bounded by ``--max-samples``
+    whatever the length of the file (the rows after the segment are not checked: the doctor does
+    not use them).
+    """
+    if args.max_samples < min_samples:  # too few to read in blocks: the whole-record read says why
+        return read_record_from_args(args, min_samples), False
+    blocks = iter_record_from_args(args, chunk_rows=args.max_samples, min_samples=min_samples)
+    with contextlib.closing(blocks):
+        record = next(blocks)
+        try:
+            more = next(blocks, None) is not None
+        except DataError:  # a bad row after the segment: there are rows after it
+            more = True
+    return record, more
+
+
 def rigid_drive_from_file(path: Path) -> RigidDrive:
     """The rigid drive of the model file ``path`` (``--model``); DataError for another model."""
     from motorid.models import load_model
@@ -84,7 +109,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         rigid_drive_from_file(args.model)
     if args.save_model is not None:
         check_out_file(args.save_model, True, "--save-model")
-    record = read_record_from_args(args)
+    record, segment = read_record_segment(args)
     validation = None
     if args.validate is not None:
         # the same record options (columns, dt, units) as the record the models are fitted on
@@ -96,6 +121,9 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     start = f"the model in {args.model}" if args.model is not None else "inertia, input gain"
     say(f"motorid doctor on {args.data} ({len(record)} samples), base model: {start}"
         + "".join(f", {b}" for b in diagnosis.settings["base"]))  # fmt: skip
+    if segment:
+        say(f"  a segment: the record is longer than --max-samples; the doctor works on its first "
+            f"{len(record)} samples ({len(record) * record.attrs['dt']:g} s) and holds no more")  # fmt: skip
     if diagnosis.refitted_gap is not None:
         say(f"  gap of the given model {diagnosis.initial_gap['overall']:.4g} {units['v']}, "
             f"refitted {diagnosis.refitted_gap['overall']:.4g} {units['v']}")  # fmt: skip
@@ -146,7 +174,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         table.to_csv(args.out / "doctor_table.csv")
         say(f"  wrote {len(figures)} figures and doctor_table.csv in {args.out}/")
     if args.json:
-        out = {**diagnosis.to_dict(), "figures": figures}
+        out = {**diagnosis.to_dict(), "figures": figures, "segment": segment}
         if scores is not None:
             out["validation"] = {"record": str(args.validate), "models": scores.to_dict(orient="index")}
         emit_json(out)
