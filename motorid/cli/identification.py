@@ -313,7 +313,9 @@ def add_identify_options(parser: argparse.ArgumentParser) -> None:
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("identify", help="identify an estimator on a record")
-    add_record_input(p)
+    add_record_input(p, "with --estimator friction-ekf or friction-ukf, which hold the record whole: refuse a "
+                     "longer record (default: %(default)s); the RLS estimators read a record of any length "
+                     "in blocks, in memory that does not grow with it")  # fmt: skip
     add_identify_options(p)
     p.add_argument("--out", type=Path, help="folder for the residual-test figure (replaced if there)")
     p.add_argument("--save-model", type=Path, metavar="FILE",

@@ -92,13 +92,18 @@ RECORD_FILES = (
 )
 
 
-def add_record_input(parser: argparse.ArgumentParser) -> None:
-    """The record a command reads: file, columns, sample time, size limit."""
+#: What --max-samples does in a command that holds its record whole.
+MAX_SAMPLES_HELP = "refuse a longer record (default: %(default)s); decimate a longer one first"
+
+
+def add_record_input(parser: argparse.ArgumentParser, max_samples_help: str = MAX_SAMPLES_HELP) -> None:
+    """The record a command reads: file, columns, sample time, size limit (what the limit does in
+    this command: ``max_samples_help``)."""
     parser.add_argument("data", type=Path, help=f"record file ({RECORD_FILES})")
-    add_record_columns(parser)
+    add_record_columns(parser, max_samples_help)
 
 
-def add_record_columns(parser: argparse.ArgumentParser) -> None:
+def add_record_columns(parser: argparse.ArgumentParser, max_samples_help: str = MAX_SAMPLES_HELP) -> None:
     """How a record is read: columns, sample time, size limit."""
     group = parser.add_argument_group("record")
     group.add_argument("--time", metavar="COL", help="time column [s] (default: t; optional with --dt)")
@@ -116,8 +121,7 @@ def add_record_columns(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--supply-voltage", type=positive, metavar="V",
                        help="supply voltage of a PWM drive [V]: --input-unit %% becomes volts")  # fmt: skip
     group.add_argument(
-        "--max-samples", type=number(int, low=1), default=2_000_000,
-        help="refuse a longer record (default: 2000000); decimate a longer one first",
+        "--max-samples", type=number(int, low=1), default=2_000_000, help=max_samples_help,
     )  # fmt: skip
 
 
