@@ -213,3 +213,22 @@ def test_residual_window_keeps_the_last_samples_in_order():
     big = ResidualWindow(1000)
     big.add(u, e)  # one block longer than the window
     np.testing.assert_array_equal(big.arrays()[1], e[-1000:])
+
+
+def test_rows_appended_between_the_two_passes_are_left_out(record_csv):
+    """A logger may still be appending to the file: the free run scores the rows the filter saw."""
+    frame = pd.read_csv(record_csv, comment="#")
+    u, y = frame["u"].to_numpy(), frame["y"].to_numpy()
+    args = identify_args(record_csv)
+    calls = []
+
+    def growing():
+        rows = 1200 if not calls else len(u)  # the second pass finds 300 more rows
+        calls.append(rows)
+        return ((u[k : min(k + BLOCK, rows)], y[k : min(k + BLOCK, rows)]) for k in range(0, rows, BLOCK))
+
+    got = identify_blocks(growing, args)[0]
+    fixed = identify_blocks(lambda: ((u[k : min(k + BLOCK, 1200)], y[k : min(k + BLOCK, 1200)])
+                                     for k in range(0, 1200, BLOCK)), args)[0]  # fmt: skip
+    assert calls == [1200, len(u)]
+    assert got["samples"] == 1200 and got["scores"] == fixed["scores"]

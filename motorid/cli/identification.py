@@ -130,7 +130,8 @@ def identify_blocks(
     :func:`motorid.validation.check_signals` checks a record (outliers against the block's own
     median and spread) and scores the one-step prediction with running sums
     (:class:`motorid.validation.RunningScore`); the second runs the identified model's free run
-    over the same blocks (:class:`motorid.estimators.rls.FreeRun`) and scores it. The residual
+    over the same blocks (:class:`motorid.estimators.rls.FreeRun`), up to the samples the first
+    pass saw (a logger may still be appending to the file), and scores it. The residual
     tests are computed on the last :data:`motorid.validation.RESIDUAL_WINDOW` samples of the
     one-step residual (the whole record when it is no longer; ``residual_tests_samples`` in the
     payload says how many). Returns what :func:`identify_record` returns.
@@ -177,6 +178,9 @@ def identify_blocks(
     diverged = None
     for u, y in blocks():
         start = simulate.sample_index
+        if start >= samples:  # a file still being written has grown since the first pass
+            break
+        u, y = u[: samples - start], y[: samples - start]
         y_sim = simulate(u)
         bad = first_bad_index(y_sim)
         if bad is not None:
