@@ -209,7 +209,7 @@ def add_doctor_options(parser: argparse.ArgumentParser) -> None:
 def add_commands(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("doctor", help="find the effect missing from a drive model and show the gap shrink")
     add_record_input(p, "work on the first this many samples of a longer record (a segment, said in the "
-                     "output); the doctor's memory grows with it, about 0.4 kB a sample (default: %(default)s)")  # fmt: skip
+                     "output); the doctor's memory grows with it, 0.9 GB at the default (%(default)s)")  # fmt: skip
     add_doctor_options(p)
     p.add_argument("--out", type=Path, help="folder for the figures and the table (replaced if there)")
     p.add_argument("--model", type=Path, metavar="FILE",
