@@ -64,6 +64,7 @@ def in_blocks(args, rows: int = BLOCK):
     return blocks
 
 
+@pytest.mark.cpu_sensitive
 @pytest.mark.parametrize(
     "options",
     [("--skip", "1200"), ("--estimator", "arx-rls", "--na", "2", "--nb", "3", "--lam", "0.995"),
@@ -103,6 +104,7 @@ def test_identify_in_blocks_equals_the_whole_record_computation(record_csv, opti
         )
 
 
+@pytest.mark.cpu_sensitive
 def test_blocks_of_any_size_give_one_estimate(record_csv):
     args = identify_args(record_csv)
     params = [identify_blocks(in_blocks(args, rows), args)[0]["params"] for rows in (20, BLOCK, 1500)]
@@ -174,6 +176,7 @@ def test_a_constant_input_over_every_block_is_refused_as_check_signals_refuses_i
 
 
 # --------------------------------------------------------------------------- the pieces
+@pytest.mark.cpu_sensitive
 def test_free_run_in_blocks_is_simulate_bit_for_bit(record_csv):
     record = read_record(record_csv)
     est = create_estimator("hammerstein-rls", identify_args(record_csv, "--basis", "u,sign,dead_zone:0.5"))
