@@ -87,19 +87,18 @@ def raise_constant(name: str, value: float, rows: int) -> None:
     )
 
 
-def check_outliers(name: str, x: np.ndarray, first_row: int) -> None:
+def check_outliers(
+    name: str, x: np.ndarray, first_row: int, reference: tuple[float, float] | None = None
+) -> None:
     """The outlier check of :func:`check_signals` on the finite samples ``x`` (not empty) of column
-    ``name``, judged against their own median and spread; ``first_row`` is the row of ``x[0]`` in
-    the record (for the message)."""
-    centre = float(np.median(x))
-    deviation = np.abs(x - centre)
-    spread = float(np.median(deviation))
-    if spread == 0.0:
-        moved = deviation[deviation > 0.0]
-        if not moved.size:  # every sample on the median: nothing stands out
-            return
-        spread = float(np.median(moved))
-    outliers = np.flatnonzero(deviation > OUTLIER_SPREADS * spread)
+    ``name``: against ``reference`` (the centre and spread of :func:`outlier_reference`), by default
+    the samples' own; ``first_row`` is the row of ``x[0]`` in the record (for the message)."""
+    if reference is None:
+        reference = outlier_reference(x)
+    if reference is None:  # every sample on the median: nothing stands out
+        return
+    centre, spread = reference
+    outliers = np.flatnonzero(np.abs(x - centre) > OUTLIER_SPREADS * spread)
     if outliers.size:
         row = int(outliers[0])
         raise DataError(
@@ -107,6 +106,21 @@ def check_outliers(name: str, x: np.ndarray, first_row: int) -> None:
             f"{OUTLIER_SPREADS:g} times the column's spread ({spread:.3g}) from its median ({centre:.3g}): "
             "a unit slip or a corrupt cell? Fix or drop that row"
         )
+
+
+def outlier_reference(x: np.ndarray) -> tuple[float, float] | None:
+    """The centre and spread :func:`check_signals` judges outliers by: the median of ``x`` and the
+    median absolute deviation from it (or, when more than half the samples sit on the median, the
+    median of the nonzero deviations); None when every sample sits on the median."""
+    centre = float(np.median(x))
+    deviation = np.abs(x - centre)
+    spread = float(np.median(deviation))
+    if spread == 0.0:
+        moved = deviation[deviation > 0.0]
+        if not moved.size:
+            return None
+        spread = float(np.median(moved))
+    return centre, spread
 
 
 def _pair(y: ArrayLike, y_hat: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
@@ -322,6 +336,55 @@ class RunningScore:
             ),
             n_low_speed=self.low_speed_samples,
         )
+
+
+#: Samples of a signal given in blocks that its outlier reference (median and spread) is taken
+#: from, evenly strided over the record (:class:`StridedSample`); a signal of at most this many
+#: samples is taken whole, as :func:`check_signals` takes it.
+REFERENCE_SAMPLES = 1_000_000
+
+
+class StridedSample:
+    """Every ``stride``-th sample of a signal given in consecutive blocks, in at most ``capacity``
+    values: the stride starts at 1 and doubles (every other value kept is dropped) whenever the
+    next block would not fit, so the values are always samples 0, s, 2s, ... of the signal.
+
+    A signal of at most ``capacity`` samples is kept whole. Used for the outlier reference of a
+    record given in blocks (:func:`outlier_reference` of the sample: its median and spread).
+
+    Parameters
+    ----------
+    capacity : int
+        Most values kept, >= 1.
+    """
+
+    def __init__(self, capacity: int):
+        if not isinstance(capacity, int) or capacity < 1:
+            raise ValueError(f"capacity must be an integer >= 1, got {capacity!r}")
+        self._values = np.empty(capacity)
+        self._kept = 0
+        self.stride = 1
+        #: Samples of the signal given so far.
+        self.samples = 0
+
+    def add(self, x: ArrayLike) -> None:
+        """Add the next block of the signal."""
+        x_arr = as_float_vector(x, "x")
+        while True:
+            taken = x_arr[(-self.samples) % self.stride :: self.stride]
+            if self._kept + len(taken) <= len(self._values):
+                break
+            half = (self._kept + 1) // 2
+            self._values[:half] = self._values[: self._kept : 2]
+            self._kept, self.stride = half, 2 * self.stride
+        self._values[self._kept : self._kept + len(taken)] = taken
+        self._kept += len(taken)
+        self.samples += len(x_arr)
+
+    @property
+    def values(self) -> np.ndarray:
+        """The samples kept, in time order (a view)."""
+        return self._values[: self._kept]
 
 
 #: Samples of a record given in blocks that the residual tests are computed on: its last ones

@@ -32,6 +32,7 @@ from motorid.records import read_record, write_record
 from motorid.validation import (
     ResidualWindow,
     RunningScore,
+    StridedSample,
     residual_tests,
     rpm_to_rad_s,
     score,
@@ -166,6 +167,21 @@ def test_an_outlier_in_a_later_block_is_named_by_its_row_in_the_record(record_cs
         identify_blocks(blocks, args)
 
 
+@pytest.mark.parametrize("rows", [BLOCK, 1500])
+def test_a_unit_slip_filling_most_of_a_block_is_named_as_in_the_whole_record(record_csv, rows):
+    """From row 1100 on, u and y are 1e150 times too large: 400 of the last block's 503 rows, so
+    that block's own median is among them; the record's median (of a strided sample of the whole
+    record) is not, and the slip is named as check_signals names it on the whole record."""
+    frame = pd.read_csv(record_csv, comment="#")
+    u, y = frame["u"].to_numpy().copy(), frame["y"].to_numpy().copy()
+    u[1100:] *= 1e150
+    y[1100:] *= 1e150
+    args = identify_args(record_csv, "--estimator", "arx-rls")
+    blocks = lambda: ((u[k : k + rows], y[k : k + rows]) for k in range(0, len(u), rows))  # noqa: E731
+    with pytest.raises(DataError, match=r"column 'u' has an outlier \S+e\+150 at row 1100,"):
+        identify_blocks(blocks, args)
+
+
 def test_a_constant_input_over_every_block_is_refused_as_check_signals_refuses_it(record_csv):
     frame = pd.read_csv(record_csv, comment="#")
     u, y = np.full(len(frame), 0.5), frame["y"].to_numpy()
@@ -200,6 +216,20 @@ def test_running_score_equals_score_to_rounding():
     for name in ("mse", "rmse", "fit_percent", "low_speed_mse"):
         assert getattr(got, name) == pytest.approx(getattr(want, name), rel=SCORE_RTOL), name
     assert got.n_low_speed == want.n_low_speed > 0
+
+
+def test_strided_sample_keeps_every_stride_th_sample_in_bounded_memory():
+    x = np.arange(10_000.0)
+    sample = StridedSample(1000)
+    for k in range(0, len(x), BLOCK):
+        sample.add(x[k : k + BLOCK])
+    assert sample.stride == 16 and sample.samples == len(x)
+    np.testing.assert_array_equal(sample.values, x[::16])
+    whole = StridedSample(1000)
+    whole.add(x[:700])
+    whole.add(x[700:1000])
+    np.testing.assert_array_equal(whole.values, x[:1000])  # a short signal is kept whole
+    assert whole.stride == 1
 
 
 def test_residual_window_keeps_the_last_samples_in_order():

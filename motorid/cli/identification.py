@@ -124,26 +124,38 @@ def identify_blocks(
     """:func:`identify_record` over a record given in consecutive blocks, in memory that does not
     grow with the record.
 
-    ``blocks()`` yields the record's ``(u, y)`` blocks from its start; it is called twice. The
-    first pass runs ``batch_filter`` block after block (the estimator carries its state, so the
-    estimate is that of one call on the whole record, bit for bit), checks each block as
-    :func:`motorid.validation.check_signals` checks a record (outliers against the block's own
-    median and spread) and scores the one-step prediction with running sums
-    (:class:`motorid.validation.RunningScore`); the second runs the identified model's free run
-    over the same blocks (:class:`motorid.estimators.rls.FreeRun`), up to the samples the first
-    pass saw (a logger may still be appending to the file), and scores it. The residual
-    tests are computed on the last :data:`motorid.validation.RESIDUAL_WINDOW` samples of the
-    one-step residual (the whole record when it is no longer; ``residual_tests_samples`` in the
-    payload says how many). Returns what :func:`identify_record` returns.
+    ``blocks()`` yields the record's ``(u, y)`` blocks from its start; it is called twice.
+
+    1. The first pass runs ``batch_filter`` block after block (the estimator carries its state,
+       so the estimate is that of one call on the whole record, bit for bit) and scores the
+       one-step prediction with running sums (:class:`motorid.validation.RunningScore`). Each
+       block is checked as :func:`motorid.validation.check_signals` checks a record, against the
+       block's own median and spread (a corrupt cell stops the work at once); a strided sample
+       of each signal (:class:`motorid.validation.StridedSample`, the whole signal up to
+       :data:`motorid.validation.REFERENCE_SAMPLES` samples) gives the record's median and spread.
+    2. The second pass checks every block against the record's median and spread (what
+       :func:`~motorid.validation.check_signals` does on a whole record: it catches a unit slip
+       that fills most of a block), and runs and scores the identified model's free run
+       (:class:`motorid.estimators.rls.FreeRun`), up to the samples the first pass saw (a logger
+       may still be appending to the file).
+
+    The residual tests are computed on the last :data:`motorid.validation.RESIDUAL_WINDOW`
+    samples of the one-step residual (the whole record when it is no longer;
+    ``residual_tests_samples`` in the payload says how many). Returns what
+    :func:`identify_record` returns.
     """
     from motorid.estimators.base import first_bad_index
     from motorid.estimators.rls import FreeRun
     from motorid.validation import (
+        REFERENCE_SAMPLES,
         RESIDUAL_WINDOW,
         RPM_PER_RAD_S,
         ResidualWindow,
         RunningScore,
+        StridedSample,
+        check_outliers,
         check_signal_block,
+        outlier_reference,
         raise_constant,
         residual_tests,
         rpm_to_rad_s,
@@ -153,18 +165,21 @@ def identify_blocks(
     threshold = float(rpm_to_rad_s(args.low_speed_rpm))
     one_step, window = RunningScore(threshold), ResidualWindow(RESIDUAL_WINDOW)
     names = (args.input, args.output)
+    strided = (StridedSample(REFERENCE_SAMPLES), StridedSample(REFERENCE_SAMPLES))
     first: tuple[float, float] | None = None  # the first sample, to tell a constant column
     varies = [False, False]
     samples = 0
     for u, y in blocks():
-        for name, values in zip(names, (u, y), strict=True):
+        for name, values, sample in zip(names, (u, y), strided, strict=True):
             check_signal_block(name, values, samples)
+            sample.add(values)
         if first is None and len(u):
             first = (float(u[0]), float(y[0]))
         if first is not None:
             varies = [v or bool(np.any(x != x0)) for v, x, x0 in zip(varies, (u, y), first, strict=True)]
         result = est.batch_filter(u, y)
-        require_finite_estimate(args.estimator, result.x, u, y, samples)
+        if len(u) and not np.isfinite(result.x[-1]).all():  # a non-finite estimate stays so: the last tells
+            require_finite_estimate(args.estimator, result.x, u, y, samples)
         scored = slice(max(0, args.skip - samples), None)
         one_step.add(y[scored], result.y_hat[scored])
         window.add(u[scored], (y - result.y_hat)[scored])
@@ -174,20 +189,25 @@ def identify_blocks(
     for name, changes, value in zip(names, varies, first or (0.0, 0.0), strict=True):
         if not changes:
             raise_constant(name, value, samples)
+    references = [outlier_reference(sample.values) for sample in strided]
     free_run, simulate = RunningScore(threshold), FreeRun(est)
     diverged = None
+    start = 0
     for u, y in blocks():
-        start = simulate.sample_index
         if start >= samples:  # a file still being written has grown since the first pass
             break
         u, y = u[: samples - start], y[: samples - start]
-        y_sim = simulate(u)
-        bad = first_bad_index(y_sim)
-        if bad is not None:
-            diverged = start + bad
-            break
-        scored = slice(max(0, args.skip - start), None)
-        free_run.add(y[scored], y_sim[scored])
+        for name, values, reference in zip(names, (u, y), references, strict=True):
+            check_outliers(name, values, start, reference)
+        if diverged is None:
+            y_sim = simulate(u)
+            bad = first_bad_index(y_sim)
+            if bad is not None:
+                diverged = start + bad
+            else:
+                scored = slice(max(0, args.skip - start), None)
+                free_run.add(y[scored], y_sim[scored])
+        start += len(u)
     scores = {
         "one_step": one_step.result(),
         **({} if diverged is not None else {"free_run": free_run.result()}),
