@@ -20,7 +20,7 @@ from typing import Any
 
 from motorid.errors import DataError
 
-from .doctor import add_doctor_options, doctor_record, effect_list
+from .doctor import add_doctor_options, doctor_record, effect_list, read_record_segment
 from .identification import add_identify_options, identify_record, write_identify_figure
 from .options import (
     RECORD_FILES,
@@ -61,7 +61,10 @@ class RecordTask:
             try:
                 args = copy.copy(self.args)
                 args.data = Path(path)
-                record = read_record_from_args(args)
+                if self.command == "identify":
+                    record, segment = read_record_from_args(args), False
+                else:  # as motorid doctor reads it: a longer record's first --max-samples samples
+                    record, segment = read_record_segment(args)
                 drive, when = identity(path, record.attrs, given)
                 row.update(drive=drive, time=when)
                 folder = self.figures / drive / Path(path).stem if self.figures is not None else None
@@ -75,7 +78,7 @@ class RecordTask:
                     diagnosis = doctor_record(record, args, progress=False)
                     payload = diagnosis.to_dict()
                     figures = diagnosis.write_figures(folder) if folder else []
-                    extra = {"named": ",".join(diagnosis.named)}
+                    extra = {"named": ",".join(diagnosis.named), "segment": segment}
                 row.update(status="ok", error=None)
                 row.update(flatten(jsonable({**payload, **extra, "figures": [str(f) for f in figures]})))
             except Exception as exc:  # the record's failure, whatever it is, is its row
