@@ -220,9 +220,8 @@ def csv_data_options(skip: int, names: list[str]) -> dict[str, Any]:
 def raise_bad_cell(path: str, skip: int, names: list[str], chunk_rows: int = 1_000_000) -> None:
     """Raise a DataError naming the first non-numeric, NaN or infinite cell of the columns ``names``
     of a CSV record, read as text from the start in chunks of ``chunk_rows`` rows (bounded memory)."""
-    options = {k: v for k, v in csv_data_options(skip, names).items() if k not in _EXACT_FLOATS}
     with pd.read_csv(
-        path, **options, dtype=str, keep_default_na=False, chunksize=chunk_rows
+        path, **csv_data_options(skip, names), dtype=str, keep_default_na=False, chunksize=chunk_rows
     ) as reader:  # closed when a bad cell is raised
         _name_bad_cell(path, reader, names, skip + 1)
     raise DataError(f"{path}: the columns {names} do not parse as numbers")  # the fast path failed on a quirk
