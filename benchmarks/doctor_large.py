@@ -8,9 +8,8 @@ samples (``--samples 0``: the 80 s one only). Each is diagnosed in a fresh proce
 ``motorid doctor REC --json`` (no figures: matplotlib is not imported), by ``motorid doctor
 REC --json --out DIR`` and by ``diagnose()`` in Python (read with
 :func:`motorid.records.read_record`), ``--repeat`` times each, the runs alternated; the script
-prints the median and the smallest wall time [s] (start-up and reading included), the largest
-peak resident memory [MB] (``ru_maxrss`` of that process) and whether the progress bar reached
-stderr. Not a test: it prints figures.
+prints the median and the smallest wall time [s] (start-up and reading included) and the largest
+peak resident memory [MB] (``ru_maxrss`` of that process). Not a test: it prints figures.
 """
 
 from __future__ import annotations
@@ -51,15 +50,15 @@ def make_record(path: Path, samples: int, dt: float) -> None:
     write_record(record, path)
 
 
-def measure(argv: list[str], env: dict[str, str] | None = None) -> tuple[float, float, str]:
-    """Wall time [s], peak RSS [MB] and stderr of ``argv`` run in a fresh process (environment
-    ``env``, default this one's)."""
+def measure(argv: list[str], env: dict[str, str] | None = None) -> tuple[float, float]:
+    """Wall time [s] and peak RSS [MB] of ``argv`` run in a fresh process (environment ``env``,
+    default this one's)."""
     t0 = time.perf_counter()
     done = subprocess.run(
         [sys.executable, "-c", PEAK_OF_CHILD, *argv], capture_output=True, text=True, check=True, env=env
     )
     wall = time.perf_counter() - t0
-    return wall, int(done.stdout.split()[-1]) / 1024, done.stderr
+    return wall, int(done.stdout.split()[-1]) / 1024
 
 
 def main() -> None:
@@ -73,7 +72,7 @@ def main() -> None:
         folder = args.keep or Path(tmp)
         folder.mkdir(parents=True, exist_ok=True)
         print(f"{'record':>28} {'run':>22} {'median wall [s]':>16} {'min wall [s]':>13} "
-              f"{'peak RSS [MB]':>14} {'progress on stderr':>19}")  # fmt: skip
+              f"{'peak RSS [MB]':>14}")  # fmt: skip
         for samples in dict.fromkeys(s for s in (round(80.0 / args.dt), args.samples) if s > 0):
             path = folder / f"rig_{samples}.csv"
             if not path.exists():
@@ -87,16 +86,14 @@ def main() -> None:
             }
             walls: dict[str, list[float]] = {name: [] for name in runs}
             peaks: dict[str, float] = dict.fromkeys(runs, 0.0)
-            shown: dict[str, str] = {}
             for _ in range(args.repeat):
                 for name, argv in runs.items():
-                    wall, peak, err = measure(argv)
+                    wall, peak = measure(argv)
                     walls[name].append(wall)
                     peaks[name] = max(peaks[name], peak)
-                    shown[name] = "yes" if "doctor:" in err and "stage" in err else "-"
             for name in runs:
                 print(f"{label:>28} {name:>22} {statistics.median(walls[name]):16.2f} {min(walls[name]):13.2f} "
-                      f"{peaks[name]:14.0f} {shown[name]:>19}", flush=True)  # fmt: skip
+                      f"{peaks[name]:14.0f}", flush=True)  # fmt: skip
 
 
 if __name__ == "__main__":

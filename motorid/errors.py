@@ -11,7 +11,7 @@ reported as one (exit status 1, the traceback with ``-v``).
 
 from __future__ import annotations
 
-__all__ = ["DataError"]
+__all__ = ["DataError", "OutputError"]
 
 
 class DataError(ValueError):
@@ -19,4 +19,15 @@ class DataError(ValueError):
 
     The message names what is wrong and where (file, column, 0-based row or
     sample index, argument name).
+    """
+
+
+class OutputError(OSError):
+    """A file or folder motorid writes could not be written whole, or is another writer's.
+
+    The disk is full, the name was taken by another writer meanwhile, or another
+    run holds the folder. The message names the file and what is on disk now
+    (nothing, the file as it was, or the rows kept); no half-written file is left
+    where a whole one was expected. The ``motorid`` command reports it as one line
+    with exit status 2.
     """

@@ -15,12 +15,14 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from matplotlib.figure import Figure
 
 from motorid import figures
 from motorid.estimators import ARXRLS, Estimator, HammersteinRLS
 from motorid.estimators.base import BatchResult
 from motorid.plants import TwoMassRig, paper_rig
 from motorid.plants.signals import two_sine_signal
+from motorid.units import UNNAMED_OUTPUT, input_unit_name, per
 from motorid.validation import RPM_PER_RAD_S, rpm_to_rad_s, score_predictions
 
 logger = logging.getLogger(__name__)
@@ -73,51 +75,67 @@ class PaperExperiment:
         table.index.names = ["model", "prediction"]
         return table
 
-    def write_figures(self, out: str | Path) -> list[Path]:
-        """The paper's Figs. 8-15 for this run, as PNG files in ``out``."""
-        out = Path(out)
+    def figures(self) -> dict[str, Figure]:
+        """The paper's Figs. 8-15 for this run, by file name, in the record's units."""
         t = self.record["t"].to_numpy()
         u = self.record["u"].to_numpy()
         y = self.record["y"].to_numpy()
+        units = self.record.attrs.get("units") or {}
         one_step = {label: run.result.y_hat for label, run in self.runs.items()}
         free = {f"{label} (free run)": run.free_run for label, run in self.runs.items()}
         dt = float(self.record.attrs.get("dt", t[1] - t[0]))
         window = figures.low_speed_window(y, round(5.0 / dt), self.low_speed_threshold, self.skip)
-        paths = [
-            figures.plot_input_response(t, u, y, out / "fig08_input_response.png"),
-            figures.plot_low_speed(
-                t, y, one_step, window, out / "fig09_low_speed_one_step.png",
+        out = {
+            "fig08_input_response.png": figures.input_response_figure(t, u, y, units),
+            "fig09_low_speed_one_step.png": figures.low_speed_figure(
+                t,
+                y,
+                one_step,
+                window,
                 "Measured (solid) and one-step predicted (dashed) speed at low speed",
+                units,
             ),
-            figures.plot_low_speed(
-                t, y, free, window, out / "fig10_low_speed_free_run.png",
+            "fig10_low_speed_free_run.png": figures.low_speed_figure(
+                t,
+                y,
+                free,
+                window,
                 "Measured (solid) and free-run simulated (dashed) speed at low speed",
+                units,
             ),
-            figures.plot_identification_error(t, y, one_step, out / "fig12_identification_error.png"),
-        ]  # fmt: skip
+            "fig12_identification_error.png": figures.identification_error_figure(t, y, one_step, units),
+        }
+        u_unit, y_unit = input_unit_name(units.get("u")), units.get("y") or UNNAMED_OUTPUT
         for label, run in self.runs.items():
             est, hist = run.estimator, run.result.x
             na = getattr(est, "na", 0)
             names = est.state_names
             groups = [
-                ("coefficients of A", {names[i]: hist[:, i] for i in range(na)}),
-                ("coefficients of B", {n: hist[:, i] for i, n in enumerate(names) if n.startswith("b")}),
+                ("coefficients of A [-]", {names[i]: hist[:, i] for i in range(na)}),
+                (
+                    f"coefficients of B [{per(y_unit, u_unit)}]",
+                    {n: hist[:, i] for i, n in enumerate(names) if n.startswith("b")},
+                ),
             ]
             if isinstance(est, HammersteinRLS) and est.degree > 1:
                 _, gamma = est.factorize(hist)
+                # gamma_j weighs g_j(u) = u^j (the polynomial built above) against g_1(u) = u: [u]^(1-j)
+                power = u_unit if " " not in u_unit else f"({u_unit})"
                 groups.append(
                     (
-                        "nonlinearity gamma_j",
+                        f"nonlinearity gamma_j [{power}^(1-j)]",
                         {f"gamma_{j + 1} ({est.basis.names[j]})": gamma[:, j] for j in range(1, est.degree)},
                     )
                 )
             slug = label.lower().replace(" ", "_").replace(",", "").replace("-", "_")
-            paths.append(
-                figures.plot_estimates(
-                    t, groups, out / f"fig13_estimates_{slug}.png", f"Parameter estimates, {label}"
-                )
+            out[f"fig13_estimates_{slug}.png"] = figures.estimates_figure(
+                t, groups, f"Parameter estimates, {label}"
             )
-        return paths
+        return out
+
+    def write_figures(self, out: str | Path) -> list[Path]:
+        """Write :meth:`figures` as PNG files in ``out``; the paths."""
+        return [figures.save(fig, Path(out) / name) for name, fig in self.figures().items()]
 
 
 def dead_zone_width_by_grid(

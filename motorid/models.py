@@ -30,7 +30,13 @@ file before it builds anything, and a bad file (not JSON, another format, a newe
 unknown version, a missing or unknown key, a wrong type, NaN, a value out of range
 such as a negative inertia, an unknown friction law) raises one
 :class:`~motorid.errors.DataError` naming the file and the key, e.g.
-``rig.json: model.J_m: J_m must be > 0, got -1.0``.
+``rig.json: model.J_m: J_m must be > 0, got -1.0``. Nothing a file says is trusted
+with memory or time: the file is at most :data:`LARGEST_FILE` bytes, its JSON at most
+32 levels deep with integers within ±2**53 (:mod:`motorid.json_input`), every drive
+parameter within its physical range (:mod:`motorid.plants.ranges`), every size an
+array is allocated with bounded (NIS window, delay line, orders, basis) before the
+array is made, and a covariance symmetric positive semi-definite within 1e-9
+relative (:func:`~motorid.estimators.base.check_covariance`).
 
 This module sits at the top of the package, beside :mod:`motorid.records`, because
 a model file holds either a drive model (:mod:`motorid.plants`) or an estimator
@@ -44,13 +50,13 @@ import json
 import logging
 import math
 import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from motorid.errors import DataError
+from motorid.json_input import MAX_INTEGER, parse_json
 from motorid.plants.amplifier import Amplifier
 from motorid.plants.friction import FRICTION_KINDS
 from motorid.plants.rig import TwoMassRig
@@ -79,6 +85,13 @@ __all__ = [
     "rigid_drive_from_dict",
     "save_model",
 ]
+
+
+#: Largest model file [bytes]: an estimator of the most parameters (1000) writes a covariance of
+#: 10**6 numbers, about 25 MB.
+LARGEST_FILE = 64 * 2**20
+#: Longest text a model file's value may hold (names, sides, basis specs are far shorter).
+_LONGEST_TEXT = 500
 
 
 class _BadKeyError(Exception):
@@ -114,19 +127,18 @@ def model_to_dict(model: Any) -> dict[str, Any]:
     )
 
 
-def save_model(model: Any, path: str | os.PathLike[str]) -> None:
-    """Write ``model`` as a model file at ``path`` (replaced whole, never left half-written)."""
+def save_model(model: Any, path: str | os.PathLike[str], *, overwrite: bool = True) -> None:
+    """Write ``model`` as a model file at ``path``, whole (:func:`motorid.outputs.write_file`).
+
+    ``overwrite=False`` refuses an existing file, also one another process created
+    meanwhile (:class:`~motorid.errors.OutputError`, as for a full disk; ``path``
+    is then as it was).
+    """
+    from motorid.outputs import write_file
+
     text = json.dumps(model_to_dict(model), indent=2, allow_nan=False) + "\n"
-    target = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", dir=target.parent or Path("."))
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        os.replace(tmp, target)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    logger.info("wrote model file %s (%s)", target, type(model).__name__)
+    write_file(path, lambda fh: fh.write(text), overwrite=overwrite)
+    logger.info("wrote model file %s (%s)", path, type(model).__name__)
 
 
 def _estimator_to_dict(est: Any) -> dict[str, Any]:
@@ -201,17 +213,19 @@ def load_model(path: str | os.PathLike[str]) -> Any:
     """
     source = Path(path)
     try:
+        size = source.stat().st_size
+        if not source.is_file():  # a FIFO or a device would block or never end
+            raise DataError(f"{source}: cannot read the model file: not a regular file")
+        if size > LARGEST_FILE:
+            raise DataError(
+                f"{source}: not a model file: {size} bytes, more than the {LARGEST_FILE} a model file takes"
+            )
         text = source.read_text(encoding="utf-8")
     except OSError as exc:
         raise DataError(f"{source}: cannot read the model file: {exc.strerror or exc}") from None
     except UnicodeDecodeError:
         raise DataError(f"{source}: not a model file (not UTF-8 text)") from None
-    try:
-        data = json.loads(text, parse_constant=lambda name: float(name))
-    except json.JSONDecodeError as exc:
-        raise DataError(
-            f"{source}: not a model file (invalid JSON at line {exc.lineno}: {exc.msg})"
-        ) from None
+    data = parse_json(text, str(source), invalid="not a model file: invalid JSON")
     return model_from_dict(data, source=str(source))
 
 
@@ -225,7 +239,7 @@ def model_from_dict(data: Any, source: str = "model") -> Any:
             raise DataError(f'{source}: not a motorid model file (no "format": "{FORMAT}")')
         version = data.get("version")
         if isinstance(version, bool) or not isinstance(version, int):
-            raise DataError(f"{source}: version must be an integer, got {version!r}")
+            raise DataError(f"{source}: version must be an integer, got {_shown(version)}")
         if version > VERSION:
             raise DataError(
                 f"{source}: model file version {version} is newer than this motorid reads "
@@ -234,7 +248,7 @@ def model_from_dict(data: Any, source: str = "model") -> Any:
         if version < 1:
             raise DataError(f"{source}: unknown model file version {version} (known: 1 to {VERSION})")
         _keys(data, ("format", "version", "kind", "model"), "")
-        kind = data["kind"]
+        kind = _text(data["kind"], "kind")
         if kind == KIND_RIG:
             return _rig(data["model"], "model")
         if kind == KIND_RIGID:
@@ -299,11 +313,24 @@ def _join(where: str, key: str | int) -> str:
     return f"{where}.{key}" if where else key
 
 
+def _shown(value: Any) -> str:
+    """``value`` as JSON for a message, cut to 60 characters (a file may hold a 50 MB string)."""
+    try:
+        text = json.dumps(value)
+    except (TypeError, ValueError):  # an integer of more digits than Python converts to text
+        text = type(value).__name__
+    return text if len(text) <= 60 else f"{text[:57]}..."
+
+
 def _number(value: Any, key: str, *, none_is: float | None = None) -> float:
     if value is None and none_is is not None:
         return none_is
     if isinstance(value, bool) or not isinstance(value, int | float):
-        raise _BadKeyError(key, f"must be a number, got {json.dumps(value)}")
+        raise _BadKeyError(key, f"must be a number, got {_shown(value)}")
+    if isinstance(value, int) and abs(value) > MAX_INTEGER:
+        raise _BadKeyError(
+            key, f"must be a number within ±2**53, got an integer of {len(str(abs(value)))} digits"
+        )
     if not math.isfinite(value):
         raise _BadKeyError(key, f"must be finite, got {value!r}")
     return float(value)
@@ -311,24 +338,28 @@ def _number(value: Any, key: str, *, none_is: float | None = None) -> float:
 
 def _integer(value: Any, key: str) -> int:
     if isinstance(value, bool) or not isinstance(value, int):
-        raise _BadKeyError(key, f"must be an integer, got {json.dumps(value)}")
+        raise _BadKeyError(key, f"must be an integer, got {_shown(value)}")
+    if abs(value) > MAX_INTEGER:
+        raise _BadKeyError(key, f"must be an integer within ±2**53, got one of {len(str(abs(value)))} digits")
     return value
 
 
 def _boolean(value: Any, key: str) -> bool:
     if not isinstance(value, bool):
-        raise _BadKeyError(key, f"must be true or false, got {json.dumps(value)}")
+        raise _BadKeyError(key, f"must be true or false, got {_shown(value)}")
     return value
 
 
 def _text(value: Any, key: str) -> str:
     if not isinstance(value, str):
-        raise _BadKeyError(key, f"must be a string, got {json.dumps(value)}")
+        raise _BadKeyError(key, f"must be a string, got {_shown(value)}")
+    if len(value) > _LONGEST_TEXT:
+        raise _BadKeyError(key, f"must be a name of at most {_LONGEST_TEXT} characters, got {len(value)}")
     return value
 
 
-def _array(value: Any, key: str, shape: tuple[int, ...]) -> np.ndarray:
-    """A finite float array of ``shape`` from nested lists."""
+def _array(value: Any, key: str, shape: tuple[int, ...], largest: float = math.inf) -> np.ndarray:
+    """A finite float array of ``shape`` from nested lists, entries within ±``largest``."""
     try:
         arr = np.array(value, dtype=float)
     except (TypeError, ValueError):
@@ -339,8 +370,15 @@ def _array(value: Any, key: str, shape: tuple[int, ...]) -> np.ndarray:
     if bad.size:
         where = "".join(f"[{int(i)}]" for i in bad[0])
         raise _BadKeyError(key + where, f"must be finite, got {float(arr[tuple(bad[0])])!r}")
-    if any(isinstance(v, bool) for v in np.array(value, dtype=object).reshape(-1)):
-        raise _BadKeyError(key, "must hold numbers, not true/false")
+    big = np.argwhere(np.abs(arr) > largest)
+    if big.size:
+        where = "".join(f"[{int(i)}]" for i in big[0])
+        raise _BadKeyError(key + where, f"must be within ±{largest:g}, got {float(arr[tuple(big[0])])!r}")
+    if not all(
+        isinstance(v, int | float) and not isinstance(v, bool)
+        for v in np.array(value, dtype=object).reshape(-1)
+    ):
+        raise _BadKeyError(key, "must hold numbers, not text or true/false")
     return arr
 
 
@@ -373,7 +411,7 @@ def _scalars(cls: Any, data: Any, where: str) -> Any:
 def _friction(data: Any, where: str) -> Any:
     if not isinstance(data, dict):
         raise _BadKeyError(where, f"must be a JSON object, got {type(data).__name__}")
-    kind = data.get("kind")
+    kind = _text(data.get("kind"), _join(where, "kind"))
     if kind not in FRICTION_KINDS:
         raise _BadKeyError(
             _join(where, "kind"), f"unknown friction law {kind!r} (known: {', '.join(FRICTION_KINDS)})"
@@ -391,7 +429,7 @@ def _rig(data: Any, where: str) -> TwoMassRig:
         value = data[f.name]
         if f.name == "friction":
             if not isinstance(value, list):
-                raise _BadKeyError(key, f"must be a list of friction laws, got {json.dumps(value)}")
+                raise _BadKeyError(key, f"must be a list of friction laws, got {_shown(value)}")
             values[f.name] = tuple(_friction(item, _join(key, k)) for k, item in enumerate(value))
         elif f.name in parts:
             values[f.name] = _scalars(parts[f.name], value, key)
@@ -410,7 +448,7 @@ def _rigid_drive(data: Any, where: str) -> RigidDrive:
     _keys(data, ("effects", "params", "dt", "stribeck_shape"), where)
     e_where = _join(where, "effects")
     if not isinstance(data["effects"], list):
-        raise _BadKeyError(e_where, f"must be a list of effect names, got {json.dumps(data['effects'])}")
+        raise _BadKeyError(e_where, f"must be a list of effect names, got {_shown(data['effects'])}")
     effects = []
     for k, name in enumerate(data["effects"]):
         if _text(name, _join(e_where, k)) not in RIGID_EFFECTS:
@@ -438,7 +476,7 @@ def _estimator(data: Any, where: str) -> Any:
 
     _keys(data, ("estimator", "settings", "state"), where)
     classes = {cls.name: cls for cls in (ARXRLS, HammersteinRLS, FrictionEKF, FrictionUKF)}
-    name = data["estimator"]
+    name = _text(data["estimator"], _join(where, "estimator"))
     if name not in classes:
         raise _BadKeyError(
             _join(where, "estimator"), f"unknown estimator {name!r} (known: {', '.join(classes)})"
@@ -451,6 +489,7 @@ def _estimator(data: Any, where: str) -> Any:
 
 def _rls(cls: Any, settings: Any, state: Any, where: str) -> Any:
     from motorid.estimators import HammersteinRLS
+    from motorid.estimators.base import LARGEST_VALUE, check_covariance
 
     s_where, x_where = _join(where, "settings"), _join(where, "state")
     names = ["na", "nb", "lam", "delta", "direct_term", "max_trace", "R", "x0"]
@@ -471,15 +510,19 @@ def _rls(cls: Any, settings: Any, state: Any, where: str) -> Any:
         kw["gamma_method"] = _text(settings["gamma_method"], _join(s_where, "gamma_method"))
     x0 = settings["x0"]
     if not isinstance(x0, list):
-        raise _BadKeyError(_join(s_where, "x0"), f"must be a list of numbers, got {json.dumps(x0)}")
-    kw["x0"] = _array(x0, _join(s_where, "x0"), (len(x0),))
+        raise _BadKeyError(_join(s_where, "x0"), f"must be a list of numbers, got {_shown(x0)}")
+    kw["x0"] = _array(x0, _join(s_where, "x0"), (len(x0),), LARGEST_VALUE)
     est = _build(cls, kw, s_where)
     n = est.dim_x
     _keys(state, ("x", "P", "y_history", "g_history", "sample_index"), x_where)
-    x = _array(state["x"], _join(x_where, "x"), (n,))
+    x = _array(state["x"], _join(x_where, "x"), (n,), LARGEST_VALUE)
     P = _array(state["P"], _join(x_where, "P"), (n, n))
-    y_history = _array(state["y_history"], _join(x_where, "y_history"), est.y_history.shape)
-    g_history = _array(state["g_history"], _join(x_where, "g_history"), est.g_history.shape)
+    try:
+        P = check_covariance("P", P)
+    except ValueError as exc:
+        raise _BadKeyError(_join(x_where, "P"), str(exc)) from None
+    y_history = _array(state["y_history"], _join(x_where, "y_history"), est.y_history.shape, LARGEST_VALUE)
+    g_history = _array(state["g_history"], _join(x_where, "g_history"), est.g_history.shape, LARGEST_VALUE)
     sample_index = _integer(state["sample_index"], _join(x_where, "sample_index"))
     if sample_index < 0:
         raise _BadKeyError(_join(x_where, "sample_index"), f"must be >= 0, got {sample_index}")

@@ -12,6 +12,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from statistics import NormalDist
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -19,6 +20,10 @@ from numpy.typing import ArrayLike
 
 from motorid.errors import DataError
 from motorid.estimators.base import Estimator, as_float_vector, first_bad_index
+from motorid.progress import progress_bar
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
 
@@ -568,23 +573,37 @@ def residual_tests(
     return tests
 
 
-def plot_residual_tests(tests: list[CorrelationTest], path: str, title: str = "Residual analysis") -> None:
-    """One PNG figure with a panel per test: correlation against lag, band shaded."""
-    from motorid.figures import save, subplots
+def residual_tests_figure(tests: list[CorrelationTest], title: str = "Residual analysis") -> Figure:
+    """A panel per test: the normalised correlation [-] against the lag [samples],
+    the per-lag band shaded and the band for all lags at once dashed (the test's verdict)."""
+    from motorid.figures import set_title, subplots
 
-    fig, axes = subplots(len(tests), 1, figsize=(8, 2.0 * len(tests)))
+    fig, axes = subplots(len(tests), 1, figsize=(8, 2.0 * len(tests) + 0.6))
     for ax, test in zip(np.atleast_1d(axes), tests, strict=True):
         ax.axhspan(-test.band, test.band, color="tab:blue", alpha=0.15, label="per-lag band")
         for level in (-test.simultaneous_band, test.simultaneous_band):
-            ax.axhline(level, color="tab:red", lw=0.8, ls="--")
-        ax.stem(test.lags, test.values, basefmt=" ")
+            ax.axhline(
+                level, color="tab:red", lw=0.8, ls="--", label="band for all lags at once (the verdict)"
+            )
+        ax.stem(test.lags, test.values, basefmt=" ", label="correlation at each lag")
         verdict = "pass" if test.passed else "FAIL"
-        ax.set_title(f"{test.formula}: {verdict} ({test.fraction_outside:.0%} of lags outside)", fontsize=9)
+        set_title(ax, f"{test.formula}: {verdict} ({test.fraction_outside:.0%} of lags outside the per-lag band)",
+                  fontsize=9)  # fmt: skip
         ax.set_ylabel("correlation [-]")
         ax.set_ylim(-1.05, 1.05)
-    np.atleast_1d(axes)[-1].set_xlabel("lag tau [samples]")
-    fig.suptitle(title)
-    save(fig, path)
+        ax.set_xlabel("lag tau [samples]")
+    set_title(fig, title)
+    handles, labels = np.atleast_1d(axes)[0].get_legend_handles_labels()
+    shown = dict(zip(labels, handles, strict=True))  # the two dashed lines under one entry
+    fig.legend(shown.values(), shown.keys(), loc="outside lower center", ncols=3, fontsize=8)
+    return fig
+
+
+def plot_residual_tests(tests: list[CorrelationTest], path: str, title: str = "Residual analysis") -> None:
+    """Write :func:`residual_tests_figure` as PNG at ``path``."""
+    from motorid.figures import save
+
+    save(residual_tests_figure(tests, title), path)
 
 
 # --------------------------------------------------------------------------- the paper's experiment
@@ -626,6 +645,7 @@ def order_sweep(
     prediction: str = "one_step",
     skip: int = 0,
     progress: bool = False,
+    output_unit: str | None = "rad/s",
 ) -> SweepTables:
     """Identify ARX-RLS and Hammerstein-RLS on one record over model orders and
     polynomial degrees, as in the paper's Tables 1 and 2.
@@ -651,10 +671,12 @@ def order_sweep(
     skip : int
         Leading samples left out of the scores.
     progress : bool
-        Show a tqdm progress bar on stderr.
+        Show a progress bar on stderr (:func:`motorid.progress.progress_bar`).
+    output_unit : str or None
+        Unit of ``y``: the MSE is in rpm^2 (the paper's) when it is rad/s, else in
+        the square of this unit, or of "output units" when it is None (no label
+        is invented for a record that names no unit).
     """
-    from tqdm import tqdm
-
     from motorid.estimators import ARXRLS, HammersteinRLS
 
     u_arr, y_arr = as_float_vector(u, "u"), as_float_vector(y, "y")
@@ -662,12 +684,13 @@ def order_sweep(
     if prediction not in ("one_step", "free_run"):
         raise ValueError(f"prediction must be 'one_step' or 'free_run', got {prediction!r}")
     threshold = 0.1 * float(np.max(np.abs(y_arr))) if low_speed_threshold is None else low_speed_threshold
-    to_rpm2 = RPM_PER_RAD_S**2
+    to_rpm2 = RPM_PER_RAD_S**2 if output_unit == "rad/s" else 1.0
+    mse_unit = "rpm^2" if output_unit == "rad/s" else f"({output_unit or 'output units'})^2"
     jobs = [("order", n) for n in orders] + [("degree", d) for d in degrees]
     order_rows: dict[int, dict[str, float]] = {}
     degree_rows: dict[int, dict[str, float]] = {}
     max_degree = max(degrees, default=1)
-    for kind, value in tqdm(jobs, desc="order sweep", disable=not progress):
+    for kind, value in progress_bar(jobs, show=progress, desc="order sweep", unit="model"):
         if kind == "order":
             models = {
                 "linear": ARXRLS(value, value, lam=lam, delta=delta),
@@ -693,5 +716,5 @@ def order_sweep(
     degrees_df = pd.DataFrame.from_dict(degree_rows, orient="index")
     degrees_df.index.name = "degree"
     for df in (orders_df, degrees_df):
-        df.attrs["units"] = {"mse": "rpm^2", "gamma": "-"}
+        df.attrs["units"] = {"mse": mse_unit, "gamma": "-"}
     return SweepTables(orders_df, degrees_df, threshold, prediction)

@@ -162,8 +162,8 @@ a_cols = [c for c in record.columns if c.startswith("hammerstein-rls.a")]
 b_cols = [c for c in record.columns if c.startswith("hammerstein-rls.b")]
 figures.plot_estimates(
     t,
-    [("coefficients of A", {c: record[c].to_numpy() for c in a_cols}),
-     ("coefficients of B", {c: record[c].to_numpy() for c in b_cols})],
+    [("coefficients of A [-]", {c: record[c].to_numpy() for c in a_cols}),
+     ("coefficients of B [rad/s per V]", {c: record[c].to_numpy() for c in b_cols})],
     WORK / "estimates.png",
     "Hammerstein-RLS (dead zone 0.8 V) identified over Modbus",
 )  # fmt: skip

@@ -1,4 +1,4 @@
-"""Test-suite configuration: the hypothesis profiles and the ``cpu_sensitive`` marker.
+"""Test-suite configuration: the hypothesis profiles, the ``cpu_sensitive`` marker, a small disk.
 
 Hypothesis profiles (chosen with the environment variable ``HYPOTHESIS_PROFILE``):
 
@@ -29,6 +29,8 @@ shows up there.
 from __future__ import annotations
 
 import os
+import subprocess
+from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, settings
@@ -71,3 +73,21 @@ def pytest_configure(config: pytest.Config) -> None:
         "cpu_sensitive: holds two code paths to the same numbers; make test runs these again "
         "under NUMBA_CPU_NAME=generic",
     )
+
+
+@pytest.fixture
+def small_disk(tmp_path: Path):
+    """A 64 kB tmpfs mounted at a folder of the test; skipped where mounting is not permitted."""
+    folder = tmp_path / "disk"
+    folder.mkdir()
+    if os.name != "posix" or os.geteuid() != 0:
+        pytest.skip("mounting a small tmpfs needs root on Linux: no full disk to write to here")
+    done = subprocess.run(
+        ["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", str(folder)], capture_output=True, text=True
+    )
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.strip()}")
+    try:
+        yield folder
+    finally:
+        subprocess.run(["umount", "-l", str(folder)], check=False)

@@ -9,6 +9,7 @@ folder is byte for byte what it was. A last pair of tests tells user errors
 from __future__ import annotations
 
 import hashlib
+import os
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +17,8 @@ import pandas as pd
 import pytest
 
 from motorid.cli import main
-from motorid.plants import paper_rig
+from motorid.estimators import create
+from motorid.plants import RigidDrive, paper_rig
 from motorid.plants.signals import two_sine_signal
 from motorid.records import write_record
 
@@ -59,6 +61,27 @@ def folder(tmp_path_factory) -> Path:
     huge_u.loc[250, "u"] = 1e300
     _write_csv(root / "huge_u.csv", huge_u)
     (root / "existing.csv").write_text("keep me\n")
+    _write_csv(root / "short.csv", plain.iloc[:30])
+    paper_rig().save(root / "rig.json")
+    RigidDrive(effects=("coulomb_friction",), params={"inertia": 2e-4, "input_gain": 0.02, "coulomb": 0.004},
+               dt=0.04).save(root / "rigid.json")  # fmt: skip
+    create("arx-rls", na=2, nb=2).save(root / "arx.json")
+    (root / "spaceship.json").write_text(
+        '{"format": "motorid-model", "version": 1, "kind": "spaceship", "model": {}}'
+    )
+    # as loggers write them: millis() stamps, ';' with decimal commas, ':' (no separator known), counts
+    ms = pd.DataFrame({"time_ms": 1000 + np.arange(len(plain)) * 40, "pwm": plain["u"], "rpm": plain["y"]})
+    _write_csv(root / "ms.csv", ms)
+    plain.rename(columns={"t": "zeit"}).to_csv(root / "semicolon.csv", sep=";", decimal=",", index=False)
+    plain.to_csv(root / "colon.csv", sep=":", index=False)
+    counts = plain.copy()
+    counts["u"] = np.round(counts["u"] * 40)  # beyond ±100 where |u| > 2.5 V
+    _write_csv(root / "counts.csv", counts)
+    lines = (root / "good.csv").read_text().splitlines()
+    lines[6] += ",1.5"
+    (root / "extra_field.csv").write_text("\n".join(lines) + "\n")
+    if hasattr(os, "mkfifo"):
+        os.mkfifo(root / "fifo.csv")
     return root
 
 
@@ -130,11 +153,89 @@ BAD_INPUT = [
     ("time column as output", "doctor {d}/good.csv --output t", ["'t'"]),
     ("unknown output unit", "identify {d}/good.csv --output-unit rpms", ["--output-unit", "'rpms'", "rpm"]),
     ("supply voltage without duty", "identify {d}/good.csv --supply-voltage 12", ["--supply-voltage", "%"]),
-]
+    ("compare: missing model file", "compare {d}/rec.csv --model {d}/missing.json", ["missing.json"]),
+    (
+        "compare: unknown model kind",
+        "compare {d}/rec.csv --model {d}/spaceship.json",
+        ["kind", "'spaceship'"],
+    ),
+    (
+        "compare: not a model file",
+        "compare {d}/rec.csv --model {d}/good.csv",
+        ["good.csv", "not a model file"],
+    ),
+    ("compare: too few samples", "compare {d}/short.csv --model {d}/rig.json", ["short.csv", "30 samples"]),
+    ("compare: no model", "compare {d}/rec.csv", ["--model"]),
+    (
+        "compare: duty to a rig in volts",
+        "compare {d}/good.csv --input-unit % --model {d}/rig.json",
+        ["rig.json", "%", "--supply-voltage"],
+    ),
+    ("identify --validate missing", "identify {d}/rec.csv --validate {d}/missing.csv", ["missing.csv"]),
+    (
+        "friction filter without a model",
+        "identify {d}/good.csv --estimator friction-ekf",
+        ["good.csv", "--model"],
+    ),
+    (
+        "--model for an estimator without one",
+        "identify {d}/rec.csv --estimator arx-rls --model {d}/rig.json",
+        ["--model", "'arx-rls'"],
+    ),
+    (
+        "rigid drive without R",
+        "identify {d}/good.csv --estimator friction-ekf --model {d}/rigid.json",
+        ["rigid.json", "--param R="],
+    ),
+    (
+        "identify --model of an unknown kind",
+        "identify {d}/good.csv --estimator friction-ukf --model {d}/spaceship.json",
+        ["spaceship"],
+    ),
+    (
+        "fleet identify --model missing",
+        "fleet identify {d} --out {d}/fleet --estimator friction-ekf --model {d}/missing.json",
+        ["missing.json"],
+    ),
+    (
+        "friction filter on a position record",
+        "identify {d}/good.csv --output-unit deg --estimator friction-ekf --model {d}/rigid.json --param R=1",
+        ["rigid.json", "position"],
+    ),
+    (
+        "identify --model an estimator file",
+        "identify {d}/good.csv --estimator friction-ekf --model {d}/arx.json",
+        ["arx.json", "ARXRLS", "not a drive model"],
+    ),
+    ("time in ms read as s", "identify {d}/ms.csv --time time_ms --input pwm --output rpm",
+     ["'time_ms'", "40 s", "--time-unit"]),
+    ("wrong --time-unit", "doctor {d}/ms.csv --time time_ms --time-unit ns --input pwm --output rpm",
+     ["'time_ms'", "4e-08 s", "--time-unit"]),
+    ("--time-unit unknown", "identify {d}/ms.csv --time time_ms --time-unit min", ["--time-unit", "'min'"]),
+    ("--dt contradicts the time column", "identify {d}/good.csv --dt 0.02",
+     ["dt = 20 ms (--dt)", "contradicts", "'t'", "40 ms"]),
+    ("--dt contradicts millis()", "sweep {d}/ms.csv --time time_ms --time-unit ms --input pwm --output rpm --dt 0.01",
+     ["--dt", "'time_ms'", "40 ms"]),
+    ("wrong --sep", "identify {d}/semicolon.csv --time zeit --sep ,", ["'zeit'", "one column", "--sep"]),
+    ("no separator known", "identify {d}/colon.csv", ["colon.csv", "one column", "--sep"]),
+    ("--sep of two characters", "identify {d}/good.csv --sep ;;", ["--sep", "';;'"]),
+    ("--sep as --decimal", "identify {d}/semicolon.csv --time zeit --sep , --decimal ,", ["--sep", "--decimal"]),
+    ("decimal comma read with '.'", "identify {d}/semicolon.csv --time zeit --decimal .",
+     ["'zeit'", "row 0", "--decimal ,"]),
+    ("duty beyond 100 %", "identify {d}/counts.csv --input-unit %", ["'u'", "row", "100 %", "--input-unit counts"]),
+    ("counts without a full scale", "identify {d}/counts.csv --input-unit counts", ["--input-full-scale"]),
+    ("counts beyond the full scale", "doctor {d}/counts.csv --input-unit counts --input-full-scale 100",
+     ["'u'", "row", "100 counts"]),
+    ("full scale without counts", "identify {d}/good.csv --input-full-scale 255", ["--input-full-scale", "counts"]),
+    ("a row with an extra field", "identify {d}/extra_field.csv", ["row 5", "line 7", "4 fields", "3"]),
+    ("a FIFO named like a record", "identify {d}/fifo.csv", ["fifo.csv", "FIFO"]),
+]  # fmt: skip
 
 
 @pytest.mark.parametrize(("case", "command", "words"), BAD_INPUT, ids=[row[0] for row in BAD_INPUT])
 def test_bad_input_exits_2_with_one_line_naming_it(capsys, folder, case, command, words):
+    if "fifo" in command and not (folder / "fifo.csv").exists():
+        pytest.skip("this system has no FIFOs")
     before = _snapshot(folder)
     argv = [part.replace("{d}", str(folder)) for part in command.split()]
     code, text = _run(capsys, argv)
@@ -178,3 +279,109 @@ def test_rig_serve_on_a_port_in_use_names_it(capsys):
     lines = [line for line in text.splitlines() if line.strip()]
     assert code == 2 and len(lines) == 1, text
     assert f"--port {port}" in lines[0] and "in use" in lines[0]
+
+
+# --------------------------------------------------------------------------- hostile files
+def _model_file(path: Path, make, *keys_and_value) -> None:
+    """Write the model file of ``make()`` with the value at ``keys`` replaced (JSON text for a raw token)."""
+    import json
+
+    from motorid.models import model_to_dict
+
+    data = model_to_dict(make())
+    *keys, value = keys_and_value
+    node = data
+    for key in keys[:-1]:
+        node = node[key]
+    node[keys[-1]] = "@@"
+    text = json.dumps(data).replace('"@@"', value if isinstance(value, str) else json.dumps(value))
+    path.write_text(text)
+
+
+@pytest.fixture(scope="module")
+def hostile(tmp_path_factory) -> Path:
+    """Model files and records whose values are out of any range, mistyped, nested or huge."""
+    import json
+
+    import h5py
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from motorid.estimators import FrictionEKF, create
+    from motorid.plants import RigidDrive
+    from motorid.records import ATTRS_KEY, ATTRS_MARKER
+
+    root = tmp_path_factory.mktemp("hostile")
+    rigid = lambda: RigidDrive(("viscous_friction", "coulomb_friction"), {"inertia": 2e-3, "input_gain": 0.05, "viscous": 1e-3, "coulomb": 0.02}, dt=0.01)  # noqa: E731  # fmt: skip
+    ekf = lambda: FrictionEKF(nis_window=5)  # noqa: E731
+    arx = lambda: create("arx-rls", na=2, nb=1)  # noqa: E731
+    _model_file(root / "nis_window.json", ekf, "model", "settings", "nis_window", 10**9)
+    _model_file(root / "deep.json", rigid, "model", "params", "[" * 100_000 + "]" * 100_000)
+    _model_file(root / "big_int.json", paper_rig, "model", "J_m", str(10**400))
+    _model_file(root / "dt_1e308.json", paper_rig, "model", "dt", 1e308)
+    _model_file(root / "viscous_1e308.json", rigid, "model", "params", "viscous", 1e308)
+    _model_file(root / "noise_1e308.json", ekf, "model", "settings", "speed_noise", 1e308)
+    _model_file(root / "sample_index.json", arx, "model", "state", "sample_index", str(10**400))
+    _model_file(root / "not_symmetric.json", arx, "model", "state", "P", 0, 1, 1.0)
+    _model_file(root / "negative_P.json", arx, "model", "state", "P", json.dumps((-np.eye(4)).tolist()))
+    _model_file(root / "huge_P.json", arx, "model", "state", "P", json.dumps((1e300 * np.eye(4)).tolist()))
+
+    _, u = two_sine_signal(duration=4.0, seed=3)
+    plain = paper_rig().simulate(u, seed=3)[["t", "u", "y"]]
+    body = plain.to_csv(index=False)
+    (root / "good.csv").write_text(body)
+    for name, attrs in [
+        ("dt_text.csv", '{"dt": "abc"}'),
+        ("units_list.csv", '{"dt": 0.04, "units": [1]}'),
+        ("furlongs.csv", '{"dt": 0.04, "units": {"t": "s", "u": "V", "y": "furlongs"}}'),
+        ("deep_attrs.csv", '{"note": ' + "[" * 100_000 + "]" * 100_000 + "}"),
+        ("big_seed.csv", '{"dt": 0.04, "seed": ' + "9" * 400 + "}"),
+    ]:
+        (root / name).write_text(ATTRS_MARKER + attrs + "\n" + body)
+    table = pa.table({c: plain[c].to_numpy() for c in plain.columns})
+    pq.write_table(
+        table.replace_schema_metadata({ATTRS_KEY: json.dumps({"dt": [1, 2]})}), root / "dt_list.parquet"
+    )
+    with h5py.File(root / "flipped.h5", "w") as fh:
+        for c in plain.columns:
+            fh[c] = plain[c].to_numpy()
+    raw = bytearray((root / "flipped.h5").read_bytes())
+    for i in np.random.default_rng(1).integers(200, len(raw), 200):  # past the superblock: it opens
+        raw[i] ^= 0xFF
+    (root / "flipped.h5").write_bytes(bytes(raw))
+    return root
+
+
+# (case, argv with {d} for the folder, words the one line must hold)
+HOSTILE_FILES = [
+    ("NIS window of 1e9", "simulate --model {d}/nis_window.json --out {d}/new.csv", ["nis_window.json", "nis_window", "100000"]),
+    ("model nested 100,000 deep", "doctor {d}/good.csv --model {d}/deep.json", ["deep.json", "nested deeper than 32"]),
+    ("10**400 in a model", "simulate --model {d}/big_int.json --out {d}/new.csv", ["big_int.json", "model.J_m", "401 digits"]),
+    ("dt = 1e308", "simulate --model {d}/dt_1e308.json --out {d}/new.csv", ["dt_1e308.json", "dt must be within", "3600"]),
+    ("viscous = 1e308", "simulate --model {d}/viscous_1e308.json --out {d}/new.csv", ["viscous_1e308.json", "model.params.viscous", "1e+12"]),
+    ("filter noise 1e308", "simulate --model {d}/noise_1e308.json --out {d}/new.csv", ["noise_1e308.json", "speed_noise", "1e+12"]),
+    ("sample index 10**400", "simulate --model {d}/sample_index.json --out {d}/new.csv", ["sample_index.json", "model.state.sample_index"]),
+    ("P not symmetric", "simulate --model {d}/not_symmetric.json --out {d}/new.csv", ["not_symmetric.json", "model.state.P", "symmetric"]),
+    ("P negative definite", "simulate --model {d}/negative_P.json --out {d}/new.csv", ["negative_P.json", "model.state.P", "semi-definite"]),
+    ("P = 1e300 I", "simulate --model {d}/huge_P.json --out {d}/new.csv", ["huge_P.json", "P", "at most 1e+100"]),
+    ('attrs "dt": "abc"', "identify {d}/dt_text.csv", ["dt_text.csv", "attrs.dt", "'abc'"]),
+    ('attrs "units": [1]', "identify {d}/units_list.csv", ["units_list.csv", "attrs.units"]),
+    ("attrs unit furlongs", "doctor {d}/furlongs.csv", ["furlongs.csv", "column 'y'", "'furlongs'"]),
+    ("attrs nested 100,000 deep", "identify {d}/deep_attrs.csv", ["deep_attrs.csv", "nested deeper than 32"]),
+    ("attrs 10**400", "identify {d}/big_seed.csv", ["big_seed.csv", "attrs.seed", "400 digits"]),
+    ('Parquet "dt": [1, 2]', "identify {d}/dt_list.parquet", ["dt_list.parquet", "attrs.dt", "[1, 2]"]),
+    ("HDF5 with flipped bytes", "identify {d}/flipped.h5", ["flipped.h5", "HDF5", "cannot be read"]),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("case", "command", "words"), HOSTILE_FILES, ids=[row[0] for row in HOSTILE_FILES])
+def test_hostile_file_exits_2_with_one_line_naming_it(capsys, hostile, case, command, words):
+    before = _snapshot(hostile)
+    argv = [part.replace("{d}", str(hostile)) for part in command.split()]
+    code, text = _run(capsys, argv)
+    lines = [line for line in text.splitlines() if line.strip()]
+    assert code == 2, f"{case}: exit {code}\n{text}"
+    assert "Traceback" not in text and len(lines) == 1, f"{case}: not one line:\n{text}"
+    missing = [w for w in words if w not in lines[0]]
+    assert not missing, f"{case}: {missing} not in {lines[0]!r}"
+    assert _snapshot(hostile) == before, f"{case}: the folder changed"

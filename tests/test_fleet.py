@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+import socket
 import subprocess
 import sys
 import threading
@@ -296,3 +297,142 @@ def test_a_records_warnings_are_in_its_row(fleet_folder):
     args = build_parser().parse_args(["fleet", "identify", "x", "--out", "x", "--estimator", "friction-ekf"])
     row = RecordTask("identify", args, figures=None)(str(records(fleet_folder)[0]), {})
     assert row["status"] == "ok" and "friction-ekf diverged at sample" in row["warnings"]
+
+
+# --------------------------------------------------------------------------- one run per folder
+def test_a_store_compacts_only_the_parts_it_merged(tmp_path):
+    """Another writer's part that came after this store read the folder survives its compaction."""
+    ours, theirs = ResultsStore(tmp_path), ResultsStore(tmp_path)
+    ours.append([{"record": "a", "status": "ok"}])
+    ours.append([{"record": "b", "status": "ok"}])
+    ours.rows()  # the folder as this store knows it: parts of a and b
+    theirs.append([{"record": "c", "status": "ok"}])  # a part name of its own, not one of ours replaced
+    ours.compact()
+    assert sorted(load_results(tmp_path)["record"]) == ["a", "b", "c"]
+    assert len(list((tmp_path / "results.parquet").glob("part-*.parquet"))) == 2  # merged a+b, and c
+    assert not list((tmp_path / "results.parquet").glob(".*"))  # no temporary file left
+
+
+def lock_holder(folder: Path) -> subprocess.Popen:
+    """A process that takes the folder's lock as a run does and sleeps, returned once it holds it."""
+    code = (
+        "import sys, time\nfrom motorid.outputs import FolderLock\n"
+        "FolderLock(sys.argv[1]).acquire()\nprint('held', flush=True)\ntime.sleep(600)\n"
+    )
+    proc = subprocess.Popen([sys.executable, "-c", code, str(folder)], stdout=subprocess.PIPE, text=True)
+    assert proc.stdout.readline().strip() == "held"
+    return proc
+
+
+def test_a_second_run_into_a_locked_folder_is_refused_and_a_dead_holder_is_taken_over(
+    fleet_folder, address, tmp_path, capsys
+):
+    out = tmp_path / "locked"
+    out.mkdir()
+    holder = lock_holder(out)
+    argv = ["fleet", "doctor", *map(str, records(fleet_folder)[:2]), "--out", str(out), "--scheduler", address,
+            "--no-figures", *DOCTOR]  # fmt: skip
+    try:
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert err.strip().splitlines() == [
+            f"motorid fleet doctor: error: --out {out}: another run writes this folder: process {holder.pid} "
+            f"on {socket.gethostname()} holds its lock file {out / '.motorid.lock'}; pass --wait to wait for "
+            "it, or choose another folder"
+        ]
+        assert not (out / "results.parquet").exists()  # the refused run wrote nothing
+    finally:
+        holder.kill()  # SIGKILL: no clean-up of its own; the kernel lets the lock go
+        holder.wait(30)
+    assert main(argv) == 0
+    assert len(load_results(out)) == 2
+
+
+def test_two_runs_into_one_folder_with_wait_keep_every_row(fleet_folder, address, tmp_path):
+    out = tmp_path / "shared"
+    paths = records(fleet_folder)
+    halves = [paths[:3], paths[3:6]]
+    argv = ["fleet", "doctor", "--out", str(out), "--wait", "--scheduler", address, "--no-figures", *DOCTOR]
+    procs = [
+        subprocess.Popen([str(MOTORID), *argv, *map(str, half)], stderr=subprocess.PIPE, text=True)
+        for half in halves
+    ]
+    for proc in procs:
+        _, err = proc.communicate(timeout=600)
+        assert proc.returncode == 0, err
+        assert "3 done, 0 failed" in err
+    rows = load_results(out)
+    assert sorted(rows["record"]) == sorted(os.path.abspath(p) for p in paths[:6])
+    assert (rows["status"] == "ok").all()
+    assert sorted(pd.read_csv(out / "results.csv")["record"]) == sorted(rows["record"])
+
+
+def test_two_runs_into_one_folder_started_together_lose_no_row(fleet_folder, address, tmp_path):
+    """Without --wait, a run that finds the folder locked refuses in one line naming the holder's pid."""
+    out = tmp_path / "raced"
+    paths = records(fleet_folder)
+    halves = [paths[6:8], paths[8:10]]
+    argv = ["fleet", "doctor", "--out", str(out), "--scheduler", address, "--no-figures", *DOCTOR]
+    procs = [
+        subprocess.Popen([str(MOTORID), *argv, *map(str, half)], stderr=subprocess.PIPE, text=True)
+        for half in halves
+    ]
+    errs = [proc.communicate(timeout=600)[1] for proc in procs]
+    done = []
+    for proc, other, err, half in zip(procs, reversed(procs), errs, halves, strict=True):
+        if proc.returncode == 0:
+            done += half
+            continue
+        assert proc.returncode == 2, err
+        refusal = err.strip().splitlines()[-1]
+        assert refusal.startswith(f"motorid fleet doctor: error: --out {out}: another run writes this folder")
+        assert f"process {other.pid} " in refusal and str(out / ".motorid.lock") in refusal
+    assert done  # the first run got the lock
+    assert sorted(load_results(out)["record"]) == sorted(os.path.abspath(p) for p in done)
+
+
+def test_a_full_disk_stops_the_run_saying_what_is_kept(fleet_folder, address, small_disk, capsys):
+    out = small_disk / "results"
+    argv = ["fleet", "doctor", *map(str, records(fleet_folder)[:12]), "--out", str(out), "--scheduler", address,
+            "--no-figures", *DOCTOR]  # fmt: skip
+    assert main(argv) == 2  # a part holds at least 27 kB (its schema): 64 kB hold two
+    line = capsys.readouterr().err.strip().splitlines()[-1].split("\r")[-1]
+    assert line.startswith(f"motorid fleet doctor: error: {out}/")  # a part, or results.csv
+    assert "the disk is full (No space left on device); " in line
+    stored = int(line.split("; the ")[1].split(" rows")[0])
+    assert stored >= 1 and f"are in {out / 'results.parquet'}/" in line
+    assert len(load_results(out)) == stored  # every row it says is stored is whole and readable
+    assert not [p.name for p in (out / "results.parquet").iterdir() if p.name.startswith(".")]
+
+
+# --------------------------------------------------------------------------- names from data
+def test_drive_ids_from_attrs_never_leave_the_out_folder(fleet_folder, address, tmp_path, capsys):
+    from motorid.records import read_record, write_record
+
+    outside = tmp_path / "outside"
+    hostile = ["../../x", str(outside), "a\x00b", "d" * 10_000]
+    data = tmp_path / "records"
+    data.mkdir()
+    for i, (drive, source) in enumerate(zip(hostile, records(fleet_folder), strict=False)):
+        record = read_record(source)
+        record.attrs["drive"] = drive
+        write_record(record, data / f"r{i}.csv")
+    (data / "...csv").write_bytes((data / "r0.csv").read_bytes())  # a record whose file stem is '..'
+    out = tmp_path / "run" / "out"
+    out.parent.mkdir()  # --out/../../x is tmp_path/x
+    before = sorted(p for p in tmp_path.rglob("*") if not p.is_relative_to(out))
+    argv = ["fleet", "doctor", str(data), "--out", str(out), "--scheduler", address, *DOCTOR]
+    assert main(argv) == 0, capsys.readouterr().err
+    rows = load_results(out)
+    assert (rows["status"] == "ok").all() and len(rows) == 5
+    assert sorted(rows["drive"]) == sorted([*hostile, "../../x"])  # the ids themselves are kept as data
+    assert sorted(p for p in tmp_path.rglob("*") if not p.is_relative_to(out)) == before
+    figures = [p for p in out.rglob("*.png")]
+    assert len(figures) >= 5
+    for figure in figures:
+        assert figure.resolve().is_relative_to(out.resolve())
+        assert len(figure.relative_to(out).parts) == 3  # <drive>/<record>/<figure>.png
+    assert not outside.exists() and not (tmp_path / "x").exists()
+    assert main(["fleet", "trend", str(out)]) == 0
+    trend_figures = list((out / "trend").glob("*.png"))
+    assert len(trend_figures) == len(set(rows["drive"])) == 4

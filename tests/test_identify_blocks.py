@@ -15,6 +15,8 @@ of a sum of N positive terms moves its value by at most N * 2^-53 relative (N = 
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -22,8 +24,9 @@ from cli_fixtures import run
 
 import motorid.validation
 from motorid.cli import build_parser
-from motorid.cli.identification import identify_blocks
+from motorid.cli.identification import identify_blocks as identify_blocks_of
 from motorid.cli.options import create_estimator, iter_record_from_args
+from motorid.cli.report import jsonable
 from motorid.errors import DataError
 from motorid.estimators.rls import FreeRun
 from motorid.plants import paper_rig
@@ -55,6 +58,13 @@ def record_csv(tmp_path_factory):
 
 def identify_args(path, *options: str):
     return build_parser().parse_args(["identify", str(path), *options])
+
+
+def identify_blocks(blocks, args):
+    """:func:`identify_blocks_of` on a record of motorid's simulation (output in rad/s): the
+    estimator of ``args``, the low-speed band of ``--low-speed-rpm``."""
+    est = create_estimator(args.estimator, args)
+    return identify_blocks_of(blocks, args, est, [], "rad/s", float(rpm_to_rad_s(args.low_speed_rpm)))
 
 
 def in_blocks(args, rows: int = BLOCK):
@@ -265,3 +275,83 @@ def test_rows_appended_between_the_two_passes_are_left_out(record_csv):
                                      for k in range(0, 1200, BLOCK)), args)[0]  # fmt: skip
     assert calls == [1200, len(u)]
     assert got["samples"] == 1200 and got["scores"] == fixed["scores"]
+
+
+def spreadsheet_export(path, rec, jitter_ms=None):
+    """``rec`` as a spreadsheet in much of Europe exports a logger's file: ';', decimal commas,
+    names with units, time in integer ms since boot, duty in % of a supply, speed in rpm."""
+    supply = 1.25 * float(np.max(np.abs(rec["u"])))
+    stamps = 123_456 + np.arange(len(rec)) * 40
+    if jitter_ms is not None:
+        stamps = stamps + jitter_ms
+    frame = pd.DataFrame(
+        {
+            "Zeit [ms]": stamps,
+            "PWM [%]": rec["u"] / supply * 100.0,
+            "Drehzahl [rpm]": rec["y"] * 60 / (2 * np.pi),
+        }
+    )
+    frame.to_csv(path, sep=";", decimal=",", index=False)
+    return ["--time", "Zeit [ms]", "--time-unit", "ms", "--input", "PWM [%]", "--input-unit", "%",
+            "--supply-voltage", repr(supply), "--output", "Drehzahl [rpm]", "--output-unit", "rpm"]  # fmt: skip
+
+
+def test_a_semicolon_decimal_comma_export_in_ms_identifies_alike_streamed_and_whole(
+    capsys, tmp_path, monkeypatch
+):
+    """The command reads the file in blocks of 997 rows (separator and decimal mark detected from
+    its header once, time in ms, duty and rpm converted per block); the same file read whole by
+    read_record and identified by identify_record (as fleet identify does) gives the same
+    payload, key for key: both run the estimator over blocks of 997 rows of the same numbers."""
+    import motorid.record_chunks
+    from motorid.cli.identification import identify_record
+    from motorid.cli.options import read_record_from_args
+
+    rig = paper_rig()
+    _, u = two_sine_signal(duration=60.0, dt=rig.dt, seed=4)
+    path = tmp_path / "export.csv"
+    options = spreadsheet_export(path, rig.simulate(u, seed=4))
+    monkeypatch.setattr(motorid.record_chunks, "CHUNK_ROWS", BLOCK)
+    code, streamed, err = run(capsys, "identify", str(path), *options, "--json")
+    assert code == 0, err
+    assert "reads it whole" not in err  # the uniform stamps are read in blocks
+
+    args = identify_args(path, *options)
+    record = read_record_from_args(args)
+    blocks = list(iter_record_from_args(args))
+    assert len(blocks) == 2  # 1500 rows in blocks of 997
+    pd.testing.assert_frame_equal(pd.concat(blocks), record, check_exact=True)
+    assert record.attrs["units"] == {"t": "s", "u": "V", "y": "rad/s"} == blocks[1].attrs["units"]
+    assert record.attrs["time_origin"] == pytest.approx(123.456) and record.attrs["dt"] == pytest.approx(0.04)
+    whole = json.loads(json.dumps(jsonable(identify_record(record, args)[0])))
+    assert streamed.pop("figure") is None and streamed.pop("model") is None
+    assert streamed == whole
+    assert (
+        whole["output_unit"] == "rad/s"
+        and whole["samples"] == 1500
+        and "mse_rpm2" in whole["scores"]["one_step"]
+    )
+
+
+def test_jittered_stamps_are_identified_on_the_whole_record_and_the_output_says_so(capsys, caplog, tmp_path):
+    """millis() jitter puts the record on a uniform grid, which the whole-record read does: the
+    command falls back to it, says so in one line, and gives what identify_record gives on the
+    record read_record resamples."""
+    from motorid.cli.identification import identify_record
+    from motorid.cli.options import read_record_from_args
+
+    rig = paper_rig()
+    _, u = two_sine_signal(duration=60.0, dt=rig.dt, seed=4)
+    path = tmp_path / "jitter.csv"
+    jitter = np.random.default_rng(3).integers(-4, 5, 1500)  # +-4 ms on 40 ms: 10 %
+    options = spreadsheet_export(path, rig.simulate(u, seed=4), jitter_ms=jitter)
+    code, streamed, err = run(capsys, "identify", str(path), *options, "--json")
+    assert code == 0, err
+    assert "are off the uniform 0.04 s grid from row 1 (line 3 of" in err and "identify reads it whole" in err
+    assert "resampled to a uniform 40 ms grid" in caplog.text  # the reader's own warning
+    args = identify_args(path, *options)
+    whole = json.loads(json.dumps(jsonable(identify_record(read_record_from_args(args), args)[0])))
+    streamed.pop("figure"), streamed.pop("model")
+    assert streamed == whole
+    with pytest.raises(DataError, match="reads it whole"):
+        list(iter_record_from_args(args))

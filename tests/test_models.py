@@ -317,7 +317,7 @@ BAD_FILES = [
     ("filter rig", lambda: _set(_ekf_file(), ("model", "settings", "rig"), {"R_a": 2.0}), "model.settings.rig.L_a: missing"),
     ("filter setting", lambda: _set(_ekf_file(), ("model", "settings", "stribeck"), "yes"), "model.settings.stribeck: must be true or false"),
     ("filter side", lambda: _set(_ekf_file(), ("model", "settings", "friction_side"), "shaft"), "model.settings: friction_side must be"),
-    ("covariance not positive definite", lambda: _set(_ekf_file(), ("model", "state", "P", 0, 0), -1.0), "model.state: P must be symmetric positive definite"),
+    ("covariance not positive definite", lambda: _set(_ekf_file(), ("model", "state", "P", 0, 0), -1.0), "model.state: P must be positive semi-definite"),
     ("NIS window of another length", lambda: _set(_ekf_file(), ("model", "state", "nis_ring"), [0.0]), r"model.state.nis_ring: must have shape \(5,\)"),
 ]  # fmt: skip
 

@@ -3,7 +3,9 @@
 The lines run as a user runs them: the installed ``motorid`` console script in a
 subprocess. ``motorid rig serve`` is started in the background and stopped after
 the lines that follow it; its port (5020 in the README) is swapped for a free one
-in every line, since a test machine may have 5020 taken. Nothing else is changed.
+in every line, since a test machine may have 5020 taken. The loggers' files the lines on
+loggers' records read are first written by the README's own Python block that writes them.
+Nothing else is changed.
 The notebooks hold no shell lines (checked here too, so a new one is not missed).
 """
 
@@ -54,7 +56,7 @@ def listening(server: subprocess.Popen, port: int) -> bool:
 def test_readme_shows_each_subcommand():
     lines = shell_lines((ROOT / "README.md").read_text(encoding="utf-8"))
     used = {shlex.split(line)[1] for line in lines}
-    assert {"demo", "simulate", "identify", "sweep", "doctor", "rig", "run"} <= used
+    assert {"demo", "simulate", "identify", "sweep", "doctor", "compare", "rig", "run"} <= used
 
 
 def test_notebooks_hold_no_shell_lines():
@@ -63,8 +65,29 @@ def test_notebooks_hold_no_shell_lines():
         assert not re.search(r"^\s*[!%]\s*motorid", text, flags=re.M), f"{path.name} runs a shell line"
 
 
+def write_logger_files(folder: Path) -> dict[str, object]:
+    """Run README.md's Python block that writes the loggers' files (``logger.csv`` ...) in ``folder``."""
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    block = next(b for b in re.findall(r"```python\n(.*?)```", text, flags=re.S) if '"logger.csv"' in b)
+    namespace: dict[str, object] = {}
+    cwd = os.getcwd()
+    os.chdir(folder)
+    try:
+        exec(compile(block, "README.md", "exec"), namespace)
+    finally:
+        os.chdir(cwd)
+    return namespace
+
+
+def test_the_readme_logger_block_reads_its_files_and_finds_the_friction(tmp_path):
+    namespace = write_logger_files(tmp_path)
+    assert namespace["record"].attrs["dt"] == 0.01  # type: ignore[attr-defined]
+    assert namespace["d"].named == ["coulomb_friction"]  # type: ignore[attr-defined]
+
+
 def test_every_readme_command_runs_as_printed(tmp_path):
     lines = shell_lines((ROOT / "README.md").read_text(encoding="utf-8"))
+    write_logger_files(tmp_path)  # the files a logger wrote, which the lines on loggers' records read
     port = str(free_port())
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     servers: list[subprocess.Popen] = []
@@ -79,6 +102,8 @@ def test_every_readme_command_runs_as_printed(tmp_path):
                 continue
             done = subprocess.run(argv, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
             assert done.returncode == 0, f"{line!r} exited with {done.returncode}:\n{done.stderr[-3000:]}"
+            if "--quiet" in argv:  # as the README says: nothing on stderr for a command that succeeds
+                assert done.stderr == "", f"{line!r} printed on stderr: {done.stderr[-3000:]}"
     finally:
         for server in servers:
             server.send_signal(signal.SIGINT)

@@ -135,7 +135,8 @@ def test_tdms_columns_are_group_and_channel_and_wf_increment_gives_dt(tmp_path):
             ]
         )
     rec = read_record(path, columns=["command/voltage", "tacho"])  # no time column: dt from the file
-    assert list(rec.columns) == ["command/voltage", "tacho", "speed/voltage"] and rec.attrs["dt"] == 0.01
+    assert list(rec.columns) == ["t", "command/voltage", "tacho", "speed/voltage"] and rec.attrs["dt"] == 0.01
+    np.testing.assert_array_equal(rec["t"], np.arange(n) * 0.01)  # the time the increment gives
     np.testing.assert_array_equal(rec["tacho"], np.linspace(0, 3, n))
     with pytest.raises(DataError, match=r"column 'voltage' is ambiguous in .*rec.tdms.*command/voltage"):
         read_record(path, columns=["voltage", "tacho"])
@@ -268,7 +269,7 @@ def test_bad_attribute_json_is_named(tmp_path):
         fh.attrs[ATTRS_KEY] = "{not json"
     with pytest.raises(
         DataError,
-        match=rf"rec.h5: the record attributes in the root attribute '{ATTRS_KEY}' are not valid JSON",
+        match=rf"rec.h5: the record attributes in the root attribute '{ATTRS_KEY}': invalid JSON",
     ):
         read_record(path)
 

@@ -87,7 +87,8 @@ def test_a_real_record_in_rev_s_identifies_as_the_same_record_in_rad_s(capsys, t
     argv = ["identify", "--estimator", "arx-rls", "--na", "2", "--nb", "2", "--json", "--input-unit", "%"]
     code, converted, _ = run(capsys, *argv, str(WHEEL), "--output-unit", "rev/s")
     assert code == 0
-    code, reference, _ = run(capsys, *argv, str(tmp_path / "rad_s.csv"))
+    # named rad/s: a record that names no unit gets no rpm band (the low-speed scores would differ)
+    code, reference, _ = run(capsys, *argv, str(tmp_path / "rad_s.csv"), "--output-unit", "rad/s")
     assert code == 0
     assert converted["params"] == reference["params"] and converted["scores"] == reference["scores"]
 
@@ -99,3 +100,32 @@ def test_a_record_that_names_no_units_is_used_as_it_is():
     assert "units" not in out.attrs  # nothing invents V and rad/s for it
     with pytest.raises(DataError, match=r"--supply-voltage.*--input-unit %"):
         convert_record(record, supply_voltage=12.0)
+
+
+# --------------------------------------------------------------------------- how units are shown
+@pytest.mark.parametrize(
+    ("unit", "quantity", "shown", "factor"),
+    [
+        ("rad/s", "speed", "rpm", 60.0 / (2.0 * math.pi)),  # the paper's rpm: 1 rad/s = 9.549 rpm
+        ("rev/s", "speed", "rev/s", 1.0),
+        ("mm/s", "speed", "mm/s", 1.0),
+        ("rad", "position", "rad", 1.0),
+        ("N", "output", "N", 1.0),  # a unit with no factor here is shown as it is
+        (None, "output", "output units", 1.0),  # none named: none invented
+    ],
+)
+def test_an_output_is_shown_in_its_own_unit_and_rad_s_as_rpm(unit, quantity, shown, factor):
+    from motorid.units import shown_output
+
+    result = shown_output(unit)
+    assert (result.quantity, result.unit) == (quantity, shown)
+    assert result.factor == pytest.approx(factor, rel=1e-15)
+
+
+def test_unit_names_of_inputs_rates_and_ratios():
+    from motorid.units import input_unit_name, per, rate
+
+    assert input_unit_name("%") == "%" and input_unit_name(None) == "input units"
+    assert rate("rad") == "rad/s" and rate(None) == "output units/s"
+    assert per("rad/s", "V") == "rad/s per V"
+    assert per("output units", input_unit_name(None)) == "output units per input unit"

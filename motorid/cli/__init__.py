@@ -3,6 +3,10 @@
 Each subcommand prints human text on stderr and, with ``--json``, one JSON object
 on stdout. Figures are PNG files written where ``--out`` says.
 
+With ``--quiet`` (before or after the subcommand) a command prints only its
+errors and warnings on stderr: no progress bar, no report. Progress bars show
+only when stderr is a terminal (:func:`motorid.cli.report.show_progress`).
+
 Exit status: 0 done; 2 the user's input cannot be used (an option, a file, a
 column, a value: one line names it); 1 a bug in motorid (one line, the
 traceback with ``-v``); 130 interrupted.
@@ -15,7 +19,9 @@ import logging
 import os
 import sys
 import traceback
+import warnings
 from collections.abc import Sequence
+from typing import TextIO
 
 # Set before numpy is first imported (by the subcommands below). The commands' linear algebra is on
 # small matrices (the doctor solves ~600 least-squares problems of ~1,300 x 8 per record), where
@@ -26,16 +32,38 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from motorid.errors import DataError
 
-from . import doctor, fleet, identification, rig, simulation
-from .report import say
+from . import comparison, doctor, fleet, identification, rig, simulation
+from .report import configure, say_error
 
 __all__ = ["build_parser", "main"]
 
 logger = logging.getLogger("motorid")
 
 
+def show_warning(
+    message: Warning | str,
+    category: type[Warning],
+    filename: str,
+    lineno: int,
+    file: TextIO | None = None,
+    line: str | None = None,
+) -> None:
+    """A warning as one line on stderr, ``motorid: warning: <message>``: no source line, no file
+    name (what a user of the command can act on is the message; ``-v`` logs say where)."""
+    text = " ".join(str(message).split())
+    (file or sys.stderr).write(f"motorid: warning: {text}\n")
+    logger.debug("the warning above is a %s from %s:%s", category.__name__, filename, lineno)
+
+
 class _Parser(argparse.ArgumentParser):
-    """argparse with a one-line error that names the option and where to find help."""
+    """argparse with a one-line error that names the option and where to find help, and
+    ``--quiet`` on every command, before or after the subcommand's name."""
+
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        # SUPPRESS: a subcommand's parser leaves the value the main parser set alone
+        self.add_argument("-q", "--quiet", action="store_true", default=argparse.SUPPRESS,
+                          help="print only errors and warnings on stderr: no progress bar, no report")  # fmt: skip
 
     def error(self, message: str) -> None:  # type: ignore[override]
         self.exit(2, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
@@ -49,7 +77,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-v", "--verbose", action="count", default=0,
                         help="more log output on stderr; the traceback of an internal error")  # fmt: skip
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=_Parser)
-    for module in (simulation, identification, doctor, rig, fleet):
+    for module in (simulation, identification, doctor, comparison, rig, fleet):
         module.add_commands(sub)
     return parser
 
@@ -61,6 +89,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse has printed the help or the one-line error
         return int(exc.code or 0)
+    configure(quiet=getattr(args, "quiet", False), json=getattr(args, "json", False))
     level = logging.WARNING - 10 * min(args.verbose, 2)
     logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
     # the cluster's own log (a worker lost and its tasks rerun) only with -v: the run reports what matters
@@ -68,20 +97,22 @@ def main(argv: Sequence[str] | None = None) -> int:
     subcommand = getattr(args, "rig_command", None) or getattr(args, "fleet_command", None)
     command = " ".join(filter(None, (args.command, subcommand)))
     try:
-        return args.func(args)
+        with warnings.catch_warnings():  # the caller's own warning display is restored after the command
+            warnings.showwarning = show_warning
+            return args.func(args)
     except DataError as exc:
-        say(f"motorid {command}: error: {exc}")
+        say_error(f"motorid {command}: error: {exc}")
         return 2
     except KeyboardInterrupt:
-        say(f"motorid {command}: interrupted")
+        say_error(f"motorid {command}: interrupted")
         return 130
     except OSError as exc:  # the machine's answer about a file or a port the user named
-        say(f"motorid {command}: error: {exc}")
+        say_error(f"motorid {command}: error: {exc}")
         return 2
     except Exception as exc:
         if args.verbose:
             traceback.print_exc()
-        say(
+        say_error(
             f"motorid {command}: internal error: {type(exc).__name__}: {exc}. This is a bug in motorid; "
             + (
                 "please report it with the traceback above."
@@ -90,3 +121,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             )
         )
         return 1
+    finally:
+        lock = getattr(args, "out_lock", None)  # the --out folder a command held (options.hold_out_folder)
+        if lock is not None:
+            lock.release()

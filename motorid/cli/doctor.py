@@ -10,18 +10,21 @@ from typing import TYPE_CHECKING
 import pandas as pd
 
 from motorid.errors import DataError
+from motorid.outputs import write_file
 
 from .options import (
     add_json,
     add_record_input,
+    add_wait,
     check_out_file,
     check_out_folder,
+    hold_out_folder,
     iter_record_from_args,
     number,
     positive,
     read_record_from_args,
 )
-from .report import emit_json, say
+from .report import emit_json, say, show_progress
 
 if TYPE_CHECKING:
     from motorid.diagnose.workflow import Diagnosis
@@ -41,11 +44,12 @@ def effect_list(text: str | None, option: str) -> list[str]:
     return names
 
 
-def doctor_record(record: pd.DataFrame, args: argparse.Namespace, progress: bool = True) -> Diagnosis:
+def doctor_record(record: pd.DataFrame, args: argparse.Namespace, progress: bool = False) -> Diagnosis:
     """What ``motorid doctor`` computes on a record with columns ``t``, ``u``, ``y``.
 
-    ``motorid fleet doctor`` calls this very function on each record (without the progress
-    bar), so a fleet's rows equal the single-record command's ``--json`` output.
+    ``progress`` shows the doctor's progress bar. ``motorid fleet doctor`` calls this very
+    function on each record (without the bar), so a fleet's rows equal the single-record
+    command's ``--json`` output.
     """
     from motorid.diagnose import diagnose
 
@@ -70,16 +74,23 @@ def read_record_segment(args: argparse.Namespace, min_samples: int = 20) -> tupl
     the first block is the record or the segment (checked as a whole record is), and the start of
     a second one tells that there is more. So the doctor's memory is bounded by ``--max-samples``
     whatever the length of the file (the rows after the segment are not checked: the doctor does
-    not use them).
+    not use them). A record whose time stamps jitter is put on a uniform grid, which takes it
+    whole: it is read as :func:`.options.read_record_from_args` reads it (``--max-samples`` then
+    refuses a longer one).
     """
+    from motorid.record_chunks import UniformGridError
+
     if args.max_samples < min_samples:  # too few to read in blocks: the whole-record read says why
         return read_record_from_args(args, min_samples), False
     blocks = iter_record_from_args(args, chunk_rows=args.max_samples, min_samples=min_samples)
     with contextlib.closing(blocks):
-        record = next(blocks)
+        try:
+            record = next(blocks)
+        except UniformGridError:
+            return read_record_from_args(args, min_samples), False
         try:
             more = next(blocks, None) is not None
-        except DataError:  # a bad row after the segment: there are rows after it
+        except DataError:  # a bad row after the segment (or stamps off the grid): there are rows after it
             more = True
     return record, more
 
@@ -116,7 +127,8 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         validation = read_record_from_args(argparse.Namespace(**{**vars(args), "data": args.validate}))
     if args.out:
         check_out_folder(args.out)
-    diagnosis = doctor_record(record, args)
+        hold_out_folder(args, args.out)
+    diagnosis = doctor_record(record, args, progress=show_progress())
     units, param_units = diagnosis.units, diagnosis.param_units
     start = f"the model in {args.model}" if args.model is not None else "inertia, input gain"
     say(f"motorid doctor on {args.data} ({len(record)} samples), base model: {start}"
@@ -171,7 +183,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     if args.out:
         say(f"  writing figures in {args.out}/")
         figures = diagnosis.write_figures(args.out)
-        table.to_csv(args.out / "doctor_table.csv")
+        write_file(args.out / "doctor_table.csv", table.to_csv, overwrite=True)
         say(f"  wrote {len(figures)} figures and doctor_table.csv in {args.out}/")
     if args.json:
         out = {**diagnosis.to_dict(), "figures": figures, "segment": segment}
@@ -212,6 +224,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                      "output); the doctor's memory grows with it, 0.9 GB at the default (%(default)s)")  # fmt: skip
     add_doctor_options(p)
     p.add_argument("--out", type=Path, help="folder for the figures and the table (replaced if there)")
+    add_wait(p)
     p.add_argument("--model", type=Path, metavar="FILE",
                    help="start from your own rigid-drive model file: the first gap is it as given")  # fmt: skip
     p.add_argument("--validate", type=Path, metavar="FILE",

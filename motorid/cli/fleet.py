@@ -21,17 +21,24 @@ from typing import Any
 from motorid.errors import DataError
 
 from .doctor import add_doctor_options, doctor_record, effect_list, read_record_segment
-from .identification import add_identify_options, identify_record, write_identify_figure
+from .identification import (
+    add_identify_options,
+    identify_record,
+    start_model_from_args,
+    write_identify_figure,
+)
 from .options import (
     RECORD_FILES,
     add_json,
     add_record_columns,
+    add_wait,
     check_out_folder,
     create_estimator,
+    hold_out_folder,
     number,
     positive,
 )
-from .report import emit_json, frame_records, jsonable, say
+from .report import emit_json, frame_records, jsonable, say, say_error, show_progress
 
 
 @dataclass(frozen=True)
@@ -50,6 +57,7 @@ class RecordTask:
     def __call__(self, path: str, given: dict[str, Any]) -> dict[str, Any]:
         from motorid.fleet.results import flatten
         from motorid.fleet.sources import identity
+        from motorid.outputs import safe_file_name
 
         from .options import read_record_from_args
 
@@ -67,7 +75,12 @@ class RecordTask:
                     record, segment = read_record_segment(args)
                 drive, when = identity(path, record.attrs, given)
                 row.update(drive=drive, time=when)
-                folder = self.figures / drive / Path(path).stem if self.figures is not None else None
+                # names from data are file names, never paths: everything stays under --out
+                folder = (
+                    self.figures / safe_file_name(drive) / safe_file_name(Path(path).stem)
+                    if self.figures is not None
+                    else None
+                )
                 if folder is not None:
                     folder.mkdir(parents=True, exist_ok=True)
                 if self.command == "identify":
@@ -98,6 +111,7 @@ def _run(args: argparse.Namespace, command: str) -> int:
 
     if command == "identify":
         create_estimator(args.estimator, args)  # a bad option stops before any work
+        start_model_from_args(args)  # and a bad --model
     else:
         effect_list(args.base, "--base")
         if args.candidates:
@@ -109,11 +123,13 @@ def _run(args: argparse.Namespace, command: str) -> int:
         given = {os.path.abspath(p): pattern.parse(p) for p in paths}
     check_out_folder(args.out)
     task = RecordTask(command, argparse.Namespace(**vars(args)), args.out.resolve() if args.figures else None)
+    hold_out_folder(args, args.out)  # after the task took its copy of the options: the lock stays here
     where = args.scheduler or f"a local cluster of {args.workers or os.cpu_count()} worker processes"
     say(f"motorid fleet {command}: {len(paths)} records on {where}; results in {args.out}/")
     if pending_records(paths, args.out, args.retry_failed):
         with fleet_client(args.scheduler, args.workers) as client:
-            run = run_fleet(paths, task, args.out, client, given=given, retry_failed=args.retry_failed)
+            run = run_fleet(paths, task, args.out, client, given=given, retry_failed=args.retry_failed,
+                            progress=show_progress())  # fmt: skip
     else:  # every record is in the results: no cluster to start
         run = FleetRun(records=len(paths), skipped=len(paths), done=0, failed=0, seconds=0.0)
     say(
@@ -121,7 +137,9 @@ def _run(args: argparse.Namespace, command: str) -> int:
         f"({run.seconds:.1f} s); results: {args.out / 'results.parquet'}/ and {args.out / 'results.csv'}"
     )
     if run.failed:
-        say(f"  the failed records' errors are in the 'error' column of {args.out / 'results.csv'}")
+        # also with --quiet: a run that lost records says so
+        say_error(f"motorid fleet {command}: {run.failed} records failed: their errors are in the 'error' "
+                  f"column of {args.out / 'results.csv'}")  # fmt: skip
     if args.json:
         emit_json({"records": run.records, "skipped": run.skipped, "done": run.done, "failed": run.failed,
                    "seconds": run.seconds, "results": args.out / "results.parquet"})  # fmt: skip
@@ -144,6 +162,7 @@ def cmd_fleet_trend(args: argparse.Namespace) -> int:
 
     from motorid.fleet.results import load_results
     from motorid.fleet.trend import flag_drives, friction_trends, plot_trends
+    from motorid.outputs import write_file
 
     results = load_results(args.results)
     trends = friction_trends(results)
@@ -163,7 +182,7 @@ def cmd_fleet_trend(args: argparse.Namespace) -> int:
     out = args.out or args.results / "trend"
     check_out_folder(out)
     figures = plot_trends(trends, flags, out)
-    flags.to_csv(out / "flags.csv", index=False)
+    write_file(out / "flags.csv", lambda fh: flags.to_csv(fh, index=False), overwrite=True)
     say(f"  wrote flags.csv and {len(figures)} figures in {out}/")
     if args.json:
         emit_json({"flagged": frame_records(flagged.set_index("drive")), "drives": len(flags),
@@ -209,6 +228,7 @@ def _add_run_options(p: argparse.ArgumentParser) -> None:
                    help="worker processes of the local cluster (default: the cores)")  # fmt: skip
     p.add_argument("--no-figures", dest="figures", action="store_false", help="write no figure per record")
     p.add_argument("--retry-failed", action="store_true", help="rerun the records whose row says failed")
+    add_wait(p)
     add_record_columns(p)
     add_json(p)
 

@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.errors import DataError
-from motorid.units import INPUT_UNITS, OUTPUT_UNITS, convert_record
+from motorid.units import INPUT_UNITS, OUTPUT_UNITS
 
 #: The paper's low-speed band, |y| < 150 rpm (its Figs. 9-11).
 LOW_SPEED_RPM = 150.0
@@ -104,40 +104,68 @@ def add_record_input(parser: argparse.ArgumentParser, max_samples_help: str = MA
 
 
 def add_record_columns(parser: argparse.ArgumentParser, max_samples_help: str = MAX_SAMPLES_HELP) -> None:
-    """How a record is read: columns, sample time, size limit."""
+    """How a record is read: columns, time, separator, units, size limit (:class:`motorid.records.RecordOptions`;
+    what the limit does in this command: ``max_samples_help``)."""
+    from motorid.units import TIME_UNITS
+
     group = parser.add_argument_group("record")
-    group.add_argument("--time", metavar="COL", help="time column [s] (default: t; optional with --dt)")
+    group.add_argument("--time", metavar="COL",
+                       help="time column, any name (default: t; optional when the sample time is known)")  # fmt: skip
     group.add_argument("--input", default="u", metavar="COL", help="input column (default: u)")
     group.add_argument("--output", default="y", metavar="COL", help="output column (default: y)")
-    group.add_argument("--dt", type=positive, help="sample time [s] (default: from the file)")
+    group.add_argument("--time-unit", choices=TIME_UNITS,
+                       help="unit of the time column (default: the file's, else s); its origin is free: "
+                            "the time is shifted to start at 0")  # fmt: skip
+    group.add_argument("--dt", type=positive, help="sample time [s] (default: from the file); a time "
+                       "column that says otherwise is refused")  # fmt: skip
+    group.add_argument("--resample", action="store_true",
+                       help="put a record with gaps (missing samples) on a uniform grid too, instead of "
+                            "refusing it (jittered time stamps are always resampled)")  # fmt: skip
+    group.add_argument("--sep", type=separator, metavar="CHAR",
+                       help="CSV separator: one character, or 'tab' (default: detected; -v says which)")  # fmt: skip
+    group.add_argument("--decimal", choices=(".", ","),
+                       help="CSV decimal mark (default: detected, ',' with a ';' or tab separator)")  # fmt: skip
     as_read = "(default: the unit the file names; none: the numbers are used as they are)"
     group.add_argument("--input-unit", metavar="UNIT", choices=INPUT_UNITS,
                        help=f"unit of the input column, converted to V as it is read: "
-                       f"{', '.join(INPUT_UNITS).replace('%', '%%')} {as_read}; %% is PWM duty, "
-                       "converted with --supply-voltage")  # fmt: skip
+                       f"{', '.join(INPUT_UNITS).replace('%', '%%')} {as_read}; %% is PWM duty (|u| <= 100), "
+                       "converted with --supply-voltage; counts is a PWM count, --input-full-scale of it "
+                       "is 100 %%")  # fmt: skip
+    group.add_argument("--input-full-scale", type=positive, metavar="N",
+                       help="the count of full duty for --input-unit counts (255 for an 8-bit PWM)")  # fmt: skip
     group.add_argument("--output-unit", metavar="UNIT", choices=OUTPUT_UNITS,
                        help=f"unit of the output column, converted to rad/s, rad, m/s or m as it is read: "
                        f"{', '.join(OUTPUT_UNITS)} {as_read}")  # fmt: skip
     group.add_argument("--supply-voltage", type=positive, metavar="V",
-                       help="supply voltage of a PWM drive [V]: --input-unit %% becomes volts")  # fmt: skip
+                       help="supply voltage of a PWM drive [V]: --input-unit %% or counts becomes volts")  # fmt: skip
     group.add_argument(
         "--max-samples", type=number(int, low=1), default=2_000_000, help=max_samples_help,
     )  # fmt: skip
 
 
-def read_record_from_args(args: argparse.Namespace, min_samples: int = 20) -> pd.DataFrame:
-    """Read the record named by :func:`add_record_input`'s options, with columns ``t``, ``u``, ``y``.
+def separator(text: str) -> str:
+    """An argparse type: a CSV separator, one character (``tab`` or ``\\t`` for a tab)."""
+    value = {"tab": "\t", "\\t": "\t"}.get(text, text)
+    if len(value) != 1 or value in '\r\n".':
+        raise argparse.ArgumentTypeError(f"expected one character such as ',' ';' or tab, got {text!r}")
+    return value
 
-    Without ``--time``, a file with no ``t`` column reads when ``--dt`` is given.
-    The input and output are converted to motorid's units as they are read
-    (:func:`motorid.units.convert_record`).
+
+def read_record_from_args(args: argparse.Namespace, min_samples: int = 20) -> pd.DataFrame:
+    """Read the record named by :func:`add_record_input`'s options, with columns ``t`` [s], ``u``, ``y``.
+
+    :func:`motorid.records.read_record` with the options by their names: the time
+    column is optional when the sample time is known (``--dt``, the file's attrs),
+    and the input and output are converted to motorid's units as they are read.
     """
     from motorid.records import read_record
 
-    columns = record_columns(args)
-    record = read_record(args.data, dt=args.dt, columns=columns, min_samples=min_samples,
-                         max_samples=args.max_samples, other_columns=False)  # fmt: skip
-    return canonical_record(record, columns, args)
+    return read_record(
+        args.data, dt=args.dt, min_samples=min_samples, max_samples=args.max_samples, other_columns=False,
+        time=args.time, input=args.input, output=args.output, time_unit=args.time_unit,
+        input_unit=args.input_unit, output_unit=args.output_unit, supply_voltage=args.supply_voltage,
+        input_full_scale=args.input_full_scale, resample=args.resample, sep=args.sep, decimal=args.decimal,
+    )  # fmt: skip
 
 
 def iter_record_from_args(
@@ -145,43 +173,53 @@ def iter_record_from_args(
 ) -> Iterator[pd.DataFrame]:
     """The record of :func:`read_record_from_args` in consecutive blocks of ``chunk_rows`` rows
     (default :data:`motorid.record_chunks.CHUNK_ROWS`), each read, checked and converted as the
-    whole record is (:func:`motorid.record_chunks.iter_record`); ``--max-samples`` does not
-    apply, since memory does not grow with the record."""
+    whole record is, with the same options (:func:`motorid.record_chunks.iter_record`);
+    ``--max-samples`` does not apply, since memory does not grow with the record. A record whose
+    time stamps jitter raises :class:`motorid.record_chunks.UniformGridError` (it is resampled
+    whole: :func:`read_record_from_args`)."""
     from motorid.record_chunks import CHUNK_ROWS, iter_record
 
-    columns = record_columns(args)
-    blocks = iter_record(args.data, dt=args.dt, columns=columns, min_samples=min_samples,
-                         chunk_rows=chunk_rows or CHUNK_ROWS)  # fmt: skip
-    for block in blocks:
-        yield canonical_record(block, columns, args)
+    return iter_record(
+        args.data, dt=args.dt, min_samples=min_samples, chunk_rows=chunk_rows or CHUNK_ROWS,
+        time=args.time, input=args.input, output=args.output, time_unit=args.time_unit,
+        input_unit=args.input_unit, output_unit=args.output_unit, supply_voltage=args.supply_voltage,
+        input_full_scale=args.input_full_scale, resample=args.resample, sep=args.sep, decimal=args.decimal,
+    )  # fmt: skip
 
 
-def record_columns(args: argparse.Namespace) -> list[str]:
-    """The columns of the record in the file, in the order t, u, y (t left out with ``--dt`` and
-    no ``--time``); a DataError when two options name one column."""
-    columns = [args.input, args.output]
-    if args.time is not None or args.dt is None:
-        columns.insert(0, args.time or "t")
-    options = ["--time", "--input", "--output"][-len(columns) :]
-    for position, name in enumerate(columns):
-        if name in columns[:position]:
-            first = options[columns.index(name)]
-            raise DataError(
-                f"{options[position]} {name!r} is the same column as {first}: each must name its own column"
-            )
-    return columns
+def low_speed_band(record: pd.DataFrame, low_speed_rpm: float) -> tuple[str | None, float, str]:
+    """The output's unit (None when the record names none), the low-speed threshold in it, and words for it.
+
+    ``--low-speed-rpm`` is a speed in rpm: it applies to an output in rad/s. An
+    output in another unit, or in none, gets 10 % of its largest magnitude, and
+    no rpm or rad/s label is given to numbers whose unit nobody named.
+    """
+    unit = (record.attrs.get("units") or {}).get("y")
+    largest = None if unit == "rad/s" else float(np.max(np.abs(record["y"].to_numpy())))
+    return output_band(unit, low_speed_rpm, largest)
 
 
-def canonical_record(record: pd.DataFrame, columns: list[str], args: argparse.Namespace) -> pd.DataFrame:
-    """``record`` (or a block of it) with the ``columns`` renamed ``t``, ``u``, ``y`` and converted
-    to motorid's units (:func:`motorid.units.convert_record`)."""
-    names = dict(zip(columns, ("t", "u", "y")[-len(columns) :], strict=True))
-    renamed = record.rename(columns=names)
-    renamed.attrs = dict(record.attrs)
-    units = record.attrs.get("units")
-    if isinstance(units, dict):
-        renamed.attrs["units"] = {names.get(k, k): v for k, v in units.items()}
-    return convert_record(renamed, args.input_unit, args.output_unit, args.supply_voltage)
+def output_band(
+    unit: str | None, low_speed_rpm: float, largest_output: float | None
+) -> tuple[str | None, float, str]:
+    """:func:`low_speed_band` of a record whose output is in ``unit`` and whose largest output
+    magnitude is ``largest_output`` (needed when ``unit`` is not rad/s): a record read in blocks
+    gives the two without being held whole."""
+    if unit == "rad/s":
+        threshold = low_speed_rpm * 2.0 * math.pi / 60.0
+    else:
+        if largest_output is None:
+            raise ValueError(f"an output in {unit or 'output units'} needs its largest magnitude")
+        threshold = 0.1 * largest_output
+    return unit, threshold, band_words(unit, threshold, low_speed_rpm)
+
+
+def band_words(unit: str | None, threshold: float, low_speed_rpm: float) -> str:
+    """The low-speed band of :func:`low_speed_band` in words."""
+    if unit == "rad/s":
+        return f"|y| < {low_speed_rpm:g} rpm"
+    label = unit or "output units"
+    return f"|y| < {threshold:.4g} {label} (10 % of max |y|: --low-speed-rpm needs an output in a speed unit)"
 
 
 def add_estimator_options(parser: argparse.ArgumentParser, repeatable: bool = False) -> None:
@@ -220,13 +258,19 @@ def _parse_value(text: str) -> Any:
     return text
 
 
-def create_estimator(name: str, args: argparse.Namespace):
-    """Build estimator ``name`` from the options; the paper's order 4 where it needs ``na``/``nb``."""
+def create_estimator(name: str, args: argparse.Namespace, rig: Any = None):
+    """Build estimator ``name`` from the options; the paper's order 4 where it needs ``na``/``nb``.
+
+    ``rig`` (a drive model) starts an estimator that has ``from_rig`` (the friction filters)
+    from that model's constants and friction; the options override its friction prior.
+    """
     from motorid.estimators import available, factory
 
     if name not in available():
         raise DataError(f"--estimator: unknown estimator {name!r}; known: {', '.join(available())}")
     make = factory(name)
+    if rig is not None and not hasattr(make, "from_rig"):
+        raise DataError(f"--model: estimator {name!r} does not start from a drive model")
     try:
         accepted = inspect.signature(make).parameters
     except (TypeError, ValueError):  # a factory without a signature takes what it is given
@@ -248,7 +292,7 @@ def create_estimator(name: str, args: argparse.Namespace):
             raise DataError(f"--param expects KEY=VALUE, got {item!r}")
         kwargs[key.replace("-", "_")] = _parse_value(value)
     try:
-        return make(**kwargs)
+        return make(**kwargs) if rig is None else make.from_rig(rig, **kwargs)
     except (TypeError, ValueError) as exc:  # the estimator's own check of the arguments the user gave
         raise DataError(f"estimator {name!r}: {exc}") from None
 
@@ -329,6 +373,31 @@ def check_out_folder(path: Path, option: str = "--out") -> None:
     except OSError as exc:
         raise DataError(f"{option} {path}: cannot create the folder: {exc.strerror}") from None
     _check_folder_writable(path, option, path)
+
+
+def add_wait(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--wait", action="store_true",
+                        help="when another run writes the --out folder, wait for it to finish instead of "
+                             "refusing")  # fmt: skip
+
+
+def hold_out_folder(args: argparse.Namespace, path: Path, option: str = "--out") -> None:
+    """Lock the folder ``path`` for the rest of the command (:class:`motorid.outputs.FolderLock`).
+
+    A second run into the folder is refused with one line naming the lock file and
+    the first run's process, or waits for it with ``--wait``. The lock is kept in
+    ``args.out_lock``; :func:`motorid.cli.main` releases it when the command returns
+    (and the kernel, if the process dies first).
+    """
+    from motorid.errors import OutputError
+    from motorid.outputs import FolderLock
+
+    lock = FolderLock(path, wait=getattr(args, "wait", False))
+    try:
+        lock.acquire()
+    except OutputError as exc:
+        raise DataError(f"{option} {exc}; pass --wait to wait for it, or choose another folder") from None
+    args.out_lock = lock
 
 
 def _check_folder_writable(folder: Path, option: str, path: Path) -> None:

@@ -1,4 +1,9 @@
-"""What a command prints: human text on stderr, one JSON object on stdout."""
+"""What a command prints: human text on stderr, one JSON object on stdout.
+
+:func:`configure` is called by :func:`motorid.cli.main` for each command with its
+``--quiet`` and ``--json``: with ``--quiet``, :func:`say` prints nothing and no
+progress bar shows; errors (:func:`say_error`) always print.
+"""
 
 from __future__ import annotations
 
@@ -36,9 +41,38 @@ def emit_json(payload: dict[str, Any]) -> None:
     sys.stdout.write(json.dumps(jsonable(payload), indent=2) + "\n")
 
 
+#: The running command's --quiet and --json (set by :func:`configure`).
+_settings = {"quiet": False, "json": False}
+
+
+def configure(*, quiet: bool, json: bool) -> None:
+    """Set what the command about to run prints: ``quiet`` silences :func:`say` and
+    the progress bars; ``json`` is whether it prints its result on stdout."""
+    _settings.update(quiet=quiet, json=json)
+
+
 def say(text: str = "") -> None:
-    """Print a line of human text on stderr."""
+    """Print a line of human text on stderr (nothing with ``--quiet``)."""
+    if not _settings["quiet"]:
+        sys.stderr.write(text + "\n")
+
+
+def say_error(text: str) -> None:
+    """Print a line on stderr that says why a command failed or stopped (also with ``--quiet``)."""
     sys.stderr.write(text + "\n")
+
+
+def show_progress() -> bool:
+    """Whether the running command shows progress bars on stderr.
+
+    Only on a terminal: a bar redraws its line with carriage returns and cursor
+    codes, which a log file or a pipe would keep. Never with ``--quiet``, and never with
+    ``--json`` when stdout is not a terminal (the output is read by a program).
+    ``TQDM_DISABLE`` turns them off in any case (:func:`motorid.progress.progress_bar`).
+    """
+    if _settings["quiet"] or not sys.stderr.isatty():
+        return False
+    return not (_settings["json"] and not sys.stdout.isatty())
 
 
 def frame_records(df: pd.DataFrame) -> list[dict[str, Any]]:

@@ -23,7 +23,7 @@ from .options import (
     number,
     positive,
 )
-from .report import emit_json, say, say_params
+from .report import emit_json, say, say_error, say_params, show_progress
 
 
 def cmd_rig_serve(args: argparse.Namespace) -> int:
@@ -94,7 +94,8 @@ def cmd_rig_map(args: argparse.Namespace) -> int:
 
 def cmd_run(args: argparse.Namespace) -> int:
     """Online identification on a DAQ (simulated rig or Modbus)."""
-    from motorid.io import DAQError, daq_from_url, run_online
+    from motorid.io import STATUS_BITS, DAQError, RigFaultError, daq_from_url, run_online
+    from motorid.io.modbus import describe_status
 
     check_out_file(args.out, args.overwrite)
     estimators = {name: create_estimator(name, args) for name in args.estimator}
@@ -108,13 +109,23 @@ def cmd_run(args: argparse.Namespace) -> int:
     )  # fmt: skip
     excitation = excitation_from_args(args, daq.dt)
     try:
-        record = run_online(daq, estimators, excitation, args.duration, out=args.out, progress=True,
+        record = run_online(daq, estimators, excitation, args.duration, out=args.out, progress=show_progress(),
                             overwrite=args.overwrite)  # fmt: skip
+    except RigFaultError as exc:  # the library's advice is a Python call: say what to type instead
+        notes = " ".join(getattr(exc, "__notes__", []))
+        why = ""
+        if exc.status & STATUS_BITS["watchdog"]:
+            why = " (its watchdog tripped: no command or heartbeat came for its watchdog periods)"
+        raise DataError(
+            f"run stopped: the rig at {args.daq} reports fault {describe_status(exc.status)}{why} and holds 0 V. "
+            "Once the cause is fixed, start motorid run again (with another --out, or --overwrite): "
+            f"it acknowledges the fault as it connects. {notes}".strip()
+        ) from None
     except DAQError as exc:
         notes = " ".join(getattr(exc, "__notes__", []))
         raise DataError(f"run stopped: {exc}. {notes}".strip()) from None
     except KeyboardInterrupt as exc:  # exit 130 (main), after saying what is on disk
-        say(f"motorid run: {exc or 'interrupted'}; " + " ".join(getattr(exc, "__notes__", [])))
+        say_error(f"motorid run: {exc or 'interrupted'}; " + " ".join(getattr(exc, "__notes__", [])))
         raise
     say(f"wrote {args.out}: {record.attrs['samples']} samples")
     for name, est in estimators.items():

@@ -17,9 +17,11 @@ from .options import (
     add_out_file,
     add_plant_seed,
     add_signal_options,
+    add_wait,
     check_out_file,
     check_out_folder,
     excitation_from_args,
+    hold_out_folder,
     non_negative,
     number,
     positive,
@@ -30,10 +32,12 @@ from .report import emit_json, say
 def cmd_demo(args: argparse.Namespace) -> int:
     """The paper's experiment on the simulated rig: tables, figures, record."""
     from motorid.experiment import run_paper_experiment
+    from motorid.outputs import write_file
     from motorid.records import write_record
 
     out = Path(args.out)
     check_out_folder(out)
+    hold_out_folder(args, out)
     say(f"motorid demo: simulating the default rig for {args.duration:g} s and identifying online ...")
     experiment = run_paper_experiment(
         duration=args.duration, seed=args.seed, low_speed_rpm=args.low_speed_rpm
@@ -41,7 +45,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
     record_path = out / "demo_record.csv"
     write_record(experiment.record, record_path)
     table = experiment.table()
-    table.to_csv(out / "demo_table.csv")
+    write_file(out / "demo_table.csv", table.to_csv, overwrite=True)
     figures = experiment.write_figures(out)
     with pd.option_context("display.width", 140, "display.max_columns", 10):
         say(f"\nMSE [rpm^2] over the whole record and at low speed (|y| < {args.low_speed_rpm:g} rpm):")
@@ -132,10 +136,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         rig = drive_model_from_file(args.model)
     else:
         rig = rig_from_args(args)
-    if args.save_model is not None:
-        rig.save(args.save_model)
-        say(f"wrote {args.save_model}: the rig's model file")
     if args.out is None:
+        rig.save(args.save_model, overwrite=args.overwrite)
+        say(f"wrote {args.save_model}: the rig's model file")
         if args.json:
             emit_json({"model": args.save_model, "rig": rig.to_dict()})
         return 0
@@ -144,7 +147,16 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         record = rig.simulate(u)
     else:
         record = rig.simulate(u, seed=args.plant_seed, integrator=args.integrator)
-    write_record(record, args.out)
+    if args.save_model is not None:
+        rig.save(args.save_model, overwrite=args.overwrite)
+    try:
+        write_record(record, args.out, overwrite=args.overwrite)
+    except Exception:  # a refused command changes nothing: the model file written a moment ago goes too
+        if args.save_model is not None and not args.overwrite:
+            args.save_model.unlink()
+        raise
+    if args.save_model is not None:
+        say(f"wrote {args.save_model}: the rig's model file")
     y = record["y"].to_numpy()
     say(f"wrote {args.out}: {len(record)} samples at dt = {rig.dt:g} s, |y| max {np.abs(y).max():.1f} rad/s")
     if args.json:
@@ -164,6 +176,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("demo", help="the paper's experiment on the simulated rig: tables and figures")
     p.add_argument("--out", type=Path, default=Path("out"),
                    help="folder for figures, tables and the record, replaced if there (default: out)")  # fmt: skip
+    add_wait(p)
     p.add_argument("--duration", type=positive, default=120.0, help="record length [s] (default: 120)")
     p.add_argument("--seed", type=number(int, low=0), default=0,
                    help="seed of the experiment: test signal and sensor noise (default: 0)")  # fmt: skip

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from motorid.figures import save, subplots
+from motorid.figures import save, set_title, subplots
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -82,7 +82,7 @@ def residual_figure(diagnosis: Diagnosis, prep: Prepared) -> Figure:
     title = "Torque-balance residual against speed"
     if step > 1:
         title += f" (1 in {step} of {prep.data.n} decimated samples shown)"
-    axes[0, 0].set_title(title)
+    set_title(axes[0, 0], title)
     return fig
 
 
@@ -107,11 +107,11 @@ def simulation_figure(diagnosis: Diagnosis, prep: Prepared) -> Figure:
     ):
         sim = prep.simulate(model)
         ax.plot(*envelope(t, sim)[:2], lw=0.8, label=f"free run, {label}")
-        ax_e.plot(*envelope(t, kin.w - sim)[:2], lw=0.8, label=label)
+        ax_e.plot(*envelope(t, kin.w - sim)[:2], lw=0.8, label=f"measured - free run, {label}")
     title = "Simulation against measurement"
     if size > 1:
         title += f" (minimum and maximum of every {size} samples shown)"
-    ax.set_title(title)
+    set_title(ax, title)
     ax.set_ylabel(f"velocity [{prep.units['v']}]")
     ax_e.set_ylabel(f"measured - simulated [{prep.units['v']}]")
     ax_e.set_xlabel("time [s]")

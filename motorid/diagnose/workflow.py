@@ -84,6 +84,7 @@ from motorid.diagnose.model import (
 from motorid.errors import DataError
 from motorid.plants.rigid import RigidDrive, check_sample_time, effect_order
 from motorid.records import record_timing
+from motorid.units import UNNAMED_OUTPUT, input_unit_name, rate
 from motorid.validation import check_signals
 
 logger = logging.getLogger(__name__)
@@ -174,15 +175,14 @@ def _units(
 
     The force unit is N (linear drive: velocity in m/s) or N m when the input
     gain is given; without it the model's forces are per input unit, so ``F``
-    is the input's unit (``attrs["units"][input]``, else ``"input units"``).
+    is the input's unit (``attrs["units"][input]``, else ``"input units"``). A
+    velocity whose unit the record does not name is in ``"output units"`` (per
+    second for a position): no unit is invented (:mod:`motorid.units`).
     """
     known = record.attrs.get("units") or {}
     unit = known.get(output)
-    if output_kind == "position":
-        v = f"{unit}/s" if unit else "rad/s"
-    else:
-        v = unit or "rad/s"
-    u = known.get(input) or "input units"
+    v = rate(unit) if output_kind == "position" else unit or UNNAMED_OUTPUT
+    u = input_unit_name(known.get(input))
     if gain_given:
         force = "N" if v.startswith("m/") else "N m"
     else:
@@ -582,8 +582,9 @@ class Diagnosis:
 
         No refitting: the models found here are simulated on ``record``'s input
         and their torque balance evaluated on its data. Column names, output
-        kind, input gain, timing and band are those of this diagnosis unless
-        overridden (``input=``, ``output=``, ``dt=`` ...).
+        kind, input gain, timing and band, and the way the record is read (its
+        columns and units, :func:`motorid.records.normalise_record`), are those of
+        this diagnosis unless overridden (``input=``, ``output=``, ``dt=`` ...).
 
         Returns
         -------
@@ -592,10 +593,16 @@ class Diagnosis:
             and ``region`` [v] (the region located on this record's initial
             residual) and ``force_error_percent`` [%].
         """
-        keys = ("input", "output", "output_kind", "input_gain", "timing", "band")
+        from motorid.records import normalise_record
+
+        reading = {"input": self.settings["input"], "output": self.settings["output"], "dt": None,
+                   **self.settings.get("reading", {})}  # fmt: skip
+        reading.update({k: v for k, v in overrides.items() if k in reading})
+        record = normalise_record(record, **reading)
+        keys = ("output_kind", "input_gain", "timing", "band")
         opts = {k: self.settings[k] for k in keys}
-        opts.update(overrides)
-        prep = prepare(record, **opts)
+        opts.update({k: v for k, v in overrides.items() if k not in reading})
+        prep = prepare(record, input="u", output="y", dt=reading["dt"], **opts)
         rows = {label: gaps(model, prep, self.region) for label, model in self.models}
         df = pd.DataFrame.from_dict(rows, orient="index")
         df.index.name = "model"
@@ -763,17 +770,27 @@ def diagnose(
     band: float | None = None,
     model: RigidDrive | None = None,
     structure: bool = True,
+    time: str | None = None,
+    time_unit: str | None = None,
+    input_unit: str | None = None,
+    output_unit: str | None = None,
+    supply_voltage: float | None = None,
+    input_full_scale: float | None = None,
+    resample: bool = False,
 ) -> Diagnosis:
     """Find the effects missing from a rigid drive model of ``record`` (see the module notes).
 
     Parameters
     ----------
     record : pandas.DataFrame
-        The measurement; ``attrs["dt"]`` is used when ``dt`` is None.
+        The measurement, as the user's own code holds it: the columns and units
+        are named by the options below, the same as the command line's, and
+        brought to motorid's by :func:`motorid.records.normalise_record`;
+        ``attrs["dt"]`` is used when ``dt`` is None.
     dt : float, optional
-        Sample time [s], > 0; default from ``attrs["dt"]`` or the ``t`` column.
+        Sample time [s], > 0; default from ``attrs["dt"]`` or the time column.
     input, output : str
-        Column names of the input (e.g. [V]) and the output.
+        Column names of the input (e.g. [V]) and the output, any text.
     output_kind : {"velocity", "position"}
         What the output is. Position records are differentiated (zero-phase
         low-pass and central differences); their output gap is then measured
@@ -795,7 +812,7 @@ def diagnose(
     max_steps : int
         Most effects added, >= 0.
     progress : bool
-        tqdm progress bar on stderr.
+        Show a progress bar on stderr (:func:`motorid.progress.progress_bar`).
     threshold : float
         ΔBIC a candidate needs to pass.
     min_holdout_gain, min_gap_shrink : float
@@ -825,13 +842,26 @@ def diagnose(
         Choose the input delay and lag from the record before any other effect is
         judged (:func:`choose_structure`; skipped when the base already holds one);
         the chosen values are held in every later fit. False: the base as given.
+    time, time_unit, input_unit, output_unit, supply_voltage, input_full_scale, resample
+        The time column (default ``t``; none needed when ``dt`` is known) and the
+        record's units, as :class:`motorid.records.RecordOptions` (``--time``,
+        ``--time-unit``, ``--input-unit``, ... on the command line): e.g.
+        ``diagnose(df, input="pwm", output="rpm", input_unit="%", output_unit="rpm")``.
 
     Returns
     -------
     Diagnosis
     """
-    from tqdm import tqdm
+    from motorid.progress import progress_bar
+    from motorid.records import normalise_record
 
+    columns = {"time": time, "input": input, "output": output}
+    reading = {"dt": dt, "time_unit": time_unit, "input_unit": input_unit, "output_unit": output_unit,
+               "supply_voltage": supply_voltage, "input_full_scale": input_full_scale, "resample": resample}  # fmt: skip
+    record = normalise_record(record, **columns, **reading)
+    if isinstance(holdout, pd.DataFrame):
+        holdout = normalise_record(holdout, **columns, **reading)
+    input, output = "u", "y"
     if model is not None and not isinstance(model, RigidDrive):
         raise DataError(f"model must be a RigidDrive, got {type(model).__name__}")
     if model is not None and base is not None:
@@ -880,7 +910,8 @@ def diagnose(
     else:
         prep = prepare(record, timing=timing, **opts)
     data = prep.data
-    settings = {**opts, "dt": prep.kin.dt, "timing": prep.timing, "band": prep.kin.band,
+    settings = {**opts, "input": columns["input"], "output": columns["output"], "dt": prep.kin.dt,
+                "reading": {"time": time, **{k: v for k, v in reading.items() if k != "dt"}}, "timing": prep.timing, "band": prep.kin.band,
                 "base": list(base_names), "candidates": list(cand_names), "threshold": threshold,
                 "noise_shrink": noise_shrink, "missing_factor": missing_factor,
                 "holdout": "record" if isinstance(holdout, pd.DataFrame) else holdout,
@@ -920,7 +951,7 @@ def diagnose(
 
     current = tuple(base_names)
     # stages: the initial fit, each step, the final gaps (after the checks: an error shows no bar)
-    bar = tqdm(total=max_steps + 2, desc="doctor", disable=not progress, unit="stage")
+    bar = progress_bar(show=progress, total=max_steps + 2, desc="doctor", unit="stage")
     bar.set_postfix_str(f"initial fit on {data.n} decimated samples")
     # a rest-only effect of the user's model (static friction) keeps its value: the balance cannot refit it
     kept = (
@@ -978,7 +1009,7 @@ def diagnose(
             )
             break
         ranking = []
-        for name in tqdm(remaining, desc="candidates", disable=not progress, leave=False):
+        for name in progress_bar(remaining, show=progress, desc="candidates", unit="effect", leave=False):
             if get_effect(name).rest_only:
                 # static friction: fitted and judged on the free run, the only place it shows
                 fitted = fit_static_friction(prep, fit0.model, all_full)

@@ -86,6 +86,50 @@ def as_float_vector(value: ArrayLike, name: str) -> np.ndarray:
     return array
 
 
+#: Largest variance a covariance may hold: an update forms P φ φᵀ P, which stays below 1e300
+#: for regressors up to 1e50 only while P's entries stay below 1e100.
+LARGEST_VARIANCE = 1e100
+#: Largest magnitude of a lagged regression's estimate, past output or basis value read back: a
+#: product of two (a term of φᵀx) stays below 1e200, far from overflow.
+LARGEST_VALUE = 1e100
+#: Relative tolerance of the symmetry and semi-definiteness of a covariance read back: a
+#: covariance another program wrote with 10 significant digits is off by 5e-11 relative per
+#: entry, and its eigenvalues by n times that; an edit or a wrong matrix is off by order 1.
+COVARIANCE_RTOL = 1e-9
+
+
+def check_covariance(name: str, P: np.ndarray) -> np.ndarray:
+    """``P`` (square, finite) as an exactly symmetric covariance, or a ValueError naming ``name``.
+
+    Accepted when ``|P - Pᵀ| <= rtol max|P|`` entry by entry, its smallest eigenvalue
+    is ``>= -rtol n max|P|`` (positive semi-definite up to rounding) and its largest
+    ``<= LARGEST_VARIANCE``, with ``rtol`` = :data:`COVARIANCE_RTOL`; returned as
+    ``(P + Pᵀ)/2``, which is ``P`` bit for bit when ``P`` is exactly symmetric.
+    """
+    if not P.size:
+        return P
+    scale = float(np.max(np.abs(P)))
+    if scale > LARGEST_VARIANCE:  # |P_ij| <= sqrt(P_ii P_jj) <= the largest eigenvalue of a covariance
+        raise ValueError(
+            f"{name} must have variances of at most {LARGEST_VARIANCE:g}, got an entry of {scale:.3g}"
+        )
+    asymmetry = float(np.max(np.abs(P - P.T)))
+    if asymmetry > COVARIANCE_RTOL * scale:
+        raise ValueError(
+            f"{name} must be symmetric (within {COVARIANCE_RTOL:g} of its largest entry), "
+            f"got max |P - P^T| = {asymmetry:.3g} beside max |P| = {scale:.3g}"
+        )
+    P = 0.5 * (P + P.T)
+    eigenvalues = np.linalg.eigvalsh(P)
+    if eigenvalues[0] < -COVARIANCE_RTOL * len(P) * scale:
+        raise ValueError(f"{name} must be positive semi-definite, got an eigenvalue of {eigenvalues[0]:.3g}")
+    if eigenvalues[-1] > LARGEST_VARIANCE:
+        raise ValueError(
+            f"{name} must have variances of at most {LARGEST_VARIANCE:g}, got an eigenvalue of {eigenvalues[-1]:.3g}"
+        )
+    return P
+
+
 def first_bad_index(values: np.ndarray) -> int | None:
     """Index of the first non-finite entry of ``values``, or None."""
     bad = np.flatnonzero(~np.isfinite(values))
@@ -321,12 +365,14 @@ class Estimator(ABC):
                 saver.save()
         return BatchResult(x_hist, p_diag, y_hat, innovation, s_hist, self.state_names)
 
-    def save(self, path: str | os.PathLike[str]) -> None:
+    def save(self, path: str | os.PathLike[str], *, overwrite: bool = True) -> None:
         """Write the estimator as a model file; ``motorid.load_model`` reads it back
-        (the format and what is saved: :mod:`motorid.models`)."""
+        (the format and what is saved: :mod:`motorid.models`).
+
+        Written whole; ``overwrite=False`` refuses an existing file (:func:`motorid.models.save_model`)."""
         from motorid.models import save_model
 
-        save_model(self, path)
+        save_model(self, path, overwrite=overwrite)
 
     def __repr__(self) -> str:
         lines = [f"{type(self).__name__} object"]

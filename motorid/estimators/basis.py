@@ -160,10 +160,15 @@ class BasisFunction:
         return out.reshape(arr.shape)
 
 
+#: Highest power of the input in a basis: u^j is a product of j factors per sample, and a drive's
+#: static nonlinearity is a polynomial of a few terms (the paper's degrees go to 7).
+MOST_POWER = 32
+
+
 def power(j: int) -> BasisFunction:
-    """``g(u) = u^j`` (paper eq. 16), the product of j factors u."""
-    if isinstance(j, bool) or not isinstance(j, (int, np.integer)) or j < 1:
-        raise ValueError(f"power must be an integer >= 1, got {j!r}")
+    """``g(u) = u^j`` (paper eq. 16), the product of j factors u; 1 <= j <= :data:`MOST_POWER`."""
+    if isinstance(j, bool) or not isinstance(j, (int, np.integer)) or not 1 <= j <= MOST_POWER:
+        raise ValueError(f"power must be an integer in [1, {MOST_POWER}], got {j!r}")
     return BasisFunction("u" if j == 1 else f"u^{j}", builtin=(POWER, float(j)))
 
 
@@ -274,9 +279,9 @@ class Basis(Sequence[BasisFunction]):
 
 
 def polynomial(degree: int) -> Basis:
-    """The paper's polynomial basis ``u, u^2, ..., u^degree`` (eq. 16)."""
-    if isinstance(degree, bool) or not isinstance(degree, (int, np.integer)) or degree < 1:
-        raise ValueError(f"degree must be an integer >= 1, got {degree!r}")
+    """The paper's polynomial basis ``u, u^2, ..., u^degree`` (eq. 16), degree <= :data:`MOST_POWER`."""
+    if isinstance(degree, bool) or not isinstance(degree, (int, np.integer)) or not 1 <= degree <= MOST_POWER:
+        raise ValueError(f"degree must be an integer in [1, {MOST_POWER}], got {degree!r}")
     return Basis(power(j) for j in range(1, int(degree) + 1))
 
 

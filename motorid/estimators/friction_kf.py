@@ -51,15 +51,20 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from motorid.estimators import friction_model as fm
-from motorid.estimators.base import BatchResult, Estimator, as_float_vector, first_bad_index
-from motorid.estimators.rls import check_order, check_positive
+from motorid.estimators.base import BatchResult, Estimator, as_float_vector, check_covariance, first_bad_index
+from motorid.estimators.rls import check_positive
 from motorid.plants import physics
 from motorid.plants.friction import LuGreFriction, StaticFriction
 from motorid.plants.physics import armature_voltage, armature_voltages
+from motorid.plants.ranges import LARGEST, MOST_SUBSTEPS, check_count, check_parameter
 from motorid.plants.rig import TwoMassRig, paper_rig
 from motorid.plants.rigid import InputPathState, RigidDrive
 
 OnDivergence = Literal["raise", "warn", "ignore"]
+
+#: Longest NIS window [updates]: a consistency test over seconds to minutes of samples, whose
+#: ring (8 bytes an update) a model file sizes.
+MOST_NIS_WINDOW = 100_000
 
 #: Units of the entries of ``params``.
 PARAM_UNITS: dict[str, str] = {
@@ -332,6 +337,7 @@ class _FrictionFilter(Estimator):
             "stribeck_drift", "R_current", "divergence_nis",
         ):  # fmt: skip
             check_positive(name, getattr(self, name))
+            check_parameter(name, getattr(self, name), "(SI units)", sign="> 0")
         for name in ("coulomb0", "coulomb_neg0", "viscous0", "stribeck0"):
             value = getattr(self, name)
             if value is None and name == "coulomb_neg0":
@@ -340,8 +346,12 @@ class _FrictionFilter(Estimator):
                 raise ValueError(f"{name} must be a number >= 0, got {value!r}")
             if not math.isfinite(value):
                 raise ValueError(f"{name} must be finite, got {value!r}")
-        r = tacho_variance(rig) if self.R is None else check_positive("R", self.R)
-        window = check_order("nis_window", self.nis_window, 1)
+            check_parameter(name, value, "(SI units)")
+        if self.R is None:
+            r = tacho_variance(rig)
+        else:
+            r = check_parameter("R", check_positive("R", self.R), "(rad/s)²", sign="> 0")
+        window = check_count("nis_window", self.nis_window, 1, MOST_NIS_WINDOW)
 
         dt = rig.dt
         shape = str(self.stribeck_shape)
@@ -385,7 +395,7 @@ class _FrictionFilter(Estimator):
             c_probe = fm.pack_constants(**constants, substeps=1)
             substeps = max(1, math.ceil(dt * fm.stiffest_rate(c_probe, probe) / 0.25))
         else:
-            substeps = check_order("substeps", self.substeps, 1)
+            substeps = check_count("substeps", self.substeps, 1, MOST_SUBSTEPS)
         self._c = fm.pack_constants(**constants, substeps=substeps)
         self._names = names
         self._index = index
@@ -513,8 +523,9 @@ class _FrictionFilter(Estimator):
         Raises
         ------
         ValueError
-            Naming the entry whose shape does not fit this filter, or a covariance that
-            is not symmetric positive definite.
+            Naming the entry whose shape does not fit this filter, a covariance that
+            is not symmetric positive definite (:func:`~motorid.estimators.base.check_covariance`),
+            a negative count or NIS.
         """
         n = self.dim_x
         x = np.array(state["x"], dtype=float)
@@ -531,8 +542,18 @@ class _FrictionFilter(Estimator):
         for key, value, shape in checks:
             if value.shape != shape:
                 raise ValueError(f"{key} must have shape {shape} for this filter, got {value.shape}")
-        if not (np.array_equal(P, P.T) and physics.is_healthy(x, P)):
+        P = check_covariance("P", P)
+        if np.any(np.abs(x) > LARGEST):
+            raise ValueError(f"x must be within ±{LARGEST:g} (the physical range of a drive's states)")
+        if not physics.is_healthy(x, P):
             raise ValueError("P must be symmetric positive definite and x finite")
+        for key in ("sample_index", "nis_count"):
+            if isinstance(state[key], bool) or not isinstance(state[key], int | np.integer) or state[key] < 0:
+                raise ValueError(f"{key} must be an integer >= 0, got {state[key]!r}")
+        if not np.all(ring >= 0.0) or float(state["nis_mean"]) < 0.0:  # NaN nis_mean: the window is not full
+            raise ValueError(
+                "nis_ring and nis_mean must be >= 0 (a NIS is a squared innovation over its variance)"
+            )
         if memory is not None:
             self._input_state = memory
         self.x = self.x_prior = self.x_post = x
@@ -764,7 +785,8 @@ class FrictionEKF(_FrictionFilter):
     R_current : float
         Variance of a measured armature current [A²].
     nis_window : int
-        Number of updates over which the NIS is averaged for the divergence test.
+        Number of updates over which the NIS is averaged for the divergence test,
+        1 to :data:`MOST_NIS_WINDOW`.
     divergence_nis : float
         Threshold of that mean; a consistent filter averages 1, so 25 means
         innovations five times their predicted standard deviation.

@@ -54,7 +54,7 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike
 
-from motorid.estimators.base import BatchResult, Estimator, as_float_vector, first_bad_index
+from motorid.estimators.base import LARGEST_VARIANCE, BatchResult, Estimator, as_float_vector, first_bad_index
 from motorid.estimators.basis import Basis, builtin_row
 
 
@@ -318,6 +318,11 @@ def free_run(G: np.ndarray, theta: np.ndarray, y_hist: np.ndarray, g_hist: np.nd
 
 
 # --------------------------------------------------------------------------- checks
+#: Most parameters of a lagged regression: its covariance takes 8 n² bytes (8 MB at the bound), and
+#: a drive's model has tens (the paper's orders go to 6).
+MOST_PARAMETERS = 1000
+
+
 def check_order(name: str, value: Any, minimum: int) -> int:
     """An integer argument >= ``minimum``, or a ValueError naming it."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
@@ -345,7 +350,8 @@ class LaggedRegressionRLS(Estimator):
     Parameters
     ----------
     na : int
-        Order of A(q^-1): number of past outputs, >= 0.
+        Order of A(q^-1): number of past outputs, >= 0. The model has at most
+        :data:`MOST_PARAMETERS` parameters.
     nb : int
         Order of B(q^-1): the oldest input lag, >= 0 (>= 1 without direct term).
     basis : Basis
@@ -353,7 +359,8 @@ class LaggedRegressionRLS(Estimator):
     lam : float
         Forgetting factor, 0 < lam <= 1 (1: ordinary least squares).
     delta : float
-        Initial covariance P0 = delta * I (large: little trust in ``x0``).
+        Initial covariance P0 = delta * I (large: little trust in ``x0``), at most
+        :data:`~motorid.estimators.base.LARGEST_VARIANCE` (as ``R``).
     direct_term : bool
         Keep the lag-0 input term b0 (the paper's regressor, eq. 22); False gives a
         strictly causal model.
@@ -392,7 +399,15 @@ class LaggedRegressionRLS(Estimator):
             raise ValueError(f"lam must satisfy 0 < lam <= 1, got {lam!r}")
         self.delta = check_positive("delta", delta)
         self.R = check_positive("R", R)
+        for name, value in (("delta", self.delta), ("R", self.R)):
+            if value > LARGEST_VARIANCE:
+                raise ValueError(f"{name} must be at most {LARGEST_VARIANCE:g} (a variance), got {value!r}")
         n = self.na + len(basis) * self.n_lags_used
+        if n > MOST_PARAMETERS:  # before P (n x n) is allocated
+            raise ValueError(
+                f"na, nb: the model would have {n} parameters (na + basis functions x input lags), "
+                f"more than {MOST_PARAMETERS}"
+            )
         self.max_trace = (
             self.delta * n if max_trace is None else check_positive("max_trace", max_trace, allow_inf=True)
         )

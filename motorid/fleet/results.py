@@ -3,8 +3,9 @@
 On disk, in the run's ``--out`` folder:
 
 - ``results.parquet/``: a Parquet dataset, one part file per batch of finished
-  records, each written to a temporary name and renamed into place, so a run that
-  is killed loses no finished row and never leaves a half-written part. pandas
+  records, each written to a temporary name (unique to the process) and linked into
+  place under a part name no other file has, so a run that is killed loses no
+  finished row and never leaves a half-written part, and no part replaces another. pandas
   (``pd.read_parquet(folder)``) and pyarrow read it as one table; :func:`load_results`
   also keeps one row per record (the last written).
 - ``results.csv``: the same table as CSV, rewritten (atomically) every few seconds
@@ -20,6 +21,7 @@ output flattened (:func:`flatten`): ``params.coulomb``, ``scores.one_step.mse``,
 
 from __future__ import annotations
 
+import errno
 import logging
 import math
 import os
@@ -89,7 +91,9 @@ class ResultsStore:
     """The results of a run in ``folder`` (see the module docstring); rows appended as they come.
 
     The parts on disk are read once and kept in memory beside the rows appended since, so the
-    CSV rewrites of a long run do not read the folder again. One run writes to a folder at a time.
+    CSV rewrites of a long run do not read the folder again. One run writes to a folder at a time
+    (the command line locks it: :class:`motorid.outputs.FolderLock`); even without the lock, a
+    store deletes only parts whose rows it has merged into a part already on disk.
     """
 
     def __init__(self, folder: str | os.PathLike[str]):
@@ -102,6 +106,7 @@ class ResultsStore:
         self._tables: list[Any] | None = (
             None  # what is on disk (pyarrow tables), read once, then kept in step
         )
+        self._paths: list[Path] = []  # the part file of each of those tables
 
     def _part_files(self) -> list[Path]:
         return sorted((p for p in self.parts.iterdir() if _PART.match(p.name)), key=lambda p: p.name)
@@ -118,17 +123,23 @@ class ResultsStore:
         path = self._write_part(table)
         if self._tables is not None:
             self._tables.append(table)
+            self._paths.append(path)
         return path
 
     def _write_part(self, table: Any) -> Path:
+        """Write ``table`` whole as the next part name no file has yet."""
         import pyarrow.parquet as pq
 
-        path = self.parts / f"part-{self._next:06d}.parquet"
-        tmp = self.parts / f".{path.name}.tmp"
-        pq.write_table(table, tmp)
-        os.replace(tmp, path)
-        self._next += 1
-        return path
+        from motorid.outputs import write_file
+
+        while True:
+            path = self.parts / f"part-{self._next:06d}.parquet"
+            self._next += 1
+            try:
+                return write_file(path, lambda fh: pq.write_table(table, fh), binary=True)
+            except OSError as exc:
+                if exc.errno != errno.EEXIST:  # a full disk: the rows are in the parts before
+                    raise
 
     def rows(self) -> pd.DataFrame:
         """Every row written so far, one per record (the last written), sorted by record, identity columns first.
@@ -141,7 +152,8 @@ class ResultsStore:
         import pyarrow.parquet as pq
 
         if self._tables is None:
-            self._tables = [pq.read_table(p) for p in self._part_files()]
+            self._paths = self._part_files()
+            self._tables = [pq.read_table(p) for p in self._paths]
         tables = [t for t in self._tables if t.num_rows]
         if not tables:
             return pd.DataFrame(columns=list(IDENTITY_COLUMNS))
@@ -156,25 +168,36 @@ class ResultsStore:
         ``reread`` reads the parts from disk again first: a run stopped between writing a part
         and keeping it in memory still gets every row on disk into the CSV.
         """
+        from motorid.outputs import write_file
+
         if reread:
             self._tables = None
-        tmp = self.folder / f".{CSV_NAME}.tmp"
-        self.rows().to_csv(tmp, index=False)
-        os.replace(tmp, self.csv)
-        return self.csv
+        rows = self.rows()
+        return write_file(self.csv, lambda fh: rows.to_csv(fh, index=False), overwrite=True)
 
     def compact(self) -> None:
-        """Merge the parts into one (the merged part is in place before the others go)."""
-        parts = self._part_files()
-        if len(parts) <= 1:
+        """Merge the parts whose rows this store holds into one.
+
+        The merged part is on disk, whole, before any part goes, and only the parts
+        merged into it go: a part another process wrote since this store read the
+        folder stays.
+        """
+        self.rows()  # the parts on disk, read if they are not yet
+        merged_parts = list(self._paths)
+        if len(merged_parts) <= 1:
             return
         import pyarrow as pa
 
+        from motorid.errors import OutputError
+
         merged = pa.Table.from_pandas(self.rows(), preserve_index=False)  # NaN in text columns: null
-        self._write_part(merged)
-        for part in parts:
-            part.unlink()
-        self._tables = [merged]
+        try:
+            path = self._write_part(merged)
+        except OutputError as exc:  # a full disk: nothing merged, nothing deleted
+            raise OutputError(f"{exc}; every row is in the parts of {self.parts}/ as before") from None
+        for part in merged_parts:
+            part.unlink(missing_ok=True)
+        self._tables, self._paths = [merged], [path]
 
 
 def load_results(folder: str | os.PathLike[str]) -> pd.DataFrame:

@@ -29,9 +29,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from tqdm import tqdm
-
+from motorid.errors import OutputError
 from motorid.fleet.results import ResultsStore
+from motorid.progress import progress_bar
 
 logger = logging.getLogger(__name__)
 
@@ -67,7 +67,14 @@ def fleet_client(scheduler: str | None = None, workers: int | None = None) -> It
     n = workers or os.cpu_count() or 1
     with (
         LocalCluster(
-            n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=level
+            n_workers=n,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            # the scheduler's HTTP endpoints on a free loopback port: its default, 8787, is taken by
+            # a second fleet run and would warn
+            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+            silence_logs=level,
         ) as cluster,
         Client(cluster) as client,
     ):
@@ -107,7 +114,7 @@ def run_fleet(
     client: Any,
     given: dict[str, dict[str, Any]] | None = None,
     retry_failed: bool = False,
-    progress: bool = True,
+    progress: bool = False,
     csv_every: float = 5.0,
 ) -> FleetRun:
     """Run ``task`` on every record of ``paths`` not yet in ``out``'s results; store each row.
@@ -127,7 +134,8 @@ def run_fleet(
     retry_failed : bool
         Rerun the records whose row says failed (default: skip every record in the results).
     progress : bool
-        A progress bar on stderr with the counts of done and failed records.
+        A progress bar on stderr with the counts of done and failed records
+        (:func:`motorid.progress.progress_bar`).
     csv_every : float
         Seconds between rewrites of ``results.csv`` during the run [s].
     """
@@ -140,7 +148,7 @@ def run_fleet(
     given = given or {}
     run = FleetRun(records=len(records), skipped=len(records) - len(todo), done=0, failed=0, seconds=0.0)
     logger.info("%d records, %d already in %s, %d to run", run.records, run.skipped, out, len(todo))
-    bar = tqdm(total=len(todo), desc="fleet", unit="record", disable=not progress)
+    bar = progress_bar(show=progress, total=len(todo), desc="fleet", unit="record")
     bar.set_postfix(done=0, failed=0)
     futures = client.map(task, todo, [given.get(p, {}) for p in todo], pure=False)
     path_of = {future.key: path for future, path in zip(futures, todo, strict=True)}
@@ -160,21 +168,42 @@ def run_fleet(
                               "status": "failed", "error": f"{type(exc).__name__}: {exc}"}  # fmt: skip
                 rows.append(result)
                 future.release()
-            store.append(rows)
+            with _saying_what_is_kept(run, store):
+                store.append(rows)
             failed = sum(row["status"] != "ok" for row in rows)
             run.done += len(rows) - failed
             run.failed += failed
             bar.update(len(rows))
             bar.set_postfix(done=run.done, failed=run.failed)
             if time.monotonic() - last_csv > csv_every:
-                store.write_csv()
+                with _saying_what_is_kept(run, store):
+                    store.write_csv()
                 last_csv = time.monotonic()
-    finally:
+    except BaseException:
         bar.close()
+        try:
+            store.write_csv(reread=True)
+        except OutputError as exc:  # the error already on its way says what matters
+            logger.info("%s", exc)
+        raise
+    bar.close()
+    with _saying_what_is_kept(run, store):
         store.write_csv(reread=True)
     store.compact()
     run.seconds = time.perf_counter() - start
     return run
+
+
+@contextlib.contextmanager
+def _saying_what_is_kept(run: FleetRun, store: ResultsStore) -> Iterator[None]:
+    """Add to a write's OutputError (a full disk) the rows the run has stored."""
+    try:
+        yield
+    except OutputError as exc:
+        raise OutputError(
+            f"{exc}; the {run.done + run.failed} rows of this run stored so far are in {store.parts}/ "
+            "(a rerun once there is room does the rest)"
+        ) from None
 
 
 __all__ = ["FleetRun", "Task", "fleet_client", "pending_records", "run_fleet"]

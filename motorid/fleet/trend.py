@@ -23,11 +23,15 @@ from __future__ import annotations
 import logging
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
 from motorid.errors import DataError
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 logger = logging.getLogger(__name__)
 
@@ -44,7 +48,8 @@ def friction_trends(results: pd.DataFrame) -> pd.DataFrame:
     -------
     pandas.DataFrame
         Columns ``drive``, ``time``, ``record``, ``parameter``, ``value``, ``std`` (NaN when
-        the results carry no uncertainty), sorted by drive, parameter and time.
+        the results carry no uncertainty), ``unit`` (the parameter's unit from the results'
+        ``units.params.*``; None when they do not say), sorted by drive, parameter and time.
 
     Raises
     ------
@@ -75,9 +80,11 @@ def friction_trends(results: pd.DataFrame) -> pd.DataFrame:
             values = pd.to_numeric(ok[prefix + name], errors="coerce")
             std_col = std_prefix + name + std_suffix
             std = pd.to_numeric(ok[std_col], errors="coerce") if std_col in ok else np.nan
+            unit_col = "units.params." + name
+            unit = ok[unit_col].where(ok[unit_col].notna(), None) if unit_col in ok else None
             frame = pd.DataFrame(
                 {"drive": ok["drive"], "time": ok["time"], "record": ok["record"], "parameter": name,
-                 "value": values, "std": std}
+                 "value": values, "std": std, "unit": unit}
             )  # fmt: skip
             frames.append(frame[frame["value"].notna()])
     if not frames:
@@ -160,39 +167,81 @@ def _appeared(records: pd.DataFrame, min_records: int = 3) -> dict[str, pd.Times
     return out
 
 
+def parameter_label(name: str, units: pd.Series) -> str:
+    """The axis label of a parameter: its name and the unit its records name, e.g. ``coulomb [N m]``.
+
+    Records that name different units (drives set up differently) are listed; results that
+    name none say so, rather than guess one.
+    """
+    named = list(dict.fromkeys(u for u in units if isinstance(u, str) and u))
+    return f"{name} [{', '.join(named) if named else 'unit not in the results'}]"
+
+
+def trend_figure(drive: str, own: pd.DataFrame, reason: str = "", appeared: str = "") -> Figure:
+    """One drive's friction parameters against record time: a panel per parameter, ±2σ bars
+    when known, the day an effect appeared marked (and named in the legend); the title says
+    why the drive is flagged.
+
+    Parameters
+    ----------
+    drive : str
+        The drive's name.
+    own : pandas.DataFrame
+        The drive's rows of :func:`friction_trends`.
+    reason, appeared : str
+        The drive's ``reason`` and ``appeared`` of :func:`flag_drives`.
+    """
+    import matplotlib.dates as mdates
+
+    from motorid.figures import set_title, subplots
+
+    names = list(dict.fromkeys(own["parameter"]))
+    fig, axes = subplots(len(names), 1, figsize=(7, 1.9 * len(names) + 1.0), sharex=True, squeeze=False)
+    days = [item.rsplit(" from ", 1) for item in filter(None, appeared.split(", "))]  # (effect, day)
+    for ax, name in zip(axes[:, 0], names, strict=True):
+        series = own[own["parameter"] == name]
+        known = series["std"].notna().any()
+        ax.errorbar(series["time"], series["value"], yerr=2 * series["std"] if known else None, fmt="o-", ms=3,
+                    lw=1, capsize=2, label="estimate per record" + (" ±2σ" if known else ""))  # fmt: skip
+        ax.set_ylabel(parameter_label(name, series["unit"]))
+        ax.grid(alpha=0.3)
+        for effect, day in days:
+            ax.axvline(pd.Timestamp(day), color="tab:red", ls="--", lw=1, label=f"{effect} appeared")
+        ax.legend(loc="best", fontsize=7)
+    shown = drive if str(drive).isprintable() else repr(drive)  # a control character from data, escaped
+    set_title(axes[0, 0], f"{shown}: " + (f"flagged ({reason})" if reason else "not flagged"), fontsize=10)
+    axis = axes[-1, 0].xaxis
+    locator = mdates.AutoDateLocator()
+    axis.set_major_locator(locator)
+    axis.set_major_formatter(mdates.ConciseDateFormatter(locator))
+    axes[-1, 0].set_xlabel("record time [date]")
+    return fig
+
+
 def plot_trends(trends: pd.DataFrame, flags: pd.DataFrame, out: str | os.PathLike[str]) -> list[Path]:
-    """One PNG per drive, ``<drive>.png``: each friction parameter against time (±2σ bars when known),
-    the day an effect appeared marked; the title says why the drive is flagged. The paths."""
-    import matplotlib.pyplot as plt
+    """One PNG per drive, ``<drive>.png`` (:func:`trend_figure`). The paths."""
+    from motorid.figures import save
+    from motorid.outputs import safe_file_name
 
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
     reasons = dict(zip(flags["drive"], flags["reason"], strict=True))
     appeared = dict(zip(flags["drive"], flags["appeared"], strict=True))
-    paths = []
-    for drive, own in trends.groupby("drive", sort=True):
-        names = list(dict.fromkeys(own["parameter"]))
-        fig, axes = plt.subplots(
-            len(names), 1, figsize=(7, 1.9 * len(names) + 0.8), sharex=True, squeeze=False
+    return [
+        save(
+            trend_figure(drive, own, reasons.get(drive, ""), str(appeared.get(drive, "") or "")),
+            folder / f"{safe_file_name(drive)}.png",  # a drive id from data is never a path
         )
-        for ax, name in zip(axes[:, 0], names, strict=True):
-            series = own[own["parameter"] == name]
-            ax.errorbar(series["time"], series["value"], yerr=2 * series["std"] if series["std"].notna().any() else None,
-                        fmt="o-", ms=3, lw=1, capsize=2)  # fmt: skip
-            ax.set_ylabel(name)
-            ax.grid(alpha=0.3)
-            for item in filter(None, str(appeared.get(drive, "")).split(", ")):
-                ax.axvline(pd.Timestamp(item.rsplit(" from ", 1)[1]), color="tab:red", ls="--", lw=1)
-        reason = reasons.get(drive, "")
-        axes[0, 0].set_title(f"{drive}: " + (f"flagged ({reason})" if reason else "not flagged"), fontsize=10)
-        axes[-1, 0].set_xlabel("record time")
-        fig.autofmt_xdate()
-        fig.tight_layout()
-        path = folder / f"{drive}.png"
-        fig.savefig(path, dpi=80)
-        plt.close(fig)
-        paths.append(path)
-    return paths
+        for drive, own in trends.groupby("drive", sort=True)
+    ]
 
 
-__all__ = ["RISING", "flag_drives", "friction_trends", "plot_trends", "relative_rise"]
+__all__ = [
+    "RISING",
+    "flag_drives",
+    "friction_trends",
+    "parameter_label",
+    "plot_trends",
+    "relative_rise",
+    "trend_figure",
+]

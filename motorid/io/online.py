@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import copy
 import csv
+import io
 import logging
 import math
+import os
 import signal
-import sys
 import threading
 from collections import deque
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -17,7 +18,10 @@ from typing import Any, Protocol
 
 import numpy as np
 import pandas as pd
-from tqdm import tqdm
+
+from motorid.errors import OutputError
+from motorid.outputs import disk_full
+from motorid.progress import progress_bar
 
 from .base import DAQ, Sample
 
@@ -102,10 +106,13 @@ class RunRecorder:
     The file is created with the first row (the parameter columns are known
     only once the estimators have produced them), so a run that never takes a
     sample leaves an existing file as it was and creates none. Rows are
-    flushed to the operating system every ``flush_every`` rows, so a crash or
+    written to the operating system every ``flush_every`` rows, so a crash or
     Ctrl-C loses at most the rows since the last flush (none with the
     default 1). Only the last ``keep`` rows stay in memory: a run of days
-    holds its memory flat, and the file holds every row.
+    holds its memory flat, and the file holds every row. The file always ends
+    on a whole row: when the disk is full, what part of a row reached it is cut
+    off again and :class:`~motorid.errors.OutputError` says how many rows the
+    file holds (a file left with no whole line is removed).
 
     Parameters
     ----------
@@ -118,6 +125,15 @@ class RunRecorder:
         here, before the run starts.
     keep : int or None
         Rows kept in memory for :meth:`frame`; None keeps all of them.
+
+    Attributes
+    ----------
+    count : int
+        Rows recorded.
+    on_disk : int
+        Rows in the file (not counting the header): ``count`` after each flush.
+    created : bool
+        True once this recorder has created (or, with ``overwrite``, truncated) the file.
 
     Raises
     ------
@@ -142,9 +158,14 @@ class RunRecorder:
         self.overwrite = bool(overwrite)
         self.rows: deque[dict[str, float | int]] = deque(maxlen=keep)
         self.count = 0
+        self.on_disk = 0
+        self.created = False
         self.columns: list[str] | None = None
-        self._fh: Any = None
-        self._writer: Any = None
+        self._fd: int | None = None
+        self._size = 0  # bytes in the file, ending on a whole line
+        self._pending: list[bytes] = []  # lines formatted, not yet written
+        self._line = io.StringIO()
+        self._writer = csv.writer(self._line, lineterminator="\n")
         if self.path is not None:
             if self.path.is_dir():
                 raise IsADirectoryError(f"run_online: out {self.path} is a folder, expected a file name")
@@ -154,27 +175,117 @@ class RunRecorder:
                     "or choose another name"
                 )
 
+    def _csv_line(self, values: list[str]) -> bytes:
+        self._line.seek(0)
+        self._line.truncate()
+        self._writer.writerow(values)
+        return self._line.getvalue().encode("utf-8")
+
     def append(self, row: dict[str, float | int]) -> None:
-        """Record one row (written to disk at once, flushed every ``flush_every``)."""
+        """Record one row (written every ``flush_every`` rows).
+
+        Raises
+        ------
+        motorid.errors.OutputError
+            The disk is full (or the file cannot be written): the message names
+            the file and the rows it holds, ending on a whole row.
+        """
         if self.columns is None:
             self.columns = list(row)
             if self.path is not None:
                 self.path.parent.mkdir(parents=True, exist_ok=True)
-                self._fh = self.path.open("w" if self.overwrite else "x", newline="", encoding="utf-8")
-                self._writer = csv.writer(self._fh, lineterminator="\n")
-                self._writer.writerow(self.columns)
-        if self._writer is not None:
-            self._writer.writerow([_format(row.get(c, math.nan)) for c in self.columns])
-            if (self.count + 1) % self.flush_every == 0:
-                self._fh.flush()
+                self._fd = self._open_alone()
+                self.created = True
+                self._pending.append(self._csv_line(self.columns))
         self.rows.append(row)
         self.count += 1
+        if self._fd is not None:
+            self._pending.append(self._csv_line([_format(row.get(c, math.nan)) for c in self.columns]))
+            if self.count % self.flush_every == 0:
+                self.flush()
+
+    def _open_alone(self) -> int:
+        """Open the file for this recorder alone: created exclusively, or with ``overwrite`` locked
+        (:func:`fcntl.flock`, held until :meth:`close`) before it is emptied, so no two runs write one file."""
+        import fcntl
+
+        exclusive = 0 if self.overwrite else os.O_EXCL
+        try:
+            fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | exclusive, 0o666)
+        except FileExistsError:
+            raise OutputError(
+                f"{self.path}: the file exists (another writer created it meanwhile); nothing was written"
+            ) from None
+        except OSError as exc:
+            raise OutputError(f"{self.path}: cannot create the file: {exc.strerror or exc}") from None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            os.close(fd)
+            raise OutputError(
+                f"{self.path}: another run is writing this file; it was left as it was"
+            ) from None
+        os.ftruncate(fd, 0)
+        return fd
+
+    def flush(self) -> None:
+        """Write the rows not yet written; on an error, cut the file back to its last whole row."""
+        if self._fd is None or not self._pending:
+            return
+        lines, self._pending = self._pending, []
+        data = b"".join(lines)
+        written = 0
+        try:
+            while written < len(data):
+                written += os.write(self._fd, data[written:])
+        except OSError as exc:
+            self._cut_to_whole_line(lines, written, exc)
+        self._size += written
+        self.on_disk = self.count
+
+    def _cut_to_whole_line(self, lines: list[bytes], written: int, exc: OSError) -> None:
+        whole_bytes = whole_lines = 0
+        for line in lines:
+            if whole_bytes + len(line) > written:
+                break
+            whole_bytes += len(line)
+            whole_lines += 1
+        header_in_batch = self._size == 0
+        rows = self.on_disk + whole_lines - (1 if header_in_batch and whole_lines else 0)
+        size = self._size + whole_bytes
+        fd, self._fd = self._fd, None
+        try:
+            os.ftruncate(fd, size)
+        finally:
+            os.close(fd)
+        reason = (
+            f"the disk is full ({exc.strerror})" if disk_full(exc) else f"cannot write: {exc.strerror or exc}"
+        )
+        if size == 0:
+            self.path.unlink(missing_ok=True)
+            kept = "no whole line reached it, and the file was removed"
+        else:
+            kept = f"the file holds the first {rows} of {self.count} samples, ending on a whole row"
+        self.on_disk = rows
+        self._size = size
+        raise OutputError(f"{self.path}: {reason}: {kept}") from None
 
     def close(self) -> None:
-        """Flush and close the file; the recording stays readable."""
-        if self._fh is not None and not self._fh.closed:
-            self._fh.flush()
-            self._fh.close()
+        """Write what is left and close the file; the recording stays readable.
+
+        Raises
+        ------
+        motorid.errors.OutputError
+            As :meth:`append` (the file is closed either way).
+        """
+        if self._fd is None:
+            return
+        try:
+            self.flush()
+        finally:
+            if self._fd is not None:
+                os.close(self._fd)
+                self._fd = None
 
     def frame(self, dt: float) -> pd.DataFrame:
         """The rows kept in memory as a DataFrame.
@@ -268,7 +379,7 @@ def run_online(
     excitation: Excitation,
     duration: float | None,
     out: str | Path | None = None,
-    progress: bool = True,
+    progress: bool = False,
     *,
     flush_every: int = 1,
     overwrite: bool = False,
@@ -299,7 +410,7 @@ def run_online(
         first sample). An existing file is refused before the DAQ is opened
         unless ``overwrite`` is true.
     progress : bool
-        Show a tqdm progress bar on stderr.
+        Show a progress bar on stderr (:func:`motorid.progress.progress_bar`).
     flush_every : int
         Flush the CSV every this many samples (1: every sample).
     overwrite : bool
@@ -362,9 +473,7 @@ def run_online(
         keep = KEEP_WITH_FILE
     recorder = RunRecorder(out, flush_every=flush_every, overwrite=overwrite, keep=keep)
     warm_up(named)
-    bar = tqdm(
-        total=n, file=sys.stderr, disable=not progress, unit="sample", desc="online", dynamic_ncols=True
-    )
+    bar = progress_bar(show=progress, total=n, unit="sample", desc="online")
     try:
         with StopRequest().installed() as stop:
             daq.open()
@@ -389,16 +498,34 @@ def run_online(
                 if k + 1 < n:
                     daq.write(_command_for(excitation, k + 1, (k + 1) * dt))
     except BaseException as exc:
-        where = f" in {recorder.path}" if recorder.path is not None else ""
-        msg = f"run_online stopped after {recorder.count} of {n} samples (recorded{where})"
-        reason = str(exc) or ("interrupted" if isinstance(exc, KeyboardInterrupt) else "no message")
-        logger.error("%s: %s: %s", msg, type(exc).__name__, reason)
-        exc.add_note(msg)
-        raise
-    finally:
         bar.close()
         try:
             daq.close()  # commands 0 V where it can
         finally:
-            recorder.close()
+            kept = _close_recording(recorder, exc)
+        msg = f"run_online stopped after {recorder.count} of {n} samples ({kept})"
+        reason = str(exc) or ("interrupted" if isinstance(exc, KeyboardInterrupt) else "no message")
+        logger.info("%s: %s: %s", msg, type(exc).__name__, reason)  # the note on exc tells the caller
+        exc.add_note(msg)
+        raise
+    bar.close()
+    try:
+        daq.close()  # commands 0 V where it can
+    finally:
+        recorder.close()
     return recorder.frame(dt)
+
+
+def _close_recording(recorder: RunRecorder, exc: BaseException) -> str:
+    """Close the recording of a run stopped by ``exc``; what is on disk now, for the note on ``exc``."""
+    try:
+        recorder.close()
+    except OutputError as closing:  # a full disk at the last flush: the note says what the file holds
+        logger.error("%s", closing)
+        if closing is not exc:
+            exc.add_note(str(closing))
+    if recorder.path is None:
+        return "kept in memory"
+    if not recorder.created or not recorder.path.exists():
+        return f"nothing written to {recorder.path}"
+    return f"{recorder.on_disk} rows in {recorder.path}"

@@ -8,10 +8,13 @@ exactly the run a :class:`~motorid.io.SimulatedDAQ` would give. In real-time
 mode the plant advances once per ``dt`` of wall-clock time whatever the
 client does.
 
-Like a PLC, the server has a watchdog: once a heartbeat has been seen, when
-it stalls for more than ``watchdog_periods`` sample periods (3 by default),
-the server forces the voltage to 0 V and latches the ``watchdog`` bit of the
-status word. A client acknowledges latched faults by writing 0 to ``status``.
+Like a PLC, the server has a watchdog, armed by the first voltage command:
+when no heartbeat came for more than ``watchdog_periods`` sample periods (3 by
+default) since the last command or the last heartbeat, whichever is later, the
+server forces the voltage to 0 V and latches the ``watchdog`` bit of the
+status word. A client that commands a voltage and never heart-beats gets 0 V
+within those periods, also after a fault was acknowledged. A client
+acknowledges latched faults by writing 0 to ``status``.
 
 Run it in a background thread (tests, notebooks)::
 
@@ -94,9 +97,9 @@ class RigServer:
     seed : int, optional
         Seed for ``plant.reset`` at start.
     watchdog_periods : float or None
-        Heartbeat stall, in sample periods, after which the voltage is
-        forced to 0 V and the watchdog fault is latched. None disables the
-        watchdog.
+        Time without a heartbeat, in sample periods, since the last command or
+        heartbeat (whichever is later), after which the voltage is forced to
+        0 V and the watchdog fault is latched. None disables the watchdog.
     u_max : float
         Rating of the drive [V]; the rig clamps commands to it and sets the
         ``clamped`` status bit.
@@ -159,7 +162,7 @@ class RigServer:
         self._base, n = register_map.span
         self._words = [0] * n
         self._heartbeat: int | None = None
-        self._last_heartbeat_time = 0.0
+        self._last_contact = 0.0  # loop time of the last command or heartbeat [s]
         self._armed = False
         self._thread: threading.Thread | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -257,16 +260,18 @@ class RigServer:
             beat = first <= hi < first + count and heartbeat != self._heartbeat
             vreg = self.register_map["voltage_command"]
             vi = vreg.address - self._base
-            if first < vi + vreg.count and vi < first + count:  # the command was written
+            commanded = first < vi + vreg.count and vi < first + count
+            if commanded:
                 self.voltage = self._apply_command(self._get("voltage_command", words))
             elif self.status & STATUS_FAULTS:
                 self.voltage = 0.0
             self._words = words
             self._set("voltage_command", self.voltage)
+            if commanded or beat:  # the watchdog runs from the first command on
+                self._last_contact = asyncio.get_running_loop().time()
+                self._armed = self.watchdog_periods is not None
             if beat:
                 self._heartbeat = heartbeat
-                self._last_heartbeat_time = asyncio.get_running_loop().time()
-                self._armed = self.watchdog_periods is not None
                 if self.lockstep:
                     self._advance()
             self._publish()
@@ -282,14 +287,14 @@ class RigServer:
         loop = asyncio.get_running_loop()
         while True:
             await asyncio.sleep(min(self.dt / 2, limit / 3))
-            if self._armed and loop.time() - self._last_heartbeat_time > limit:
+            if self._armed and loop.time() - self._last_contact > limit:
                 self._armed = False
                 self.watchdog_trips += 1
                 level = logging.WARNING if self.voltage else logging.INFO
                 logger.log(
                     level,
-                    "rig: heartbeat stalled for more than %g sample periods "
-                    "(%.3g s) at %.4g V: voltage forced to 0 V, watchdog fault latched",
+                    "rig: no heartbeat for more than %g sample periods (%.3g s) since the last "
+                    "command or heartbeat, at %.4g V: voltage forced to 0 V, watchdog fault latched",
                     self.watchdog_periods,
                     limit,
                     self.voltage,

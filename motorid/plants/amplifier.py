@@ -20,6 +20,7 @@ import numpy as np
 import numpy.typing as npt
 
 from motorid.plants.physics import armature_voltages
+from motorid.plants.ranges import check_parameter
 
 
 @dataclass(frozen=True)
@@ -47,6 +48,9 @@ class Amplifier:
             raise ValueError(f"dead_zone must be finite and >= 0, got {self.dead_zone!r}")
         if math.isnan(self.v_max) or self.v_max <= 0.0:
             raise ValueError(f"v_max must be > 0, got {self.v_max!r}")
+        check_parameter("gain", self.gain, "V/V", sign="> 0")
+        check_parameter("dead_zone", self.dead_zone, "V")
+        check_parameter("v_max", self.v_max, "V", sign="> 0", allow_inf=True)
 
     def __call__(self, u: npt.ArrayLike) -> np.ndarray:
         """Armature voltage v_a [V] for command ``u`` [V]."""

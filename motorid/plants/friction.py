@@ -55,6 +55,7 @@ from motorid.plants.physics import (
     lugre_levels,
     lugre_rates,
 )
+from motorid.plants.ranges import check_parameter
 
 Side = Literal["motor", "load", "both"]
 SIDES: tuple[str, ...] = ("motor", "load", "both")
@@ -79,6 +80,7 @@ def _check_nonnegative(**values: float) -> None:
     for name, value in values.items():
         if not (isinstance(value, numbers.Real) and math.isfinite(value) and value >= 0.0):
             raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
+        check_parameter(name, value, "(SI units)")
 
 
 @dataclass(frozen=True)
@@ -320,8 +322,7 @@ class LuGreFriction(Friction):
             Fc=self.Fc, Fs=self.Fs, omega_s=self.omega_s,
         )  # fmt: skip
         for name in ("sigma0", "Fc", "omega_s"):
-            if getattr(self, name) <= 0.0:
-                raise ValueError(f"{name} must be > 0, got {getattr(self, name)!r}")
+            check_parameter(name, getattr(self, name), "(SI units)", sign="> 0")
         if self.Fs < self.Fc:
             raise ValueError(f"Fs must be >= Fc, got Fs={self.Fs!r} < Fc={self.Fc!r}")
 

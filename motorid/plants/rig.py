@@ -46,7 +46,8 @@ from motorid.plants.friction import (
     pack_static_friction,
     viscous_total,
 )
-from motorid.plants.rigid import check_input
+from motorid.plants.ranges import MOST_SUBSTEPS, check_count, check_parameter
+from motorid.plants.rigid import check_input, check_sample_time
 from motorid.plants.sensors import ADConverter, Encoder, Tachogenerator, measure_speed
 
 logger = logging.getLogger(__name__)
@@ -68,7 +69,7 @@ RECORD_UNITS: dict[str, str] = {
     "T_d": "N m",
 }
 
-_POSITIVE = ("R_a", "L_a", "K_m", "J_m", "J_l", "k_s", "dt")
+_POSITIVE = ("R_a", "L_a", "K_m", "J_m", "J_l", "k_s")
 _NONNEGATIVE = ("B_m", "B_l", "B_s", "backlash")
 _NOISE_BLOCK = 1024
 
@@ -157,24 +158,15 @@ class TwoMassRig:
 
     # ------------------------------------------------------------------ setup
     def __post_init__(self) -> None:
-        for name in (*_POSITIVE, *_NONNEGATIVE, "T_d"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int | float | np.number):
-                raise ValueError(f"{name} must be a number, got {value!r}")
-            if not math.isfinite(value):
-                raise ValueError(f"{name} must be finite, got {value!r}")
-        for name in _POSITIVE:
-            if getattr(self, name) <= 0.0:
-                raise ValueError(f"{name} must be > 0, got {getattr(self, name)!r}")
-        for name in _NONNEGATIVE:
-            if getattr(self, name) < 0.0:
-                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)!r}")
-        if (
-            isinstance(self.substeps, bool)
-            or not isinstance(self.substeps, int | np.integer)
-            or self.substeps < 1
+        units = {f.name: f.metadata.get("unit", "") for f in dataclasses.fields(self)}
+        check_sample_time(self.dt)
+        for name, sign in (
+            *((n, "> 0") for n in _POSITIVE),
+            *((n, ">= 0") for n in _NONNEGATIVE),
+            ("T_d", "any"),
         ):
-            raise ValueError(f"substeps must be an integer >= 1, got {self.substeps!r}")
+            check_parameter(name, getattr(self, name), units[name], sign=sign)
+        check_count("substeps", self.substeps, 1, MOST_SUBSTEPS)
         friction = tuple(self.friction)
         for f in friction:
             if not isinstance(f, Friction):
@@ -439,11 +431,13 @@ class TwoMassRig:
 
         return rig_from_dict(data)
 
-    def save(self, path: str | Path) -> None:
-        """Write the rig as a model file (:mod:`motorid.models`); :func:`motorid.load_model` reads it."""
+    def save(self, path: str | Path, *, overwrite: bool = True) -> None:
+        """Write the rig as a model file (:mod:`motorid.models`); :func:`motorid.load_model` reads it.
+
+        Written whole; ``overwrite=False`` refuses an existing file (:func:`motorid.models.save_model`)."""
         from motorid.models import save_model
 
-        save_model(self, path)
+        save_model(self, path, overwrite=overwrite)
 
 
 class RigSimulation:

@@ -67,6 +67,7 @@ import numpy.typing as npt
 import pandas as pd
 
 from motorid import compiled
+from motorid.plants.ranges import MOST_DELAY_SAMPLES, SAMPLE_TIME, check_parameter
 
 #: The drive's compiled physics (:mod:`motorid.plants.physics`), ahead of time where built.
 physics = compiled.load("motorid.plants.physics")
@@ -107,7 +108,8 @@ _NONNEGATIVE = (
 
 
 def check_sample_time(dt: object) -> float:
-    """``dt`` [s] as a float; ValueError unless it is a finite real number > 0 (not a bool)."""
+    """``dt`` [s] as a float; ValueError unless it is a real number (not a bool) in
+    :data:`~motorid.plants.ranges.SAMPLE_TIME`, [1e-9, 3600] s."""
     if (
         isinstance(dt, bool)
         or not isinstance(dt, int | float | np.number)
@@ -115,6 +117,9 @@ def check_sample_time(dt: object) -> float:
         or dt <= 0
     ):
         raise ValueError(f"dt must be a finite number > 0 [s], got {dt!r}")
+    low, high = SAMPLE_TIME
+    if not low <= dt <= high:
+        raise ValueError(f"dt must be within [{low:g}, {high:g}] s (the sample time of a drive), got {dt!r}")
     return float(dt)
 
 
@@ -285,6 +290,12 @@ class RigidDrive:
             params[name] = float(value)
         object.__setattr__(self, "params", params)
         object.__setattr__(self, "dt", check_sample_time(self.dt))
+        delay = params.get("input_delay", 0.0)
+        if delay > MOST_DELAY_SAMPLES * self.dt:  # the delay line holds delay/dt inputs
+            raise ValueError(
+                f"input_delay must be at most {MOST_DELAY_SAMPLES} samples ({MOST_DELAY_SAMPLES * self.dt:g} s "
+                f"at dt = {self.dt:g} s), got {delay!r} s"
+            )
         if self.stribeck_shape not in physics.STRIBECK_SHAPES:
             raise ValueError(
                 f"stribeck_shape must be one of {', '.join(physics.STRIBECK_SHAPES)}, got {self.stribeck_shape!r}"
@@ -303,12 +314,11 @@ class RigidDrive:
 
     def check_physical(self) -> RigidDrive:
         """This drive if it is physical (positive inertia, gain, Stribeck velocity, saturation;
-        non-negative levels, dead zone, dwell); ValueError naming the parameter otherwise."""
+        non-negative levels, dead zone, dwell; every parameter in the physical range of
+        :mod:`~motorid.plants.ranges`); ValueError naming the parameter otherwise."""
         for name, value in self.params.items():
-            if name in _POSITIVE and value <= 0.0:
-                raise ValueError(f"{name} must be > 0, got {value!r}")
-            if name in _NONNEGATIVE and value < 0.0:
-                raise ValueError(f"{name} must be >= 0, got {value!r}")
+            sign = "> 0" if name in _POSITIVE else ">= 0" if name in _NONNEGATIVE else "any"
+            check_parameter(name, value, "(SI units)", sign=sign)
         return self
 
     def replace(self, **changes: Any) -> RigidDrive:
@@ -453,11 +463,13 @@ class RigidDrive:
 
         return rigid_drive_from_dict(data)
 
-    def save(self, path: str | Path) -> None:
-        """Write the drive as a model file (:mod:`motorid.models`); :func:`motorid.load_model` reads it."""
+    def save(self, path: str | Path, *, overwrite: bool = True) -> None:
+        """Write the drive as a model file (:mod:`motorid.models`); :func:`motorid.load_model` reads it.
+
+        Written whole; ``overwrite=False`` refuses an existing file (:func:`motorid.models.save_model`)."""
         from motorid.models import save_model
 
-        save_model(self, path)
+        save_model(self, path, overwrite=overwrite)
 
 
 class RigidSimulation:

@@ -23,6 +23,7 @@ import numpy as np
 import numpy.typing as npt
 
 from motorid.plants.physics import tacho_readings
+from motorid.plants.ranges import check_count, check_parameter
 
 
 def measure_speed(
@@ -37,6 +38,7 @@ def measure_speed(
 def _finite(name: str, value: float) -> None:
     if not math.isfinite(value):
         raise ValueError(f"{name} must be finite, got {value!r}")
+    check_parameter(name, value, "(SI units)", sign="any")
 
 
 @dataclass(frozen=True)
@@ -115,6 +117,7 @@ class Encoder:
     def __post_init__(self) -> None:
         if not isinstance(self.counts_per_rev, int | np.integer) or self.counts_per_rev <= 0:
             raise ValueError(f"counts_per_rev must be a positive integer, got {self.counts_per_rev!r}")
+        check_count("counts_per_rev", self.counts_per_rev, 1, 2**32)  # 32-bit encoder counters
         if self.side not in ("motor", "load"):
             raise ValueError(f"side must be 'motor' or 'load', got {self.side!r}")
 

@@ -1,0 +1,503 @@
+"""The model on new data: drive models and identified estimators simulated on a record's own input.
+
+Each model runs free (from rest, on the recorded input alone, never on the measured
+output) and is scored against the measurement, as MATLAB's ``compare`` does::
+
+    FIT = 100 (1 - ||y - y_sim|| / ||y - mean(y)||)   [%]
+    RMSE = sqrt(mean((y - y_sim)^2))                  [output unit]
+    low-speed RMSE: the same over the samples with |y| < threshold
+
+(:mod:`motorid.validation`'s metrics), after the first ``skip`` samples (the start
+from rest). The models it takes are those of a model file (:func:`motorid.load_model`):
+
+- a two-mass rig (``two-mass-rig``): simulated with its sensors noise free, so the
+  prediction is its tacho and A/D reading of the load speed [rad/s];
+- a rigid drive (``rigid-drive``, the doctor's model): its free run [its velocity unit];
+- an identified estimator (``estimator``): its ``simulate(u)``, the identified model
+  frozen as saved.
+
+A drive model is physical (continuous time): it runs at the record's sample time
+whatever ``dt`` its file holds, and says so. An estimator is a discrete-time model:
+a friction filter whose rig's ``dt`` is not the record's is refused (an ARX or
+Hammerstein model file does not know its sample time; it is taken as the record's).
+
+Timing: a physical model (a drive model, a friction filter) gives the output at the
+end of the sample over which ``u[k]`` is held (the ``"hold"`` timing of
+:data:`motorid.records.TIMINGS`). On a ``"sampled"`` record (``y[k]`` read before
+``u[k]`` is applied) its output for ``u[k]`` is compared with ``y[k+1]``, as the doctor
+pairs them, and ``y[0]``, read before any input, with the rest it starts from
+(:func:`free_run_on_record`). An ARX or Hammerstein model learnt the pairing of the
+record it was identified on, as it was given, and runs on the input as given.
+
+Units: a model works in motorid's units (V in, rad/s out for a two-mass rig and the
+friction filters on it). A record whose input is PWM duty in % (no supply voltage
+to make it volts) is refused for those models; a rigid drive's input gain is per
+input unit, so it takes the duty as it was fitted on (:func:`input_unit_note`).
+The scores are in the record's output unit, as read (``attrs["units"]["y"]``, or
+"output units" for a record that names none).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+
+from motorid.errors import DataError
+from motorid.estimators.base import Estimator, first_bad_index
+from motorid.plants.rig import TwoMassRig
+from motorid.plants.rigid import RigidDrive
+from motorid.records import record_timing
+from motorid.validation import low_speed_mask, score
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+logger = logging.getLogger(__name__)
+
+__all__ = [
+    "MIN_SCORED_SAMPLES",
+    "POSITION_UNITS",
+    "Comparison",
+    "ModelOnRecord",
+    "check_output_unit",
+    "compare_models",
+    "free_run_on_record",
+    "holds_input",
+    "input_unit_note",
+    "model_kind",
+    "simulate_model",
+]
+
+#: Fewest samples left to score after ``skip``.
+MIN_SCORED_SAMPLES = 20
+
+
+def model_kind(model: Any) -> str:
+    """What ``model`` is, in words: ``two-mass rig``, ``rigid drive`` or ``estimator NAME``."""
+    if isinstance(model, TwoMassRig):
+        return "two-mass rig"
+    if isinstance(model, RigidDrive):
+        return "rigid drive"
+    if isinstance(model, Estimator):
+        return f"estimator {model.name}"
+    raise DataError(
+        f"a {type(model).__name__} is not a model: give a two-mass rig, a rigid drive or an estimator"
+    )
+
+
+def _takes_volts(model: Any) -> bool:
+    """True for a model whose input is the amplifier's command in volts (a two-mass rig, or a
+    friction filter on one); a rigid drive's input gain is per input unit of its record."""
+    if isinstance(model, TwoMassRig):
+        return True
+    rig = getattr(model, "rig", False)
+    if rig is False:  # an ARX or Hammerstein model: its input unit is its record's
+        return False
+    return not isinstance(rig, RigidDrive)  # None: the paper's rig
+
+
+def input_unit_note(model: Any, units: Mapping[str, str] | None, name: str = "model") -> str | None:
+    """Check the record's input unit against what ``model`` takes; a sentence for the user, or None.
+
+    Parameters
+    ----------
+    model : TwoMassRig, RigidDrive or Estimator
+    units : mapping, optional
+        The record's ``attrs["units"]`` after reading (``u`` in V when it was converted).
+    name : str
+        The model's name in the messages (its file).
+
+    Returns
+    -------
+    str or None
+        What is assumed, when the record leaves it open (no input unit named; a duty
+        in % through a rigid drive's input gain).
+
+    Raises
+    ------
+    DataError
+        For an input in % duty to a model whose input is volts (a two-mass rig, a friction
+        filter on one): duty is not volts, and only the supply voltage makes it so.
+    """
+    unit = (units or {}).get("u")
+    if _takes_volts(model):
+        if unit is None:
+            return f"{name}: the record names no input unit; its input is taken as volts, the model's unit"
+        if unit != "V":
+            how = (
+                " (PWM duty): give the supply voltage (--supply-voltage) to make it volts"
+                if unit == "%"
+                else ""
+            )
+            raise DataError(
+                f"{name}: the model's input is the amplifier's command in V, the record's is in {unit}{how}"
+            )
+        return None
+    if unit == "%":
+        how = (
+            "goes through the model's input gain, per input unit as it was fitted"
+            if isinstance(model, RigidDrive) or isinstance(getattr(model, "rig", None), RigidDrive)
+            else "is used as it is, in the unit the model was identified in"
+        )
+        return f"{name}: the input in % duty {how}: the model must have been fitted on duty too"
+    return None
+
+
+#: Output units that are a position, not a velocity (:data:`motorid.units.OUTPUT_UNITS`, once converted).
+POSITION_UNITS = ("rad", "m")
+
+
+def check_output_unit(model: Any, units: Mapping[str, str] | None, name: str = "model") -> None:
+    """Refuse a record whose output the model does not give: a drive model gives a velocity
+    (a two-mass rig, and a friction filter on one, in rad/s); an ARX or Hammerstein model gives
+    the output it was identified on, whatever its unit.
+
+    Raises
+    ------
+    DataError
+        For a position output (rad, m) to a drive model or friction filter, or an output named
+        in another unit than rad/s to a model in rad/s.
+    """
+    unit = (units or {}).get("y")
+    if unit is None or not (isinstance(model, TwoMassRig | RigidDrive) or holds_input(model)):
+        return
+    if unit in POSITION_UNITS:
+        raise DataError(
+            f"{name}: the record's output is a position in {unit}; the model gives a velocity: "
+            "compare it on a velocity record"
+        )
+    if _takes_volts(model) and unit != "rad/s":
+        raise DataError(f"{name}: the model's output is the load speed in rad/s, the record's is in {unit}")
+
+
+def simulate_model(model: Any, u: np.ndarray, dt: float, name: str = "model") -> np.ndarray:
+    """The free-run output of ``model`` for the input ``u`` held over samples of ``dt`` [s].
+
+    Parameters
+    ----------
+    model : TwoMassRig, RigidDrive or Estimator
+        As :func:`motorid.load_model` returns it (see the module notes for each kind).
+    u : ndarray, shape (N,)
+        Input, in the model's unit.
+    dt : float
+        Sample time of the record [s].
+    name : str
+        The model's name in the messages.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        ``y_sim[k]``, the output at the end of sample k; NaN or inf once a model diverges.
+
+    Raises
+    ------
+    DataError
+        For a friction filter whose sample time is not ``dt``.
+    """
+    if isinstance(model, TwoMassRig):
+        quiet = dataclasses.replace(model.tacho, noise_std=0.0)
+        return model.replace(dt=dt, tacho=quiet).simulate(u, seed=0)["y"].to_numpy()
+    if isinstance(model, RigidDrive):
+        return model.replace(dt=dt).free_run(u)
+    if isinstance(model, Estimator):
+        own = getattr(model, "dt", None)
+        if own is not None and not math.isclose(float(own), dt, rel_tol=1e-6):
+            raise DataError(
+                f"{name}: the {model.name} runs at dt = {float(own):g} s, the record at dt = {dt:g} s; "
+                "a filter is a discrete-time model of its own sample time"
+            )
+        with np.errstate(over="ignore", invalid="ignore"):
+            return np.asarray(model.simulate(u), dtype=float)
+    raise DataError(f"{name}: {model_kind(model)}")
+
+
+def holds_input(model: Any) -> bool:
+    """True for a physical model, whose output is at the end of the sample its input is held
+    over (a drive model, or an estimator that starts from one: a friction filter)."""
+    return isinstance(model, TwoMassRig | RigidDrive) or (
+        isinstance(model, Estimator) and hasattr(type(model), "from_rig")
+    )
+
+
+def free_run_on_record(model: Any, u: np.ndarray, dt: float, timing: str, name: str = "model") -> np.ndarray:
+    """:func:`simulate_model` on a record's input, paired with the record's outputs by its ``timing``.
+
+    ``y_sim[k]`` is the model's output for ``y[k]``. With ``timing="sampled"`` a physical
+    model (:func:`holds_input`) runs on ``u[:-1]`` and its outputs are those of ``y[1:]``;
+    ``y_sim[0]`` is 0, the rest it starts from.
+    """
+    if timing == "sampled" and holds_input(model):
+        return np.concatenate([[0.0], simulate_model(model, u[:-1], dt, name)])
+    return simulate_model(model, u, dt, name)
+
+
+@dataclass(frozen=True)
+class ModelOnRecord:
+    """One model's free run on a record and its scores.
+
+    Attributes
+    ----------
+    name : str
+        The model's label (its file).
+    kind : str
+        :func:`model_kind`.
+    y_sim : ndarray
+        Free-run output on the scored record's samples (see :class:`Comparison`).
+    fit_percent, rmse, low_speed_rmse, mse, low_speed_mse : float
+        Scores after ``skip`` [%, output unit, output unit, unit², unit²]; NaN when the free
+        run diverges (``low_speed_*`` also when no sample is that slow).
+    n_low_speed : int
+        Samples in the low-speed band after ``skip``.
+    diverges_from : int or None
+        First sample where the free run is not finite (the model is unstable on this input).
+    notes : tuple of str
+        What was assumed (a sample time, an input unit).
+    """
+
+    name: str
+    kind: str
+    y_sim: np.ndarray
+    fit_percent: float
+    rmse: float
+    low_speed_rmse: float
+    mse: float
+    low_speed_mse: float
+    n_low_speed: int
+    diverges_from: int | None
+    notes: tuple[str, ...] = ()
+
+    def scores(self) -> dict[str, Any]:
+        """The row of the table: every score, the divergence and the notes."""
+        return {
+            "kind": self.kind,
+            "fit_percent": self.fit_percent,
+            "rmse": self.rmse,
+            "low_speed_rmse": self.low_speed_rmse,
+            "mse": self.mse,
+            "low_speed_mse": self.low_speed_mse,
+            "n_low_speed": self.n_low_speed,
+            "diverges_from_sample": self.diverges_from,
+            "notes": list(self.notes),
+        }
+
+
+@dataclass
+class Comparison:
+    """Models on one record: the record's samples (``t`` [s], ``u``, ``y``) and each model's
+    run, ``y_sim[k]`` its output for ``y[k]`` (:func:`free_run_on_record`)."""
+
+    t: np.ndarray
+    u: np.ndarray
+    y: np.ndarray
+    dt: float
+    timing: str
+    skip: int
+    low_speed_threshold: float
+    output_unit: str
+    models: list[ModelOnRecord] = field(default_factory=list)
+
+    def table(self) -> pd.DataFrame:
+        """One row per model: FIT [%], RMSE and low-speed RMSE [output unit], samples in the band."""
+        rows = {m.name: m.scores() for m in self.models}
+        df = pd.DataFrame.from_dict(rows, orient="index")
+        df.index.name = "model"
+        return df[["kind", "fit_percent", "rmse", "low_speed_rmse", "n_low_speed"]]
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able summary (no arrays)."""
+        return {
+            "samples": int(self.y.size),
+            "scored_samples": int(self.y.size - self.skip),
+            "dt": self.dt,
+            "timing": self.timing,
+            "skip": self.skip,
+            "output_unit": self.output_unit,
+            "low_speed_threshold": self.low_speed_threshold,
+            "models": {m.name: m.scores() for m in self.models},
+        }
+
+    def figure(self, input_unit: str = "input units") -> Figure:
+        """Measured against each model over the record, at low speed and at a reversal.
+
+        Three panels share the legend's colours: the whole record; the window of
+        :func:`motorid.figures.low_speed_window` (most samples below the band); the
+        reversal of the measured output with the longest stay inside half the band
+        (where stiction and Stribeck friction show), or a note when it never reverses.
+        Each panel's output axis spans the measurement's range in it, widened by half that
+        range on either side: a model far off leaves the panel rather than squash the
+        measurement; a diverged model is drawn until it diverges.
+        """
+        from motorid.figures import low_speed_window, subplots
+
+        unit = self.output_unit
+        n = self.y.size
+        width = int(min(max(round(5.0 / self.dt), 10), max(n // 4, 10)))
+        windows = {
+            "whole record": slice(0, n),
+            f"low speed (|y| < {self.low_speed_threshold:.3g} {unit})": low_speed_window(
+                self.y, width, self.low_speed_threshold, self.skip
+            ),
+            "a reversal of the measured output": reversal_window(
+                self.y, width, self.low_speed_threshold, self.skip
+            ),
+        }
+        fig, axes = subplots(len(windows), 1, figsize=(9, 8.5))
+        for ax, (title, window) in zip(axes, windows.items(), strict=True):
+            if window is None:
+                ax.text(0.5, 0.5, "the measured output never reverses", ha="center", va="center",
+                        transform=ax.transAxes)  # fmt: skip
+            else:
+                y = self.y[window]
+                ax.plot(self.t[window], y, "k-", lw=1.2, label="measured")
+                for m in self.models:
+                    score = "diverges" if m.diverges_from is not None else f"FIT {m.fit_percent:.1f} %"
+                    y_sim = np.where(np.isfinite(m.y_sim[window]), m.y_sim[window], np.nan)
+                    ax.plot(self.t[window], y_sim, "--", lw=1.1, label=f"{m.name} ({score})")
+                ax.axhline(0.0, color="k", lw=0.5)
+                pad = 0.5 * max(float(np.ptp(y)), 1e-12)
+                ax.set_ylim(float(y.min()) - pad, float(y.max()) + pad)
+                ax.legend(loc="upper right", fontsize=7)
+            ax.set_title(title, fontsize=10)
+            ax.set_xlabel("time t [s]")
+            ax.set_ylabel(f"output y [{unit}]")
+            ax.grid(alpha=0.3)
+        fig.suptitle(f"Measured and simulated (free run from rest on the recorded input, in {input_unit})")
+        return fig
+
+    def write_figure(self, path: str | Path, input_unit: str = "input units") -> Path:
+        """:meth:`figure` as a PNG file at ``path``."""
+        from motorid.figures import save
+
+        return save(self.figure(input_unit), path)
+
+
+def reversal_window(y: np.ndarray, width: int, threshold: float, skip: int = 0) -> slice | None:
+    """``width`` samples centred on the reversal of ``y`` (after ``skip``) that stays longest
+    inside ``|y| < threshold / 2``; None when ``y`` never passes from one side of that band
+    to the other."""
+    h = 0.5 * threshold
+    side = np.where(y > h, 1, np.where(y < -h, -1, 0))
+    outside = np.flatnonzero(side[skip:] != 0) + skip
+    if outside.size < 2:
+        return None
+    flips = np.flatnonzero(np.diff(side[outside]) != 0)
+    if flips.size == 0:
+        return None
+    dwell = outside[flips + 1] - outside[flips]
+    c = int(flips[np.argmax(dwell)])
+    centre = (int(outside[c]) + int(outside[c + 1])) // 2
+    start = min(max(centre - width // 2, 0), max(y.size - width, 0))
+    return slice(start, start + width)
+
+
+def _samples(record: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray, float, str]:
+    """``t``, ``u``, ``y`` of a record, its ``dt`` and its timing."""
+    if not isinstance(record, pd.DataFrame):
+        raise DataError(f"record must be a pandas DataFrame, got {type(record).__name__}")
+    for column in ("u", "y"):
+        if column not in record.columns:
+            raise DataError(f"the record has no column {column!r}; columns are {list(record.columns)}")
+    dt = record.attrs.get("dt")
+    if dt is None:
+        raise DataError("the record has no attrs['dt']: read it with motorid.records.read_record")
+    dt = float(dt)
+    u = record["u"].to_numpy(dtype=float)
+    y = record["y"].to_numpy(dtype=float)
+    t = record["t"].to_numpy(dtype=float) if "t" in record.columns else np.arange(y.size) * dt
+    return t, u, y, dt, record_timing(record.attrs)
+
+
+def compare_models(
+    record: pd.DataFrame,
+    models: Mapping[str, Any],
+    low_speed_threshold: float,
+    skip: int = 0,
+) -> Comparison:
+    """Simulate each model free on the record's input and score it against the measured output.
+
+    Parameters
+    ----------
+    record : DataFrame
+        Columns ``u`` and ``y`` (``t`` optional), ``attrs["dt"]`` [s]; ``attrs["units"]``
+        and ``attrs["timing"]`` when known (see the module notes).
+    models : mapping of str to model
+        Label -> a model as :func:`motorid.load_model` returns it.
+    low_speed_threshold : float
+        |y| below this is low speed [output unit].
+    skip : int
+        Leading samples left out of the scores: the models start from rest.
+
+    Returns
+    -------
+    Comparison
+
+    Raises
+    ------
+    DataError
+        No model; a model that is not a drive model or an estimator; an input unit the
+        model does not take (:func:`input_unit_note`); a friction filter of another sample
+        time; fewer than :data:`MIN_SCORED_SAMPLES` samples after ``skip``; a constant output.
+    """
+    if not models:
+        raise DataError("no model to compare: give at least one")
+    t, u, y, dt, timing = _samples(record)
+    if not isinstance(skip, int) or skip < 0:
+        raise DataError(f"skip must be an integer >= 0, got {skip!r}")
+    if y.size - skip < MIN_SCORED_SAMPLES:
+        raise DataError(
+            f"the record has {y.size} samples; "
+            f"after the {skip} skipped at the start {max(y.size - skip, 0)} are left to score, "
+            f"at least {MIN_SCORED_SAMPLES} are needed"
+        )
+    units = record.attrs.get("units") or {}
+    unit = units.get("y") or "output units"
+    kinds = {name: model_kind(model) for name, model in models.items()}
+    for name, model in models.items():
+        check_output_unit(model, units, name)
+    notes_of = {name: input_unit_note(model, units, name) for name, model in models.items()}
+    low_speed_mask(y, low_speed_threshold)  # a bad threshold is refused before any simulation
+    comparison = Comparison(t, u, y, dt, timing, skip, float(low_speed_threshold), unit)
+    for name, model in models.items():
+        notes = [note for note in (notes_of[name],) if note]
+        own_dt = getattr(model, "dt", None)
+        if isinstance(model, TwoMassRig | RigidDrive) and not math.isclose(own_dt, dt, rel_tol=1e-6):
+            notes.append(f"{name}: simulated at the record's dt = {dt:g} s (its file says {own_dt:g} s)")
+        y_sim = free_run_on_record(model, u, dt, timing, name)
+        diverges = first_bad_index(y_sim)
+        if diverges is not None:
+            nan = math.nan
+            scores = {
+                "fit_percent": nan,
+                "rmse": nan,
+                "low_speed_rmse": nan,
+                "mse": nan,
+                "low_speed_mse": nan,
+            }
+            n_low = int(low_speed_mask(y[skip:], low_speed_threshold).sum())
+        else:
+            s = score(y[skip:], y_sim[skip:], low_speed_threshold)
+            scores = {"fit_percent": s.fit_percent, "rmse": s.rmse, "low_speed_rmse": math.sqrt(s.low_speed_mse),
+                      "mse": s.mse, "low_speed_mse": s.low_speed_mse}  # fmt: skip
+            n_low = s.n_low_speed
+        for note in notes:
+            logger.info(note)
+        comparison.models.append(
+            ModelOnRecord(
+                name,
+                kinds[name],
+                y_sim,
+                n_low_speed=n_low,
+                diverges_from=diverges,
+                notes=tuple(notes),
+                **scores,
+            )
+        )
+    return comparison

@@ -1,0 +1,259 @@
+"""What motorid writes: one writer per file and per folder, no half-written file, no name from data as a path.
+
+- :func:`write_file` writes a file under a temporary name in its folder (unique
+  to the process) and puts it in place whole once written: with ``overwrite``
+  by a rename over the old file; without, by a hard link that fails when the
+  name exists, so the check and the create are one step and of two writers of
+  one new name exactly one wins. A full disk or a lost race leaves the name as
+  it was and raises :class:`~motorid.errors.OutputError` naming the file.
+- :class:`FolderLock` locks a folder a run writes (a fleet's results, a
+  command's figures) for as long as the run lasts.
+- :func:`safe_file_name` turns a name that comes from data (a drive id in a
+  record's attrs, a file's stem) into one file name that stays in its folder.
+"""
+
+from __future__ import annotations
+
+import errno
+import hashlib
+import logging
+import os
+import secrets
+import socket
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import IO, Any
+
+from motorid.errors import OutputError
+
+logger = logging.getLogger(__name__)
+
+__all__ = ["LOCK_NAME", "FolderLock", "disk_full", "safe_file_name", "write_file"]
+
+#: The lock file a run keeps in the folder it writes (:class:`FolderLock`).
+LOCK_NAME = ".motorid.lock"
+#: Longest file name :func:`safe_file_name` returns, in UTF-8 bytes (file systems allow 255).
+MAX_NAME_BYTES = 120
+#: Characters besides letters and digits a name from data keeps.
+_NAME_CHARACTERS = frozenset("-_.+=@ ")
+#: errno of a file system that has no hard links (then the name is claimed with O_EXCL first).
+_NO_LINKS = {errno.EPERM, errno.EOPNOTSUPP, errno.ENOTSUP, errno.EXDEV, errno.EMLINK, errno.ENOSYS}
+
+
+def disk_full(exc: OSError) -> bool:
+    """True when ``exc`` says the disk (or the user's quota) is full."""
+    return exc.errno in (errno.ENOSPC, errno.EDQUOT)
+
+
+def _temporary_name(target: Path) -> Path:
+    """A name beside ``target`` no other process uses: ``.NAME.PID.RANDOM.tmp``."""
+    return target.with_name(f".{target.name[:80]}.{os.getpid()}.{secrets.token_hex(4)}.tmp")
+
+
+def _put_in_place(tmp: Path, target: Path, overwrite: bool) -> None:
+    if overwrite:
+        os.replace(tmp, target)
+        return
+    try:
+        os.link(tmp, target)  # fails if target exists: one step, one winner
+    except OSError as exc:
+        if exc.errno not in _NO_LINKS:  # FileExistsError among them
+            raise
+        # no hard links here: claim the name exclusively (an empty file for a moment), then fill it whole
+        os.close(os.open(target, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
+        os.replace(tmp, target)
+        return
+    os.unlink(tmp)
+
+
+def write_file(
+    path: str | os.PathLike[str],
+    write: Callable[[IO[Any]], object],
+    *,
+    overwrite: bool = False,
+    binary: bool = False,
+    sync: bool = True,
+) -> Path:
+    """Write a file whole: ``write(fh)`` fills a temporary file, which then takes the name ``path``.
+
+    The temporary file is in ``path``'s folder (so the last step is a rename or a
+    link on one file system), flushed to the disk before it takes the name. Until
+    then ``path`` is as it was: a reader sees the old file or the new one, never a
+    part.
+
+    Parameters
+    ----------
+    path : path-like
+        The file to write.
+    write : callable
+        ``write(fh)`` writes the content into the open file ``fh`` (text, UTF-8,
+        newlines as written; or bytes with ``binary``).
+    overwrite : bool
+        Replace an existing file. Without it an existing ``path`` is refused, also
+        one another process created while ``write`` ran.
+    binary : bool
+        Open the temporary file in binary mode.
+    sync : bool
+        Flush the content to the disk before the file takes its name, so that not
+        even a power cut leaves the name on an empty file (False for what is cheap
+        to make again, such as a figure).
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+
+    Raises
+    ------
+    motorid.errors.OutputError
+        ``path`` exists (without ``overwrite``; ``errno`` is ``EEXIST``), or the disk
+        is full, or the folder cannot be written: the message names the file and
+        says it was left as it was. An exception of ``write`` itself passes
+        through, with nothing written.
+    """
+    target = Path(path)
+    existed = target.exists()
+    kept = f"{target} is as it was" if existed else "nothing was written"
+    tmp = _temporary_name(target)
+    try:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        text = {} if binary else {"encoding": "utf-8", "newline": ""}
+        with os.fdopen(fd, "wb" if binary else "w", **text) as fh:
+            write(fh)
+            fh.flush()
+            if sync:
+                os.fsync(fh.fileno())
+        _put_in_place(tmp, target, overwrite)
+    except FileExistsError:
+        taken = OutputError(
+            f"{target}: the file exists (another writer created it meanwhile); nothing was written"
+        )
+        taken.errno = errno.EEXIST  # for a caller that takes the next free name
+        raise taken from None
+    except OSError as exc:
+        if disk_full(exc):
+            raise OutputError(f"{target}: the disk is full ({exc.strerror}); {kept}") from None
+        raise OutputError(f"{target}: cannot write the file: {exc.strerror or exc}; {kept}") from None
+    finally:
+        tmp.unlink(missing_ok=True)
+    logger.debug("wrote %s whole", target)
+    return target
+
+
+class FolderLock:
+    """The lock of a folder a run writes, held until :meth:`release` (or the end of a ``with``).
+
+    The lock is :func:`fcntl.flock` on the file :data:`LOCK_NAME` in the folder:
+    the kernel releases it when the holding process ends, however it ends, so a
+    lock left by a killed run is taken over by the next run without a stale-lock
+    test. The holder writes its process id and command into the file, for the
+    message that refuses a second run. The file stays in the folder (removing it
+    would let two runs lock two different files of one name).
+
+    Parameters
+    ----------
+    folder : path-like
+        The folder (it must exist).
+    wait : bool
+        Wait for the holder to finish instead of refusing.
+
+    Raises
+    ------
+    motorid.errors.OutputError
+        From :meth:`acquire`: another process holds the lock (and ``wait`` is
+        false); the message names it (:meth:`holder`) and the lock file.
+    """
+
+    def __init__(self, folder: str | os.PathLike[str], *, wait: bool = False) -> None:
+        self.folder = Path(folder)
+        self.path = self.folder / LOCK_NAME
+        self.wait = bool(wait)
+        self._fd: int | None = None
+
+    def __repr__(self) -> str:
+        return f"FolderLock({str(self.folder)!r}, held={self.held})"
+
+    @property
+    def held(self) -> bool:
+        """True while this object holds the lock."""
+        return self._fd is not None
+
+    def holder(self) -> str:
+        """What the lock file says of its holder: ``process PID on HOST``, or ``an unknown process``.
+
+        The file's line is ``PID HOST COMMAND``.
+        """
+        try:
+            text = self.path.read_text(encoding="utf-8", errors="replace")
+        except OSError:
+            text = ""
+        pid, host = ([*text.split(maxsplit=2), "", ""])[:2]
+        return f"process {pid} on {host}" if pid.isdigit() else "an unknown process"
+
+    def acquire(self) -> FolderLock:
+        """Take the lock (waiting for it with ``wait``); returns ``self``."""
+        import fcntl
+
+        if self._fd is not None:
+            return self
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+        try:
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                holder = self.holder()
+                if not self.wait:
+                    raise OutputError(
+                        f"{self.folder}: another run writes this folder: {holder} holds its lock file {self.path}"
+                    ) from None
+                logger.warning("%s: waiting for %s to finish (lock file %s)", self.folder, holder, self.path)
+                fcntl.flock(fd, fcntl.LOCK_EX)
+            command = " ".join(os.path.basename(a) if i == 0 else a for i, a in enumerate(sys.argv))
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, f"{os.getpid()} {socket.gethostname()} {command[:200]}\n".encode(), 0)
+        except BaseException:
+            os.close(fd)
+            raise
+        self._fd = fd
+        logger.debug("%s: locked (%s)", self.folder, self.path)
+        return self
+
+    def release(self) -> None:
+        """Let the lock go (safe to call twice)."""
+        fd, self._fd = self._fd, None
+        if fd is None:
+            return
+        try:
+            os.ftruncate(fd, 0)  # the next reader sees no holder that has gone
+        except OSError:
+            pass
+        os.close(fd)  # closing the descriptor releases the flock
+
+    def __enter__(self) -> FolderLock:
+        return self.acquire()
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.release()
+
+
+def safe_file_name(text: str) -> str:
+    """``text`` (a name that comes from data) as one file name that stays in its folder.
+
+    Letters, digits and ``- _ . + = @`` and spaces are kept; anything else (``/``,
+    ``\\``, NUL, control characters, ``:``) becomes ``_``; leading dots and spaces
+    are dropped (no ``.``, ``..`` or hidden name), trailing spaces too; the name is
+    cut to :data:`MAX_NAME_BYTES` bytes. A name that had to change ends in ``-`` and
+    8 hex digits of a SHA-256 of ``text``, so two different ids get two names (but
+    for a collision of those 32 bits): ``"drive_1"`` stays ``"drive_1"``,
+    ``"../../x"`` becomes ``"_.._x-9cdf6a50"``.
+    """
+    text = str(text)
+    kept = "".join(c if c.isalnum() or c in _NAME_CHARACTERS else "_" for c in text)
+    kept = kept.lstrip(". ").rstrip(" ")
+    if kept == text and 0 < len(kept.encode("utf-8")) <= MAX_NAME_BYTES:
+        return kept
+    digest = hashlib.sha256(text.encode("utf-8", "surrogatepass")).hexdigest()[:8]
+    room = MAX_NAME_BYTES - len(digest) - 1
+    cut = kept.encode("utf-8")[:room].decode("utf-8", "ignore").rstrip(" ")
+    return f"{cut}-{digest}" if cut else digest
