@@ -42,6 +42,7 @@ from motorid.errors import DataError
 from motorid.records import (
     HDF5_ERRORS,
     REQUIRED_COLUMNS,
+    CsvLayout,
     RecordOptions,
     _column_chooser,
     _hdf5_file,
@@ -307,7 +308,7 @@ def _csv_blocks(
 
 
 def _csv_reader(
-    name: str, layout: Any, names: list[str], integers: list[str], chunk_rows: int, start: int
+    name: str, layout: CsvLayout, names: list[str], integers: list[str], chunk_rows: int, start: int
 ) -> Any:
     """pandas' chunked reader of the columns ``names`` of a CSV record from data row ``start`` on."""
     options = csv_data_options(layout.skip, names, layout.sep, layout.decimal)
