@@ -296,7 +296,7 @@ def check_dialect(sep: str | None, decimal: str | None) -> None:
         )
 
 
-def _count_lines_and(path: str, sep: str, chunk_bytes: int = 1 << 24) -> tuple[int, int]:
+def _count_lines_and(path: str, sep: str, chunk_bytes: int = 1 << 20) -> tuple[int, int]:
     """Line breaks (one more when the last line has none) and separators in a file, in bounded memory."""
     lines = seps = 0
     last = b"\n"
@@ -334,21 +334,38 @@ def _parse_columns(
     this fails are the cells read as text, in chunks of ``chunk_rows`` rows
     (bounded memory), to find and name the first non-numeric, NaN or infinite one.
     """
-    header_line = skip + 1
-    options = {"skiprows": skip, "usecols": names, "sep": sep, "decimal": decimal, "encoding": "utf-8-sig"}
+    options = csv_data_options(skip, names, sep, decimal)
     for ints in (list(integers), []) if integers else ([],):
         dtypes = {name: np.int64 if name in ints else np.float64 for name in names}
         try:
-            data = pd.read_csv(path, dtype=dtypes, **options, **_EXACT_FLOATS)
+            data = pd.read_csv(path, dtype=dtypes, **options)
             if all(np.isfinite(data[name].to_numpy()).all() for name in names if name not in ints):
                 return data[names]
             break
         except (ValueError, OverflowError):
             pass  # an integer column holds a fraction, or a cell is not a number: found and named below
+    raise_bad_cell(path, skip, names, sep, decimal, chunk_rows)
+
+
+def csv_data_options(skip: int, names: list[str], sep: str = ",", decimal: str = ".") -> dict[str, Any]:
+    """The options of :func:`pandas.read_csv` that parse the data rows of a CSV record (the
+    ``skip`` lines before the header, the columns ``names``, the separator and decimal mark):
+    one place for the whole-record read and the read in blocks (:mod:`motorid.record_chunks`)."""
+    return {"skiprows": skip, "usecols": names, "sep": sep, "decimal": decimal, "encoding": "utf-8-sig",
+            **_EXACT_FLOATS}  # fmt: skip
+
+
+def raise_bad_cell(
+    path: str, skip: int, names: list[str], sep: str = ",", decimal: str = ".", chunk_rows: int = 1_000_000
+) -> None:
+    """Raise a DataError naming the first non-numeric, NaN or infinite cell of the columns ``names``
+    of a CSV record, read as text from the start in chunks of ``chunk_rows`` rows (bounded memory)."""
+    options = {key: value for key, value in csv_data_options(skip, names, sep, decimal).items()
+               if key not in _EXACT_FLOATS}  # fmt: skip
     with pd.read_csv(
         path, dtype=str, keep_default_na=False, chunksize=chunk_rows, **options
     ) as reader:  # closed when a bad cell is raised
-        _name_bad_cell(path, reader, names, header_line, decimal)
+        _name_bad_cell(path, reader, names, skip + 1, decimal)
     raise DataError(f"{path}: the columns {names} do not parse as numbers")  # the fast path failed on a quirk
 
 
@@ -493,7 +510,8 @@ def _reason(exc: BaseException) -> str:
 Choose = Callable[[dict[str, tuple[int, ...]]], list[str]]
 
 
-def _read_parquet(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+def _parquet_file(name: str) -> tuple[Any, dict[str, Any]]:
+    """A Parquet file opened (a ``pyarrow.parquet.ParquetFile``) and its record attributes."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -501,8 +519,15 @@ def _read_parquet(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dic
         parquet = pq.ParquetFile(name)
     except (pa.ArrowException, OSError) as exc:
         raise DataError(f"{name} is not a readable Parquet file: {_reason(exc)}") from None
+    metadata = parquet.schema_arrow.metadata or {}
+    return parquet, _attrs_from_json(metadata.get(ATTRS_KEY.encode()), name, "the schema metadata")
+
+
+def _read_parquet(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    import pyarrow as pa
+
+    parquet, attrs = _parquet_file(name)
     schema = parquet.schema_arrow
-    attrs = _attrs_from_json((schema.metadata or {}).get(ATTRS_KEY.encode()), name, "the schema metadata")
     rows = parquet.metadata.num_rows
     chosen = choose({column: (rows,) for column in schema.names})
     try:
@@ -534,30 +559,45 @@ def _read_mat(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[st
     return {var: np.asarray(mat[var]).reshape(-1) for var in chosen}, attrs
 
 
-def _read_hdf5(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+#: What h5py raises on a damaged HDF5 file.
+HDF5_ERRORS = (OSError, RuntimeError, KeyError, ValueError, TypeError)
+
+
+def _hdf5_file(name: str) -> tuple[Any, dict[str, tuple[int, ...]], dict[str, Any]]:
+    """An HDF5 file opened (an ``h5py.File``, to be closed by the caller), the shape of each of
+    its datasets by path, and its record attributes."""
     import h5py
 
     try:
         handle = h5py.File(name, "r")
     except OSError as exc:
         raise DataError(f"{name} is not a readable HDF5 file: {_reason(exc)}") from None
-    with handle:
-        shapes: dict[str, tuple[int, ...]] = {}
+    shapes: dict[str, tuple[int, ...]] = {}
 
-        def visit(key: str, item: Any) -> None:
-            if isinstance(item, h5py.Dataset) and not key.startswith("#"):  # '#refs#': MATLAB's own
-                shapes[key] = tuple(item.shape)
+    def visit(key: str, item: Any) -> None:
+        if isinstance(item, h5py.Dataset) and not key.startswith("#"):  # '#refs#': MATLAB's own
+            shapes[key] = tuple(item.shape)
 
+    try:
         try:
             handle.visititems(visit)
             text = handle.attrs.get(ATTRS_KEY)
-        except (OSError, RuntimeError, KeyError, ValueError, TypeError) as exc:  # a damaged file
+        except HDF5_ERRORS as exc:  # a damaged file
             raise DataError(f"{name}: its HDF5 structure cannot be read (corrupt?): {_reason(exc)}") from None
         attrs = _attrs_from_json(text, name, f"the root attribute {ATTRS_KEY!r}")
+    except BaseException:
+        handle.close()
+        raise
+    return handle, shapes, attrs
+
+
+def _read_hdf5(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    handle, shapes, attrs = _hdf5_file(name)
+    with handle:
         chosen = choose(shapes)
         try:
             return {key: np.asarray(handle[key][()]).reshape(-1) for key in chosen}, attrs
-        except (OSError, RuntimeError, KeyError, ValueError, TypeError) as exc:
+        except HDF5_ERRORS as exc:
             raise DataError(f"{name}: its HDF5 data cannot be read (corrupt?): {_reason(exc)}") from None
 
 
@@ -643,19 +683,14 @@ def _samples(shape: tuple[int, ...]) -> int | None:
     return math.prod(shape) if sum(n > 1 for n in shape) <= 1 else None
 
 
-def _read_binary(
-    name: str, kind: str, mapping: dict[str, str], other_columns: bool, max_samples: int | None,
+def _column_chooser(
+    name: str, mapping: dict[str, str], other_columns: bool, max_samples: int | None, found: dict[str, str],
     optional: set[str] = frozenset(),  # type: ignore[assignment]
-) -> tuple[pd.DataFrame, dict[str, Any]]:  # fmt: skip
-    """The columns of a Parquet, MATLAB, HDF5 or TDMS record as float64, checked as a CSV's are.
-
-    Other columns (``other_columns``) are those of the same length that are numbers, named as in
-    the file (a nested one by its last part when that is unique); the rest of the file (scalars,
-    matrices, text) is left out.
-    """
-    if _regular_file(name) == 0:
-        raise DataError(f"{name} is empty")
-    found: dict[str, str] = {}
+) -> Choose:  # fmt: skip
+    """The ``choose`` of a binary reader: it checks the columns of ``mapping`` against the shapes the
+    file holds (``optional`` ones may be absent), records each one's key in ``found`` (key in the
+    file -> canonical name) and returns the keys to load (with the other columns of the same
+    length when ``other_columns``)."""
 
     def choose(shapes: dict[str, tuple[int, ...]]) -> list[str]:
         present = list(shapes)
@@ -691,25 +726,51 @@ def _read_binary(
         ] if other_columns else []  # fmt: skip
         return [k for k in present if k in found or k in others]
 
+    return choose
+
+
+def _read_binary(
+    name: str, kind: str, mapping: dict[str, str], other_columns: bool, max_samples: int | None,
+    optional: set[str] = frozenset(),  # type: ignore[assignment]
+) -> tuple[pd.DataFrame, dict[str, Any]]:  # fmt: skip
+    """The columns of a Parquet, MATLAB, HDF5 or TDMS record as float64, checked as a CSV's are.
+
+    Other columns (``other_columns``) are those of the same length that are numbers, named as in
+    the file (a nested one by its last part when that is unique); the rest of the file (scalars,
+    matrices, text) is left out.
+    """
+    if _regular_file(name) == 0:
+        raise DataError(f"{name} is empty")
+    found: dict[str, str] = {}
+    choose = _column_chooser(name, mapping, other_columns, max_samples, found, optional)
     arrays, attrs = _READERS[kind](name, choose)
     columns: dict[str, np.ndarray] = {}
     for key, values in arrays.items():
-        if values.dtype.kind not in "fiub":
-            if key in found:
-                raise DataError(f"column {key!r} of {name} is not numeric (its values are {values.dtype})")
+        if values.dtype.kind not in "fiub" and key not in found:
             continue
-        if found.get(key) == "t" and values.dtype.kind in "iu":
-            columns["t"] = values.astype(np.int64)  # exact: nanoseconds since 1970 exceed float64's digits
-            continue
-        values = values.astype(np.float64)
-        bad = np.flatnonzero(~np.isfinite(values))
-        if bad.size:
-            kind_of = "a NaN" if np.isnan(values[bad[0]]) else "an infinite"
-            raise DataError(
-                f"column {key!r} has {kind_of} value {values[bad[0]]!r} at row {int(bad[0])} of {name}"
-            )
-        columns[found[key] if key in found else _short_name(key, list(arrays))] = values
+        columns[found[key] if key in found else _short_name(key, list(arrays))] = binary_column(
+            name, key, values, found.get(key) == "t"
+        )
     return pd.DataFrame(columns), attrs
+
+
+def binary_column(name: str, key: str, values: np.ndarray, time: bool, first_row: int = 0) -> np.ndarray:
+    """Column ``key`` of the binary record ``name`` as float64 (a time column of integers as int64,
+    exactly: nanoseconds since 1970 exceed float64's digits), or a DataError naming it when it is
+    not numeric, or its first NaN or infinite value by row (``first_row`` is the row of
+    ``values[0]`` in the file: one place for the whole-record read and the read in blocks)."""
+    if values.dtype.kind not in "fiub":
+        raise DataError(f"column {key!r} of {name} is not numeric (its values are {values.dtype})")
+    if time and values.dtype.kind in "iu":
+        return values.astype(np.int64)
+    values = values.astype(np.float64)
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        kind_of = "a NaN" if np.isnan(values[bad[0]]) else "an infinite"
+        raise DataError(
+            f"column {key!r} has {kind_of} value {values[bad[0]]!r} at row {first_row + int(bad[0])} of {name}"
+        )
+    return values
 
 
 def _short_name(key: str, keys: list[str]) -> str:
@@ -928,18 +989,20 @@ def read_record(
     kind = record_format(name)
     if kind == "CSV":
         rec, attrs, header_line = _read_csv(name, mapping, optional, other_columns, max_samples, sep, decimal)
-
-        def where(row: int) -> str:
-            return f"row {row} (line {header_line + 1 + row} of {name})"
-
+        where = row_place(name, header_line)
     else:
         rec, attrs = _read_binary(name, kind, mapping, other_columns, max_samples, optional)
-
-        def where(row: int) -> str:
-            return f"row {row} of {name}"
-
+        where = row_place(name, None)
     names = {canonical: mapping[canonical] for canonical in REQUIRED_COLUMNS if canonical in mapping}
     return _normalised(name, rec, attrs, where, options, min_samples, names)
+
+
+def row_place(name: str, header_line: int | None) -> Callable[[int], str]:
+    """How an error names data row ``row`` of file ``name``: with its line in a CSV (whose header is
+    on line ``header_line``), by the row alone in the other formats."""
+    if header_line is None:
+        return lambda row: f"row {row} of {name}"
+    return lambda row: f"row {row} (line {header_line + 1 + row} of {name})"
 
 
 def normalise_record(
@@ -1042,16 +1105,28 @@ def normalise_record(
     return _normalised("the record", rec, attrs, lambda row: f"sample {row}", options, min_samples, names)
 
 
-def _read_csv(
-    name: str,
-    mapping: dict[str, str],
-    optional: set[str],
-    other_columns: bool,
-    max_samples: int | None,
-    sep: str | None,
-    decimal: str | None,
-) -> tuple[pd.DataFrame, dict[str, Any], int]:
-    """The columns of a CSV record, its attrs and the line number of its header."""
+@dataclass(frozen=True)
+class CsvLayout:
+    """What a CSV record's first lines say: its attrs, the lines before its header (``skip``), its
+    column names, separator and decimal mark (as given or detected), the time column read as
+    integers (``millis()``, ns since 1970; none when its first lines are not integers) and the
+    number of data rows."""
+
+    attrs: dict[str, Any]
+    skip: int
+    present: list[str]
+    sep: str
+    decimal: str
+    integers: list[str]
+    rows: int
+
+
+def csv_layout(name: str, mapping: dict[str, str], optional: set[str], sep: str | None,
+               decimal: str | None) -> CsvLayout:  # fmt: skip
+    """The layout of CSV record ``name``, once the columns of ``mapping`` are found in its header
+    (an ``optional`` one that is absent is taken out of ``mapping``) and every data row has the
+    header's number of fields (checked in one pass over the file in bounded memory): one place
+    for the whole-record read and the read in blocks (:mod:`motorid.record_chunks`)."""
     first = _open_checked(name)
     attrs: dict[str, Any] = {}
     skip = 0
@@ -1083,21 +1158,35 @@ def _read_csv(
     rows = lines - skip - 1
     if rows <= 0:
         raise DataError(f"{name} has a header but no data rows")
-    check_row_limit(name, rows, max_samples)
     head_separators = sum(line.count(sep) for line in ([first] if skip else []) + [header_text])
     if separators - head_separators != rows * (len(present) - 1):
         _check_fields(name, skip, sep, len(present))  # names the row; quoted separators pass
-    replaced = {k for k, v in mapping.items() if v != k}  # a column of a canonical name a named one takes
-    wanted = [c for c in present if c in mapping.values() or (other_columns and c not in replaced)]
     integers = []
     if "t" in mapping:
         position = present.index(mapping["t"])
         cells = [_fields(line, sep) for line in sample]
         if cells and all(len(c) > position and _INTEGER.match(c[position]) for c in cells):
             integers = [mapping["t"]]
-    rec = _parse_columns(name, skip, wanted, sep, decimal, integers)
+    return CsvLayout(attrs, skip, present, sep, decimal, integers, rows)
+
+
+def _read_csv(
+    name: str,
+    mapping: dict[str, str],
+    optional: set[str],
+    other_columns: bool,
+    max_samples: int | None,
+    sep: str | None,
+    decimal: str | None,
+) -> tuple[pd.DataFrame, dict[str, Any], int]:
+    """The columns of a CSV record, its attrs and the line number of its header."""
+    layout = csv_layout(name, mapping, optional, sep, decimal)
+    check_row_limit(name, layout.rows, max_samples)
+    replaced = {k for k, v in mapping.items() if v != k}  # a column of a canonical name a named one takes
+    wanted = [c for c in layout.present if c in mapping.values() or (other_columns and c not in replaced)]
+    rec = _parse_columns(name, layout.skip, wanted, layout.sep, layout.decimal, layout.integers)
     rec = rec.rename(columns={v: k for k, v in mapping.items() if v != k})
-    return rec.reset_index(drop=True), attrs, skip + 1
+    return rec.reset_index(drop=True), layout.attrs, layout.skip + 1
 
 
 def _seconds(value: float) -> str:
@@ -1126,23 +1215,11 @@ def _normalised(
     if len(rec) < min_samples:
         plural = "" if len(rec) == 1 else "s"
         raise DataError(f"{name} has {len(rec)} sample{plural}; at least {min_samples} are needed")
-    units = attrs.get("units")
-    if isinstance(units, dict):  # the units of the named columns follow them to their new names
-        renamed = {v: k for k, v in names.items()}
-        attrs["units"] = {k: v for k, v in units.items() if k not in renamed}
-        attrs["units"].update({renamed[k]: v for k, v in units.items() if k in renamed})
-    dt, file_dt = options.dt, attrs.get("dt")
-    if dt is not None and file_dt is not None and not math.isclose(dt, file_dt, rel_tol=options.dt_rtol):
-        raise DataError(f"dt = {dt!r} was asked for but {name} says dt = {file_dt!r}")
+    named_attrs(name, attrs, options, names)
     if "t" in rec.columns:
         rec = _on_uniform_time(name, rec, attrs, where, options, names.get("t", "t"))
-    elif dt is not None:
-        attrs["dt"] = float(dt)
-    if "dt" not in attrs:
-        raise DataError(
-            f"{name}: no time column {names.get('t', 't')!r} and no dt given: name the time column with --time "
-            "(time=...) or give the sample time with --dt"
-        )
+    else:
+        untimed_dt(name, attrs, options, names)
     if "t" not in rec.columns and len(rec.columns):
         rec.insert(0, "t", np.arange(len(rec)) * float(attrs["dt"]))  # the time the sample time gives
         attrs.setdefault("units", {})["t"] = "s"
@@ -1153,23 +1230,35 @@ def _normalised(
     )  # fmt: skip
 
 
-def _on_uniform_time(
-    name: str,
-    rec: pd.DataFrame,
-    attrs: dict[str, Any],
-    where: Callable[[int], str],
-    options: RecordOptions,
-    column: str,
-) -> pd.DataFrame:
-    """The record with ``t`` in s from 0 on a uniform grid (resampled when it jitters), ``attrs["dt"]`` set."""
-    raw = rec["t"].to_numpy()
-    steps_raw = np.diff(raw)
-    nonpos = np.flatnonzero(steps_raw <= 0)
+def check_increasing(raw: np.ndarray, where: Callable[[int], str], column: str) -> None:
+    """Refuse time stamps ``raw`` that do not increase, naming the row (``where(k)`` names ``raw[k]``)."""
+    nonpos = np.flatnonzero(np.diff(raw) <= 0)
     if nonpos.size:
         row = int(nonpos[0]) + 1
         raise DataError(
             f"column {column!r} is not increasing at {where(row)}: {raw[row].item()!r} after {raw[row - 1].item()!r}"
         )
+
+
+def time_base(
+    name: str,
+    raw: np.ndarray,
+    attrs: dict[str, Any],
+    where: Callable[[int], str],
+    options: RecordOptions,
+    column: str,
+) -> tuple[np.ndarray, float, float]:
+    """The time stamps ``raw`` of a record (or of its first block) in s from 0, its sample time [s]
+    and the factor from the stamps' unit to seconds.
+
+    Checks that they increase, finds their unit (``time_unit``, else the attrs', else s;
+    a median step outside :data:`SAMPLE_TIMES` is refused unless a ``dt`` is known) and
+    the sample time (``dt``, else the file's, else the median step; a ``dt`` the stamps
+    contradict is refused), and sets ``attrs`` (``dt``, ``time_origin``, the unit of ``t``).
+    A later block's stamps are ``(raw - raw[0]) * factor`` in seconds, with the first block's ``raw[0]``.
+    """
+    check_increasing(raw, where, column)
+    steps_raw = np.diff(raw)
     declared = (attrs.get("units") or {}).get("t")
     unit = options.time_unit or (declared if declared in TIME_UNITS else None)
     dt, file_dt = options.dt, attrs.get("dt")
@@ -1209,10 +1298,22 @@ def _on_uniform_time(
     units["t"] = "s"
     if unit not in (None, "s"):
         attrs.setdefault("converted_from", {})["t"] = unit
+    return t, expected, scale
+
+
+def steps_off_grid(
+    steps: np.ndarray, expected: float, where: Callable[[int], str], options: RecordOptions, column: str
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    """None when every time step [s] is within ``dt_rtol`` of the sample time ``expected``; else
+    the steps' deviations, which of them are jitter (within :data:`JITTER_LIMIT`), and the
+    positions of the gaps (missing samples) and of the other odd steps, to be resampled.
+
+    Without ``resample``, the first gap or odd step is refused, naming its row (``where(k + 1)``
+    names the row after ``steps[k]``).
+    """
     deviation = np.abs(steps - expected)
     if not np.any(deviation > options.dt_rtol * expected):
-        rec["t"] = t
-        return rec
+        return None
     ratio = steps / expected
     jittered = np.abs(ratio - 1.0) <= JITTER_LIMIT
     missing_samples = (ratio > 1.0 + JITTER_LIMIT) & (np.rint(ratio) >= 2)  # about a whole sample or more
@@ -1234,6 +1335,50 @@ def _on_uniform_time(
                 f"expected dt = {expected:.6g} s (jitter up to {JITTER_LIMIT:.0%} of it is resampled; "
                 "--resample resamples any)"
             )
+    return deviation, jittered, gaps, odd
+
+
+def named_attrs(name: str, attrs: dict[str, Any], options: RecordOptions, names: dict[str, str]) -> None:
+    """``attrs`` with the units of the named columns under their canonical names (``names``:
+    ``t``, ``u``, ``y`` -> the name in the file); a ``dt`` asked for that the file contradicts is refused."""
+    units = attrs.get("units")
+    if isinstance(units, dict):  # the units of the named columns follow them to their new names
+        renamed = {v: k for k, v in names.items()}
+        attrs["units"] = {k: v for k, v in units.items() if k not in renamed}
+        attrs["units"].update({renamed[k]: v for k, v in units.items() if k in renamed})
+    dt, file_dt = options.dt, attrs.get("dt")
+    if dt is not None and file_dt is not None and not math.isclose(dt, file_dt, rel_tol=options.dt_rtol):
+        raise DataError(f"dt = {dt!r} was asked for but {name} says dt = {file_dt!r}")
+
+
+def untimed_dt(name: str, attrs: dict[str, Any], options: RecordOptions, names: dict[str, str]) -> float:
+    """The sample time of a record without a time column (``dt`` given, else the file's), set in
+    ``attrs``; a DataError naming ``--time`` and ``--dt`` when neither says."""
+    if options.dt is not None:
+        attrs["dt"] = float(options.dt)
+    if "dt" not in attrs:
+        raise DataError(
+            f"{name}: no time column {names.get('t', 't')!r} and no dt given: name the time column with --time "
+            "(time=...) or give the sample time with --dt"
+        )
+    return float(attrs["dt"])
+
+
+def _on_uniform_time(
+    name: str,
+    rec: pd.DataFrame,
+    attrs: dict[str, Any],
+    where: Callable[[int], str],
+    options: RecordOptions,
+    column: str,
+) -> pd.DataFrame:
+    """The record with ``t`` in s from 0 on a uniform grid (resampled when it jitters), ``attrs["dt"]`` set."""
+    t, expected, _ = time_base(name, rec["t"].to_numpy(), attrs, where, options, column)
+    off_grid = steps_off_grid(np.diff(t), expected, where, options, column)
+    if off_grid is None:
+        rec["t"] = t
+        return rec
+    deviation, jittered, gaps, odd = off_grid
     jitter = float(np.max(deviation[jittered], initial=0.0))
     grid = np.arange(int(np.floor(t[-1] / expected * (1.0 + 1e-12))) + 1) * expected
     held = np.clip(np.searchsorted(t, grid, side="right") - 1, 0, len(t) - 1)
@@ -1272,6 +1417,7 @@ __all__ = [
     "RecordOptions",
     "check_attrs",
     "count_data_lines",
+    "csv_layout",
     "normalise_record",
     "read_record",
     "record_format",

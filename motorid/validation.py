@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from statistics import NormalDist
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -65,26 +66,66 @@ def check_signals(signals: Mapping[str, ArrayLike]) -> None:
         On a constant column, or an outlier (the first, by row).
     """
     for name, values in signals.items():
-        x = as_float_vector(values, name)
-        bad = first_bad_index(x)
-        if bad is not None:
-            raise DataError(f"column {name!r} has a non-finite value {x[bad]!r} at row {bad}")
+        x = check_signal_block(name, values)
         if x.size and np.all(x == x[0]):
-            raise DataError(
-                f"column {name!r} is constant ({x[0]:g} in every one of its {x.size} rows): "
-                "it carries nothing to identify a model from"
-            )
-        centre = float(np.median(x))
-        deviation = np.abs(x - centre)
-        spread = float(np.median(deviation)) or float(np.median(deviation[deviation > 0.0]))
-        outliers = np.flatnonzero(deviation > OUTLIER_SPREADS * spread)
-        if outliers.size:
-            row = int(outliers[0])
-            raise DataError(
-                f"column {name!r} has an outlier {x[row]:.6g} at row {row}, more than {OUTLIER_SPREADS:g} "
-                f"times the column's spread ({spread:.3g}) from its median ({centre:.3g}): a unit slip or a "
-                "corrupt cell? Fix or drop that row"
-            )
+            raise_constant(name, float(x[0]), x.size)
+
+
+def check_signal_block(name: str, values: ArrayLike, first_row: int = 0) -> np.ndarray:
+    """The checks of :func:`check_signals` that hold for a block of rows on its own: every sample
+    finite, and no outlier against the block's own median and spread. ``first_row`` is the row of
+    the block's first sample in the record (for the message). Returns the samples as floats."""
+    x = as_float_vector(values, name)
+    bad = first_bad_index(x)
+    if bad is not None:
+        raise DataError(f"column {name!r} has a non-finite value {x[bad]!r} at row {first_row + bad}")
+    if x.size:
+        check_outliers(name, x, first_row)
+    return x
+
+
+def raise_constant(name: str, value: float, rows: int) -> None:
+    """The error of :func:`check_signals` on a column holding ``value`` in every one of its ``rows``."""
+    raise DataError(
+        f"column {name!r} is constant ({value:g} in every one of its {rows} rows): "
+        "it carries nothing to identify a model from"
+    )
+
+
+def check_outliers(
+    name: str, x: np.ndarray, first_row: int, reference: tuple[float, float] | None = None
+) -> None:
+    """The outlier check of :func:`check_signals` on the finite samples ``x`` (not empty) of column
+    ``name``: against ``reference`` (the centre and spread of :func:`outlier_reference`), by default
+    the samples' own; ``first_row`` is the row of ``x[0]`` in the record (for the message)."""
+    if reference is None:
+        reference = outlier_reference(x)
+    if reference is None:  # every sample on the median: nothing stands out
+        return
+    centre, spread = reference
+    outliers = np.flatnonzero(np.abs(x - centre) > OUTLIER_SPREADS * spread)
+    if outliers.size:
+        row = int(outliers[0])
+        raise DataError(
+            f"column {name!r} has an outlier {x[row]:.6g} at row {first_row + row}, more than "
+            f"{OUTLIER_SPREADS:g} times the column's spread ({spread:.3g}) from its median ({centre:.3g}): "
+            "a unit slip or a corrupt cell? Fix or drop that row"
+        )
+
+
+def outlier_reference(x: np.ndarray) -> tuple[float, float] | None:
+    """The centre and spread :func:`check_signals` judges outliers by: the median of ``x`` and the
+    median absolute deviation from it (or, when more than half the samples sit on the median, the
+    median of the nonzero deviations); None when every sample sits on the median."""
+    centre = float(np.median(x))
+    deviation = np.abs(x - centre)
+    spread = float(np.median(deviation))
+    if spread == 0.0:
+        moved = deviation[deviation > 0.0]
+        if not moved.size:
+            return None
+        spread = float(np.median(moved))
+    return centre, spread
 
 
 def _pair(y: ArrayLike, y_hat: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
@@ -234,6 +275,178 @@ def score_predictions(
     return pd.DataFrame(rows).T
 
 
+class RunningScore:
+    """:func:`score` of a prediction given in consecutive blocks, from running sums.
+
+    Memory does not grow with the record: per block it adds the sum of squared
+    errors ``sum (y - y_hat)^2``, the same sum over the low-speed samples
+    ``|y| < low_speed_threshold`` and their count, and merges the block's mean and
+    sum of squared deviations of ``y`` into the record's (Chan, Golub and LeVeque's
+    pairwise update: ``M2 = M2_a + M2_b + d^2 n_a n_b / n``, d the difference of
+    the means), from which ``||y - mean(y)||`` of FIT % comes without a second pass.
+    The scores equal :func:`score` of the whole prediction up to the rounding of
+    those sums (a relative difference of about N * 1e-16 at most, in practice far
+    less: each block is summed pairwise).
+
+    Parameters
+    ----------
+    low_speed_threshold : float
+        |y| below this counts as low speed (output unit).
+    """
+
+    def __init__(self, low_speed_threshold: float):
+        low_speed_mask(np.zeros(0), low_speed_threshold)  # checks the threshold
+        self.low_speed_threshold = float(low_speed_threshold)
+        self.samples = 0
+        self.sum_squares = 0.0
+        self.mean = 0.0
+        self.deviation_squares = 0.0
+        self.low_speed_samples = 0
+        self.low_speed_sum_squares = 0.0
+
+    def add(self, y: ArrayLike, y_hat: ArrayLike) -> None:
+        """Add the next block: measured ``y`` and predicted ``y_hat``, one length (may be empty)."""
+        y_arr, y_hat_arr = as_float_vector(y, "y"), as_float_vector(y_hat, "y_hat")
+        if y_arr.size == 0 and y_hat_arr.size == 0:
+            return
+        y_arr, y_hat_arr = _pair(y_arr, y_hat_arr)
+        with np.errstate(over="ignore", invalid="ignore"):
+            squares = (y_arr - y_hat_arr) ** 2
+        slow = np.abs(y_arr) < self.low_speed_threshold
+        self.sum_squares += float(np.sum(squares))
+        self.low_speed_samples += int(np.count_nonzero(slow))
+        self.low_speed_sum_squares += float(np.sum(squares[slow]))
+        n_a, n_b = self.samples, y_arr.size
+        mean_b = float(np.mean(y_arr))
+        deviation = y_arr - mean_b
+        difference = mean_b - self.mean
+        self.samples = n_a + n_b
+        self.mean += difference * n_b / self.samples
+        self.deviation_squares += (
+            float(np.dot(deviation, deviation)) + difference**2 * n_a * n_b / self.samples
+        )
+
+    def result(self) -> PredictionScores:
+        """The scores of the blocks added so far (at least one sample)."""
+        if self.samples == 0:
+            raise ValueError("y is empty: a metric needs at least one sample")
+        if self.deviation_squares == 0.0:
+            raise DataError("y is constant: FIT % is undefined")
+        mse_value = self.sum_squares / self.samples
+        with np.errstate(over="ignore", invalid="ignore"):
+            fit = 100.0 * (1.0 - math.sqrt(self.sum_squares) / math.sqrt(self.deviation_squares))
+        return PredictionScores(
+            mse=mse_value,
+            rmse=math.sqrt(mse_value),
+            fit_percent=fit,
+            low_speed_mse=(
+                self.low_speed_sum_squares / self.low_speed_samples
+                if self.low_speed_samples
+                else float("nan")
+            ),
+            n_low_speed=self.low_speed_samples,
+        )
+
+
+#: Samples of a signal given in blocks that its outlier reference (median and spread) is taken
+#: from, evenly strided over the record (:class:`StridedSample`); a signal of at most this many
+#: samples is taken whole, as :func:`check_signals` takes it.
+REFERENCE_SAMPLES = 1_000_000
+
+
+class StridedSample:
+    """Every ``stride``-th sample of a signal given in consecutive blocks, in at most ``capacity``
+    values: the stride starts at 1 and doubles (every other value kept is dropped) whenever the
+    next block would not fit, so the values are always samples 0, s, 2s, ... of the signal.
+
+    A signal of at most ``capacity`` samples is kept whole. Used for the outlier reference of a
+    record given in blocks (:func:`outlier_reference` of the sample: its median and spread).
+
+    Parameters
+    ----------
+    capacity : int
+        Most values kept, >= 1.
+    """
+
+    def __init__(self, capacity: int):
+        if not isinstance(capacity, int) or capacity < 1:
+            raise ValueError(f"capacity must be an integer >= 1, got {capacity!r}")
+        self._values = np.empty(capacity)
+        self._kept = 0
+        self.stride = 1
+        #: Samples of the signal given so far.
+        self.samples = 0
+
+    def add(self, x: ArrayLike) -> None:
+        """Add the next block of the signal."""
+        x_arr = as_float_vector(x, "x")
+        while True:
+            taken = x_arr[(-self.samples) % self.stride :: self.stride]
+            if self._kept + len(taken) <= len(self._values):
+                break
+            half = (self._kept + 1) // 2
+            self._values[:half] = self._values[: self._kept : 2]
+            self._kept, self.stride = half, 2 * self.stride
+        self._values[self._kept : self._kept + len(taken)] = taken
+        self._kept += len(taken)
+        self.samples += len(x_arr)
+
+    @property
+    def values(self) -> np.ndarray:
+        """The samples kept, in time order (a view)."""
+        return self._values[: self._kept]
+
+
+#: Samples of a record given in blocks that the residual tests are computed on: its last ones
+#: (16 min 40 s at 1 kHz). The tests hold them and about ten arrays of their length at once
+#: (about 100 MB); a record of at most this many samples is tested whole.
+RESIDUAL_WINDOW = 1_000_000
+
+
+class ResidualWindow:
+    """The last ``size`` samples of the input and the residual of a record given in blocks, for
+    :func:`residual_tests` (memory: two arrays of ``size`` floats, whatever the record's length).
+
+    Parameters
+    ----------
+    size : int
+        Samples kept, >= 1.
+    """
+
+    def __init__(self, size: int):
+        if not isinstance(size, int) or size < 1:
+            raise ValueError(f"size must be an integer >= 1, got {size!r}")
+        self.size = size
+        self._u = np.empty(size)
+        self._e = np.empty(size)
+        #: Samples added so far.
+        self.samples = 0
+
+    def add(self, u: ArrayLike, residual: ArrayLike) -> None:
+        """Add the next block of input [V] and residual (one length)."""
+        u_arr, e_arr = as_float_vector(u, "u"), as_float_vector(residual, "residual")
+        if u_arr.shape != e_arr.shape:
+            raise ValueError(f"u and residual must have one length, got {u_arr.shape} and {e_arr.shape}")
+        count = len(u_arr)
+        kept = min(count, self.size)
+        start = (self.samples + count - kept) % self.size  # ring position of the first sample kept
+        head = min(kept, self.size - start)
+        for ring, values in ((self._u, u_arr[count - kept :]), (self._e, e_arr[count - kept :])):
+            ring[start : start + head] = values[:head]
+            ring[: kept - head] = values[head:]
+        self.samples += count
+
+    def arrays(self) -> tuple[np.ndarray, np.ndarray]:
+        """The input and residual of the last ``min(samples, size)`` samples, in time order."""
+        if self.samples <= self.size:
+            return self._u[: self.samples].copy(), self._e[: self.samples].copy()
+        start = self.samples % self.size
+        return (
+            np.concatenate((self._u[start:], self._u[:start])),
+            np.concatenate((self._e[start:], self._e[:start])),
+        )
+
+
 # --------------------------------------------------------------------------- residual analysis
 @dataclass(frozen=True)
 class CorrelationTest:
@@ -324,8 +537,6 @@ def residual_tests(
     -------
     list of CorrelationTest
     """
-    from scipy.stats import norm
-
     u_arr, e_arr = as_float_vector(u, "u"), as_float_vector(residual, "residual")
     if u_arr.shape != e_arr.shape:
         raise ValueError(f"u and residual must have one length, got {u_arr.shape} and {e_arr.shape}")
@@ -340,7 +551,8 @@ def residual_tests(
     if not 0.5 < confidence < 1.0:
         raise ValueError(f"confidence must be in (0.5, 1), got {confidence}")
     alpha = 1.0 - confidence
-    band = float(norm.ppf(1.0 - alpha / 2.0)) / math.sqrt(N)
+    quantile = NormalDist().inv_cdf  # the standard library's (scipy.stats would add 65 MB to a process)
+    band = quantile(1.0 - alpha / 2.0) / math.sqrt(N)
     e0 = e_arr - e_arr.mean()
     u0 = u_arr - u_arr.mean()
     u2 = u_arr**2 - np.mean(u_arr**2)
@@ -360,7 +572,7 @@ def residual_tests(
     ]
     tests = []
     for name, formula, lags, values in specs:
-        simultaneous = float(norm.ppf(1.0 - alpha / (2.0 * len(lags)))) / math.sqrt(N)
+        simultaneous = quantile(1.0 - alpha / (2.0 * len(lags))) / math.sqrt(N)
         passed = bool(np.max(np.abs(values)) <= simultaneous)
         tests.append(CorrelationTest(name, formula, lags, values, band, simultaneous, passed))
     return tests

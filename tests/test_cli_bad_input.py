@@ -253,7 +253,7 @@ def test_a_bug_in_motorid_is_not_reported_as_a_user_error(capsys, folder, monkey
     def broken(*args, **kwargs):
         raise ValueError("operands could not be broadcast together with shapes (3,) (4,)")
 
-    monkeypatch.setattr(motorid.validation, "score_predictions", broken)
+    monkeypatch.setattr(motorid.validation, "residual_tests", broken)
     argv = ["identify", str(folder / "good.csv"), "--estimator", "arx-rls"]
     code, text = _run(capsys, argv)
     assert code == 1

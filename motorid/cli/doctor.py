@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -20,6 +21,7 @@ from .options import (
     check_out_file,
     check_out_folder,
     hold_out_folder,
+    iter_record_from_args,
     number,
     positive,
     read_record_from_args,
@@ -72,10 +74,41 @@ def doctor_record(
     )  # fmt: skip
 
 
-def read_trimmed(args: argparse.Namespace, path: Path) -> pd.DataFrame:
-    """The record ``path``, read with the command's record options and trimmed to --start/--stop."""
-    record = read_record_from_args(argparse.Namespace(**{**vars(args), "data": path}))
-    return trim_record(record, args.start, args.stop, path)
+def read_trimmed(args: argparse.Namespace, path: Path) -> tuple[pd.DataFrame, bool]:
+    """The record ``path``, read with the command's record options (a segment of a long one:
+    :func:`read_record_segment`) and trimmed to --start/--stop; and whether it is a segment."""
+    record, segment = read_record_segment(argparse.Namespace(**{**vars(args), "data": path}))
+    return trim_record(record, args.start, args.stop, path), segment
+
+
+def read_record_segment(args: argparse.Namespace, min_samples: int = 20) -> tuple[pd.DataFrame, bool]:
+    """The record of ``args`` as :func:`.options.read_record_from_args` reads it, when it has at
+    most ``--max-samples`` rows; else its first ``--max-samples`` rows (a segment). Returns the
+    record and whether it is a segment.
+
+    The record is read in blocks of ``--max-samples`` rows (:func:`.options.iter_record_from_args`):
+    the first block is the record or the segment (checked as a whole record is), and the start of
+    a second one tells that there is more. So the doctor's memory is bounded by ``--max-samples``
+    whatever the length of the file (the rows after the segment are not checked: the doctor does
+    not use them). A record whose time stamps jitter is put on a uniform grid, which takes it
+    whole: it is read as :func:`.options.read_record_from_args` reads it (``--max-samples`` then
+    refuses a longer one).
+    """
+    from motorid.record_chunks import UniformGridError
+
+    if args.max_samples < min_samples:  # too few to read in blocks: the whole-record read says why
+        return read_record_from_args(args, min_samples), False
+    blocks = iter_record_from_args(args, chunk_rows=args.max_samples, min_samples=min_samples)
+    with contextlib.closing(blocks):
+        try:
+            record = next(blocks)
+        except UniformGridError:
+            return read_record_from_args(args, min_samples), False
+        try:
+            more = next(blocks, None) is not None
+        except DataError:  # a bad row after the segment (or stamps off the grid): there are rows after it
+            more = True
+    return record, more
 
 
 def rigid_drive_from_file(path: Path) -> RigidDrive:
@@ -103,12 +136,13 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         rigid_drive_from_file(args.model)
     if args.save_model is not None:
         check_out_file(args.save_model, True, "--save-model")
-    records = [read_trimmed(args, path) for path in args.data]
+    read = [read_trimmed(args, path) for path in args.data]
+    records = [record for record, _ in read]
     labels = [str(path) for path in args.data]
     validation = None
     if args.validate is not None:
         # the same record options (columns, dt, units, span) as the records the models are fitted on
-        validation = read_trimmed(args, args.validate)
+        validation, _ = read_trimmed(args, args.validate)
     if args.out:
         check_out_folder(args.out)
         hold_out_folder(args, args.out)
@@ -126,6 +160,10 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     )
     for note in diagnosis.notes:
         say(f"  note: {note}")
+    for path, (record, segment) in zip(args.data, read, strict=True):
+        if segment:
+            say(f"  a segment: {path} is longer than --max-samples; the doctor works on its first "
+                f"{len(record)} samples ({len(record) * record.attrs['dt']:g} s) and holds no more")  # fmt: skip
     if diagnosis.refitted_gap is not None:
         say(f"  gap of the given model {diagnosis.initial_gap['overall']:.4g} {units['v']}, "
             f"refitted {diagnosis.refitted_gap['overall']:.4g} {units['v']}")  # fmt: skip
@@ -191,7 +229,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         write_file(args.out / "doctor_table.csv", table.to_csv, overwrite=True)
         say(f"  wrote {len(figures)} figures and doctor_table.csv in {args.out}/")
     if args.json:
-        out = {**diagnosis.to_dict(), "figures": figures}
+        out = {**diagnosis.to_dict(), "figures": figures, "segment": any(segment for _, segment in read)}
         if scores is not None:
             out["validation"] = {"record": str(args.validate), "models": scores.to_dict(orient="index")}
         emit_json(out)
@@ -246,7 +284,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument("data", type=Path, nargs="+",
                    help=f"record file ({RECORD_FILES}); several records of one drive are fitted as one model "
                         "(shared parameters, each record its own start) and judged on the pooled evidence")  # fmt: skip
-    add_record_columns(p)
+    add_record_columns(p, "work on the first this many samples of a longer record (a segment, said in the "
+                       "output); the doctor's memory grows with it, 0.9 GB at the default (%(default)s)")  # fmt: skip
     add_trim_options(p)
     add_doctor_options(p)
     p.add_argument("--out", type=Path, help="folder for the figures and the table (replaced if there)")

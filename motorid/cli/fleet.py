@@ -20,7 +20,7 @@ from typing import Any
 
 from motorid.errors import DataError
 
-from .doctor import add_doctor_options, doctor_record, effect_list
+from .doctor import add_doctor_options, doctor_record, effect_list, read_record_segment
 from .identification import (
     add_identify_options,
     identify_record,
@@ -69,7 +69,10 @@ class RecordTask:
             try:
                 args = copy.copy(self.args)
                 args.data = Path(path)
-                record = read_record_from_args(args)
+                if self.command == "identify":
+                    record, segment = read_record_from_args(args), False
+                else:  # as motorid doctor reads it: a longer record's first --max-samples samples
+                    record, segment = read_record_segment(args)
                 drive, when = identity(path, record.attrs, given)
                 row.update(drive=drive, time=when)
                 # names from data are file names, never paths: everything stays under --out
@@ -88,7 +91,7 @@ class RecordTask:
                     diagnosis = doctor_record(record, args, progress=False)
                     payload = diagnosis.to_dict()
                     figures = diagnosis.write_figures(folder) if folder else []
-                    extra = {"named": ",".join(diagnosis.named)}
+                    extra = {"named": ",".join(diagnosis.named), "segment": segment}
                 row.update(status="ok", error=None)
                 row.update(flatten(jsonable({**payload, **extra, "figures": [str(f) for f in figures]})))
             except Exception as exc:  # the record's failure, whatever it is, is its row

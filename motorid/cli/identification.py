@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import argparse
+import itertools
+from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -19,20 +21,26 @@ from .options import (
     add_record_input,
     add_skip,
     add_wait,
+    band_words,
     check_out_file,
     check_out_folder,
     create_estimator,
     hold_out_folder,
     int_range,
+    iter_record_from_args,
     low_speed_band,
     number,
+    output_band,
     read_record_from_args,
 )
 from .report import emit_json, frame_records, say, say_params, show_progress
 
 
-def require_finite_estimate(name: str, x: np.ndarray, u: np.ndarray, y: np.ndarray) -> None:
-    """Refuse an estimate that stopped being finite, naming the first sample where it did.
+def require_finite_estimate(
+    name: str, x: np.ndarray, u: np.ndarray, y: np.ndarray, first_row: int = 0
+) -> None:
+    """Refuse an estimate that stopped being finite, naming the first sample where it did
+    (``first_row``: the record's row of ``x[0]``, when ``x`` is a block of it).
 
     A result with NaN or inf is never reported as a success: it means the record
     drove the estimator out of floating-point range (an outlier, a unit mistake).
@@ -40,8 +48,9 @@ def require_finite_estimate(name: str, x: np.ndarray, u: np.ndarray, y: np.ndarr
     bad = ~np.isfinite(x).all(axis=1)
     if bad.any():
         k = int(np.argmax(bad))
-        raise DataError(f"estimator {name!r}: its estimate is not finite from sample {k} on "
-                        f"(u = {u[k]:.6g}, y = {y[k]:.6g} there); check the record around row {k}")  # fmt: skip
+        row = first_row + k
+        raise DataError(f"estimator {name!r}: its estimate is not finite from sample {row} on "
+                        f"(u = {u[k]:.6g}, y = {y[k]:.6g} there); check the record around row {row}")  # fmt: skip
 
 
 #: The key of a record's attrs that holds the simulated rig (:meth:`motorid.plants.TwoMassRig.simulate`
@@ -119,10 +128,13 @@ def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dic
     Returns the ``--json`` payload (without ``figure``), the residual tests (for the figure) and
     the identified estimator (for ``--save-model``).
     ``motorid fleet identify`` calls this very function on each record, so a fleet's rows equal
-    the single-record command's output.
+    the single-record command's output. An estimator that runs in blocks (:func:`runs_in_blocks`)
+    is run over the record in the blocks ``motorid identify`` reads a file in
+    (:func:`identify_blocks`), so the numbers are those of the file read in blocks.
     """
     from motorid.comparison import holds_input
     from motorid.estimators.base import first_bad_index
+    from motorid.record_chunks import CHUNK_ROWS
     from motorid.records import record_timing
     from motorid.validation import (
         RPM_PER_RAD_S,
@@ -132,6 +144,16 @@ def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dic
     )
 
     est, notes = estimator_for_record(record, args)
+    if runs_in_blocks(est):
+        u_all, y_all = record["u"].to_numpy(), record["y"].to_numpy()
+        unit, threshold, _ = low_speed_band(record, args.low_speed_rpm)
+        return identify_blocks(
+            lambda: (
+                (u_all[k : k + CHUNK_ROWS], y_all[k : k + CHUNK_ROWS])
+                for k in range(0, len(record), CHUNK_ROWS)
+            ),
+            args, est, notes, unit, threshold,
+        )  # fmt: skip
     u, y = record["u"].to_numpy(), record["y"].to_numpy()
     check_signals({args.input: u, args.output: y})
     if holds_input(est) and record_timing(record.attrs) == "sampled":
@@ -152,6 +174,7 @@ def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dic
     payload = {
         "estimator": args.estimator,
         "samples": len(record),
+        "residual_tests_samples": len(record) - args.skip,
         "params": est.params,
         "scores": {
             kind: {**row, **({"mse_rpm2": row["mse"] * RPM_PER_RAD_S**2} if in_rpm else {})}
@@ -169,6 +192,177 @@ def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dic
     if param_units:
         payload["units"] = {"params": dict(param_units)}
     return payload, tests, est
+
+
+def runs_in_blocks(estimator: Any) -> bool:
+    """Whether ``estimator`` is identified on a record in blocks (:func:`identify_blocks`): an RLS
+    on a lagged regression, whose state (estimate, covariance, past outputs and inputs) carries
+    from one ``batch_filter`` call to the next and whose free run carries its own
+    (:class:`motorid.estimators.rls.FreeRun`). The friction filters need the whole record."""
+    from motorid.estimators.rls import LaggedRegressionRLS
+
+    return isinstance(estimator, LaggedRegressionRLS)
+
+
+def identify_blocks(
+    blocks: Callable[[], Iterable[tuple[np.ndarray, np.ndarray]]],
+    args: argparse.Namespace,
+    est: Any,
+    notes: list[str],
+    unit: str | None,
+    threshold: float,
+) -> tuple[dict[str, Any], list, Any]:
+    """:func:`identify_record` over a record given in consecutive blocks, in memory that does not
+    grow with the record.
+
+    ``blocks()`` yields the record's ``(u, y)`` blocks from its start; it is called twice. ``est``
+    is the estimator to identify (:func:`runs_in_blocks`), ``notes`` what it assumes, ``unit``
+    the record's output unit and ``threshold`` its low-speed threshold in it
+    (:func:`.options.low_speed_band`).
+
+    1. The first pass runs ``batch_filter`` block after block (the estimator carries its state,
+       so the estimate is that of one call on the whole record, bit for bit) and scores the
+       one-step prediction with running sums (:class:`motorid.validation.RunningScore`). Each
+       block is checked as :func:`motorid.validation.check_signals` checks a record, against the
+       block's own median and spread (a corrupt cell stops the work at once); a strided sample
+       of each signal (:class:`motorid.validation.StridedSample`, the whole signal up to
+       :data:`motorid.validation.REFERENCE_SAMPLES` samples) gives the record's median and spread.
+    2. The second pass checks every block against the record's median and spread (what
+       :func:`~motorid.validation.check_signals` does on a whole record: it catches a unit slip
+       that fills most of a block), and runs and scores the identified model's free run
+       (:class:`motorid.estimators.rls.FreeRun`), up to the samples the first pass saw (a logger
+       may still be appending to the file).
+
+    The residual tests are computed on the last :data:`motorid.validation.RESIDUAL_WINDOW`
+    samples of the one-step residual (the whole record when it is no longer;
+    ``residual_tests_samples`` in the payload says how many). Returns what
+    :func:`identify_record` returns.
+    """
+    from motorid.estimators.base import first_bad_index
+    from motorid.estimators.rls import FreeRun
+    from motorid.validation import (
+        REFERENCE_SAMPLES,
+        RESIDUAL_WINDOW,
+        RPM_PER_RAD_S,
+        ResidualWindow,
+        RunningScore,
+        StridedSample,
+        check_outliers,
+        check_signal_block,
+        outlier_reference,
+        raise_constant,
+        residual_tests,
+    )
+
+    one_step, window = RunningScore(threshold), ResidualWindow(RESIDUAL_WINDOW)
+    names = (args.input, args.output)
+    strided = (StridedSample(REFERENCE_SAMPLES), StridedSample(REFERENCE_SAMPLES))
+    first: tuple[float, float] | None = None  # the first sample, to tell a constant column
+    varies = [False, False]
+    samples = 0
+    for u, y in blocks():
+        for name, values, sample in zip(names, (u, y), strided, strict=True):
+            check_signal_block(name, values, samples)
+            sample.add(values)
+        if first is None and len(u):
+            first = (float(u[0]), float(y[0]))
+        if first is not None:
+            varies = [v or bool(np.any(x != x0)) for v, x, x0 in zip(varies, (u, y), first, strict=True)]
+        result = est.batch_filter(u, y)
+        if len(u) and not np.isfinite(result.x[-1]).all():  # a non-finite estimate stays so: the last tells
+            require_finite_estimate(args.estimator, result.x, u, y, samples)
+        scored = slice(max(0, args.skip - samples), None)
+        one_step.add(y[scored], result.y_hat[scored])
+        window.add(u[scored], (y - result.y_hat)[scored])
+        samples += len(u)
+    if not 0 <= args.skip < samples:
+        raise ValueError(f"skip must be in [0, {samples}), got {args.skip}")
+    for name, changes, value in zip(names, varies, first or (0.0, 0.0), strict=True):
+        if not changes:
+            raise_constant(name, value, samples)
+    references = [outlier_reference(sample.values) for sample in strided]
+    free_run, simulate = RunningScore(threshold), FreeRun(est)
+    diverged = None
+    start = 0
+    for u, y in blocks():
+        if start >= samples:  # a file still being written has grown since the first pass
+            break
+        u, y = u[: samples - start], y[: samples - start]
+        for name, values, reference in zip(names, (u, y), references, strict=True):
+            check_outliers(name, values, start, reference)
+        if diverged is None:
+            y_sim = simulate(u)
+            bad = first_bad_index(y_sim)
+            if bad is not None:
+                diverged = start + bad
+            else:
+                scored = slice(max(0, args.skip - start), None)
+                free_run.add(y[scored], y_sim[scored])
+        start += len(u)
+    scores = {
+        "one_step": one_step.result(),
+        **({} if diverged is not None else {"free_run": free_run.result()}),
+    }
+    tests = residual_tests(*window.arrays(), max_lag=args.max_lag)
+    in_rpm = unit == "rad/s"
+    payload = {
+        "estimator": args.estimator,
+        "samples": samples,
+        "residual_tests_samples": min(window.samples, window.size),
+        "params": est.params,
+        "scores": {
+            kind: {**vars(row), **({"mse_rpm2": row.mse * RPM_PER_RAD_S**2} if in_rpm else {})}
+            for kind, row in scores.items()
+        },
+        "free_run_diverges_from_sample": diverged,
+        "output_unit": unit,
+        ("low_speed_threshold_rad_s" if in_rpm else "low_speed_threshold"): threshold,
+        "residual_tests": {
+            t.name: {"passed": t.passed, "fraction_outside": t.fraction_outside} for t in tests
+        },
+        "notes": notes,
+    }
+    param_units = getattr(est, "param_units", None)
+    if param_units:
+        payload["units"] = {"params": dict(param_units)}
+    return payload, tests, est
+
+
+def identify_file_in_blocks(args: argparse.Namespace) -> tuple[dict[str, Any], list, Any]:
+    """:func:`identify_blocks` on the record file of ``args``, read in blocks
+    (:func:`.options.iter_record_from_args`): memory does not grow with the record.
+
+    The first block gives the record's attrs (its units, whether it is motorid's simulation);
+    an output in another unit than rad/s takes one more pass, for its largest magnitude (the
+    low-speed band, :func:`.options.low_speed_band`). A record whose time stamps jitter is put
+    on a uniform grid, which takes it whole: it is then read and identified as
+    :func:`identify_record` does (within ``--max-samples``), and a line says so.
+    """
+    from motorid.record_chunks import UniformGridError
+
+    try:
+        passes: Iterator[pd.DataFrame] | None = iter_record_from_args(args)
+        first = next(passes)
+        est, notes = estimator_for_record(first, args)
+        unit = (first.attrs.get("units") or {}).get("y")
+        largest = None
+        if unit != "rad/s":
+            largest = max(
+                float(np.max(np.abs(block["y"].to_numpy()))) for block in iter_record_from_args(args)
+            )
+        _, threshold, _ = output_band(unit, args.low_speed_rpm, largest)
+
+        def blocks() -> Iterator[tuple[np.ndarray, np.ndarray]]:
+            nonlocal passes
+            source = iter_record_from_args(args) if passes is None else itertools.chain([first], passes)
+            passes = None
+            for block in source:
+                yield block["u"].to_numpy(), block["y"].to_numpy()
+
+        return identify_blocks(blocks, args, est, notes, unit, threshold)
+    except UniformGridError as exc:
+        say(f"{exc}: identify reads it whole (--max-samples {args.max_samples})")
+        return identify_record(read_record_from_args(args), args)
 
 
 def validate_on_record(est: Any, record: pd.DataFrame, args: argparse.Namespace) -> dict[str, Any]:
@@ -215,21 +409,30 @@ def cmd_identify(args: argparse.Namespace) -> int:
     """Identify one estimator on a record; report params, MSE, FIT and residual tests."""
     from motorid.validation import RPM_PER_RAD_S
 
-    record = read_record_from_args(args)
-    estimator_for_record(record, args)  # a bad estimator option or model stops before the folder is made
+    in_blocks = runs_in_blocks(create_estimator(args.estimator, args))
+    record = None if in_blocks else read_record_from_args(args)
+    if record is not None:
+        estimator_for_record(record, args)  # a bad estimator option or model stops before the folder is made
+    else:
+        start_model_from_args(args)  # --model with an RLS estimator is refused before anything is read
     validation_record = None
     if args.validate is not None:
         # the same record options (columns, dt, units) as the record the model is identified on
         validation_record = read_record_from_args(argparse.Namespace(**{**vars(args), "data": args.validate}))
-    if args.out:
+    if args.out and (record is not None or args.out.exists()):  # else made once the record has passed
         check_out_folder(args.out)
         hold_out_folder(args, args.out)
     if args.save_model:
         check_out_file(args.save_model, args.overwrite, "--save-model")
-    payload, tests, est = identify_record(record, args)
+    payload, tests, est = identify_file_in_blocks(args) if record is None else identify_record(record, args)
+    if args.out and getattr(args, "out_lock", None) is None:
+        check_out_folder(args.out)
+        hold_out_folder(args, args.out)
     diverged = payload["free_run_diverges_from_sample"]
-    unit, _, band = low_speed_band(record, args.low_speed_rpm)
-    say(f"{args.estimator} on {args.data} ({len(record)} samples)")
+    unit = payload["output_unit"]
+    threshold = payload["low_speed_threshold_rad_s" if unit == "rad/s" else "low_speed_threshold"]
+    band = band_words(unit, threshold, args.low_speed_rpm)
+    say(f"{args.estimator} on {args.data} ({payload['samples']} samples)")
     for note in payload["notes"]:
         say(f"  note: {note}")
     say_params("", payload["params"])
@@ -246,6 +449,9 @@ def cmd_identify(args: argparse.Namespace) -> int:
     if diverged is not None:
         say(f"  free_run  diverges from sample {diverged} on: the identified model is unstable on this input, "
             "so it has no free-run score")  # fmt: skip
+    if payload["residual_tests_samples"] < payload["samples"] - args.skip:
+        say(f"  residual tests on the last {payload['residual_tests_samples']} samples of the record "
+            "(a bounded window: a record read in blocks is not held whole)")  # fmt: skip
     for test in tests:
         say(f"  residual test {test.formula:<22} {'pass' if test.passed else 'FAIL'}")
     validation = None
@@ -342,7 +548,9 @@ def add_identify_options(parser: argparse.ArgumentParser) -> None:
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("identify", help="identify an estimator on a record")
-    add_record_input(p)
+    add_record_input(p, "with --estimator friction-ekf or friction-ukf, which hold the record whole: refuse a "
+                     "longer record (default: %(default)s); the RLS estimators read a record of any length "
+                     "in blocks, in memory that does not grow with it")  # fmt: skip
     add_identify_options(p)
     p.add_argument("--out", type=Path, help="folder for the residual-test figure (replaced if there)")
     add_wait(p)

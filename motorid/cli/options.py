@@ -10,7 +10,7 @@ import argparse
 import inspect
 import math
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -92,14 +92,20 @@ RECORD_FILES = (
 )
 
 
-def add_record_input(parser: argparse.ArgumentParser) -> None:
-    """The record a command reads: file, columns, sample time, size limit."""
+#: What --max-samples does in a command that holds its record whole.
+MAX_SAMPLES_HELP = "refuse a longer record (default: %(default)s); decimate a longer one first"
+
+
+def add_record_input(parser: argparse.ArgumentParser, max_samples_help: str = MAX_SAMPLES_HELP) -> None:
+    """The record a command reads: file, columns, sample time, size limit (what the limit does in
+    this command: ``max_samples_help``)."""
     parser.add_argument("data", type=Path, help=f"record file ({RECORD_FILES})")
-    add_record_columns(parser)
+    add_record_columns(parser, max_samples_help)
 
 
-def add_record_columns(parser: argparse.ArgumentParser) -> None:
-    """How a record is read: columns, time, separator, units, size limit (:class:`motorid.records.RecordOptions`)."""
+def add_record_columns(parser: argparse.ArgumentParser, max_samples_help: str = MAX_SAMPLES_HELP) -> None:
+    """How a record is read: columns, time, separator, units, size limit (:class:`motorid.records.RecordOptions`;
+    what the limit does in this command: ``max_samples_help``)."""
     from motorid.units import TIME_UNITS
 
     group = parser.add_argument_group("record")
@@ -133,8 +139,7 @@ def add_record_columns(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--supply-voltage", type=positive, metavar="V",
                        help="supply voltage of a PWM drive [V]: --input-unit %% or counts becomes volts")  # fmt: skip
     group.add_argument(
-        "--max-samples", type=number(int, low=1), default=2_000_000,
-        help="refuse a longer record (default: 2000000); decimate a longer one first",
+        "--max-samples", type=number(int, low=1), default=2_000_000, help=max_samples_help,
     )  # fmt: skip
 
 
@@ -163,6 +168,25 @@ def read_record_from_args(args: argparse.Namespace, min_samples: int = 20) -> pd
     )  # fmt: skip
 
 
+def iter_record_from_args(
+    args: argparse.Namespace, chunk_rows: int | None = None, min_samples: int = 20
+) -> Iterator[pd.DataFrame]:
+    """The record of :func:`read_record_from_args` in consecutive blocks of ``chunk_rows`` rows
+    (default :data:`motorid.record_chunks.CHUNK_ROWS`), each read, checked and converted as the
+    whole record is, with the same options (:func:`motorid.record_chunks.iter_record`);
+    ``--max-samples`` does not apply, since memory does not grow with the record. A record whose
+    time stamps jitter raises :class:`motorid.record_chunks.UniformGridError` (it is resampled
+    whole: :func:`read_record_from_args`)."""
+    from motorid.record_chunks import CHUNK_ROWS, iter_record
+
+    return iter_record(
+        args.data, dt=args.dt, min_samples=min_samples, chunk_rows=chunk_rows or CHUNK_ROWS,
+        time=args.time, input=args.input, output=args.output, time_unit=args.time_unit,
+        input_unit=args.input_unit, output_unit=args.output_unit, supply_voltage=args.supply_voltage,
+        input_full_scale=args.input_full_scale, resample=args.resample, sep=args.sep, decimal=args.decimal,
+    )  # fmt: skip
+
+
 def low_speed_band(record: pd.DataFrame, low_speed_rpm: float) -> tuple[str | None, float, str]:
     """The output's unit (None when the record names none), the low-speed threshold, and words for it.
 
@@ -174,19 +198,35 @@ def low_speed_band(record: pd.DataFrame, low_speed_rpm: float) -> tuple[str | No
     """
     unit = (record.attrs.get("units") or {}).get("y")
     y = record["y"].to_numpy()
-    if unit in ("rad", "m"):
-        speed, name, speed_unit = np.gradient(y, float(record.attrs["dt"])), "|dy/dt|", f"{unit}/s"
+    if unit in ("rad", "m"):  # positions: the band is on their speed
+        speed = np.gradient(y, float(record.attrs["dt"]))
+        _, threshold, words = output_band(f"{unit}/s", low_speed_rpm, float(np.max(np.abs(speed))), "|dy/dt|")
+        return unit, threshold, words
+    largest = None if unit == "rad/s" else float(np.max(np.abs(y)))
+    return output_band(unit, low_speed_rpm, largest)
+
+
+def output_band(
+    unit: str | None, low_speed_rpm: float, largest_output: float | None, name: str = "|y|"
+) -> tuple[str | None, float, str]:
+    """:func:`low_speed_band` of a record whose output (its speed, ``name``) is in ``unit`` and whose
+    largest magnitude is ``largest_output`` (needed when ``unit`` is not rad/s): a record read in
+    blocks gives the two without being held whole."""
+    if unit == "rad/s":
+        threshold = low_speed_rpm * 2.0 * math.pi / 60.0
     else:
-        speed, name, speed_unit = y, "|y|", unit
-    if speed_unit == "rad/s":
-        return unit, low_speed_rpm * 2.0 * math.pi / 60.0, f"{name} < {low_speed_rpm:g} rpm"
-    threshold = 0.1 * float(np.max(np.abs(speed)))
-    label = speed_unit or "output units"
-    return (
-        unit,
-        threshold,
-        f"{name} < {threshold:.4g} {label} (10 % of its max: --low-speed-rpm needs a speed in rad/s)",
-    )
+        if largest_output is None:
+            raise ValueError(f"an output in {unit or 'output units'} needs its largest magnitude")
+        threshold = 0.1 * largest_output
+    return unit, threshold, band_words(unit, threshold, low_speed_rpm, name)
+
+
+def band_words(unit: str | None, threshold: float, low_speed_rpm: float, name: str = "|y|") -> str:
+    """The low-speed band of :func:`low_speed_band` in words (``name``: what it is judged on)."""
+    if unit == "rad/s":
+        return f"{name} < {low_speed_rpm:g} rpm"
+    label = unit or "output units"
+    return f"{name} < {threshold:.4g} {label} (10 % of its max: --low-speed-rpm needs a speed in rad/s)"
 
 
 def add_trim_options(parser: argparse.ArgumentParser) -> None:

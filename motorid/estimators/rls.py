@@ -297,13 +297,16 @@ def rls_batch(
 
 
 @njit(cache=True)
-def free_run(G: np.ndarray, theta: np.ndarray, na: int, n_lags: int, k0: int) -> np.ndarray:
-    """Free-run output of the lagged regression from rest: y(t) = phi(t)^T theta with
-    phi built from the model's own past outputs."""
+def free_run(G: np.ndarray, theta: np.ndarray, y_hist: np.ndarray, g_hist: np.ndarray, k0: int) -> np.ndarray:
+    """Free-run output of the lagged regression: y(t) = phi(t)^T theta with phi built
+    from the model's own past outputs.
+
+    ``y_hist`` (na) and ``g_hist`` (nb + 1 lags, one column per basis function) hold
+    the past outputs and basis values before ``G[0]`` (zeros: from rest) and are
+    advanced in place, so consecutive blocks of an input continue one free run.
+    """
     N = G.shape[0]
     y = np.empty(N)
-    y_hist = np.zeros(na)
-    g_hist = np.zeros((n_lags, G.shape[1]))
     phi = np.empty(theta.shape[0])
     for t in range(N):
         _push_row(g_hist, G[t])
@@ -596,12 +599,7 @@ class LaggedRegressionRLS(Estimator):
         ``y(t) = -sum_i a_i y(t-i) + sum_j sum_k s_jk g_j(u(t-k))`` with the model's
         own past outputs (never the measured ones).
         """
-        u_arr = as_float_vector(u, "u")
-        bad = first_bad_index(u_arr)
-        if bad is not None:
-            raise ValueError(f"u[{bad}] = {u_arr[bad]} is not finite: the input must be finite")
-        G = self.basis.evaluate(u_arr)
-        return free_run(G, self.simulation_theta(), self.na, self.nb + 1, self.k0)
+        return FreeRun(self)(u)
 
     @property
     def a(self) -> np.ndarray:
@@ -621,3 +619,41 @@ class LaggedRegressionRLS(Estimator):
             f"delta={self.delta}, direct_term={self.direct_term}, max_trace={self.max_trace}, R={self.R})"
         )
         return head + "\n" + super().__repr__()
+
+
+class FreeRun:
+    """The free run of an identified lagged regression (:meth:`LaggedRegressionRLS.simulate`),
+    over an input given in consecutive blocks.
+
+    Calling it on ``u1``, then on ``u2``, gives ``estimator.simulate(concatenate((u1, u2)))``
+    bit for bit: the model's past outputs and basis values are carried from one block to the
+    next (one kernel, :func:`free_run`). The model is the estimator's when the free run is made
+    (:meth:`LaggedRegressionRLS.simulation_theta`), starting from rest.
+
+    Parameters
+    ----------
+    estimator : LaggedRegressionRLS
+        The identified model.
+    """
+
+    def __init__(self, estimator: LaggedRegressionRLS):
+        self.basis = estimator.basis
+        self.theta = np.array(estimator.simulation_theta(), dtype=float)
+        self.k0 = estimator.k0
+        self.y_history = np.zeros(estimator.na)
+        self.g_history = np.zeros((estimator.nb + 1, len(estimator.basis)))
+        #: Samples simulated so far (the index of the next block's first sample).
+        self.sample_index = 0
+
+    def __call__(self, u: ArrayLike) -> np.ndarray:
+        """The free-run output [output unit] over the next block ``u`` [V] of the input."""
+        u_arr = as_float_vector(u, "u")
+        bad = first_bad_index(u_arr)
+        if bad is not None:
+            raise ValueError(
+                f"u[{self.sample_index + bad}] = {u_arr[bad]} is not finite: the input must be finite"
+            )
+        G = self.basis.evaluate(u_arr, start=self.sample_index)
+        y = free_run(G, self.theta, self.y_history, self.g_history, self.k0)
+        self.sample_index += len(u_arr)
+        return y

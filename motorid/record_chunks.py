@@ -1,0 +1,401 @@
+"""Records read in blocks of rows, so that a record of any length is worked on in bounded memory.
+
+:func:`iter_record` reads what :func:`motorid.records.read_record` reads, with the
+same options (:class:`motorid.records.RecordOptions`, ``sep`` and ``decimal``), the
+same checks and the same numbers, but yields the record as consecutive blocks of
+``chunk_rows`` rows instead of returning it whole: a CSV through pandas' C parser
+in chunks (its layout, separator and decimal mark found once, from its header and
+first lines: :func:`motorid.records.csv_layout`), Parquet in batches across its
+row groups, HDF5 by slices of its datasets. Memory is then a few blocks, whatever
+the length of the record: an hour at 1 kHz (3.6 M rows) or a day (86.4 M).
+MATLAB and TDMS files are read whole and handed out in blocks (their formats
+hold a column in one piece).
+
+Each block is checked and converted as :func:`~motorid.records.read_record` checks
+and converts a record, with the errors naming the row in the whole record (and its
+line in a CSV): a non-numeric, NaN or infinite cell, a row with more fields than
+the header, a time column that goes backwards, has a gap or is not uniformly
+sampled (within a block or across two), a duty beyond 100 %. The time unit, its
+origin and the sample time come from the first block (the one asked for, the one
+the file says or, when neither, the median step of the first block; the
+whole-record read takes the median over all steps: on a uniformly sampled record
+both are within ``dt_rtol`` of each other).
+
+A record whose time stamps jitter (or, with ``resample``, have gaps) is put on a
+uniform grid by the whole-record read; that takes the record whole, so
+:func:`iter_record` refuses it with :class:`UniformGridError`, naming the row,
+and a caller that can hold the record reads it with ``read_record`` instead
+(``motorid identify`` does, within ``--max-samples``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from motorid.errors import DataError
+from motorid.records import (
+    HDF5_ERRORS,
+    REQUIRED_COLUMNS,
+    CsvLayout,
+    RecordOptions,
+    _column_chooser,
+    _hdf5_file,
+    _parquet_file,
+    _read_binary,
+    _reason,
+    _regular_file,
+    _samples,
+    binary_column,
+    check_dialect,
+    check_increasing,
+    csv_data_options,
+    csv_layout,
+    named_attrs,
+    raise_bad_cell,
+    record_format,
+    row_place,
+    steps_off_grid,
+    time_base,
+    untimed_dt,
+)
+
+#: Rows per block by default: 65,536 rows of three float64 columns are 1.5 MB, and what an
+#: estimator's ``batch_filter`` returns per block (estimate and covariance diagonal per sample,
+#: 19 parameters) 20 MB.
+CHUNK_ROWS = 1 << 16
+
+# A source of blocks: a generator that yields the record's attrs, then the line number of a CSV's
+# header (None in the other formats), then each block as {canonical name: array} (a time column
+# of integers as int64, the rest float64).
+Blocks = Iterator[Any]
+
+
+class UniformGridError(DataError):
+    """The time stamps of a record read in blocks jitter (or have gaps, with ``resample``): the
+    record is put on a uniform grid by :func:`motorid.records.read_record`, which reads it whole."""
+
+
+def iter_record(
+    path: str | os.PathLike[str],
+    dt: float | None = None,
+    columns: Sequence[str] | Mapping[str, str] | None = None,
+    min_samples: int = 2,
+    dt_rtol: float = 1e-3,
+    *,
+    time: str | None = None,
+    input: str | None = None,
+    output: str | None = None,
+    time_unit: str | None = None,
+    input_unit: str | None = None,
+    output_unit: str | None = None,
+    supply_voltage: float | None = None,
+    input_full_scale: float | None = None,
+    resample: bool = False,
+    sep: str | None = None,
+    decimal: str | None = None,
+    chunk_rows: int = CHUNK_ROWS,
+) -> Iterator[pd.DataFrame]:
+    """The record of :func:`motorid.records.read_record`, as consecutive blocks of rows.
+
+    Parameters
+    ----------
+    path, dt, columns, min_samples, dt_rtol, time, input, output, time_unit, input_unit, output_unit, supply_voltage, input_full_scale, resample, sep, decimal
+        As for :func:`~motorid.records.read_record`. Only the record's columns
+        are read (its ``other_columns=False``); there is no ``max_samples``,
+        since memory does not grow with the record.
+    chunk_rows : int
+        Rows per block (the last one may be shorter), >= ``max(2, min_samples)``.
+
+    Yields
+    ------
+    pandas.DataFrame
+        One block: float64 columns ``t`` [s, from 0], ``u``, ``y`` in motorid's
+        units, the index the rows' numbers in the whole record (0-based),
+        ``attrs`` as the whole record's (``dt`` set). Concatenated, the blocks
+        equal the record :func:`~motorid.records.read_record` returns, bit for bit.
+
+    Raises
+    ------
+    DataError
+        As :func:`~motorid.records.read_record`, naming the row in the whole
+        record; an error in a later block is raised when that block is reached.
+    UniformGridError
+        (a DataError) The time stamps jitter, or have gaps and ``resample`` is
+        set: ``read_record`` puts such a record on a uniform grid, whole.
+    """
+    if not isinstance(min_samples, int) or min_samples < 1:
+        raise ValueError(f"min_samples must be an integer >= 1, got {min_samples!r}")
+    if not isinstance(chunk_rows, int) or chunk_rows < max(2, min_samples):
+        raise ValueError(f"chunk_rows must be an integer >= max(2, min_samples), got {chunk_rows!r}")
+    options = RecordOptions(
+        time=time, input=input, output=output, dt=dt, time_unit=time_unit, input_unit=input_unit,
+        output_unit=output_unit, supply_voltage=supply_voltage, input_full_scale=input_full_scale,
+        resample=resample, dt_rtol=dt_rtol,
+    )  # fmt: skip
+    check_dialect(sep, decimal)
+    name = os.fspath(path)
+    mapping = options.column_map(columns)
+    optional = {"t"} if options.time_optional(columns) else set()
+    kind = record_format(name)
+    if kind == "CSV":
+        source = _csv_blocks(name, mapping, optional, chunk_rows, sep, decimal)
+    else:
+        readers = {"Parquet": _parquet_blocks, "HDF5": _hdf5_blocks}
+        source = readers.get(kind, _whole_blocks)(name, kind, mapping, optional, chunk_rows)
+    with contextlib.closing(source) as blocks:
+        attrs = dict(next(blocks))
+        where = row_place(name, next(blocks))
+        names = {canonical: mapping[canonical] for canonical in REQUIRED_COLUMNS if canonical in mapping}
+        named_attrs(name, attrs, options, names)
+        clock = _BlockClock(name, attrs, where, options, names)
+        first_row = 0
+        for block in _exact_blocks(blocks, chunk_rows):
+            rows = len(next(iter(block.values())))
+            if first_row == 0 and rows < min_samples:
+                plural = "" if rows == 1 else "s"
+                raise DataError(f"{name} has {rows} sample{plural}; at least {min_samples} are needed")
+            times = clock.seconds(block.get("t"), first_row, rows)
+            block = {**block, "t": times} if "t" in block else {"t": times, **block}  # the whole read's order
+            chunk = pd.DataFrame(block, index=pd.RangeIndex(first_row, first_row + rows))
+            chunk.attrs = dict(attrs)
+            yield _converted(
+                chunk, options, lambda row, start=first_row: where(start + row), names.get("u", "u")
+            )
+            first_row += rows
+
+
+class _BlockClock:
+    """The time column of a record read in blocks, in s from 0: the unit, origin and sample time
+    from the first block (:func:`motorid.records.time_base`, which also sets ``attrs``), each
+    later block checked against them and across the boundary with the block before."""
+
+    def __init__(
+        self, name: str, attrs: dict[str, Any], where: Callable[[int], str], options: RecordOptions,
+        names: dict[str, str],
+    ) -> None:  # fmt: skip
+        self.name, self.attrs, self.where, self.options = name, attrs, where, options
+        self.names = names
+        self.column = names.get("t", "t")
+        self.origin: Any = None
+        self.scale = self.dt = 1.0
+        self.last_raw: Any = None
+        self.last_t = 0.0
+
+    def seconds(self, raw: np.ndarray | None, first_row: int, rows: int) -> np.ndarray:
+        """The times [s] of the block of ``rows`` rows from ``first_row`` (``raw``: its stamps, None
+        when the record has no time column); a DataError naming the row of a bad stamp."""
+        if raw is None:
+            if first_row == 0:
+                self.dt = untimed_dt(self.name, self.attrs, self.options, self.names)
+                self.attrs.setdefault("units", {})["t"] = "s"
+            return np.arange(first_row, first_row + rows) * self.dt  # as the whole read: same bits
+        if self.origin is None:
+            t, self.dt, self.scale = time_base(
+                self.name, raw, self.attrs, self.where, self.options, self.column
+            )
+            self.origin = raw[0]
+            steps, where = np.diff(t), self.where
+        else:  # with the last stamp of the block before, whose row is first_row - 1
+            where = lambda row, start=first_row - 1: self.where(start + row)  # noqa: E731
+            check_increasing(np.concatenate(([self.last_raw], raw)), where, self.column)
+            t = (raw - self.origin).astype(np.float64) * self.scale  # as the whole read: same bits
+            steps = np.diff(np.concatenate(([self.last_t], t)))
+        off_grid = steps_off_grid(steps, self.dt, where, self.options, self.column)
+        if off_grid is not None:
+            row = int(np.argmax(off_grid[0] > self.options.dt_rtol * self.dt)) + 1
+            raise UniformGridError(
+                f"{self.name}: the time stamps of column {self.column!r} are off the uniform {self.dt:.6g} s grid "
+                f"from {where(row)} on: such a record is put on a uniform grid, which reads it whole "
+                "(read_record), not in blocks"
+            )
+        self.last_raw, self.last_t = raw[-1], float(t[-1])
+        return t
+
+
+def _converted(
+    chunk: pd.DataFrame, options: RecordOptions, where: Callable[[int], str], column: str
+) -> pd.DataFrame:
+    """A block in motorid's units, as :func:`motorid.units.convert_record` converts a whole record."""
+    from motorid.units import convert_record
+
+    return convert_record(
+        chunk, options.input_unit, options.output_unit, options.supply_voltage,
+        input_full_scale=options.input_full_scale, where=where, column=column,
+    )  # fmt: skip
+
+
+def _exact_blocks(
+    blocks: Iterator[dict[str, np.ndarray]], chunk_rows: int
+) -> Iterator[dict[str, np.ndarray]]:
+    """The rows of ``blocks`` regrouped into blocks of exactly ``chunk_rows`` rows (the last one
+    shorter); a block that already has that many passes through uncopied."""
+    pending: list[dict[str, np.ndarray]] = []
+    held = 0
+    for block in blocks:
+        rows = len(next(iter(block.values())))
+        start = 0
+        while start < rows:
+            take = min(rows - start, chunk_rows - held)
+            pending.append(
+                block
+                if (start, take) == (0, rows)
+                else {k: v[start : start + take] for k, v in block.items()}
+            )
+            held += take
+            start += take
+            if held == chunk_rows:
+                yield _joined(pending)
+                pending, held = [], 0
+    if held:
+        yield _joined(pending)
+
+
+def _joined(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    if len(parts) == 1:
+        return parts[0]
+    return {key: np.concatenate([part[key] for part in parts]) for key in parts[0]}
+
+
+def _csv_blocks(
+    name: str,
+    mapping: dict[str, str],
+    optional: set[str],
+    chunk_rows: int,
+    sep: str | None,
+    decimal: str | None,
+) -> Blocks:
+    """A CSV record by pandas' C parser in chunks, with the whole-record read's layout and options; a
+    chunk that does not parse as finite numbers is named by :func:`~motorid.records.raise_bad_cell`.
+
+    A time column whose first lines are integers is read as int64, exactly, as the whole read
+    reads it; should a later chunk hold a fraction there, the rest is read as float64 (the whole
+    read then reads the column as float64: the same numbers below 2**53).
+    """
+    layout = csv_layout(name, mapping, optional, sep, decimal)
+    yield layout.attrs
+    yield layout.skip + 1
+    names = [column for column in layout.present if column in mapping.values()]
+    canonical = {column: key for key, column in mapping.items()}
+    integers = list(layout.integers)
+    rows_read = 0
+    reader = _csv_reader(name, layout, names, integers, chunk_rows, rows_read)
+    try:
+        while True:
+            try:
+                data = next(reader)
+            except StopIteration:
+                return
+            except (ValueError, OverflowError):  # a cell that is not a number, or a fraction in an int column
+                if not integers:
+                    raise_bad_cell(name, layout.skip, names, layout.sep, layout.decimal)
+                integers = []  # this chunk again, as floats: a bad cell is then named above
+                reader.close()
+                reader = _csv_reader(name, layout, names, integers, chunk_rows, rows_read)
+                continue
+            arrays = {canonical[c]: data[c].to_numpy() for c in names}
+            if not all(np.isfinite(values).all() for values in arrays.values()):
+                raise_bad_cell(name, layout.skip, names, layout.sep, layout.decimal)
+            rows_read += len(data)
+            yield arrays
+    finally:
+        reader.close()
+
+
+def _csv_reader(
+    name: str, layout: CsvLayout, names: list[str], integers: list[str], chunk_rows: int, start: int
+) -> Any:
+    """pandas' chunked reader of the columns ``names`` of a CSV record from data row ``start`` on."""
+    options = csv_data_options(layout.skip, names, layout.sep, layout.decimal)
+    if start:  # the header is skipped with the rows read before: the columns are named
+        options.update(skiprows=layout.skip + 1 + start, header=None, names=layout.present)
+    dtypes = {column: np.int64 if column in integers else np.float64 for column in names}
+    return pd.read_csv(name, dtype=dtypes, chunksize=chunk_rows, **options)
+
+
+def _parquet_blocks(
+    name: str, kind: str, mapping: dict[str, str], optional: set[str], chunk_rows: int
+) -> Blocks:
+    """A Parquet record in batches of at most ``chunk_rows`` rows (pyarrow reads them across row groups)."""
+    import pyarrow as pa
+
+    if _regular_file(name) == 0:
+        raise DataError(f"{name} is empty")
+    parquet, attrs = _parquet_file(name)
+    with parquet:
+        found: dict[str, str] = {}
+        rows = parquet.metadata.num_rows
+        chosen = _column_chooser(name, mapping, False, None, found, optional)(
+            {column: (rows,) for column in parquet.schema_arrow.names}
+        )
+        yield attrs
+        yield None
+        first_row = 0
+        batches = parquet.iter_batches(batch_size=chunk_rows, columns=chosen)
+        while True:
+            try:
+                batch = next(batches, None)
+            except (pa.ArrowException, OSError) as exc:  # a corrupt page or a cut file
+                raise DataError(
+                    f"{name}: its Parquet data cannot be read (corrupt or cut?): {_reason(exc)}"
+                ) from None
+            if batch is None:
+                return
+            yield {
+                found[key]: binary_column(
+                    name, key, batch.column(key).to_numpy(zero_copy_only=False), found[key] == "t", first_row
+                )
+                for key in chosen
+            }
+            first_row += batch.num_rows
+
+
+def _hdf5_blocks(
+    name: str, kind: str, mapping: dict[str, str], optional: set[str], chunk_rows: int
+) -> Blocks:
+    """An HDF5 record by slices of ``chunk_rows`` samples of its datasets."""
+    if _regular_file(name) == 0:
+        raise DataError(f"{name} is empty")
+    handle, shapes, attrs = _hdf5_file(name)
+    with handle:
+        found: dict[str, str] = {}
+        chosen = _column_chooser(name, mapping, False, None, found, optional)(shapes)
+        yield attrs
+        yield None
+        rows = _samples(shapes[chosen[0]]) or 0
+        for first_row in range(0, rows, chunk_rows):
+            block = {}
+            for key in chosen:
+                shape = shapes[key]
+                axis = next((i for i, n in enumerate(shape) if n > 1), 0)  # the one axis along the samples
+                where = tuple(
+                    slice(first_row, first_row + chunk_rows) if i == axis else 0 for i in range(len(shape))
+                )
+                try:
+                    values = np.asarray(handle[key][where]).reshape(-1)
+                except HDF5_ERRORS as exc:
+                    raise DataError(
+                        f"{name}: its HDF5 data cannot be read (corrupt?): {_reason(exc)}"
+                    ) from None
+                block[found[key]] = binary_column(name, key, values, found[key] == "t", first_row)
+            yield block
+
+
+def _whole_blocks(
+    name: str, kind: str, mapping: dict[str, str], optional: set[str], chunk_rows: int
+) -> Blocks:
+    """A MATLAB or TDMS record read whole (its format holds a column in one piece), in blocks."""
+    record, attrs = _read_binary(name, kind, mapping, False, None, optional)
+    yield attrs
+    yield None
+    arrays = {column: record[column].to_numpy() for column in record.columns}
+    for first_row in range(0, len(record), chunk_rows):
+        yield {column: values[first_row : first_row + chunk_rows] for column, values in arrays.items()}
+
+
+__all__ = ["CHUNK_ROWS", "UniformGridError", "iter_record"]
