@@ -1234,7 +1234,7 @@ def diagnose(
         # only the columns the doctor reads are brought over (a simulated record's true states stay behind)
         part = r
         if isinstance(r, pd.DataFrame):
-            named = [c for c in (time or "t", input, output) if c in r.columns]
+            named = [c for c in (time or "t", columns["input"], columns["output"]) if c in r.columns]
             if len(named) == 3 or (len(named) == 2 and time is None):
                 part = r[named]
                 part.attrs = dict(r.attrs)
