@@ -66,10 +66,12 @@ print(rig_map_toml())
 # `port=0` lets the operating system pick a free port. The server runs in a background
 # thread of this kernel (the command line runs the same class in the foreground). Its
 # watchdog forces 0 V and latches a fault when the client's heartbeat stalls for more than
-# 3 sample periods.
+# `watchdog_periods` sample periods (3 by default, as `motorid rig serve`). Here the client
+# shares this kernel's Python with the server's thread, so a busy machine can pause it for
+# longer than 3 periods of 40 ms: the watchdog is given 10 (0.4 s).
 
 # %%
-server = RigServer(port=0, seed=0).start()
+server = RigServer(port=0, seed=0, watchdog_periods=10).start()
 print(server, "->", server.url)
 
 # %% [markdown]
