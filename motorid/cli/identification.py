@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import itertools
+import logging
 from collections.abc import Callable, Iterable, Iterator
 from pathlib import Path
 from typing import Any
@@ -34,6 +35,8 @@ from .options import (
     read_record_from_args,
 )
 from .report import emit_json, frame_records, say, say_params, show_progress
+
+logger = logging.getLogger(__name__)
 
 
 def require_finite_estimate(
@@ -336,7 +339,8 @@ def identify_file_in_blocks(args: argparse.Namespace) -> tuple[dict[str, Any], l
     an output in another unit than rad/s takes one more pass, for its largest magnitude (the
     low-speed band, :func:`.options.low_speed_band`). A record whose time stamps jitter is put
     on a uniform grid, which takes it whole: it is then read and identified as
-    :func:`identify_record` does (within ``--max-samples``), and a line says so.
+    :func:`identify_record` does (within ``--max-samples``); the reader's one line says how
+    the stamps were resampled, and ``-v`` logs why the record is held whole.
     """
     from motorid.record_chunks import UniformGridError
 
@@ -361,7 +365,7 @@ def identify_file_in_blocks(args: argparse.Namespace) -> tuple[dict[str, Any], l
 
         return identify_blocks(blocks, args, est, notes, unit, threshold)
     except UniformGridError as exc:
-        say(f"{exc}: identify reads it whole (--max-samples {args.max_samples})")
+        logger.info("%s: identify reads it whole (--max-samples %d)", exc, args.max_samples)
         return identify_record(read_record_from_args(args), args)
 
 
