@@ -436,3 +436,24 @@ def test_drive_ids_from_attrs_never_leave_the_out_folder(fleet_folder, address, 
     assert main(["fleet", "trend", str(out)]) == 0
     trend_figures = list((out / "trend").glob("*.png"))
     assert len(trend_figures) == len(set(rows["drive"])) == 4
+
+
+def test_trend_and_generate_refuse_a_folder_another_run_holds(tmp_path, capsys):
+    """fleet trend reads a results folder only when no run writes it; fleet generate writes its
+    records only into a folder no other run holds (one line naming the holder, exit 2)."""
+    out = tmp_path / "held"
+    out.mkdir()
+    holder = lock_holder(out)
+    try:
+        for argv, option in ((["fleet", "trend", str(out)], "results"),
+                             (["fleet", "generate", "--out", str(out), "--drives", "1", "--days", "1"], "--out")):  # fmt: skip
+            assert main(argv) == 2
+            err = capsys.readouterr().err.strip().splitlines()
+            assert (
+                len(err) == 1
+                and f"{option} {out}: another run writes this folder: process {holder.pid}" in err[0]
+            )
+        assert sorted(p.name for p in out.iterdir()) == [".motorid.lock"]  # nothing written
+    finally:
+        holder.kill()
+        holder.wait(30)

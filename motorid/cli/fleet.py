@@ -164,6 +164,7 @@ def cmd_fleet_trend(args: argparse.Namespace) -> int:
     from motorid.fleet.trend import flag_drives, friction_trends, plot_trends
     from motorid.outputs import write_file
 
+    hold_out_folder(args, args.results, "results")  # no run writes its rows while they are read
     results = load_results(args.results)
     trends = friction_trends(results)
     flags = flag_drives(trends, results, threshold=args.threshold, window_days=args.window)
@@ -195,6 +196,7 @@ def cmd_fleet_generate(args: argparse.Namespace) -> int:
     from motorid.plants.fleet import make_fleet, write_fleet
 
     check_out_folder(args.out)
+    hold_out_folder(args, args.out)
     wearing = tuple(i for i in (1, 2) if i < args.drives)
     drives = make_fleet(args.drives, seed=args.seed, wearing=wearing, friction_growth=args.friction_growth,
                         dead_zone_drive=3 if args.drives > 3 else None, dead_zone_day=args.dead_zone_day)  # fmt: skip
@@ -257,6 +259,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--window", type=positive, default=30.0,
                    help="the rise is measured over each drive's last WINDOW days (default: 30)")  # fmt: skip
     p.add_argument("--out", type=Path, help="folder for the figures and flags.csv (default: RESULTS/trend)")
+    add_wait(p)
     add_json(p)
     p.set_defaults(func=cmd_fleet_trend)
 
@@ -270,5 +273,6 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--dead-zone-day", type=number(int, low=0), default=5,
                    help="day drive 3 grows a 0.8 V dead zone (default: 5)")  # fmt: skip
     p.add_argument("--seed", type=number(int, low=0), default=0, help="seed of the spread and the records")
+    add_wait(p)
     add_json(p)
     p.set_defaults(func=cmd_fleet_generate)
