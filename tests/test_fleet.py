@@ -152,11 +152,9 @@ def test_a_rerun_skips_what_is_done_and_retries_failed_ones_on_request(
 
 
 def test_a_worker_killed_mid_run_loses_no_result(client, fleet_folder, tmp_path):
-    from motorid.cli import build_parser
-    from motorid.cli.fleet import RecordTask
+    from motorid.fleet.jobs import DoctorJob, ReadOptions, RecordTask
 
-    args = build_parser().parse_args(["fleet", "doctor", "x", "--out", "x", *DOCTOR])
-    task = RecordTask("doctor", args, figures=None)
+    task = RecordTask(DoctorJob(base=tuple(DOCTOR[1].split(","))), ReadOptions(), figures=None)
     paths = records(fleet_folder)
     out = tmp_path / "killed"
     pids = client.run(os.getpid)
