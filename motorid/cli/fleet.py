@@ -50,6 +50,7 @@ def identify_job_from_args(args: argparse.Namespace) -> IdentifyJob:
 
 def _run(args: argparse.Namespace, command: str) -> int:
     from motorid.fleet import FilenamePattern, find_records, run
+    from motorid.fleet.runner import check_run_kind
 
     if command == "identify":
         create_estimator(args.estimator, args)  # a bad option stops before any work
@@ -65,6 +66,7 @@ def _run(args: argparse.Namespace, command: str) -> int:
             pattern.parse(path)
     check_out_folder(args.out)
     hold_out_folder(args, args.out)
+    check_run_kind(args.out, per_drive)
     where = args.scheduler or f"a local cluster of {args.workers or os.cpu_count()} worker processes"
     say(f"motorid fleet {command}{' --per-drive' if per_drive else ''}: {len(paths)} records on {where}; "
         f"results in {args.out}/")  # fmt: skip

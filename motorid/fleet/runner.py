@@ -434,7 +434,7 @@ def run(
     held = FolderLock(out, wait=wait).acquire() if lock else None
     try:
         store = ResultsStore(out)
-        _check_one_kind(store, per_drive, out)
+        check_run_kind(store, per_drive)
         figure_folder = out.resolve() if figures else None
         if per_drive:
             task: Any = DriveTask(job, read, figure_folder)
@@ -456,8 +456,9 @@ def run(
             held.release()
 
 
-def _check_one_kind(store: ResultsStore, per_drive: bool, out: Path) -> None:
-    """Refuse a per-drive run into a folder of per-record rows, and the other way round."""
+def check_run_kind(out: str | os.PathLike[str] | ResultsStore, per_drive: bool) -> None:
+    """Refuse (DataError) a per-drive run into a folder of per-record rows, and the other way round."""
+    store = out if isinstance(out, ResultsStore) else ResultsStore(out)
     rows = store.rows()
     if not len(rows):
         return
@@ -465,7 +466,7 @@ def _check_one_kind(store: ResultsStore, per_drive: bool, out: Path) -> None:
     if per_drive_rows != per_drive:
         held, asked = ("per drive", "per record") if per_drive_rows else ("per record", "per drive")
         raise DataError(
-            f"--out {out}: holds the results of a run {held}; a run {asked} needs a folder of its own"
+            f"--out {store.folder}: holds the results of a run {held}; a run {asked} needs a folder of its own"
         )
 
 
@@ -484,6 +485,7 @@ def _saying_what_is_kept(run: FleetRun, store: ResultsStore) -> Iterator[None]:
 __all__ = [
     "FleetRun",
     "Task",
+    "check_run_kind",
     "fleet_client",
     "group_by_drive",
     "pending_drives",
