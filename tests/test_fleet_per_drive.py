@@ -182,20 +182,29 @@ def test_an_interrupted_per_drive_run_keeps_the_finished_drives_and_a_rerun_does
     assert len(rows) == 2 * (DRIVES + 1) + DRIVES * (DAYS - 1)
 
 
-def test_the_python_call_runs_identify_as_the_command_does(fleet_folder, client, tmp_path, capsys):
+def test_the_python_call_and_fleet_identify_with_a_span_equal_the_single_command(
+    fleet_folder, client, address, tmp_path, capsys
+):
     chosen = sorted(fleet_folder.glob("drive-01_*.csv"))[:2]
-    out = tmp_path / "identify"
+    options = ["--estimator", "hammerstein-rls", "--na", "2", "--nb", "2", "--degree", "3"]
+    span = ["--start", "2", "--stop", "12"]
+    from_python = tmp_path / "python"
     job = IdentifyJob(estimator="hammerstein-rls", na=2, nb=2, degree=3)
-    done = run(chosen, out, job, read=ReadOptions(start=2.0, stop=12.0), client=client, figures=False)
+    done = run(chosen, from_python, job, read=ReadOptions(start=2.0, stop=12.0), client=client, figures=False)
     assert (done.done, done.failed) == (2, 0)
-    rows = load_results(out).set_index("record")
-    for path in chosen:
-        argv = ["identify", str(path), "--estimator", "hammerstein-rls", "--na", "2", "--nb", "2", "--degree", "3",
-                "--start", "2", "--stop", "12", "--json"]  # fmt: skip
-        assert main(argv) == 0
-        expected = flatten(jsonable(json.loads(capsys.readouterr().out)))
-        expected.pop("figure"), expected.pop("model")
-        assert row_values(rows.loc[os.path.abspath(path)], expected) == expected
+    from_command = tmp_path / "command"
+    argv = ["fleet", "identify", *map(str, chosen), "--out", str(from_command), "--scheduler", address,
+            "--no-figures", *options, *span]  # fmt: skip
+    assert main(argv) == 0
+    capsys.readouterr()
+    for out in (from_python, from_command):
+        rows = load_results(out).set_index("record")
+        for path in chosen:
+            assert main(["identify", str(path), *options, *span, "--json"]) == 0
+            expected = flatten(jsonable(json.loads(capsys.readouterr().out)))
+            expected.pop("figure"), expected.pop("model")
+            assert expected["samples"] == 251  # t = 2.00 ... 12.00 s at 0.04 s
+            assert row_values(rows.loc[os.path.abspath(path)], expected) == expected
 
 
 def test_trend_on_per_drive_results_and_mixed_folders_are_refused_in_one_line(

@@ -58,6 +58,7 @@ def _run(args: argparse.Namespace, command: str) -> int:
         job: Any = identify_job_from_args(args)
     else:
         job = doctor_job_from_args(args)
+    read = read_options_from_args(args)  # a bad span stops before any work too
     per_drive = getattr(args, "per_drive", False)
     paths = find_records(args.records)
     if args.pattern:  # a bad pattern, or a file it does not fit, stops before the folder is made
@@ -70,7 +71,7 @@ def _run(args: argparse.Namespace, command: str) -> int:
     where = args.scheduler or f"a local cluster of {args.workers or os.cpu_count()} worker processes"
     say(f"motorid fleet {command}{' --per-drive' if per_drive else ''}: {len(paths)} records on {where}; "
         f"results in {args.out}/")  # fmt: skip
-    fleet_run = run(paths, args.out, job, read=read_options_from_args(args), per_drive=per_drive,
+    fleet_run = run(paths, args.out, job, read=read, per_drive=per_drive,
                     pattern=args.pattern, scheduler=args.scheduler, workers=args.workers, figures=args.figures,
                     retry_failed=args.retry_failed, lock=False, progress=show_progress())  # fmt: skip
     what = (

@@ -59,6 +59,14 @@ class ReadOptions:
     start: float | None = None
     stop: float | None = None
 
+    def __post_init__(self) -> None:
+        for key in ("start", "stop"):
+            value = getattr(self, key)
+            if value is not None and not (isinstance(value, int | float) and 0.0 <= value < float("inf")):
+                raise DataError(f"--{key} must be a time >= 0 [s], got {value!r}")
+        if self.start is not None and self.stop is not None and self.stop <= self.start:
+            raise DataError(f"--stop {self.stop:g} must be after --start {self.start:g} [s]")
+
     def read(self, path: str | os.PathLike[str], min_samples: int = 20) -> pd.DataFrame:
         """The record ``path`` with columns ``t`` [s], ``u``, ``y``, trimmed to the span."""
         from motorid.records import read_record, trim_record
