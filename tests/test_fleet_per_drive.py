@@ -129,8 +129,10 @@ def test_a_rerun_does_nothing_and_a_new_record_reruns_its_drive_only(
     job = DoctorJob(base=BASE, max_steps=1)
     first = run(folder, out, job, per_drive=True, client=client, figures=False)
     assert (first.drives, first.done, first.skipped, first.failed) == (DRIVES + 1, DRIVES + 1, 0, 0)
-    again = run(folder, out, job, per_drive=True, client=client, figures=False)
-    assert (again.done, again.skipped) == (0, DRIVES + 1)
+    # every record's drive is in the results and every drive done: no record read, no cluster reached
+    # (a scheduler address nothing listens on)
+    again = run(folder, out, job, per_drive=True, scheduler="tcp://127.0.0.1:9", figures=False)
+    assert (again.done, again.skipped, again.drives) == (0, DRIVES + 1, DRIVES + 1)
     # the Python call gives the command line's rows
     columns = [c for c in load_results(per_drive_run).columns if c not in ("run_time_s", "worker", "record")]
     got = load_results(out).drop(columns=["run_time_s", "worker"])
@@ -230,3 +232,20 @@ def test_trend_on_per_drive_results_and_mixed_folders_are_refused_in_one_line(
     assert sorted(p.name for p in (per_drive_run / "results.parquet").iterdir()) == parts
     with pytest.raises(Exception, match="per_drive: the doctor runs per drive"):
         run(fleet_folder, per_drive_run, IdentifyJob(), per_drive=True)
+
+
+def test_drives_from_a_file_name_pattern(fleet_folder, client, tmp_path):
+    """With --pattern the drive is the file name's: the records are grouped without reading them
+    first, and the drives' rows equal the attrs' grouping of the same records."""
+    chosen = sorted(fleet_folder.glob("drive-0[01]_*.csv"))
+    out = tmp_path / "pattern"
+    job = DoctorJob(base=BASE, max_steps=1)
+    done = run(
+        chosen, out, job, per_drive=True, pattern="{drive}_{date:%Y%m%d}.csv", client=client, figures=False
+    )
+    assert (done.drives, done.done, done.failed) == (2, 2, 0)
+    rows = load_results(out).set_index("record")
+    for drive in ("drive-00", "drive-01"):
+        paths = [os.path.abspath(p) for p in chosen if p.name.startswith(drive)]
+        assert rows.loc[DRIVE_KEY_PREFIX + drive, "records"] == ",".join(paths)
+        assert list(rows.loc[paths, "time"]) == sorted(rows.loc[paths, "time"])

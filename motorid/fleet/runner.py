@@ -307,6 +307,20 @@ def group_by_drive(
     return groups, unread
 
 
+def known_identities(store: ResultsStore, command: str) -> dict[str, tuple[str, str | None]]:
+    """Record path -> (drive, time) of the records of ``store`` that a per-drive run of ``command``
+    (``doctor --per-drive``) has done: a rerun need not read them again to group them."""
+    previous = store.rows()
+    if not len(previous):
+        return {}
+    ok = previous[(previous["status"] == "ok") & (previous["command"] == command)]
+    return {
+        record: (drive, when if isinstance(when, str) else None)
+        for record, drive, when in zip(ok["record"], ok["drive"], ok["time"], strict=True)
+        if not str(record).startswith(DRIVE_KEY_PREFIX)
+    }
+
+
 def run_fleet_per_drive(
     paths: Sequence[str | os.PathLike[str]],
     task: Any,
@@ -328,17 +342,7 @@ def run_fleet_per_drive(
     start = time.perf_counter()
     store = ResultsStore(out)
     command = f"{task.job.command} --per-drive"
-    previous = store.rows()
-    ok = (
-        previous[(previous["status"] == "ok") & (previous.get("command") == command)]
-        if len(previous)
-        else previous
-    )
-    known = {
-        record: (drive, when if isinstance(when, str) else None)
-        for record, drive, when in zip(ok["record"], ok["drive"], ok["time"], strict=True)
-        if not str(record).startswith(DRIVE_KEY_PREFIX)
-    }
+    known = known_identities(store, command)
     groups, unread = group_by_drive(paths, read, client, given, known)
     members = {drive: [path for path, _ in group] for drive, group in groups.items()}
     todo = pending_drives(members, store, retry_failed)
@@ -442,6 +446,14 @@ def run(
             task = RecordTask(job, read, figure_folder)
         if not per_drive and not pending_records(paths, store, retry_failed):  # every record done: no cluster
             return FleetRun(records=len(paths), skipped=len(paths), done=0, failed=0, seconds=0.0)
+        if per_drive:  # every record's drive known, every drive done: no cluster either
+            known = known_identities(store, f"{job.command} --per-drive")
+            if all(path in known or "drive" in given.get(path, {}) for path in map(os.path.abspath, paths)):
+                groups, _ = group_by_drive(paths, read, None, given, known)
+                members = {drive: [path for path, _ in group] for drive, group in groups.items()}
+                if not pending_drives(members, store, retry_failed):
+                    return FleetRun(records=len(paths), skipped=len(groups), done=0, failed=0, seconds=0.0,
+                                    drives=len(groups))  # fmt: skip
         with contextlib.ExitStack() as stack:
             if client is None:
                 client = stack.enter_context(fleet_client(scheduler, workers))
@@ -488,6 +500,7 @@ __all__ = [
     "check_run_kind",
     "fleet_client",
     "group_by_drive",
+    "known_identities",
     "pending_drives",
     "pending_records",
     "record_identity",
