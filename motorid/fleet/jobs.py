@@ -182,11 +182,20 @@ class IdentifyJob:
     command = "identify"
 
     def __post_init__(self) -> None:
+        from motorid.estimators import available
+
+        if self.estimator not in available():
+            raise DataError(
+                f"estimator: unknown estimator {self.estimator!r}; known: {', '.join(available())}"
+            )
+        if isinstance(self.param, str):
+            raise DataError(f"param must be a sequence of KEY=VALUE texts, got the text {self.param!r}")
         object.__setattr__(self, "param", tuple(self.param))
 
     def row(self, records: list[pd.DataFrame], labels: list[str], figures: Path | None) -> dict[str, Any]:
         """The ``--json`` payload of ``motorid identify`` on the one record of ``records``."""
-        # the single command's very computation, so a fleet's rows equal its output
+        # the single command's very computation, so a fleet's rows equal its output; it still lives in
+        # the command line's module (the fleet's one import of it) and reads its options by their names
         from motorid.cli.identification import identify_record, write_identify_figure
 
         (record,) = records
