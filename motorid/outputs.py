@@ -10,6 +10,7 @@
   command's figures) for as long as the run lasts.
 - :func:`safe_file_name` turns a name that comes from data (a drive id in a
   record's attrs, a file's stem) into one file name that stays in its folder.
+- :func:`jsonable`: numpy and pandas values as plain JSON, as ``--json`` and a fleet's rows write them.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from __future__ import annotations
 import errno
 import hashlib
 import logging
+import math
 import os
 import secrets
 import socket
@@ -29,7 +31,7 @@ from motorid.errors import OutputError
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["LOCK_NAME", "FolderLock", "disk_full", "safe_file_name", "write_file"]
+__all__ = ["LOCK_NAME", "FolderLock", "disk_full", "jsonable", "safe_file_name", "write_file"]
 
 #: The lock file a run keeps in the folder it writes (:class:`FolderLock`).
 LOCK_NAME = ".motorid.lock"
@@ -257,3 +259,24 @@ def safe_file_name(text: str) -> str:
     room = MAX_NAME_BYTES - len(digest) - 1
     cut = kept.encode("utf-8")[:room].decode("utf-8", "ignore").rstrip(" ")
     return f"{cut}-{digest}" if cut else digest
+
+
+def jsonable(value: Any) -> Any:
+    """numpy and pandas values as plain JSON (NaN and inf as null)."""
+    import numpy as np
+
+    if isinstance(value, dict):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return jsonable(value.tolist())
+    if isinstance(value, np.floating | float):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, Path):
+        return str(value)
+    return value

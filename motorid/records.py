@@ -1402,6 +1402,52 @@ def _on_uniform_time(
     return out
 
 
+def trim_record(
+    record: pd.DataFrame,
+    start: float | None = None,
+    stop: float | None = None,
+    source: str | os.PathLike[str] = "record",
+    min_samples: int = 2,
+) -> pd.DataFrame:
+    """The samples of ``record`` with ``start <= t <= stop`` [s], ``attrs`` kept (the command
+    line's ``--start`` and ``--stop``, which the messages name).
+
+    ``t`` is the record's time column (as :func:`read_record` gives it: from 0 at the first
+    sample), else ``k dt`` from its first sample. ``None`` leaves that end as it is.
+
+    Raises
+    ------
+    motorid.errors.DataError
+        When ``stop <= start``, or fewer than ``min_samples`` samples lie in the span;
+        the message names the option, ``source`` and the span the record covers.
+    """
+    if start is None and stop is None:
+        return record
+    if start is not None and stop is not None and stop <= start:
+        raise DataError(f"--stop {stop:g} must be after --start {start:g} [s]")
+    if "t" in record.columns:
+        t = pd.to_numeric(record["t"], errors="coerce").to_numpy(dtype=float)
+    else:
+        t = np.arange(len(record)) * float(record.attrs["dt"])
+    keep = np.ones(len(record), dtype=bool)
+    if start is not None:
+        keep &= t >= start
+    if stop is not None:
+        keep &= t <= stop
+    kept = int(keep.sum())
+    if kept < max(min_samples, 1):
+        span = " and ".join(
+            f"{option} {value:g} s"
+            for option, value in (("--start", start), ("--stop", stop))
+            if value is not None
+        )
+        what = "no sample" if kept == 0 else f"only {kept} samples (at least {min_samples} needed)"
+        raise DataError(f"{source}: {what} within {span}; the record runs from {t[0]:g} to {t[-1]:g} s")
+    trimmed = record.loc[keep].reset_index(drop=True)
+    trimmed.attrs = dict(record.attrs)
+    return trimmed
+
+
 __all__ = [
     "ATTRS_KEY",
     "ATTRS_MARKER",
@@ -1422,5 +1468,6 @@ __all__ = [
     "read_record",
     "record_format",
     "record_timing",
+    "trim_record",
     "write_record",
 ]

@@ -229,6 +229,21 @@ BAD_INPUT = [
     ("full scale without counts", "identify {d}/good.csv --input-full-scale 255", ["--input-full-scale", "counts"]),
     ("a row with an extra field", "identify {d}/extra_field.csv", ["row 5", "line 7", "4 fields", "3"]),
     ("a FIFO named like a record", "identify {d}/fifo.csv", ["fifo.csv", "FIFO"]),
+    ("--start beyond the end, identify", "identify {d}/good.csv --start 500",
+     ["good.csv", "no sample within --start 500 s", "from 0 to 19.96 s"]),
+    ("--start beyond the end, sweep", "sweep {d}/good.csv --start 20", ["good.csv", "--start 20 s", "19.96 s"]),
+    ("--start beyond the end, compare", "compare {d}/good.csv --model {d}/rig.json --start 19.9",
+     ["good.csv", "only 2 samples", "--start 19.9 s"]),
+    ("--stop before --start, identify", "identify {d}/good.csv --start 5 --stop 4", ["--stop 4", "--start 5"]),
+    ("--stop at --start, sweep", "sweep {d}/good.csv --start 3 --stop 3", ["--stop 3", "--start 3"]),
+    ("--stop before --start, compare", "compare {d}/good.csv --model {d}/rig.json --start 5 --stop 1",
+     ["--stop 1", "--start 5"]),
+    ("--stop before --start, fleet", "fleet identify {d}/good.csv --out {d}/fleet --start 5 --stop 4",
+     ["--stop 4", "--start 5"]),
+    ("--stop 0", "identify {d}/good.csv --stop 0", ["--stop", "got 0"]),
+    ("--start negative", "compare {d}/good.csv --model {d}/rig.json --start -2", ["--start", "got -2"]),
+    ("identify --validate beyond --stop", "identify {d}/good.csv --validate {d}/short.csv --start 2",
+     ["short.csv", "--start 2 s", "1.16 s"]),
 ]  # fmt: skip
 
 

@@ -16,7 +16,6 @@ from .options import (
     RECORD_FILES,
     add_json,
     add_record_columns,
-    add_trim_options,
     add_wait,
     check_out_file,
     check_out_folder,
@@ -25,12 +24,13 @@ from .options import (
     number,
     positive,
     read_record_from_args,
-    trim_record,
+    trim_from_args,
 )
 from .report import emit_json, say, show_progress
 
 if TYPE_CHECKING:
     from motorid.diagnose.workflow import Diagnosis
+    from motorid.fleet import DoctorJob
     from motorid.plants import RigidDrive
 
 
@@ -47,6 +47,22 @@ def effect_list(text: str | None, option: str) -> list[str]:
     return names
 
 
+def doctor_job_from_args(args: argparse.Namespace) -> DoctorJob:
+    """``motorid doctor``'s options as :class:`motorid.fleet.DoctorJob` (effect names checked)."""
+    from motorid.fleet import DoctorJob
+
+    base = effect_list(args.base, "--base") if args.base is not None else None
+    candidates = effect_list(args.candidates, "--candidates") if args.candidates else None
+    model = getattr(args, "model", None)
+    if model is not None and base is not None:
+        raise DataError("--base cannot be combined with --model: the model's effects are the base")
+    return DoctorJob(
+        output_kind=args.output_kind, input_gain=args.input_gain, base=base, candidates=candidates,
+        holdout=args.holdout, max_steps=args.max_steps, timing=args.timing, structure=not args.no_structure,
+        model=model,
+    )  # fmt: skip
+
+
 def doctor_record(
     record: pd.DataFrame | list[pd.DataFrame],
     args: argparse.Namespace,
@@ -56,29 +72,19 @@ def doctor_record(
     """What ``motorid doctor`` computes on a record with columns ``t``, ``u``, ``y`` (or on
     several records of one drive, fitted as one model; ``labels`` name them).
 
-    ``progress`` shows the doctor's progress bar. ``motorid fleet doctor`` calls this very
-    function on each record (without the bar), so a fleet's rows equal the single-record
-    command's ``--json`` output.
+    ``progress`` shows the doctor's progress bar. ``motorid fleet doctor`` runs the same
+    :class:`motorid.fleet.DoctorJob` on each record or drive (without the bar), so a fleet's
+    rows equal the single-record command's ``--json`` output.
     """
-    from motorid.diagnose import diagnose
-
-    base = effect_list(args.base, "--base") if args.base is not None else None
-    candidates = effect_list(args.candidates, "--candidates") if args.candidates else None
-    model_file = getattr(args, "model", None)
-    model = None if model_file is None else rigid_drive_from_file(model_file)
-    return diagnose(
-        record, dt=args.dt, input="u", output="y", output_kind=args.output_kind,
-        input_gain=args.input_gain, base=base, candidates=candidates,
-        holdout=args.holdout, max_steps=args.max_steps, progress=progress, timing=args.timing,
-        model=model, structure=not args.no_structure, labels=labels,
-    )  # fmt: skip
+    return doctor_job_from_args(args).diagnose(record, labels=labels, progress=progress)
 
 
 def read_trimmed(args: argparse.Namespace, path: Path) -> tuple[pd.DataFrame, bool]:
     """The record ``path``, read with the command's record options (a segment of a long one:
     :func:`read_record_segment`) and trimmed to --start/--stop; and whether it is a segment."""
-    record, segment = read_record_segment(argparse.Namespace(**{**vars(args), "data": path}))
-    return trim_record(record, args.start, args.stop, path), segment
+    options = argparse.Namespace(**{**vars(args), "data": path})
+    record, segment = read_record_segment(options)
+    return trim_from_args(record, options, 20), segment
 
 
 def read_record_segment(args: argparse.Namespace, min_samples: int = 20) -> tuple[pd.DataFrame, bool]:
@@ -113,16 +119,9 @@ def read_record_segment(args: argparse.Namespace, min_samples: int = 20) -> tupl
 
 def rigid_drive_from_file(path: Path) -> RigidDrive:
     """The rigid drive of the model file ``path`` (``--model``); DataError for another model."""
-    from motorid.models import load_model
-    from motorid.plants import RigidDrive
+    from motorid.fleet import DoctorJob
 
-    model = load_model(path)
-    if not isinstance(model, RigidDrive):
-        raise DataError(
-            f"--model {path}: holds a {type(model).__name__}; the doctor starts from a rigid-drive model "
-            "(a file motorid doctor --save-model wrote, or a RigidDrive saved in Python)"
-        )
-    return model
+    return DoctorJob(model=path).start_model()
 
 
 def cmd_doctor(args: argparse.Namespace) -> int:
@@ -286,7 +285,6 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                         "(shared parameters, each record its own start) and judged on the pooled evidence")  # fmt: skip
     add_record_columns(p, "work on the first this many samples of a longer record (a segment, said in the "
                        "output); the doctor's memory grows with it, 0.9 GB at the default (%(default)s)")  # fmt: skip
-    add_trim_options(p)
     add_doctor_options(p)
     p.add_argument("--out", type=Path, help="folder for the figures and the table (replaced if there)")
     add_wait(p)

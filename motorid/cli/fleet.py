@@ -1,32 +1,22 @@
 """``motorid fleet identify|doctor|trend|generate``: many records on a Dask cluster.
 
-``identify`` and ``doctor`` take the single-record commands' options and run the
-same computation on each record (:func:`.identification.identify_record`,
-:func:`.doctor.doctor_record`), one Dask task per record; their rows hold the
-single command's ``--json`` output flattened.
+``identify`` and ``doctor`` take the single-record commands' options, build the
+typed job from them (:class:`motorid.fleet.IdentifyJob`, :class:`motorid.fleet.DoctorJob`)
+and run it with :func:`motorid.fleet.run`: the same computation as the single command on
+each record, one Dask task per record (``doctor --per-drive``: per drive, on all its
+records as one model); their rows hold the single command's ``--json`` output flattened.
 """
 
 from __future__ import annotations
 
 import argparse
-import copy
 import os
-import socket
-import time
-import warnings
-from dataclasses import dataclass
+from dataclasses import fields
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from motorid.errors import DataError
-
-from .doctor import add_doctor_options, doctor_record, effect_list, read_record_segment
-from .identification import (
-    add_identify_options,
-    identify_record,
-    start_model_from_args,
-    write_identify_figure,
-)
+from .doctor import add_doctor_options, doctor_job_from_args
+from .identification import add_identify_options, start_model_from_args
 from .options import (
     RECORD_FILES,
     add_json,
@@ -38,111 +28,70 @@ from .options import (
     number,
     positive,
 )
-from .report import emit_json, frame_records, jsonable, say, say_error, show_progress
+from .report import emit_json, frame_records, say, say_error, show_progress
+
+if TYPE_CHECKING:
+    from motorid.fleet import IdentifyJob, ReadOptions
 
 
-@dataclass(frozen=True)
-class RecordTask:
-    """One record's work in a worker: read it as the single command does, compute, return its row.
+def read_options_from_args(args: argparse.Namespace) -> ReadOptions:
+    """The record options (:func:`.options.add_record_columns`) as :class:`motorid.fleet.ReadOptions`."""
+    from motorid.fleet import ReadOptions
 
-    Picklable (the parsed options travel with it). Every error of the record is caught and
-    returned as a row with ``status = "failed"`` and ``error``, so one bad record does not stop
-    the others; its warnings (a filter that diverged) are the row's ``warnings``.
-    """
+    return ReadOptions(**{f.name: getattr(args, f.name) for f in fields(ReadOptions)})
 
-    command: str  # "identify" or "doctor"
-    args: argparse.Namespace
-    figures: Path | None  # the run folder, when figures are written
 
-    def __call__(self, path: str, given: dict[str, Any]) -> dict[str, Any]:
-        from motorid.fleet.results import flatten
-        from motorid.fleet.sources import identity
-        from motorid.outputs import safe_file_name
+def identify_job_from_args(args: argparse.Namespace) -> IdentifyJob:
+    """``motorid identify``'s options as :class:`motorid.fleet.IdentifyJob`."""
+    from motorid.fleet import IdentifyJob
 
-        from .options import read_record_from_args
-
-        start = time.perf_counter()
-        drive, when = identity(path, {}, given)
-        row: dict[str, Any] = {"record": path, "drive": drive, "time": when, "command": self.command}
-        with warnings.catch_warnings(record=True) as caught:  # a worker's warnings go in the row, not stderr
-            warnings.simplefilter("always")
-            try:
-                args = copy.copy(self.args)
-                args.data = Path(path)
-                if self.command == "identify":
-                    record, segment = read_record_from_args(args), False
-                else:  # as motorid doctor reads it: a longer record's first --max-samples samples
-                    record, segment = read_record_segment(args)
-                drive, when = identity(path, record.attrs, given)
-                row.update(drive=drive, time=when)
-                # names from data are file names, never paths: everything stays under --out
-                folder = (
-                    self.figures / safe_file_name(drive) / safe_file_name(Path(path).stem)
-                    if self.figures is not None
-                    else None
-                )
-                if folder is not None:
-                    folder.mkdir(parents=True, exist_ok=True)
-                if self.command == "identify":
-                    payload, tests, _ = identify_record(record, args)
-                    figures = [write_identify_figure(tests, folder, args.estimator)] if folder else []
-                    extra = {}
-                else:
-                    diagnosis = doctor_record(record, args, progress=False)
-                    payload = diagnosis.to_dict()
-                    figures = diagnosis.write_figures(folder) if folder else []
-                    extra = {"named": ",".join(diagnosis.named), "segment": segment}
-                row.update(status="ok", error=None)
-                row.update(flatten(jsonable({**payload, **extra, "figures": [str(f) for f in figures]})))
-            except Exception as exc:  # the record's failure, whatever it is, is its row
-                message = str(exc) if isinstance(exc, DataError) else f"{type(exc).__name__}: {exc}"
-                row.update(status="failed", error=message)
-        # a ResourceWarning comes from the garbage collector, at any time: not this record's
-        messages = [str(w.message) for w in caught if not issubclass(w.category, ResourceWarning)]
-        row["warnings"] = "; ".join(dict.fromkeys(messages)) or None
-        row["run_time_s"] = time.perf_counter() - start
-        row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
-        return row
+    return IdentifyJob(**{f.name: getattr(args, f.name) for f in fields(IdentifyJob)})
 
 
 def _run(args: argparse.Namespace, command: str) -> int:
-    from motorid.fleet import FilenamePattern, FleetRun, find_records, fleet_client, run_fleet
-    from motorid.fleet.runner import pending_records
+    from motorid.fleet import FilenamePattern, find_records, run
+    from motorid.fleet.runner import check_run_kind
 
     if command == "identify":
         create_estimator(args.estimator, args)  # a bad option stops before any work
         start_model_from_args(args)  # and a bad --model
+        job: Any = identify_job_from_args(args)
     else:
-        effect_list(args.base, "--base")
-        if args.candidates:
-            effect_list(args.candidates, "--candidates")
+        job = doctor_job_from_args(args)
+    read = read_options_from_args(args)  # a bad span stops before any work too
+    per_drive = getattr(args, "per_drive", False)
     paths = find_records(args.records)
-    given: dict[str, dict[str, Any]] = {}
-    if args.pattern:
+    if args.pattern:  # a bad pattern, or a file it does not fit, stops before the folder is made
         pattern = FilenamePattern(args.pattern)
-        given = {os.path.abspath(p): pattern.parse(p) for p in paths}
+        for path in paths:
+            pattern.parse(path)
     check_out_folder(args.out)
-    task = RecordTask(command, argparse.Namespace(**vars(args)), args.out.resolve() if args.figures else None)
-    hold_out_folder(args, args.out)  # after the task took its copy of the options: the lock stays here
+    hold_out_folder(args, args.out)
+    check_run_kind(args.out, per_drive)
     where = args.scheduler or f"a local cluster of {args.workers or os.cpu_count()} worker processes"
-    say(f"motorid fleet {command}: {len(paths)} records on {where}; results in {args.out}/")
-    if pending_records(paths, args.out, args.retry_failed):
-        with fleet_client(args.scheduler, args.workers) as client:
-            run = run_fleet(paths, task, args.out, client, given=given, retry_failed=args.retry_failed,
-                            progress=show_progress())  # fmt: skip
-    else:  # every record is in the results: no cluster to start
-        run = FleetRun(records=len(paths), skipped=len(paths), done=0, failed=0, seconds=0.0)
-    say(
-        f"  {run.done} done, {run.failed} failed, {run.skipped} already in the results "
-        f"({run.seconds:.1f} s); results: {args.out / 'results.parquet'}/ and {args.out / 'results.csv'}"
+    say(f"motorid fleet {command}{' --per-drive' if per_drive else ''}: {len(paths)} records on {where}; "
+        f"results in {args.out}/")  # fmt: skip
+    fleet_run = run(paths, args.out, job, read=read, per_drive=per_drive,
+                    pattern=args.pattern, scheduler=args.scheduler, workers=args.workers, figures=args.figures,
+                    retry_failed=args.retry_failed, lock=False, progress=show_progress())  # fmt: skip
+    what = (
+        "records"
+        if fleet_run.drives is None
+        else f"drives (of {fleet_run.drives}; {fleet_run.records} records)"
     )
-    if run.failed:
+    say(
+        f"  {fleet_run.done} done, {fleet_run.failed} failed, {fleet_run.skipped} already in the results "
+        f"({fleet_run.seconds:.1f} s; counted in {what}); results: {args.out / 'results.parquet'}/ and "
+        f"{args.out / 'results.csv'}"
+    )
+    if fleet_run.failed:
         # also with --quiet: a run that lost records says so
-        say_error(f"motorid fleet {command}: {run.failed} records failed: their errors are in the 'error' "
-                  f"column of {args.out / 'results.csv'}")  # fmt: skip
+        say_error(f"motorid fleet {command}: {fleet_run.failed} {what.split(' ')[0]} failed: their errors are in "
+                  f"the 'error' column of {args.out / 'results.csv'}")  # fmt: skip
     if args.json:
-        emit_json({"records": run.records, "skipped": run.skipped, "done": run.done, "failed": run.failed,
-                   "seconds": run.seconds, "results": args.out / "results.parquet"})  # fmt: skip
+        emit_json({"records": fleet_run.records, "skipped": fleet_run.skipped, "done": fleet_run.done,
+                   "failed": fleet_run.failed, "seconds": fleet_run.seconds, "results": args.out / "results.parquet",
+                   **({} if fleet_run.drives is None else {"drives": fleet_run.drives})})  # fmt: skip
     return 0
 
 
@@ -245,9 +194,15 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     add_identify_options(p)
     p.set_defaults(func=cmd_fleet_identify)
 
-    p = commands.add_parser("doctor", help="motorid doctor on each record, one Dask task per record")
+    p = commands.add_parser(
+        "doctor", help="motorid doctor on each record (one Dask task per record), or per drive"
+    )
     _add_run_options(p)
     add_doctor_options(p)
+    p.add_argument("--per-drive", action="store_true",
+                   help="one doctor per drive on all its records as one model (motorid doctor A B C), one Dask "
+                        "task per drive; a record without a drive id (pattern, attrs 'drive') is a drive of "
+                        "its own")  # fmt: skip
     p.set_defaults(func=cmd_fleet_doctor)
 
     p = commands.add_parser(

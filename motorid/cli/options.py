@@ -105,7 +105,8 @@ def add_record_input(parser: argparse.ArgumentParser, max_samples_help: str = MA
 
 def add_record_columns(parser: argparse.ArgumentParser, max_samples_help: str = MAX_SAMPLES_HELP) -> None:
     """How a record is read: columns, time, separator, units, size limit (:class:`motorid.records.RecordOptions`;
-    what the limit does in this command: ``max_samples_help``)."""
+    what the limit does in this command: ``max_samples_help``), and the span used (--start, --stop:
+    :func:`add_trim_options`)."""
     from motorid.units import TIME_UNITS
 
     group = parser.add_argument_group("record")
@@ -141,6 +142,7 @@ def add_record_columns(parser: argparse.ArgumentParser, max_samples_help: str = 
     group.add_argument(
         "--max-samples", type=number(int, low=1), default=2_000_000, help=max_samples_help,
     )  # fmt: skip
+    add_trim_options(parser)
 
 
 def separator(text: str) -> str:
@@ -156,16 +158,18 @@ def read_record_from_args(args: argparse.Namespace, min_samples: int = 20) -> pd
 
     :func:`motorid.records.read_record` with the options by their names: the time
     column is optional when the sample time is known (``--dt``, the file's attrs),
-    and the input and output are converted to motorid's units as they are read.
+    and the input and output are converted to motorid's units as they are read; then the
+    span of ``--start``/``--stop`` is kept (:func:`trim_from_args`).
     """
     from motorid.records import read_record
 
-    return read_record(
+    record = read_record(
         args.data, dt=args.dt, min_samples=min_samples, max_samples=args.max_samples, other_columns=False,
         time=args.time, input=args.input, output=args.output, time_unit=args.time_unit,
         input_unit=args.input_unit, output_unit=args.output_unit, supply_voltage=args.supply_voltage,
         input_full_scale=args.input_full_scale, resample=args.resample, sep=args.sep, decimal=args.decimal,
     )  # fmt: skip
+    return trim_from_args(record, args, min_samples)
 
 
 def iter_record_from_args(
@@ -230,7 +234,7 @@ def band_words(unit: str | None, threshold: float, low_speed_rpm: float, name: s
 
 
 def add_trim_options(parser: argparse.ArgumentParser) -> None:
-    """--start and --stop: the span of each record a command uses (:func:`trim_record`)."""
+    """--start and --stop: the span of each record a command uses (:func:`trim_from_args`)."""
     group = parser.add_argument_group("span")
     group.add_argument("--start", type=number(float, low=0.0, unit="s"), metavar="SECONDS",
                        help="leave out the samples before this time [s] of the record's time column "
@@ -239,35 +243,17 @@ def add_trim_options(parser: argparse.ArgumentParser) -> None:
                        help="leave out the samples after this time [s]")  # fmt: skip
 
 
-def trim_record(record: pd.DataFrame, start: float | None, stop: float | None, path: Path) -> pd.DataFrame:
-    """The samples of ``record`` (read from ``path``) with ``start <= t <= stop`` [s], ``attrs`` kept.
+def trim_from_args(record: pd.DataFrame, args: argparse.Namespace, min_samples: int = 2) -> pd.DataFrame:
+    """``record`` (read from ``args.data``) trimmed to ``--start``/``--stop`` (:func:`motorid.records.trim_record`).
 
-    ``t`` is the record's time column, else ``k dt`` from its first sample. DataError, naming the
-    option and the file, when the span is empty or holds no sample.
+    The one place a command applies the span: :func:`read_record_from_args` calls it on every
+    record a command reads; a reader of its own (one that reads in blocks) calls it too, or
+    refuses the options by name.
     """
-    if start is None and stop is None:
-        return record
-    if start is not None and stop is not None and stop <= start:
-        raise DataError(f"--stop {stop:g} must be after --start {start:g} [s]")
-    if "t" in record.columns:
-        t = pd.to_numeric(record["t"], errors="coerce").to_numpy(dtype=float)
-    else:
-        t = np.arange(len(record)) * float(record.attrs["dt"])
-    keep = np.ones(len(record), dtype=bool)
-    if start is not None:
-        keep &= t >= start
-    if stop is not None:
-        keep &= t <= stop
-    if not keep.any():
-        span = " and ".join(
-            f"{option} {value:g} s"
-            for option, value in (("--start", start), ("--stop", stop))
-            if value is not None
-        )
-        raise DataError(f"{path}: no sample within {span}; the record runs from {t[0]:g} to {t[-1]:g} s")
-    trimmed = record.loc[keep].reset_index(drop=True)
-    trimmed.attrs = dict(record.attrs)
-    return trimmed
+    from motorid.records import trim_record
+
+    start, stop = getattr(args, "start", None), getattr(args, "stop", None)
+    return trim_record(record, start, stop, args.data, min_samples=min_samples)
 
 
 def add_estimator_options(parser: argparse.ArgumentParser, repeatable: bool = False) -> None:

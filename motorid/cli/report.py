@@ -8,32 +8,13 @@ progress bar shows; errors (:func:`say_error`) always print.
 from __future__ import annotations
 
 import json
-import math
 import sys
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-
-def jsonable(value: Any) -> Any:
-    """numpy and pandas values as plain JSON (NaN and inf as null)."""
-    if isinstance(value, dict):
-        return {str(k): jsonable(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [jsonable(v) for v in value]
-    if isinstance(value, np.ndarray):
-        return jsonable(value.tolist())
-    if isinstance(value, np.floating | float):
-        return float(value) if math.isfinite(value) else None
-    if isinstance(value, np.integer):
-        return int(value)
-    if isinstance(value, np.bool_):
-        return bool(value)
-    if isinstance(value, Path):
-        return str(value)
-    return value
+from motorid.outputs import jsonable
 
 
 def emit_json(payload: dict[str, Any]) -> None:

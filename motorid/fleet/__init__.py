@@ -4,6 +4,9 @@
   :class:`~motorid.fleet.sources.FilenamePattern`: which records, which drive and time;
 - :func:`~motorid.fleet.runner.run_fleet` on :func:`~motorid.fleet.runner.fleet_client`:
   one task per record on ``dask.distributed``, resumable, each row stored as it completes;
+- :func:`~motorid.fleet.runner.run` with a :class:`~motorid.fleet.jobs.DoctorJob` or
+  :class:`~motorid.fleet.jobs.IdentifyJob` (and :class:`~motorid.fleet.jobs.ReadOptions`):
+  a whole run from Python, per record or (the doctor) per drive, as ``motorid fleet`` does;
 - :func:`~motorid.fleet.results.load_results`: the results table;
 - :func:`~motorid.fleet.trend.friction_trends` and :func:`~motorid.fleet.trend.flag_drives`:
   friction against time per drive, the drives whose friction rose or that grew an effect.
@@ -11,18 +14,24 @@
 ``motorid fleet identify|doctor|trend`` is the command line over these.
 """
 
+from motorid.fleet.jobs import DoctorJob, IdentifyJob, ReadOptions
 from motorid.fleet.results import ResultsStore, flatten, load_results
-from motorid.fleet.runner import FleetRun, fleet_client, run_fleet
+from motorid.fleet.runner import FleetRun, fleet_client, run, run_fleet, run_fleet_per_drive
 from motorid.fleet.sources import FilenamePattern, find_records, identity
 
 __all__ = [
+    "DoctorJob",
     "FilenamePattern",
     "FleetRun",
+    "IdentifyJob",
+    "ReadOptions",
     "ResultsStore",
     "find_records",
     "flatten",
     "fleet_client",
     "identity",
     "load_results",
+    "run",
     "run_fleet",
+    "run_fleet_per_drive",
 ]

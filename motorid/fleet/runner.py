@@ -24,12 +24,13 @@ import contextlib
 import logging
 import os
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from motorid.errors import OutputError
+from motorid.errors import DataError, OutputError
+from motorid.fleet.jobs import DRIVE_KEY_PREFIX, Job, ReadOptions
 from motorid.fleet.results import ResultsStore
 from motorid.progress import progress_bar
 
@@ -98,13 +99,19 @@ def pending_records(
 
 @dataclass
 class FleetRun:
-    """Counts of a run: records found, skipped (already in the results), done, failed; wall time [s]."""
+    """Counts of a run: records found, skipped (already in the results), done, failed; wall time [s].
+
+    In a run per drive (:func:`run_fleet_per_drive`), ``drives`` is the number of drives and
+    ``skipped``, ``done`` and ``failed`` count drives (a record that cannot be read is a failed
+    drive of its own).
+    """
 
     records: int
     skipped: int
     done: int
     failed: int
     seconds: float
+    drives: int | None = None
 
 
 def run_fleet(
@@ -139,8 +146,6 @@ def run_fleet(
     csv_every : float
         Seconds between rewrites of ``results.csv`` during the run [s].
     """
-    from dask.distributed import as_completed
-
     start = time.perf_counter()
     store = ResultsStore(out)
     records = [os.path.abspath(p) for p in paths]
@@ -148,32 +153,57 @@ def run_fleet(
     given = given or {}
     run = FleetRun(records=len(records), skipped=len(records) - len(todo), done=0, failed=0, seconds=0.0)
     logger.info("%d records, %d already in %s, %d to run", run.records, run.skipped, out, len(todo))
-    bar = progress_bar(show=progress, total=len(todo), desc="fleet", unit="record")
-    bar.set_postfix(done=0, failed=0)
     futures = client.map(task, todo, [given.get(p, {}) for p in todo], pure=False)
-    path_of = {future.key: path for future, path in zip(futures, todo, strict=True)}
+
+    def lost(path: str, exc: BaseException) -> list[dict[str, Any]]:
+        drive = given.get(path, {}).get("drive", Path(path).stem)
+        when = given.get(path, {}).get("time")
+        return [{"record": path, "drive": drive, "time": when.isoformat() if when else None,
+                 "status": "failed", "error": f"{type(exc).__name__}: {exc}"}]  # fmt: skip
+
+    _store_as_completed(
+        dict(zip(futures, todo, strict=True)), lost, store, run, progress, csv_every, "record"
+    )
+    run.seconds = time.perf_counter() - start
+    return run
+
+
+def _store_as_completed(
+    futures: dict[Any, Any],
+    lost: Callable[[Any, BaseException], list[dict[str, Any]]],
+    store: ResultsStore,
+    run: FleetRun,
+    progress: bool,
+    csv_every: float,
+    unit: str,
+) -> None:
+    """Store the row (or the list of rows) of each future of ``futures`` (future -> its key) as it
+    completes, counting it in ``run``; a future whose worker was lost is ``lost(key, exc)``'s rows.
+    A task is done when its first row says ok."""
+    from dask.distributed import as_completed
+
+    bar = progress_bar(show=progress, total=len(futures), desc="fleet", unit=unit)
+    bar.set_postfix(done=0, failed=0)
+    key_of = {future.key: key for future, key in futures.items()}
     last_csv = time.monotonic()
     try:
-        for batch in as_completed(futures, with_results=True, raise_errors=False).batches():
+        for batch in as_completed(list(futures), with_results=True, raise_errors=False).batches():
             rows = []
+            failed = 0
             for future, result in batch:
                 if (
                     future.status == "error"
                 ):  # not the record's own error (the task catches that): a lost worker
-                    exc = future.exception()
-                    path = path_of[future.key]
-                    drive = given.get(path, {}).get("drive", Path(path).stem)
-                    when = given.get(path, {}).get("time")
-                    result = {"record": path, "drive": drive, "time": when.isoformat() if when else None,
-                              "status": "failed", "error": f"{type(exc).__name__}: {exc}"}  # fmt: skip
-                rows.append(result)
+                    result = lost(key_of[future.key], future.exception())
+                task_rows = result if isinstance(result, list) else [result]
+                failed += task_rows[0]["status"] != "ok"
+                rows += task_rows
                 future.release()
             with _saying_what_is_kept(run, store):
                 store.append(rows)
-            failed = sum(row["status"] != "ok" for row in rows)
-            run.done += len(rows) - failed
+            run.done += len(batch) - failed
             run.failed += failed
-            bar.update(len(rows))
+            bar.update(len(batch))
             bar.set_postfix(done=run.done, failed=run.failed)
             if time.monotonic() - last_csv > csv_every:
                 with _saying_what_is_kept(run, store):
@@ -190,8 +220,266 @@ def run_fleet(
     with _saying_what_is_kept(run, store):
         store.write_csv(reread=True)
     store.compact()
+
+
+def pending_drives(
+    groups: Mapping[str, Sequence[str]],
+    out: str | os.PathLike[str] | ResultsStore,
+    retry_failed: bool = False,
+) -> list[str]:
+    """The drives of ``groups`` (drive -> its records' absolute paths) without a row in ``out``'s
+    results for exactly these records (with ``retry_failed``, without a successful one).
+
+    A drive that gained or lost a record since its row was written is run again.
+    """
+    store = out if isinstance(out, ResultsStore) else ResultsStore(out)
+    previous = store.rows()
+    if retry_failed:
+        previous = previous[previous["status"] == "ok"]
+    done = dict(zip(previous["record"], previous.get("records", [None] * len(previous)), strict=True))
+    return [
+        drive
+        for drive, paths in groups.items()
+        if done.get(DRIVE_KEY_PREFIX + drive, "\0") != ",".join(paths)
+    ]
+
+
+def record_identity(path: str, read: Any, given: dict[str, Any]) -> tuple[str, str | None, str | None]:
+    """The drive and time of the record ``path`` (:func:`motorid.fleet.sources.identity`) read with
+    ``read`` (:class:`~motorid.fleet.jobs.ReadOptions`), and the error when it cannot be read."""
+    from motorid.fleet.sources import identity
+
+    try:
+        drive, when = identity(path, read.read(path).attrs, given)
+        return drive, when, None
+    except Exception as exc:  # the record's failure is its row
+        drive, when = identity(path, {}, given)
+        return drive, when, str(exc) if isinstance(exc, DataError) else f"{type(exc).__name__}: {exc}"
+
+
+def group_by_drive(
+    paths: Sequence[str | os.PathLike[str]],
+    read: Any,
+    client: Any,
+    given: dict[str, dict[str, Any]] | None = None,
+    known: Mapping[str, tuple[str, str | None]] | None = None,
+) -> tuple[dict[str, list[tuple[str, str | None]]], list[dict[str, Any]]]:
+    """The records of ``paths`` per drive, and a failed row for each record that cannot be read.
+
+    A record's drive is what a file-name pattern gave (``given``), else its attrs ``drive``
+    (:data:`motorid.records.DRIVE_ATTR`), else its file's stem: a record without a drive id is
+    a drive of its own. The records of the pattern and of ``known`` (path -> drive, time: the
+    results of a run before) are not read; the others are read on the cluster, one task each.
+    Each drive's records are sorted by time, then path.
+    """
+    from motorid.fleet.sources import identity
+
+    given = given or {}
+    known = known or {}
+    records = [os.path.abspath(p) for p in paths]
+    found: dict[str, tuple[str, str | None]] = {}
+    to_read = []
+    for path in records:
+        if path in known:
+            found[path] = known[path]
+        elif "drive" in given.get(path, {}):
+            found[path] = identity(path, {}, given.get(path, {}))
+        else:
+            to_read.append(path)
+    unread = []
+    if to_read:
+        futures = client.map(record_identity, to_read, [read] * len(to_read), [given.get(p, {}) for p in to_read],
+                             pure=False)  # fmt: skip
+        for path, (drive, when, error) in zip(to_read, client.gather(futures), strict=True):
+            if error is None:
+                found[path] = (drive, when)
+            else:
+                unread.append(
+                    {"record": path, "drive": drive, "time": when, "status": "failed", "error": error}
+                )
+    groups: dict[str, list[tuple[str, str | None]]] = {}
+    for path in records:
+        if path in found:
+            drive, when = found[path]
+            groups.setdefault(drive, []).append((path, when))
+    for members in groups.values():
+        members.sort(key=lambda member: (member[1] or "", member[0]))
+    return groups, unread
+
+
+def known_identities(store: ResultsStore, command: str) -> dict[str, tuple[str, str | None]]:
+    """Record path -> (drive, time) of the records of ``store`` that a per-drive run of ``command``
+    (``doctor --per-drive``) has done: a rerun need not read them again to group them."""
+    previous = store.rows()
+    if not len(previous):
+        return {}
+    ok = previous[(previous["status"] == "ok") & (previous["command"] == command)]
+    return {
+        record: (drive, when if isinstance(when, str) else None)
+        for record, drive, when in zip(ok["record"], ok["drive"], ok["time"], strict=True)
+        if not str(record).startswith(DRIVE_KEY_PREFIX)
+    }
+
+
+def run_fleet_per_drive(
+    paths: Sequence[str | os.PathLike[str]],
+    task: Any,
+    out: str | os.PathLike[str],
+    client: Any,
+    read: Any,
+    given: dict[str, dict[str, Any]] | None = None,
+    retry_failed: bool = False,
+    progress: bool = False,
+    csv_every: float = 5.0,
+) -> FleetRun:
+    """Run ``task`` (:class:`~motorid.fleet.jobs.DriveTask`) once per drive on all its records.
+
+    The records are grouped by :func:`group_by_drive` (the records already in the results
+    are not read again for it); the drives whose row holds exactly their records now are
+    skipped (:func:`pending_drives`); each drive's rows (its own and one per record) are
+    stored together as the drive completes.
+    """
+    start = time.perf_counter()
+    store = ResultsStore(out)
+    command = f"{task.job.command} --per-drive"
+    known = known_identities(store, command)
+    groups, unread = group_by_drive(paths, read, client, given, known)
+    members = {drive: [path for path, _ in group] for drive, group in groups.items()}
+    todo = pending_drives(members, store, retry_failed)
+    run = FleetRun(records=len(paths), skipped=len(groups) - len(todo), done=0, failed=len(unread),
+                   seconds=0.0, drives=len(groups) + len(unread))  # fmt: skip
+    logger.info("%d records of %d drives, %d drives already in %s, %d to run", run.records, len(groups),
+                run.skipped, out, len(todo))  # fmt: skip
+    if unread:
+        for row in unread:
+            row["command"] = command
+        with _saying_what_is_kept(run, store):
+            store.append(unread)
+    futures = client.map(task, todo, [members[d] for d in todo], [[w for _, w in groups[d]] for d in todo],
+                         pure=False)  # fmt: skip
+
+    def lost(drive: str, exc: BaseException) -> list[dict[str, Any]]:
+        error = f"{type(exc).__name__}: {exc}"
+        return [{"record": DRIVE_KEY_PREFIX + drive, "drive": drive, "command": command, "records": ",".join(members[drive]),
+                 "status": "failed", "error": error}] + [
+            {"record": path, "drive": drive, "time": when, "command": command, "status": "failed", "error": error}
+            for path, when in groups[drive]
+        ]  # fmt: skip
+
+    _store_as_completed(dict(zip(futures, todo, strict=True)), lost, store, run, progress, csv_every, "drive")
     run.seconds = time.perf_counter() - start
     return run
+
+
+def run(
+    records: Sequence[str | os.PathLike[str]] | str | os.PathLike[str],
+    out: str | os.PathLike[str],
+    job: Job,
+    *,
+    read: ReadOptions | None = None,
+    per_drive: bool = False,
+    pattern: str | None = None,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    client: Any = None,
+    figures: bool = True,
+    retry_failed: bool = False,
+    wait: bool = False,
+    lock: bool = True,
+    progress: bool = False,
+) -> FleetRun:
+    """Run ``job`` on a fleet's records on Dask, the results in the folder ``out``: ``motorid fleet``
+    from Python.
+
+    Parameters
+    ----------
+    records : path or sequence of paths
+        Record files, globs, folders or ``@list`` files (:func:`~motorid.fleet.sources.find_records`).
+    out : path
+        The run folder: ``results.parquet/``, ``results.csv`` (:mod:`motorid.fleet.results`) and,
+        with ``figures``, the figures under ``<drive>/<record>/`` (per drive: ``<drive>/``).
+    job : DoctorJob or IdentifyJob
+        What is computed (:mod:`motorid.fleet.jobs`).
+    read : ReadOptions, optional
+        How each record is read (default: columns ``t``, ``u``, ``y``, the whole record).
+    per_drive : bool
+        The doctor once per drive on all its records as one model (:func:`run_fleet_per_drive`;
+        a ``DoctorJob`` only): one row per drive, one per record with its gaps.
+    pattern : str, optional
+        Drive and time from the file name (:class:`~motorid.fleet.sources.FilenamePattern`).
+    scheduler, workers, client
+        Where the tasks run: a ``dask.distributed.Client`` given, else one on ``scheduler``
+        (``tcp://HOST:8786``), else a LocalCluster of ``workers`` processes (:func:`fleet_client`).
+    figures, retry_failed, progress
+        Write each record's (or drive's) figures; rerun failed records; a progress bar on stderr.
+    wait, lock
+        ``lock`` takes the folder's lock for the run (:class:`motorid.outputs.FolderLock`; another run
+        into it is refused, or waited for with ``wait``); ``lock=False`` when the caller holds it.
+
+    A run stopped and started again does only what is missing (a record, or per drive a
+    drive, whose row is not in the results). One folder holds one kind of run: a per-drive run
+    into a folder of per-record rows (or the other way round) is refused.
+    """
+    from motorid.fleet.jobs import DoctorJob, DriveTask, ReadOptions, RecordTask
+    from motorid.fleet.sources import FilenamePattern, find_records
+    from motorid.outputs import FolderLock
+
+    read = read or ReadOptions()
+    if per_drive and not isinstance(job, DoctorJob):
+        raise DataError(f"per_drive: the doctor runs per drive (a DoctorJob), got a {type(job).__name__}")
+    items = [records] if isinstance(records, str | os.PathLike) else list(records)
+    paths = find_records([os.fspath(item) for item in items])
+    given = {}
+    if pattern:
+        parse = FilenamePattern(pattern)
+        given = {os.path.abspath(p): parse.parse(p) for p in paths}
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    held = FolderLock(out, wait=wait).acquire() if lock else None
+    try:
+        store = ResultsStore(out)
+        check_run_kind(store, per_drive)
+        figure_folder = out.resolve() if figures else None
+        if per_drive:
+            task: Any = DriveTask(job, read, figure_folder)
+        else:
+            task = RecordTask(job, read, figure_folder)
+        if not per_drive and not pending_records(paths, store, retry_failed):  # every record done: no cluster
+            return FleetRun(records=len(paths), skipped=len(paths), done=0, failed=0, seconds=0.0)
+        if per_drive:  # every record's drive known, every drive done: no cluster either
+            known = known_identities(store, f"{job.command} --per-drive")
+            if all(path in known or "drive" in given.get(path, {}) for path in map(os.path.abspath, paths)):
+                groups, _ = group_by_drive(paths, read, None, given, known)
+                members = {drive: [path for path, _ in group] for drive, group in groups.items()}
+                if not pending_drives(members, store, retry_failed):
+                    return FleetRun(records=len(paths), skipped=len(groups), done=0, failed=0, seconds=0.0,
+                                    drives=len(groups))  # fmt: skip
+        with contextlib.ExitStack() as stack:
+            if client is None:
+                client = stack.enter_context(fleet_client(scheduler, workers))
+            if per_drive:
+                return run_fleet_per_drive(paths, task, out, client, read, given=given, retry_failed=retry_failed,
+                                           progress=progress)  # fmt: skip
+            return run_fleet(
+                paths, task, out, client, given=given, retry_failed=retry_failed, progress=progress
+            )
+    finally:
+        if held is not None:
+            held.release()
+
+
+def check_run_kind(out: str | os.PathLike[str] | ResultsStore, per_drive: bool) -> None:
+    """Refuse (DataError) a per-drive run into a folder of per-record rows, and the other way round."""
+    store = out if isinstance(out, ResultsStore) else ResultsStore(out)
+    rows = store.rows()
+    if not len(rows):
+        return
+    per_drive_rows = rows["record"].astype(str).str.startswith(DRIVE_KEY_PREFIX).any()
+    if per_drive_rows != per_drive:
+        held, asked = ("per drive", "per record") if per_drive_rows else ("per record", "per drive")
+        raise DataError(
+            f"--out {store.folder}: holds the results of a run {held}; a run {asked} needs a folder of its own"
+        )
 
 
 @contextlib.contextmanager
@@ -206,4 +494,17 @@ def _saying_what_is_kept(run: FleetRun, store: ResultsStore) -> Iterator[None]:
         ) from None
 
 
-__all__ = ["FleetRun", "Task", "fleet_client", "pending_records", "run_fleet"]
+__all__ = [
+    "FleetRun",
+    "Task",
+    "check_run_kind",
+    "fleet_client",
+    "group_by_drive",
+    "known_identities",
+    "pending_drives",
+    "pending_records",
+    "record_identity",
+    "run",
+    "run_fleet",
+    "run_fleet_per_drive",
+]

@@ -29,6 +29,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.errors import DataError
+from motorid.fleet.jobs import DRIVE_KEY_PREFIX
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -54,8 +55,14 @@ def friction_trends(results: pd.DataFrame) -> pd.DataFrame:
     Raises
     ------
     DataError
-        When no successful record has a time, or the results hold no friction parameter.
+        When no successful record has a time, the results hold no friction parameter, or they
+        are of a run per drive (one model per drive has no trend over time).
     """
+    if results["record"].astype(str).str.startswith(DRIVE_KEY_PREFIX).any():
+        raise DataError(
+            "the results are of a run per drive (motorid fleet doctor --per-drive): one model per drive, "
+            "so no friction against time; trends need a run per record (motorid fleet doctor without --per-drive)"
+        )
     ok = results[(results["status"] == "ok") & results["time"].notna()] if "time" in results else results[:0]
     if ok.empty:
         raise DataError(

@@ -1,0 +1,317 @@
+"""What a fleet run does to its records, as typed options: how each record is read, and the job.
+
+- :class:`ReadOptions`: how a record is read (columns, units, sample time, span), the
+  command line's record options by their names;
+- :class:`DoctorJob`: ``motorid doctor`` on a record, or on all records of one drive as one
+  model (:func:`motorid.diagnose.diagnose`);
+- :class:`IdentifyJob`: ``motorid identify`` on a record;
+- :class:`RecordTask` and :class:`DriveTask`: the work one Dask task does, one record or one
+  drive's records, returning the rows of the results table. Every error of a record is caught
+  and becomes a row with ``status = "failed"`` and ``error``, so one bad record does not stop
+  the others; its warnings (a filter that diverged) are the row's ``warnings``.
+
+All are frozen dataclasses of plain values: they pickle, and they travel to the workers as they are.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import time
+import warnings
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from types import SimpleNamespace
+from typing import TYPE_CHECKING, Any, Literal
+
+import pandas as pd
+
+from motorid.errors import DataError
+
+if TYPE_CHECKING:
+    from motorid.diagnose.workflow import Diagnosis
+
+
+@dataclass(frozen=True)
+class ReadOptions:
+    """How each record of a run is read: :func:`motorid.records.read_record`'s options, then the
+    span ``start <= t <= stop`` [s] (:func:`motorid.records.trim_record`).
+
+    The names are the command line's record options (``--time``, ``--input-unit``,
+    ``--start`` ...); ``input`` and ``output`` name the columns that become ``u`` and ``y``.
+    """
+
+    time: str | None = None
+    input: str = "u"
+    output: str = "y"
+    time_unit: str | None = None
+    dt: float | None = None
+    resample: bool = False
+    sep: str | None = None
+    decimal: str | None = None
+    input_unit: str | None = None
+    input_full_scale: float | None = None
+    output_unit: str | None = None
+    supply_voltage: float | None = None
+    max_samples: int = 2_000_000
+    start: float | None = None
+    stop: float | None = None
+
+    def __post_init__(self) -> None:
+        for key in ("start", "stop"):
+            value = getattr(self, key)
+            if value is not None and not (isinstance(value, int | float) and 0.0 <= value < float("inf")):
+                raise DataError(f"--{key} must be a time >= 0 [s], got {value!r}")
+        if self.start is not None and self.stop is not None and self.stop <= self.start:
+            raise DataError(f"--stop {self.stop:g} must be after --start {self.start:g} [s]")
+
+    def read(self, path: str | os.PathLike[str], min_samples: int = 20) -> pd.DataFrame:
+        """The record ``path`` with columns ``t`` [s], ``u``, ``y``, trimmed to the span."""
+        from motorid.records import read_record, trim_record
+
+        record = read_record(
+            path, dt=self.dt, min_samples=min_samples, max_samples=self.max_samples, other_columns=False,
+            time=self.time, input=self.input, output=self.output, time_unit=self.time_unit,
+            input_unit=self.input_unit, output_unit=self.output_unit, supply_voltage=self.supply_voltage,
+            input_full_scale=self.input_full_scale, resample=self.resample, sep=self.sep, decimal=self.decimal,
+        )  # fmt: skip
+        return trim_record(record, self.start, self.stop, path, min_samples=min_samples)
+
+
+@dataclass(frozen=True)
+class DoctorJob:
+    """``motorid doctor``'s options (:func:`motorid.diagnose.diagnose`'s arguments by the same names).
+
+    ``base`` and ``candidates`` are effect names (None: the doctor's defaults); ``model`` a
+    rigid-drive model file to start from; ``structure=False`` is ``--no-structure``.
+    """
+
+    output_kind: Literal["velocity", "position"] = "velocity"
+    input_gain: float | None = None
+    base: tuple[str, ...] | None = None
+    candidates: tuple[str, ...] | None = None
+    holdout: float = 0.3
+    max_steps: int = 3
+    timing: Literal["hold", "sampled", "auto"] | None = None
+    structure: bool = True
+    model: Path | None = None
+
+    command = "doctor"
+
+    def __post_init__(self) -> None:
+        from motorid.diagnose import EFFECTS
+
+        for key in ("base", "candidates"):
+            names = getattr(self, key)
+            if names is None:
+                continue
+            if isinstance(names, str):
+                raise DataError(f"{key} must be a sequence of effect names, got the text {names!r}")
+            object.__setattr__(self, key, tuple(names))
+            for name in names:
+                if name not in EFFECTS:
+                    raise DataError(f"{key}: unknown effect {name!r}; known effects: {', '.join(EFFECTS)}")
+        if self.model is not None and self.base is not None:
+            raise DataError("base cannot be combined with model: the model's effects are the base")
+
+    def diagnose(
+        self, records: pd.DataFrame | Sequence[pd.DataFrame], labels: list[str] | None = None,
+        progress: bool = False,
+    ) -> Diagnosis:  # fmt: skip
+        """The doctor on a record with columns ``t``, ``u``, ``y``, or on several records of one
+        drive fitted as one model (``labels`` name them)."""
+        from motorid.diagnose import diagnose
+
+        return diagnose(
+            records, input="u", output="y", output_kind=self.output_kind, input_gain=self.input_gain,
+            base=None if self.base is None else list(self.base),
+            candidates=None if not self.candidates else list(self.candidates), holdout=self.holdout,
+            max_steps=self.max_steps, progress=progress, timing=self.timing, model=self.start_model(),
+            structure=self.structure, labels=labels,
+        )  # fmt: skip
+
+    def start_model(self) -> Any:
+        """The rigid drive of the ``model`` file (None without one); DataError for another model."""
+        if self.model is None:
+            return None
+        from motorid.models import load_model
+        from motorid.plants import RigidDrive
+
+        model = load_model(self.model)
+        if not isinstance(model, RigidDrive):
+            raise DataError(
+                f"--model {self.model}: holds a {type(model).__name__}; the doctor starts from a rigid-drive "
+                "model (a file motorid doctor --save-model wrote, or a RigidDrive saved in Python)"
+            )
+        return model
+
+    def row(self, records: list[pd.DataFrame], labels: list[str], figures: Path | None) -> dict[str, Any]:
+        """The ``--json`` payload of the doctor on ``records`` (with ``named``, ``figures``)."""
+        diagnosis = self.diagnose(records[0] if len(records) == 1 else records, labels=labels)
+        written = diagnosis.write_figures(figures) if figures is not None else []
+        return {
+            **diagnosis.to_dict(),
+            "named": ",".join(diagnosis.named),
+            "figures": [str(f) for f in written],
+        }
+
+
+@dataclass(frozen=True)
+class IdentifyJob:
+    """``motorid identify``'s options by their names: the estimator and its arguments
+    (``param``: further ``KEY=VALUE`` arguments, as ``--param``), the low-speed band [rpm],
+    the samples left out of the scores, the residual tests' largest lag, a drive model file a
+    friction filter starts from."""
+
+    estimator: str = "hammerstein-rls"
+    na: int | None = None
+    nb: int | None = None
+    degree: int | None = None
+    basis: str | None = None
+    lam: float | None = None
+    delta: float | None = None
+    gamma_method: str | None = None
+    param: tuple[str, ...] = ()
+    low_speed_rpm: float = 150.0
+    skip: int = 50
+    max_lag: int = 25
+    model: Path | None = None
+
+    command = "identify"
+
+    def __post_init__(self) -> None:
+        from motorid.estimators import available
+
+        if self.estimator not in available():
+            raise DataError(
+                f"estimator: unknown estimator {self.estimator!r}; known: {', '.join(available())}"
+            )
+        if isinstance(self.param, str):
+            raise DataError(f"param must be a sequence of KEY=VALUE texts, got the text {self.param!r}")
+        object.__setattr__(self, "param", tuple(self.param))
+
+    def row(self, records: list[pd.DataFrame], labels: list[str], figures: Path | None) -> dict[str, Any]:
+        """The ``--json`` payload of ``motorid identify`` on the one record of ``records``."""
+        # the single command's very computation, so a fleet's rows equal its output; it still lives in
+        # the command line's module (the fleet's one import of it) and reads its options by their names
+        from motorid.cli.identification import identify_record, write_identify_figure
+
+        (record,) = records
+        options = SimpleNamespace(**asdict(self), input="u", output="y", data=labels[0])
+        payload, tests, _ = identify_record(record, options)
+        written = [write_identify_figure(tests, figures, self.estimator)] if figures is not None else []
+        return {**payload, "figures": [str(f) for f in written]}
+
+
+Job = DoctorJob | IdentifyJob
+
+
+@dataclass(frozen=True)
+class RecordTask:
+    """One record's work in a worker: read it, run the job, return its row (picklable)."""
+
+    job: Job
+    read: ReadOptions
+    figures: Path | None  # the run folder, when figures are written
+
+    def __call__(self, path: str, given: dict[str, Any]) -> dict[str, Any]:
+        from motorid.fleet.sources import identity
+
+        drive, when = identity(path, {}, given)
+        row: dict[str, Any] = {"record": path, "drive": drive, "time": when, "command": self.job.command}
+        with _row_of(row):
+            record = self.read.read(path)
+            drive, when = identity(path, record.attrs, given)
+            row.update(drive=drive, time=when)
+            row.update(
+                _flat(self.job.row([record], [path], _figure_folder(self.figures, drive, Path(path).stem)))
+            )
+        return row
+
+
+#: The ``record`` key of a drive's row in a per-drive run: this prefix and the drive id.
+DRIVE_KEY_PREFIX = "drive:"
+
+
+@dataclass(frozen=True)
+class DriveTask:
+    """One drive's work in a worker: read its records, run the doctor on them as one model.
+
+    Returns the drive's row (``record`` = ``drive:<id>``, ``records`` its record paths, the
+    joint ``--json`` output flattened) and one row per record (its path, drive, time and its
+    gaps from the joint run: ``samples``, ``noise_floor``, ``initial_gap.*``, ``final_gap.*``,
+    ``final_gap_noise_floors``). A record that cannot be read fails the drive's rows.
+    """
+
+    job: DoctorJob
+    read: ReadOptions
+    figures: Path | None
+
+    def __call__(self, drive: str, paths: list[str], times: list[str | None]) -> list[dict[str, Any]]:
+        command = f"{self.job.command} --per-drive"
+        row: dict[str, Any] = {"record": DRIVE_KEY_PREFIX + drive, "drive": drive, "time": None,
+                               "command": command, "records": ",".join(paths)}  # fmt: skip
+        rows = [
+            {"record": p, "drive": drive, "time": t, "command": command}
+            for p, t in zip(paths, times, strict=True)
+        ]
+        with _row_of(row):
+            records = [self.read.read(p) for p in paths]
+            payload = self.job.row(records, list(paths), _figure_folder(self.figures, drive, None))
+            row.update(_flat(payload))
+            # one record: its gaps are the run's own
+            per_record = payload.get("records") or [
+                {"samples": len(records[0]), "noise_floor": payload["noise_floor"],
+                 "initial_gap": payload["initial_gap"], "final_gap": payload["final_gap"]}
+            ]  # fmt: skip
+            for record_row, gaps in zip(rows, per_record, strict=True):
+                record_row.update(_flat({k: v for k, v in gaps.items() if k != "record"}))
+                record_row.update(named=row.get("named"))
+        for record_row in rows:
+            for key in ("status", "error", "warnings", "run_time_s", "worker"):
+                record_row[key] = row[key]
+        return [row, *rows]
+
+
+def _figure_folder(figures: Path | None, drive: str, record: str | None) -> Path | None:
+    """``figures/<drive>[/<record>]``, made: names from data are file names, never paths."""
+    from motorid.outputs import safe_file_name
+
+    if figures is None:
+        return None
+    folder = figures / safe_file_name(drive)
+    if record is not None:
+        folder = folder / safe_file_name(record)
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+def _flat(payload: dict[str, Any]) -> dict[str, Any]:
+    from motorid.fleet.results import flatten
+    from motorid.outputs import jsonable
+
+    return flatten(jsonable(payload))
+
+
+@contextmanager
+def _row_of(row: dict[str, Any]) -> Iterator[None]:
+    """Fill ``row``'s ``status``, ``error``, ``warnings``, ``run_time_s`` and ``worker`` from the work in the block."""
+    start = time.perf_counter()
+    with warnings.catch_warnings(record=True) as caught:  # a worker's warnings go in the row, not stderr
+        warnings.simplefilter("always")
+        try:
+            yield
+            row.update(status="ok", error=None)
+        except Exception as exc:  # the record's failure, whatever it is, is its row
+            message = str(exc) if isinstance(exc, DataError) else f"{type(exc).__name__}: {exc}"
+            row.update(status="failed", error=message)
+    # a ResourceWarning comes from the garbage collector, at any time: not this record's
+    messages = [str(w.message) for w in caught if not issubclass(w.category, ResourceWarning)]
+    row["warnings"] = "; ".join(dict.fromkeys(messages)) or None
+    row["run_time_s"] = time.perf_counter() - start
+    row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
+
+
+__all__ = ["DRIVE_KEY_PREFIX", "DoctorJob", "DriveTask", "IdentifyJob", "Job", "ReadOptions", "RecordTask"]
