@@ -398,4 +398,34 @@ def _whole_blocks(
         yield {column: values[first_row : first_row + chunk_rows] for column, values in arrays.items()}
 
 
-__all__ = ["CHUNK_ROWS", "UniformGridError", "iter_record"]
+def read_head(
+    path: str | os.PathLike[str], rows: int, min_samples: int = 2, **options: Any
+) -> tuple[pd.DataFrame, bool]:
+    """The record ``path`` when it has at most ``rows`` rows, else its first ``rows`` rows (a
+    segment); and whether it is a segment.
+
+    Read in blocks of ``rows`` (:func:`iter_record`, ``options`` as it takes them): the first block
+    is the record or the segment, checked as a whole record is, and the start of a second one
+    tells that there is more, so no more than about ``rows`` rows are ever held (the rows after
+    the segment are not checked). A record whose time stamps jitter is put on a uniform grid,
+    which takes it whole: it is read by :func:`motorid.records.read_record` (``max_samples`` =
+    ``rows`` then refuses a longer one).
+    """
+    from motorid.records import read_record
+
+    if rows < min_samples:  # too few to read in blocks: the whole-record read says why
+        return read_record(path, min_samples=min_samples, max_samples=rows, **options), False
+    blocks = iter_record(path, min_samples=min_samples, chunk_rows=rows, **options)
+    with contextlib.closing(blocks):
+        try:
+            record = next(blocks)
+        except UniformGridError:
+            return read_record(path, min_samples=min_samples, max_samples=rows, **options), False
+        try:
+            more = next(blocks, None) is not None
+        except DataError:  # a bad row after the segment (or stamps off the grid): there are rows after it
+            more = True
+    return record, more
+
+
+__all__ = ["CHUNK_ROWS", "UniformGridError", "iter_record", "read_head"]

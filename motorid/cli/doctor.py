@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import contextlib
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -20,10 +19,9 @@ from .options import (
     check_out_file,
     check_out_folder,
     hold_out_folder,
-    iter_record_from_args,
     number,
     positive,
-    read_record_from_args,
+    record_options_from_args,
     trim_from_args,
 )
 from .report import emit_json, say, show_progress
@@ -88,33 +86,13 @@ def read_trimmed(args: argparse.Namespace, path: Path) -> tuple[pd.DataFrame, bo
 
 
 def read_record_segment(args: argparse.Namespace, min_samples: int = 20) -> tuple[pd.DataFrame, bool]:
-    """The record of ``args`` as :func:`.options.read_record_from_args` reads it, when it has at
-    most ``--max-samples`` rows; else its first ``--max-samples`` rows (a segment). Returns the
-    record and whether it is a segment.
+    """The record of ``args`` as :func:`.options.read_record_from_args` reads it (without the span),
+    when it has at most ``--max-samples`` rows; else its first ``--max-samples`` rows (a segment,
+    :func:`motorid.record_chunks.read_head`: the doctor's memory is bounded by ``--max-samples``
+    whatever the length of the file). Returns the record and whether it is a segment."""
+    from motorid.record_chunks import read_head
 
-    The record is read in blocks of ``--max-samples`` rows (:func:`.options.iter_record_from_args`):
-    the first block is the record or the segment (checked as a whole record is), and the start of
-    a second one tells that there is more. So the doctor's memory is bounded by ``--max-samples``
-    whatever the length of the file (the rows after the segment are not checked: the doctor does
-    not use them). A record whose time stamps jitter is put on a uniform grid, which takes it
-    whole: it is read as :func:`.options.read_record_from_args` reads it (``--max-samples`` then
-    refuses a longer one).
-    """
-    from motorid.record_chunks import UniformGridError
-
-    if args.max_samples < min_samples:  # too few to read in blocks: the whole-record read says why
-        return read_record_from_args(args, min_samples), False
-    blocks = iter_record_from_args(args, chunk_rows=args.max_samples, min_samples=min_samples)
-    with contextlib.closing(blocks):
-        try:
-            record = next(blocks)
-        except UniformGridError:
-            return read_record_from_args(args, min_samples), False
-        try:
-            more = next(blocks, None) is not None
-        except DataError:  # a bad row after the segment (or stamps off the grid): there are rows after it
-            more = True
-    return record, more
+    return read_head(args.data, args.max_samples, min_samples, **record_options_from_args(args))
 
 
 def rigid_drive_from_file(path: Path) -> RigidDrive:

@@ -413,7 +413,9 @@ def cmd_identify(args: argparse.Namespace) -> int:
     """Identify one estimator on a record; report params, MSE, FIT and residual tests."""
     from motorid.validation import RPM_PER_RAD_S
 
-    in_blocks = runs_in_blocks(create_estimator(args.estimator, args))
+    # a span (--start/--stop) is cut from the record read whole; an RLS otherwise streams the file
+    spanned = args.start is not None or args.stop is not None
+    in_blocks = runs_in_blocks(create_estimator(args.estimator, args)) and not spanned
     record = None if in_blocks else read_record_from_args(args)
     if record is not None:
         estimator_for_record(record, args)  # a bad estimator option or model stops before the folder is made

@@ -164,12 +164,21 @@ def read_record_from_args(args: argparse.Namespace, min_samples: int = 20) -> pd
     from motorid.records import read_record
 
     record = read_record(
-        args.data, dt=args.dt, min_samples=min_samples, max_samples=args.max_samples, other_columns=False,
-        time=args.time, input=args.input, output=args.output, time_unit=args.time_unit,
-        input_unit=args.input_unit, output_unit=args.output_unit, supply_voltage=args.supply_voltage,
-        input_full_scale=args.input_full_scale, resample=args.resample, sep=args.sep, decimal=args.decimal,
-    )  # fmt: skip
+        args.data, min_samples=min_samples, max_samples=args.max_samples, other_columns=False,
+        **record_options_from_args(args),
+    )
     return trim_from_args(record, args, min_samples)
+
+
+def record_options_from_args(args: argparse.Namespace) -> dict[str, Any]:
+    """The record options of :func:`add_record_columns` as the keyword arguments of
+    :func:`motorid.records.read_record` and :func:`motorid.record_chunks.iter_record`."""
+    return {
+        "dt": args.dt, "time": args.time, "input": args.input, "output": args.output,
+        "time_unit": args.time_unit, "input_unit": args.input_unit, "output_unit": args.output_unit,
+        "supply_voltage": args.supply_voltage, "input_full_scale": args.input_full_scale,
+        "resample": args.resample, "sep": args.sep, "decimal": args.decimal,
+    }  # fmt: skip
 
 
 def iter_record_from_args(
@@ -184,11 +193,8 @@ def iter_record_from_args(
     from motorid.record_chunks import CHUNK_ROWS, iter_record
 
     return iter_record(
-        args.data, dt=args.dt, min_samples=min_samples, chunk_rows=chunk_rows or CHUNK_ROWS,
-        time=args.time, input=args.input, output=args.output, time_unit=args.time_unit,
-        input_unit=args.input_unit, output_unit=args.output_unit, supply_voltage=args.supply_voltage,
-        input_full_scale=args.input_full_scale, resample=args.resample, sep=args.sep, decimal=args.decimal,
-    )  # fmt: skip
+        args.data, min_samples=min_samples, chunk_rows=chunk_rows or CHUNK_ROWS, **record_options_from_args(args)
+    )
 
 
 def low_speed_band(record: pd.DataFrame, low_speed_rpm: float) -> tuple[str | None, float, str]:

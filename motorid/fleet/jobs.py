@@ -67,17 +67,28 @@ class ReadOptions:
         if self.start is not None and self.stop is not None and self.stop <= self.start:
             raise DataError(f"--stop {self.stop:g} must be after --start {self.start:g} [s]")
 
+    def _options(self) -> dict[str, Any]:
+        """The options :func:`motorid.records.read_record` and :func:`motorid.record_chunks.iter_record` take."""
+        return {k: v for k, v in asdict(self).items() if k not in ("max_samples", "start", "stop")}
+
     def read(self, path: str | os.PathLike[str], min_samples: int = 20) -> pd.DataFrame:
         """The record ``path`` with columns ``t`` [s], ``u``, ``y``, trimmed to the span."""
         from motorid.records import read_record, trim_record
 
         record = read_record(
-            path, dt=self.dt, min_samples=min_samples, max_samples=self.max_samples, other_columns=False,
-            time=self.time, input=self.input, output=self.output, time_unit=self.time_unit,
-            input_unit=self.input_unit, output_unit=self.output_unit, supply_voltage=self.supply_voltage,
-            input_full_scale=self.input_full_scale, resample=self.resample, sep=self.sep, decimal=self.decimal,
-        )  # fmt: skip
+            path, min_samples=min_samples, max_samples=self.max_samples, other_columns=False, **self._options()
+        )
         return trim_record(record, self.start, self.stop, path, min_samples=min_samples)
+
+    def read_segment(self, path: str | os.PathLike[str], min_samples: int = 20) -> tuple[pd.DataFrame, bool]:
+        """As :meth:`read`, but a record longer than ``max_samples`` gives its first ``max_samples``
+        rows (a segment, as ``motorid doctor`` reads it: :func:`motorid.record_chunks.read_head`);
+        and whether it is a segment."""
+        from motorid.record_chunks import read_head
+        from motorid.records import trim_record
+
+        record, segment = read_head(path, self.max_samples, min_samples, **self._options())
+        return trim_record(record, self.start, self.stop, path, min_samples=min_samples), segment
 
 
 @dataclass(frozen=True)
@@ -222,12 +233,13 @@ class RecordTask:
         drive, when = identity(path, {}, given)
         row: dict[str, Any] = {"record": path, "drive": drive, "time": when, "command": self.job.command}
         with _row_of(row):
-            record = self.read.read(path)
+            doctor = isinstance(self.job, DoctorJob)
+            # as the single command reads it: the doctor a longer record's first max_samples samples
+            record, segment = self.read.read_segment(path) if doctor else (self.read.read(path), False)
             drive, when = identity(path, record.attrs, given)
             row.update(drive=drive, time=when)
-            row.update(
-                _flat(self.job.row([record], [path], _figure_folder(self.figures, drive, Path(path).stem)))
-            )
+            payload = self.job.row([record], [path], _figure_folder(self.figures, drive, Path(path).stem))
+            row.update(_flat({**payload, "segment": segment} if doctor else payload))
         return row
 
 
@@ -258,8 +270,10 @@ class DriveTask:
             for p, t in zip(paths, times, strict=True)
         ]
         with _row_of(row):
-            records = [self.read.read(p) for p in paths]
+            read = [self.read.read_segment(p) for p in paths]
+            records = [record for record, _ in read]
             payload = self.job.row(records, list(paths), _figure_folder(self.figures, drive, None))
+            payload["segment"] = any(segment for _, segment in read)
             row.update(_flat(payload))
             # one record: its gaps are the run's own
             per_record = payload.get("records") or [
