@@ -33,8 +33,7 @@ def test_the_doctor_on_a_long_record_works_on_its_first_max_samples_and_says_so(
     assert code == 0, err
     assert out["segment"] is True
     assert (
-        f"a segment: {long} is longer than --max-samples; the doctor works on its first 1500 samples"
-        in err
+        f"a segment: {long} is longer than --max-samples; the doctor works on its first 1500 samples" in err
     )
     code, reference, err = run(
         capsys, "doctor", str(head), "--max-samples", "1500", "--max-steps", "1", "--json"

@@ -164,7 +164,10 @@ def read_record_from_args(args: argparse.Namespace, min_samples: int = 20) -> pd
     from motorid.records import read_record
 
     record = read_record(
-        args.data, min_samples=min_samples, max_samples=args.max_samples, other_columns=False,
+        args.data,
+        min_samples=min_samples,
+        max_samples=args.max_samples,
+        other_columns=False,
         **record_options_from_args(args),
     )
     return trim_from_args(record, args, min_samples)
@@ -193,7 +196,10 @@ def iter_record_from_args(
     from motorid.record_chunks import CHUNK_ROWS, iter_record
 
     return iter_record(
-        args.data, min_samples=min_samples, chunk_rows=chunk_rows or CHUNK_ROWS, **record_options_from_args(args)
+        args.data,
+        min_samples=min_samples,
+        chunk_rows=chunk_rows or CHUNK_ROWS,
+        **record_options_from_args(args),
     )
 
 

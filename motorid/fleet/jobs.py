@@ -76,7 +76,11 @@ class ReadOptions:
         from motorid.records import read_record, trim_record
 
         record = read_record(
-            path, min_samples=min_samples, max_samples=self.max_samples, other_columns=False, **self._options()
+            path,
+            min_samples=min_samples,
+            max_samples=self.max_samples,
+            other_columns=False,
+            **self._options(),
         )
         return trim_record(record, self.start, self.stop, path, min_samples=min_samples)
 
