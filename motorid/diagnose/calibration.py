@@ -55,6 +55,7 @@ noise floors. The rule changes which of two lookalikes is named, not how often o
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from dataclasses import dataclass
 
@@ -145,6 +146,75 @@ def second_steps(
     return out
 
 
+@dataclass
+class Stiction:
+    """Outcome over records with an encoder's speed (:func:`stiction`), one entry per record.
+
+    ``planted``: the effects hidden in it (``()`` or ``("static_friction",)``); ``named``: what
+    the workflow named from the default base; ``level_ratio``: the breakaway level of the final
+    model (kinetic level at 0 and ΔF_s) over the planted one (coulomb and ΔF_s), NaN where static
+    friction was not named; ``final_floors``: the final free-run gap in noise floors.
+    """
+
+    seeds: list[int]
+    planted: list[tuple[str, ...]]
+    named: list[list[str]]
+    level_ratio: list[float]
+    final_floors: list[float]
+
+
+def stiction(seeds: range | list[int], duration: float = 60.0, **kwargs) -> Stiction:
+    """Run the workflow from the default base (three steps) on records of an encoder's speed
+    (quantised, noise growing with speed: :func:`~motorid.diagnose.synthetic.encoder_speed`),
+    each seed once with no hidden effect (the rig's viscous and Coulomb friction) and once with
+    static friction planted; ``kwargs`` go to :func:`planted_record`."""
+    out = Stiction([], [], [], [], [])
+    for seed in seeds:
+        for planted in ((), ("static_friction",)):
+            p = planted_record(planted, seed, duration=duration, sensor="encoder", **kwargs)
+            d = diagnose(p.record, input_gain=p.input_gain)
+            ratio = math.nan
+            if "static_friction" in d.named and planted:
+                t_pos, t_neg = d.model.friction(np.array([1e-9, -1e-9]))
+                level = 0.5 * float(t_pos - t_neg) + d.model.params["breakaway_excess"]
+                ratio = level / (p.notes["coulomb"] + p.effects["static_friction"]["breakaway_excess"])
+            out.seeds.append(seed)
+            out.planted.append(planted)
+            out.named.append(d.named)
+            out.level_ratio.append(ratio)
+            out.final_floors.append(d.final_gap["overall"] / d.noise_floor)
+    return out
+
+
+def _stiction_report(st: Stiction) -> str:
+    plain = [n for p, n in zip(st.planted, st.named, strict=True) if not p]
+    static = [n for p, n in zip(st.planted, st.named, strict=True) if p]
+    alarms = sum("static_friction" in n for n in plain)
+    beyond = sum(any(e != "coulomb_friction" for e in n) for n in plain)
+    found = sum("static_friction" in n for n in static)
+    ratios = np.array([r for r in st.level_ratio if math.isfinite(r)])
+    floors = np.array(st.final_floors)
+    q = [0.5, 0.95, 0.99, 1.0]
+    lines = [
+        f"no-effect records (encoder): {len(plain)}, static_friction named on {alarms} "
+        f"({100 * alarms / max(len(plain), 1):.1f} %), anything beyond coulomb_friction on {beyond}",
+        f"static friction planted (encoder): {len(static)}, named on {found}"
+        + (
+            f"; breakaway level / planted: median {np.median(ratios):.3f}, range {ratios.min():.3f}-"
+            f"{ratios.max():.3f}, within 15 % on {int(np.sum(np.abs(ratios - 1) <= 0.15))}"
+            if ratios.size
+            else ""
+        ),
+        "final gap / noise floor, every record: median {:.2f}, 95 % {:.2f}, 99 % {:.2f}, max {:.2f}".format(
+            *np.quantile(floors, q)
+        ),
+    ]
+    for seed, p, n in zip(st.seeds, st.planted, st.named, strict=True):
+        if ("static_friction" in n) != bool(p) or any(e not in ("coulomb_friction", *p) for e in n):
+            lines.append(f"  seed {seed} planted {list(p)}: named {n}")
+    return "\n".join(lines) + "\n"
+
+
 def _second_report(ss: SecondSteps) -> str:
     n = len(ss.seeds)
     named = sum(s is not None for s in ss.second)
@@ -184,7 +254,15 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="measure second steps on records with one planted effect (each effect, --seeds seeds each)",
     )
+    parser.add_argument(
+        "--stiction",
+        action="store_true",
+        help="records of an encoder's speed with and without static friction (60 s each, --seeds seeds)",
+    )
     args = parser.parse_args(argv)
+    if args.stiction:
+        sys.stdout.write(_stiction_report(stiction(range(args.first, args.first + args.seeds))))
+        return 0
     if args.second:
         seeds = range(args.first, args.first + args.seeds)
         # the structure (delay, lag) is chosen before the steps, never named as one
