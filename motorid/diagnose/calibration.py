@@ -50,6 +50,23 @@ step 4), measured again with the same commands: nothing named on 0 of 200 no-eff
 (ΔBIC median -5.1, 99th percentile 6.7); the planted effect named first on 199 of 200 and a
 second effect on 1 (14 without the noise rule); final gap of the found models at most 3.21
 noise floors. The rule changes which of two lookalikes is named, not how often one is.
+
+Realistic sensors (``--stiction``): records of an encoder's speed
+(:func:`~motorid.diagnose.synthetic.encoder_speed`: quantised in counts of 0.3 % of the largest
+speed, noise of 0.1 % of it at rest growing by 1 % of the speed), 60 s at 100 Hz, the workflow
+run from the default base with static friction measured at the rests and each effect judged
+against the noise floor where it acts. Measured with ``--stiction --seeds 100 --first 1000``:
+
+- no-effect records (the rig's viscous and Coulomb friction): static friction named on 0 of 100
+  (a false-alarm rate of 0 %, below 3 % with 95 % confidence), and nothing but Coulomb friction
+  named on any;
+- static friction planted: named on 91 of 100 (the 9 others stop with the gap within 3.5 noise
+  floors, 6 of them); the breakaway level of the final model 0.876-1.081 of the planted one
+  (median 0.983), within 15 % on all 91;
+- final gap of the 191 models that found what was planted: median 1.08 noise floors, 95th
+  percentile 2.04, 99th 3.04, largest 5.14. ``MISSING_FACTOR`` = 3.5 says "at the noise floor" on
+  99.5 % of them, so the factor holds on realistic sensors too (Diagnosis JSON:
+  ``at_noise_floor_factor``).
 """
 
 from __future__ import annotations
@@ -193,6 +210,10 @@ def _stiction_report(st: Stiction) -> str:
     beyond = sum(any(e != "coulomb_friction" for e in n) for n in plain)
     found = sum("static_friction" in n for n in static)
     ratios = np.array([r for r in st.level_ratio if math.isfinite(r)])
+    complete = np.array([
+        ("static_friction" in n) == bool(p) and all(e in ("coulomb_friction", "stribeck_friction", *p) for e in n)
+        for p, n in zip(st.planted, st.named, strict=True)
+    ])  # fmt: skip
     floors = np.array(st.final_floors)
     q = [0.5, 0.95, 0.99, 1.0]
     lines = [
@@ -205,8 +226,14 @@ def _stiction_report(st: Stiction) -> str:
             if ratios.size
             else ""
         ),
-        "final gap / noise floor, every record: median {:.2f}, 95 % {:.2f}, 99 % {:.2f}, max {:.2f}".format(
-            *np.quantile(floors, q)
+        "final gap / noise floor, {} records whose model found what was planted: median {:.2f}, 95 % {:.2f}, "
+        "99 % {:.2f}, max {:.2f}".format(int(complete.sum()), *np.quantile(floors[complete], q)),
+        f"'at the noise floor' (gap <= {MISSING_FACTOR:g} noise floors): said on "
+        f"{100 * np.mean(floors[complete] <= MISSING_FACTOR):.1f} % of them"
+        + (
+            f", on {100 * np.mean(floors[~complete] <= MISSING_FACTOR):.1f} % of the {int((~complete).sum())} others"
+            if (~complete).any()
+            else ""
         ),
     ]
     for seed, p, n in zip(st.seeds, st.planted, st.named, strict=True):

@@ -71,8 +71,28 @@ already within ``noise_shrink`` σ_w of the floor ends the search. A final gap
 above ``missing_factor`` σ_w says that something is still missing, and where
 the torque-balance residual of the final model concentrates.
 
+**Where an effect acts.** An encoder's speed noise grows with speed, so one record-wide σ_w is
+too high near rest and too low at speed. An effect that acts in one place
+(:attr:`Effect.acts <motorid.diagnose.effects.Effect.acts>`) is judged there: its free-run gap
+where it acts (static friction: the rests and breakaways; Stribeck friction: below a tenth of the
+largest speed; quadratic drag: above 0.6 of it) must shrink by ``min_gap_shrink`` and by more than
+``noise_shrink`` times the noise floor of that speed band (:meth:`Pool.band_floor`), and a search
+whose gap is already at the record-wide floor still tries them.
+
+**Static friction** is measured where it shows: at the rests of the record
+(:mod:`.rests`: each rest's length and the input it breaks away at). The force at breakaway
+above the model's kinetic level, fitted against the input's rate there (:class:`Breakaway`: a
+lag between input and force raises the input at breakaway as the input rises faster, stiction
+does not), is its level ΔF_s; its ΔBIC is that of the rests (:func:`breakaway_evidence`), its
+held-out check the rests of the held-out blocks (:func:`breakaway_holdout`). A record with fewer
+than :data:`MIN_RESTS` rests fits it to the free run instead (:func:`fit_static_friction`).
+
+A model given with a friction effect of its own (``model=``) stands where a step would have put
+it: what comes next is judged by the rules of a second step, so a run from a saved model with
+Coulomb friction names what a run from the default base names after Coulomb friction.
+
 The default ``threshold`` was calibrated on records with no hidden effect, and
-``noise_shrink`` and ``missing_factor`` on records with one; see
+``noise_shrink`` and ``missing_factor`` on records with one, also with an encoder's speed; see
 :mod:`motorid.diagnose.calibration` for the measured false-alarm rates.
 """
 
@@ -122,8 +142,10 @@ NOISE_SHRINK = 0.5
 #: The speed bands the noise floor is reported in, as shares of the largest |w|: near rest
 #: (where static friction and Stribeck act), low, middle and high speed.
 SPEED_BANDS = (0.0, 0.1, 0.3, 0.6, 1.0)
-#: A final gap above this many noise floors says an effect is still missing: above the largest
-#: final gap (3.18) of 899 models that found their one planted effect (:mod:`.calibration`).
+#: A final gap above this many noise floors says an effect is still missing, within it "at the
+#: noise floor": above the largest final gap (3.18) of 899 models that found their one planted
+#: effect, and above the 99th percentile (3.04) of 191 on an encoder's speed (quantised, noise
+#: growing with speed) (:mod:`.calibration`).
 MISSING_FACTOR = 3.5
 
 
