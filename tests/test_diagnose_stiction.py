@@ -160,3 +160,31 @@ def test_the_kit_motors_rests_break_away_at_its_kinetic_level_once_the_lag_is_ta
     )
     readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
     assert f"`{line}`" in " ".join(readme.split())
+
+
+KIT_SINE = real_motor_file("kit_sine_1hz_run1.csv")
+
+
+@pytest.mark.skipif(
+    not KIT_SINE.exists(), reason=f"kit motor data not found at {KIT_SINE.parent} (set MOTORID_DATA)"
+)
+def test_the_kit_motor_gets_the_same_model_from_a_saved_coulomb_model(capsys, tmp_path):
+    """The kit motor's 1 Hz sine: from the default base the doctor names Coulomb friction, then the
+    direction asymmetry; started from the saved model of its first step (``--model``) it names the
+    asymmetry alone (static friction, which a start from a Coulomb model once added, is judged by
+    the same rules either way) and ends in the same effects."""
+    saved = tmp_path / "coulomb.json"
+    opts = ("--input-unit", "%", "--json")
+    code, first, err = run(
+        capsys, "doctor", str(KIT_SINE), "--max-steps", "1", "--save-model", str(saved), *opts
+    )
+    assert code == 0, err
+    assert [s["effect"] for s in first["steps"]] == ["coulomb_friction"]
+    code, full, err = run(capsys, "doctor", str(KIT_SINE), *opts)
+    assert code == 0, err
+    code, started, err = run(capsys, "doctor", str(KIT_SINE), "--model", str(saved), *opts)
+    assert code == 0, err
+    names = [s["effect"] for s in full["steps"]]
+    assert names == ["coulomb_friction", "asymmetric_friction"]
+    assert [s["effect"] for s in started["steps"]] == names[1:]
+    assert set(started["model"]["effects"]) == set(full["model"]["effects"])

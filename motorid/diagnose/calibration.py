@@ -79,7 +79,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from motorid.diagnose.effects import EFFECTS
-from motorid.diagnose.synthetic import BASE_FOR, planted_record
+from motorid.diagnose.synthetic import BASE_FOR, SENSORS, planted_record
 from motorid.diagnose.workflow import DEFAULT_THRESHOLD, MISSING_FACTOR, NOISE_SHRINK, diagnose
 
 
@@ -282,6 +282,12 @@ def main(argv: list[str] | None = None) -> int:
         help="measure second steps on records with one planted effect (each effect, --seeds seeds each)",
     )
     parser.add_argument(
+        "--sensor",
+        choices=SENSORS,
+        default="white",
+        help="the sensor of the records of the first threshold and of --second (default white)",
+    )
+    parser.add_argument(
         "--stiction",
         action="store_true",
         help="records of an encoder's speed with and without static friction (60 s each, --seeds seeds)",
@@ -294,9 +300,11 @@ def main(argv: list[str] | None = None) -> int:
         seeds = range(args.first, args.first + args.seeds)
         # the structure (delay, lag) is chosen before the steps, never named as one
         steps = [e for e in BASE_FOR if not EFFECTS[e].structure]
-        sys.stdout.write(_second_report(second_steps(steps, seeds)))
+        sys.stdout.write(_second_report(second_steps(steps, seeds, sensor=args.sensor)))
         return 0
-    fa = false_alarms(range(args.first, args.first + args.seeds), threshold=args.threshold)
+    fa = false_alarms(
+        range(args.first, args.first + args.seeds), threshold=args.threshold, sensor=args.sensor
+    )
     q = np.nanquantile(fa.best_delta_bic, [0.5, 0.9, 0.95, 0.99])
     sys.stdout.write(
         f"no-effect records: {len(fa.seeds)}, named something on {sum(bool(n) for n in fa.named)} "
