@@ -188,3 +188,20 @@ def test_the_kit_motor_gets_the_same_model_from_a_saved_coulomb_model(capsys, tm
     assert names == ["coulomb_friction", "asymmetric_friction"]
     assert [s["effect"] for s in started["steps"]] == names[1:]
     assert set(started["model"]["effects"]) == set(full["model"]["effects"])
+
+
+def test_the_stiction_calibration_prints_what_it_measured(capsys):
+    """``python -m motorid.diagnose.calibration --stiction`` (the README's command) on one seed:
+    the no-effect record and the planted one, each line from the records it ran."""
+    from motorid.diagnose.calibration import main, stiction
+
+    assert main(["--stiction", "--seeds", "1", "--first", "1"]) == 0
+    text = capsys.readouterr().out
+    st = stiction([1])
+    assert st.planted == [(), ("static_friction",)]
+    assert "static_friction" not in st.named[0] and "static_friction" in st.named[1]
+    assert "no-effect records (encoder): 1, static_friction named on 0 (0.0 %)" in text
+    assert f"named on 1; breakaway level / planted: median {st.level_ratio[1]:.3f}" in text
+    assert abs(st.level_ratio[1] - 1.0) <= 0.15
+    assert main(["--seeds", "1", "--first", "5000", "--sensor", "encoder"]) == 0
+    assert "no-effect records: 1, named something on 0" in capsys.readouterr().out
