@@ -962,8 +962,9 @@ class Diagnosis:
         shows (:func:`~motorid.diagnose.kinematics.quantisation_step`).
     rests : list of dict
         Per record (:func:`rest_summaries`): its ``record`` label, the ``count`` of its rests,
-        their ``median_length`` [s] and ``median_breakaway_input`` [u] (the input it breaks away
-        at, in the direction it then moves: :mod:`.rests`), ``w_rest`` [v] (the speed below which
+        their ``median_length`` [s], ``median_breakaway_input`` [u] (the input it breaks away
+        at, in the direction it then moves: :mod:`.rests`) and ``median_input_rate`` [u/s] (how
+        fast that input rises there), ``w_rest`` [v] (the speed below which
         it counts as at rest), the final model's ``kinetic_level`` at 0 [F] (mean of the two
         directions), ``breakaway_excess`` [F] (the force at breakaway above it at an input that
         rises infinitely slowly, and its ``breakaway_excess_std``) and ``breakaway_lag`` [s] (how
