@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -177,6 +178,22 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         f"  noise floor by speed [{units['v']}]: {bands}"
         + (f"; the output steps by {step:.4g}" if step else "")
     )
+    for rest in diagnosis.rests:
+        label = f"{rest['record']}: " if len(diagnosis.rests) > 1 else ""
+        if not rest["count"]:
+            say(f"  rests: {label}none (the speed never stays at zero between motions)")
+            continue
+        excess = rest["breakaway_excess"]
+        above = (
+            f"{excess:.3g} ± {rest['breakaway_excess_std']:.2g} {units['F']} above the kinetic level "
+            f"{rest['kinetic_level']:.3g} {units['F']}"
+            if math.isfinite(excess)
+            else "its level above the kinetic one not told from a lag (the input rises alike at each)"
+        )
+        say(
+            f"  rests: {label}{rest['count']}, median {1000 * rest['median_length']:.0f} ms, breaking away at a "
+            f"median {rest['median_breakaway_input']:.3g} {units['u']}; at breakaway {above}"
+        )
     say(f"  stopped: {diagnosis.stop_reason}")
     final = ", ".join(
         f"{k} = {v:.5g}"

@@ -87,6 +87,11 @@ class Effect:
         negative value is not this effect).
     requires : tuple of str
         Effects that must be in the model before this one is a candidate.
+    acts : {"", "rests", "rest", "speed"}
+        Where the effect acts, so where it is judged against the noise: ``rests`` at the rests
+        and breakaways the record shows (static friction), ``rest`` at the lowest speeds (a
+        Stribeck decay), ``speed`` at the highest speeds
+        (quadratic drag), empty for everywhere (:meth:`motorid.diagnose.workflow.Pool.band_floor`).
     """
 
     name: ClassVar[str] = ""
@@ -100,6 +105,7 @@ class Effect:
     requires: ClassVar[tuple[str, ...]] = ()
     structure: ClassVar[bool] = False
     rest_only: ClassVar[bool] = False
+    acts: ClassVar[str] = ""
 
     def physics(self, model: tuple[str, ...]) -> str:
         """The physics this effect is one form of when added to a model with the effects
@@ -173,6 +179,7 @@ class StribeckFriction(Effect):
     units: ClassVar[dict[str, str]] = {"stribeck": "F", "stribeck_velocity": "v"}
     nonnegative = ("stribeck",)
     signature = "sign follows sgn(w), confined to |w| below a few v_s and decaying with |w|"
+    acts = "rest"
 
     def physics(self, model: tuple[str, ...]) -> str:
         """Breakaway friction beside a kinetic level; without one, its decay slow enough to hold
@@ -214,6 +221,7 @@ class QuadraticDrag(Effect):
     units: ClassVar[dict[str, str]] = {"quadratic_drag": "F s²/v²"}
     nonnegative = ("quadratic_drag",)
     signature = "grows as w², sign follows sgn(w), concentrated at the highest |w|"
+    acts = "speed"
 
 
 class Offset(Effect):
@@ -347,6 +355,7 @@ class StaticFriction(Effect):
     nonnegative = ("breakaway_excess",)
     signature = "at rest only: the drive stays stuck under forces beyond its kinetic friction level"
     rest_only = True
+    acts = "rests"
 
     def physics(self, model: tuple[str, ...]) -> str:
         """Breakaway friction, in a model with a kinetic level to break away above."""

@@ -71,8 +71,28 @@ already within ``noise_shrink`` σ_w of the floor ends the search. A final gap
 above ``missing_factor`` σ_w says that something is still missing, and where
 the torque-balance residual of the final model concentrates.
 
+**Where an effect acts.** An encoder's speed noise grows with speed, so one record-wide σ_w is
+too high near rest and too low at speed. An effect that acts in one place
+(:attr:`Effect.acts <motorid.diagnose.effects.Effect.acts>`) is judged there: its free-run gap
+where it acts (static friction: the rests and breakaways; Stribeck friction: below a tenth of the
+largest speed; quadratic drag: above 0.6 of it) must shrink by ``min_gap_shrink`` and by more than
+``noise_shrink`` times the noise floor of that speed band (:meth:`Pool.band_floor`), and a search
+whose gap is already at the record-wide floor still tries them.
+
+**Static friction** is measured where it shows: at the rests of the record
+(:mod:`.rests`: each rest's length and the input it breaks away at). The force at breakaway
+above the model's kinetic level, fitted against the input's rate there (:class:`Breakaway`: a
+lag between input and force raises the input at breakaway as the input rises faster, stiction
+does not), is its level ΔF_s; its ΔBIC is that of the rests (:func:`breakaway_evidence`), its
+held-out check the rests of the held-out blocks (:func:`breakaway_holdout`). A record with fewer
+than :data:`MIN_RESTS` rests fits it to the free run instead (:func:`fit_static_friction`).
+
+A model given with a friction effect of its own (``model=``) stands where a step would have put
+it: what comes next is judged by the rules of a second step, so a run from a saved model with
+Coulomb friction names what a run from the default base names after Coulomb friction.
+
 The default ``threshold`` was calibrated on records with no hidden effect, and
-``noise_shrink`` and ``missing_factor`` on records with one; see
+``noise_shrink`` and ``missing_factor`` on records with one, also with an encoder's speed; see
 :mod:`motorid.diagnose.calibration` for the measured false-alarm rates.
 """
 
@@ -101,6 +121,7 @@ from motorid.diagnose.model import (
     model_key,
     stacked,
 )
+from motorid.diagnose.rests import Rests, rests
 from motorid.errors import DataError
 from motorid.plants.rigid import RigidDrive, check_sample_time, effect_order
 from motorid.records import record_timing
@@ -121,8 +142,10 @@ NOISE_SHRINK = 0.5
 #: The speed bands the noise floor is reported in, as shares of the largest |w|: near rest
 #: (where static friction and Stribeck act), low, middle and high speed.
 SPEED_BANDS = (0.0, 0.1, 0.3, 0.6, 1.0)
-#: A final gap above this many noise floors says an effect is still missing: above the largest
-#: final gap (3.18) of 899 models that found their one planted effect (:mod:`.calibration`).
+#: A final gap above this many noise floors says an effect is still missing, within it "at the
+#: noise floor": above the largest final gap (3.18) of 899 models that found their one planted
+#: effect, and above the 99th percentile (3.04) of 191 on an encoder's speed (quantised, noise
+#: growing with speed) (:mod:`.calibration`).
 MISSING_FACTOR = 3.5
 
 
@@ -144,6 +167,7 @@ class Prepared:
     units: dict[str, str]
     notes: list[str] = field(default_factory=list)
     quantisation: float | None = None
+    rests: Rests | None = None
     _masks: dict[Region, np.ndarray] = field(default_factory=dict, repr=False)
     _gaps: dict[tuple, tuple[dict[str, float], dict[str, float]]] = field(default_factory=dict, repr=False)
 
@@ -272,7 +296,22 @@ def prepare(
         )
     data = BalanceData(kin, float(input_gain))
     feats = features(kin.w, kin.a, kin.u, dt, data.w_threshold, at=data.idx)
-    return Prepared(kin, data, feats, timing, units, notes, quantisation_step(y))
+    step = quantisation_step(y)
+    return Prepared(kin, data, feats, timing, units, notes, step, rests_of(kin, step))
+
+
+def rests_of(kin: Kinematics, step: float | None) -> Rests:
+    """The rests of a record (:func:`~motorid.diagnose.rests.rests`), at rest below the larger of
+    the output's quantisation ``step`` and three noise floors of its band nearest rest
+    (:data:`SPEED_BANDS`)."""
+    speed = np.abs(kin.w[kin.valid])
+    floor = 0.0
+    if speed.size:
+        near = noise_bands(speed, kin.hf[kin.valid], np.asarray(SPEED_BANDS[:2]) * float(np.max(speed)),
+                           kin.band, kin.dt)[0]["noise_floor"]  # fmt: skip
+        floor = near if math.isfinite(near) else kin.noise
+    w_rest = max(step or 0.0, 3.0 * floor, 1e-12)
+    return rests(kin.u, kin.w, kin.dt, w_rest, kin.valid)
 
 
 # --------------------------------------------------------------------------- measures
@@ -437,6 +476,65 @@ class Pool:
         kin = self.parts[0].kin
         return noise_bands(speed, hf, edges, kin.band, kin.dt)
 
+    def band_floor(self, acts: str) -> float:
+        """The noise floor [v] where an effect acts (:attr:`Effect.acts
+        <motorid.diagnose.effects.Effect.acts>`): the band nearest rest for ``rest`` and ``rests``, the top band
+        for ``speed`` (:meth:`noise_bands`), else the record-wide floor. A band of too few samples
+        to measure falls back to the record-wide floor."""
+        if not acts:
+            return self.noise
+        bands = self.noise_bands()
+        if not bands:
+            return self.noise
+        floor = bands[-1 if acts == "speed" else 0]["noise_floor"]
+        return floor if math.isfinite(floor) and floor > 0 else self.noise
+
+    def acting_samples(self, acts: str) -> list[np.ndarray] | None:
+        """Each record's full-rate samples where an effect acts: its rests and, after each, as long
+        again (the breakaway and the speed it picks up: :attr:`Prepared.rests`) for ``rests``;
+        speeds below the first edge of :data:`SPEED_BANDS` (of the largest |w| over the records)
+        for ``rest``, above the last inner edge for ``speed``; None (every sample) for an effect
+        that acts everywhere."""
+        if not acts:
+            return None
+        if acts == "rests":
+            out = []
+            for p in self.parts:
+                mask = np.zeros(p.kin.n, dtype=bool)
+                for a, b in zip(p.rests.start, p.rests.stop, strict=True):
+                    mask[a : b + 1 + (b - a + 1)] = True
+                out.append(mask)
+            return out
+        top = max(float(np.max(np.abs(p.kin.w[p.kin.valid]), initial=0.0)) for p in self.parts)
+        if acts == "rest":
+            return [np.abs(p.kin.w) < SPEED_BANDS[1] * top for p in self.parts]
+        return [np.abs(p.kin.w) >= SPEED_BANDS[-2] * top for p in self.parts]
+
+    def acting_gap(self, model: RigidDrive, acts: str) -> float:
+        """RMS free-run gap [v] over the samples where an effect acts (:meth:`acting_samples`)."""
+        return _rms(self.free_run_error(model, self.acting_samples(acts)))
+
+    def breakaway_excess(
+        self, model: RigidDrive, samples: list[np.ndarray] | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The force at breakaway above ``model``'s kinetic level at 0± [F], at each rest of each
+        record (:attr:`Prepared.rests`; those that break away in the full-rate ``samples``):
+        ``F_b - T(0+)`` breaking away forwards, ``T(0-) - F_b`` backwards, with ``F_b`` the force
+        of the input at breakaway (:meth:`RigidDrive.input_force
+        <motorid.plants.rigid.RigidDrive.input_force>`: through the model's dead zone, delay and
+        lag) and ``T(0±)`` the model's friction (and offset) at ±0; and the force's rate there
+        [F/s], in the direction of the motion (central differences)."""
+        eps = max(1e-9, 1e-6 * self.data.scale["w_max"])
+        t_pos, t_neg = model.friction(np.array([eps, -eps]))
+        out, rates = [], []
+        for k, p in enumerate(self.parts):
+            r = p.rests if samples is None else p.rests.within(samples[k])
+            f_in = model.input_force(p.kin.u)  # through the model's input path (dead zone, lag...)
+            force = r.direction * f_in[r.stop]  # in the direction of the motion
+            out.append(np.where(r.direction > 0, force - t_pos, force + t_neg))
+            rates.append(r.direction * np.gradient(f_in, p.kin.dt)[r.stop])
+        return stacked(out), stacked(rates)
+
     @property
     def quantisation(self) -> float | None:
         """The output's quantisation step [its unit] when every record shows the same one (1 %)."""
@@ -454,21 +552,177 @@ class Pool:
         return [holdout_rows(p.kin.n, fraction) for p in self.parts]
 
 
-def fit_static_friction(pool: Pool, model: RigidDrive, samples: list[np.ndarray]) -> RigidDrive:
-    """``model`` with ``static_friction``, its ``breakaway_excess`` ΔF_s [F] the one that minimises
-    the free-run gap on the full-rate ``samples`` of each record of ``pool``.
+#: Fewest rests a record (or pool) needs before its breakaway says anything.
+MIN_RESTS = 5
 
-    Static friction acts on a drive at rest only (the stick/slip rule of the free run), so the
-    balance of the moving samples cannot fit it: a grid of 17 values on [0, half the largest
-    input force] and a bounded search between the best one's neighbours, on the free run.
+
+@dataclass(frozen=True)
+class Breakaway:
+    """What the rests of a pool say of static friction, against a model's kinetic level.
+
+    The force at breakaway above the kinetic level at 0±, ``e_i`` [F] at rest i
+    (:meth:`Pool.breakaway_excess`), is fitted by least squares as a level and a lag::
+
+        e_i = ΔF_s + τ g r_i
+
+    with ``r_i`` the input's rate at breakaway [u/s] (:class:`~motorid.diagnose.rests.Rests`):
+    a lag τ [s] between input and force (an armature's electrical time constant) raises the input
+    a drive breaks away at in proportion to how fast the input rises, static friction ΔF_s does
+    not. ΔF_s is the breakaway at an input that rises infinitely slowly; rests whose rates do not
+    spread (a sine's reversals all alike) cannot tell it from a lag, and its standard error says so.
+
+    Attributes
+    ----------
+    rests : int
+        Rests counted.
+    excess : float
+        ΔF_s [F] (NaN for fewer than 3 rests, or rates that do not spread).
+    standard_error : float
+        Standard error of ΔF_s [F] from the fit's residual.
+    lag : float
+        τ [s].
+    shown : bool
+        The rests show breakaway above the kinetic level: at least :data:`MIN_RESTS` rests and
+        ΔF_s above twice its standard error.
+    """
+
+    rests: int
+    excess: float
+    standard_error: float
+    lag: float
+    shown: bool
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"rests": self.rests, "excess": self.excess, "standard_error": self.standard_error,
+                "lag": self.lag, "shown": self.shown}  # fmt: skip
+
+
+#: The rates at breakaway spread enough to tell a level from a lag when their standard deviation
+#: is at least this share of their mean magnitude (a sine's reversals: 0.1-0.5 %; a chirp's: 40 %).
+RATE_SPREAD = 0.2
+
+
+def _breakaway_fit(excess: np.ndarray, rate: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Least-squares ``excess = ΔF_s + τ rate``: the coefficients, their covariance and the RSS.
+    The covariance is inf where the rates do not spread by :data:`RATE_SPREAD` of their mean
+    magnitude: reversals at one input rate cannot tell a level from a lag."""
+    x = np.column_stack([np.ones(excess.size), rate])
+    coef, *_ = np.linalg.lstsq(x, excess, rcond=None)
+    resid = excess - x @ coef
+    rss = float(resid @ resid)
+    xtx = x.T @ x
+    if not np.any(rate):  # every breakaway under a held input: no lag to tell, the level alone
+        level = float(np.mean(excess))
+        rss = float(np.sum((excess - level) ** 2))
+        var = rss / max(excess.size - 1, 1) / excess.size
+        return np.array([level, 0.0]), np.array([[var, 0.0], [0.0, 0.0]]), rss
+    if float(np.std(rate)) < RATE_SPREAD * float(np.mean(np.abs(rate))) or np.linalg.cond(xtx) > 1e12:
+        return coef, np.full((2, 2), np.inf), rss
+    return coef, rss / max(excess.size - 2, 1) * np.linalg.inv(xtx), rss
+
+
+def _typical(excess: np.ndarray, rate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rests that look like a breakaway: the input rising (or held) in the direction the
+    drive then moves (a drive that leaves a rest while its input falls was not held by friction
+    but crept off), and, of those, the ones whose breakaway lies within 3 robust standard
+    deviations (1.4826 MAD) of the fit of :class:`Breakaway`, refitted until none is left out
+    (at most 3 times: a rest the filtered speed left by noise would pull a least-squares level)."""
+    keep = rate >= 0.0
+    excess, rate = excess[keep], rate[keep]
+    for _ in range(3):
+        if excess.size < 3:
+            break
+        coef, *_ = _breakaway_fit(excess, rate)
+        resid = excess - coef[0] - coef[1] * rate
+        centre = float(np.median(resid))
+        spread = 1.4826 * float(np.median(np.abs(resid - centre)))
+        keep = np.abs(resid - centre) <= 3.0 * spread
+        if spread <= 0 or keep.all():
+            break
+        excess, rate = excess[keep], rate[keep]
+    return excess, rate
+
+
+def breakaway(pool: Pool, model: RigidDrive, samples: list[np.ndarray] | None = None) -> Breakaway:
+    """The breakaway the rests of ``pool`` show above ``model``'s kinetic level (see
+    :class:`Breakaway`; the rests that break away in the full-rate ``samples``, the typical ones:
+    :func:`_typical`)."""
+    excess, rate = _typical(*pool.breakaway_excess(model, samples))
+    n = int(excess.size)
+    if n < 3:
+        return Breakaway(n, math.nan, math.nan, math.nan, False)
+    coef, cov, _ = _breakaway_fit(excess, rate)
+    se = math.sqrt(cov[0, 0])
+    if not math.isfinite(se):  # the rates cannot tell a level from a lag
+        return Breakaway(n, math.nan, math.inf, math.nan, False)
+    level = float(coef[0])
+    return Breakaway(n, level, se, float(coef[1]), n >= MIN_RESTS and level > 2.0 * se)
+
+
+def breakaway_evidence(excess: np.ndarray, rate: np.ndarray) -> dict[str, float]:
+    """ΔBIC of static friction on the rests: the fit of :class:`Breakaway` against the lag alone
+    (``e_i = τ g r_i``, no level above the kinetic one)::
+
+        ΔBIC = n ln(RSS_lag / RSS_lag+level) - ln n
+
+    (:func:`evidence` with the typical rests as its samples: one per reversal)."""
+    excess, rate = _typical(excess, rate)
+    n = int(excess.size)
+    if n < 3:
+        return {"delta_bic": -math.inf, "n": n, "n_eff": float(n), "rho": 0.0, "rss_ratio": 1.0}
+    coef, _, rss1 = _breakaway_fit(excess, rate)
+    slope = float(rate @ excess / (rate @ rate)) if float(rate @ rate) > 0 else 0.0
+    resid0 = excess - slope * rate
+    return evidence(float(resid0 @ resid0), rss1, n, 1, excess - coef[0] - coef[1] * rate)
+
+
+def breakaway_holdout(
+    train: Pool,
+    train_samples: list[np.ndarray] | None,
+    held: Pool,
+    held_samples: list[np.ndarray] | None,
+    model: RigidDrive,
+) -> tuple[float, float]:
+    """Held-out check of static friction on the rests: the fits of :class:`Breakaway` on the
+    rests of ``train`` (in ``train_samples``), with and without the level ΔF_s, predict the
+    breakaway of the rests of ``held`` (in ``held_samples``; those with the input rising) above
+    ``model``'s kinetic level; the median absolute errors [F] without and with it (a median: a
+    few held-out rests cannot be sifted for the typical ones; NaN without rests to fit or check)."""
+    e_t, r_t = _typical(*train.breakaway_excess(model, train_samples))
+    e_h, r_h = held.breakaway_excess(model, held_samples)
+    e_h, r_h = e_h[r_h >= 0.0], r_h[r_h >= 0.0]
+    if e_t.size < 3 or e_h.size == 0:
+        return math.nan, math.nan
+    coef, _, _ = _breakaway_fit(e_t, r_t)
+    lag_only = float(r_t @ e_t / (r_t @ r_t)) if float(r_t @ r_t) > 0 else 0.0
+    level = max(float(coef[0]), 0.0)
+    return float(np.median(np.abs(e_h - lag_only * r_h))), float(
+        np.median(np.abs(e_h - level - coef[1] * r_h))
+    )
+
+
+def fit_static_friction(pool: Pool, model: RigidDrive, samples: list[np.ndarray] | None) -> RigidDrive:
+    """``model`` with ``static_friction`` and its ``breakaway_excess`` ΔF_s [F], from the full-rate
+    ``samples`` of each record of ``pool`` (None: all).
+
+    Static friction acts on a drive at rest only, so the balance of the moving samples cannot
+    fit it. Where the records show at least :data:`MIN_RESTS` typical rests, they measure it: the
+    force at breakaway above the model's kinetic level (:func:`breakaway`; 0 when they show
+    none above it). With fewer, the free run fits it: the ΔF_s that minimises the free-run gap,
+    from a grid of 17 values on [0, half the largest input force] and a bounded search between
+    the best one's neighbours.
     """
     from scipy.optimize import minimize_scalar
 
     effects = tuple(dict.fromkeys((*model.effects, "static_friction")))
-    top = 0.5 * pool.data.scale["u_max"] * abs(model.input_gain)
 
     def with_excess(excess: float) -> RigidDrive:
         return model.with_effects(effects, {**model.params, "breakaway_excess": float(excess)})
+
+    found = breakaway(pool, model, samples)
+    if found.rests >= MIN_RESTS:
+        return with_excess(max(found.excess, 0.0) if math.isfinite(found.excess) else 0.0)
+    top = 0.5 * pool.data.scale["u_max"] * abs(model.input_gain)
 
     def cost(excess: float) -> float:
         err = pool.free_run_error(with_excess(excess), samples)
@@ -478,13 +732,13 @@ def fit_static_friction(pool: Pool, model: RigidDrive, samples: list[np.ndarray]
     grid = np.linspace(0.0, top, 17)
     costs = [cost(e) for e in grid]
     i = int(np.argmin(costs))
-    found = minimize_scalar(
+    best = minimize_scalar(
         cost,
         bounds=(grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]),
         method="bounded",
         options={"xatol": 1e-4 * top, "maxiter": 500},
     )
-    return with_excess(found.x if found.fun <= costs[i] else grid[i])
+    return with_excess(best.x if best.fun <= costs[i] else grid[i])
 
 
 def _lag1(r: np.ndarray) -> float:
@@ -706,6 +960,15 @@ class Diagnosis:
     quantisation_step : float or None
         The step the output is quantised in [its unit] (an encoder's count per sample), when it
         shows (:func:`~motorid.diagnose.kinematics.quantisation_step`).
+    rests : list of dict
+        Per record (:func:`rest_summaries`): its ``record`` label, the ``count`` of its rests,
+        their ``median_length`` [s], ``median_breakaway_input`` [u] (the input it breaks away
+        at, in the direction it then moves: :mod:`.rests`) and ``median_input_rate`` [u/s] (how
+        fast that input rises there), ``w_rest`` [v] (the speed below which
+        it counts as at rest), the final model's ``kinetic_level`` at 0 [F] (mean of the two
+        directions), ``breakaway_excess`` [F] (the force at breakaway above it at an input that
+        rises infinitely slowly, and its ``breakaway_excess_std``) and ``breakaway_lag`` [s] (how
+        much later the force follows the input: :class:`Breakaway`).
     notes : list of str
         One line per logging artefact left out of a record (a held start, drop-out spikes:
         :mod:`.artefacts`); with several records each begins with the record's label.
@@ -737,6 +1000,7 @@ class Diagnosis:
     notes: list[str] = field(default_factory=list)
     noise_bands: list[dict[str, float]] = field(default_factory=list)
     quantisation_step: float | None = None
+    rests: list[dict[str, Any]] = field(default_factory=list)
     _pool: Pool | None = field(default=None, repr=False)
 
     @property
@@ -775,6 +1039,8 @@ class Diagnosis:
             "noise_floor": self.noise_floor,
             "noise_bands": self.noise_bands,
             "quantisation_step": self.quantisation_step,
+            "at_noise_floor_factor": self.settings["missing_factor"],
+            "rests": self.rests,
             "region": self.region.to_dict(),
             "final_region": self.final_region.to_dict(),
             "model": {
@@ -952,6 +1218,23 @@ def record_summaries(
         out.append({
             "record": label, "samples": prep.kin.n, "noise_floor": floor, "initial_gap": before,
             "final_gap": after, "final_gap_noise_floors": after["overall"] / floor if floor > 0 else math.inf,
+        })  # fmt: skip
+    return out
+
+
+def rest_summaries(pool: Pool, model: RigidDrive) -> list[dict[str, Any]]:
+    """Each record's rests (:meth:`Rests.summary <motorid.diagnose.rests.Rests.summary>`) and the
+    breakaway they show above ``model``'s kinetic level (:func:`breakaway`) (:attr:`Diagnosis.rests`)."""
+    eps = max(1e-9, 1e-6 * pool.data.scale["w_max"])
+    t_pos, t_neg = model.friction(np.array([eps, -eps]))
+    out = []
+    for k, (label, prep) in enumerate(zip(pool.labels, pool.parts, strict=True)):
+        only = [np.full(p.kin.n, j == k) for j, p in enumerate(pool.parts)]
+        found = breakaway(pool, model, only)
+        out.append({
+            "record": label, **prep.rests.summary(), "kinetic_level": 0.5 * float(t_pos - t_neg),
+            "breakaway_excess": found.excess, "breakaway_excess_std": found.standard_error,
+            "breakaway_lag": found.lag,
         })  # fmt: skip
     return out
 
@@ -1309,18 +1592,8 @@ def diagnose(
     else:
         held = pool.holdout_rows(float(holdout))
         train, held_rows = ~held, held & data.moving
-    # the same blocks at full rate, for effects judged on the free run (static friction)
+    # the same blocks at full rate, for static friction (held out on the rests in them)
     held_full = None if isinstance(holdout, pd.DataFrame) else pool.holdout_samples(float(holdout))
-    all_full = [np.ones(p.kin.n, dtype=bool) for p in pool.parts]
-
-    def held_free_run(model: RigidDrive, fitted_on_train: RigidDrive | None) -> float:
-        """Free-run gap [v] on the held-out samples (or the second record) of ``model``, or, for a
-        static-friction candidate, of the model whose ΔF_s is fitted on the training samples."""
-        if fitted_on_train is not None:
-            model = fitted_on_train
-        if held_full is None:
-            return _rms(free_run_error(other, model))
-        return _rms(pool.free_run_error(model, held_full))
 
     fixed: dict[str, float] = {}  # the structure's delay and lag once chosen
 
@@ -1357,6 +1630,9 @@ def diagnose(
     stop_reason = f"max_steps = {max_steps} reached"
     floor = pool.noise
     v = pool.units["v"]
+    # a model given with a friction effect of its own stands where a step would have put it: the
+    # same rules judge what comes next, so the names do not depend on where the search starts
+    given = any(n not in DEFAULT_BASE and not EFFECTS[n].structure for n in base_names)
     chosen = Structure(
         reason="not searched: " + ("structure=False" if not structure else "the base holds it")
     )
@@ -1389,26 +1665,52 @@ def diagnose(
             first_region if not steps and not chosen.effects else locate(r_cur, pool.feats_dec, pool.units)
         )
         gap0 = pool.gaps(fit0.model, region)
-        if steps and gap0["overall"] <= (1.0 + noise_shrink) * floor:
+        if (steps or given) and gap0["overall"] <= (1.0 + noise_shrink) * floor:
+            # at the record-wide floor: only an effect judged where it acts, against the floor
+            # there (near rest, where an encoder's noise is least), can still show
+            remaining = [c for c in remaining if get_effect(c).acts]
+        if (steps or given) and gap0["overall"] <= (1.0 + noise_shrink) * floor and not remaining:
             stop_reason = (
                 f"the free-run gap {gap0['overall']:.4g} {v} is {gap0['overall'] / floor:.2f} x the noise "
                 f"floor {floor:.4g} {v}: no further effect can shrink it by more than {noise_shrink:g} x the noise"
+                " (and none acts where the noise is lower)"
             )
             break
         ranking = []
         for name in progress_bar(remaining, show=progress, desc="candidates", unit="effect", leave=False):
             if get_effect(name).rest_only:
-                # static friction: fitted and judged on the free run, the only place it shows
-                fitted = fit_static_friction(pool, fit0.model, all_full)
-                err0, err1 = pool.free_run_error(fit0.model), pool.free_run_error(fitted)
-                ok = np.isfinite(err0) & np.isfinite(err1)
+                # static friction: measured by the rests (the input it takes to start the drive
+                # again), the evidence theirs, judged on the free run at the rests in step 4; on
+                # records with too few rests, fitted and judged on the whole free run
+                found = breakaway(pool, fit0.model)
+                fitted = fit_static_friction(pool, fit0.model, None)
                 fit = FitResult(
                     fitted, fit0.rss, fit0.rss_force, fit0.n_rows, fit0.n_params + 1, fit0.residual
                 )
-                ev = evidence(
-                    float(np.sum(err0[ok] ** 2)), float(np.sum(err1[ok] ** 2)), int(ok.sum()), 1, err1[ok]
-                )
-                ev["measure"] = "free run"
+                if found.rests < MIN_RESTS:
+                    err0, err1 = pool.free_run_error(fit0.model), pool.free_run_error(fitted)
+                    ok = np.isfinite(err0) & np.isfinite(err1)
+                    ev = evidence(
+                        float(np.sum(err0[ok] ** 2)), float(np.sum(err1[ok] ** 2)), int(ok.sum()), 1, err1[ok]
+                    )
+                    ev["measure"] = f"free run ({found.rests} rests, fewer than {MIN_RESTS})"
+                    ranking.append({"effect": name, "fit": fit, "acts": "", **ev})
+                    continue
+                ev = breakaway_evidence(*pool.breakaway_excess(fit0.model))
+                ev["measure"] = "rests"
+                ev["breakaway"] = found.to_dict()
+                if not found.shown:  # the rests do not show breakaway above the kinetic level
+                    ev["delta_bic"] = -math.inf
+                    if not math.isfinite(found.standard_error):
+                        ev["note"] = (
+                            f"{found.rests} rests, all at one input rate: a breakaway level and a lag "
+                            "between input and force look alike there"
+                        )
+                    else:
+                        ev["note"] = (
+                            f"{found.rests} rests break away {found.excess:.3g} ± {found.standard_error:.2g} "
+                            f"{pool.units['F']} above the kinetic level: not shown"
+                        )
                 ranking.append({"effect": name, "fit": fit, **ev})
                 continue
             fit = fit_model(
@@ -1423,7 +1725,7 @@ def diagnose(
                 ev["note"] = f"{negative[0]} = {fit.model.params[negative[0]]:.4g} < 0 is not physical"
             ranking.append({"effect": name, "fit": fit, **ev})
         ranking.sort(key=lambda c: -c["delta_bic"])
-        table = [{k: v for k, v in c.items() if k != "fit"} for c in ranking]
+        table = [{k: v for k, v in c.items() if k not in ("fit", "acts")} for c in ranking]
         passing = [c for c in ranking if c["delta_bic"] > threshold]
         if not passing:
             best = ranking[0]
@@ -1459,34 +1761,62 @@ def diagnose(
             noise (against this step's model ``fit0``); its gaps; and its record (with the reason
             when it does not)."""  # fmt: skip
             name = c["effect"]
-            if get_effect(name).rest_only:  # held out on the free run: ΔF_s fitted on the training samples
+            acts = c.get("acts", get_effect(name).acts)
+            if get_effect(name).rest_only and not acts:  # too few rests: held out on the free run
                 trained = fit_static_friction(
-                    pool, fit0.model, all_full if held_full is None else [~m for m in held_full]
+                    pool, fit0.model, None if held_full is None else [~m for m in held_full]
                 )
-                base_held_c, cand_held = held_free_run(fit0.model, None), held_free_run(fit0.model, trained)
+                if held_full is None:
+                    base_held_c, cand_held = (
+                        _rms(free_run_error(other, fit0.model)),
+                        _rms(free_run_error(other, trained)),
+                    )
+                else:
+                    base_held_c = _rms(pool.free_run_error(fit0.model, held_full))
+                    cand_held = _rms(pool.free_run_error(trained, held_full))
+            elif get_effect(name).rest_only:  # held out on the rests: ΔF_s and τ from the training rests
+                if held_full is None:
+                    base_held_c, cand_held = breakaway_holdout(
+                        pool, None, Pool([other], ["held out"]), None, fit0.model
+                    )
+                else:
+                    base_held_c, cand_held = breakaway_holdout(
+                        pool, [~m for m in held_full], pool, held_full, fit0.model
+                    )
             else:
                 base_held_c = base_held
                 cand_held = held_error((*current, name), c["fit"].model.params)
             gap1 = pool.gaps(c["fit"].model, region)
             ok_held = cand_held < (1.0 - min_holdout_gain) * base_held_c
-            ok_gap = gap1["overall"] < (1.0 - min_gap_shrink) * gap0["overall"]
-            shrink = (gap0["overall"] - gap1["overall"]) / floor if floor > 0 else math.inf
-            ok_noise = not steps or shrink > noise_shrink
+            # judged where it acts: the gap there against the noise floor there
+            where = {"rests": " at the rests", "rest": " near rest", "speed": " at speed"}.get(acts, "")
+            if acts:
+                before, after = pool.acting_gap(fit0.model, acts), pool.acting_gap(c["fit"].model, acts)
+                ok_gap = after < (1.0 - min_gap_shrink) * before and gap1["overall"] <= gap0["overall"]
+            else:
+                before, after = gap0["overall"], gap1["overall"]
+                ok_gap = after < (1.0 - min_gap_shrink) * before
+            floor_c = pool.band_floor(acts)
+            shrink = (before - after) / floor_c if floor_c > 0 else math.inf
+            ok_noise = not (steps or given) or shrink > noise_shrink
             record_c = {
                 "effect": name, "delta_bic": c["delta_bic"], "held_out_error_before": base_held_c,
                 "held_out_error_after": cand_held, "gap_before": gap0["overall"], "gap_after": gap1["overall"],
                 "gap_shrink_noise_floors": shrink,
             }  # fmt: skip
+            if acts:
+                record_c.update({"judged": where.strip(), "acting_gap_before": before,
+                                 "acting_gap_after": after, "acting_noise_floor": floor_c})  # fmt: skip
             why = []
             if not ok_held:
-                unit = v if get_effect(name).rest_only else v + "/s"
+                unit = v + "/s" if not get_effect(name).rest_only else pool.units["F"] if acts else v
                 why.append(f"held-out error {cand_held:.4g} vs {base_held_c:.4g} {unit}")
             if not ok_gap:
-                why.append(f"free-run gap {gap1['overall']:.4g} vs {gap0['overall']:.4g} {v}")
+                why.append(f"free-run gap{where} {after:.4g} vs {before:.4g} {v}")
             elif not ok_noise:
                 why.append(
-                    f"free-run gap {gap1['overall']:.4g} vs {gap0['overall']:.4g} {v}, a shrink of {shrink:.2f} "
-                    f"noise floors ({floor:.3g} {v}), not above {noise_shrink:g}"
+                    f"free-run gap{where} {after:.4g} vs {before:.4g} {v}, a shrink of {shrink:.2f} "
+                    f"noise floors{where} ({floor_c:.3g} {v}), not above {noise_shrink:g}"
                 )
             if why:
                 record_c["reason"] = "; ".join(why)
@@ -1560,6 +1890,7 @@ def diagnose(
         refitted_gap=refitted_gap, param_std=fit0.param_std, structure=chosen, structure_model=structure_model,
         records=record_summaries(pool, initial_model, final_model, first_region), _pool=pool,
         noise_bands=pool.noise_bands(), quantisation_step=pool.quantisation,
+        rests=rest_summaries(pool, final_model),
         notes=[
             f"{label}: {note}" if len(labels) > 1 else note
             for label, prep in zip(labels, pool.parts, strict=True)
