@@ -50,6 +50,7 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
+from motorid.errors import FilterDivergenceError
 from motorid.estimators import friction_model as fm
 from motorid.estimators.base import BatchResult, Estimator, as_float_vector, check_covariance, first_bad_index
 from motorid.estimators.rls import check_positive
@@ -77,25 +78,6 @@ PARAM_UNITS: dict[str, str] = {
     "stribeck": "N m",
     "stribeck_std": "N m",
 }
-
-
-class FilterDivergenceError(RuntimeError):
-    """The filter no longer describes the data: its innovations are far larger than
-    its own covariance predicts, or the covariance broke down numerically.
-
-    Attributes
-    ----------
-    sample : int
-        Index of the sample at which it was detected.
-    nis_mean : float
-        Mean normalised innovation squared over the window at that sample (NaN for a
-        numerical breakdown).
-    """
-
-    def __init__(self, message: str, sample: int, nis_mean: float = math.nan):
-        super().__init__(message)
-        self.sample = sample
-        self.nis_mean = nis_mean
 
 
 # --------------------------------------------------------------------------- filters
@@ -1138,7 +1120,6 @@ class FrictionUKF(_FrictionFilter):
 __all__ = [
     "PARAM_UNITS",
     "RIGID_FILTER_EFFECTS",
-    "FilterDivergenceError",
     "FrictionEKF",
     "FrictionUKF",
     "check_rigid_drive",
