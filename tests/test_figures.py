@@ -206,7 +206,7 @@ def test_the_doctors_figures_are_readable_in_the_records_units(units):
         record.attrs = {k: v for k, v in planted.record.attrs.items() if k != "units"}
     d = diagnose(record, base=planted.base, max_steps=1)
     velocity = "rad/s" if units == "the record's" else UNNAMED_OUTPUT
-    for fig in (residual_figure(d, d._prep), simulation_figure(d, d._prep)):
+    for fig in (residual_figure(d, d._pool.parts[0]), simulation_figure(d, d._pool.parts[0])):
         check_readable(fig)
         assert any(f"[{velocity}]" in label for label in axis_labels_read(fig))
         if units == "none":

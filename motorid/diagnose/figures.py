@@ -61,18 +61,16 @@ def residual_figure(diagnosis: Diagnosis, prep: Prepared) -> Figure:
     Above :data:`MAX_SCATTER` decimated samples every k-th is shown, and the
     title says so.
     """
-    from motorid.diagnose.workflow import balance_residual
-
     step = -(-prep.data.n // MAX_SCATTER)
     w = prep.data.w[::step]
     models = diagnosis.models
     pairs = list(itertools.pairwise(models)) or [(models[0], models[0])]
     fig, axes = subplots(len(pairs), 1, figsize=(8, 3.2 * len(pairs)), squeeze=False)
     for ax, ((lb, mb), (la, ma)) in zip(axes[:, 0], pairs, strict=True):
-        rb, _ = balance_residual(mb, prep.data)
+        rb, _ = prep.balance_residual(mb)
         ax.plot(w, rb[::step], ".", ms=2.5, alpha=0.5, color="tab:red", label=f"before ({lb})")
         if ma is not mb:
-            ra, _ = balance_residual(ma, prep.data)
+            ra, _ = prep.balance_residual(ma)
             ax.plot(w, ra[::step], ".", ms=2.5, alpha=0.5, color="tab:blue", label=f"after ({la})")
         ax.axhline(0.0, color="k", lw=0.5)
         ax.set_xlabel(f"velocity w [{prep.units['v']}]")
