@@ -25,6 +25,7 @@ __all__ = [
     "DAQValueError",
     "DataError",
     "FilterDivergenceError",
+    "ModelFileError",
     "OutputError",
     "RigFaultError",
 ]
@@ -36,6 +37,27 @@ class DataError(ValueError):
     The message names what is wrong and where (file, column, 0-based row or
     sample index, argument name).
     """
+
+
+class ModelFileError(DataError):
+    """A bad value at one key of a model file or of a drive's description.
+
+    Its message is ``"{key}: {problem}"`` (``friction[1].alpha1: missing``); the
+    reader of a whole file puts the file's name in front.
+
+    Parameters
+    ----------
+    key : str
+        Where in the JSON object: dotted names and ``[index]`` (``model.J_m``), empty
+        for the object itself.
+    problem : str
+        What is wrong there.
+    """
+
+    def __init__(self, key: str, problem: str) -> None:
+        super().__init__(f"{key}: {problem}" if key else problem)
+        self.key = key
+        self.problem = problem
 
 
 class OutputError(OSError):
