@@ -70,7 +70,15 @@ def _integer(text: str) -> int | _HugeInteger:
 
 
 def key_path(where: str, key: str | int) -> str:
-    """The path of ``key`` inside ``where``: ``where.key``, ``where[index]``, ``key`` at the top."""
+    """The path of ``key`` inside ``where``: ``where.key``, ``where[index]``, ``key`` at the top.
+
+    Parameters
+    ----------
+    where : str
+        The path of the enclosing object or array (``""`` for the top level).
+    key : str or int
+        A key of an object, or an index of an array.
+    """
     if isinstance(key, int):
         return f"{where}[{key}]"
     return f"{where}.{key}" if where else key
@@ -130,7 +138,22 @@ def parse_json(text: str, source: str, where: str = "", invalid: str = "invalid 
 
 
 def object_keys(data: Any, names: tuple[str, ...] | list[str], where: str) -> dict[str, Any]:
-    """``data`` as a dict with exactly the keys ``names``."""
+    """``data`` as a dict with exactly the keys ``names``.
+
+    Parameters
+    ----------
+    data : Any
+        A JSON value.
+    names : sequence of str
+        The keys the object must have, every one and no other.
+    where : str
+        The object's path in its file (``""`` for the top level).
+
+    Raises
+    ------
+    ModelFileError
+        Naming ``key`` and what is wrong.
+    """
     label = where or "the top level"
     if not isinstance(data, dict):
         raise ModelFileError(where or "file", f"must be a JSON object, got {type(data).__name__}")
@@ -146,7 +169,13 @@ def object_keys(data: Any, names: tuple[str, ...] | list[str], where: str) -> di
 
 
 def shown(value: Any) -> str:
-    """``value`` as JSON for a message, cut to 60 characters (a file may hold a 50 MB string)."""
+    """``value`` as JSON for a message, cut to 60 characters (a file may hold a 50 MB string).
+
+    Parameters
+    ----------
+    value : Any
+        A JSON value (or anything: what ``json.dumps`` refuses is shown by its type's name).
+    """
     try:
         text = json.dumps(value)
     except (TypeError, ValueError):  # an integer of more digits than Python converts to text
@@ -155,7 +184,22 @@ def shown(value: Any) -> str:
 
 
 def number(value: Any, key: str, *, none_is: float | None = None) -> float:
-    """``value`` as a finite float; ``None`` is ``none_is`` where that is given (an infinite default)."""
+    """``value`` as a finite float; ``None`` is ``none_is`` where that is given (an infinite default).
+
+    Parameters
+    ----------
+    value : Any
+        A JSON value.
+    key : str
+        The value's path in its file (:func:`key_path`), named in the error.
+    none_is : float or None
+        What ``null`` reads as (a parameter whose default is infinite); None refuses ``null``.
+
+    Raises
+    ------
+    ModelFileError
+        Naming ``key`` and what is wrong.
+    """
     if value is None and none_is is not None:
         return none_is
     if isinstance(value, bool) or not isinstance(value, int | float):
@@ -170,7 +214,20 @@ def number(value: Any, key: str, *, none_is: float | None = None) -> float:
 
 
 def integer(value: Any, key: str) -> int:
-    """``value`` as an integer within ±2**53 (true and false refused)."""
+    """``value`` as an integer within ±2**53 (true and false refused).
+
+    Parameters
+    ----------
+    value : Any
+        A JSON value.
+    key : str
+        The value's path in its file (:func:`key_path`), named in the error.
+
+    Raises
+    ------
+    ModelFileError
+        Naming ``key`` and what is wrong.
+    """
     if isinstance(value, bool) or not isinstance(value, int):
         raise ModelFileError(key, f"must be an integer, got {shown(value)}")
     if abs(value) > MAX_INTEGER:
@@ -181,14 +238,40 @@ def integer(value: Any, key: str) -> int:
 
 
 def boolean(value: Any, key: str) -> bool:
-    """``value`` as true or false."""
+    """``value`` as true or false.
+
+    Parameters
+    ----------
+    value : Any
+        A JSON value.
+    key : str
+        The value's path in its file (:func:`key_path`), named in the error.
+
+    Raises
+    ------
+    ModelFileError
+        Naming ``key`` and what is wrong.
+    """
     if not isinstance(value, bool):
         raise ModelFileError(key, f"must be true or false, got {shown(value)}")
     return value
 
 
 def text(value: Any, key: str) -> str:
-    """``value`` as a string of at most :data:`LONGEST_TEXT` characters."""
+    """``value`` as a string of at most :data:`LONGEST_TEXT` characters.
+
+    Parameters
+    ----------
+    value : Any
+        A JSON value.
+    key : str
+        The value's path in its file (:func:`key_path`), named in the error.
+
+    Raises
+    ------
+    ModelFileError
+        Naming ``key`` and what is wrong.
+    """
     if not isinstance(value, str):
         raise ModelFileError(key, f"must be a string, got {shown(value)}")
     if len(value) > LONGEST_TEXT:
@@ -197,7 +280,24 @@ def text(value: Any, key: str) -> str:
 
 
 def float_array(value: Any, key: str, shape: tuple[int, ...], largest: float = math.inf) -> np.ndarray:
-    """A finite float array of ``shape`` from nested lists, entries within ±``largest``."""
+    """A finite float array of ``shape`` from nested lists, entries within ±``largest``.
+
+    Parameters
+    ----------
+    value : Any
+        A JSON value: nested lists of numbers.
+    key : str
+        The value's path in its file (:func:`key_path`), named in the error.
+    shape : tuple of int
+        The array's shape.
+    largest : float
+        Largest magnitude of an entry, in the entry's own unit.
+
+    Raises
+    ------
+    ModelFileError
+        Naming ``key`` and what is wrong.
+    """
     try:
         arr = np.array(value, dtype=float)
     except (TypeError, ValueError):
@@ -221,7 +321,17 @@ def float_array(value: Any, key: str, shape: tuple[int, ...], largest: float = m
 
 
 def build(cls: Any, values: dict[str, Any], where: str) -> Any:
-    """``cls(**values)``, its ValueError (which names the parameter) turned into a ModelFileError at ``where``."""
+    """``cls(**values)``, its ValueError (which names the parameter) turned into a ModelFileError at ``where``.
+
+    Parameters
+    ----------
+    cls : type
+        The class to build.
+    values : dict
+        Its constructor's arguments, already read from the file.
+    where : str
+        The object's path in its file.
+    """
     try:
         return cls(**values)
     except ValueError as exc:
@@ -229,7 +339,22 @@ def build(cls: Any, values: dict[str, Any], where: str) -> Any:
 
 
 def scalars(cls: Any, data: Any, where: str) -> Any:
-    """A dataclass of scalar fields, every field required, each checked for its type."""
+    """A dataclass of scalar fields, every field required, each checked for its type.
+
+    Parameters
+    ----------
+    cls : type
+        The dataclass; its fields' annotations (``float``, ``int``, else text) say how each is read.
+    data : Any
+        A JSON value: an object with one key per field.
+    where : str
+        The object's path in its file.
+
+    Raises
+    ------
+    ModelFileError
+        Naming ``key`` and what is wrong.
+    """
     fields = [f for f in dataclasses.fields(cls) if f.init]
     object_keys(data, [f.name for f in fields], where)
     values: dict[str, Any] = {}

@@ -99,6 +99,11 @@ LARGEST_FILE = 64 * 2**20
 def model_to_dict(model: Any) -> dict[str, Any]:
     """The JSON object of a model file for ``model`` (a rig or a saved estimator).
 
+    Parameters
+    ----------
+    model : TwoMassRig, RigidDrive or Estimator
+        What to save.
+
     Raises
     ------
     ValueError
@@ -126,6 +131,15 @@ def save_model(model: Any, path: str | os.PathLike[str], *, overwrite: bool = Tr
     ``overwrite=False`` refuses an existing file, also one another process created
     meanwhile (:class:`~motorid.errors.OutputError`, as for a full disk; ``path``
     is then as it was).
+
+    Parameters
+    ----------
+    model : TwoMassRig, RigidDrive or Estimator
+        What to save (:func:`model_to_dict`).
+    path : str or os.PathLike
+        The file to write.
+    overwrite : bool
+        False refuses an existing file.
     """
     write_model_file(model_to_dict(model), path, overwrite=overwrite)
 
@@ -195,6 +209,11 @@ def load_model(path: str | os.PathLike[str]) -> Any:
     """Read a model file: a :class:`~motorid.plants.rig.TwoMassRig`, a
     :class:`~motorid.plants.rigid.RigidDrive` or an estimator.
 
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The model file, at most :data:`LARGEST_FILE` bytes of UTF-8 JSON.
+
     Raises
     ------
     DataError
@@ -221,7 +240,17 @@ def load_model(path: str | os.PathLike[str]) -> Any:
 def model_from_dict(data: Any, source: str = "model") -> Any:
     """Build the model a model file's JSON object describes (see :func:`load_model`).
 
-    ``source`` names the file in the error messages.
+    Parameters
+    ----------
+    data : Any
+        The file's JSON object (``format``, ``version``, ``kind``, ``model``).
+    source : str
+        Names the file in the error messages.
+
+    Raises
+    ------
+    DataError
+        Naming ``source`` and the key.
     """
     try:
         if not isinstance(data, dict) or data.get("format") != FORMAT:

@@ -28,7 +28,13 @@ __all__ = ["ModbusDAQ", "contiguous_runs", "describe_status"]
 
 
 def describe_status(status: int) -> str:
-    """Names of the bits set in a status word, e.g. ``"watchdog|clamped"`` (``"ok"`` for 0)."""
+    """Names of the bits set in a status word, e.g. ``"watchdog|clamped"`` (``"ok"`` for 0).
+
+    Parameters
+    ----------
+    status : int
+        The rig's status word (:data:`~motorid.io.registers.STATUS_BITS`).
+    """
     names = [name for name, bit in STATUS_BITS.items() if status & bit]
     unknown = status & ~sum(STATUS_BITS.values())
     if unknown:
@@ -38,6 +44,11 @@ def describe_status(status: int) -> str:
 
 def contiguous_runs(registers: list[Register]) -> list[tuple[int, list[Register]]]:
     """Group registers into runs of adjacent addresses, each readable in one request.
+
+    Parameters
+    ----------
+    registers : list of Register
+        The registers to read, in any order.
 
     Returns
     -------
