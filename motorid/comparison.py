@@ -81,7 +81,13 @@ MIN_SCORED_SAMPLES = 20
 
 
 def model_kind(model: Any) -> str:
-    """What ``model`` is, in words: ``two-mass rig``, ``rigid drive`` or ``estimator NAME``."""
+    """What ``model`` is, in words: ``two-mass rig``, ``rigid drive`` or ``estimator NAME``.
+
+    Parameters
+    ----------
+    model : Any
+        A drive model or an estimator.
+    """
     if isinstance(model, TwoMassRig):
         return "two-mass rig"
     if isinstance(model, RigidDrive):
@@ -160,6 +166,15 @@ def check_output_unit(model: Any, units: Mapping[str, str] | None, name: str = "
     (a two-mass rig, and a friction filter on one, in rad/s); an ARX or Hammerstein model gives
     the output it was identified on, whatever its unit.
 
+    Parameters
+    ----------
+    model : Any
+        A drive model or an estimator.
+    units : mapping or None
+        The record's ``attrs["units"]``.
+    name : str
+        What the model is called in the message (its file's name).
+
     Raises
     ------
     DataError
@@ -221,7 +236,13 @@ def simulate_model(model: Any, u: np.ndarray, dt: float, name: str = "model") ->
 
 def holds_input(model: Any) -> bool:
     """True for a physical model, whose output is at the end of the sample its input is held
-    over (a drive model, or an estimator that starts from one: a friction filter)."""
+    over (a drive model, or an estimator that starts from one: a friction filter).
+
+    Parameters
+    ----------
+    model : Any
+        A drive model or an estimator.
+    """
     return isinstance(model, TwoMassRig | RigidDrive) or (
         isinstance(model, Estimator) and hasattr(type(model), "from_rig")
     )
@@ -233,6 +254,19 @@ def free_run_on_record(model: Any, u: np.ndarray, dt: float, timing: str, name: 
     ``y_sim[k]`` is the model's output for ``y[k]``. With ``timing="sampled"`` a physical
     model (:func:`holds_input`) runs on ``u[:-1]`` and its outputs are those of ``y[1:]``;
     ``y_sim[0]`` is 0, the rest it starts from.
+
+    Parameters
+    ----------
+    model : Any
+        A drive model or an estimator.
+    u : ndarray
+        The record's input [V or the record's unit].
+    dt : float
+        Sample time [s].
+    timing : str
+        The record's timing keyword (``"hold"`` or ``"sampled"``).
+    name : str
+        What the model is called in a message.
     """
     if timing == "sampled" and holds_input(model):
         return np.concatenate([[0.0], simulate_model(model, u[:-1], dt, name)])
@@ -292,7 +326,27 @@ class ModelOnRecord:
 @dataclass
 class Comparison:
     """Models on one record: the record's samples (``t`` [s], ``u``, ``y``) and each model's
-    run, ``y_sim[k]`` its output for ``y[k]`` (:func:`free_run_on_record`)."""
+    run, ``y_sim[k]`` its output for ``y[k]`` (:func:`free_run_on_record`).
+
+    Attributes
+    ----------
+    t : ndarray
+        Sample times [s].
+    u, y : ndarray
+        The record's input and measured output, in the record's units.
+    dt : float
+        Sample time [s].
+    timing : str
+        The record's timing keyword (``"hold"`` or ``"sampled"``).
+    skip : int
+        Samples at the start left out of the scores (the start from rest).
+    low_speed_threshold : float
+        The low-speed band is ``|y| <`` this [output unit].
+    output_unit : str
+        The unit of ``y``.
+    models : list of ModelOnRecord
+        Each model's free run on the record.
+    """
 
     t: np.ndarray
     u: np.ndarray

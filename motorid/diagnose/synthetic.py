@@ -73,6 +73,9 @@ class Planted:
         Planted effect -> its parameters [SI] (torques in N m).
     base : tuple of str
         The model a test starts from.
+    notes : dict
+        What else a test checks against: the drive's total ``inertia`` [kg m^2] and
+        ``viscous`` coefficient (back EMF included) [N m s/rad].
     """
 
     record: pd.DataFrame

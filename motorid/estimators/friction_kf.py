@@ -82,7 +82,13 @@ PARAM_UNITS: dict[str, str] = {
 
 # --------------------------------------------------------------------------- filters
 def tacho_variance(rig: TwoMassRig) -> float:
-    """Variance [(rad/s)^2] of the rig's speed reading: tacho noise plus A/D quantisation."""
+    """Variance [(rad/s)^2] of the rig's speed reading: tacho noise plus A/D quantisation.
+
+    Parameters
+    ----------
+    rig : TwoMassRig
+        The rig whose tacho and A/D converter read the speed.
+    """
     g = rig.tacho.gain
     return (rig.tacho.noise_std / g) ** 2 + (rig.adc.lsb / g) ** 2 / 12.0
 
@@ -100,7 +106,13 @@ INPUT_STATE_KEYS = ("ring", "lag")
 
 
 def check_rigid_drive(drive: RigidDrive) -> None:
-    """ValueError naming an effect of ``drive`` the filters' model does not hold."""
+    """ValueError naming an effect of ``drive`` the filters' model does not hold.
+
+    Parameters
+    ----------
+    drive : RigidDrive
+        The drive a filter is to model.
+    """
     for effect in drive.effects:
         if effect not in RIGID_FILTER_EFFECTS:
             raise ValueError(
@@ -126,6 +138,13 @@ def friction_prior(model: TwoMassRig | RigidDrive, stribeck: bool = True) -> dic
     α0 (forwards), α3 (backwards) and excess α1 = α4, a LuGre law's steady state (Coulomb
     Fc, Gaussian excess Fs - Fc with rate 1/ωs, viscous σ2), and B_m + B_L. With
     ``stribeck=False`` the Stribeck terms are left out (a filter without them).
+
+    Parameters
+    ----------
+    model : TwoMassRig or RigidDrive
+        The drive model.
+    stribeck : bool
+        Whether the filter estimates a Stribeck term.
 
     Raises
     ------

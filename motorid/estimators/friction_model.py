@@ -113,6 +113,17 @@ def state_layout(
 
     ``index["speed"]`` is the measured speed: ω_L of the two-mass drive, the rigid
     drive's ω.
+
+    Parameters
+    ----------
+    current_state : bool
+        Whether the armature current is a state.
+    asymmetric : bool
+        Whether the backward Coulomb level is a state.
+    stribeck : bool
+        Whether the Stribeck level is a state.
+    rigid : bool
+        A rigid drive (no shaft twist, one speed).
     """
     if rigid:
         names = ["omega"]
@@ -186,7 +197,17 @@ def pack_constants(
 
 
 def stiffest_rate(c: np.ndarray, x: np.ndarray, v: float = 0.0) -> float:
-    """Largest |eigenvalue| [1/s] of the continuous Jacobian at ``x`` (moving forwards)."""
+    """Largest |eigenvalue| [1/s] of the continuous Jacobian at ``x`` (moving forwards).
+
+    Parameters
+    ----------
+    c : ndarray
+        The model's constants (:func:`pack_constants`).
+    x : ndarray
+        The state.
+    v : float
+        The armature voltage [V].
+    """
     n = x.shape[0]
     f = np.zeros(n)
     A = np.zeros((n, n))

@@ -87,7 +87,13 @@ def _check_nonnegative(**values: float) -> None:
 
 @dataclass(frozen=True)
 class Friction:
-    """Base class: a friction law acting on ``side`` of the drive (keyword-only)."""
+    """Base class: a friction law acting on ``side`` of the drive (keyword-only).
+
+    Parameters
+    ----------
+    side : {"motor", "load", "both"}
+        The mass the law acts on.
+    """
 
     kind: ClassVar[str] = "friction"
     side: Side = field(default="both", kw_only=True)
@@ -134,6 +140,11 @@ class StaticFriction(Friction):
     Subclasses provide :meth:`coefficients`: ``(α0, α1, α2, α3, α4, α5)`` with
     ``T_f = α0 + α1 exp(-α2 |ω|)`` for motion in the positive direction and
     ``T_f = -(α3 + α4 exp(-α5 |ω|))`` for motion in the negative direction.
+
+    Parameters
+    ----------
+    side : {"motor", "load", "both"}
+        The mass the law acts on.
     """
 
     kind: ClassVar[str] = "static"

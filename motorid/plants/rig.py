@@ -668,6 +668,13 @@ def steady_state_speed(rig: TwoMassRig, u: float) -> float:
     Solves K_m (v_a - K_m ω)/R_a = (B_m + B_L) ω + T_c(ω) + T_d with the
     friction laws at speed ω (both masses turn at ω in steady state); 0 when the
     drive cannot break away.
+
+    Parameters
+    ----------
+    rig : TwoMassRig
+        The rig.
+    u : float
+        The constant command [V].
     """
     v = float(rig.amplifier(u))
     K, R = rig.K_m, rig.R_a
