@@ -29,7 +29,6 @@ PACKAGE = Path(motorid.__file__).parent
 
 #: Public functions and classes whose docstrings do not yet document every parameter.
 UNDOCUMENTED: set[str] = {
-    "motorid.cli.main",
     "motorid.diagnose.kinematics.filtered_noise",
     "motorid.diagnose.kinematics.noise_bands",
     "motorid.diagnose.workflow.Diagnosis",
@@ -40,9 +39,6 @@ UNDOCUMENTED: set[str] = {
     "motorid.diagnose.workflow.fit_static_friction",
     "motorid.diagnose.workflow.free_run_error",
     "motorid.diagnose.workflow.prepare",
-    "motorid.estimators.friction_kf.FrictionUKF",
-    "motorid.estimators.friction_model.pack_constants",
-    "motorid.estimators.hammerstein.HammersteinRLS",
     "motorid.fleet.results.ResultsStore",
     "motorid.fleet.results.flatten",
     "motorid.fleet.results.load_results",
@@ -57,9 +53,6 @@ UNDOCUMENTED: set[str] = {
     "motorid.fleet.trend.parameter_label",
     "motorid.fleet.trend.plot_trends",
     "motorid.fleet.trend.relative_rise",
-    "motorid.plants.fleet.make_fleet",
-    "motorid.plants.fleet.write_fleet",
-    "motorid.plants.rig.paper_rig",
     "motorid.plants.rigid.backlash_dwell",
     "motorid.plants.rigid.effect_order",
     "motorid.plants.rigid.input_dynamics",

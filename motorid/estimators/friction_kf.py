@@ -976,8 +976,11 @@ class FrictionUKF(_FrictionFilter):
 
     Parameters
     ----------
-    rig, friction_side, asymmetric, stribeck, ..., on_divergence
-        As for :class:`FrictionEKF` (keyword-only after ``rig``).
+    rig : TwoMassRig or RigidDrive, optional
+        As for :class:`FrictionEKF`.
+    **kwargs : Any
+        ``friction_side``, ``asymmetric``, ``stribeck``, ..., ``on_divergence``: as for
+        :class:`FrictionEKF` (keyword-only).
     alpha, beta, kappa : float
         Sigma-point spread and weights (filterpy's ``MerweScaledSigmaPoints``);
         alpha = 1, kappa = 0 put the points at ±√n σ with no negative weight.

@@ -66,8 +66,14 @@ class HammersteinRLS(LaggedRegressionRLS):
         the same numbers (at a Python call per sample).
     gamma_method : {"paper", "svd"}
         How step 2 recovers b and gamma.
-    direct_term, max_trace, R, x0
-        As for :class:`~motorid.estimators.arx.ARXRLS`.
+    direct_term : bool
+        Keep b_0 (paper); False drops it for a strictly causal model.
+    max_trace : float, optional
+        Bound on tr(P); None: the initial trace, ``np.inf``: no bound.
+    R : float
+        Equation-error variance [output unit^2].
+    x0 : array_like, optional
+        Initial estimate.
     """
 
     name = "hammerstein-rls"

@@ -624,7 +624,7 @@ def paper_rig(**overrides: Any) -> TwoMassRig:
 
     Parameters
     ----------
-    **overrides
+    **overrides : Any
         Any :class:`TwoMassRig` field, e.g. ``paper_rig(friction=(), dt=0.01)``.
     """
     names = {f.name for f in dataclasses.fields(TwoMassRig)}
