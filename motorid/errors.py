@@ -9,6 +9,7 @@ argument), so the user can fix it. It subclasses ValueError, so code that
 catches ValueError keeps working. The ``motorid`` command reports a DataError
 as one line with exit status 2; any other exception is a bug in motorid and is
 reported as one (exit status 1, the traceback with ``-v``).
+:class:`ModelFileError` is the DataError of one key of a model file.
 
 :class:`OutputError` is a file motorid writes that could not be written whole;
 :class:`FilterDivergenceError` a friction filter that no longer describes its data;
