@@ -43,7 +43,9 @@ either a drive model (:mod:`motorid.plants`) or an estimator
 (:mod:`motorid.estimators`), and the plants must not import the estimators. A drive
 model reads and writes its own description (``TwoMassRig.from_dict``,
 ``RigidDrive.save``; the envelope in :mod:`motorid.plants.files`, the checked values
-in :mod:`motorid.json_input`), so the plants import nothing of this module.
+in :mod:`motorid.json_input`) and an estimator writes its own (``Estimator.to_dict``,
+``Estimator.save``), so neither imports this module; reading an estimator back is
+done here.
 """
 
 from __future__ import annotations
@@ -118,7 +120,7 @@ def model_to_dict(model: Any) -> dict[str, Any]:
     from motorid.estimators.base import Estimator
 
     if isinstance(model, Estimator):
-        return model_file(KIND_ESTIMATOR, _estimator_to_dict(model))
+        return model_file(KIND_ESTIMATOR, model.to_dict())
     raise ValueError(
         f"cannot save a {type(model).__name__} as a model file: give a TwoMassRig, a RigidDrive "
         "or an estimator"
@@ -142,66 +144,6 @@ def save_model(model: Any, path: str | os.PathLike[str], *, overwrite: bool = Tr
         False refuses an existing file.
     """
     write_model_file(model_to_dict(model), path, overwrite=overwrite)
-
-
-def _estimator_to_dict(est: Any) -> dict[str, Any]:
-    from motorid.estimators import ARXRLS, FrictionEKF, FrictionUKF, HammersteinRLS
-
-    if type(est) in (ARXRLS, HammersteinRLS):
-        if est._pending is not None:
-            raise ValueError(f"{est.name} is between predict() and update(): call update() first")
-        settings: dict[str, Any] = {
-            "na": est.na,
-            "nb": est.nb,
-            "lam": est.lam,
-            "delta": est.delta,
-            "direct_term": est.direct_term,
-            "max_trace": None if math.isinf(est.max_trace) else est.max_trace,
-            "R": est.R,
-            "x0": est.x0.tolist(),
-        }
-        if type(est) is HammersteinRLS:
-            settings["basis"] = _basis_spec(est.basis)
-            settings["gamma_method"] = est.gamma_method
-        state = {
-            "x": est.x.tolist(),
-            "P": est.P.tolist(),
-            "y_history": est.y_history.tolist(),
-            "g_history": est.g_history.tolist(),
-            "sample_index": est.sample_index,
-        }
-    elif type(est) in (FrictionEKF, FrictionUKF):
-        settings = est.get_params()
-        settings["rig"] = None if settings["rig"] is None else settings["rig"].to_dict()
-        state = est.get_state()
-        state = {k: v.tolist() if isinstance(v, np.ndarray) else v for k, v in state.items()}
-        state["nis_mean"] = None if math.isnan(state["nis_mean"]) else state["nis_mean"]
-    else:
-        raise ValueError(
-            f"cannot save a {type(est).__name__}: model files hold arx-rls, hammerstein-rls, "
-            "friction-ekf and friction-ukf"
-        )
-    return {"estimator": est.name, "settings": settings, "state": state}
-
-
-def _basis_spec(basis: Any) -> str:
-    """The basis as the text :func:`~motorid.estimators.basis.basis_from_spec` reads back."""
-    from motorid.estimators.basis import DEAD_ZONE, POWER, SIGN
-
-    items = []
-    for f in basis:
-        if f.builtin is None:
-            raise ValueError(
-                f"cannot save the custom basis function {f.name!r}: only built-in ones are saved"
-            )
-        kind, parameter = f.builtin
-        if kind == POWER:
-            items.append(f"u^{int(parameter)}")
-        elif kind == SIGN:
-            items.append("sign")
-        elif kind == DEAD_ZONE:
-            items.append(f"dead_zone:{float(parameter)!r}")
-    return ",".join(items)
 
 
 # --------------------------------------------------------------------------- reading

@@ -72,17 +72,10 @@ UPWARD: dict[tuple[str, str], str] = {
     ("motorid.plants.fleet", "motorid.records"): (
         "the synthetic fleet writes records; it leaves the drive's package when drive/ is built"
     ),
-    ("motorid.estimators.base", "motorid.models"): (
-        "Estimator.save writes through models; goes when estimators save through get_params/get_state"
-    ),
 }
 
 #: Pairs of modules that import each other today, and why.
-MUTUAL: dict[frozenset[str], str] = {
-    frozenset({"motorid.estimators.base", "motorid.models"}): (
-        "Estimator.save writes through models, which reads estimators back; as UPWARD"
-    ),
-}
+MUTUAL: dict[frozenset[str], str] = {}
 
 
 def module_names() -> list[str]:

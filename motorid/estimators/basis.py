@@ -285,6 +285,29 @@ class Basis(Sequence[BasisFunction]):
             f"basis function {self._functions[column].name!r} is {value} at sample {sample} (u = {u} V)"
         )
 
+    def spec(self) -> str:
+        """The basis as the text :func:`basis_from_spec` reads back (``"u,u^2,sign"``).
+
+        Raises
+        ------
+        ValueError
+            For a custom basis function: only built-in ones have a text.
+        """
+        items = []
+        for f in self:
+            if f.builtin is None:
+                raise ValueError(
+                    f"cannot save the custom basis function {f.name!r}: only built-in ones are saved"
+                )
+            kind, parameter = f.builtin
+            if kind == POWER:
+                items.append(f"u^{int(parameter)}")
+            elif kind == SIGN:
+                items.append("sign")
+            elif kind == DEAD_ZONE:
+                items.append(f"dead_zone:{float(parameter)!r}")
+        return ",".join(items)
+
     def __repr__(self) -> str:
         return f"Basis({', '.join(self.names)})"
 

@@ -485,6 +485,22 @@ class _FrictionFilter(Estimator):
                     out.setdefault(name, str(p.annotation))
         return out
 
+    def to_dict(self) -> dict[str, Any]:
+        """The filter's description in a model file: its name, :meth:`get_params` (the rig as
+        its description) and :meth:`get_state` as JSON values.
+
+        Raises
+        ------
+        ValueError
+            Between :meth:`predict` and :meth:`update`.
+        """
+        settings = self.get_params()
+        settings["rig"] = None if settings["rig"] is None else settings["rig"].to_dict()
+        state = self.get_state()
+        state = {k: v.tolist() if isinstance(v, np.ndarray) else v for k, v in state.items()}
+        state["nis_mean"] = None if math.isnan(state["nis_mean"]) else state["nis_mean"]
+        return {"estimator": self.name, "settings": settings, "state": state}
+
     def get_params(self) -> dict[str, Any]:
         """The constructor arguments, by name (``rig`` included): ``type(self)(**get_params())``
         builds the same filter at its prior."""

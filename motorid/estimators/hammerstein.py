@@ -152,6 +152,20 @@ class HammersteinRLS(LaggedRegressionRLS):
         b, gamma = self.factorize()
         return np.concatenate([self.a, np.outer(gamma, b).ravel()])
 
+    def to_dict(self) -> dict[str, Any]:
+        """As :meth:`LaggedRegressionRLS.to_dict`, with the basis (:meth:`Basis.spec
+        <motorid.estimators.basis.Basis.spec>`) and ``gamma_method`` in the settings.
+
+        Raises
+        ------
+        ValueError
+            Between :meth:`predict` and :meth:`update`, or for a custom basis function.
+        """
+        out = super().to_dict()
+        out["settings"]["basis"] = self.basis.spec()
+        out["settings"]["gamma_method"] = self.gamma_method
+        return out
+
     @property
     def params(self) -> dict[str, Any]:
         """``a``; ``b`` (lags k0..nb) and ``gamma`` (gamma_1 = 1) from step 2;
