@@ -85,7 +85,13 @@ MIN_SCORED_SAMPLES = 20
 
 
 def model_kind(model: Any) -> str:
-    """What ``model`` is, in words: ``two-mass rig``, ``rigid drive`` or ``estimator NAME``."""
+    """What ``model`` is, in words: ``two-mass rig``, ``rigid drive`` or ``estimator NAME``.
+
+    Parameters
+    ----------
+    model : Any
+        A drive model or an estimator.
+    """
     if isinstance(model, TwoMassRig):
         return "two-mass rig"
     if isinstance(model, RigidDrive):
@@ -167,6 +173,17 @@ def check_output_unit(
     the output it was identified on, whatever its unit. With ``position_run`` (where the caller
     runs a rigid drive in position, :func:`compare_models`) a rigid drive takes a position too.
 
+    Parameters
+    ----------
+    model : Any
+        A drive model or an estimator.
+    units : mapping or None
+        The record's ``attrs["units"]``.
+    name : str
+        What the model is called in the message (its file's name).
+    position_run : bool
+        The caller runs a rigid drive in position (a record of positions).
+
     Raises
     ------
     DataError
@@ -230,7 +247,13 @@ def simulate_model(model: Any, u: np.ndarray, dt: float, name: str = "model") ->
 
 def holds_input(model: Any) -> bool:
     """True for a physical model, whose output is at the end of the sample its input is held
-    over (a drive model, or an estimator that starts from one: a friction filter)."""
+    over (a drive model, or an estimator that starts from one: a friction filter).
+
+    Parameters
+    ----------
+    model : Any
+        A drive model or an estimator.
+    """
     return isinstance(model, TwoMassRig | RigidDrive) or (
         isinstance(model, Estimator) and hasattr(type(model), "from_rig")
     )
@@ -248,9 +271,23 @@ def free_run_on_record(
 
     ``y_sim[k]`` is the model's output for ``y[k]``. With ``timing="sampled"`` a physical
     model (:func:`holds_input`) runs on ``u[:-1]`` and its outputs are those of ``y[1:]``;
-    ``y_sim[0]`` is 0, the rest it starts from. ``start_position`` (a rigid drive on a record
-    of positions): its position instead, from rest, placed so that its first position is
-    ``start_position`` (the first measured one).
+    ``y_sim[0]`` is 0, the rest it starts from.
+
+    Parameters
+    ----------
+    model : Any
+        A drive model or an estimator.
+    u : ndarray
+        The record's input [V or the record's unit].
+    dt : float
+        Sample time [s].
+    timing : str
+        The record's timing keyword (``"hold"`` or ``"sampled"``).
+    name : str
+        What the model is called in a message.
+    start_position : float, optional
+        A rigid drive on a record of positions: its position instead, from rest, placed so that
+        its first position is ``start_position`` (the first measured one) [rad or m].
     """
     if start_position is not None and isinstance(model, RigidDrive):
         drive = model.replace(dt=dt)
@@ -316,8 +353,30 @@ class ModelOnRecord:
 @dataclass
 class Comparison:
     """Models on one record: the record's samples (``t`` [s], ``u``, ``y``) and each model's
-    run, ``y_sim[k]`` its output for ``y[k]`` (:func:`free_run_on_record`); ``speed``, on a
-    record of positions, the speed derived from them, which the low-speed band is judged on."""
+    run, ``y_sim[k]`` its output for ``y[k]`` (:func:`free_run_on_record`).
+
+    Attributes
+    ----------
+    t : ndarray
+        Sample times [s].
+    u, y : ndarray
+        The record's input and measured output, in the record's units.
+    dt : float
+        Sample time [s].
+    timing : str
+        The record's timing keyword (``"hold"`` or ``"sampled"``).
+    skip : int
+        Samples at the start left out of the scores (the start from rest).
+    low_speed_threshold : float
+        The low-speed band is ``|y| <`` this [output unit].
+    output_unit : str
+        The unit of ``y``.
+    models : list of ModelOnRecord
+        Each model's free run on the record.
+    speed : ndarray or None
+        On a record of positions, the speed derived from them, which the low-speed band is
+        judged on (then ``|speed| <`` the threshold).
+    """
 
     t: np.ndarray
     u: np.ndarray

@@ -97,7 +97,15 @@ def transfer_function(estimator: Any, dt: float) -> control.TransferFunction:
 
 def state_space(estimator: Any, dt: float) -> control.StateSpace:
     """:func:`transfer_function` as a discrete state-space system (a minimal realisation of it;
-    ``D`` holds the direct term b_0)."""
+    ``D`` holds the direct term b_0).
+
+    Parameters
+    ----------
+    estimator : Estimator
+        An identified ARX or Hammerstein model (:func:`transfer_function`).
+    dt : float
+        Sample time [s].
+    """
     import control
 
     return control.ss(transfer_function(estimator, dt))
@@ -110,6 +118,15 @@ def friction_slope(drive: RigidDrive, speed: float, direction: float = 1.0) -> f
     one-sided slope on that side (viscous, the viscous asymmetry, twice the quadratic drag
     times |ω|, and the Stribeck decay's slope). Levels (Coulomb, asymmetry, offset) have
     no slope: their jump at zero speed is not linear.
+
+    Parameters
+    ----------
+    drive : RigidDrive
+        The drive model.
+    speed : float
+        The speed ω [v] (rad/s for a drive in SI units).
+    direction : float
+        ±1: the side taken at zero speed.
     """
     from motorid.plants import physics
 
@@ -292,7 +309,13 @@ def nonlinear_system(drive: RigidDrive | TwoMassRig, name: str | None = None) ->
 
 
 def rest_state(drive: RigidDrive | TwoMassRig) -> np.ndarray:
-    """The state of :func:`nonlinear_system` for the drive at rest before its first input."""
+    """The state of :func:`nonlinear_system` for the drive at rest before its first input.
+
+    Parameters
+    ----------
+    drive : RigidDrive or TwoMassRig
+        The drive model.
+    """
     if isinstance(drive, RigidDrive):
         fresh = drive.input_state()
         return np.concatenate([[0.0], fresh.ring, fresh.lag, fresh.clock])

@@ -44,7 +44,13 @@ _NO_LINKS = {errno.EPERM, errno.EOPNOTSUPP, errno.ENOTSUP, errno.EXDEV, errno.EM
 
 
 def disk_full(exc: OSError) -> bool:
-    """True when ``exc`` says the disk (or the user's quota) is full."""
+    """True when ``exc`` says the disk (or the user's quota) is full.
+
+    Parameters
+    ----------
+    exc : OSError
+        The error a write raised.
+    """
     return exc.errno in (errno.ENOSPC, errno.EDQUOT)
 
 
@@ -249,6 +255,11 @@ def safe_file_name(text: str) -> str:
     8 hex digits of a SHA-256 of ``text``, so two different ids get two names (but
     for a collision of those 32 bits): ``"drive_1"`` stays ``"drive_1"``,
     ``"../../x"`` becomes ``"_.._x-9cdf6a50"``.
+
+    Parameters
+    ----------
+    text : str
+        The name as the data gives it.
     """
     text = str(text)
     kept = "".join(c if c.isalnum() or c in _NAME_CHARACTERS else "_" for c in text)

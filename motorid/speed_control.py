@@ -95,7 +95,15 @@ class SpeedPI:
 def default_bandwidth(drive: RigidDrive, dt: float) -> float:
     """ω_c = 0.2 / (dt + τ_d + T_l) [rad/s]: the loop's sample time (half a sample of hold, half
     a sample of computation), the model's input delay τ_d and lag T_l cost a phase of
-    ω_c (dt + τ_d + T_l) = 0.2 rad (11°) at the crossover."""
+    ω_c (dt + τ_d + T_l) = 0.2 rad (11°) at the crossover.
+
+    Parameters
+    ----------
+    drive : RigidDrive
+        The model: its input delay τ_d [s] and lag T_l [s].
+    dt : float
+        The loop's sample time [s].
+    """
     dead = (
         check_sample_time(dt)
         + drive.params.get("input_delay", 0.0)
@@ -322,7 +330,17 @@ class TrackingMetrics:
 
 def tracking_metrics(record: pd.DataFrame, low_speed: float, moving: float = 1.0) -> dict[str, float]:
     """:class:`TrackingMetrics` of a closed-loop record: columns ``t`` [s], ``reference`` and ``y``
-    [rad/s] at the same instants (:func:`run_closed_loop`'s record)."""
+    [rad/s] at the same instants (:func:`run_closed_loop`'s record).
+
+    Parameters
+    ----------
+    record : DataFrame
+        The closed-loop record.
+    low_speed : float
+        The low-speed band [rad/s]: samples with |reference| below it.
+    moving : float
+        Speed [rad/s] beyond which the drive counts as moving in a direction.
+    """
     metrics = TrackingMetrics(low_speed, moving)
     columns = (record[c].to_numpy(dtype=float).tolist() for c in ("t", "reference", "y"))
     for t, r, y in zip(*columns, strict=True):

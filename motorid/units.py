@@ -80,6 +80,15 @@ RECORD_UNITS: tuple[str, ...] = tuple(dict.fromkeys((*OUTPUT_UNITS, *INPUT_UNITS
 def check_unit(unit: object, column: object, where: str) -> str:
     """``unit``, the unit a record's attrs give ``column``, if it is one of :data:`RECORD_UNITS`.
 
+    Parameters
+    ----------
+    unit : object
+        The unit as read (text, or anything a file holds).
+    column : object
+        The column's name, for the message.
+    where : str
+        The record, for the message (``"rec.csv: attrs.units"``).
+
     Raises
     ------
     DataError
@@ -114,7 +123,17 @@ _QUANTITY = {"rad/s": "speed", "m/s": "speed", "rad": "position", "m": "position
 @dataclass(frozen=True)
 class ShownOutput:
     """How an output is shown: ``shown = factor * y``, in ``unit``, a ``quantity`` (speed,
-    position or output)."""
+    position or output).
+
+    Attributes
+    ----------
+    quantity : str
+        ``"speed"``, ``"position"`` or ``"output"``.
+    factor : float
+        Shown value per held value [shown unit / held unit].
+    unit : str
+        The unit shown.
+    """
 
     quantity: str
     factor: float
@@ -127,6 +146,11 @@ def shown_output(unit: str | None) -> ShownOutput:
     ``rad/s`` is shown in rpm (:data:`SHOWN_AS`), a unit of :data:`OUTPUT_UNITS`
     as it is, and an output whose unit nobody named (``None``) in its own
     numbers, called :data:`UNNAMED_OUTPUT`: no unit is invented for it.
+
+    Parameters
+    ----------
+    unit : str or None
+        The unit the output is held in (a key of :data:`OUTPUT_UNITS`), None if unnamed.
 
     Examples
     --------
@@ -145,24 +169,49 @@ def shown_output(unit: str | None) -> ShownOutput:
 
 
 def input_unit_name(unit: str | None) -> str:
-    """The name of an input's unit in a figure or a report: ``unit``, or :data:`UNNAMED_INPUT`."""
+    """The name of an input's unit in a figure or a report: ``unit``, or :data:`UNNAMED_INPUT`.
+
+    Parameters
+    ----------
+    unit : str or None
+        The input's unit, None if unnamed.
+    """
     return unit or UNNAMED_INPUT
 
 
 def rate(unit: str | None) -> str:
     """The unit of the rate of change of a quantity in ``unit`` (``rad`` -> ``rad/s``; no unit:
-    ``output units/s``)."""
+    ``output units/s``).
+
+    Parameters
+    ----------
+    unit : str or None
+        The quantity's unit, None if unnamed.
+    """
     return f"{unit or UNNAMED_OUTPUT}/s"
 
 
 def per(numerator: str, denominator: str) -> str:
     """A unit ratio in words: ``per("rad/s", "V") == "rad/s per V"``, and an unnamed input
-    unit in the singular (``output units per input unit``)."""
+    unit in the singular (``output units per input unit``).
+
+    Parameters
+    ----------
+    numerator, denominator : str
+        The two units.
+    """
     return f"{numerator} per {'input unit' if denominator == UNNAMED_INPUT else denominator}"
 
 
 def output_factor(unit: str, option: str = "--output-unit") -> tuple[float, str]:
     """The factor from ``unit`` to its SI unit, and that SI unit.
+
+    Parameters
+    ----------
+    unit : str
+        An output unit (a key of :data:`OUTPUT_UNITS`: ``rpm``, ``deg/s``, ...).
+    option : str
+        The option or argument that gave it, for the message.
 
     Raises
     ------
@@ -186,6 +235,17 @@ def input_factor(
     ``%`` (factor 1): the model's input gain then absorbs the supply. PWM
     ``counts`` become duty with the count of full duty ``C`` (``full_scale``,
     255 for 8 bits): ``u_% = 100 u_counts / C``, then as duty.
+
+    Parameters
+    ----------
+    unit : str
+        An input unit (a key of :data:`INPUT_UNITS`: ``V``, ``mV``, ``%``, ``counts``).
+    supply_voltage : float, optional
+        The drive's supply voltage ``V_s`` [V], for duty and counts.
+    option : str
+        The option or argument that gave ``unit``, for the message.
+    full_scale : float, optional
+        The count of full duty ``C`` [counts], for ``counts``.
 
     Raises
     ------
@@ -223,6 +283,19 @@ def check_input_range(
     where: Callable[[int], str] | None = None, column: str = "u",
 ) -> None:  # fmt: skip
     """Refuse PWM duty beyond ±100 % or counts beyond ±``full_scale``, naming the first such row.
+
+    Parameters
+    ----------
+    values : ndarray
+        The input column as read, in ``unit``.
+    unit : str
+        Its unit; only ``%`` and ``counts`` have a range.
+    full_scale : float, optional
+        The count of full duty [counts], for ``counts``.
+    where : callable, optional
+        Row index -> its place in the file (default ``row k``).
+    column : str
+        The input column's name, for the message.
 
     Raises
     ------
@@ -279,7 +352,9 @@ def convert_record(
         Count of full duty for ``input_unit="counts"``.
     where : callable, optional
         Row index -> its place in the file, for the message of a duty beyond
-        100 % (:func:`check_input_range`); ``column`` is the input's name there.
+        100 % (:func:`check_input_range`).
+    column : str
+        The input's name in that message.
 
     Returns
     -------

@@ -26,7 +26,8 @@ from filterpy.kalman import ExtendedKalmanFilter
 from hypothesis import given
 from hypothesis import strategies as st
 
-from motorid.estimators import FilterDivergenceError, FrictionEKF, FrictionUKF, available, create
+from motorid.errors import FilterDivergenceError
+from motorid.estimators import FrictionEKF, FrictionUKF, available, create
 from motorid.plants import CoulombFriction, measure_speed, paper_rig, physics
 from motorid.plants.signals import two_sine_signal
 from motorid.testing import check_estimator

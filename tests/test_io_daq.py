@@ -15,7 +15,8 @@ from hypothesis import strategies as st
 from io_fixtures import FirstOrderPlant
 
 from motorid import plants
-from motorid.io import DAQError, Register, RegisterMap, SimulatedDAQ, rig_map_toml, run_online
+from motorid.errors import DAQError
+from motorid.io import Register, RegisterMap, SimulatedDAQ, rig_map_toml, run_online
 
 
 class Recorder:

@@ -28,14 +28,11 @@ from pyModbusTCP.client import ModbusClient
 from pyModbusTCP.utils import decode_ieee, encode_ieee, long_list_to_word, word_list_to_long
 
 from motorid import estimators
+from motorid.errors import DAQConnectionError, DAQError, DAQValueError, RigFaultError
 from motorid.io import (
     STATUS_BITS,
-    DAQConnectionError,
-    DAQError,
-    DAQValueError,
     ModbusDAQ,
     RegisterMap,
-    RigFaultError,
     RigServer,
     SimulatedDAQ,
     rig_map_toml,

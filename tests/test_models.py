@@ -19,7 +19,7 @@ from hypothesis import strategies as st
 import motorid
 from motorid.errors import DataError
 from motorid.estimators import FrictionEKF, FrictionUKF, HammersteinRLS, create
-from motorid.models import FORMAT, VERSION, load_model, model_to_dict, save_model
+from motorid.models import load_model, model_to_dict, save_model
 from motorid.plants import (
     ADConverter,
     Amplifier,
@@ -34,6 +34,7 @@ from motorid.plants import (
     ViscousFriction,
     paper_rig,
 )
+from motorid.plants.files import FORMAT, VERSION
 from motorid.plants.signals import two_sine_signal
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -10,7 +10,8 @@ import pandas as pd
 import pytest
 
 from motorid.compensation import FrictionCompensation
-from motorid.io import DAQError, SimulatedDAQ
+from motorid.errors import DAQError
+from motorid.io import SimulatedDAQ
 from motorid.plants import RigidDrive, paper_rig
 from motorid.plants.rigid import input_path
 from motorid.speed_control import (

@@ -83,7 +83,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run ``motorid ARGV`` and return its exit status (also for a bad option or ``--help``)."""
+    """Run ``motorid ARGV`` and return its exit status (also for a bad option or ``--help``).
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        The arguments after ``motorid`` (``sys.argv[1:]`` when None).
+    """
     parser = build_parser()
     try:
         args = parser.parse_args(argv)

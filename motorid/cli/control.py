@@ -65,7 +65,8 @@ def reference_from_file(path: Path, dt: float, duration: float | None) -> np.nda
 def cmd_control(args: argparse.Namespace) -> int:
     """Close the speed loop: PI designed on the model, friction compensation from it (or not)."""
     from motorid.compensation import FrictionCompensation
-    from motorid.io import DAQError, daq_from_url
+    from motorid.errors import DAQError
+    from motorid.io import daq_from_url
     from motorid.plants import RigidDrive
     from motorid.speed_control import (
         SpeedController,

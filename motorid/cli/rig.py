@@ -94,7 +94,8 @@ def cmd_rig_map(args: argparse.Namespace) -> int:
 
 def cmd_run(args: argparse.Namespace) -> int:
     """Online identification on a DAQ (simulated rig or Modbus)."""
-    from motorid.io import STATUS_BITS, DAQError, RigFaultError, daq_from_url, run_online
+    from motorid.errors import DAQError, RigFaultError
+    from motorid.io import STATUS_BITS, daq_from_url, run_online
     from motorid.io.modbus import describe_status
 
     check_out_file(args.out, args.overwrite)

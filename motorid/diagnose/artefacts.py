@@ -47,7 +47,13 @@ SPIKE_SHARE = 0.1
 
 def held_start(u: np.ndarray, y: np.ndarray) -> int:
     """Number of samples at the start of a record whose output is held by the logger (see the
-    module notes); 0 for none."""
+    module notes); 0 for none.
+
+    Parameters
+    ----------
+    u, y : ndarray
+        The record's input and output.
+    """
     changes = np.flatnonzero(y != y[0])
     if changes.size == 0 or changes[0] < MIN_HELD:
         return 0
@@ -66,7 +72,13 @@ def held_start(u: np.ndarray, y: np.ndarray) -> int:
 
 
 def dropout_spikes(y: np.ndarray) -> np.ndarray:
-    """Indices of single-sample drop-out spikes in ``y`` (see the module notes)."""
+    """Indices of single-sample drop-out spikes in ``y`` (see the module notes).
+
+    Parameters
+    ----------
+    y : ndarray
+        The record's output.
+    """
     if y.size < 3:
         return np.zeros(0, dtype=int)
     mid = 0.5 * (y[:-2] + y[2:])
@@ -85,7 +97,19 @@ def clean_output(
 ) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """``u`` and ``y`` without a held start (looked for when ``start``: a velocity output; a
     resting drive holds its position) and with drop-out spikes replaced, and a note for each
-    artefact left out (``units``: the input's and the output's, for the notes; ``dt`` [s])."""
+    artefact left out (``units``: the input's and the output's, for the notes; ``dt`` [s]).
+
+    Parameters
+    ----------
+    u, y : ndarray
+        The record's input and output.
+    dt : float
+        Sample time [s].
+    units : tuple of str
+        The input's and the output's units, for the notes.
+    start : bool
+        Look for a held start (a velocity output).
+    """
     u_unit, y_unit = (f" {x}" if x else "" for x in units)
     notes = []
     k0 = held_start(u, y) if start else 0

@@ -389,7 +389,13 @@ EFFECTS: dict[str, type[Effect]] = {
 
 
 def get_effect(name: str) -> Effect:
-    """The effect called ``name``; ValueError naming the known ones otherwise."""
+    """The effect called ``name``; ValueError naming the known ones otherwise.
+
+    Parameters
+    ----------
+    name : str
+        An effect's snake_case name (``coulomb_friction``, ...).
+    """
     try:
         return EFFECTS[name]()
     except KeyError:

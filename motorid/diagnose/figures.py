@@ -60,19 +60,24 @@ def residual_figure(diagnosis: Diagnosis, prep: Prepared) -> Figure:
     input gain, else the input's unit (the model's forces per input unit).
     Above :data:`MAX_SCATTER` decimated samples every k-th is shown, and the
     title says so.
-    """
-    from motorid.diagnose.workflow import balance_residual
 
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+        The doctor's result: its models before and after each step.
+    prep : Prepared
+        The record, prepared (decimated balance data and units).
+    """
     step = -(-prep.data.n // MAX_SCATTER)
     w = prep.data.w[::step]
     models = diagnosis.models
     pairs = list(itertools.pairwise(models)) or [(models[0], models[0])]
     fig, axes = subplots(len(pairs), 1, figsize=(8, 3.2 * len(pairs)), squeeze=False)
     for ax, ((lb, mb), (la, ma)) in zip(axes[:, 0], pairs, strict=True):
-        rb, _ = balance_residual(mb, prep.data)
+        rb, _ = prep.balance_residual(mb)
         ax.plot(w, rb[::step], ".", ms=2.5, alpha=0.5, color="tab:red", label=f"before ({lb})")
         if ma is not mb:
-            ra, _ = balance_residual(ma, prep.data)
+            ra, _ = prep.balance_residual(ma)
             ax.plot(w, ra[::step], ".", ms=2.5, alpha=0.5, color="tab:blue", label=f"after ({la})")
         ax.axhline(0.0, color="k", lw=0.5)
         ax.set_xlabel(f"velocity w [{prep.units['v']}]")
@@ -87,7 +92,17 @@ def residual_figure(diagnosis: Diagnosis, prep: Prepared) -> Figure:
 
 
 def plot_residual_vs_speed(diagnosis: Diagnosis, prep: Prepared, path: Path) -> Path:
-    """Write :func:`residual_figure` as PNG at ``path``."""
+    """Write :func:`residual_figure` as PNG at ``path``.
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+        The doctor's result.
+    prep : Prepared
+        The record, prepared.
+    path : Path
+        The PNG file to write.
+    """
     return save(residual_figure(diagnosis, prep), path)
 
 
@@ -96,6 +111,13 @@ def simulation_figure(diagnosis: Diagnosis, prep: Prepared) -> Figure:
 
     Records longer than 2 :data:`MAX_BUCKETS` samples are drawn as the minimum
     and maximum of each run of samples (:func:`envelope`), and the title says so.
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+        The doctor's result: its initial and final models.
+    prep : Prepared
+        The record, prepared (kinematics and units).
     """
     kin = prep.kin
     t = np.arange(kin.n) * kin.dt
@@ -122,12 +144,34 @@ def simulation_figure(diagnosis: Diagnosis, prep: Prepared) -> Figure:
 
 
 def plot_simulation(diagnosis: Diagnosis, prep: Prepared, path: Path) -> Path:
-    """Write :func:`simulation_figure` as PNG at ``path``."""
+    """Write :func:`simulation_figure` as PNG at ``path``.
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+        The doctor's result.
+    prep : Prepared
+        The record, prepared.
+    path : Path
+        The PNG file to write.
+    """
     return save(simulation_figure(diagnosis, prep), path)
 
 
 def write_figures(diagnosis: Diagnosis, prep: Prepared, out_dir: Path, prefix: str = "doctor_") -> list[Path]:
-    """Write ``{prefix}residual_vs_speed.png`` and ``{prefix}simulation.png`` in ``out_dir``."""
+    """Write ``{prefix}residual_vs_speed.png`` and ``{prefix}simulation.png`` in ``out_dir``.
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+        The doctor's result.
+    prep : Prepared
+        The record, prepared.
+    out_dir : Path
+        The folder to write in.
+    prefix : str
+        The start of each file's name (``doctor_2_`` for a pool's second record).
+    """
     return [
         plot_residual_vs_speed(diagnosis, prep, out_dir / f"{prefix}residual_vs_speed.png"),
         plot_simulation(diagnosis, prep, out_dir / f"{prefix}simulation.png"),

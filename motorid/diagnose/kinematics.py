@@ -39,7 +39,13 @@ OutputKind = Literal["velocity", "position"]
 
 
 def default_band(dt: float) -> float:
-    """Default useful band f_b [Hz] for a sample time ``dt`` [s]: min(40, f_s/10)."""
+    """Default useful band f_b [Hz] for a sample time ``dt`` [s]: min(40, f_s/10).
+
+    Parameters
+    ----------
+    dt : float
+        Sample time [s].
+    """
     return min(40.0, 0.1 / dt)
 
 
@@ -75,6 +81,13 @@ def zero_phase(sos: np.ndarray, x: np.ndarray) -> np.ndarray:
     ``scipy.signal.sosfiltfilt`` with ``x`` extended at each end by ``3 (2 n_sections + 1)``
     samples of its odd reflection, each pass started from the sections' steady state.
 
+    Parameters
+    ----------
+    sos : ndarray, shape (n_sections, 6)
+        Second-order sections (``scipy.signal`` form).
+    x : ndarray
+        The signal.
+
     Raises
     ------
     ValueError
@@ -90,7 +103,15 @@ def zero_phase(sos: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 def decimation_factor(dt: float, band: float) -> int:
-    """``n_d = max(1, floor(0.4 f_s / f_b))``: keeps the band ``f_b`` [Hz] below 0.8 of the new Nyquist."""
+    """``n_d = max(1, floor(0.4 f_s / f_b))``: keeps the band ``f_b`` [Hz] below 0.8 of the new Nyquist.
+
+    Parameters
+    ----------
+    dt : float
+        Sample time [s] (f_s = 1/dt).
+    band : float
+        The useful band f_b [Hz].
+    """
     return max(1, math.floor(0.4 / (dt * band) + 0.01))
 
 
@@ -105,7 +126,15 @@ def _anti_alias(factor: int) -> np.ndarray:
 
 def anti_alias(x: np.ndarray, factor: int) -> np.ndarray:
     """Zero-phase anti-alias filter of the decimation by ``factor`` at full rate (a copy of ``x``
-    for ``factor`` 1)."""
+    for ``factor`` 1).
+
+    Parameters
+    ----------
+    x : ndarray
+        A signal at full rate.
+    factor : int
+        The decimation factor n_d >= 1.
+    """
     if factor <= 1:
         return np.array(x, dtype=float)
     return zero_phase(_anti_alias(factor), x)
@@ -263,7 +292,13 @@ def quantisation_step(y: np.ndarray) -> float | None:
     (those below 1.5 times the smallest, which rounding in a file spreads); it is refined by least
     squares ``q = Σ y n / Σ n²`` over the counts ``n = round(y / q)``, first of the samples within
     50 steps of zero, then of all. It shows when at least 99 % of the samples lie within 5 % of
-    a step of a multiple of it."""
+    a step of a multiple of it.
+
+    Parameters
+    ----------
+    y : ndarray
+        The record's output.
+    """
     steps = np.abs(np.diff(y))
     steps = steps[steps > 0.0]
     if steps.size == 0:

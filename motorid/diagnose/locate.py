@@ -49,7 +49,19 @@ def feature(
 ) -> np.ndarray:
     """One feature of every sample (see the module notes), from velocity ``w`` [v],
     acceleration ``a`` [v/s] and input ``u`` [u] sampled every ``dt`` [s]; ``w_threshold``
-    [v] is the speed below which w has no sign for ``time_since_reversal``."""
+    [v] is the speed below which w has no sign for ``time_since_reversal``.
+
+    Parameters
+    ----------
+    name : str
+        A feature of :data:`FEATURES`.
+    w, a, u : ndarray
+        Velocity [v], acceleration [v/s] and input [u] of every sample.
+    dt : float
+        Sample time [s].
+    w_threshold : float
+        Speed [v] below which w has no sign.
+    """
     if name == "speed":
         return np.abs(w)
     if name == "input":
@@ -66,7 +78,19 @@ def features(
     w: np.ndarray, a: np.ndarray, u: np.ndarray, dt: float, w_threshold: float, at: np.ndarray | None = None
 ) -> dict[str, np.ndarray]:
     """Every feature (:data:`FEATURES`) of every sample, or only of the samples ``at``
-    (indices; the features that look back in time are computed at full rate first)."""
+    (indices; the features that look back in time are computed at full rate first).
+
+    Parameters
+    ----------
+    w, a, u : ndarray
+        Velocity [v], acceleration [v/s] and input [u] of every sample.
+    dt : float
+        Sample time [s].
+    w_threshold : float
+        Speed [v] below which w has no sign.
+    at : ndarray, optional
+        Indices of the samples wanted (all when None).
+    """
     out = {}
     for name in FEATURES:
         x = feature(name, w, a, u, dt, w_threshold)
@@ -133,7 +157,17 @@ def _describe(feature: str, lo: float, hi: float, x: np.ndarray, units: dict[str
 
 
 def sign_pattern(r: np.ndarray, feats: dict[str, np.ndarray], mask: np.ndarray) -> str:
-    """Which sign the residual follows inside ``mask``: the best cosine with sgn(w), sgn(u), sgn(a), 1."""
+    """Which sign the residual follows inside ``mask``: the best cosine with sgn(w), sgn(u), sgn(a), 1.
+
+    Parameters
+    ----------
+    r : ndarray
+        The balance residual [F].
+    feats : dict
+        The features of the same samples (:func:`features`).
+    mask : ndarray of bool
+        The samples of the region.
+    """
     rr = r[mask]
     if rr.size == 0 or not np.any(rr):
         return "constant"

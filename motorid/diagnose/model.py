@@ -187,7 +187,13 @@ def stacked(columns: list[np.ndarray]) -> np.ndarray:
 # --------------------------------------------------------------------------- model
 def model_key(model: RigidDrive) -> tuple:
     """All a rigid drive's free run and balance depend on, every number to the bit: two models
-    with equal keys give equal outputs."""
+    with equal keys give equal outputs.
+
+    Parameters
+    ----------
+    model : RigidDrive
+        The model.
+    """
     params = tuple((name, value.hex()) for name, value in model.params.items())
     return model.effects, params, model.dt.hex(), model.stribeck_shape
 
@@ -197,6 +203,13 @@ def model_balance(model: RigidDrive, data: BalanceData) -> tuple[np.ndarray, np.
 
     The decimated input force and friction of a model are kept in the cache of
     :meth:`BalanceData.decimated` (the workflow asks for the same model's more than once).
+
+    Parameters
+    ----------
+    model : RigidDrive
+        The model.
+    data : BalanceData
+        The record's decimated balance data.
     """
     kin = data.kin
     key = model_key(model)
@@ -212,6 +225,23 @@ class FitResult:
 
     ``rss`` is in acceleration units (RSS of the balance / J²) [(v/s)²],
     ``rss_force`` in force units [F²].
+
+    Attributes
+    ----------
+    model : RigidDrive
+        The fitted model.
+    rss : float
+        Residual sum of squares of the balance / J² [(v/s)²].
+    rss_force : float
+        Residual sum of squares of the balance [F²].
+    n_rows : int
+        Fitted rows.
+    n_params : int
+        Fitted parameters.
+    residual : ndarray
+        The balance residual on the fitted rows [F].
+    param_std : dict
+        Standard error of each linear parameter [its unit] (:func:`linear_param_std`).
     """
 
     model: RigidDrive
@@ -231,6 +261,23 @@ class LinearSolve:
     the fitted rows [F²], ``rank`` the number of columns kept, ``residual`` ``F_in - X θ`` on
     every decimated sample [F]. ``R_kept`` holds the columns kept (indices ``keep``) of the
     triangular factor of the unit-norm columns, whose norms are ``norms``.
+
+    Attributes
+    ----------
+    theta : dict
+        The linear parameters θ [their units].
+    rss : float
+        Residual sum of squares on the fitted rows [F²].
+    rank : int
+        Columns kept.
+    residual : ndarray
+        ``F_in - X θ`` on every decimated sample [F].
+    R_kept : ndarray
+        The kept columns of the triangular factor of the unit-norm columns.
+    keep : ndarray
+        Indices of the kept columns.
+    norms : ndarray
+        The columns' norms.
     """
 
     theta: dict[str, float]
@@ -264,7 +311,19 @@ class LinearSolve:
 class Regressors:
     """The regressor columns of one solve: ``X`` (N decimated samples, k columns) for the
     residual, and on the fitted rows (indices ``fitted``) the columns scaled to unit norm, one
-    per row of ``scaled`` (k, M), with their ``norms``."""
+    per row of ``scaled`` (k, M), with their ``norms``.
+
+    Attributes
+    ----------
+    X : ndarray, shape (N, k)
+        The regressor columns on the N decimated samples.
+    fitted : ndarray
+        Indices of the fitted rows.
+    norms : ndarray, shape (k,)
+        The columns' norms on the fitted rows.
+    scaled : ndarray, shape (k, M)
+        The columns on the fitted rows scaled to unit norm, one per row.
+    """
 
     X: np.ndarray
     fitted: np.ndarray
@@ -392,6 +451,19 @@ def linear_param_std(
     (the effective number of rows is n (1 - ρ)/(1 + ρ)). They hold the shape parameters
     (Stribeck velocity, dead zone, ...) at their fitted values, which get no standard error.
     A dropped column's parameter gets 0.
+
+    Parameters
+    ----------
+    names : list of str
+        The linear parameters, in column order.
+    unit_cov : ndarray
+        C = (XᵀX)⁻¹ of the columns, in the parameters' units.
+    residual : ndarray
+        The balance residual on the fitted rows [F].
+    rows : ndarray
+        Indices of the fitted rows (consecutive ones give ρ).
+    rank : int
+        Columns kept.
     """
     idx = np.flatnonzero(rows)
     r = residual[idx]

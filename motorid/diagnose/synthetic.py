@@ -74,9 +74,9 @@ class Planted:
     base : tuple of str
         The model a test starts from.
     notes : dict
-        Other true values: ``inertia`` [kg m²], ``viscous`` [N m s/rad], ``coulomb`` [N m] (the
-        kinetic friction level, when the record has one) and, with an encoder sensor, its
-        ``quantisation_step`` [rad/s].
+        Other true values: ``inertia`` [kg m^2] (the drive's total), ``viscous`` [N m s/rad]
+        (back EMF included), ``coulomb`` [N m] (the kinetic friction level, when the record has
+        one) and, with an encoder sensor, its ``quantisation_step`` [rad/s].
     """
 
     record: pd.DataFrame

@@ -191,6 +191,10 @@ class Prepared:
         out[i0:] = model.free_run(self.kin.u, w0=float(self.kin.w[i0 - 1]), start=i0)
         return out
 
+    def balance_residual(self, model: RigidDrive) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`balance_residual` of this record's decimated samples."""
+        return balance_residual(model, self.data)
+
 
 def _column(record: pd.DataFrame, name: str, role: str) -> np.ndarray:
     if not isinstance(name, str) or name not in record.columns:

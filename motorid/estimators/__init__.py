@@ -7,7 +7,7 @@
 from motorid.estimators.arx import ARXRLS
 from motorid.estimators.base import BatchResult, Estimator
 from motorid.estimators.basis import Basis, BasisFunction, basis_from_spec, dead_zone, polynomial, power, sign
-from motorid.estimators.friction_kf import FilterDivergenceError, FrictionEKF, FrictionUKF
+from motorid.estimators.friction_kf import FrictionEKF, FrictionUKF
 from motorid.estimators.hammerstein import HammersteinRLS
 from motorid.estimators.registry import (
     ENTRY_POINT_GROUP,
@@ -25,7 +25,6 @@ __all__ = [
     "BasisFunction",
     "BatchResult",
     "Estimator",
-    "FilterDivergenceError",
     "FrictionEKF",
     "FrictionUKF",
     "HammersteinRLS",

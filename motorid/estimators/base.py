@@ -27,6 +27,8 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
 
+from motorid.plants.files import KIND_ESTIMATOR, model_file, write_model_file
+
 logger = logging.getLogger(__name__)
 
 
@@ -365,14 +367,36 @@ class Estimator(ABC):
                 saver.save()
         return BatchResult(x_hist, p_diag, y_hat, innovation, s_hist, self.state_names)
 
+    def to_dict(self) -> dict[str, Any]:
+        """The estimator's description in a model file: ``{"estimator": NAME, "settings": {...},
+        "state": {...}}`` (:mod:`motorid.models` reads it back).
+
+        Raises
+        ------
+        ValueError
+            For an estimator that has no model file form (this base class's answer; the
+            built-in estimators give theirs).
+        """
+        raise ValueError(
+            f"cannot save a {type(self).__name__}: model files hold arx-rls, hammerstein-rls, "
+            "friction-ekf and friction-ukf"
+        )
+
     def save(self, path: str | os.PathLike[str], *, overwrite: bool = True) -> None:
         """Write the estimator as a model file; ``motorid.load_model`` reads it back
         (the format and what is saved: :mod:`motorid.models`).
 
-        Written whole; ``overwrite=False`` refuses an existing file (:func:`motorid.models.save_model`)."""
-        from motorid.models import save_model
+        Written whole; ``overwrite=False`` refuses an existing file
+        (:func:`motorid.plants.files.write_model_file`).
 
-        save_model(self, path, overwrite=overwrite)
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The file to write.
+        overwrite : bool
+            False refuses an existing file.
+        """
+        write_model_file(model_file(KIND_ESTIMATOR, self.to_dict()), path, overwrite=overwrite)
 
     def __repr__(self) -> str:
         lines = [f"{type(self).__name__} object"]

@@ -166,7 +166,13 @@ MOST_POWER = 32
 
 
 def power(j: int) -> BasisFunction:
-    """``g(u) = u^j`` (paper eq. 16), the product of j factors u; 1 <= j <= :data:`MOST_POWER`."""
+    """``g(u) = u^j`` (paper eq. 16), the product of j factors u; 1 <= j <= :data:`MOST_POWER`.
+
+    Parameters
+    ----------
+    j : int
+        The power, 1 to :data:`MOST_POWER`.
+    """
     if isinstance(j, bool) or not isinstance(j, (int, np.integer)) or not 1 <= j <= MOST_POWER:
         raise ValueError(f"power must be an integer in [1, {MOST_POWER}], got {j!r}")
     return BasisFunction("u" if j == 1 else f"u^{j}", builtin=(POWER, float(j)))
@@ -181,6 +187,11 @@ def dead_zone(d: float) -> BasisFunction:
     """The ideal dead zone of width ``2 d`` [V] (paper Fig. 4).
 
     ``g(u) = u - d`` for ``u > d``, ``u + d`` for ``u < -d`` and 0 in between.
+
+    Parameters
+    ----------
+    d : float
+        Half-width of the dead zone [V], finite and >= 0.
     """
     d = float(d)
     if not np.isfinite(d) or d < 0.0:
@@ -274,12 +285,41 @@ class Basis(Sequence[BasisFunction]):
             f"basis function {self._functions[column].name!r} is {value} at sample {sample} (u = {u} V)"
         )
 
+    def spec(self) -> str:
+        """The basis as the text :func:`basis_from_spec` reads back (``"u,u^2,sign"``).
+
+        Raises
+        ------
+        ValueError
+            For a custom basis function: only built-in ones have a text.
+        """
+        items = []
+        for f in self:
+            if f.builtin is None:
+                raise ValueError(
+                    f"cannot save the custom basis function {f.name!r}: only built-in ones are saved"
+                )
+            kind, parameter = f.builtin
+            if kind == POWER:
+                items.append(f"u^{int(parameter)}")
+            elif kind == SIGN:
+                items.append("sign")
+            elif kind == DEAD_ZONE:
+                items.append(f"dead_zone:{float(parameter)!r}")
+        return ",".join(items)
+
     def __repr__(self) -> str:
         return f"Basis({', '.join(self.names)})"
 
 
 def polynomial(degree: int) -> Basis:
-    """The paper's polynomial basis ``u, u^2, ..., u^degree`` (eq. 16), degree <= :data:`MOST_POWER`."""
+    """The paper's polynomial basis ``u, u^2, ..., u^degree`` (eq. 16), degree <= :data:`MOST_POWER`.
+
+    Parameters
+    ----------
+    degree : int
+        The highest power, 1 to :data:`MOST_POWER`.
+    """
     if isinstance(degree, bool) or not isinstance(degree, (int, np.integer)) or not 1 <= degree <= MOST_POWER:
         raise ValueError(f"degree must be an integer in [1, {MOST_POWER}], got {degree!r}")
     return Basis(power(j) for j in range(1, int(degree) + 1))
@@ -293,6 +333,11 @@ def basis_from_spec(spec: str) -> Basis:
 
     Items: ``u``, ``u^j`` (or ``uj``), ``sign``, ``dead_zone:D`` (or ``dead_zone(D)``,
     D in volts); ``poly:N`` expands to ``u, ..., u^N``. Example: ``"u,sign"``.
+
+    Parameters
+    ----------
+    spec : str
+        The comma-separated items.
     """
     functions: list[BasisFunction] = []
     for raw in spec.split(","):

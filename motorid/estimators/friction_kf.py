@@ -50,6 +50,7 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
+from motorid.errors import FilterDivergenceError
 from motorid.estimators import friction_model as fm
 from motorid.estimators.base import BatchResult, Estimator, as_float_vector, check_covariance, first_bad_index
 from motorid.estimators.rls import check_positive
@@ -79,28 +80,15 @@ PARAM_UNITS: dict[str, str] = {
 }
 
 
-class FilterDivergenceError(RuntimeError):
-    """The filter no longer describes the data: its innovations are far larger than
-    its own covariance predicts, or the covariance broke down numerically.
-
-    Attributes
-    ----------
-    sample : int
-        Index of the sample at which it was detected.
-    nis_mean : float
-        Mean normalised innovation squared over the window at that sample (NaN for a
-        numerical breakdown).
-    """
-
-    def __init__(self, message: str, sample: int, nis_mean: float = math.nan):
-        super().__init__(message)
-        self.sample = sample
-        self.nis_mean = nis_mean
-
-
 # --------------------------------------------------------------------------- filters
 def tacho_variance(rig: TwoMassRig) -> float:
-    """Variance [(rad/s)^2] of the rig's speed reading: tacho noise plus A/D quantisation."""
+    """Variance [(rad/s)^2] of the rig's speed reading: tacho noise plus A/D quantisation.
+
+    Parameters
+    ----------
+    rig : TwoMassRig
+        The rig whose tacho and A/D converter read the speed.
+    """
     g = rig.tacho.gain
     return (rig.tacho.noise_std / g) ** 2 + (rig.adc.lsb / g) ** 2 / 12.0
 
@@ -118,7 +106,13 @@ INPUT_STATE_KEYS = ("ring", "lag")
 
 
 def check_rigid_drive(drive: RigidDrive) -> None:
-    """ValueError naming an effect of ``drive`` the filters' model does not hold."""
+    """ValueError naming an effect of ``drive`` the filters' model does not hold.
+
+    Parameters
+    ----------
+    drive : RigidDrive
+        The drive a filter is to model.
+    """
     for effect in drive.effects:
         if effect not in RIGID_FILTER_EFFECTS:
             raise ValueError(
@@ -144,6 +138,13 @@ def friction_prior(model: TwoMassRig | RigidDrive, stribeck: bool = True) -> dic
     α0 (forwards), α3 (backwards) and excess α1 = α4, a LuGre law's steady state (Coulomb
     Fc, Gaussian excess Fs - Fc with rate 1/ωs, viscous σ2), and B_m + B_L. With
     ``stribeck=False`` the Stribeck terms are left out (a filter without them).
+
+    Parameters
+    ----------
+    model : TwoMassRig or RigidDrive
+        The drive model.
+    stribeck : bool
+        Whether the filter estimates a Stribeck term.
 
     Raises
     ------
@@ -483,6 +484,22 @@ class _FrictionFilter(Estimator):
                 if name != "self" and p.kind is not inspect.Parameter.VAR_KEYWORD:
                     out.setdefault(name, str(p.annotation))
         return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """The filter's description in a model file: its name, :meth:`get_params` (the rig as
+        its description) and :meth:`get_state` as JSON values.
+
+        Raises
+        ------
+        ValueError
+            Between :meth:`predict` and :meth:`update`.
+        """
+        settings = self.get_params()
+        settings["rig"] = None if settings["rig"] is None else settings["rig"].to_dict()
+        state = self.get_state()
+        state = {k: v.tolist() if isinstance(v, np.ndarray) else v for k, v in state.items()}
+        state["nis_mean"] = None if math.isnan(state["nis_mean"]) else state["nis_mean"]
+        return {"estimator": self.name, "settings": settings, "state": state}
 
     def get_params(self) -> dict[str, Any]:
         """The constructor arguments, by name (``rig`` included): ``type(self)(**get_params())``
@@ -975,8 +992,11 @@ class FrictionUKF(_FrictionFilter):
 
     Parameters
     ----------
-    rig, friction_side, asymmetric, stribeck, ..., on_divergence
-        As for :class:`FrictionEKF` (keyword-only after ``rig``).
+    rig : TwoMassRig or RigidDrive, optional
+        As for :class:`FrictionEKF`.
+    **kwargs : Any
+        ``friction_side``, ``asymmetric``, ``stribeck``, ..., ``on_divergence``: as for
+        :class:`FrictionEKF` (keyword-only).
     alpha, beta, kappa : float
         Sigma-point spread and weights (filterpy's ``MerweScaledSigmaPoints``);
         alpha = 1, kappa = 0 put the points at ±√n σ with no negative weight.
@@ -1138,7 +1158,6 @@ class FrictionUKF(_FrictionFilter):
 __all__ = [
     "PARAM_UNITS",
     "RIGID_FILTER_EFFECTS",
-    "FilterDivergenceError",
     "FrictionEKF",
     "FrictionUKF",
     "check_rigid_drive",

@@ -113,6 +113,17 @@ def state_layout(
 
     ``index["speed"]`` is the measured speed: ω_L of the two-mass drive, the rigid
     drive's ω.
+
+    Parameters
+    ----------
+    current_state : bool
+        Whether the armature current is a state.
+    asymmetric : bool
+        Whether the backward Coulomb level is a state.
+    stribeck : bool
+        Whether the Stribeck level is a state.
+    rigid : bool
+        A rigid drive (no shaft twist, one speed).
     """
     if rigid:
         names = ["omega"]
@@ -159,7 +170,41 @@ def pack_constants(
     """The constant vector ``c`` the compiled model reads (SI units; indices ``C_*`` of
     :mod:`motorid.plants.physics`). A layout with ``index["twist"] == -1`` is the
     rigid drive: ``J_m`` its inertia, ``T_d`` its offset torque, ``input_gain`` its g,
-    ``breakaway_excess`` its static friction's ΔF_s [N m] (the stick rule's levels at rest)."""
+    ``breakaway_excess`` its static friction's ΔF_s [N m] (the stick rule's levels at rest).
+
+    Parameters
+    ----------
+    J_m, J_l : float
+        Motor and load inertia [kg m^2].
+    K_m : float
+        Motor constant [N m/A = V s/rad].
+    R_a : float
+        Armature resistance [Ω].
+    L_a : float
+        Armature inductance [H].
+    k_s : float
+        Shaft stiffness [N m/rad].
+    B_s : float
+        Shaft damping [N m s/rad].
+    T_d : float
+        Constant disturbance (offset) torque [N m].
+    stribeck_decay : float
+        Stribeck rate 1/v_s [s/rad].
+    stribeck_shape : str
+        A shape of :data:`motorid.plants.physics.STRIBECK_SHAPES`.
+    dt : float
+        Sample time [s].
+    substeps : int
+        Integration steps per sample.
+    friction_side : {"motor", "load"}
+        The mass the estimated friction acts on.
+    index : dict
+        The state layout (:func:`state_layout`).
+    input_gain : float
+        The rigid drive's input gain g [N m/V].
+    breakaway_excess : float
+        The rigid drive's static friction ΔF_s [N m].
+    """
     c = np.zeros(physics.N_FILTER_CONSTANTS)
     c[physics.C_JM], c[physics.C_JL], c[physics.C_KM], c[physics.C_RA], c[physics.C_LA] = (
         J_m,
@@ -186,7 +231,17 @@ def pack_constants(
 
 
 def stiffest_rate(c: np.ndarray, x: np.ndarray, v: float = 0.0) -> float:
-    """Largest |eigenvalue| [1/s] of the continuous Jacobian at ``x`` (moving forwards)."""
+    """Largest |eigenvalue| [1/s] of the continuous Jacobian at ``x`` (moving forwards).
+
+    Parameters
+    ----------
+    c : ndarray
+        The model's constants (:func:`pack_constants`).
+    x : ndarray
+        The state.
+    v : float
+        The armature voltage [V].
+    """
     n = x.shape[0]
     f = np.zeros(n)
     A = np.zeros((n, n))

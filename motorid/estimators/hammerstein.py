@@ -66,8 +66,14 @@ class HammersteinRLS(LaggedRegressionRLS):
         the same numbers (at a Python call per sample).
     gamma_method : {"paper", "svd"}
         How step 2 recovers b and gamma.
-    direct_term, max_trace, R, x0
-        As for :class:`~motorid.estimators.arx.ARXRLS`.
+    direct_term : bool
+        Keep b_0 (paper); False drops it for a strictly causal model.
+    max_trace : float, optional
+        Bound on tr(P); None: the initial trace, ``np.inf``: no bound.
+    R : float
+        Equation-error variance [output unit^2].
+    x0 : array_like, optional
+        Initial estimate.
     """
 
     name = "hammerstein-rls"
@@ -145,6 +151,20 @@ class HammersteinRLS(LaggedRegressionRLS):
         Hammerstein structure, not the over-parameterised step-1 products)."""
         b, gamma = self.factorize()
         return np.concatenate([self.a, np.outer(gamma, b).ravel()])
+
+    def to_dict(self) -> dict[str, Any]:
+        """As :meth:`LaggedRegressionRLS.to_dict`, with the basis (:meth:`Basis.spec
+        <motorid.estimators.basis.Basis.spec>`) and ``gamma_method`` in the settings.
+
+        Raises
+        ------
+        ValueError
+            Between :meth:`predict` and :meth:`update`, or for a custom basis function.
+        """
+        out = super().to_dict()
+        out["settings"]["basis"] = self.basis.spec()
+        out["settings"]["gamma_method"] = self.gamma_method
+        return out
 
     @property
     def params(self) -> dict[str, Any]:

@@ -40,6 +40,15 @@ _REGISTERED: dict[str, EstimatorFactory] = {}
 def register(name: str, factory: EstimatorFactory, *, replace: bool = False) -> None:
     """Register ``factory`` under ``name`` for this process.
 
+    Parameters
+    ----------
+    name : str
+        The name :func:`create` builds it by.
+    factory : callable
+        Keyword arguments -> a new :class:`Estimator` (a class, or a function).
+    replace : bool
+        True takes over a name already registered (a built-in's included).
+
     Raises
     ------
     ValueError
@@ -55,7 +64,18 @@ def register(name: str, factory: EstimatorFactory, *, replace: bool = False) -> 
 
 
 def unregister(name: str) -> None:
-    """Forget a name registered with :func:`register` (built-ins and plugins stay)."""
+    """Forget a name registered with :func:`register` (built-ins and plugins stay).
+
+    Parameters
+    ----------
+    name : str
+        The registered name.
+
+    Raises
+    ------
+    ValueError
+        For a name :func:`register` did not register.
+    """
     if name not in _REGISTERED:
         raise ValueError(f"{name!r} was not registered with register()")
     del _REGISTERED[name]
@@ -90,6 +110,13 @@ def available() -> list[str]:
 def create(name: str, **kwargs: Any) -> Estimator:
     """Build the estimator registered as ``name`` with keyword arguments ``kwargs``.
 
+    Parameters
+    ----------
+    name : str
+        A name of :func:`available`.
+    **kwargs : Any
+        The factory's arguments (``na``, ``nb``, ``lam``, ...; see :func:`factory`).
+
     Raises
     ------
     ValueError
@@ -104,6 +131,11 @@ def create(name: str, **kwargs: Any) -> Estimator:
 
 def factory(name: str) -> EstimatorFactory:
     """The factory registered as ``name`` (its signature tells which arguments it takes).
+
+    Parameters
+    ----------
+    name : str
+        A name of :func:`available`.
 
     Raises
     ------

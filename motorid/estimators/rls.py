@@ -613,6 +613,36 @@ class LaggedRegressionRLS(Estimator):
         theta = self.x if theta is None else np.asarray(theta)
         return theta[..., self.na :].reshape(*theta.shape[:-1], len(self.basis), self.n_lags_used)
 
+    def to_dict(self) -> dict[str, Any]:
+        """The estimator's description in a model file: its name, its constructor's settings and
+        what it has learnt (``x``, ``P``, the lagged outputs and inputs, the sample index).
+
+        Raises
+        ------
+        ValueError
+            Between :meth:`predict` and :meth:`update`.
+        """
+        if self._pending is not None:
+            raise ValueError(f"{self.name} is between predict() and update(): call update() first")
+        settings: dict[str, Any] = {
+            "na": self.na,
+            "nb": self.nb,
+            "lam": self.lam,
+            "delta": self.delta,
+            "direct_term": self.direct_term,
+            "max_trace": None if math.isinf(self.max_trace) else self.max_trace,
+            "R": self.R,
+            "x0": self.x0.tolist(),
+        }
+        state = {
+            "x": self.x.tolist(),
+            "P": self.P.tolist(),
+            "y_history": self.y_history.tolist(),
+            "g_history": self.g_history.tolist(),
+            "sample_index": self.sample_index,
+        }
+        return {"estimator": self.name, "settings": settings, "state": state}
+
     def __repr__(self) -> str:
         head = (
             f"{type(self).__name__}(na={self.na}, nb={self.nb}, basis={self.basis!r}, lam={self.lam}, "

@@ -8,15 +8,7 @@
 - :func:`daq_from_url`: ``sim``, ``modbus://HOST:PORT`` or ``modbus-rtu:///dev/X``.
 """
 
-from .base import (
-    DAQ,
-    DAQConnectionError,
-    DAQError,
-    DAQValueError,
-    Plant,
-    RigFaultError,
-    Sample,
-)
+from .base import DAQ, Plant, Sample
 from .daq_url import daq_from_url
 from .modbus import ModbusDAQ
 from .online import RunRecorder, run_online
@@ -27,14 +19,10 @@ from .simulated import SimulatedDAQ
 __all__ = [
     "DAQ",
     "STATUS_BITS",
-    "DAQConnectionError",
-    "DAQError",
-    "DAQValueError",
     "ModbusDAQ",
     "Plant",
     "Register",
     "RegisterMap",
-    "RigFaultError",
     "RigServer",
     "RunRecorder",
     "Sample",

@@ -21,43 +21,15 @@ from abc import ABC, abstractmethod
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
+from motorid.errors import DAQError
+
 logger = logging.getLogger(__name__)
 
 __all__ = [
     "DAQ",
-    "DAQConnectionError",
-    "DAQError",
-    "DAQValueError",
     "Plant",
-    "RigFaultError",
     "Sample",
 ]
-
-
-class DAQError(RuntimeError):
-    """Base class of every error raised by a DAQ backend."""
-
-
-class DAQConnectionError(DAQError, ConnectionError):
-    """The link to the rig is down: no answer within the timeout, or refused."""
-
-
-class DAQValueError(DAQError, ValueError):
-    """A value read from the rig is not a valid measurement (NaN, inf, out of range)."""
-
-
-class RigFaultError(DAQError):
-    """The rig reports a fault (for example its heartbeat watchdog tripped).
-
-    Attributes
-    ----------
-    status : int
-        The status word read from the rig.
-    """
-
-    def __init__(self, message: str, status: int) -> None:
-        super().__init__(message)
-        self.status = status
 
 
 @runtime_checkable

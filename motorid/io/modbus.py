@@ -4,7 +4,7 @@ Each sample the client writes the voltage command and an incremented
 heartbeat in one request, and reads status, sequence counter and speed in
 one request (with the default map; a map with gaps costs one request per
 contiguous run). Timeouts are short and suited to the sample time, with no
-retries: a lost link raises :class:`~motorid.io.base.DAQConnectionError`
+retries: a lost link raises :class:`~motorid.errors.DAQConnectionError`
 within one timeout, and the next call tries to reconnect.
 """
 
@@ -17,7 +17,9 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import parse_qs, urlparse
 
-from .base import DAQ, DAQConnectionError, DAQError, DAQValueError, RigFaultError, Sample
+from motorid.errors import DAQConnectionError, DAQError, DAQValueError, RigFaultError
+
+from .base import DAQ, Sample
 from .registers import STATUS_BITS, STATUS_CLEAR, STATUS_FAULTS, Register, RegisterMap, WordOrder
 
 logger = logging.getLogger(__name__)
@@ -26,7 +28,13 @@ __all__ = ["ModbusDAQ", "contiguous_runs", "describe_status"]
 
 
 def describe_status(status: int) -> str:
-    """Names of the bits set in a status word, e.g. ``"watchdog|clamped"`` (``"ok"`` for 0)."""
+    """Names of the bits set in a status word, e.g. ``"watchdog|clamped"`` (``"ok"`` for 0).
+
+    Parameters
+    ----------
+    status : int
+        The rig's status word (:data:`~motorid.io.registers.STATUS_BITS`).
+    """
     names = [name for name, bit in STATUS_BITS.items() if status & bit]
     unknown = status & ~sum(STATUS_BITS.values())
     if unknown:
@@ -36,6 +44,11 @@ def describe_status(status: int) -> str:
 
 def contiguous_runs(registers: list[Register]) -> list[tuple[int, list[Register]]]:
     """Group registers into runs of adjacent addresses, each readable in one request.
+
+    Parameters
+    ----------
+    registers : list of Register
+        The registers to read, in any order.
 
     Returns
     -------

@@ -20,6 +20,11 @@ def plant_to_step(plant: object | None) -> Plant:
     a new simulation of its own, so two
     DAQs of one model never share a state; a :class:`Plant` (``dt``,
     ``reset``, ``step``) is stepped as it is; None is the paper's rig.
+
+    Parameters
+    ----------
+    plant : object or None
+        A drive model, a :class:`Plant`, or None.
     """
     if plant is None:
         from motorid.plants import paper_rig  # plants are optional at import time

@@ -138,6 +138,10 @@ def make_fleet(
     dead_zone_drive : int or None
         Index of the drive whose amplifier grows a dead zone of ``dead_zone`` [V] on day
         ``dead_zone_day``; None, or an index >= ``n_drives``: no such drive.
+    dead_zone_day : int
+        The day [days from day 0] the dead zone appears.
+    dead_zone : float
+        That dead zone (the amplifier's) [V].
 
     Raises
     ------
@@ -193,6 +197,21 @@ def write_fleet(
     ``days`` is a number of days (0, 1, ... ``days - 1``) or the days themselves (e.g. every third).
     The file names follow the pattern ``{drive}_{date:%Y%m%d}.csv`` (``motorid fleet
     --pattern``); the records' attrs say the same.
+
+    Parameters
+    ----------
+    folder : str or os.PathLike
+        Where to write (made if missing).
+    drives : sequence of FleetDrive
+        The drives (:func:`make_fleet`).
+    days : int or sequence of int
+        A number of days, or the days [days from ``start``].
+    duration : float
+        Length of each record [s].
+    seed : int
+        Seed of the records' noise and signals (a new one per record from it).
+    start : datetime
+        The date and time of day 0.
     """
     day_list = list(range(days)) if isinstance(days, int) else [int(d) for d in days]
     if not day_list or min(day_list) < 0:

@@ -48,6 +48,8 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 import numpy.typing as npt
 
+from motorid.errors import ModelFileError
+from motorid.json_input import key_path, scalars, text
 from motorid.plants.physics import (
     STRIBECK_EXPONENTIAL,
     STRIBECK_SHAPES,
@@ -85,7 +87,13 @@ def _check_nonnegative(**values: float) -> None:
 
 @dataclass(frozen=True)
 class Friction:
-    """Base class: a friction law acting on ``side`` of the drive (keyword-only)."""
+    """Base class: a friction law acting on ``side`` of the drive (keyword-only).
+
+    Parameters
+    ----------
+    side : {"motor", "load", "both"}
+        The mass the law acts on.
+    """
 
     kind: ClassVar[str] = "friction"
     side: Side = field(default="both", kw_only=True)
@@ -132,6 +140,11 @@ class StaticFriction(Friction):
     Subclasses provide :meth:`coefficients`: ``(α0, α1, α2, α3, α4, α5)`` with
     ``T_f = α0 + α1 exp(-α2 |ω|)`` for motion in the positive direction and
     ``T_f = -(α3 + α4 exp(-α5 |ω|))`` for motion in the negative direction.
+
+    Parameters
+    ----------
+    side : {"motor", "load", "both"}
+        The mass the law acts on.
     """
 
     kind: ClassVar[str] = "static"
@@ -362,18 +375,31 @@ FRICTION_KINDS: dict[str, type[Friction]] = {
 }
 
 
-def friction_from_dict(data: dict[str, Any]) -> Friction:
+def friction_from_dict(data: dict[str, Any], where: str = "") -> Friction:
     """Rebuild a friction law from :meth:`Friction.to_dict` output, every key checked
-    (the reader the rig and the model files use, :func:`motorid.models.friction_from_dict`).
+    (the reader the rig and the model files use).
+
+    Parameters
+    ----------
+    data : dict
+        ``{"kind": ..., <parameters>}``, parameters in SI units.
+    where : str
+        Where ``data`` sits in its file (``"model.friction[1]"``), put in front of the
+        key an error names.
 
     Raises
     ------
-    motorid.errors.DataError
-        A ValueError naming an unknown ``kind`` or a missing, mistyped or bad parameter.
+    motorid.errors.ModelFileError
+        A DataError naming an unknown ``kind`` or a missing, mistyped or bad parameter.
     """
-    from motorid.models import friction_from_dict as read
-
-    return read(data)
+    if not isinstance(data, dict):
+        raise ModelFileError(where, f"must be a JSON object, got {type(data).__name__}")
+    kind = text(data.get("kind"), key_path(where, "kind"))
+    if kind not in FRICTION_KINDS:
+        raise ModelFileError(
+            key_path(where, "kind"), f"unknown friction law {kind!r} (known: {', '.join(FRICTION_KINDS)})"
+        )
+    return scalars(FRICTION_KINDS[kind], {k: v for k, v in data.items() if k != "kind"}, where)
 
 
 def side_index(side: str) -> int:

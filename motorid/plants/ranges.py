@@ -90,7 +90,17 @@ def check_parameter(
 
 
 def check_count(name: str, value: Any, lowest: int, most: int) -> int:
-    """An integer in [``lowest``, ``most``], or a ValueError naming ``name`` and the range."""
+    """An integer in [``lowest``, ``most``], or a ValueError naming ``name`` and the range.
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name, for the message.
+    value : Any
+        The value given (true and false are refused).
+    lowest, most : int
+        The range, both ends included.
+    """
     if isinstance(value, bool) or not isinstance(value, int | np.integer) or not lowest <= value <= most:
         raise ValueError(f"{name} must be an integer in [{lowest}, {most}], got {value!r}")
     return int(value)

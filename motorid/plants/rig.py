@@ -35,13 +35,17 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from motorid.errors import ModelFileError
+from motorid.json_input import build, integer, key_path, number, object_keys, scalars, shown
 from motorid.plants import physics
 from motorid.plants.amplifier import Amplifier
+from motorid.plants.files import KIND_RIG, model_file, write_model_file
 from motorid.plants.friction import (
     CoulombFriction,
     Friction,
     LuGreFriction,
     breakaway,
+    friction_from_dict,
     pack_lugre,
     pack_static_friction,
     viscous_total,
@@ -416,28 +420,61 @@ class TwoMassRig:
         return out
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> TwoMassRig:
+    def from_dict(cls, data: dict[str, Any], where: str = "") -> TwoMassRig:
         """Rebuild a rig from :meth:`to_dict` output, every key checked.
 
-        The one reader of a rig description, shared with the model files
-        (:func:`motorid.models.rig_from_dict`).
+        The one reader of a rig description, shared with the model files.
+
+        Parameters
+        ----------
+        data : dict
+            :meth:`to_dict` output: every parameter in SI units.
+        where : str
+            Where ``data`` sits in its file (``"model"``), put in front of the key an
+            error names.
 
         Raises
         ------
-        motorid.errors.DataError
-            A ValueError naming the missing, unknown, mistyped or out-of-range key.
+        motorid.errors.ModelFileError
+            A DataError naming the missing, unknown, mistyped or out-of-range key.
         """
-        from motorid.models import rig_from_dict
-
-        return rig_from_dict(data)
+        fields = [f for f in dataclasses.fields(cls) if f.init]
+        object_keys(data, [f.name for f in fields], where)
+        parts = {"amplifier": Amplifier, "tacho": Tachogenerator, "adc": ADConverter}
+        values: dict[str, Any] = {}
+        for f in fields:
+            key = key_path(where, f.name)
+            value = data[f.name]
+            if f.name == "friction":
+                if not isinstance(value, list):
+                    raise ModelFileError(key, f"must be a list of friction laws, got {shown(value)}")
+                values[f.name] = tuple(
+                    friction_from_dict(item, key_path(key, k)) for k, item in enumerate(value)
+                )
+            elif f.name in parts:
+                values[f.name] = scalars(parts[f.name], value, key)
+            elif f.name == "encoder":
+                values[f.name] = None if value is None else scalars(Encoder, value, key)
+            elif f.type == "int":
+                values[f.name] = integer(value, key)
+            else:
+                values[f.name] = number(value, key)
+        return build(cls, values, where)
 
     def save(self, path: str | Path, *, overwrite: bool = True) -> None:
-        """Write the rig as a model file (:mod:`motorid.models`); :func:`motorid.load_model` reads it.
+        """Write the rig as a model file; :func:`motorid.load_model` reads it.
 
-        Written whole; ``overwrite=False`` refuses an existing file (:func:`motorid.models.save_model`)."""
-        from motorid.models import save_model
+        Written whole; ``overwrite=False`` refuses an existing file
+        (:func:`motorid.plants.files.write_model_file`).
 
-        save_model(self, path, overwrite=overwrite)
+        Parameters
+        ----------
+        path : str or Path
+            The file to write.
+        overwrite : bool
+            False refuses an existing file.
+        """
+        write_model_file(model_file(KIND_RIG, self.to_dict()), path, overwrite=overwrite)
 
 
 class RigSimulation:
@@ -587,7 +624,7 @@ def paper_rig(**overrides: Any) -> TwoMassRig:
 
     Parameters
     ----------
-    **overrides
+    **overrides : Any
         Any :class:`TwoMassRig` field, e.g. ``paper_rig(friction=(), dt=0.01)``.
     """
     names = {f.name for f in dataclasses.fields(TwoMassRig)}
@@ -631,6 +668,13 @@ def steady_state_speed(rig: TwoMassRig, u: float) -> float:
     Solves K_m (v_a - K_m ω)/R_a = (B_m + B_L) ω + T_c(ω) + T_d with the
     friction laws at speed ω (both masses turn at ω in steady state); 0 when the
     drive cannot break away.
+
+    Parameters
+    ----------
+    rig : TwoMassRig
+        The rig.
+    u : float
+        The constant command [V].
     """
     v = float(rig.amplifier(u))
     K, R = rig.K_m, rig.R_a

@@ -66,7 +66,10 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from motorid.errors import ModelFileError
+from motorid.json_input import build, key_path, number, object_keys, shown, text
 from motorid.plants import physics
+from motorid.plants.files import KIND_RIGID, model_file, write_model_file
 from motorid.plants.ranges import MOST_DELAY_SAMPLES, SAMPLE_TIME, check_parameter
 
 #: The effects of a rigid drive and their parameters, in the library's order.
@@ -481,20 +484,68 @@ class RigidDrive:
         }
 
     @classmethod
-    def from_dict(cls, data: dict[str, Any]) -> RigidDrive:
-        """Rebuild a physical drive from :meth:`to_dict` output, every key checked
-        (:func:`motorid.models.rigid_drive_from_dict`, DataError naming the key)."""
-        from motorid.models import rigid_drive_from_dict
+    def from_dict(cls, data: dict[str, Any], where: str = "") -> RigidDrive:
+        """Rebuild a physical drive from :meth:`to_dict` output, every key checked.
 
-        return rigid_drive_from_dict(data)
+        Parameters
+        ----------
+        data : dict
+            :meth:`to_dict` output: ``effects``, ``params`` (SI units), ``dt`` [s] and
+            ``stribeck_shape``.
+        where : str
+            Where ``data`` sits in its file (``"model"``), put in front of the key an
+            error names.
+
+        Raises
+        ------
+        motorid.errors.ModelFileError
+            A DataError naming the key, e.g. ``params.inertia: inertia must be > 0``.
+        """
+        object_keys(data, ("effects", "params", "dt", "stribeck_shape"), where)
+        e_where = key_path(where, "effects")
+        if not isinstance(data["effects"], list):
+            raise ModelFileError(e_where, f"must be a list of effect names, got {shown(data['effects'])}")
+        effects = []
+        for k, name in enumerate(data["effects"]):
+            if text(name, key_path(e_where, k)) not in RIGID_EFFECTS:
+                raise ModelFileError(
+                    key_path(e_where, k), f"unknown effect {name!r} (known: {', '.join(RIGID_EFFECTS)})"
+                )
+            effects.append(name)
+        p_where = key_path(where, "params")
+        names = [*DRIVE_PARAMETERS, *(p for e in dict.fromkeys(effects) for p in RIGID_EFFECTS[e])]
+        params = object_keys(data["params"], names, p_where)
+        values = {n: number(params[n], key_path(p_where, n)) for n in names}
+        dt = number(data["dt"], key_path(where, "dt"))
+        shape = text(data["stribeck_shape"], key_path(where, "stribeck_shape"))
+        drive = build(cls, {"effects": tuple(effects), "params": values, "dt": dt,
+                            "stribeck_shape": shape}, where)  # fmt: skip
+        try:
+            return drive.check_physical()
+        except ValueError as exc:
+            name = str(exc).split(" ", 1)[0]
+            raise ModelFileError(key_path(p_where, name), str(exc)) from None
 
     def save(self, path: str | Path, *, overwrite: bool = True) -> None:
-        """Write the drive as a model file (:mod:`motorid.models`); :func:`motorid.load_model` reads it.
+        """Write the drive as a model file; :func:`motorid.load_model` reads it.
 
-        Written whole; ``overwrite=False`` refuses an existing file (:func:`motorid.models.save_model`)."""
-        from motorid.models import save_model
+        Written whole; ``overwrite=False`` refuses an existing file
+        (:func:`motorid.plants.files.write_model_file`).
 
-        save_model(self, path, overwrite=overwrite)
+        Parameters
+        ----------
+        path : str or Path
+            The file to write.
+        overwrite : bool
+            False refuses an existing file.
+
+        Raises
+        ------
+        ValueError
+            For a drive that is not physical (:meth:`check_physical`).
+        """
+        self.check_physical()
+        write_model_file(model_file(KIND_RIGID, self.to_dict()), path, overwrite=overwrite)
 
 
 class RigidSimulation:

@@ -29,7 +29,19 @@ from motorid.plants.ranges import check_count, check_parameter
 def measure_speed(
     omega: npt.ArrayLike, noise: npt.ArrayLike, tacho: Tachogenerator, adc: ADConverter
 ) -> np.ndarray:
-    """Measured load speed [rad/s] for true speeds ``omega`` and standard normal ``noise``."""
+    """Measured load speed [rad/s] for true speeds ``omega`` and standard normal ``noise``.
+
+    Parameters
+    ----------
+    omega : array_like
+        True load speeds [rad/s].
+    noise : array_like
+        Standard normal draws, one per speed (scaled by the tacho's noise).
+    tacho : Tachogenerator
+        The speed sensor [V s/rad].
+    adc : ADConverter
+        The converter its voltage is read through.
+    """
     w = np.ascontiguousarray(np.asarray(omega, dtype=float).reshape(-1))
     n = np.ascontiguousarray(np.broadcast_to(np.asarray(noise, dtype=float), w.shape))
     return tacho_readings(w, n, tacho.gain, tacho.noise_std, int(adc.bits), adc.v_min, adc.v_max)
@@ -76,6 +88,13 @@ class ADConverter:
     """Bipolar A/D converter with ``bits`` resolution over ``[v_min, v_max]`` [V].
 
     ``bits=0`` switches quantisation and clipping off (an ideal reading).
+
+    Attributes
+    ----------
+    bits : int
+        Resolution, 0 to 32 bits.
+    v_min, v_max : float
+        The input range [V].
     """
 
     bits: int = 12

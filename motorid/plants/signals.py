@@ -121,6 +121,23 @@ def prbs(
     A maximum-length sequence of a ``nbits`` shift register (period 2^nbits - 1
     bits) starting from a seeded non-zero state, each bit held for ``hold``
     samples (clock period ``hold dt``).
+
+    Parameters
+    ----------
+    duration : float
+        Length [s].
+    dt : float
+        Sample time [s].
+    amplitude : float
+        Amplitude [V].
+    offset : float
+        Mean [V].
+    hold : int
+        Samples each bit is held.
+    nbits : int
+        Length of the shift register.
+    seed : int, optional
+        Seed of the start state.
     """
     t = _time_base(duration, dt)
     _positive("amplitude", amplitude)
@@ -155,6 +172,23 @@ def multisine(
     ``n_freqs`` lines spread logarithmically in ``[f_min, f_max]`` [Hz], each
     rounded to a multiple of 1/duration (so the record holds whole periods),
     phases uniform from ``seed``.
+
+    Parameters
+    ----------
+    duration : float
+        Length [s].
+    dt : float
+        Sample time [s].
+    amplitude : float
+        Peak amplitude [V].
+    f_min, f_max : float
+        The band [Hz].
+    n_freqs : int
+        Number of lines.
+    offset : float
+        Mean [V].
+    seed : int, optional
+        Seed of the phases.
     """
     t = _time_base(duration, dt)
     _positive("amplitude", amplitude)
@@ -186,6 +220,23 @@ def chirp(
 
     ``u = offset + amplitude cos(φ(t) + φ0)`` [V]; the start phase φ0 is drawn
     from ``seed`` (``seed=None`` and a fixed seed both give a valid sweep).
+
+    Parameters
+    ----------
+    duration : float
+        Length [s].
+    dt : float
+        Sample time [s].
+    f0, f1 : float
+        Start and end frequency [Hz].
+    amplitude : float
+        Amplitude [V].
+    offset : float
+        Mean [V].
+    method : str
+        The sweep's law (``scipy.signal.chirp``: ``"logarithmic"``, ``"linear"``, ...).
+    seed : int, optional
+        Seed of the start phase.
     """
     t = _time_base(duration, dt)
     _positive("amplitude", amplitude)
@@ -205,7 +256,21 @@ def steps(
     seed: int | None = None,
 ) -> Signal:
     """Random steps: levels uniform in ``[-amplitude, amplitude]`` [V], each held
-    for a time drawn from ``hold_seconds`` [s]."""
+    for a time drawn from ``hold_seconds`` [s].
+
+    Parameters
+    ----------
+    duration : float
+        Length [s].
+    dt : float
+        Sample time [s].
+    amplitude : float
+        Largest level [V].
+    hold_seconds : tuple of float
+        Shortest and longest hold [s].
+    seed : int, optional
+        Seed of the levels and holds.
+    """
     t = _time_base(duration, dt)
     _positive("amplitude", amplitude)
     lo, hi = hold_seconds
