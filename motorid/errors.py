@@ -29,6 +29,7 @@ __all__ = [
     "ModelFileError",
     "OutputError",
     "RigFaultError",
+    "UniformGridError",
 ]
 
 
@@ -59,6 +60,12 @@ class ModelFileError(DataError):
         super().__init__(f"{key}: {problem}" if key else problem)
         self.key = key
         self.problem = problem
+
+
+class UniformGridError(DataError):
+    """The time stamps of a record read in blocks jitter (or have gaps, with ``resample``): the
+    record is put on a uniform grid by :func:`motorid.records.read_record`, which reads it whole
+    (:func:`motorid.record_chunks.iter_record`)."""
 
 
 class OutputError(OSError):

@@ -38,7 +38,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from motorid.errors import DataError
+from motorid.errors import DataError, UniformGridError
 from motorid.records import (
     HDF5_ERRORS,
     REQUIRED_COLUMNS,
@@ -74,11 +74,6 @@ CHUNK_ROWS = 1 << 16
 # header (None in the other formats), then each block as {canonical name: array} (a time column
 # of integers as int64, the rest float64).
 Blocks = Iterator[Any]
-
-
-class UniformGridError(DataError):
-    """The time stamps of a record read in blocks jitter (or have gaps, with ``resample``): the
-    record is put on a uniform grid by :func:`motorid.records.read_record`, which reads it whole."""
 
 
 def iter_record(
@@ -428,4 +423,4 @@ def read_head(
     return record, more
 
 
-__all__ = ["CHUNK_ROWS", "UniformGridError", "iter_record", "read_head"]
+__all__ = ["CHUNK_ROWS", "iter_record", "read_head"]

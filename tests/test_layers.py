@@ -46,6 +46,7 @@ LAYERS: dict[str, int] = {
     "motorid.estimators": 3,
     "motorid.io": 3,
     "motorid.records": 3,
+    "motorid.record_chunks": 3,
     "motorid.datasets": 3,
     # 4: model files, of drives and estimators alike
     "motorid.models": 4,
@@ -71,6 +72,10 @@ LAYERS: dict[str, int] = {
 UPWARD: dict[tuple[str, str], str] = {
     ("motorid.plants.fleet", "motorid.records"): (
         "the synthetic fleet writes records; it leaves the drive's package when drive/ is built"
+    ),
+    ("motorid.fleet.jobs", "motorid.cli.identification"): (
+        "identify's per-record work (identify_record) still lives in the command line; it moves to "
+        "the application layer with the other commands' work"
     ),
 }
 

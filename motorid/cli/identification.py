@@ -342,7 +342,7 @@ def identify_file_in_blocks(args: argparse.Namespace) -> tuple[dict[str, Any], l
     :func:`identify_record` does (within ``--max-samples``); the reader's one line says how
     the stamps were resampled, and ``-v`` logs why the record is held whole.
     """
-    from motorid.record_chunks import UniformGridError
+    from motorid.errors import UniformGridError
 
     try:
         passes: Iterator[pd.DataFrame] | None = iter_record_from_args(args)

@@ -191,7 +191,7 @@ def iter_record_from_args(
     (default :data:`motorid.record_chunks.CHUNK_ROWS`), each read, checked and converted as the
     whole record is, with the same options (:func:`motorid.record_chunks.iter_record`);
     ``--max-samples`` does not apply, since memory does not grow with the record. A record whose
-    time stamps jitter raises :class:`motorid.record_chunks.UniformGridError` (it is resampled
+    time stamps jitter raises :class:`motorid.errors.UniformGridError` (it is resampled
     whole: :func:`read_record_from_args`)."""
     from motorid.record_chunks import CHUNK_ROWS, iter_record
 
