@@ -273,7 +273,15 @@ def safe_file_name(text: str) -> str:
 
 
 def jsonable(value: Any) -> Any:
-    """numpy and pandas values as plain JSON (NaN and inf as null)."""
+    """numpy and pandas values as plain JSON (NaN and inf as null).
+
+    Parameters
+    ----------
+    value : Any
+        A value to write as JSON: dicts (their keys made text), lists and tuples (as lists),
+        arrays, numpy scalars and paths are converted, element by element; anything else is
+        returned as it is.
+    """
     import numpy as np
 
     if isinstance(value, dict):

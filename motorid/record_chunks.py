@@ -100,10 +100,42 @@ def iter_record(
 
     Parameters
     ----------
-    path, dt, columns, min_samples, dt_rtol, time, input, output, time_unit, input_unit, output_unit, supply_voltage, input_full_scale, resample, sep, decimal
-        As for :func:`~motorid.records.read_record`. Only the record's columns
-        are read (its ``other_columns=False``); there is no ``max_samples``,
-        since memory does not grow with the record.
+    path : str or path-like
+        The record file, in any format :func:`~motorid.records.read_record` reads. Only
+        the record's columns are read (its ``other_columns=False``); there is no
+        ``max_samples``, since memory does not grow with the record.
+    dt : float, optional
+        Expected sample time [s]. Default: ``attrs["dt"]`` from the file, else the
+        median step of the first block; a file or time column that says otherwise is
+        a DataError.
+    columns : sequence of str or mapping, optional
+        Columns that must be present (default ``("t", "u", "y")``), or a mapping
+        ``{canonical: name_in_file}`` that renames them, as for ``read_record``.
+    min_samples : int
+        Fewest rows accepted, >= 1.
+    dt_rtol : float
+        Relative tolerance on the uniformity of the time steps.
+    time, input, output : str, optional
+        Names of the time, input and output columns (default ``t``, ``u``, ``y``),
+        renamed to ``t``, ``u``, ``y``.
+    time_unit : {"s", "ms", "us", "ns"}, optional
+        Unit of the time column (default: the record's ``attrs["units"]["t"]``, else
+        seconds).
+    input_unit, output_unit : str, optional
+        Units of the input and output columns, converted block by block as
+        :func:`motorid.units.convert_record` converts a whole record.
+    supply_voltage : float, optional
+        Supply voltage [V] of a PWM drive: a duty in % (or counts) becomes volts.
+    input_full_scale : float, optional
+        The count of full duty, for ``input_unit="counts"``.
+    resample : bool
+        As for ``read_record``: put a record with gaps on the uniform grid. That takes
+        the record whole, so here a record with gaps is then a :class:`UniformGridError`
+        (without it, a DataError).
+    sep : str, optional
+        Separator of a CSV (one character); default: detected from its first lines.
+    decimal : {".", ","}, optional
+        Decimal mark of a CSV; default: detected from its first lines.
     chunk_rows : int
         Rows per block (the last one may be shorter), >= ``max(2, min_samples)``.
 
@@ -399,12 +431,24 @@ def read_head(
     """The record ``path`` when it has at most ``rows`` rows, else its first ``rows`` rows (a
     segment); and whether it is a segment.
 
-    Read in blocks of ``rows`` (:func:`iter_record`, ``options`` as it takes them): the first block
-    is the record or the segment, checked as a whole record is, and the start of a second one
-    tells that there is more, so no more than about ``rows`` rows are ever held (the rows after
-    the segment are not checked). A record whose time stamps jitter is put on a uniform grid,
-    which takes it whole: it is read by :func:`motorid.records.read_record` (``max_samples`` =
-    ``rows`` then refuses a longer one).
+    Read in blocks of ``rows`` (:func:`iter_record`): the first block is the record or the
+    segment, checked as a whole record is, and the start of a second one tells that there is
+    more, so no more than about ``rows`` rows are ever held (the rows after the segment are not
+    checked). A record whose time stamps jitter is put on a uniform grid, which takes it whole:
+    it is read by :func:`motorid.records.read_record` (``max_samples`` = ``rows`` then refuses
+    a longer one).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The record file.
+    rows : int
+        Most rows read: the length of a segment.
+    min_samples : int
+        Fewest rows accepted, >= 1.
+    **options : Any
+        The record options :func:`iter_record` takes (``dt``, ``columns``, ``time``,
+        ``input_unit`` ... ``sep``, ``decimal``), but ``chunk_rows``.
     """
     from motorid.records import read_record
 

@@ -1123,10 +1123,25 @@ class CsvLayout:
 
 def csv_layout(name: str, mapping: dict[str, str], optional: set[str], sep: str | None,
                decimal: str | None) -> CsvLayout:  # fmt: skip
-    """The layout of CSV record ``name``, once the columns of ``mapping`` are found in its header
-    (an ``optional`` one that is absent is taken out of ``mapping``) and every data row has the
-    header's number of fields (checked in one pass over the file in bounded memory): one place
-    for the whole-record read and the read in blocks (:mod:`motorid.record_chunks`)."""
+    """The layout of a CSV record, once the columns of ``mapping`` are found in its header and
+    every data row has the header's number of fields (checked in one pass over the file in
+    bounded memory): one place for the whole-record read and the read in blocks
+    (:mod:`motorid.record_chunks`).
+
+    Parameters
+    ----------
+    name : str
+        The CSV file; the messages name it.
+    mapping : dict of str to str
+        Canonical name -> the column's name in the file; a column missing from the header is a
+        DataError. Changed in place: an ``optional`` column that is absent is taken out.
+    optional : set of str
+        The canonical names that may be absent (``{"t"}`` when the sample time is known).
+    sep : str, optional
+        The separator (one character); None: detected from the header and the first lines.
+    decimal : {".", ","}, optional
+        The decimal mark; None: detected from the first lines.
+    """
     first = _open_checked(name)
     attrs: dict[str, Any] = {}
     skip = 0
@@ -1412,8 +1427,23 @@ def trim_record(
     """The samples of ``record`` with ``start <= t <= stop`` [s], ``attrs`` kept (the command
     line's ``--start`` and ``--stop``, which the messages name).
 
-    ``t`` is the record's time column (as :func:`read_record` gives it: from 0 at the first
-    sample), else ``k dt`` from its first sample. ``None`` leaves that end as it is.
+    Parameters
+    ----------
+    record : pandas.DataFrame
+        The record; ``t`` is its time column [s] (as :func:`read_record` gives it: from 0 at
+        the first sample), else ``k dt`` from its first sample (``attrs["dt"]`` [s]).
+    start, stop : float, optional
+        The ends of the span kept [s]; None leaves that end as it is (both None: ``record``
+        itself is returned).
+    source : str or path-like
+        What the record is (its file), for the messages.
+    min_samples : int
+        Fewest samples the span must hold.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The samples in the span, indexed from 0, with ``record``'s attrs.
 
     Raises
     ------

@@ -42,7 +42,13 @@ _LOWER = {
 
 def refitted_parameters(model: RigidDrive) -> tuple[str, ...]:
     """The parameters :func:`refit_in_position` fits: the inertia and every parameter of the
-    model's effects but the structure's (delay, lag) and a rest-only one (static friction)."""
+    model's effects but the structure's (delay, lag) and a rest-only one (static friction).
+
+    Parameters
+    ----------
+    model : RigidDrive
+        The model whose effects name the parameters.
+    """
     names = ["inertia"]
     for effect in model.effects:
         spec = get_effect(effect)

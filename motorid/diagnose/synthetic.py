@@ -158,11 +158,19 @@ ENCODER_SPEED_NOISE = 0.01
 
 
 def encoder_speed(w: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """The speed an encoder reports for the speed ``w`` [v]: noise of standard deviation
+    """The speed an encoder reports for the speed ``w``: noise of standard deviation
     ``σ(w) = (ENCODER_REST_NOISE max|w| + ENCODER_SPEED_NOISE |w|)`` added, then rounded to
     counts of ``q = ENCODER_STEP max|w|``::
 
         y = q round((w + σ(w) ε) / q),    ε ~ N(0, 1)
+
+    Parameters
+    ----------
+    w : ndarray
+        The true speed, one sample per entry, in the record's output unit (e.g. [rad/s]);
+        ``y`` is in the same unit. All zero: returned as it is.
+    rng : numpy.random.Generator
+        The source of the noise ε.
     """
     w = np.asarray(w, dtype=float)
     top = float(np.max(np.abs(w)))

@@ -40,7 +40,37 @@ class ReadOptions:
     span ``start <= t <= stop`` [s] (:func:`motorid.records.trim_record`).
 
     The names are the command line's record options (``--time``, ``--input-unit``,
-    ``--start`` ...); ``input`` and ``output`` name the columns that become ``u`` and ``y``.
+    ``--start`` ...).
+
+    Attributes
+    ----------
+    time : str, optional
+        Name of the time column (default ``t``; none needed when ``dt`` is known).
+    input, output : str
+        Names of the columns that become ``u`` and ``y`` (default ``u``, ``y``).
+    time_unit : {"s", "ms", "us", "ns"}, optional
+        Unit of the time column (default: the record's ``attrs["units"]["t"]``, else seconds).
+    dt : float, optional
+        Sample time [s]; a time column that says otherwise is refused.
+    resample : bool
+        Put a record with gaps on the uniform grid instead of refusing it.
+    sep : str, optional
+        Separator of a CSV record (one character); default: detected from its first lines.
+    decimal : {".", ","}, optional
+        Decimal mark of a CSV record; default: detected from its first lines.
+    input_unit, output_unit : str, optional
+        Units of the input and output columns, converted to motorid's as they are read
+        (:data:`motorid.units.INPUT_UNITS`, :data:`motorid.units.OUTPUT_UNITS`).
+    input_full_scale : float, optional
+        The count of full duty, for ``input_unit="counts"`` (255 for an 8-bit PWM).
+    supply_voltage : float, optional
+        Supply voltage [V] of a PWM drive: a duty in % (or counts) becomes volts.
+    max_samples : int
+        Most rows read: :meth:`read` refuses a longer record, :meth:`read_segment` takes its
+        first ``max_samples`` rows.
+    start, stop : float, optional
+        The span kept, ``start <= t <= stop`` [s], ``t`` from 0 at the first sample; None
+        leaves that end as it is.
     """
 
     time: str | None = None
@@ -99,8 +129,30 @@ class ReadOptions:
 class DoctorJob:
     """``motorid doctor``'s options (:func:`motorid.diagnose.diagnose`'s arguments by the same names).
 
-    ``base`` and ``candidates`` are effect names (None: the doctor's defaults); ``model`` a
-    rigid-drive model file to start from; ``structure=False`` is ``--no-structure``.
+    Attributes
+    ----------
+    output_kind : {"velocity", "position"}
+        What the output column is; a position is differentiated to a velocity.
+    input_gain : float, optional
+        Force or torque per input unit [N/V or N m/V], > 0; None: the forces come out per
+        input unit.
+    base : tuple of str, optional
+        Effects already in the model (:data:`motorid.diagnose.EFFECTS` names); None: the
+        doctor's default base, or the effects of ``model``.
+    candidates : tuple of str, optional
+        Effects to try; None (or empty): every effect not in the base.
+    holdout : float
+        Share of the record held out for the held-out check, in (0, 0.9).
+    max_steps : int
+        Most effects added, >= 0.
+    timing : {"hold", "sampled", "auto"}, optional
+        Input/output timing; None: the record's ``attrs["timing"]``, else ``"hold"``.
+    structure : bool
+        Choose the input delay and lag from the record first; False is ``--no-structure``
+        (the base as given).
+    model : Path, optional
+        A rigid-drive model file to start from (``motorid doctor --save-model`` writes one);
+        its effects are the base, so ``base`` stays None.
     """
 
     output_kind: Literal["velocity", "position"] = "velocity"
@@ -175,10 +227,39 @@ class DoctorJob:
 
 @dataclass(frozen=True)
 class IdentifyJob:
-    """``motorid identify``'s options by their names: the estimator and its arguments
-    (``param``: further ``KEY=VALUE`` arguments, as ``--param``), the low-speed band [rpm],
-    the samples left out of the scores, the residual tests' largest lag, a drive model file a
-    friction filter starts from."""
+    """``motorid identify``'s options by their names.
+
+    The estimator's arguments ``na`` ... ``gamma_method`` are passed only when given (None:
+    the estimator's default); one given to an estimator that does not take it is refused.
+
+    Attributes
+    ----------
+    estimator : str
+        A registered estimator's name (:func:`motorid.estimators.available`).
+    na, nb : int, optional
+        Orders of A(q^-1) and B(q^-1); None: the estimator's default (the paper's 4 where
+        it needs them).
+    degree : int, optional
+        Polynomial degree of the static block.
+    basis : str, optional
+        Basis of the static block, e.g. ``"u,sign"`` or ``"dead_zone:0.8"``.
+    lam : float, optional
+        Forgetting factor, 0 < lam <= 1.
+    delta : float, optional
+        Initial covariance ``P0 = delta I``, > 0.
+    gamma_method : {"paper", "svd"}, optional
+        Hammerstein step 2.
+    param : tuple of str
+        Further estimator arguments as ``KEY=VALUE`` texts (``--param``).
+    low_speed_rpm : float
+        The low-speed band of the scores, ``|y| <`` this [rpm].
+    skip : int
+        Leading samples left out of the scores.
+    max_lag : int
+        Largest lag of the residual tests [samples].
+    model : Path, optional
+        A drive model file a friction filter (friction-ekf/ukf) starts from.
+    """
 
     estimator: str = "hammerstein-rls"
     na: int | None = None
@@ -225,11 +306,21 @@ Job = DoctorJob | IdentifyJob
 
 @dataclass(frozen=True)
 class RecordTask:
-    """One record's work in a worker: read it, run the job, return its row (picklable)."""
+    """One record's work in a worker: read it, run the job, return its row (picklable).
+
+    Attributes
+    ----------
+    job : DoctorJob or IdentifyJob
+        What is computed on the record.
+    read : ReadOptions
+        How the record is read (the doctor reads a longer record's first ``max_samples`` rows).
+    figures : Path, optional
+        The run folder, the figures written under ``<drive>/<record>/``; None: no figures.
+    """
 
     job: Job
     read: ReadOptions
-    figures: Path | None  # the run folder, when figures are written
+    figures: Path | None
 
     def __call__(self, path: str, given: dict[str, Any]) -> dict[str, Any]:
         from motorid.fleet.sources import identity
@@ -259,6 +350,15 @@ class DriveTask:
     joint ``--json`` output flattened) and one row per record (its path, drive, time and its
     gaps from the joint run: ``samples``, ``noise_floor``, ``initial_gap.*``, ``final_gap.*``,
     ``final_gap_noise_floors``). A record that cannot be read fails the drive's rows.
+
+    Attributes
+    ----------
+    job : DoctorJob
+        The doctor, run on all the drive's records as one model.
+    read : ReadOptions
+        How each record is read (a longer record's first ``max_samples`` rows).
+    figures : Path, optional
+        The run folder, the drive's figures written under ``<drive>/``; None: no figures.
     """
 
     job: DoctorJob

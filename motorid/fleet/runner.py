@@ -227,10 +227,19 @@ def pending_drives(
     out: str | os.PathLike[str] | ResultsStore,
     retry_failed: bool = False,
 ) -> list[str]:
-    """The drives of ``groups`` (drive -> its records' absolute paths) without a row in ``out``'s
-    results for exactly these records (with ``retry_failed``, without a successful one).
+    """The drives of ``groups`` without a row in ``out``'s results for exactly their records now.
 
     A drive that gained or lost a record since its row was written is run again.
+
+    Parameters
+    ----------
+    groups : mapping of str to sequence of str
+        Drive -> its records' absolute paths, in the order of its row's ``records``.
+    out : path or ResultsStore
+        The run folder, or its results.
+    retry_failed : bool
+        Run again a drive whose row says failed (default: a drive with any row for these
+        records is done).
     """
     store = out if isinstance(out, ResultsStore) else ResultsStore(out)
     previous = store.rows()
@@ -245,8 +254,19 @@ def pending_drives(
 
 
 def record_identity(path: str, read: Any, given: dict[str, Any]) -> tuple[str, str | None, str | None]:
-    """The drive and time of the record ``path`` (:func:`motorid.fleet.sources.identity`) read with
-    ``read`` (:class:`~motorid.fleet.jobs.ReadOptions`), and the error when it cannot be read."""
+    """The drive and time of a record (:func:`motorid.fleet.sources.identity`), and the error when
+    it cannot be read (None when it can).
+
+    Parameters
+    ----------
+    path : str
+        The record file.
+    read : ReadOptions
+        How it is read (:class:`~motorid.fleet.jobs.ReadOptions`): its attrs may name the drive
+        and time.
+    given : dict
+        What a file-name pattern gave for it (``drive``, ``time``), which comes first.
+    """
     from motorid.fleet.sources import identity
 
     try:
@@ -266,11 +286,25 @@ def group_by_drive(
 ) -> tuple[dict[str, list[tuple[str, str | None]]], list[dict[str, Any]]]:
     """The records of ``paths`` per drive, and a failed row for each record that cannot be read.
 
-    A record's drive is what a file-name pattern gave (``given``), else its attrs ``drive``
+    A record's drive is what a file-name pattern gave, else its attrs ``drive``
     (:data:`motorid.records.DRIVE_ATTR`), else its file's stem: a record without a drive id is
-    a drive of its own. The records of the pattern and of ``known`` (path -> drive, time: the
-    results of a run before) are not read; the others are read on the cluster, one task each.
-    Each drive's records are sorted by time, then path.
+    a drive of its own. The records whose drive the pattern gave or ``known`` holds are not
+    read; the others are read on the cluster, one task each. Each drive's records are sorted
+    by time, then path.
+
+    Parameters
+    ----------
+    paths : sequence of path
+        The records; made absolute.
+    read : ReadOptions
+        How a record is read to find its drive and time (:func:`record_identity`).
+    client : dask.distributed.Client
+        Where the records are read; unused (None will do) when none needs reading.
+    given : dict, optional
+        Per absolute path, what a file-name pattern gave (``drive``, ``time``).
+    known : mapping, optional
+        Absolute path -> (drive, time) from the results of a run before
+        (:func:`known_identities`).
     """
     from motorid.fleet.sources import identity
 
@@ -308,8 +342,16 @@ def group_by_drive(
 
 
 def known_identities(store: ResultsStore, command: str) -> dict[str, tuple[str, str | None]]:
-    """Record path -> (drive, time) of the records of ``store`` that a per-drive run of ``command``
-    (``doctor --per-drive``) has done: a rerun need not read them again to group them."""
+    """Record path -> (drive, time) of the records a per-drive run has done: a rerun need not
+    read them again to group them.
+
+    Parameters
+    ----------
+    store : ResultsStore
+        The results of the run folder.
+    command : str
+        The rows' ``command``, e.g. ``"doctor --per-drive"``; only its successful rows count.
+    """
     previous = store.rows()
     if not len(previous):
         return {}
@@ -332,12 +374,35 @@ def run_fleet_per_drive(
     progress: bool = False,
     csv_every: float = 5.0,
 ) -> FleetRun:
-    """Run ``task`` (:class:`~motorid.fleet.jobs.DriveTask`) once per drive on all its records.
+    """Run ``task`` once per drive on all its records; store each drive's rows.
 
     The records are grouped by :func:`group_by_drive` (the records already in the results
     are not read again for it); the drives whose row holds exactly their records now are
     skipped (:func:`pending_drives`); each drive's rows (its own and one per record) are
     stored together as the drive completes.
+
+    Parameters
+    ----------
+    paths : sequence of path
+        The records; a record's key in the results is its path made absolute.
+    task : DriveTask
+        ``task(drive, paths, times) -> rows`` (:class:`~motorid.fleet.jobs.DriveTask`), run in
+        the workers.
+    out : path
+        The run folder (:mod:`motorid.fleet.results`).
+    client : dask.distributed.Client
+        Where the records are grouped and the drives run.
+    read : ReadOptions
+        How a record is read to find its drive (:func:`group_by_drive`).
+    given : dict, optional
+        Per absolute path, what a file-name pattern gave (``drive``, ``time``).
+    retry_failed : bool
+        Rerun the drives whose row says failed (default: skip every drive in the results).
+    progress : bool
+        A progress bar on stderr with the counts of done and failed drives
+        (:func:`motorid.progress.progress_bar`).
+    csv_every : float
+        Time between rewrites of ``results.csv`` during the run [s].
     """
     start = time.perf_counter()
     store = ResultsStore(out)
@@ -407,14 +472,25 @@ def run(
         a ``DoctorJob`` only): one row per drive, one per record with its gaps.
     pattern : str, optional
         Drive and time from the file name (:class:`~motorid.fleet.sources.FilenamePattern`).
-    scheduler, workers, client
-        Where the tasks run: a ``dask.distributed.Client`` given, else one on ``scheduler``
-        (``tcp://HOST:8786``), else a LocalCluster of ``workers`` processes (:func:`fleet_client`).
-    figures, retry_failed, progress
-        Write each record's (or drive's) figures; rerun failed records; a progress bar on stderr.
-    wait, lock
-        ``lock`` takes the folder's lock for the run (:class:`motorid.outputs.FolderLock`; another run
-        into it is refused, or waited for with ``wait``); ``lock=False`` when the caller holds it.
+    scheduler : str, optional
+        Address of a running Dask scheduler (``tcp://HOST:8786``) the tasks run on, when no
+        ``client`` is given.
+    workers : int, optional
+        Processes of the LocalCluster started when neither ``client`` nor ``scheduler`` is
+        given (default: the machine's cores; :func:`fleet_client`).
+    client : dask.distributed.Client, optional
+        A client the tasks run on, which comes first (and is not closed).
+    figures : bool
+        Write each record's (or drive's) figures into ``out``.
+    retry_failed : bool
+        Rerun the records (per drive: the drives) whose row says failed.
+    wait : bool
+        Wait for the folder's lock when another run holds it (default: refuse the run).
+    lock : bool
+        Take the folder's lock for the run (:class:`motorid.outputs.FolderLock`); False when the
+        caller holds it.
+    progress : bool
+        A progress bar on stderr.
 
     A run stopped and started again does only what is missing (a record, or per drive a
     drive, whose row is not in the results). One folder holds one kind of run: a per-drive run
@@ -469,7 +545,15 @@ def run(
 
 
 def check_run_kind(out: str | os.PathLike[str] | ResultsStore, per_drive: bool) -> None:
-    """Refuse (DataError) a per-drive run into a folder of per-record rows, and the other way round."""
+    """Refuse (DataError) a per-drive run into a folder of per-record rows, and the other way round.
+
+    Parameters
+    ----------
+    out : path or ResultsStore
+        The run folder, or its results; an empty one takes either kind.
+    per_drive : bool
+        Whether the run is per drive (:func:`run_fleet_per_drive`).
+    """
     store = out if isinstance(out, ResultsStore) else ResultsStore(out)
     rows = store.rows()
     if not len(rows):
