@@ -26,20 +26,18 @@ from pathlib import Path
 
 from _table import Row, print_rows
 
-from motorid.cli import build_parser
-from motorid.cli.fleet import RecordTask
-from motorid.fleet import fleet_client, run_fleet
+from motorid.fleet import DoctorJob, ReadOptions, fleet_client, run_fleet
+from motorid.fleet.jobs import RecordTask
 from motorid.plants.fleet import make_fleet, write_fleet
 
 TITLE = "Fleet: motorid fleet doctor, records per second"
-DOCTOR = ["--base", "coulomb_friction,viscous_friction,offset"]
+DOCTOR = DoctorJob(base=("coulomb_friction", "viscous_friction", "offset"))
 #: Each figure is the best of this many runs (the machine is shared: the best run is the least disturbed).
 REPEATS = 3
 
 
 def _task(figures: Path | None = None) -> RecordTask:
-    args = build_parser().parse_args(["fleet", "doctor", "x", "--out", "x", *DOCTOR])
-    return RecordTask("doctor", args, figures=figures)
+    return RecordTask(DOCTOR, ReadOptions(), figures=figures)
 
 
 def _cluster_rate(

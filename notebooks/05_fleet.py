@@ -38,9 +38,7 @@ import pandas as pd
 from dask.distributed import Client, LocalCluster
 from IPython.display import Image, display
 
-from motorid.cli import build_parser
-from motorid.cli.fleet import RecordTask
-from motorid.fleet import load_results, run_fleet
+from motorid.fleet import DoctorJob, load_results, run
 from motorid.fleet.trend import flag_drives, friction_trends, plot_trends
 from motorid.plants.fleet import make_fleet, write_fleet
 
@@ -75,9 +73,10 @@ display(truth)
 #
 # A `LocalCluster` of two single-threaded worker processes (one per core here; on a real
 # cluster, `Client("tcp://HOST:8786")`). The records are written by the workers too, one task
-# per drive. Then one task per record runs the very function `motorid doctor` runs, with the
-# model starting from inertia, input gain, Coulomb and viscous friction and an offset; each row
-# is stored in `results/results.parquet/` as soon as its record is done.
+# per drive. Then `motorid.fleet.run` (what `motorid fleet doctor` runs) gives each record a task
+# that runs the very work `motorid doctor` does, `DoctorJob` holding its options: the model starts
+# from inertia, input gain, Coulomb and viscous friction and an offset; each row is stored in
+# `results/results.parquet/` as soon as its record is done.
 
 # %%
 cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
@@ -89,12 +88,10 @@ paths = sorted(p for written in client.gather(client.map(write_drive, [[d] for d
 print(f"{len(paths)} records written in {time.perf_counter() - start:.1f} s, e.g. {paths[0].name}")
 
 # %%
-args = build_parser().parse_args(
-    ["fleet", "doctor", "x", "--out", "x", "--base", "coulomb_friction,viscous_friction,offset"]
-)
-run = run_fleet(paths, RecordTask("doctor", args, figures=None), WORK / "results", client, progress=False)
+job = DoctorJob(base=("coulomb_friction", "viscous_friction", "offset"))  # motorid fleet doctor --base ...
+done = run(paths, WORK / "results", job, client=client, figures=False)
 print(
-    f"doctor: {run.done} done, {run.failed} failed in {run.seconds:.1f} s ({run.done / run.seconds:.1f} records/s)"
+    f"doctor: {done.done} done, {done.failed} failed in {done.seconds:.1f} s ({done.done / done.seconds:.1f} records/s)"
 )
 
 # %%

@@ -39,7 +39,12 @@ def test_the_doctor_on_a_long_record_works_on_its_first_max_samples_and_says_so(
         capsys, "doctor", str(head), "--max-samples", "1500", "--max-steps", "1", "--json"
     )
     assert code == 0 and reference["segment"] is False and "a segment" not in err
-    assert {**out, "segment": None} == {**reference, "segment": None}
+    # the same figures: the record's own name (in rests) aside
+    for run_ in (out, reference):
+        run_["segment"] = None
+        for rests in run_.get("rests", []):
+            rests["record"] = None
+    assert out == reference
 
 
 def test_a_bad_row_after_the_segment_does_not_stop_the_doctor(capsys, records, tmp_path):

@@ -242,7 +242,7 @@ def band_words(unit: str | None, threshold: float, low_speed_rpm: float, name: s
     if unit == "rad/s":
         return f"{name} < {low_speed_rpm:g} rpm"
     label = unit or "output units"
-    return f"{name} < {threshold:.4g} {label} (10 % of its max: --low-speed-rpm needs a speed in rad/s)"
+    return f"{name} < {threshold:.4g} {label} (10 % of its max: --low-speed-rpm needs an output in a speed unit)"
 
 
 def add_trim_options(parser: argparse.ArgumentParser) -> None:
