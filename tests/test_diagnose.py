@@ -24,7 +24,7 @@ from hypothesis import strategies as st
 from motorid.diagnose import EFFECTS, diagnose
 from motorid.diagnose.calibration import false_alarms
 from motorid.diagnose.kinematics import kinematics
-from motorid.diagnose.model import linear_param_std
+from motorid.diagnose.model import force_shares, linear_param_std
 from motorid.diagnose.synthetic import BASE_FOR, planted_record
 from motorid.diagnose.workflow import MISSING_FACTOR, NOISE_SHRINK
 from motorid.plants.rigid import RigidDrive, time_since_reversal
@@ -105,9 +105,9 @@ def test_parameters_of_a_planted_effect_are_recovered():
 
 
 def test_standard_errors_of_a_mean_under_correlated_noise_match_the_scatter_over_repeats():
-    """Independent reference: for the regression on a constant column (the mean), the
-    variance of the estimate under AR(1) noise is σ²/n (1 + ρ)/(1 - ρ) for large n; the
-    reported standard error is held to the scatter of 400 repeats."""
+    """Independent reference: for the regression on a constant column (the mean) under AR(1)
+    noise, the scatter of the estimate over 400 repeats; the block sandwich's reported
+    standard error is held to it, and on white noise to σ/√n."""
     rng = np.random.default_rng(7)
     n, rho, reps = 2000, 0.7, 400
     estimates, stds = [], []
@@ -122,18 +122,42 @@ def test_standard_errors_of_a_mean_under_correlated_noise_match_the_scatter_over
         residual = e - level
         unit_cov = np.array([[1.0 / rows.sum()]])  # (XᵀX)⁻¹ of a column of ones on the rows
         estimates.append(level)
-        stds.append(linear_param_std(["level"], unit_cov, residual, rows, 1)["level"])
+        ones = np.ones((n, 1))
+        stds.append(linear_param_std(["level"], unit_cov, residual, rows, 1, ones)["level"])
     # the scatter of 400 repeats is known to about 1/sqrt(2*400) = 3.5 %; 12 % is 3.4 of those
     assert np.median(stds) == pytest.approx(np.std(estimates, ddof=1), rel=0.12)
-    white = linear_param_std(["level"], np.array([[1.0 / n]]), rng.normal(size=n), np.ones(n, bool), 1)
-    assert white["level"] == pytest.approx(1 / math.sqrt(n), rel=0.06)  # ρ ≈ 0: the plain σ/√n
+    white = [
+        linear_param_std(["level"], np.array([[1.0 / n]]), e - e.mean(), np.ones(n, bool), 1, np.ones((n, 1)))
+        for e in rng.normal(size=(100, n))
+    ]
+    # each from 20 blocks (±16 %); the median of 100 is known to about ±2 %, 6 % is 3 of those
+    assert np.median([w["level"] for w in white]) == pytest.approx(1 / math.sqrt(n), rel=0.06)
 
 
-def test_the_doctors_standard_errors_cover_the_scatter_between_records_of_one_drive():
+def test_force_shares_are_each_terms_rms_against_the_force():
+    """Independent reference: for y = 2 x1 + 0.1 x2 + noise, each share is ||θ_j x_j|| / ||y||,
+    computed here by hand; rows left out do not count."""
+    rng = np.random.default_rng(3)
+    n = 500
+    X = rng.normal(size=(n, 2))
+    residual = 0.05 * rng.normal(size=n)
+    theta = np.array([2.0, 0.1])
+    rows = np.ones(n, dtype=bool)
+    rows[:100] = False
+    X[:100] *= 1e3  # rows not fitted: they would dominate every share
+    y = X[100:] @ theta + residual[100:]
+    shares = force_shares(["inertia", "coulomb"], theta, residual, rows, X)
+    assert shares["inertia"] == pytest.approx(2.0 * np.linalg.norm(X[100:, 0]) / np.linalg.norm(y), rel=1e-12)
+    assert shares["coulomb"] == pytest.approx(0.1 * np.linalg.norm(X[100:, 1]) / np.linalg.norm(y), rel=1e-12)
+    assert 0.95 < shares["inertia"] < 1.01 and shares["coulomb"] < 0.06
+
+
+def test_the_doctors_standard_errors_match_the_scatter_between_records_of_one_drive():
     """Eight records of one drive under different excitations and noise: the fitted levels
-    scatter by less than their reported standard errors (they also count the two-mass
-    dynamics the rigid model leaves in the residual, about 1.8x the scatter on this rig),
-    yet by more than a sixth of them (a wrong scale would miss by orders of magnitude)."""
+    scatter by 1.1-1.45 of their reported standard errors (the block sandwich sees the
+    residual's correlation within a record, not all of the two-mass dynamics the rigid model
+    leaves, which differ with the excitation; the lag-1 correction before it gave 0.6-0.8),
+    within 1/6-1.5 of them (a wrong scale would miss by orders of magnitude)."""
     names = ("coulomb", "viscous", "inertia")
     values, stds = [], []
     for excitation in range(8):

@@ -89,19 +89,29 @@ def test_the_joint_run_of_a_wheel_motor_names_what_each_record_names(capsys, mot
 KIT = [real_motor_file(f"kit_{s}_run{r}.csv") for s in ("sine_0.5hz", "sine_1hz", "chirp") for r in (1, 2)]
 
 
-@pytest.mark.skipif(not all(p.exists() for p in KIT), reason=f"kit motor data not found at {KIT[0].parent}")
-def test_the_kit_motor_gets_one_verdict_from_its_six_records():
+needs_kit = pytest.mark.skipif(
+    not all(p.exists() for p in KIT), reason=f"kit motor data not found at {KIT[0].parent}"
+)
+
+
+@pytest.fixture(scope="module")
+def kit_runs():
+    """The kit motor's six records diagnosed alone, and their joint run."""
+    from motorid.diagnose import diagnose
+    from motorid.records import read_record
+
+    records = [read_record(p) for p in KIT]
+    return [diagnose(r) for r in records], diagnose(records, labels=[p.name for p in KIT])
+
+
+@needs_kit
+def test_the_kit_motor_gets_one_verdict_from_its_six_records(kit_runs):
     """The teaching-kit motor: two runs each of a 0.5 Hz sine, a 1 Hz sine and a chirp. Each record
     alone names Coulomb friction first (its lookalike, a dead zone, named by the rule where they fit
     alike); the joint run names it too, and every effect a record names alone is one the joint run
     names (the sines add a direction asymmetry; on a chirp it shrinks the gap by less than half a
     noise floor)."""
-    from motorid.diagnose import diagnose
-    from motorid.records import read_record
-
-    records = [read_record(p) for p in KIT]
-    singles = [diagnose(r) for r in records]
-    joint = diagnose(records, labels=[p.name for p in KIT])
+    singles, joint = kit_runs
     assert joint.named[0] == "coulomb_friction"
     for path, d in zip(KIT, singles, strict=True):
         assert d.named[0] == "coulomb_friction", (path.name, d.named)
@@ -123,6 +133,51 @@ def test_the_kit_motor_gets_one_verdict_from_its_six_records():
         assert shown[("kit", run_name)] == fresh, (
             "README's real-motor table is stale: run scripts/realmotors_doctor.py"
         )
+
+
+@needs_kit
+def test_the_sines_of_the_kit_motor_do_not_determine_its_inertia_and_the_report_says_so(kit_runs, capsys):
+    """The sines put 4.6 % (0.5 Hz) and 9.5 % (1 Hz) of the input force into acceleration, the
+    chirps 20 %, the joint run 15 %: the sines' inertia is flagged, with the share, and the
+    others' is not; the value stays in the model for the free run."""
+    from motorid.diagnose.workflow import INERTIA_SHARE_LIMIT
+
+    singles, joint = kit_runs
+    for path, d in zip(KIT, singles, strict=True):
+        share = d.param_share["inertia"]
+        assert 0.03 < share < 0.3, (path.name, share)  # measured 0.046-0.21
+        flagged = "inertia" in d.undetermined
+        assert flagged == path.name.startswith("kit_sine"), (path.name, share)
+        assert flagged == (share < INERTIA_SHARE_LIMIT)
+        assert d.model.params["inertia"] > 0.0  # kept for the free run
+        assert d.to_dict()["model"]["params_undetermined"] == d.undetermined
+        # the kinetic friction is determined on every record: its error is 1-2 % of it
+        assert "coulomb" not in d.undetermined
+        assert d.param_std["coulomb"] < 0.03 * d.model.params["coulomb"]
+    assert joint.undetermined == {}
+    code, out, err = run(capsys, "doctor", str(KIT[0]), "--input-unit", "%", "--json")
+    assert code == 0, err
+    assert set(out["model"]["params_undetermined"]) == {"inertia"}
+    assert "  inertia: not determined by this record (its term carries 4.6 % of the input force" in err
+
+
+@needs_kit
+@pytest.mark.xfail(
+    strict=True,
+    reason="measured: the chirps' inertia lies 6 % and 3 % below the joint run's (10 and 6 of their "
+    "standard errors) and the second chirp's kinetic friction 4 of them: a misfit of the rigid model "
+    "that depends on the signal, which the errors from a record's own residual do not show",
+)
+def test_each_kit_record_agrees_with_the_joint_run_within_two_standard_errors(kit_runs):
+    """Each record's inertia and kinetic friction within 2 of its stated standard errors of the
+    joint run's, or flagged as not determined by that record."""
+    singles, joint = kit_runs
+    for path, d in zip(KIT, singles, strict=True):
+        for name in ("inertia", "coulomb"):
+            if name in d.undetermined:
+                continue
+            off = abs(d.model.params[name] - joint.model.params[name]) / d.param_std[name]
+            assert off < 2.0, (path.name, name, off)
 
 
 def test_the_readme_table_of_the_wheel_motors_equals_a_fresh_run():

@@ -202,6 +202,9 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         for k, v in diagnosis.model.params.items()
     )
     say(f"  final model (± one standard error): {final}")
+    for name, why in diagnosis.undetermined.items():
+        which = "these records" if diagnosis.records else "this record"
+        say(f"  {name}: not determined by {which} ({why}); its fitted value is kept for the free run only")
     scores = None
     if validation is not None:
         scores = diagnosis.evaluate(validation)

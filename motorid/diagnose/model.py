@@ -242,6 +242,8 @@ class FitResult:
         The balance residual on the fitted rows [F].
     param_std : dict
         Standard error of each linear parameter [its unit] (:func:`linear_param_std`).
+    param_share : dict
+        Share of the input force each linear parameter's term carries (:func:`force_shares`).
     """
 
     model: RigidDrive
@@ -251,6 +253,7 @@ class FitResult:
     n_params: int
     residual: np.ndarray  # on every decimated sample (F_in - F_model)
     param_std: dict[str, float] = field(default_factory=dict)
+    param_share: dict[str, float] = field(default_factory=dict)
 
 
 @dataclass
@@ -278,6 +281,9 @@ class LinearSolve:
         Indices of the kept columns.
     norms : ndarray
         The columns' norms.
+    X : ndarray, shape (N, k)
+        The regressor columns on every decimated sample (shared with the solve's cache, not a
+        copy).
     """
 
     theta: dict[str, float]
@@ -287,6 +293,7 @@ class LinearSolve:
     R_kept: np.ndarray
     keep: np.ndarray
     norms: np.ndarray
+    X: np.ndarray
 
     def unit_cov(self) -> np.ndarray:
         """C = (XᵀX)⁻¹ over the columns kept (zero rows and columns for a dropped one), in the
@@ -435,22 +442,34 @@ def _linear_solve(
     residual = target - X @ theta
     rss = float(np.sum(residual.take(fitted) ** 2))
     return LinearSolve(
-        dict(zip(names, theta.tolist(), strict=True)), rss, int(keep.size), residual, kept, keep, norms
+        dict(zip(names, theta.tolist(), strict=True)), rss, int(keep.size), residual, kept, keep, norms, X
     )
 
 
+#: Contiguous blocks of fitted rows in the block sandwich of :func:`linear_param_std`.
+STD_BLOCKS = 20
+
+
 def linear_param_std(
-    names: list[str], unit_cov: np.ndarray, residual: np.ndarray, rows: np.ndarray, rank: int
-) -> dict[str, float]:
+    names: list[str], unit_cov: np.ndarray, residual: np.ndarray, rows: np.ndarray, rank: int,
+    X: np.ndarray,
+) -> dict[str, float]:  # fmt: skip
     """Standard errors of the linear parameters θ (inertia and the effects' levels) [their units].
 
-    ``std_j = sqrt(σ² C_jj (1 + ρ) / (1 - ρ))`` with σ² = RSS / (n - rank) on the fitted
-    rows, C = (XᵀX)⁻¹ and ρ ∈ [0, 0.99] the lag-1 autocorrelation of the residual over
-    consecutive fitted rows: the balance residual of filtered, decimated signals is not
-    white, and (1 + ρ)/(1 - ρ) is the variance inflation of a mean of an AR(1) sequence
-    (the effective number of rows is n (1 - ρ)/(1 + ρ)). They hold the shape parameters
-    (Stribeck velocity, dead zone, ...) at their fitted values, which get no standard error.
-    A dropped column's parameter gets 0.
+    A block sandwich (batch-means) estimate, which holds for a residual correlated over any
+    time shorter than a block: the fitted rows are cut into G = :data:`STD_BLOCKS` contiguous
+    blocks b, and with the score of each, ``s_b = X_bᵀ r_b``, and C = (XᵀX)⁻¹::
+
+        Cov(θ) = G / (G - 1) · (n / (n - rank)) · C (Σ_b s_b s_bᵀ) C
+
+    The balance residual of filtered, decimated signals is not white: a lag-1 (AR(1))
+    correction sees the filter's correlation only, while a misfit that changes along the
+    record (a chirp through frequencies where the rigid model holds differently, the phases
+    of a slow sine) correlates the residual over seconds. The blocks see both; what they
+    cannot see is a misfit that repeats alike in every block (one frequency throughout), so
+    records of different signals can still disagree by more than these errors. They hold the
+    shape parameters (Stribeck velocity, dead zone, ...) at their fitted values, which get no
+    standard error. A dropped column's parameter gets 0.
 
     Parameters
     ----------
@@ -459,24 +478,66 @@ def linear_param_std(
     unit_cov : ndarray
         C = (XᵀX)⁻¹ of the columns, in the parameters' units.
     residual : ndarray
-        The balance residual on the fitted rows [F].
-    rows : ndarray
-        Indices of the fitted rows (consecutive ones give ρ).
+        The balance residual on every decimated sample [F].
+    rows : ndarray of bool
+        The fitted rows.
     rank : int
         Columns kept.
+    X : ndarray, shape (N, k)
+        The regressor columns on every decimated sample, in the order of ``names``.
+
+    Returns
+    -------
+    dict
+        Standard error of each parameter [its unit]; NaN for all when there are fewer fitted
+        rows than columns or blocks.
     """
     idx = np.flatnonzero(rows)
-    r = residual[idx]
-    dof = r.size - rank
-    if dof <= 0:
+    dof = idx.size - rank
+    if dof <= 0 or idx.size < 2 * STD_BLOCKS:
         return {name: math.nan for name in names}
-    sum_sq = float(r @ r)
-    consecutive = np.diff(idx) == 1
-    rho = float(r[:-1][consecutive] @ r[1:][consecutive]) / sum_sq if sum_sq > 0.0 else 0.0
-    rho = min(max(rho, 0.0), 0.99)
-    variance = sum_sq / dof * (1.0 + rho) / (1.0 - rho)
-    std = np.sqrt(variance * np.clip(np.diag(unit_cov), 0.0, None))
+    r = residual[idx]
+    scores = np.add.reduceat(X[idx] * r[:, None], np.linspace(0, idx.size, STD_BLOCKS + 1).astype(int)[:-1])
+    meat = scores.T @ scores * (STD_BLOCKS / (STD_BLOCKS - 1)) * (idx.size / dof)
+    cov = unit_cov @ meat @ unit_cov
+    std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     return dict(zip(names, std.tolist(), strict=True))
+
+
+def force_shares(
+    names: list[str], theta: np.ndarray, residual: np.ndarray, rows: np.ndarray, X: np.ndarray
+) -> dict[str, float]:
+    """The share of the input force each linear parameter's term carries on the fitted rows.
+
+    ``share_j = ||θ_j X_j|| / ||F_in||`` with ``F_in = X θ + r`` (the balance force): for the
+    inertia, how much of the force goes into acceleration. A term that carries a small share
+    is barely seen by the record (a slow sine spends its force on friction, little on
+    acceleration), and its parameter is poorly determined whatever its standard error says.
+
+    Parameters
+    ----------
+    names : list of str
+        The linear parameters, in column order.
+    theta : ndarray
+        Their values [their units].
+    residual : ndarray
+        The balance residual on every decimated sample [F].
+    rows : ndarray of bool
+        The fitted rows.
+    X : ndarray, shape (N, k)
+        The regressor columns on every decimated sample.
+
+    Returns
+    -------
+    dict
+        The share of each parameter, 0..∞ (1: a term as large as the whole force) [-].
+    """
+    idx = np.flatnonzero(rows)
+    terms = X[idx] * theta
+    force = float(np.linalg.norm(terms.sum(axis=1) + residual[idx]))
+    if force == 0.0:
+        return {name: math.nan for name in names}
+    return dict(zip(names, (np.linalg.norm(terms, axis=0) / force).tolist(), strict=True))
 
 
 def fit_model(
@@ -577,12 +638,20 @@ def fit_model(
     if not isinstance(solved, LinearSolve):
         solved = _linear_solve(data, effects, shape, gain, rows, stribeck_shape, last)
     theta, rss, k, residual = dict(solved.theta), solved.rss, solved.rank, solved.residual
-    param_std = linear_param_std(list(theta), solved.unit_cov(), residual, rows, k)
+    param_std = linear_param_std(list(theta), solved.unit_cov(), residual, rows, k, solved.X)
+    param_share = force_shares(list(theta), np.array(list(theta.values())), residual, rows, solved.X)
     inertia = theta.pop("inertia")
     params = {"inertia": inertia, "input_gain": gain, **theta, **shape}
     model = RigidDrive(effects, params, data.dt, stribeck_shape)
     return FitResult(
-        model, _accel_rss(rss, inertia), rss, int(rows.sum()), k + len(shaped), residual, param_std
+        model,
+        _accel_rss(rss, inertia),
+        rss,
+        int(rows.sum()),
+        k + len(shaped),
+        residual,
+        param_std,
+        param_share,
     )
 
 
@@ -603,6 +672,7 @@ __all__ = [
     "PooledBalance",
     "Regressors",
     "fit_model",
+    "force_shares",
     "linear_param_std",
     "model_balance",
     "model_key",
