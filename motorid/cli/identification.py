@@ -5,12 +5,24 @@ from __future__ import annotations
 import argparse
 from dataclasses import fields
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from motorid.app.identify import band_words, low_speed_band
+from motorid.app.identify import (
+    IdentifyOptions,
+    band_words,
+    create_estimator,
+    estimator_for_record,
+    identify_file,
+    identify_record,
+    low_speed_band,
+    runs_in_blocks,
+    start_model,
+    validate_on_record,
+    write_identify_figure,
+)
 from motorid.errors import DataError
 
 from .options import (
@@ -31,29 +43,14 @@ from .options import (
 )
 from .report import emit_json, frame_records, say, say_params, show_progress
 
-if TYPE_CHECKING:
-    from motorid.app.identify import IdentifyOptions
-
 
 def identify_options_from_args(args: argparse.Namespace) -> IdentifyOptions:
     """``motorid identify``'s options (:func:`add_identify_options`) as :class:`motorid.app.IdentifyOptions`."""
-    from motorid.app.identify import IdentifyOptions
-
     return IdentifyOptions(**{f.name: getattr(args, f.name) for f in fields(IdentifyOptions)})
 
 
 def cmd_identify(args: argparse.Namespace) -> int:
     """Identify one estimator on a record; report params, MSE, FIT and residual tests."""
-    from motorid.app.identify import (
-        create_estimator,
-        estimator_for_record,
-        identify_file,
-        identify_record,
-        runs_in_blocks,
-        start_model,
-        validate_on_record,
-        write_identify_figure,
-    )
     from motorid.validation import RPM_PER_RAD_S
 
     options = identify_options_from_args(args)
