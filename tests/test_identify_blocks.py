@@ -23,9 +23,11 @@ import pytest
 from cli_fixtures import run
 
 import motorid.validation
+from motorid.app.identify import create_estimator, identify_record
+from motorid.app.identify import identify_blocks as identify_blocks_of
 from motorid.cli import build_parser
-from motorid.cli.identification import identify_blocks as identify_blocks_of
-from motorid.cli.options import create_estimator, iter_record_from_args
+from motorid.cli.identification import identify_options_from_args
+from motorid.cli.options import iter_record_from_args, read_record_from_args
 from motorid.cli.report import jsonable
 from motorid.errors import DataError
 from motorid.estimators.rls import FreeRun
@@ -64,7 +66,8 @@ def identify_blocks(blocks, args):
     """:func:`identify_blocks_of` on a record of motorid's simulation (output in rad/s): the
     estimator of ``args``, the low-speed band of ``--low-speed-rpm``."""
     est = create_estimator(args.estimator, args)
-    return identify_blocks_of(blocks, args, est, [], "rad/s", float(rpm_to_rad_s(args.low_speed_rpm)))
+    options = identify_options_from_args(args)
+    return identify_blocks_of(blocks, options, est, [], "rad/s", float(rpm_to_rad_s(args.low_speed_rpm)))
 
 
 def in_blocks(args, rows: int = BLOCK):
@@ -304,8 +307,6 @@ def test_a_semicolon_decimal_comma_export_in_ms_identifies_alike_streamed_and_wh
     read_record and identified by identify_record (as fleet identify does) gives the same
     payload, key for key: both run the estimator over blocks of 997 rows of the same numbers."""
     import motorid.record_chunks
-    from motorid.cli.identification import identify_record
-    from motorid.cli.options import read_record_from_args
 
     rig = paper_rig()
     _, u = two_sine_signal(duration=60.0, dt=rig.dt, seed=4)
@@ -323,7 +324,7 @@ def test_a_semicolon_decimal_comma_export_in_ms_identifies_alike_streamed_and_wh
     pd.testing.assert_frame_equal(pd.concat(blocks), record, check_exact=True)
     assert record.attrs["units"] == {"t": "s", "u": "V", "y": "rad/s"} == blocks[1].attrs["units"]
     assert record.attrs["time_origin"] == pytest.approx(123.456) and record.attrs["dt"] == pytest.approx(0.04)
-    whole = json.loads(json.dumps(jsonable(identify_record(record, args)[0])))
+    whole = json.loads(json.dumps(jsonable(identify_record(record, identify_options_from_args(args))[0])))
     assert streamed.pop("figure") is None and streamed.pop("model") is None
     assert streamed == whole
     assert (
@@ -340,8 +341,6 @@ def test_jittered_stamps_are_identified_on_the_whole_record_and_the_output_says_
     import logging
 
     caplog.set_level(logging.INFO, logger="motorid")
-    from motorid.cli.identification import identify_record
-    from motorid.cli.options import read_record_from_args
 
     rig = paper_rig()
     _, u = two_sine_signal(duration=60.0, dt=rig.dt, seed=4)
@@ -355,7 +354,11 @@ def test_jittered_stamps_are_identified_on_the_whole_record_and_the_output_says_
     assert "identify reads it whole" in caplog.text
     assert "resampled to a uniform 40 ms grid" in caplog.text  # the reader's own warning
     args = identify_args(path, *options)
-    whole = json.loads(json.dumps(jsonable(identify_record(read_record_from_args(args), args)[0])))
+    whole = json.loads(
+        json.dumps(
+            jsonable(identify_record(read_record_from_args(args), identify_options_from_args(args))[0])
+        )
+    )
     streamed.pop("figure"), streamed.pop("model")
     assert streamed == whole
     with pytest.raises(DataError, match="reads it whole"):

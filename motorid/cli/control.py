@@ -64,6 +64,7 @@ def reference_from_file(path: Path, dt: float, duration: float | None) -> np.nda
 
 def cmd_control(args: argparse.Namespace) -> int:
     """Close the speed loop: PI designed on the model, friction compensation from it (or not)."""
+    from motorid.app.identify import drive_model_from_file
     from motorid.compensation import FrictionCompensation
     from motorid.errors import DAQError
     from motorid.io import daq_from_url
@@ -77,7 +78,7 @@ def cmd_control(args: argparse.Namespace) -> int:
     )
     from motorid.validation import rpm_to_rad_s
 
-    from .simulation import RIG_OPTIONS, drive_model_from_file, rig_from_args
+    from .simulation import RIG_OPTIONS, rig_from_args
 
     if args.out is not None:
         check_out_file(args.out, args.overwrite)

@@ -16,14 +16,13 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from .doctor import add_doctor_options, doctor_job_from_args
-from .identification import add_identify_options, start_model_from_args
+from .identification import add_identify_options, identify_options_from_args
 from .options import (
     RECORD_FILES,
     add_json,
     add_record_columns,
     add_wait,
     check_out_folder,
-    create_estimator,
     hold_out_folder,
     number,
     positive,
@@ -31,7 +30,7 @@ from .options import (
 from .report import emit_json, frame_records, say, say_error, show_progress
 
 if TYPE_CHECKING:
-    from motorid.fleet import IdentifyJob, ReadOptions
+    from motorid.fleet import ReadOptions
 
 
 def read_options_from_args(args: argparse.Namespace) -> ReadOptions:
@@ -41,21 +40,16 @@ def read_options_from_args(args: argparse.Namespace) -> ReadOptions:
     return ReadOptions(**{f.name: getattr(args, f.name) for f in fields(ReadOptions)})
 
 
-def identify_job_from_args(args: argparse.Namespace) -> IdentifyJob:
-    """``motorid identify``'s options as :class:`motorid.fleet.IdentifyJob`."""
-    from motorid.fleet import IdentifyJob
-
-    return IdentifyJob(**{f.name: getattr(args, f.name) for f in fields(IdentifyJob)})
-
-
 def _run(args: argparse.Namespace, command: str) -> int:
     from motorid.fleet import FilenamePattern, find_records, run
     from motorid.fleet.runner import check_run_kind
 
     if command == "identify":
-        create_estimator(args.estimator, args)  # a bad option stops before any work
-        start_model_from_args(args)  # and a bad --model
-        job: Any = identify_job_from_args(args)
+        from motorid.app.identify import create_estimator, start_model
+
+        job: Any = identify_options_from_args(args)
+        create_estimator(job.estimator, job)  # a bad option stops before any work
+        start_model(job)  # and a bad --model
     else:
         job = doctor_job_from_args(args)
     read = read_options_from_args(args)  # a bad span stops before any work too

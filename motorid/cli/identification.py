@@ -3,15 +3,26 @@
 from __future__ import annotations
 
 import argparse
-import itertools
-import logging
-from collections.abc import Callable, Iterable, Iterator
+from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
+from motorid.app.identify import (
+    IdentifyOptions,
+    band_words,
+    create_estimator,
+    estimator_for_record,
+    identify_file,
+    identify_record,
+    low_speed_band,
+    runs_in_blocks,
+    start_model,
+    validate_on_record,
+    write_identify_figure,
+)
 from motorid.errors import DataError
 
 from .options import (
@@ -22,405 +33,36 @@ from .options import (
     add_record_input,
     add_skip,
     add_wait,
-    band_words,
     check_out_file,
     check_out_folder,
-    create_estimator,
     hold_out_folder,
     int_range,
-    iter_record_from_args,
-    low_speed_band,
     number,
-    output_band,
     read_record_from_args,
+    record_options_from_args,
 )
 from .report import emit_json, frame_records, say, say_params, show_progress
 
-logger = logging.getLogger(__name__)
 
-
-def require_finite_estimate(
-    name: str, x: np.ndarray, u: np.ndarray, y: np.ndarray, first_row: int = 0
-) -> None:
-    """Refuse an estimate that stopped being finite, naming the first sample where it did
-    (``first_row``: the record's row of ``x[0]``, when ``x`` is a block of it).
-
-    A result with NaN or inf is never reported as a success: it means the record
-    drove the estimator out of floating-point range (an outlier, a unit mistake).
-    """
-    bad = ~np.isfinite(x).all(axis=1)
-    if bad.any():
-        k = int(np.argmax(bad))
-        row = first_row + k
-        raise DataError(f"estimator {name!r}: its estimate is not finite from sample {row} on "
-                        f"(u = {u[k]:.6g}, y = {y[k]:.6g} there); check the record around row {row}")  # fmt: skip
-
-
-#: The key of a record's attrs that holds the simulated rig (:meth:`motorid.plants.TwoMassRig.simulate`
-#: writes it): a record that has it is motorid's own simulation.
-SIMULATED_RIG_ATTR = "rig"
-
-
-def start_model_from_args(args: argparse.Namespace) -> Any:
-    """The drive model of ``--model`` a friction filter starts from (None without ``--model``),
-    checked before any record is read: the estimator must start from a model (have
-    ``from_rig``), the file must hold a drive model, and a rigid drive needs ``--param R=``."""
-    from motorid.estimators import available, factory
-    from motorid.plants import RigidDrive
-
-    from .simulation import drive_model_from_file
-
-    model_file = getattr(args, "model", None)
-    if model_file is None:
-        return None
-    if args.estimator not in available() or not hasattr(factory(args.estimator), "from_rig"):
-        create_estimator(args.estimator, args)  # an unknown name is named first
-        raise DataError(
-            f"--model: estimator {args.estimator!r} identifies its model from the record alone; "
-            "--model starts a friction filter (friction-ekf, friction-ukf) from a drive model"
-        )
-    model = drive_model_from_file(model_file)
-    if isinstance(model, RigidDrive) and not any(p.partition("=")[0] == "R" for p in args.param):
-        raise DataError(
-            f"--model {model_file} is a rigid drive, which has no sensor model: give the variance of the "
-            "speed measurement with --param R=VALUE [(output unit)^2]"
-        )
-    return model
-
-
-def estimator_for_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[Any, list[str]]:
-    """The estimator ``--estimator`` names, for this record, and what it assumes (notes for the user).
-
-    An estimator that starts from a drive model (a friction filter, which has ``from_rig``)
-    takes the constants and friction of ``--model FILE`` (a two-mass rig or the doctor's rigid
-    drive: :func:`start_model_from_args`). Without ``--model`` it runs on the default rig's
-    constants, which only motorid's own simulation (a record whose attrs carry its rig) is
-    known to share: any other record is refused, naming ``--model``. The record's input unit
-    must be what the model takes (:func:`motorid.comparison.input_unit_note`): duty in % is
-    refused by a model in volts; its output a velocity (:func:`motorid.comparison.check_output_unit`).
-    """
-    from motorid.comparison import check_output_unit, input_unit_note
-    from motorid.estimators import available, factory
-    from motorid.plants import paper_rig
-
-    model = start_model_from_args(args)
-    units = record.attrs.get("units")
-    if model is not None:
-        check_output_unit(model, units, f"--model {args.model}")
-        note = input_unit_note(model, units, f"--model {args.model}")
-        return create_estimator(args.estimator, args, rig=model), [note] if note else []
-    if args.estimator not in available() or not hasattr(factory(args.estimator), "from_rig"):
-        return create_estimator(args.estimator, args), []
-    if SIMULATED_RIG_ATTR not in record.attrs:
-        raise DataError(
-            f"{args.data}: the {args.estimator} needs the drive's model, and this record (not motorid's own "
-            "simulation) carries none: give it with --model FILE (motorid doctor --save-model writes one)"
-        )
-    check_output_unit(paper_rig(), units, "the default rig")
-    note = input_unit_note(paper_rig(), units, "the default rig")
-    notes = [note] if note else []
-    notes.append(
-        "no --model: the filter runs on the default rig's constants (the record is motorid's simulation)"
-    )
-    return create_estimator(args.estimator, args), notes
-
-
-def identify_record(record: pd.DataFrame, args: argparse.Namespace) -> tuple[dict[str, Any], list, Any]:
-    """What ``motorid identify`` computes on a record with columns ``t``, ``u``, ``y``.
-
-    Returns the ``--json`` payload (without ``figure``), the residual tests (for the figure) and
-    the identified estimator (for ``--save-model``).
-    ``motorid fleet identify`` calls this very function on each record, so a fleet's rows equal
-    the single-record command's output. An estimator that runs in blocks (:func:`runs_in_blocks`)
-    is run over the record in the blocks ``motorid identify`` reads a file in
-    (:func:`identify_blocks`), so the numbers are those of the file read in blocks.
-    """
-    from motorid.comparison import holds_input
-    from motorid.estimators.base import first_bad_index
-    from motorid.record_chunks import CHUNK_ROWS
-    from motorid.records import record_timing
-    from motorid.validation import (
-        RPM_PER_RAD_S,
-        check_signals,
-        residual_tests,
-        score_predictions,
-    )
-
-    est, notes = estimator_for_record(record, args)
-    if runs_in_blocks(est):
-        u_all, y_all = record["u"].to_numpy(), record["y"].to_numpy()
-        unit, threshold, _ = low_speed_band(record, args.low_speed_rpm)
-        return identify_blocks(
-            lambda: (
-                (u_all[k : k + CHUNK_ROWS], y_all[k : k + CHUNK_ROWS])
-                for k in range(0, len(record), CHUNK_ROWS)
-            ),
-            args, est, notes, unit, threshold,
-        )  # fmt: skip
-    u, y = record["u"].to_numpy(), record["y"].to_numpy()
-    check_signals({args.input: u, args.output: y})
-    if holds_input(est) and record_timing(record.attrs) == "sampled":
-        # a physical model's output is at the end of the sample its input is held over
-        u, y = u[:-1], y[1:]
-        notes.append("the record's timing is sampled: u[k] is paired with y[k+1], the output it drives")
-    result = est.batch_filter(u, y)
-    require_finite_estimate(args.estimator, result.x, u, y)
-    predictions = {"one_step": result.y_hat}
-    free_run = est.simulate(u)
-    diverged = first_bad_index(free_run)
-    if diverged is None:
-        predictions["free_run"] = free_run
-    unit, threshold, _ = low_speed_band(record, args.low_speed_rpm)
-    scores = score_predictions(y, predictions, threshold, args.skip)
-    in_rpm = unit == "rad/s"
-    tests = residual_tests(u[args.skip :], (y - result.y_hat)[args.skip :], max_lag=args.max_lag)
-    payload = {
-        "estimator": args.estimator,
-        "samples": len(record),
-        "residual_tests_samples": len(record) - args.skip,
-        "params": est.params,
-        "scores": {
-            kind: {**row, **({"mse_rpm2": row["mse"] * RPM_PER_RAD_S**2} if in_rpm else {})}
-            for kind, row in scores.to_dict("index").items()
-        },
-        "free_run_diverges_from_sample": diverged,
-        "output_unit": unit,
-        ("low_speed_threshold_rad_s" if in_rpm else "low_speed_threshold"): threshold,
-        "residual_tests": {
-            t.name: {"passed": t.passed, "fraction_outside": t.fraction_outside} for t in tests
-        },
-        "notes": notes,
-    }
-    param_units = getattr(est, "param_units", None)  # declared by the friction filters
-    if param_units:
-        payload["units"] = {"params": dict(param_units)}
-    return payload, tests, est
-
-
-def runs_in_blocks(estimator: Any) -> bool:
-    """Whether ``estimator`` is identified on a record in blocks (:func:`identify_blocks`): an RLS
-    on a lagged regression, whose state (estimate, covariance, past outputs and inputs) carries
-    from one ``batch_filter`` call to the next and whose free run carries its own
-    (:class:`motorid.estimators.rls.FreeRun`). The friction filters need the whole record."""
-    from motorid.estimators.rls import LaggedRegressionRLS
-
-    return isinstance(estimator, LaggedRegressionRLS)
-
-
-def identify_blocks(
-    blocks: Callable[[], Iterable[tuple[np.ndarray, np.ndarray]]],
-    args: argparse.Namespace,
-    est: Any,
-    notes: list[str],
-    unit: str | None,
-    threshold: float,
-) -> tuple[dict[str, Any], list, Any]:
-    """:func:`identify_record` over a record given in consecutive blocks, in memory that does not
-    grow with the record.
-
-    ``blocks()`` yields the record's ``(u, y)`` blocks from its start; it is called twice. ``est``
-    is the estimator to identify (:func:`runs_in_blocks`), ``notes`` what it assumes, ``unit``
-    the record's output unit and ``threshold`` its low-speed threshold in it
-    (:func:`.options.low_speed_band`).
-
-    1. The first pass runs ``batch_filter`` block after block (the estimator carries its state,
-       so the estimate is that of one call on the whole record, bit for bit) and scores the
-       one-step prediction with running sums (:class:`motorid.validation.RunningScore`). Each
-       block is checked as :func:`motorid.validation.check_signals` checks a record, against the
-       block's own median and spread (a corrupt cell stops the work at once); a strided sample
-       of each signal (:class:`motorid.validation.StridedSample`, the whole signal up to
-       :data:`motorid.validation.REFERENCE_SAMPLES` samples) gives the record's median and spread.
-    2. The second pass checks every block against the record's median and spread (what
-       :func:`~motorid.validation.check_signals` does on a whole record: it catches a unit slip
-       that fills most of a block), and runs and scores the identified model's free run
-       (:class:`motorid.estimators.rls.FreeRun`), up to the samples the first pass saw (a logger
-       may still be appending to the file).
-
-    The residual tests are computed on the last :data:`motorid.validation.RESIDUAL_WINDOW`
-    samples of the one-step residual (the whole record when it is no longer;
-    ``residual_tests_samples`` in the payload says how many). Returns what
-    :func:`identify_record` returns.
-    """
-    from motorid.estimators.base import first_bad_index
-    from motorid.estimators.rls import FreeRun
-    from motorid.validation import (
-        REFERENCE_SAMPLES,
-        RESIDUAL_WINDOW,
-        RPM_PER_RAD_S,
-        ResidualWindow,
-        RunningScore,
-        StridedSample,
-        check_outliers,
-        check_signal_block,
-        outlier_reference,
-        raise_constant,
-        residual_tests,
-    )
-
-    one_step, window = RunningScore(threshold), ResidualWindow(RESIDUAL_WINDOW)
-    names = (args.input, args.output)
-    strided = (StridedSample(REFERENCE_SAMPLES), StridedSample(REFERENCE_SAMPLES))
-    first: tuple[float, float] | None = None  # the first sample, to tell a constant column
-    varies = [False, False]
-    samples = 0
-    for u, y in blocks():
-        for name, values, sample in zip(names, (u, y), strided, strict=True):
-            check_signal_block(name, values, samples)
-            sample.add(values)
-        if first is None and len(u):
-            first = (float(u[0]), float(y[0]))
-        if first is not None:
-            varies = [v or bool(np.any(x != x0)) for v, x, x0 in zip(varies, (u, y), first, strict=True)]
-        result = est.batch_filter(u, y)
-        if len(u) and not np.isfinite(result.x[-1]).all():  # a non-finite estimate stays so: the last tells
-            require_finite_estimate(args.estimator, result.x, u, y, samples)
-        scored = slice(max(0, args.skip - samples), None)
-        one_step.add(y[scored], result.y_hat[scored])
-        window.add(u[scored], (y - result.y_hat)[scored])
-        samples += len(u)
-    if not 0 <= args.skip < samples:
-        raise ValueError(f"skip must be in [0, {samples}), got {args.skip}")
-    for name, changes, value in zip(names, varies, first or (0.0, 0.0), strict=True):
-        if not changes:
-            raise_constant(name, value, samples)
-    references = [outlier_reference(sample.values) for sample in strided]
-    free_run, simulate = RunningScore(threshold), FreeRun(est)
-    diverged = None
-    start = 0
-    for u, y in blocks():
-        if start >= samples:  # a file still being written has grown since the first pass
-            break
-        u, y = u[: samples - start], y[: samples - start]
-        for name, values, reference in zip(names, (u, y), references, strict=True):
-            check_outliers(name, values, start, reference)
-        if diverged is None:
-            y_sim = simulate(u)
-            bad = first_bad_index(y_sim)
-            if bad is not None:
-                diverged = start + bad
-            else:
-                scored = slice(max(0, args.skip - start), None)
-                free_run.add(y[scored], y_sim[scored])
-        start += len(u)
-    scores = {
-        "one_step": one_step.result(),
-        **({} if diverged is not None else {"free_run": free_run.result()}),
-    }
-    tests = residual_tests(*window.arrays(), max_lag=args.max_lag)
-    in_rpm = unit == "rad/s"
-    payload = {
-        "estimator": args.estimator,
-        "samples": samples,
-        "residual_tests_samples": min(window.samples, window.size),
-        "params": est.params,
-        "scores": {
-            kind: {**vars(row), **({"mse_rpm2": row.mse * RPM_PER_RAD_S**2} if in_rpm else {})}
-            for kind, row in scores.items()
-        },
-        "free_run_diverges_from_sample": diverged,
-        "output_unit": unit,
-        ("low_speed_threshold_rad_s" if in_rpm else "low_speed_threshold"): threshold,
-        "residual_tests": {
-            t.name: {"passed": t.passed, "fraction_outside": t.fraction_outside} for t in tests
-        },
-        "notes": notes,
-    }
-    param_units = getattr(est, "param_units", None)
-    if param_units:
-        payload["units"] = {"params": dict(param_units)}
-    return payload, tests, est
-
-
-def identify_file_in_blocks(args: argparse.Namespace) -> tuple[dict[str, Any], list, Any]:
-    """:func:`identify_blocks` on the record file of ``args``, read in blocks
-    (:func:`.options.iter_record_from_args`): memory does not grow with the record.
-
-    The first block gives the record's attrs (its units, whether it is motorid's simulation);
-    an output in another unit than rad/s takes one more pass, for its largest magnitude (the
-    low-speed band, :func:`.options.low_speed_band`). A record whose time stamps jitter is put
-    on a uniform grid, which takes it whole: it is then read and identified as
-    :func:`identify_record` does (within ``--max-samples``); the reader's one line says how
-    the stamps were resampled, and ``-v`` logs why the record is held whole.
-    """
-    from motorid.errors import UniformGridError
-
-    try:
-        passes: Iterator[pd.DataFrame] | None = iter_record_from_args(args)
-        first = next(passes)
-        est, notes = estimator_for_record(first, args)
-        unit = (first.attrs.get("units") or {}).get("y")
-        largest = None
-        if unit != "rad/s":
-            largest = max(
-                float(np.max(np.abs(block["y"].to_numpy()))) for block in iter_record_from_args(args)
-            )
-        _, threshold, _ = output_band(unit, args.low_speed_rpm, largest)
-
-        def blocks() -> Iterator[tuple[np.ndarray, np.ndarray]]:
-            nonlocal passes
-            source = iter_record_from_args(args) if passes is None else itertools.chain([first], passes)
-            passes = None
-            for block in source:
-                yield block["u"].to_numpy(), block["y"].to_numpy()
-
-        return identify_blocks(blocks, args, est, notes, unit, threshold)
-    except UniformGridError as exc:
-        logger.info("%s: identify reads it whole (--max-samples %d)", exc, args.max_samples)
-        return identify_record(read_record_from_args(args), args)
-
-
-def validate_on_record(est: Any, record: pd.DataFrame, args: argparse.Namespace) -> dict[str, Any]:
-    """The identified model ``est`` on a second record, without refitting: its free run on that
-    record's input scored as ``identify`` scores its own (``validation`` of the ``--json`` output).
-
-    The free run is :func:`motorid.comparison.compare_models`'s (the record's timing and the
-    model's input unit minded, the first ``--skip`` samples left out).
-    """
-    from motorid.comparison import compare_models
-    from motorid.validation import RPM_PER_RAD_S
-
-    unit, threshold, _ = low_speed_band(record, args.low_speed_rpm)
-    run = compare_models(record, {args.estimator: est}, threshold, args.skip)
-    model = run.models[0]
-    scores = {}
-    if model.diverges_from is None:
-        row = {"mse": model.mse, "rmse": model.rmse, "fit_percent": model.fit_percent,
-               "low_speed_mse": model.low_speed_mse, "n_low_speed": model.n_low_speed}  # fmt: skip
-        scores["free_run"] = {
-            **row,
-            **({"mse_rpm2": row["mse"] * RPM_PER_RAD_S**2} if unit == "rad/s" else {}),
-        }
-    return {
-        "record": args.validate,
-        "samples": len(record),
-        "scores": scores,
-        "free_run_diverges_from_sample": model.diverges_from,
-        "output_unit": unit,
-        "notes": list(model.notes),
-    }
-
-
-def write_identify_figure(tests: list, folder: Path, estimator: str) -> Path:
-    """The residual-test figure of :func:`identify_record` as ``folder/residual_tests.png``."""
-    from motorid.validation import plot_residual_tests
-
-    figure = folder / "residual_tests.png"
-    plot_residual_tests(tests, str(figure), f"Residuals of {estimator} (one-step)")
-    return figure
+def identify_options_from_args(args: argparse.Namespace) -> IdentifyOptions:
+    """``motorid identify``'s options (:func:`add_identify_options`) as :class:`motorid.app.IdentifyOptions`."""
+    return IdentifyOptions(**{f.name: getattr(args, f.name) for f in fields(IdentifyOptions)})
 
 
 def cmd_identify(args: argparse.Namespace) -> int:
     """Identify one estimator on a record; report params, MSE, FIT and residual tests."""
     from motorid.validation import RPM_PER_RAD_S
 
+    options = identify_options_from_args(args)
     # a span (--start/--stop) is cut from the record read whole; an RLS otherwise streams the file
     spanned = args.start is not None or args.stop is not None
-    in_blocks = runs_in_blocks(create_estimator(args.estimator, args)) and not spanned
+    in_blocks = runs_in_blocks(create_estimator(args.estimator, options)) and not spanned
     record = None if in_blocks else read_record_from_args(args)
     if record is not None:
-        estimator_for_record(record, args)  # a bad estimator option or model stops before the folder is made
+        # a bad estimator option or model stops before the folder is made
+        estimator_for_record(record, options, str(args.data))
     else:
-        start_model_from_args(args)  # --model with an RLS estimator is refused before anything is read
+        start_model(options)  # --model with an RLS estimator is refused before anything is read
     validation_record = None
     if args.validate is not None:
         # the same record options (columns, dt, units) as the record the model is identified on
@@ -430,7 +72,12 @@ def cmd_identify(args: argparse.Namespace) -> int:
         hold_out_folder(args, args.out)
     if args.save_model:
         check_out_file(args.save_model, args.overwrite, "--save-model")
-    payload, tests, est = identify_file_in_blocks(args) if record is None else identify_record(record, args)
+    if record is None:
+        reading = record_options_from_args(args)
+        payload, tests, est = identify_file(args.data, options, reading, args.max_samples)
+    else:
+        payload, tests, est = identify_record(record, options, source=str(args.data), input=args.input,
+                                              output=args.output)  # fmt: skip
     if args.out and getattr(args, "out_lock", None) is None:
         check_out_folder(args.out)
         hold_out_folder(args, args.out)
@@ -462,7 +109,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
         say(f"  residual test {test.formula:<22} {'pass' if test.passed else 'FAIL'}")
     validation = None
     if validation_record is not None:
-        validation = validate_on_record(est, validation_record, args)
+        validation = validate_on_record(est, validation_record, options, args.validate)
         say_validation(validation)
     if args.save_model:
         try:

@@ -7,7 +7,6 @@ command with one line naming the option (exit status 2) before any work is done.
 from __future__ import annotations
 
 import argparse
-import inspect
 import math
 import os
 from collections.abc import Callable, Iterator
@@ -17,13 +16,12 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from motorid.app.identify import PAPER_ORDER, low_speed_band  # noqa: F401  (motorid compare imports it from here)
 from motorid.errors import DataError
 from motorid.units import INPUT_UNITS, OUTPUT_UNITS
 
 #: The paper's low-speed band, |y| < 150 rpm (its Figs. 9-11).
 LOW_SPEED_RPM = 150.0
-#: The paper's model order (Table 1's best): the default of --na and --nb.
-PAPER_ORDER = 4
 #: Excitation signals by name (functions of motorid.plants.signals).
 SIGNALS = ("paper", "prbs", "multisine", "chirp", "steps")
 
@@ -203,48 +201,6 @@ def iter_record_from_args(
     )
 
 
-def low_speed_band(record: pd.DataFrame, low_speed_rpm: float) -> tuple[str | None, float, str]:
-    """The output's unit (None when the record names none), the low-speed threshold, and words for it.
-
-    The band is judged on the output's speed: the output itself, or on a record of
-    positions (rad, m) the speed derived from them (``motorid compare``). ``--low-speed-rpm``
-    is a speed in rpm: it applies to a speed in rad/s. Any other speed, or one in
-    no named unit, gets 10 % of its largest magnitude, and no rpm or rad/s label is
-    given to numbers whose unit nobody named.
-    """
-    unit = (record.attrs.get("units") or {}).get("y")
-    y = record["y"].to_numpy()
-    if unit in ("rad", "m"):  # positions: the band is on their speed
-        speed = np.gradient(y, float(record.attrs["dt"]))
-        _, threshold, words = output_band(f"{unit}/s", low_speed_rpm, float(np.max(np.abs(speed))), "|dy/dt|")
-        return unit, threshold, words
-    largest = None if unit == "rad/s" else float(np.max(np.abs(y)))
-    return output_band(unit, low_speed_rpm, largest)
-
-
-def output_band(
-    unit: str | None, low_speed_rpm: float, largest_output: float | None, name: str = "|y|"
-) -> tuple[str | None, float, str]:
-    """:func:`low_speed_band` of a record whose output (its speed, ``name``) is in ``unit`` and whose
-    largest magnitude is ``largest_output`` (needed when ``unit`` is not rad/s): a record read in
-    blocks gives the two without being held whole."""
-    if unit == "rad/s":
-        threshold = low_speed_rpm * 2.0 * math.pi / 60.0
-    else:
-        if largest_output is None:
-            raise ValueError(f"an output in {unit or 'output units'} needs its largest magnitude")
-        threshold = 0.1 * largest_output
-    return unit, threshold, band_words(unit, threshold, low_speed_rpm, name)
-
-
-def band_words(unit: str | None, threshold: float, low_speed_rpm: float, name: str = "|y|") -> str:
-    """The low-speed band of :func:`low_speed_band` in words (``name``: what it is judged on)."""
-    if unit == "rad/s":
-        return f"{name} < {low_speed_rpm:g} rpm"
-    label = unit or "output units"
-    return f"{name} < {threshold:.4g} {label} (10 % of its max: --low-speed-rpm needs an output in a speed unit)"
-
-
 def add_trim_options(parser: argparse.ArgumentParser) -> None:
     """--start and --stop: the span of each record a command uses (:func:`trim_from_args`)."""
     group = parser.add_argument_group("span")
@@ -291,56 +247,6 @@ def add_estimator_options(parser: argparse.ArgumentParser, repeatable: bool = Fa
 def add_lam(group: argparse._ActionsContainer, default: float | None) -> None:
     group.add_argument("--lam", type=forgetting_factor, default=default,
                        help="forgetting factor, 0 < lam <= 1" + ("" if default is None else f" (default: {default:g})"))  # fmt: skip
-
-
-def _parse_value(text: str) -> Any:
-    for kind in (int, float):
-        try:
-            return kind(text)
-        except ValueError:
-            pass
-    if text.lower() in ("true", "false"):
-        return text.lower() == "true"
-    return text
-
-
-def create_estimator(name: str, args: argparse.Namespace, rig: Any = None):
-    """Build estimator ``name`` from the options; the paper's order 4 where it needs ``na``/``nb``.
-
-    ``rig`` (a drive model) starts an estimator that has ``from_rig`` (the friction filters)
-    from that model's constants and friction; the options override its friction prior.
-    """
-    from motorid.estimators import available, factory
-
-    if name not in available():
-        raise DataError(f"--estimator: unknown estimator {name!r}; known: {', '.join(available())}")
-    make = factory(name)
-    if rig is not None and not hasattr(make, "from_rig"):
-        raise DataError(f"--model: estimator {name!r} does not start from a drive model")
-    try:
-        accepted = inspect.signature(make).parameters
-    except (TypeError, ValueError):  # a factory without a signature takes what it is given
-        accepted = {}
-    kwargs: dict[str, Any] = {}
-    for key in ("na", "nb", "degree", "basis", "lam", "delta", "gamma_method"):
-        value = getattr(args, key, None)
-        option = "--" + key.replace("_", "-")
-        if value is None:
-            if key in ("na", "nb") and key in accepted and accepted[key].default is inspect.Parameter.empty:
-                kwargs[key] = PAPER_ORDER
-            continue
-        if accepted and key not in accepted:
-            raise DataError(f"{option}: estimator {name!r} takes no {key!r} argument")
-        kwargs[key] = value
-    for item in args.param:
-        key, sep, value = item.partition("=")
-        if not sep or not key:
-            raise DataError(f"--param expects KEY=VALUE, got {item!r}")
-        kwargs[key.replace("-", "_")] = _parse_value(value)
-    try:
-        return make(**kwargs) if rig is None else make.from_rig(rig, **kwargs)
-    except (TypeError, ValueError) as exc:  # the estimator's own check of the arguments the user gave
-        raise DataError(f"estimator {name!r}: {exc}") from None
 
 
 def add_signal_options(parser: argparse.ArgumentParser, duration: float | None) -> None:

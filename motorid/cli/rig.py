@@ -17,7 +17,6 @@ from .options import (
     add_signal_options,
     add_u_max,
     check_out_file,
-    create_estimator,
     excitation_from_args,
     non_negative,
     number,
@@ -29,10 +28,9 @@ from .report import emit_json, say, say_error, say_params, show_progress
 def cmd_rig_serve(args: argparse.Namespace) -> int:
     """Serve the simulated rig (the default one or a model file's: a two-mass rig or a rigid
     drive) over Modbus until Ctrl-C."""
+    from motorid.app.identify import drive_model_from_file
     from motorid.io import RigServer
     from motorid.plants import RigidDrive, paper_rig
-
-    from .simulation import drive_model_from_file
 
     rig = paper_rig() if args.model is None else drive_model_from_file(args.model)
     if isinstance(rig, RigidDrive):
@@ -94,6 +92,7 @@ def cmd_rig_map(args: argparse.Namespace) -> int:
 
 def cmd_run(args: argparse.Namespace) -> int:
     """Online identification on a DAQ (simulated rig or Modbus)."""
+    from motorid.app.identify import create_estimator
     from motorid.errors import DAQError, RigFaultError
     from motorid.io import STATUS_BITS, daq_from_url, run_online
     from motorid.io.modbus import describe_status

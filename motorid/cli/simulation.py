@@ -107,19 +107,9 @@ def rig_from_args(args: argparse.Namespace):
     return rig.replace(friction=tuple(friction), amplifier=amplifier, backlash=backlash)
 
 
-def drive_model_from_file(path: Path, option: str = "--model"):
-    """The drive model in the model file ``path``: a two-mass rig or a rigid drive; DataError otherwise."""
-    from motorid.models import load_model
-    from motorid.plants import RigidDrive, TwoMassRig
-
-    model = load_model(path)
-    if not isinstance(model, TwoMassRig | RigidDrive):
-        raise DataError(f"{option} {path}: holds a {type(model).__name__}, not a drive model")
-    return model
-
-
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Simulate the rig on an excitation signal and write the record and/or the rig's model file."""
+    from motorid.app.identify import drive_model_from_file
     from motorid.plants import RigidDrive
     from motorid.records import write_record
 

@@ -4,7 +4,8 @@
   command line's record options by their names;
 - :class:`DoctorJob`: ``motorid doctor`` on a record, or on all records of one drive as one
   model (:func:`motorid.diagnose.diagnose`);
-- :class:`IdentifyJob`: ``motorid identify`` on a record;
+- :class:`IdentifyJob`: ``motorid identify`` on a record (:class:`motorid.app.IdentifyOptions`,
+  the application layer's options of identify, under the fleet's name for a job);
 - :class:`RecordTask` and :class:`DriveTask`: the work one Dask task does, one record or one
   drive's records, returning the rows of the results table. Every error of a record is caught
   and becomes a row with ``status = "failed"`` and ``error``, so one bad record does not stop
@@ -23,11 +24,11 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any, Literal
 
 import pandas as pd
 
+from motorid.app.identify import IdentifyOptions
 from motorid.errors import DataError
 
 if TYPE_CHECKING:
@@ -225,81 +226,9 @@ class DoctorJob:
         }
 
 
-@dataclass(frozen=True)
-class IdentifyJob:
-    """``motorid identify``'s options by their names.
-
-    The estimator's arguments ``na`` ... ``gamma_method`` are passed only when given (None:
-    the estimator's default); one given to an estimator that does not take it is refused.
-
-    Attributes
-    ----------
-    estimator : str
-        A registered estimator's name (:func:`motorid.estimators.available`).
-    na, nb : int, optional
-        Orders of A(q^-1) and B(q^-1); None: the estimator's default (the paper's 4 where
-        it needs them).
-    degree : int, optional
-        Polynomial degree of the static block.
-    basis : str, optional
-        Basis of the static block, e.g. ``"u,sign"`` or ``"dead_zone:0.8"``.
-    lam : float, optional
-        Forgetting factor, 0 < lam <= 1.
-    delta : float, optional
-        Initial covariance ``P0 = delta I``, > 0.
-    gamma_method : {"paper", "svd"}, optional
-        Hammerstein step 2.
-    param : tuple of str
-        Further estimator arguments as ``KEY=VALUE`` texts (``--param``).
-    low_speed_rpm : float
-        The low-speed band of the scores, ``|y| <`` this [rpm].
-    skip : int
-        Leading samples left out of the scores.
-    max_lag : int
-        Largest lag of the residual tests [samples].
-    model : Path, optional
-        A drive model file a friction filter (friction-ekf/ukf) starts from.
-    """
-
-    estimator: str = "hammerstein-rls"
-    na: int | None = None
-    nb: int | None = None
-    degree: int | None = None
-    basis: str | None = None
-    lam: float | None = None
-    delta: float | None = None
-    gamma_method: str | None = None
-    param: tuple[str, ...] = ()
-    low_speed_rpm: float = 150.0
-    skip: int = 50
-    max_lag: int = 25
-    model: Path | None = None
-
-    command = "identify"
-
-    def __post_init__(self) -> None:
-        from motorid.estimators import available
-
-        if self.estimator not in available():
-            raise DataError(
-                f"estimator: unknown estimator {self.estimator!r}; known: {', '.join(available())}"
-            )
-        if isinstance(self.param, str):
-            raise DataError(f"param must be a sequence of KEY=VALUE texts, got the text {self.param!r}")
-        object.__setattr__(self, "param", tuple(self.param))
-
-    def row(self, records: list[pd.DataFrame], labels: list[str], figures: Path | None) -> dict[str, Any]:
-        """The ``--json`` payload of ``motorid identify`` on the one record of ``records``."""
-        # the single command's very computation, so a fleet's rows equal its output; it still lives in
-        # the command line's module (the fleet's one import of it) and reads its options by their names
-        from motorid.cli.identification import identify_record, write_identify_figure
-
-        (record,) = records
-        options = SimpleNamespace(**asdict(self), input="u", output="y", data=labels[0])
-        payload, tests, _ = identify_record(record, options)
-        written = [write_identify_figure(tests, figures, self.estimator)] if figures is not None else []
-        return {**payload, "figures": [str(f) for f in written]}
-
+#: ``motorid identify``'s options, the job of a fleet's identify run: the application layer's
+#: :class:`motorid.app.IdentifyOptions`, whose ``row`` is the single command's computation.
+IdentifyJob = IdentifyOptions
 
 Job = DoctorJob | IdentifyJob
 
