@@ -105,7 +105,7 @@ def compare_in_blocks(
         if not runs_in_blocks(model):
             raise DataError(
                 f"{args.data}: {limit}, and the free run of {name} ({model_kind(model)}) takes the record whole: "
-                "raise --max-samples, or compare a part of it (--start, --stop)"
+                "raise --max-samples"
             )
     try:
         first = next(iter_record_from_args(args, min_samples=min_samples))
@@ -113,7 +113,7 @@ def compare_in_blocks(
         if unit in POSITION_UNITS:
             raise DataError(
                 f"{args.data}: {limit}, and a record of positions is compared whole (on the speed derived "
-                "from them): raise --max-samples, or compare a part of it (--start, --stop)"
+                "from them): raise --max-samples"
             )
         largest = None
         if unit != "rad/s":
