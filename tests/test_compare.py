@@ -510,22 +510,51 @@ def test_compare_in_blocks_memory_does_not_grow_with_the_record():
     assert peaks[1] < 5_000_000 < 800_000 * 3 * 8, peaks
 
 
-def test_compare_a_record_longer_than_max_samples_streams_with_the_same_numbers(
+def test_compare_streams_a_record_longer_than_max_samples_with_the_whole_reads_numbers(
     capsys, files, long_files, tmp_path
 ):
-    """``--max-samples 1000`` on the 3000-sample record: read in blocks, the same JSON keys and
-    scores as the whole read, and the figure written."""
-    args = [str(long_files / "long.csv"), "--model", str(files / "true.json"), "--model",
-            str(long_files / "arx.json"), "--json"]  # fmt: skip
-    code, whole, err = run(capsys, "compare", *args)
+    """``motorid compare`` reads the record in blocks, so ``--max-samples 1000`` does not refuse the
+    3000-sample record: the JSON keys of a comparison, and the scores of compare_models on the
+    record read whole, and the figure written."""
+    from motorid.comparison import compare_models
+
+    path = long_files / "long.csv"
+    models = {str(files / "true.json"): None, str(long_files / "arx.json"): None}
+    argv = [arg for name in models for arg in ("--model", name)]
+    code, out, err = run(capsys, "compare", str(path), *argv, "--max-samples", "1000", "--out",
+                         str(tmp_path / "fig"), "--json")  # fmt: skip
     assert code == 0, err
-    code, streamed, err = run(
-        capsys, "compare", *args, "--max-samples", "1000", "--out", str(tmp_path / "fig")
-    )
+    assert set(out) == {"record", "samples", "scored_samples", "dt", "timing", "skip", "output_unit",
+                        "low_speed_threshold", "models", "figure"}  # fmt: skip
+    assert out["samples"] == 3000 and Path(out["figure"]).is_file()
+    whole = compare_models(read_record(path), {name: load_model(name) for name in models}, BAND, SKIP)
+    for model in whole.models:
+        row = out["models"][model.name]
+        assert set(row) == set(model.scores())
+        for key in ("fit_percent", "rmse", "low_speed_rmse", "mse", "low_speed_mse"):
+            assert row[key] == pytest.approx(getattr(model, key), rel=SUMS_RTOL, abs=0.0)
+        assert row["n_low_speed"] == model.n_low_speed
+
+
+def test_compare_takes_a_friction_filter_whole_and_refuses_one_longer_than_max_samples(
+    capsys, files, tmp_path
+):
+    from motorid.estimators import create
+
+    create("friction-ekf").save(tmp_path / "ekf.json")
+    argv = [
+        "compare",
+        str(files / "rec.csv"),
+        "--model",
+        str(tmp_path / "ekf.json"),
+        "--model",
+        str(files / "true.json"),
+    ]
+    code, out, err = run(capsys, *argv, "--json")
     assert code == 0, err
-    assert set(streamed) == set(whole) and streamed["samples"] == whole["samples"] == 3000
-    assert Path(streamed["figure"]).is_file()
-    for name, row in whole["models"].items():
-        assert set(streamed["models"][name]) == set(row)
-        for key in ("fit_percent", "rmse", "low_speed_rmse"):
-            assert streamed["models"][name][key] == pytest.approx(row[key], rel=SUMS_RTOL)
+    assert out["samples"] == 750 and set(out["models"]) == {
+        str(tmp_path / "ekf.json"),
+        str(files / "true.json"),
+    }
+    code, _, err = run(capsys, *argv, "--max-samples", "700")
+    assert code == 2 and "longer than --max-samples 700" in err and "friction-ekf" in err

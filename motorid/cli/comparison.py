@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import logging
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -23,32 +24,29 @@ from .options import (
     read_record_from_args,
     record_options_from_args,
 )
+from .report import emit_json, say
 
 if TYPE_CHECKING:
     from motorid.comparison import Comparison
-from .report import emit_json, say
+
+logger = logging.getLogger(__name__)
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
     """Each model simulated free on the record's input: FIT, RMSE and low-speed RMSE, and a figure."""
     from motorid.comparison import MIN_SCORED_SAMPLES, compare_models
     from motorid.models import load_model
-    from motorid.record_chunks import read_head
 
     models = {
         str(path): load_model(path) for path in args.model
     }  # a bad file stops before the record is read
     min_samples = args.skip + MIN_SCORED_SAMPLES
-    if args.start is not None or args.stop is not None:  # a span is cut from the record read whole
-        record = read_record_from_args(args, min_samples=min_samples)
-        more = False
+    streamed = compare_in_blocks(args, models, min_samples)
+    if streamed is not None:
+        comparison, band, units = streamed
     else:
-        record, more = read_head(
-            args.data, args.max_samples, min_samples=min_samples, **record_options_from_args(args)
-        )
-    if more:
-        comparison, band = compare_in_blocks(args, models, min_samples)
-    else:
+        record = read_whole(args, models, min_samples)
+        units = record.attrs.get("units") or {}
         _, threshold, band = low_speed_band(record, args.low_speed_rpm)
         comparison = compare_models(record, models, threshold, args.skip)
     if args.out:
@@ -73,7 +71,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
                 "input), so it has no score")  # fmt: skip
     figure = None
     if args.out:
-        input_unit = (record.attrs.get("units") or {}).get("u") or "input units"  # the first rows' attrs
+        input_unit = units.get("u") or "input units"
         figure = comparison.write_figure(args.out / "compare.png", input_unit)
         say(f"  wrote {figure}")
     if args.json:
@@ -83,55 +81,77 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 def compare_in_blocks(
     args: argparse.Namespace, models: dict[str, Any], min_samples: int
-) -> tuple[Comparison, str]:
-    """:func:`motorid.comparison.compare_blocks` on the record of ``args``, longer than
-    ``--max-samples``, read in blocks (:func:`.options.iter_record_from_args`): memory does not
-    grow with the record. An output in another unit than rad/s takes one more pass, for its
-    largest magnitude (the low-speed band, :func:`.options.output_band`). Returns the
-    comparison and the band in words.
+) -> tuple[Comparison, str, dict[str, str]] | None:
+    """:func:`motorid.comparison.compare_blocks` on the record of ``args`` read in blocks
+    (:func:`.options.iter_record_from_args`), in memory that does not grow with the record:
+    the comparison, the low-speed band in words and the record's units. An output in another
+    unit than rad/s takes one more pass, for its largest magnitude (the low-speed band,
+    :func:`.options.output_band`).
 
-    Raises
-    ------
-    DataError
-        For a model whose free run takes the record whole (a friction filter), a record of
-        positions, or one whose time stamps jitter: each is compared whole, within
-        ``--max-samples``.
+    None when the record is compared whole instead (:func:`read_whole`): a span (``--start``,
+    ``--stop``), a model whose free run takes the record whole (a friction filter), a record
+    of positions (its band is judged on the speed derived from them) or one whose time stamps
+    jitter (it is put on a uniform grid, whole); ``-v`` says why.
     """
-    from motorid.comparison import POSITION_UNITS, compare_blocks, model_kind, runs_in_blocks
+    from motorid.comparison import POSITION_UNITS, compare_blocks, runs_in_blocks
     from motorid.errors import UniformGridError
 
-    limit = f"longer than --max-samples {args.max_samples}"
-    for name, model in models.items():
-        if not runs_in_blocks(model):
-            raise DataError(
-                f"{args.data}: {limit}, and the free run of {name} ({model_kind(model)}) takes the record whole: "
-                "raise --max-samples"
-            )
+    if args.start is not None or args.stop is not None or not all(map(runs_in_blocks, models.values())):
+        return None
     try:
         first = next(iter_record_from_args(args, min_samples=min_samples))
-        unit = (first.attrs.get("units") or {}).get("y")
+        units = dict(first.attrs.get("units") or {})
+        unit = units.get("y")
         if unit in POSITION_UNITS:
-            raise DataError(
-                f"{args.data}: {limit}, and a record of positions is compared whole (on the speed derived "
-                "from them): raise --max-samples"
+            logger.info(
+                "%s: a record of positions, compared whole (--max-samples %d)", args.data, args.max_samples
             )
+            return None
         largest = None
         if unit != "rad/s":
             largest = max(float(np.max(np.abs(b["y"].to_numpy()))) for b in iter_record_from_args(args))
         _, threshold, band = output_band(unit, args.low_speed_rpm, largest)
-        comparison = compare_blocks(
-            iter_record_from_args(args, min_samples=min_samples), models, threshold, args.skip
-        )
+        blocks = iter_record_from_args(args, min_samples=min_samples)
+        return compare_blocks(blocks, models, threshold, args.skip), band, units
     except UniformGridError as exc:
-        raise DataError(f"{exc}; {limit}: raise --max-samples") from None
-    return comparison, band
+        logger.info("%s: compare reads it whole (--max-samples %d)", exc, args.max_samples)
+        return None
+
+
+def read_whole(args: argparse.Namespace, models: dict[str, Any], min_samples: int) -> pd.DataFrame:
+    """The record of ``args`` read whole, for a comparison that cannot be made in blocks
+    (:func:`compare_in_blocks`): a span of it (``--start``, ``--stop``) or, within
+    ``--max-samples``, the record.
+
+    Raises
+    ------
+    DataError
+        For a record longer than ``--max-samples``, naming what takes it whole.
+    """
+    from motorid.comparison import model_kind, runs_in_blocks
+    from motorid.record_chunks import read_head
+
+    if args.start is not None or args.stop is not None:
+        return read_record_from_args(args, min_samples=min_samples)
+    record, more = read_head(
+        args.data, args.max_samples, min_samples=min_samples, **record_options_from_args(args)
+    )
+    if more:
+        whole = [
+            f"the free run of {name} ({model_kind(m)})" for name, m in models.items() if not runs_in_blocks(m)
+        ]
+        raise DataError(
+            f"{args.data}: longer than --max-samples {args.max_samples}, and "
+            f"{whole[0] if whole else 'a record of positions'} takes the record whole: raise --max-samples"
+        )
+    return record
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("compare", help="models simulated on a record's own input: FIT, RMSE, a figure")
-    add_record_input(p, "a longer record is read and compared in blocks, in memory that does not grow with it "
-                        "(default: %(default)s); a span (--start, --stop), a record of positions, one whose time "
-                        "stamps jitter and a friction filter take it whole, within this limit")  # fmt: skip
+    add_record_input(p, "the most samples of a record compared whole (default: %(default)s): a span (--start, "
+                        "--stop), a record of positions, one whose time stamps jitter, one through a friction "
+                        "filter; any other is compared in blocks, whatever its length")  # fmt: skip
     p.add_argument("--model", type=Path, action="append", required=True, metavar="FILE",
                    help="a model file (repeatable): a drive model (motorid simulate/doctor --save-model) "
                         "or an identified estimator (motorid identify --save-model)")  # fmt: skip
