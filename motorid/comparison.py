@@ -44,9 +44,10 @@ The scores are in the record's output unit, as read (``attrs["units"]["y"]``, or
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import logging
 import math
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -69,14 +70,17 @@ logger = logging.getLogger(__name__)
 __all__ = [
     "MIN_SCORED_SAMPLES",
     "POSITION_UNITS",
+    "BlockFreeRun",
     "Comparison",
     "ModelOnRecord",
     "check_output_unit",
+    "compare_blocks",
     "compare_models",
     "free_run_on_record",
     "holds_input",
     "input_unit_note",
     "model_kind",
+    "runs_in_blocks",
     "simulate_model",
 ]
 
@@ -376,6 +380,13 @@ class Comparison:
     speed : ndarray or None
         On a record of positions, the speed derived from them, which the low-speed band is
         judged on (then ``|speed| <`` the threshold).
+    samples : int or None
+        Samples in the record; None: ``y.size`` (``t``, ``u``, ``y`` and each ``y_sim`` are the
+        record's). A record compared in blocks (:func:`compare_blocks`) gives its count here, and
+        in ``t`` ... ``y_sim`` a bounded view of it, which ``windows`` cuts into the figure's panels.
+    windows : dict of str to slice or None, optional
+        The figure's panels (title -> the view's samples drawn; None: nothing to draw), for a
+        view; None: :meth:`figure` chooses them on the whole record.
     """
 
     t: np.ndarray
@@ -388,6 +399,8 @@ class Comparison:
     output_unit: str
     models: list[ModelOnRecord] = field(default_factory=list)
     speed: np.ndarray | None = None
+    samples: int | None = None
+    windows: dict[str, slice | None] | None = None
 
     def table(self) -> pd.DataFrame:
         """One row per model: FIT [%], RMSE and low-speed RMSE [output unit], samples in the band."""
@@ -398,9 +411,10 @@ class Comparison:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able summary (no arrays)."""
+        samples = int(self.y.size if self.samples is None else self.samples)
         return {
-            "samples": int(self.y.size),
-            "scored_samples": int(self.y.size - self.skip),
+            "samples": samples,
+            "scored_samples": samples - self.skip,
             "dt": self.dt,
             "timing": self.timing,
             "skip": self.skip,
@@ -418,7 +432,13 @@ class Comparison:
         (where stiction and Stribeck friction show), or a note when it never reverses.
         Each panel's output axis spans the measurement's range in it, widened by half that
         range on either side: a model far off leaves the panel rather than squash the
-        measurement; a diverged model is drawn until it diverges.
+        measurement; a diverged model is drawn until it diverges. A comparison made in blocks
+        draws its bounded view (``windows``, :func:`compare_blocks`).
+
+        Parameters
+        ----------
+        input_unit : str
+            The record's input unit, for the title.
         """
         from motorid.figures import low_speed_window, subplots
 
@@ -428,7 +448,7 @@ class Comparison:
         band, band_name = (self.y, f"|y| < {self.low_speed_threshold:.3g} {unit}")
         if self.speed is not None:
             band, band_name = self.speed, f"|dy/dt| < {self.low_speed_threshold:.3g} {unit}/s"
-        windows = {
+        windows = self.windows or {
             "whole record": slice(0, n),
             f"low speed ({band_name})": low_speed_window(band, width, self.low_speed_threshold, self.skip),
             "a reversal of the measured output": reversal_window(
@@ -587,6 +607,363 @@ def compare_models(
                 diverges_from=diverges,
                 notes=tuple(notes),
                 **scores,
+            )
+        )
+    return comparison
+
+
+def runs_in_blocks(model: Any) -> bool:
+    """Whether ``model``'s free run continues from one block of the input to the next
+    (:class:`BlockFreeRun`): a two-mass rig, a rigid drive, an ARX or Hammerstein model. A
+    friction filter's free run takes the record whole.
+
+    Parameters
+    ----------
+    model : Any
+        A drive model or an estimator.
+    """
+    from motorid.estimators.rls import LaggedRegressionRLS
+
+    return isinstance(model, TwoMassRig | RigidDrive | LaggedRegressionRLS)
+
+
+class BlockFreeRun:
+    """:func:`free_run_on_record` over a record given in consecutive blocks: calling it on the
+    blocks' inputs gives, block by block, the whole record's ``y_sim`` to the last bit.
+
+    Each model carries its own state from block to block: a two-mass rig its running
+    simulation (:meth:`motorid.plants.rig.RigSimulation.run`, sensors noise free), a rigid drive
+    its input path and speed (:meth:`motorid.plants.rigid.RigidSimulation.run`), an ARX or
+    Hammerstein model its past outputs and basis values (:class:`motorid.estimators.rls.FreeRun`).
+    On a ``"sampled"`` record a physical model's output for ``u[k]`` is that of ``y[k+1]``: each
+    block's last output is carried to the next, and the first is the rest it starts from.
+
+    Parameters
+    ----------
+    model : TwoMassRig, RigidDrive or LaggedRegressionRLS
+        As :func:`motorid.load_model` returns it (:func:`runs_in_blocks`).
+    dt : float
+        Sample time of the record [s].
+    timing : str
+        The record's timing keyword (``"hold"`` or ``"sampled"``).
+    name : str
+        The model's name in the messages.
+
+    Raises
+    ------
+    DataError
+        For a friction filter, whose free run takes the record whole.
+    """
+
+    def __init__(self, model: Any, dt: float, timing: str, name: str = "model"):
+        from motorid.estimators.rls import FreeRun
+
+        if isinstance(model, TwoMassRig):
+            quiet = dataclasses.replace(model.tacho, noise_std=0.0)
+            self._run = model.replace(dt=dt, tacho=quiet).simulation(seed=0).run
+        elif isinstance(model, RigidDrive):
+            self._run = model.replace(dt=dt).simulation().run
+        elif runs_in_blocks(model):
+            self._run = FreeRun(model)
+        else:
+            raise DataError(
+                f"{name}: the free run of a {model_kind(model)} takes the record whole, not in blocks"
+            )
+        self._shift = timing == "sampled" and holds_input(model)
+        self._carry = 0.0
+
+    def __call__(self, u: np.ndarray) -> np.ndarray:
+        """``y_sim`` for the next block of the record, whose input is ``u``."""
+        with np.errstate(over="ignore", invalid="ignore"):
+            y = np.asarray(self._run(u), dtype=float)
+        if not self._shift or not y.size:
+            return y
+        paired = np.concatenate([[self._carry], y[:-1]])
+        self._carry = float(y[-1])
+        return paired
+
+
+class _View:
+    """The bounded view of a record compared in blocks, for :meth:`Comparison.figure`: rows of
+    ``series`` (``t``, ``u``, ``y``, each model's ``y_sim``) in
+
+    - an envelope: the minimum and maximum of runs of ``size`` samples, ``size`` doubling
+      (neighbouring runs merged) whenever there would be more than
+      :data:`motorid.diagnose.figures.MAX_BUCKETS` runs, so that there are at most that many;
+    - the ``width`` samples after ``skip`` with the most samples in the low-speed band (ties:
+      the earliest), as :func:`motorid.figures.low_speed_window` chooses them;
+    - ``width`` samples centred on the reversal of ``y`` that stays longest inside half the
+      band, as :func:`reversal_window` chooses it among the reversals whose stay is at most
+      ``width`` samples (a longer one is not held: its middle has gone by when it ends).
+
+    It holds the last ``2 width`` samples, whatever the record's length.
+    """
+
+    def __init__(self, width: int, threshold: float, skip: int):
+        from motorid.diagnose.figures import MAX_BUCKETS
+
+        self.width, self.threshold, self.skip = width, threshold, skip
+        self.buckets = MAX_BUCKETS
+        self.size = 1
+        self.lo: np.ndarray | None = None
+        self.hi: np.ndarray | None = None
+        self.tail: np.ndarray | None = None  # the last 2 width samples of the series
+        self.seen = 0
+        self.next_start = skip  # the first start of a low-speed window not yet counted
+        self.low: np.ndarray | None = None
+        self.low_count = -1
+        self.last_outside: tuple[int, int] | None = (
+            None  # (row, side) of the last sample out of half the band
+        )
+        self.dwell = 0
+        self.reversal_start: int | None = None
+        self.reversal: np.ndarray | None = None
+
+    def add(self, series: np.ndarray) -> None:
+        """The next block: ``series`` of shape (rows of series, samples), row 2 the measured ``y``."""
+        series = np.where(np.isfinite(series), series, np.nan)
+        self._envelope(series)
+        start = self.seen if self.tail is None else self.seen - self.tail.shape[1]
+        ext = series if self.tail is None else np.concatenate([self.tail, series], axis=1)
+        self.seen += series.shape[1]
+        self._low_speed(ext, start)
+        self._reversal(series[2], ext, start)
+        self.tail = ext[:, -2 * self.width :].copy()
+
+    def _envelope(self, series: np.ndarray) -> None:
+        ids = (self.seen + np.arange(series.shape[1])) // self.size
+        if not ids.size:
+            return
+        starts = np.concatenate([[0], np.flatnonzero(np.diff(ids)) + 1])
+        lo, hi = np.fmin.reduceat(series, starts, axis=1), np.fmax.reduceat(series, starts, axis=1)
+        if self.lo is None:
+            self.lo, self.hi = lo, hi
+        else:
+            if ids[0] == self.lo.shape[1] - 1:  # the block continues the last run
+                self.lo[:, -1], self.hi[:, -1] = (
+                    np.fmin(self.lo[:, -1], lo[:, 0]),
+                    np.fmax(self.hi[:, -1], hi[:, 0]),
+                )
+                lo, hi = lo[:, 1:], hi[:, 1:]
+            self.lo, self.hi = np.concatenate([self.lo, lo], axis=1), np.concatenate([self.hi, hi], axis=1)
+        while self.lo.shape[1] > self.buckets:
+            if self.lo.shape[1] % 2:
+                pad = np.full((self.lo.shape[0], 1), np.nan)
+                self.lo, self.hi = (
+                    np.concatenate([self.lo, pad], axis=1),
+                    np.concatenate([self.hi, pad], axis=1),
+                )
+            self.lo = np.fmin(self.lo[:, 0::2], self.lo[:, 1::2])
+            self.hi = np.fmax(self.hi[:, 0::2], self.hi[:, 1::2])
+            self.size *= 2
+
+    def _low_speed(self, ext: np.ndarray, start: int) -> None:
+        last = self.seen - self.width  # the last window start whose samples are all in
+        if last < self.next_start:
+            return
+        slow = np.concatenate([[0], np.cumsum(np.abs(ext[2]) < self.threshold)])
+        first = self.next_start - start
+        counts = slow[first + self.width : last - start + self.width + 1] - slow[first : last - start + 1]
+        best = int(np.argmax(counts))
+        if counts[best] > self.low_count:
+            self.low_count = int(counts[best])
+            self.low = ext[:, first + best : first + best + self.width].copy()
+        self.next_start = last + 1
+
+    def _reversal(self, y: np.ndarray, ext: np.ndarray, start: int) -> None:
+        h = 0.5 * self.threshold
+        first_row = self.seen - y.size
+        side = np.where(y > h, 1, np.where(y < -h, -1, 0))
+        outside = np.flatnonzero(side != 0) + first_row
+        outside = outside[outside >= self.skip]
+        sides = side[outside - first_row]
+        if self.last_outside is not None:
+            outside = np.concatenate([[self.last_outside[0]], outside])
+            sides = np.concatenate([[self.last_outside[1]], sides])
+        if outside.size:
+            flips = np.flatnonzero(np.diff(sides) != 0)
+            dwell = outside[flips + 1] - outside[flips]
+            held = flips[dwell <= self.width]
+            if held.size:
+                c = int(held[np.argmax(outside[held + 1] - outside[held])])
+                if outside[c + 1] - outside[c] > self.dwell:
+                    self.dwell = int(outside[c + 1] - outside[c])
+                    centre = (int(outside[c]) + int(outside[c + 1])) // 2
+                    self.reversal_start, self.reversal = max(centre - self.width // 2, 0), None
+            self.last_outside = (int(outside[-1]), int(sides[-1]))
+        s = self.reversal_start
+        if s is not None and self.reversal is None and s + self.width <= self.seen:
+            self.reversal = ext[:, s - start : s - start + self.width].copy()
+
+    def finish(self) -> tuple[np.ndarray, dict[str, slice | None], int]:
+        """The view's series, the panels' slices of them, and the envelope's run length."""
+        assert self.lo is not None and self.tail is not None
+        tail_start = self.seen - self.tail.shape[1]
+        if self.low is None:  # fewer than width samples after skip: all of them
+            self.low = self.tail[:, max(self.skip - tail_start, 0) :]
+        if self.reversal_start is not None and self.reversal is None:  # its window runs past the end
+            s = max(self.seen - self.width, 0)
+            self.reversal = self.tail[:, s - tail_start :]
+        if self.size == 1:
+            whole = self.lo
+        else:
+            whole = np.stack([self.lo, self.hi], axis=2).reshape(self.lo.shape[0], -1)
+            whole[0] = np.repeat(self.lo[0], 2)  # each run drawn at its first time
+        parts = [whole, self.low] + ([self.reversal] if self.reversal is not None else [])
+        edges = np.cumsum([0] + [p.shape[1] for p in parts])
+        windows = [slice(int(a), int(b)) for a, b in itertools.pairwise(edges)]
+        return (
+            np.concatenate(parts, axis=1),
+            {
+                "whole": windows[0],
+                "low": windows[1],
+                "reversal": windows[2] if self.reversal is not None else None,
+            },
+            self.size,
+        )
+
+
+def compare_blocks(
+    blocks: Iterable[pd.DataFrame],
+    models: Mapping[str, Any],
+    low_speed_threshold: float,
+    skip: int = 0,
+) -> Comparison:
+    """:func:`compare_models` on a record given in consecutive blocks, in memory that does not grow
+    with its length.
+
+    Each model's free run continues from block to block (:class:`BlockFreeRun`: the whole
+    record's ``y_sim``, to the last bit), and is scored with running sums
+    (:class:`motorid.validation.RunningScore`): FIT %, RMSE and low-speed RMSE equal
+    :func:`compare_models`'s up to the rounding of those sums (a relative difference of about
+    1e-12 on a million samples). The figure is drawn from a bounded view of the record
+    (:class:`_View`: the minimum and maximum of runs of samples over the whole record, and the
+    low-speed and reversal windows, chosen as :func:`compare_models` chooses them; a reversal
+    whose stay in the band is longer than the window is not one of them).
+
+    Parameters
+    ----------
+    blocks : iterable of DataFrame
+        The record's consecutive blocks (:func:`motorid.record_chunks.iter_record`): columns
+        ``t`` [s], ``u``, ``y``, the first block's ``attrs`` (``dt``, ``units``, ``timing``)
+        those of the record. A velocity record: the band of a record of positions is judged
+        on their speed, which takes the record whole.
+    models : mapping of str to model
+        Label -> a model whose free run runs in blocks (:func:`runs_in_blocks`).
+    low_speed_threshold : float
+        |y| below this is low speed [output unit].
+    skip : int
+        Leading samples left out of the scores: the models start from rest.
+
+    Returns
+    -------
+    Comparison
+        With ``samples`` the record's length and a bounded view in its arrays.
+
+    Raises
+    ------
+    DataError
+        As :func:`compare_models`; a friction filter, or a record of positions.
+    """
+    from motorid.validation import RunningScore
+
+    if not models:
+        raise DataError("no model to compare: give at least one")
+    if not isinstance(skip, int) or skip < 0:
+        raise DataError(f"skip must be an integer >= 0, got {skip!r}")
+    low_speed_mask(np.zeros(0), low_speed_threshold)  # a bad threshold is refused before any simulation
+    names = list(models)
+    runs: list[BlockFreeRun] = []
+    scores = [RunningScore(low_speed_threshold) for _ in names]
+    diverged: list[int | None] = [None] * len(names)
+    n_low = 0
+    view: _View | None = None
+    start = 0
+    attrs: dict[str, Any] = {}
+    for block in blocks:
+        if view is None:
+            attrs = dict(block.attrs)
+            dt = float(attrs["dt"])
+            timing = record_timing(attrs)
+            units = attrs.get("units") or {}
+            if units.get("y") in POSITION_UNITS:
+                raise DataError(
+                    f"the record's output is a position in {units['y']}: it is compared whole, "
+                    "on the speed derived from it"
+                )
+            for name, model in models.items():
+                model_kind(model)
+                check_output_unit(model, units, name)
+            notes_of = {name: input_unit_note(model, units, name) for name, model in models.items()}
+            runs = [BlockFreeRun(model, dt, timing, name) for name, model in models.items()]
+            view = _View(max(round(5.0 / dt), 10), float(low_speed_threshold), skip)
+        u, y = block["u"].to_numpy(dtype=float), block["y"].to_numpy(dtype=float)
+        scored = slice(max(0, skip - start), None)
+        n_low += int(np.count_nonzero(np.abs(y[scored]) < low_speed_threshold))
+        simulated = []
+        for i, run in enumerate(runs):
+            if diverged[i] is not None:
+                simulated.append(np.full(y.size, np.nan))
+                continue
+            y_sim = run(u)
+            bad = first_bad_index(y_sim)
+            if bad is not None:
+                diverged[i] = start + bad
+            else:
+                scores[i].add(y[scored], y_sim[scored])
+            simulated.append(y_sim)
+        view.add(np.vstack([block["t"].to_numpy(dtype=float), u, y, *simulated]))
+        start += y.size
+    if view is None or start - skip < MIN_SCORED_SAMPLES:
+        raise DataError(
+            f"the record has {start} samples; after the {skip} skipped at the start {max(start - skip, 0)} "
+            f"are left to score, at least {MIN_SCORED_SAMPLES} are needed"
+        )
+    series, panels, size = view.finish()
+    unit = (attrs.get("units") or {}).get("y") or "output units"
+    band = f"|y| < {low_speed_threshold:.3g} {unit}"
+    windows = {
+        "whole record" + (f" (minimum and maximum of every {size} samples)" if size > 1 else ""): panels[
+            "whole"
+        ],
+        f"low speed ({band})": panels["low"],
+        "a reversal of the measured output": panels["reversal"],
+    }
+    comparison = Comparison(
+        series[0], series[1], series[2], dt, timing, skip, float(low_speed_threshold), unit,
+        samples=start, windows=windows,
+    )  # fmt: skip
+    for i, (name, model) in enumerate(models.items()):
+        notes = [note for note in (notes_of[name],) if note]
+        own_dt = getattr(model, "dt", None)
+        if isinstance(model, TwoMassRig | RigidDrive) and not math.isclose(own_dt, dt, rel_tol=1e-6):
+            notes.append(f"{name}: simulated at the record's dt = {dt:g} s (its file says {own_dt:g} s)")
+        for note in notes:
+            logger.info(note)
+        if diverged[i] is not None:
+            nan = math.nan
+            values = {
+                "fit_percent": nan,
+                "rmse": nan,
+                "low_speed_rmse": nan,
+                "mse": nan,
+                "low_speed_mse": nan,
+            }
+            low = n_low
+        else:
+            s = scores[i].result()
+            values = {"fit_percent": s.fit_percent, "rmse": s.rmse, "low_speed_rmse": math.sqrt(s.low_speed_mse),
+                      "mse": s.mse, "low_speed_mse": s.low_speed_mse}  # fmt: skip
+            low = s.n_low_speed
+        comparison.models.append(
+            ModelOnRecord(
+                name,
+                model_kind(model),
+                series[3 + i],
+                n_low_speed=low,
+                diverges_from=diverged[i],
+                notes=tuple(notes),
+                **values,
             )
         )
     return comparison

@@ -66,6 +66,7 @@ def folder(tmp_path_factory) -> Path:
     RigidDrive(effects=("coulomb_friction",), params={"inertia": 2e-4, "input_gain": 0.02, "coulomb": 0.004},
                dt=0.04).save(root / "rigid.json")  # fmt: skip
     create("arx-rls", na=2, nb=2).save(root / "arx.json")
+    create("friction-ekf").save(root / "ekf.json")
     (root / "spaceship.json").write_text(
         '{"format": "motorid-model", "version": 1, "kind": "spaceship", "model": {}}'
     )
@@ -170,6 +171,16 @@ BAD_INPUT = [
         "compare: duty to a rig in volts",
         "compare {d}/good.csv --input-unit % --model {d}/rig.json",
         ["rig.json", "%", "--supply-voltage"],
+    ),
+    (
+        "compare: a friction filter on a record longer than --max-samples",
+        "compare {d}/rec.csv --model {d}/ekf.json --max-samples 100",
+        ["rec.csv", "--max-samples 100", "ekf.json", "takes the record whole"],
+    ),
+    (
+        "compare: positions longer than --max-samples",
+        "compare {d}/good.csv --output-unit deg --model {d}/rigid.json --max-samples 100",
+        ["good.csv", "--max-samples 100", "positions"],
     ),
     ("identify --validate missing", "identify {d}/rec.csv --validate {d}/missing.csv", ["missing.csv"]),
     (

@@ -369,3 +369,192 @@ def test_a_real_motors_model_on_its_validation_record(capsys, files, tmp_path):
     assert code == 2 and "--supply-voltage" in err
     code, _, err = run(capsys, "identify", str(WHEEL_VALIDATION), *WHEEL_UNITS, "--estimator", "friction-ekf")
     assert code == 2 and "--model" in err and len(err.strip().splitlines()) == 1
+
+
+# --------------------------------------------------------------------------- a record in blocks
+#: Rows per block of the streamed comparisons: a prime, so that no block boundary falls on a
+#: round sample and the sampled pairing's carry crosses each boundary mid-signal.
+AWKWARD_ROWS = 997
+#: FIT, RMSE and low-speed RMSE from running sums against numpy's whole-array sums: the free runs
+#: are the same to the last bit, so only the order of the additions differs (a few ulp per
+#: sum: 1e-12 relative is a thousand times that on these few thousand samples).
+SUMS_RTOL = 1e-12
+
+
+@pytest.fixture(scope="module")
+def long_files(files, tmp_path_factory) -> Path:
+    """A 120 s record of the default rig (3000 samples: four blocks of 997 rows), a rigid drive's
+    model and an ARX model identified on the rig's record."""
+    from motorid.estimators.arx import ARXRLS
+
+    root = tmp_path_factory.mktemp("compare_long")
+    _, u = two_sine_signal(duration=120.0, seed=4)
+    record = paper_rig().simulate(u, seed=4)
+    write_record(record, root / "long.csv")
+    est = ARXRLS(na=2, nb=2)
+    est.batch_filter(record["u"].to_numpy(), record["y"].to_numpy())
+    est.save(root / "arx.json")
+    return root
+
+
+def _blocks(path: Path, timing: str, rows: int = AWKWARD_ROWS):
+    from motorid.record_chunks import iter_record
+
+    for block in iter_record(path, chunk_rows=rows):
+        block.attrs["timing"] = timing
+        yield block
+
+
+@pytest.mark.parametrize("timing", ["hold", "sampled"])
+def test_compare_in_blocks_equals_the_whole_record(files, long_files, timing):
+    """A two-mass rig, a rigid drive and an ARX model on a record read in blocks of 997 rows:
+    each free run is the whole record's to the last bit, the scores equal the whole record's
+    within the rounding of running sums, in either timing (the sampled pairing carried across
+    the blocks)."""
+    from motorid.comparison import BlockFreeRun, compare_blocks, compare_models, free_run_on_record
+
+    path = long_files / "long.csv"
+    record = read_record(path)
+    record.attrs["timing"] = timing
+    models = {
+        "rig": load_model(files / "true.json"),
+        "drive": load_model(files / "drive.json"),
+        "arx": load_model(long_files / "arx.json"),
+    }
+    u, dt = record["u"].to_numpy(), record.attrs["dt"]
+    for name, model in models.items():
+        run_in_blocks = BlockFreeRun(model, dt, timing, name)
+        streamed = np.concatenate([run_in_blocks(b["u"].to_numpy()) for b in _blocks(path, timing)])
+        np.testing.assert_array_equal(streamed, free_run_on_record(model, u, dt, timing, name))
+    whole = compare_models(record, models, BAND, SKIP)
+    blocks = compare_blocks(_blocks(path, timing), models, BAND, SKIP)
+    assert blocks.to_dict().keys() == whole.to_dict().keys()
+    assert blocks.to_dict()["samples"] == len(record) == 3000
+    for a, b in zip(whole.models, blocks.models, strict=True):
+        assert (a.name, a.kind, a.n_low_speed, a.diverges_from) == (
+            b.name,
+            b.kind,
+            b.n_low_speed,
+            b.diverges_from,
+        )
+        assert a.n_low_speed > 100  # the low-speed RMSE is over a real band
+        for key in ("fit_percent", "rmse", "low_speed_rmse", "mse", "low_speed_mse"):
+            assert getattr(b, key) == pytest.approx(getattr(a, key), rel=SUMS_RTOL, abs=0.0), (a.name, key)
+        # 3000 samples fit in the envelope's 4000 runs: the whole-record panel holds every sample
+        np.testing.assert_array_equal(b.y_sim[blocks.windows[next(iter(blocks.windows))]], a.y_sim)
+
+
+def test_compare_in_blocks_figure_is_a_bounded_view_of_the_record(files, long_files):
+    """Blocks of 16 rows, an envelope of at most 64 runs: the whole-record panel shows each run's
+    minimum and maximum (the measured output's extremes stay in it); the low-speed window is the
+    whole read's (the same samples), and the reversal panel changes sign."""
+    from motorid.comparison import compare_blocks
+    from motorid.figures import low_speed_window
+
+    path = long_files / "long.csv"
+    record = read_record(path)
+    y = record["y"].to_numpy()
+    models = {"rig": load_model(files / "true.json")}
+    import motorid.diagnose.figures as diagnose_figures
+
+    buckets = diagnose_figures.MAX_BUCKETS
+    diagnose_figures.MAX_BUCKETS = 64
+    try:
+        blocks = compare_blocks(_blocks(path, "hold", rows=16), models, BAND, SKIP)
+    finally:
+        diagnose_figures.MAX_BUCKETS = buckets
+    whole_title, low_title, reversal_title = blocks.windows
+    assert whole_title.startswith("whole record (minimum and maximum of every 64 samples)")
+    shown = blocks.y[blocks.windows[whole_title]]
+    assert shown.size <= 2 * 64 and shown.max() == y.max() and shown.min() == y.min()
+    width = round(5.0 / record.attrs["dt"])
+    expected = low_speed_window(y, width, BAND, SKIP)
+    np.testing.assert_array_equal(blocks.y[blocks.windows[low_title]], y[expected])
+    reversal = blocks.y[blocks.windows[reversal_title]]
+    assert reversal.size == width and reversal.max() > 0.5 * BAND and reversal.min() < -0.5 * BAND
+    fig = blocks.figure("V")
+    assert [ax.get_title() for ax in fig.axes] == list(blocks.windows)
+
+
+def test_compare_in_blocks_memory_does_not_grow_with_the_record():
+    """compare_blocks on 200,000 and on 800,000 samples given in blocks of 8,192: the peak of
+    Python's allocations is the same (the view holds the last 2 x 5,000 samples of 4 series,
+    320 kB, and at most 4,000 runs' min and max, 256 kB; a block's arrays and the model's run
+    on it, a few hundred kB), and far below the 800,000 samples' three columns (19 MB)."""
+    import tracemalloc
+
+    import pandas as pd
+
+    from motorid.comparison import compare_blocks
+    from motorid.estimators.arx import ARXRLS
+
+    dt, rows = 0.001, 8192
+    est = ARXRLS(na=1, nb=1)
+    est.x = np.array([-0.9, 0.5, 0.5])
+
+    def blocks(samples: int):
+        for start in range(0, samples, rows):
+            k = np.arange(start, min(start + rows, samples))
+            u = np.sin(2 * np.pi * 0.3 * k * dt)
+            block = pd.DataFrame({"t": k * dt, "u": u, "y": 10.0 * u}, index=k)
+            block.attrs = {"dt": dt, "units": {"t": "s", "u": "V", "y": "rad/s"}, "timing": "hold"}
+            yield block
+
+    peaks = []
+    for samples in (200_000, 800_000):
+        tracemalloc.start()
+        compare_blocks(blocks(samples), {"arx": est}, BAND, SKIP)
+        peaks.append(tracemalloc.get_traced_memory()[1])
+        tracemalloc.stop()
+    assert peaks[1] < 1.25 * peaks[0], peaks
+    assert peaks[1] < 5_000_000 < 800_000 * 3 * 8, peaks
+
+
+def test_compare_streams_a_record_longer_than_max_samples_with_the_whole_reads_numbers(
+    capsys, files, long_files, tmp_path
+):
+    """``motorid compare`` reads the record in blocks, so ``--max-samples 1000`` does not refuse the
+    3000-sample record: the JSON keys of a comparison, and the scores of compare_models on the
+    record read whole, and the figure written."""
+    from motorid.comparison import compare_models
+
+    path = long_files / "long.csv"
+    models = {str(files / "true.json"): None, str(long_files / "arx.json"): None}
+    argv = [arg for name in models for arg in ("--model", name)]
+    code, out, err = run(capsys, "compare", str(path), *argv, "--max-samples", "1000", "--out",
+                         str(tmp_path / "fig"), "--json")  # fmt: skip
+    assert code == 0, err
+    assert set(out) == {"record", "samples", "scored_samples", "dt", "timing", "skip", "output_unit",
+                        "low_speed_threshold", "models", "figure"}  # fmt: skip
+    assert out["samples"] == 3000 and Path(out["figure"]).is_file()
+    whole = compare_models(read_record(path), {name: load_model(name) for name in models}, BAND, SKIP)
+    for model in whole.models:
+        row = out["models"][model.name]
+        assert set(row) == set(model.scores())
+        for key in ("fit_percent", "rmse", "low_speed_rmse", "mse", "low_speed_mse"):
+            assert row[key] == pytest.approx(getattr(model, key), rel=SUMS_RTOL, abs=0.0)
+        assert row["n_low_speed"] == model.n_low_speed
+
+
+def test_compare_takes_a_friction_filter_whole_and_refuses_one_longer_than_max_samples(
+    capsys, files, tmp_path
+):
+    from motorid.estimators import create
+
+    create("friction-ekf").save(tmp_path / "ekf.json")
+    argv = [
+        "compare",
+        str(files / "rec.csv"),
+        "--model",
+        str(tmp_path / "ekf.json"),
+        "--model",
+        str(files / "true.json"),
+    ]
+    code, out, err = run(capsys, *argv, "--json")
+    assert code == 0, err
+    assert out["samples"] == 750 and set(out["models"]) == {
+        str(tmp_path / "ekf.json"),
+        str(files / "true.json"),
+    }
+    code, _, err = run(capsys, *argv, "--max-samples", "700")
+    assert code == 2 and "longer than --max-samples 700" in err and "friction-ekf" in err

@@ -320,6 +320,19 @@ def test_the_running_simulation_is_the_record_to_the_last_bit(drive, u):
         simulation.reset(seed=4)  # noise free: the seed changes nothing
 
 
+@pytest.mark.cpu_sensitive
+@examples(100)
+@given(drive=drives(), u=held_inputs(), cut=st.integers(0, 60))
+def test_the_running_simulation_in_blocks_is_the_record_to_the_last_bit(drive, u, cut):
+    """run() on two blocks (split at ``cut``, which may leave one empty), with the input path's
+    delay, lag and backlash carried between them: the record's free run, exactly."""
+    record = drive.free_run(u)
+    simulation = drive.simulation()
+    cut = min(cut, u.size)
+    np.testing.assert_array_equal(np.concatenate([simulation.run(u[:cut]), simulation.run(u[cut:])]), record)
+    assert simulation.sample_index == u.size
+
+
 def test_the_running_simulation_refuses_a_non_finite_input_naming_the_sample():
     simulation = RigidDrive(("viscous_friction", "coulomb_friction"), EVERY_TERM_SMALL, dt=0.01).simulation()
     simulation.step(1.0)

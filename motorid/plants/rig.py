@@ -552,6 +552,43 @@ class RigSimulation:
         phi, gam, p, fric, lug = self.rig._compiled
         return physics.advance_sample(self._x, u, t_d, noise, phi, gam, p, fric, lug, self._out)
 
+    def run(self, u: npt.ArrayLike) -> np.ndarray:
+        """Apply the commands ``u`` [V] one sample each (zero-order hold, the rig's ``T_d``) and
+        measure: :meth:`step` over a block, in one compiled call. Consecutive blocks continue one
+        record: after ``reset(seed)`` they give the ``y`` column of ``rig.simulate(u, seed=seed)``
+        for the whole input, to the last bit (the same kernel, state and noise stream).
+
+        Parameters
+        ----------
+        u : array_like, shape (N,)
+            The next commands [V] (finite).
+
+        Returns
+        -------
+        ndarray, shape (N,)
+            Measured load speed y [rad/s] at the end of each sample.
+        """
+        u_arr = check_input("u", u)
+        n = u_arr.size
+        noise = np.empty(n)
+        taken = 0
+        while taken < n:
+            if self._noise_pos >= self._noise.size:
+                self._noise = self._rng.standard_normal(max(_NOISE_BLOCK, n - taken))
+                self._noise_pos = 0
+            part = min(n - taken, self._noise.size - self._noise_pos)
+            noise[taken : taken + part] = self._noise[self._noise_pos : self._noise_pos + part]
+            self._noise_pos += part
+            taken += part
+        phi, gam, p, fric, lug = self.rig._compiled
+        rows = physics.simulate_kernel(
+            self._x, u_arr, np.full(n, float(self.rig.T_d)), noise, phi, gam, p, fric, lug
+        )
+        if n:
+            self._out[:] = rows[-1]
+        self.sample_index += n
+        return rows[:, 0].copy()
+
     @property
     def state(self) -> dict[str, float]:
         """True state [SI] after the last :meth:`step`.

@@ -598,6 +598,24 @@ class RigidSimulation:
         self.sample_index += 1
         return self._w
 
+    def run(self, u: npt.ArrayLike) -> np.ndarray:
+        """Apply the inputs ``u`` [u] one sample each (zero-order hold); the speed [v] at the end of
+        each sample. :meth:`step` over a block, in one compiled call: consecutive blocks continue
+        one record, and give :meth:`RigidDrive.free_run` of the whole input to the last bit.
+
+        Parameters
+        ----------
+        u : array_like, shape (N,)
+            The next inputs [u] (finite).
+        """
+        arr = check_input("u", u)
+        force = np.ascontiguousarray(self.drive.input_force(arr, self._input), dtype=float)
+        speed = self.drive._free_run_force(self._setup, force, self._w)
+        if speed.size:
+            self._w = float(speed[-1])
+        self.sample_index += speed.size
+        return speed
+
     @property
     def state(self) -> dict[str, float]:
         """``t`` [s] and the speed ``omega`` [v] after the last :meth:`step`."""
