@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from motorid.app.identify import low_speed_band, output_band
 from motorid.errors import DataError
 
 from .options import (
@@ -19,8 +20,6 @@ from .options import (
     add_skip,
     check_out_folder,
     iter_record_from_args,
-    low_speed_band,
-    output_band,
     read_record_from_args,
     record_options_from_args,
 )

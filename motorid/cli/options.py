@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from motorid.app.identify import PAPER_ORDER, low_speed_band  # noqa: F401  (motorid compare imports it from here)
+from motorid.app.identify import PAPER_ORDER
 from motorid.errors import DataError
 from motorid.units import INPUT_UNITS, OUTPUT_UNITS
 
