@@ -6,7 +6,7 @@ import tomllib
 
 import pandas as pd
 import pytest
-from cli_fixtures import run
+from cli_fixtures import interrupt_when_written, run
 
 from motorid.cli import main
 from motorid.records import read_record
@@ -95,27 +95,10 @@ def test_run_on_the_simulated_daq(capsys, tmp_path):
 def test_run_interrupted_by_ctrl_c_says_what_is_on_disk(tmp_path):
     """``motorid run`` as a user starts it, stopped by a real SIGINT: exit 130, the CSV ends on a whole row
     and the message counts exactly the rows in it."""
-    import re
-    import signal
-    import subprocess
     import sys
-    import time
     from pathlib import Path
 
     out = tmp_path / "run.csv"
     motorid = Path(sys.executable).with_name("motorid")
-    proc = subprocess.Popen(
-        [str(motorid), "run", "--estimator", "arx-rls", "--duration", "100000", "--out", str(out)],
-        stderr=subprocess.PIPE, text=True,
-    )  # fmt: skip
-    deadline = time.monotonic() + 120
-    while not (out.exists() and out.stat().st_size > 20_000):
-        assert proc.poll() is None, proc.stderr.read()
-        assert time.monotonic() < deadline, "the run wrote nothing within 120 s"
-        time.sleep(0.05)
-    proc.send_signal(signal.SIGINT)
-    err = proc.communicate(timeout=60)[1]
-    assert proc.returncode == 130, err
-    stopped = re.search(r"stopped after (\d+) of 2500000 samples", err)
-    assert stopped, err
-    assert len(pd.read_csv(out)) == int(stopped.group(1))
+    argv = [str(motorid), "run", "--estimator", "arx-rls", "--duration", "100000", "--out", str(out)]
+    interrupt_when_written(argv, out, 20_000, 2_500_000)

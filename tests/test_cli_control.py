@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from cli_fixtures import run
+from cli_fixtures import interrupt_when_written, run
 from io_fixtures import free_port, start_rig_process
 
 from motorid.diagnose import diagnose
@@ -144,11 +144,7 @@ def test_bad_input_is_one_line_exit_2_and_nothing_changes(capsys, files, tmp_pat
 
 def test_ctrl_c_stops_the_loop_with_zero_volts_at_the_rig_and_whole_rows_on_disk(files, tmp_path):
     """A real ``motorid control`` process on a real rig server, stopped by a real SIGINT."""
-    import re
-    import signal
-    import subprocess
     import sys
-    import time
 
     from pymodbus.client import ModbusTcpClient
 
@@ -158,23 +154,10 @@ def test_ctrl_c_stops_the_loop_with_zero_volts_at_the_rig_and_whole_rows_on_disk
     server = start_rig_process(port, "--model", str(files / "plant.json"), "--watchdog-periods", "25")
     out = tmp_path / "run.csv"
     try:
-        proc = subprocess.Popen(
-            [sys.executable, "-m", "motorid.cli", "control", "--design", str(files / "drive.json"),
-             "--daq", f"modbus://127.0.0.1:{port}", "--dt", "0.04", "--timeout", "2", "--duration", "100000",
-             "--out", str(out)],
-            stderr=subprocess.PIPE, text=True,
-        )  # fmt: skip
-        deadline = time.monotonic() + 120
-        while not (out.exists() and out.stat().st_size > 5_000):
-            assert proc.poll() is None, proc.stderr.read()
-            assert time.monotonic() < deadline, "the loop wrote nothing within 120 s"
-            time.sleep(0.05)
-        proc.send_signal(signal.SIGINT)
-        err = proc.communicate(timeout=60)[1]
-        assert proc.returncode == 130, err
-        stopped = re.search(r"stopped after (\d+) of 2500000 samples", err)
-        assert stopped, err
-        assert len(pd.read_csv(out)) == int(stopped.group(1))
+        argv = [sys.executable, "-m", "motorid.cli", "control", "--design", str(files / "drive.json"),
+                "--daq", f"modbus://127.0.0.1:{port}", "--dt", "0.04", "--timeout", "2", "--duration", "100000",
+                "--out", str(out)]  # fmt: skip
+        interrupt_when_written(argv, out, 5_000, 2_500_000)
         # the rig's voltage command register holds 0 V: the loop's last word to the rig
         command = RegisterMap.default()["voltage_command"]
         client = ModbusTcpClient("127.0.0.1", port=port, timeout=2)
