@@ -22,7 +22,7 @@ import numpy as np
 from _table import Row, best_of, print_rows
 
 from motorid.compensation import FrictionCompensation
-from motorid.plants import RigidDrive
+from motorid.drive import RigidDrive
 from motorid.speed_control import SpeedController, design_speed_pi, reversing_reference
 
 TITLE = "Speed controller: one step"

@@ -40,8 +40,8 @@ from _table import Row, print_rows  # noqa: E402
 
 #: pandas, SciPy's filters and scalar searches, and one kernel of the drive from numba's cache.
 FLOOR = (
-    "import numpy, pandas, scipy.optimize, scipy.signal; from motorid.plants import physics; "
-    "physics.reversal_clock(numpy.zeros(3), 1.0, 0.0, numpy.zeros(3))"
+    "import numpy, pandas, scipy.optimize, scipy.signal; from motorid.drive import kernels; "
+    "kernels.reversal_clock(numpy.zeros(3), 1.0, 0.0, numpy.zeros(3))"
 )
 
 

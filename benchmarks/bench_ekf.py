@@ -27,9 +27,9 @@ import numpy as np
 from _table import Row, best_of, best_times, print_rows
 from filterpy.kalman import ExtendedKalmanFilter, MerweScaledSigmaPoints, UnscentedKalmanFilter
 
+from motorid.drive import CoulombFriction, paper_rig
 from motorid.estimators import FrictionEKF, FrictionUKF
-from motorid.plants import CoulombFriction, paper_rig
-from motorid.plants.signals import two_sine_signal
+from motorid.signals import two_sine_signal
 
 TITLE = "Friction EKF / UKF, n = 5 (paper rig, dt = 40 ms, 26 sub-steps), best of 3"
 logger = logging.getLogger(__name__)

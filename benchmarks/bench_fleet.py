@@ -2,7 +2,7 @@
 
 Run: ``.venv/bin/python benchmarks/bench_fleet.py [--drives 8] [--days 5] [--duration 30]``
 
-A generated fleet (:mod:`motorid.plants.fleet`, 30 s records of 750 samples by
+A generated fleet (:mod:`motorid.fleet.synthetic`, 30 s records of 750 samples by
 default) is diagnosed three ways, each timing only the records (compilation and
 the cluster's start are left out: a warm-up record runs first, and the start is
 its own row; each figure is the best of 3 runs):
@@ -28,7 +28,7 @@ from _table import Row, print_rows
 
 from motorid.fleet import DoctorJob, ReadOptions, fleet_client, run_fleet
 from motorid.fleet.jobs import RecordTask
-from motorid.plants.fleet import make_fleet, write_fleet
+from motorid.fleet.synthetic import make_fleet, write_fleet
 
 TITLE = "Fleet: motorid fleet doctor, records per second"
 DOCTOR = DoctorJob(base=("coulomb_friction", "viscous_friction", "offset"))

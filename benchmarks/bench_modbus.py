@@ -35,10 +35,10 @@ def serve(queue: mp.Queue, stop: mp.Event) -> None:  # type: ignore[type-arg]
     from motorid.io import RigServer
 
     try:
-        from motorid.plants import paper_rig
+        from motorid.drive import paper_rig
 
         plant = paper_rig()
-    except ImportError:  # plants not available: a first-order stand-in
+    except ImportError:  # the drive models not available: a first-order stand-in
         plant = None
     if plant is None:
         sys.path.insert(0, "tests")

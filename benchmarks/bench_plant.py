@@ -18,8 +18,8 @@ import time
 
 from _table import Row, print_rows
 
-from motorid.plants import paper_rig
-from motorid.plants.signals import two_sine_signal
+from motorid.drive import paper_rig
+from motorid.signals import two_sine_signal
 
 TITLE = "Plant simulation: default rig, 40 ms samples, 1 ms internal steps"
 

@@ -20,8 +20,8 @@ import time
 import numpy as np
 from _table import Row, print_rows
 
+from motorid.drive import RigidDrive, paper_rig
 from motorid.estimators import FrictionEKF
-from motorid.plants import RigidDrive, paper_rig
 from motorid.testing import every_input_memory_drive
 
 TITLE = "Rigid drive: whole record and online steps"

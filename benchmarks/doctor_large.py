@@ -2,8 +2,8 @@
 
 Run: ``.venv/bin/python benchmarks/doctor_large.py [--samples 2000000] [--dt 0.005] [--repeat 1] [--keep DIR]``
 
-Two records of the default rig (:func:`motorid.plants.paper_rig` at ``dt``, driven by
-:func:`motorid.plants.signals.two_sine_signal`): an 80 s one and one of ``--samples``
+Two records of the default rig (:func:`motorid.drive.paper_rig` at ``dt``, driven by
+:func:`motorid.signals.two_sine_signal`): an 80 s one and one of ``--samples``
 samples (``--samples 0``: the 80 s one only). Each is diagnosed in a fresh process by
 ``motorid doctor REC --json`` (no figures: matplotlib is not imported), by ``motorid doctor
 REC --json --out DIR`` and by ``diagnose()`` in Python (read with
@@ -22,9 +22,9 @@ import tempfile
 import time
 from pathlib import Path
 
-from motorid.plants import paper_rig
-from motorid.plants.signals import two_sine_signal
+from motorid.drive import paper_rig
 from motorid.records import write_record
+from motorid.signals import two_sine_signal
 
 MOTORID = Path(sys.executable).with_name("motorid")
 PYTHON_RUN = """

@@ -13,7 +13,7 @@ __all__ = ["__version__", "load_model", "save_model"]
 
 def __getattr__(name: str) -> Any:
     """``load_model`` and ``save_model`` of :mod:`motorid.models`, imported on first use
-    (they pull in the plants and numba, which ``import motorid`` should not)."""
+    (they pull in the drive models and numba, which ``import motorid`` should not)."""
     if name in ("load_model", "save_model"):
         from motorid import models
 

@@ -16,7 +16,7 @@ file (:func:`motorid.load_model`):
   prediction is its tacho and A/D reading of the load speed [rad/s];
 - a rigid drive (``rigid-drive``, the doctor's model): its free run [its velocity unit], or on
   a record of positions (output in rad or m) its position from rest, placed at the first
-  measured position, integrated inside the same free run (:meth:`~motorid.plants.RigidDrive.motion`);
+  measured position, integrated inside the same free run (:meth:`~motorid.drive.RigidDrive.motion`);
 - an identified estimator (``estimator``): its ``simulate(u)``, the identified model
   frozen as saved.
 
@@ -55,10 +55,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from motorid.drive.rigid import RigidDrive
+from motorid.drive.two_mass import TwoMassRig
 from motorid.errors import DataError
 from motorid.estimators.base import Estimator, first_bad_index
-from motorid.plants.rig import TwoMassRig
-from motorid.plants.rigid import RigidDrive
 from motorid.records import record_timing
 from motorid.validation import low_speed_mask, score
 
@@ -632,8 +632,8 @@ class BlockFreeRun:
     blocks' inputs gives, block by block, the whole record's ``y_sim`` to the last bit.
 
     Each model carries its own state from block to block: a two-mass rig its running
-    simulation (:meth:`motorid.plants.rig.RigSimulation.run`, sensors noise free), a rigid drive
-    its input path and speed (:meth:`motorid.plants.rigid.RigidSimulation.run`), an ARX or
+    simulation (:meth:`motorid.drive.two_mass.RigSimulation.run`, sensors noise free), a rigid drive
+    its input path and speed (:meth:`motorid.drive.rigid.RigidSimulation.run`), an ARX or
     Hammerstein model its past outputs and basis values (:class:`motorid.estimators.rls.FreeRun`).
     On a ``"sampled"`` record a physical model's output for ``u[k]`` is that of ``y[k+1]``: each
     block's last output is carried to the next, and the first is the rest it starts from.

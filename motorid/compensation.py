@@ -1,13 +1,13 @@
 """Friction compensation from a drive model: the feed-forward that cancels the model's friction
 and inverts its input dead zone.
 
-For a rigid drive (:class:`~motorid.plants.rigid.RigidDrive`, the doctor's model)::
+For a rigid drive (:class:`~motorid.drive.rigid.RigidDrive`, the doctor's model)::
 
     J dω/dt = g D(u) - F(ω),      F(ω) = Σ_t θ_t T_t(ω, sgn ω)                [F]
 
 with D the dead zone of half-width d [u] and F the model's friction (viscous, Coulomb,
 Stribeck, asymmetric, quadratic drag, offset; the module table of
-:mod:`motorid.plants.rigid`). A controller that asks for the effective input v [u] (what
+:mod:`motorid.drive.rigid`). A controller that asks for the effective input v [u] (what
 drives the inertia beyond the friction) gets it when the command is::
 
     u = D̃⁻¹(v + F̃(ω_c) / g)                                                   [u]
@@ -20,8 +20,8 @@ replaced by the ramp σ across the *speed band* ω_b [v], and the dead zone's ju
 ramp across the *input band* x_b [u]: around zero the compensation fades in linearly
 instead of switching between ±F_c and ±d, so that noise on a speed near zero, or a
 controller output near zero, does not make it chatter. The terms are evaluated by the
-drive's own compiled law (:func:`~motorid.plants.physics.rigid_term`, with the ramp as the
-direction, summed in one call by :func:`~motorid.plants.physics.rigid_friction`), the same
+drive's own compiled law (:func:`~motorid.drive.kernels.rigid_term`, with the ramp as the
+direction, summed in one call by :func:`~motorid.drive.kernels.rigid_friction`), the same
 one the simulation and the doctor's fit use.
 
 Which speed ω_c drives the friction term (``source``):
@@ -52,8 +52,8 @@ import math
 
 import numpy as np
 
-from motorid.plants import physics
-from motorid.plants.rigid import RIGID_EFFECTS, TERM_OF, RigidDrive
+from motorid.drive import kernels
+from motorid.drive.rigid import RIGID_EFFECTS, TERM_OF, RigidDrive
 
 __all__ = ["SOURCES", "FrictionCompensation"]
 
@@ -118,7 +118,7 @@ class FrictionCompensation:
         self._coefs = np.array([drive.params[p] for p in kept])
         vs = drive.params.get("stribeck_velocity", 1.0)
         self._rate = 1.0 / vs
-        self._shape = physics.STRIBECK_SHAPES.index(drive.stribeck_shape)
+        self._shape = kernels.STRIBECK_SHAPES.index(drive.stribeck_shape)
         self._gain = drive.input_gain
 
     def friction(self, speed: float) -> float:
@@ -126,7 +126,7 @@ class FrictionCompensation:
         w = float(speed)
         s = w / self.speed_band
         s = 1.0 if s > 1.0 else (-1.0 if s < -1.0 else s)
-        return physics.rigid_friction(self._terms, self._coefs, w, s, self._rate, self._shape)
+        return kernels.rigid_friction(self._terms, self._coefs, w, s, self._rate, self._shape)
 
     def feedforward(self, speed: float) -> float:
         """F̃(ω)/g [u]: the input that balances the friction at ``speed`` [v]."""

@@ -5,8 +5,8 @@
   ``control.StateSpace``) with its sample time. With a direct term, ``b_0`` is the system's
   feed-through (the record's ``y[k]`` answers ``u[k]`` held over the same sample, motorid's
   ``"hold"`` timing); without one, the numerator starts at ``z^-1``.
-- :func:`linearise`: a drive model (the doctor's :class:`~motorid.plants.rigid.RigidDrive` or the
-  two-mass :class:`~motorid.plants.rig.TwoMassRig`) linearised about a speed as a continuous
+- :func:`linearise`: a drive model (the doctor's :class:`~motorid.drive.rigid.RigidDrive` or the
+  two-mass :class:`~motorid.drive.two_mass.TwoMassRig`) linearised about a speed as a continuous
   ``control.StateSpace``; input the command u [V], output the (load) speed [rad/s].
 - :func:`nonlinear_system`: the whole drive, friction and input path included, as a
   discrete-time ``control.NonlinearIOSystem`` at the drive's sample time, so that
@@ -29,8 +29,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from motorid.plants.rig import TwoMassRig
-from motorid.plants.rigid import InputPathState, RigidDrive, check_sample_time
+from motorid.drive.rigid import InputPathState, RigidDrive, check_sample_time
+from motorid.drive.two_mass import TwoMassRig
 
 if TYPE_CHECKING:
     import control
@@ -128,7 +128,7 @@ def friction_slope(drive: RigidDrive, speed: float, direction: float = 1.0) -> f
     direction : float
         ±1: the side taken at zero speed.
     """
-    from motorid.plants import physics
+    from motorid.drive import kernels
 
     p = drive.params
     s = math.copysign(1.0, speed) if speed != 0.0 else math.copysign(1.0, direction)
@@ -136,8 +136,8 @@ def friction_slope(drive: RigidDrive, speed: float, direction: float = 1.0) -> f
     slope += 2.0 * p.get("quadratic_drag", 0.0) * abs(speed)
     if "stribeck_friction" in drive.effects:
         rate = 1.0 / p["stribeck_velocity"]
-        shape = physics.STRIBECK_SHAPES.index(drive.stribeck_shape)
-        slope += p["stribeck"] * s * physics.stribeck_decay_slope(float(speed), rate, shape, s)
+        shape = kernels.STRIBECK_SHAPES.index(drive.stribeck_shape)
+        slope += p["stribeck"] * s * kernels.stribeck_decay_slope(float(speed), rate, shape, s)
     return float(slope)
 
 
@@ -225,8 +225,8 @@ def linearise(
 
 def _rig_static_slope(rig: TwoMassRig, side: str, speed: float, direction: float) -> float:
     """d/dω of the static friction laws on ``side`` of the rig at ``speed`` [N m s/rad]."""
-    from motorid.plants import physics
-    from motorid.plants.friction import StaticFriction
+    from motorid.drive import kernels
+    from motorid.drive.friction import StaticFriction
 
     s = math.copysign(1.0, speed) if speed != 0.0 else math.copysign(1.0, direction)
     slope = 0.0
@@ -234,7 +234,7 @@ def _rig_static_slope(rig: TwoMassRig, side: str, speed: float, direction: float
         if isinstance(f, StaticFriction) and side in f.sides():
             a = f.coefficients()
             level, rate = (a[1], a[2]) if s > 0 else (-a[4], a[5])
-            slope += level * physics.stribeck_decay_slope(speed, rate, f.shape_code(), s)
+            slope += level * kernels.stribeck_decay_slope(speed, rate, f.shape_code(), s)
     return slope
 
 
@@ -248,7 +248,7 @@ def nonlinear_system(drive: RigidDrive | TwoMassRig, name: str | None = None) ->
     saturation, delay, lag, backlash) and, on the rig, the shaft.
 
     State: the rigid drive's ``[ω, the input path's memory...]`` (its delay ring, lag and
-    dwell clock, :class:`~motorid.plants.rigid.InputPathState`), or the rig's 7 states
+    dwell clock, :class:`~motorid.drive.rigid.InputPathState`), or the rig's 7 states
     ``[i_a, ω_m, ω_L, δ, θ_L, z_m, z_L]``. Input ``u`` [V]; output ``y``: the speed [rad/s]
     (the rig's true load speed, without the tachogenerator's noise and quantisation). Start
     from :func:`rest_state` (``initial_state=`` of ``input_output_response``), the drive at
@@ -284,18 +284,18 @@ def nonlinear_system(drive: RigidDrive | TwoMassRig, name: str | None = None) ->
         names = ["omega", *(f"ring{i}" for i in range(sizes[0])), "lag", "lag_samples",
                  "clock_sign", "clock_samples", "clock_reversed"]  # fmt: skip
     elif isinstance(drive, TwoMassRig):
-        from motorid.plants import physics
+        from motorid.drive import kernels
 
         phi, gam, p, fric, lug = drive._compiled
 
         def update(t: float, x: np.ndarray, u: np.ndarray, params: dict) -> np.ndarray:
             xn = np.array(x, dtype=float)
-            physics.advance_sample(
-                xn, float(u[0]), drive.T_d, 0.0, phi, gam, p, fric, lug, np.zeros(physics.N_OUT)
+            kernels.advance_sample(
+                xn, float(u[0]), drive.T_d, 0.0, phi, gam, p, fric, lug, np.zeros(kernels.N_OUT)
             )
             return xn
 
-        n_states = physics.N_STATE
+        n_states = kernels.N_STATE
         names = ["i_a", "omega_m", "omega_l", "twist", "theta_l", "z_m", "z_l"]
     else:
         raise ValueError(f"drive must be a RigidDrive or a TwoMassRig, got {type(drive).__name__}")
@@ -320,7 +320,7 @@ def rest_state(drive: RigidDrive | TwoMassRig) -> np.ndarray:
         fresh = drive.input_state()
         return np.concatenate([[0.0], fresh.ring, fresh.lag, fresh.clock])
     if isinstance(drive, TwoMassRig):
-        from motorid.plants import physics
+        from motorid.drive import kernels
 
-        return np.zeros(physics.N_STATE)
+        return np.zeros(kernels.N_STATE)
     raise ValueError(f"drive must be a RigidDrive or a TwoMassRig, got {type(drive).__name__}")

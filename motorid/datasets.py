@@ -40,7 +40,7 @@ import pandas as pd
 import scipy.io
 
 if TYPE_CHECKING:
-    from motorid.plants.rigid import RigidDrive
+    from motorid.drive.rigid import RigidDrive
 
 #: Environment variable naming the folder with measured data.
 DATA_ENV_VAR = "MOTORID_DATA"

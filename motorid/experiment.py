@@ -1,6 +1,6 @@
 """The paper's experiment on the simulated rig: ARX-RLS against Hammerstein-RLS.
 
-The default rig (:func:`motorid.plants.paper_rig`) is driven by the paper's test
+The default rig (:func:`motorid.drive.paper_rig`) is driven by the paper's test
 signal (two sinusoids around 0 V with low-amplitude stretches, Fig. 8), sampled
 at 40 ms; a linear ARX model and the paper's Hammerstein model (cubic static
 block) are identified online by RLS, and, going beyond the paper, a Hammerstein
@@ -18,10 +18,10 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from motorid import figures
+from motorid.drive import TwoMassRig, paper_rig
 from motorid.estimators import ARXRLS, Estimator, HammersteinRLS
 from motorid.estimators.base import BatchResult
-from motorid.plants import TwoMassRig, paper_rig
-from motorid.plants.signals import two_sine_signal
+from motorid.signals import two_sine_signal
 from motorid.units import UNNAMED_OUTPUT, input_unit_name, per
 from motorid.validation import RPM_PER_RAD_S, rpm_to_rad_s, score_predictions
 
@@ -170,7 +170,7 @@ def run_paper_experiment(
     Parameters
     ----------
     rig : TwoMassRig, optional
-        The plant; :func:`~motorid.plants.paper_rig` by default.
+        The plant; :func:`~motorid.drive.paper_rig` by default.
     duration : float
         Record length [s].
     seed : int

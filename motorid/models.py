@@ -10,12 +10,12 @@ A model file is one JSON object::
     }
 
 - ``two-mass-rig``: ``model`` is :meth:`TwoMassRig.to_dict
-  <motorid.plants.rig.TwoMassRig.to_dict>`, every parameter in SI units (the
-  table of :class:`~motorid.plants.rig.TwoMassRig`), its friction laws as
+  <motorid.drive.two_mass.TwoMassRig.to_dict>`, every parameter in SI units (the
+  table of :class:`~motorid.drive.two_mass.TwoMassRig`), its friction laws as
   ``{"kind": ..., <parameters>}``, amplifier, tachogenerator, A/D converter and
   encoder; ``null`` for an infinite amplifier saturation.
 - ``rigid-drive``: ``model`` is :meth:`RigidDrive.to_dict
-  <motorid.plants.rigid.RigidDrive.to_dict>`: ``effects`` (names), ``params`` (inertia,
+  <motorid.drive.rigid.RigidDrive.to_dict>`: ``effects`` (names), ``params`` (inertia,
   input gain and each effect's parameters, SI units), ``dt`` and ``stribeck_shape``;
   what ``motorid doctor --save-model`` writes.
 - ``estimator``: ``model`` is ``{"estimator": NAME, "settings": {...}, "state":
@@ -33,16 +33,16 @@ such as a negative inertia, an unknown friction law) raises one
 ``rig.json: model.J_m: J_m must be > 0, got -1.0``. Nothing a file says is trusted
 with memory or time: the file is at most :data:`LARGEST_FILE` bytes, its JSON at most
 32 levels deep with integers within ±2**53 (:mod:`motorid.json_input`), every drive
-parameter within its physical range (:mod:`motorid.plants.ranges`), every size an
+parameter within its physical range (:mod:`motorid.drive.ranges`), every size an
 array is allocated with bounded (NIS window, delay line, orders, basis) before the
 array is made, and a covariance symmetric positive semi-definite within 1e-9
 relative (:func:`~motorid.estimators.base.check_covariance`).
 
-This module sits above the plants and the estimators, because a model file holds
-either a drive model (:mod:`motorid.plants`) or an estimator
-(:mod:`motorid.estimators`), and the plants must not import the estimators. A drive
+This module sits above the drive models and the estimators, because a model file holds
+either a drive model (:mod:`motorid.drive`) or an estimator
+(:mod:`motorid.estimators`), and the drive must not import the estimators. A drive
 model reads and writes its own description (``TwoMassRig.from_dict``,
-``RigidDrive.save``; the envelope in :mod:`motorid.plants.files`, the checked values
+``RigidDrive.save``; the envelope in :mod:`motorid.drive.files`, the checked values
 in :mod:`motorid.json_input`) and an estimator writes its own (``Estimator.to_dict``,
 ``Estimator.save``), so neither imports this module; reading an estimator back is
 done here.
@@ -57,6 +57,17 @@ from typing import Any
 
 import numpy as np
 
+from motorid.drive.files import (
+    FORMAT,
+    KIND_ESTIMATOR,
+    KIND_RIG,
+    KIND_RIGID,
+    VERSION,
+    model_file,
+    write_model_file,
+)
+from motorid.drive.rigid import RigidDrive
+from motorid.drive.two_mass import TwoMassRig
 from motorid.errors import DataError, ModelFileError
 from motorid.json_input import (
     boolean,
@@ -70,17 +81,6 @@ from motorid.json_input import (
     shown,
     text,
 )
-from motorid.plants.files import (
-    FORMAT,
-    KIND_ESTIMATOR,
-    KIND_RIG,
-    KIND_RIGID,
-    VERSION,
-    model_file,
-    write_model_file,
-)
-from motorid.plants.rig import TwoMassRig
-from motorid.plants.rigid import RigidDrive
 
 __all__ = [
     "FORMAT",
@@ -148,8 +148,8 @@ def save_model(model: Any, path: str | os.PathLike[str], *, overwrite: bool = Tr
 
 # --------------------------------------------------------------------------- reading
 def load_model(path: str | os.PathLike[str]) -> Any:
-    """Read a model file: a :class:`~motorid.plants.rig.TwoMassRig`, a
-    :class:`~motorid.plants.rigid.RigidDrive` or an estimator.
+    """Read a model file: a :class:`~motorid.drive.two_mass.TwoMassRig`, a
+    :class:`~motorid.drive.rigid.RigidDrive` or an estimator.
 
     Parameters
     ----------

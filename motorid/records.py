@@ -56,7 +56,7 @@ ATTRS_MARKER = "# motorid-record "
 REQUIRED_COLUMNS: tuple[str, ...] = ("t", "u", "y")
 
 #: The keys of ``attrs`` naming the drive a record comes from and when it was taken (ISO 8601 text):
-#: written by :mod:`motorid.plants.fleet`, read by ``motorid fleet``.
+#: written by :mod:`motorid.fleet.synthetic`, read by ``motorid fleet``.
 DRIVE_ATTR = "drive"
 TIME_ATTR = "time"
 #: The keywords ``attrs["timing"]`` takes: how input and output samples line up in time.
@@ -442,7 +442,7 @@ def _attrs_from_json(text: Any, name: str, where: str) -> dict[str, Any]:
 def check_attrs(attrs: Mapping[str, Any], source: str) -> None:
     """Check the attributes motorid reads back for type and range (others are kept unread).
 
-    ``dt`` a sample time [s] in :data:`~motorid.plants.ranges.SAMPLE_TIME`; ``units`` and
+    ``dt`` a sample time [s] in :data:`~motorid.drive.ranges.SAMPLE_TIME`; ``units`` and
     ``converted_from`` objects of column -> unit, each unit one of
     :data:`motorid.units.RECORD_UNITS`; ``timing`` a keyword of :data:`TIMINGS`;
     ``drive``, ``time`` and ``integrator`` text; ``samples`` an integer >= 0 and
@@ -453,7 +453,7 @@ def check_attrs(attrs: Mapping[str, Any], source: str) -> None:
     DataError
         ``{source}: attrs.dt must be ..., got "abc"``, naming the key.
     """
-    from motorid.plants.ranges import SAMPLE_TIME
+    from motorid.drive.ranges import SAMPLE_TIME
     from motorid.units import check_unit
 
     def shown(value: Any) -> str:

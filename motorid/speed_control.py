@@ -28,9 +28,9 @@ import numpy as np
 import pandas as pd
 
 from motorid.compensation import FrictionCompensation
+from motorid.drive.rigid import RigidDrive, check_sample_time
 from motorid.io.base import DAQ
 from motorid.io.online import KEEP_WITH_FILE, RunRecorder, StopRequest
-from motorid.plants.rigid import RigidDrive, check_sample_time
 from motorid.progress import progress_bar
 
 logger = logging.getLogger(__name__)

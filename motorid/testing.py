@@ -47,8 +47,8 @@ from collections.abc import Callable, Sequence
 import numpy as np
 from filterpy.common import Saver
 
+from motorid.drive.rigid import RigidDrive
 from motorid.estimators.base import Estimator
-from motorid.plants.rigid import RigidDrive
 
 EstimatorFactory = Callable[[], Estimator]
 

@@ -28,7 +28,7 @@
 # act, that the Hammerstein model follows the drive better (Figs. 9-15).
 #
 # This notebook repeats that experiment on motorid's simulated rig
-# (`motorid.plants.paper_rig()`: Coulomb friction on both masses, a 0.6 V dead zone,
+# (`motorid.drive.paper_rig()`: Coulomb friction on both masses, a 0.6 V dead zone,
 # tacho noise and a 12-bit A/D converter), with the numbers computed here, and goes one
 # step beyond the paper: static blocks built from a **dead zone** and a **sign** function
 # instead of powers of `u`.

@@ -41,9 +41,9 @@ import numpy as np
 import pandas as pd
 from IPython.display import display
 
+from motorid.drive import CoulombFriction, StribeckFriction, paper_rig
 from motorid.estimators import FrictionEKF, FrictionUKF
-from motorid.plants import CoulombFriction, StribeckFriction, paper_rig
-from motorid.plants.signals import two_sine_signal
+from motorid.signals import two_sine_signal
 
 pd.set_option("display.width", 160)
 CHI2_1_BAND = (0.000982, 5.0239)  # two-sided 95 % band of chi-square with 1 degree of freedom

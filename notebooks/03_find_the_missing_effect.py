@@ -45,11 +45,11 @@ from motorid.datasets import EMPS_BENCHMARK_RESULTS, EMPS_REFERENCE, emps_benchm
 from motorid.diagnose import EFFECTS, diagnose
 from motorid.diagnose.position import refit_in_position
 from motorid.diagnose.synthetic import planted_record
+from motorid.drive import CoulombFriction, RigidDrive, StribeckFriction, paper_rig
 from motorid.estimators import FrictionEKF
 from motorid.estimators.friction_kf import tacho_variance
 from motorid.io import ModbusDAQ, RigServer, run_online
-from motorid.plants import CoulombFriction, RigidDrive, StribeckFriction, paper_rig
-from motorid.plants.signals import two_sine_signal
+from motorid.signals import two_sine_signal
 
 pd.set_option("display.width", 180)
 pd.set_option("display.max_colwidth", 60)

@@ -43,7 +43,7 @@ from IPython.display import Image, display
 from motorid import figures
 from motorid.estimators import create
 from motorid.io import ModbusDAQ, RigServer, rig_map_toml, run_online
-from motorid.plants.signals import two_sine_signal
+from motorid.signals import two_sine_signal
 from motorid.validation import RPM_PER_RAD_S, rpm_to_rad_s, score_predictions
 
 logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s", force=True)

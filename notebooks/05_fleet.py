@@ -39,8 +39,8 @@ from dask.distributed import Client, LocalCluster
 from IPython.display import Image, display
 
 from motorid.fleet import DoctorJob, load_results, run
+from motorid.fleet.synthetic import make_fleet, write_fleet
 from motorid.fleet.trend import flag_drives, friction_trends, plot_trends
-from motorid.plants.fleet import make_fleet, write_fleet
 
 pd.set_option("display.width", 160)
 WORK = Path(tempfile.mkdtemp(prefix="motorid-05-"))

@@ -42,9 +42,9 @@ from IPython.display import Image, display
 from motorid.compensation import FrictionCompensation
 from motorid.control_design import linearise, nonlinear_system, rest_state
 from motorid.diagnose import diagnose
+from motorid.drive import Amplifier, CoulombFriction, RigidDrive, StribeckFriction, paper_rig
 from motorid.io import ModbusDAQ, RigServer, SimulatedDAQ
-from motorid.plants import Amplifier, CoulombFriction, RigidDrive, StribeckFriction, paper_rig
-from motorid.plants.signals import two_sine_signal
+from motorid.signals import two_sine_signal
 from motorid.speed_control import (
     SpeedController,
     design_speed_pi,

@@ -43,9 +43,9 @@ class FirstOrderPlant:
 
 
 def make_plant() -> object:
-    """The paper's rig when motorid.plants provides it, else the first-order stand-in."""
+    """The paper's rig when motorid.drive provides it, else the first-order stand-in."""
     try:
-        from motorid.plants import paper_rig
+        from motorid.drive import paper_rig
     except ImportError:
         return FirstOrderPlant()
     return paper_rig()

@@ -20,10 +20,10 @@ from cli_fixtures import run
 
 from motorid.app import IdentifyOptions, identify
 from motorid.cli.report import jsonable
+from motorid.drive import paper_rig
 from motorid.errors import DataError
 from motorid.fleet import IdentifyJob
-from motorid.plants import paper_rig
-from motorid.plants.signals import two_sine_signal
+from motorid.signals import two_sine_signal
 
 SUPPLY = 24.0  # [V]: the paper's rig takes at most 12 V, a duty of at most 50 %
 RPM = 60.0 / (2.0 * math.pi)

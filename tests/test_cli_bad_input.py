@@ -17,10 +17,10 @@ import pandas as pd
 import pytest
 
 from motorid.cli import main
+from motorid.drive import RigidDrive, paper_rig
 from motorid.estimators import create
-from motorid.plants import RigidDrive, paper_rig
-from motorid.plants.signals import two_sine_signal
 from motorid.records import write_record
+from motorid.signals import two_sine_signal
 
 
 def _write_csv(path: Path, df: pd.DataFrame) -> None:
@@ -333,8 +333,8 @@ def hostile(tmp_path_factory) -> Path:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
+    from motorid.drive import RigidDrive
     from motorid.estimators import FrictionEKF, create
-    from motorid.plants import RigidDrive
     from motorid.records import ATTRS_KEY, ATTRS_MARKER
 
     root = tmp_path_factory.mktemp("hostile")

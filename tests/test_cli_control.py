@@ -13,8 +13,8 @@ from cli_fixtures import interrupt_when_written, run
 from io_fixtures import free_port, start_rig_process
 
 from motorid.diagnose import diagnose
-from motorid.plants import Amplifier, CoulombFriction, paper_rig
-from motorid.plants.signals import two_sine_signal
+from motorid.drive import Amplifier, CoulombFriction, paper_rig
+from motorid.signals import two_sine_signal
 
 PLANT_SEED = "3"
 

@@ -115,7 +115,7 @@ def test_doctor_names_a_nan_sample(capsys, record_csv, tmp_path):
 # --------------------------------------------------------------------------- the user's own model
 def stribeck_rig():
     """The measured drive: the paper's rig (stiff shaft, 100 Hz) with Stribeck friction on the motor."""
-    from motorid.plants import CoulombFriction, StribeckFriction, paper_rig
+    from motorid.drive import CoulombFriction, StribeckFriction, paper_rig
 
     friction = (
         CoulombFriction(alpha=4e-3, side="motor"), CoulombFriction(alpha=2e-3, side="load"),
@@ -126,7 +126,7 @@ def stribeck_rig():
 
 def datasheet_model(rig):
     """The user's simulation from the datasheet: right inertia, gain, losses and dead zone, no Stribeck."""
-    from motorid.plants import RigidDrive
+    from motorid.drive import RigidDrive
 
     params = {
         "inertia": rig.J_m + rig.J_l, "input_gain": rig.K_m / rig.R_a, "coulomb": 6e-3,
@@ -247,7 +247,7 @@ def test_doctor_saved_emps_model_validates_below_the_published_force_error(capsy
     ],
 )
 def test_doctor_model_options_refuse_what_does_not_fit(capsys, record_csv, tmp_path, extra, words):
-    from motorid.plants import paper_rig
+    from motorid.drive import paper_rig
 
     paper_rig().save(tmp_path / "rig.json")
     datasheet_model(stribeck_rig()).save(tmp_path / "sheet.json")

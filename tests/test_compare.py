@@ -19,9 +19,9 @@ from cli_fixtures import run
 from emps_fixtures import real_motor_file
 
 from motorid import load_model
-from motorid.plants import RigidDrive, paper_rig
-from motorid.plants.signals import two_sine_signal
+from motorid.drive import RigidDrive, paper_rig
 from motorid.records import read_record, write_record
+from motorid.signals import two_sine_signal
 from motorid.validation import rpm_to_rad_s
 
 #: The scores leave out the first 50 samples (the --skip default): the models start from rest.

@@ -15,8 +15,7 @@ from motorid.control_design import (
     state_space,
     transfer_function,
 )
-from motorid.estimators import create
-from motorid.plants import (
+from motorid.drive import (
     ADConverter,
     Amplifier,
     CoulombFriction,
@@ -25,6 +24,7 @@ from motorid.plants import (
     Tachogenerator,
     paper_rig,
 )
+from motorid.estimators import create
 
 DT = 0.01
 

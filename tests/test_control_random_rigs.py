@@ -17,9 +17,9 @@ from hypothesis import strategies as st
 
 from motorid.compensation import FrictionCompensation
 from motorid.diagnose import diagnose
+from motorid.drive import Amplifier, CoulombFriction, RigidDrive, StribeckFriction, paper_rig
 from motorid.io import SimulatedDAQ
-from motorid.plants import Amplifier, CoulombFriction, RigidDrive, StribeckFriction, paper_rig
-from motorid.plants.signals import two_sine_signal
+from motorid.signals import two_sine_signal
 from motorid.speed_control import (
     SpeedController,
     design_speed_pi,

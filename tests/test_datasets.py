@@ -18,7 +18,7 @@ from motorid.datasets import (
     load_emps,
     simulate_position,
 )
-from motorid.plants import RigidDrive
+from motorid.drive import RigidDrive
 
 
 @requires_emps

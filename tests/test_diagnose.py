@@ -27,7 +27,7 @@ from motorid.diagnose.kinematics import kinematics
 from motorid.diagnose.model import force_shares, linear_param_std
 from motorid.diagnose.synthetic import BASE_FOR, planted_record
 from motorid.diagnose.workflow import MISSING_FACTOR, NOISE_SHRINK
-from motorid.plants.rigid import RigidDrive, time_since_reversal
+from motorid.drive.rigid import RigidDrive, time_since_reversal
 
 EXAMPLES = 3
 SETTINGS = settings(

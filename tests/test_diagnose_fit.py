@@ -10,7 +10,7 @@ import pytest
 from motorid.diagnose.model import _linear_solve, model_balance, model_key
 from motorid.diagnose.synthetic import planted_record
 from motorid.diagnose.workflow import gaps, prepare
-from motorid.plants.rigid import RigidDrive, term_columns
+from motorid.drive.rigid import RigidDrive, term_columns
 
 
 @pytest.fixture(scope="module")

@@ -11,7 +11,7 @@ from cli_fixtures import run
 
 from motorid.diagnose.kinematics import kinematics, noise_bands, quantisation_step
 from motorid.diagnose.synthetic import planted_record
-from motorid.plants import paper_rig
+from motorid.drive import paper_rig
 from motorid.records import write_record
 
 

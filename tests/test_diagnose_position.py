@@ -8,7 +8,7 @@ import pytest
 
 from motorid.datasets import emps_benchmark_rmse
 from motorid.diagnose.position import refit_in_position, refitted_parameters
-from motorid.plants import RigidDrive
+from motorid.drive import RigidDrive
 
 TRUE = RigidDrive(
     ("coulomb_friction", "asymmetric_friction", "viscous_friction", "offset", "input_delay"),

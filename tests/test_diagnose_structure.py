@@ -12,8 +12,8 @@ import pytest
 from motorid.diagnose import diagnose
 from motorid.diagnose.synthetic import planted_record
 from motorid.diagnose.workflow import MISSING_FACTOR
+from motorid.drive import RigidDrive
 from motorid.errors import DataError
-from motorid.plants import RigidDrive
 
 # each planted value and a seed; sizes of 2-4 samples, where a delay and a lag no longer look alike
 # (at 1-2 samples the balance still named the right one on 23 of 24 records)

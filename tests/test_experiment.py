@@ -6,9 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from motorid.drive import paper_rig
 from motorid.experiment import run_paper_experiment
-from motorid.plants import paper_rig
-from motorid.plants.signals import two_sine_signal
+from motorid.signals import two_sine_signal
 from motorid.validation import order_sweep, rpm_to_rad_s
 
 

@@ -2,7 +2,7 @@
 
 One cluster serves the whole module (started once, closed at the end); the commands
 reach it with ``--scheduler``. The fleet: 5 drives x 5 days of 30 s records (25
-records) from :mod:`motorid.plants.fleet` (drives 1 and 2 wear by 8 % a day, drive 3
+records) from :mod:`motorid.fleet.synthetic` (drives 1 and 2 wear by 8 % a day, drive 3
 grows a 0.8 V dead zone on day 2, drives 0 and 4 are healthy), plus one bad record.
 """
 
@@ -24,8 +24,8 @@ from io_fixtures import wait_for
 from motorid.cli import main
 from motorid.cli.report import jsonable
 from motorid.fleet import ResultsStore, flatten, fleet_client, load_results, run_fleet
+from motorid.fleet.synthetic import FLEET_START, make_fleet, write_fleet
 from motorid.fleet.trend import flag_drives, friction_trends
-from motorid.plants.fleet import FLEET_START, make_fleet, write_fleet
 
 DOCTOR = ["--base", "coulomb_friction,viscous_friction,offset"]
 IDENTIFY = ["--estimator", "hammerstein-rls", "--na", "2", "--nb", "2", "--degree", "3"]

@@ -1,6 +1,6 @@
 """``motorid fleet doctor --per-drive`` and :func:`motorid.fleet.run` on a real dask.distributed LocalCluster.
 
-The fleet: 3 drives x 3 days of 15 s records from :mod:`motorid.plants.fleet` (drive 1 wears,
+The fleet: 3 drives x 3 days of 15 s records from :mod:`motorid.fleet.synthetic` (drive 1 wears,
 drive 2 grows a dead zone on day 1), plus ``loner.csv``: a record of drive 0 with its drive id
 and time taken out of its attrs, which is therefore a drive of its own (its file's stem).
 """
@@ -21,8 +21,8 @@ from io_fixtures import wait_for
 from motorid.cli import main
 from motorid.fleet import DoctorJob, IdentifyJob, ReadOptions, flatten, fleet_client, load_results, run
 from motorid.fleet.jobs import DRIVE_KEY_PREFIX
+from motorid.fleet.synthetic import make_fleet, write_fleet
 from motorid.outputs import jsonable
-from motorid.plants.fleet import make_fleet, write_fleet
 from motorid.records import read_record, write_record
 
 BASE = ("coulomb_friction", "viscous_friction", "offset")

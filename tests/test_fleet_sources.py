@@ -7,10 +7,10 @@ from datetime import datetime
 import numpy as np
 import pytest
 
+from motorid.drive import CoulombFriction
 from motorid.errors import DataError
 from motorid.fleet import FilenamePattern, find_records, identity
-from motorid.plants import CoulombFriction
-from motorid.plants.fleet import FLEET_START, make_fleet, write_fleet
+from motorid.fleet.synthetic import FLEET_START, make_fleet, write_fleet
 from motorid.records import read_record
 
 

@@ -2,12 +2,12 @@
 on simulated rigs, consistency (NIS), divergence, bad data, and the two filters
 against each other and against filterpy's ExtendedKalmanFilter.
 
-Unless a test says otherwise the data come from :func:`motorid.plants.paper_rig`
+Unless a test says otherwise the data come from :func:`motorid.drive.paper_rig`
 with the friction moved onto the motor mass (Coulomb level and viscous coefficient
 there, B_L = 0) so the rig's friction law is the filter's: sample time 0.04 s,
 tachogenerator noise 10 mV (0.42 rad/s) read through the 12-bit ±10 V A/D
 converter (0.2 rad/s steps), excitation the paper's two-sine signal with quiet
-stretches (:func:`motorid.plants.signals.two_sine_signal`), which reverses the
+stretches (:func:`motorid.signals.two_sine_signal`), which reverses the
 drive every few seconds and holds it near zero speed in between.
 """
 
@@ -26,10 +26,10 @@ from filterpy.kalman import ExtendedKalmanFilter
 from hypothesis import given
 from hypothesis import strategies as st
 
+from motorid.drive import CoulombFriction, kernels, measure_speed, paper_rig
 from motorid.errors import FilterDivergenceError
 from motorid.estimators import FrictionEKF, FrictionUKF, available, create
-from motorid.plants import CoulombFriction, measure_speed, paper_rig, physics
-from motorid.plants.signals import two_sine_signal
+from motorid.signals import two_sine_signal
 from motorid.testing import check_estimator
 
 #: two-sided 95 % band of chi-square with one degree of freedom
@@ -126,7 +126,7 @@ def test_from_rig_takes_the_known_constants_and_the_sensor_variance():
     squared = (measure_speed(omega, rng.standard_normal(omega.size), rig.tacho, rig.adc) - omega) ** 2
     standard_error = squared.std() / math.sqrt(squared.size)
     assert abs(squared.mean() - ekf.R_speed) <= 5 * standard_error
-    assert ekf._c[physics.C_JL] == 1e-4
+    assert ekf._c[kernels.C_JL] == 1e-4
     assert not ekf.has_current_state  # dt = 20 ms >> L_a/R_a = 0.5 ms
     assert FrictionEKF.from_rig(paper_rig(dt=0.002)).has_current_state
     with pytest.raises(ValueError, match="rig"):
@@ -231,7 +231,7 @@ def test_continuous_model_and_jacobian_against_numpy_reference(variant, s):
     n = ekf.dim_x
     f = np.zeros(n)
     A = np.zeros((n, n))
-    physics.filter_drift(x, v, ekf._c, s, False, f, A)
+    kernels.filter_drift(x, v, ekf._c, s, False, f, A)
     # The compiled f and this restatement add the same terms in other orders: they
     # agree to a few roundings of the largest term, K_m i_a / J_m = 3.2e3 rad/s^2 here
     # (30 rad/s, 5 V), whose unit in the last place is 4.5e-13; atol 1e-9 is 2000 of them.
@@ -242,7 +242,7 @@ def test_continuous_model_and_jacobian_against_numpy_reference(variant, s):
 
 def rigid_drive(shape: str = "exponential"):
     """A rigid drive with every effect the filters model: J 1e-4 kg m², g 0.02 N m/V."""
-    from motorid.plants import RigidDrive
+    from motorid.drive import RigidDrive
 
     params = {
         "inertia": 1e-4, "input_gain": 0.02, "coulomb": 5e-3, "coulomb_asymmetry": 1e-3,
@@ -275,7 +275,7 @@ def test_rigid_drive_model_and_jacobian_against_numpy_reference(shape, s):
 
     f = np.zeros(5)
     A = np.zeros((5, 5))
-    physics.filter_drift(x, v, ekf._c, s, False, f, A)
+    kernels.filter_drift(x, v, ekf._c, s, False, f, A)
     # the same terms summed in other orders: a few roundings of the largest, g v / J = 800 rad/s²
     np.testing.assert_allclose(f, reference(x), rtol=1e-12, atol=1e-10)
     # at the prior (the drive's own friction) the filter's torque is the drive's (offset included)
@@ -305,7 +305,7 @@ def test_rigid_drive_filter_free_run_follows_the_drive(shape):
 
 
 def test_rigid_drive_filter_refuses_what_it_cannot_model():
-    from motorid.plants import RigidDrive
+    from motorid.drive import RigidDrive
 
     drive = rigid_drive()
     with pytest.raises(ValueError, match=r"^R: "):
@@ -419,7 +419,7 @@ def test_rigid_drive_filter_online_equals_batch_and_reloads_its_input_memory(cls
 
 def test_two_mass_friction_the_filter_cannot_hold_is_refused():
     """The filters hold one Stribeck term: two of different rates are refused by name."""
-    from motorid.plants import StribeckFriction
+    from motorid.drive import StribeckFriction
 
     rig = paper_rig(friction=(
         StribeckFriction(alpha0=1e-3, alpha1=2e-3, alpha2=0.1, side="motor"),
@@ -444,12 +444,12 @@ def test_sample_jacobian_against_finite_differences_away_from_zero(variant, s):
     v = 6.0 * s
     n = ekf.dim_x
     F = np.empty((n, n))
-    x_next = physics.filter_propagate(x, v, ekf._c, F, True)
+    x_next = kernels.filter_propagate(x, v, ekf._c, F, True)
     assert np.sign(x_next[0]) == s and np.sign(x_next[1]) == s  # no reversal in the sample
     dummy = np.empty((0, 0))
     floors = [1e-2 if k < 3 else 1e-5 for k in range(n)]
     F_fd = central_differences(
-        lambda state: physics.filter_propagate(state, v, ekf._c, dummy, False), x, floors
+        lambda state: kernels.filter_propagate(state, v, ekf._c, dummy, False), x, floors
     )
     scale = np.abs(F).max(axis=1, keepdims=True)
     np.testing.assert_allclose(F, F_fd, rtol=1e-5, atol=1e-7 * scale.max())
@@ -458,7 +458,7 @@ def test_sample_jacobian_against_finite_differences_away_from_zero(variant, s):
     ekf.predict(v + (0.6 * s))  # amplifier dead zone 0.6 V, gain 1
     assert ekf.v == pytest.approx(v, rel=4 * EPS)  # 6.6 - 0.6, rounded
     F_applied = np.empty((n, n))
-    physics.filter_propagate(x, ekf.v, ekf._c, F_applied, True)
+    kernels.filter_propagate(x, ekf.v, ekf._c, F_applied, True)
     np.testing.assert_array_equal(ekf.F, F_applied)
 
 
@@ -472,17 +472,17 @@ def test_zero_speed_sticks_exactly_and_teaches_nothing_about_friction():
     F = np.empty((n, n))
     x = ekf.x.copy()  # at rest
     # 0.1 V past the 0.6 V dead zone: K_m * 0.1 / R_a = 2.1 mN m < 6 mN m
-    x_next = physics.filter_propagate(x, 0.1, ekf._c, F, True)
+    x_next = kernels.filter_propagate(x, 0.1, ekf._c, F, True)
     assert x_next[0] == 0.0 and x_next[1] == 0.0
     assert np.all(F[0] == 0.0)
     assert F[1, ekf.state_names.index("coulomb")] == 0.0
     # 1 V: 21 mN m > 6 mN m breaks it away, forwards
-    assert physics.filter_propagate(x, 1.0, ekf._c, F, False)[0] > 0.0
+    assert kernels.filter_propagate(x, 1.0, ekf._c, F, False)[0] > 0.0
     # coasting from 2 rad/s with no voltage: stops at exactly zero and stays
     x[:2] = 2.0
-    x1 = physics.filter_propagate(x, 0.0, ekf._c, F, True)
+    x1 = kernels.filter_propagate(x, 0.0, ekf._c, F, True)
     assert x1[0] == 0.0 and np.all(F[0] == 0.0)
-    x2 = physics.filter_propagate(x1, 0.0, ekf._c, F, False)
+    x2 = kernels.filter_propagate(x1, 0.0, ekf._c, F, False)
     assert x2[0] == 0.0
 
 
@@ -582,7 +582,7 @@ def test_ekf_equals_filterpy_extended_kalman_filter(paper_record):
 
     def predict_x(u=0):
         F = np.empty((n, n))
-        peer.x = physics.filter_propagate(peer.x.ravel(), state["v"], ours._c, F, True).reshape(n, 1)
+        peer.x = kernels.filter_propagate(peer.x.ravel(), state["v"], ours._c, F, True).reshape(n, 1)
         peer.F = F
 
     peer.predict_x = predict_x

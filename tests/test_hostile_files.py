@@ -23,12 +23,12 @@ from hypothesis import HealthCheck, given
 from hypothesis import strategies as st
 
 from motorid.cli import main
+from motorid.drive import RigidDrive, TwoMassRig, paper_rig
 from motorid.errors import DataError
 from motorid.estimators import Estimator, FrictionEKF, FrictionUKF, create
 from motorid.models import load_model, model_to_dict
-from motorid.plants import RigidDrive, TwoMassRig, paper_rig
-from motorid.plants.signals import two_sine_signal
 from motorid.records import ATTRS_MARKER, read_record, write_record
+from motorid.signals import two_sine_signal
 
 #: A JSON token put in place of a value: (raw JSON text, what it is).
 _RAW = "@@hostile@@"
@@ -223,8 +223,8 @@ def test_a_covariance_is_accepted_within_the_stated_tolerance_and_symmetrised():
 
 
 def test_each_parameter_is_refused_outside_its_physical_range():
-    from motorid.plants import Amplifier, CoulombFriction, Encoder, Tachogenerator
-    from motorid.plants.ranges import LARGEST, SMALLEST, check_parameter
+    from motorid.drive import Amplifier, CoulombFriction, Encoder, Tachogenerator
+    from motorid.drive.ranges import LARGEST, SMALLEST, check_parameter
 
     assert check_parameter("J", LARGEST, "kg m²", sign="> 0") == LARGEST
     assert check_parameter("J", SMALLEST, "kg m²", sign="> 0") == SMALLEST

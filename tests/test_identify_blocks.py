@@ -29,11 +29,11 @@ from motorid.cli import build_parser
 from motorid.cli.identification import identify_options_from_args
 from motorid.cli.options import iter_record_from_args, read_record_from_args
 from motorid.cli.report import jsonable
+from motorid.drive import paper_rig
 from motorid.errors import DataError
 from motorid.estimators.rls import FreeRun
-from motorid.plants import paper_rig
-from motorid.plants.signals import two_sine_signal
 from motorid.records import read_record, write_record
+from motorid.signals import two_sine_signal
 from motorid.validation import (
     ResidualWindow,
     RunningScore,

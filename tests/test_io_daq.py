@@ -14,7 +14,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from io_fixtures import FirstOrderPlant
 
-from motorid import plants
+from motorid import drive
 from motorid.errors import DAQError
 from motorid.io import Register, RegisterMap, SimulatedDAQ, rig_map_toml, run_online
 
@@ -363,8 +363,8 @@ def test_run_online_rejects_bad_arguments():
 
 def test_online_record_matches_the_rigs_offline_simulation():
     u = np.repeat(np.linspace(-8.0, 8.0, 12), 10)
-    offline = plants.paper_rig().simulate(u, seed=21)
-    online = run_online(SimulatedDAQ(plants.paper_rig(), seed=21), None, u, None, progress=False)
+    offline = drive.paper_rig().simulate(u, seed=21)
+    online = run_online(SimulatedDAQ(drive.paper_rig(), seed=21), None, u, None, progress=False)
     np.testing.assert_allclose(online["t"], offline["t"], atol=1e-12)
     np.testing.assert_array_equal(online["u"], offline["u"])
     np.testing.assert_allclose(online["y"], offline["y"], rtol=1e-12, atol=1e-12)
@@ -372,7 +372,7 @@ def test_online_record_matches_the_rigs_offline_simulation():
 
 def test_a_drive_model_runs_in_a_simulation_of_each_daq():
     """A model is a description: each DAQ steps a simulation of its own, and the model stays as it was."""
-    rig = plants.paper_rig()
+    rig = drive.paper_rig()
     u = np.repeat([4.0, -4.0], 15)
     first = run_online(SimulatedDAQ(rig, seed=3), None, u, None, progress=False)
     second_daq = SimulatedDAQ(rig, seed=3)
@@ -380,4 +380,4 @@ def test_a_drive_model_runs_in_a_simulation_of_each_daq():
     second = run_online(second_daq, None, u, None, progress=False)
     np.testing.assert_array_equal(first["y"], second["y"])
     np.testing.assert_array_equal(first["y"], rig.simulate(u, seed=3)["y"])
-    assert rig == plants.paper_rig()
+    assert rig == drive.paper_rig()

@@ -30,7 +30,7 @@ PACKAGE = Path(motorid.__file__).parent
 
 #: The layers today, bottom first: each module (or package, with everything in it) and the
 #: layer it is in; the longest matching prefix decides. The design's layers are drive <-
-#: estimators, io <- diagnose, validation <- app <- cli, fleet; ``plants`` is today's drive.
+#: estimators, io <- diagnose, validation <- app <- cli, fleet.
 LAYERS: dict[str, int] = {
     # 0: imports nothing of motorid
     "motorid.errors": 0,
@@ -40,8 +40,9 @@ LAYERS: dict[str, int] = {
     "motorid.outputs": 1,
     "motorid.progress": 1,
     "motorid.figures": 1,
-    # 2: the physics (the design's drive)
-    "motorid.plants": 2,
+    # 2: the physics, and the excitation signals
+    "motorid.drive": 2,
+    "motorid.signals": 2,
     # 3: what measures and estimates a drive, and the records it writes
     "motorid.estimators": 3,
     "motorid.io": 3,
@@ -71,11 +72,7 @@ LAYERS: dict[str, int] = {
 }
 
 #: Imports that go up a layer today: (importer, imported) and why it is still there.
-UPWARD: dict[tuple[str, str], str] = {
-    ("motorid.plants.fleet", "motorid.records"): (
-        "the synthetic fleet writes records; it leaves the drive's package when drive/ is built"
-    ),
-}
+UPWARD: dict[tuple[str, str], str] = {}
 
 #: Pairs of modules that import each other today, and why.
 MUTUAL: dict[frozenset[str], str] = {}
@@ -160,7 +157,9 @@ GRAPH = motorid_imports()
 def test_every_module_has_a_layer_and_the_walk_sees_the_imports():
     """The walk finds the package's imports (a check that it reads anything at all)."""
     assert set(GRAPH) == set(module_names()) | {"motorid.cli.__main__"}
-    assert "motorid.plants.rig" in GRAPH["motorid.models"]  # from motorid.plants.rig import TwoMassRig
+    assert (
+        "motorid.drive.two_mass" in GRAPH["motorid.models"]
+    )  # from motorid.drive.two_mass import TwoMassRig
     assert "motorid.io.base" in GRAPH["motorid.io.modbus"]  # from .base import DAQ, Sample
     assert "motorid.models" in GRAPH["motorid"]  # a function-level import
     assert "motorid.diagnose.workflow" not in GRAPH["motorid.diagnose.figures"]  # only for annotations

@@ -17,10 +17,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 import motorid
-from motorid.errors import DataError
-from motorid.estimators import FrictionEKF, FrictionUKF, HammersteinRLS, create
-from motorid.models import load_model, model_to_dict, save_model
-from motorid.plants import (
+from motorid.drive import (
     ADConverter,
     Amplifier,
     AsymmetricFriction,
@@ -34,8 +31,11 @@ from motorid.plants import (
     ViscousFriction,
     paper_rig,
 )
-from motorid.plants.files import FORMAT, VERSION
-from motorid.plants.signals import two_sine_signal
+from motorid.drive.files import FORMAT, VERSION
+from motorid.errors import DataError
+from motorid.estimators import FrictionEKF, FrictionUKF, HammersteinRLS, create
+from motorid.models import load_model, model_to_dict, save_model
+from motorid.signals import two_sine_signal
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -479,7 +479,7 @@ def test_rig_from_dict_is_the_same_strict_reader_as_the_model_files():
 def test_friction_laws_are_named_with_the_effect_vocabulary():
     """A law's kind in a model file is the effect name the doctor reports (one vocabulary)."""
     from motorid.diagnose import EFFECTS
-    from motorid.plants.friction import FRICTION_KINDS
+    from motorid.drive.friction import FRICTION_KINDS
 
     assert set(FRICTION_KINDS) - {"lugre_friction"} <= set(EFFECTS)
     assert all(name.endswith("_friction") for name in FRICTION_KINDS)

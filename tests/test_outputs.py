@@ -209,9 +209,9 @@ class StallingARX:
 def test_run_stopped_by_the_watchdog_tells_what_to_type(tmp_path, capsys):
     from cli_fixtures import run
 
+    from motorid.drive import paper_rig
     from motorid.estimators import register, unregister
     from motorid.io import RigServer
-    from motorid.plants import paper_rig
 
     register("stalling-arx", StallingARX)
     out = tmp_path / "run.csv"

@@ -15,9 +15,9 @@ import numpy as np
 import pytest
 
 from motorid.cli import main
-from motorid.plants import paper_rig
-from motorid.plants.signals import two_sine_signal
+from motorid.drive import paper_rig
 from motorid.records import read_record, trim_record
+from motorid.signals import two_sine_signal
 
 START, STOP = 4.0, 12.0
 

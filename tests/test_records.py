@@ -9,10 +9,10 @@ from conftest import examples
 from hypothesis import given
 from hypothesis import strategies as st
 
+from motorid.drive import TwoMassRig, paper_rig
 from motorid.errors import DataError
-from motorid.plants import TwoMassRig, paper_rig
-from motorid.plants.signals import two_sine_signal
 from motorid.records import ATTRS_MARKER, count_data_lines, read_record, write_record
+from motorid.signals import two_sine_signal
 
 
 @pytest.fixture(scope="module")

@@ -276,8 +276,8 @@ def test_bad_attribute_json_is_named(tmp_path):
 
 # --------------------------------------------------------------------------- every command
 def test_identify_reads_a_parquet_record_as_its_csv(tmp_path, capsys):
-    from motorid.plants import paper_rig
-    from motorid.plants.signals import two_sine_signal
+    from motorid.drive import paper_rig
+    from motorid.signals import two_sine_signal
 
     _, u = two_sine_signal(duration=20.0, seed=4)
     record = paper_rig().simulate(u, seed=4)[["t", "u", "y"]]

@@ -7,7 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from motorid.plants.signals import chirp, multisine, prbs, steps, two_sine_signal
+from motorid.signals import chirp, multisine, prbs, steps, two_sine_signal
 
 GENERATORS = [two_sine_signal, prbs, multisine, chirp, steps]
 

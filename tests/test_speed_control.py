@@ -10,10 +10,10 @@ import pandas as pd
 import pytest
 
 from motorid.compensation import FrictionCompensation
+from motorid.drive import RigidDrive, paper_rig
+from motorid.drive.rigid import input_path
 from motorid.errors import DAQError
 from motorid.io import SimulatedDAQ
-from motorid.plants import RigidDrive, paper_rig
-from motorid.plants.rigid import input_path
 from motorid.speed_control import (
     SpeedController,
     SpeedPI,

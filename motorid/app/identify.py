@@ -32,7 +32,7 @@ logger = logging.getLogger(__name__)
 #: The paper's model order (Table 1's best): the default of ``na`` and ``nb`` where an estimator needs them.
 PAPER_ORDER = 4
 
-#: The key of a record's attrs that holds the simulated rig (:meth:`motorid.plants.TwoMassRig.simulate`
+#: The key of a record's attrs that holds the simulated rig (:meth:`motorid.drive.TwoMassRig.simulate`
 #: writes it): a record that has it is motorid's own simulation.
 SIMULATED_RIG_ATTR = "rig"
 
@@ -315,8 +315,8 @@ def create_estimator(name: str, options: Any, rig: Any = None) -> Any:
 
 def drive_model_from_file(path: Path, option: str = "--model") -> Any:
     """The drive model in the model file ``path``: a two-mass rig or a rigid drive; DataError otherwise."""
+    from motorid.drive import RigidDrive, TwoMassRig
     from motorid.models import load_model
-    from motorid.plants import RigidDrive, TwoMassRig
 
     model = load_model(path)
     if not isinstance(model, TwoMassRig | RigidDrive):
@@ -328,8 +328,8 @@ def start_model(options: IdentifyOptions) -> Any:
     """The drive model of ``options.model`` a friction filter starts from (None without one),
     checked before any record is read: the estimator must start from a model (have
     ``from_rig``), the file must hold a drive model, and a rigid drive needs ``--param R=``."""
+    from motorid.drive import RigidDrive
     from motorid.estimators import available, factory
-    from motorid.plants import RigidDrive
 
     model_file = options.model
     if model_file is None:
@@ -364,8 +364,8 @@ def estimator_for_record(
     (:func:`motorid.comparison.check_output_unit`).
     """
     from motorid.comparison import check_output_unit, input_unit_note
+    from motorid.drive import paper_rig
     from motorid.estimators import available, factory
-    from motorid.plants import paper_rig
 
     model = start_model(options)
     units = record.attrs.get("units")

@@ -66,9 +66,9 @@ def cmd_control(args: argparse.Namespace) -> int:
     """Close the speed loop: PI designed on the model, friction compensation from it (or not)."""
     from motorid.app.identify import drive_model_from_file
     from motorid.compensation import FrictionCompensation
+    from motorid.drive import RigidDrive
     from motorid.errors import DAQError
     from motorid.io import daq_from_url
-    from motorid.plants import RigidDrive
     from motorid.speed_control import (
         SpeedController,
         TrackingMetrics,

@@ -29,8 +29,8 @@ from .report import emit_json, say, show_progress
 
 if TYPE_CHECKING:
     from motorid.diagnose.workflow import Diagnosis
+    from motorid.drive import RigidDrive
     from motorid.fleet import DoctorJob
-    from motorid.plants import RigidDrive
 
 
 def effect_list(text: str | None, option: str) -> list[str]:

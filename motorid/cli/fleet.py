@@ -135,8 +135,8 @@ def cmd_fleet_trend(args: argparse.Namespace) -> int:
 
 
 def cmd_fleet_generate(args: argparse.Namespace) -> int:
-    """Write a synthetic fleet's records (``motorid.plants.fleet``)."""
-    from motorid.plants.fleet import make_fleet, write_fleet
+    """Write a synthetic fleet's records (``motorid.fleet.synthetic``)."""
+    from motorid.fleet.synthetic import make_fleet, write_fleet
 
     check_out_folder(args.out)
     hold_out_folder(args, args.out)

@@ -22,7 +22,7 @@ from motorid.units import INPUT_UNITS, OUTPUT_UNITS
 
 #: The paper's low-speed band, |y| < 150 rpm (its Figs. 9-11).
 LOW_SPEED_RPM = 150.0
-#: Excitation signals by name (functions of motorid.plants.signals).
+#: Excitation signals by name (functions of motorid.signals).
 SIGNALS = ("paper", "prbs", "multisine", "chirp", "steps")
 
 
@@ -264,7 +264,7 @@ def add_signal_options(parser: argparse.ArgumentParser, duration: float | None) 
 
 def excitation_from_args(args: argparse.Namespace, dt: float) -> np.ndarray:
     """The excitation [V] per sample of :func:`add_signal_options`'s options at sample time ``dt``."""
-    from motorid.plants import signals
+    from motorid import signals
 
     kwargs: dict[str, Any] = {"duration": args.duration, "dt": dt, "seed": args.seed}
     if args.signal == "paper":

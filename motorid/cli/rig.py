@@ -29,8 +29,8 @@ def cmd_rig_serve(args: argparse.Namespace) -> int:
     """Serve the simulated rig (the default one or a model file's: a two-mass rig or a rigid
     drive) over Modbus until Ctrl-C."""
     from motorid.app.identify import drive_model_from_file
+    from motorid.drive import RigidDrive, paper_rig
     from motorid.io import RigServer
-    from motorid.plants import RigidDrive, paper_rig
 
     rig = paper_rig() if args.model is None else drive_model_from_file(args.model)
     if isinstance(rig, RigidDrive):

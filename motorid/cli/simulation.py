@@ -73,12 +73,12 @@ RIG_OPTIONS = (
 
 
 def rig_from_args(args: argparse.Namespace):
-    """The default rig (:func:`~motorid.plants.paper_rig`) with what the rig options change.
+    """The default rig (:func:`~motorid.drive.paper_rig`) with what the rig options change.
 
     An option not given keeps the default rig's value, so every default is the
-    rig's own and written once, in :mod:`motorid.plants.rig`.
+    rig's own and written once, in :mod:`motorid.drive.two_mass`.
     """
-    from motorid.plants import CoulombFriction, StribeckFriction, ViscousFriction, paper_rig
+    from motorid.drive import CoulombFriction, StribeckFriction, ViscousFriction, paper_rig
 
     rig = paper_rig()
     coulomb = {f.side: f.alpha for f in rig.friction if isinstance(f, CoulombFriction)}
@@ -110,7 +110,7 @@ def rig_from_args(args: argparse.Namespace):
 def cmd_simulate(args: argparse.Namespace) -> int:
     """Simulate the rig on an excitation signal and write the record and/or the rig's model file."""
     from motorid.app.identify import drive_model_from_file
-    from motorid.plants import RigidDrive
+    from motorid.drive import RigidDrive
     from motorid.records import write_record
 
     if args.out is None and args.save_model is None:

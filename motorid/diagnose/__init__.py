@@ -7,7 +7,7 @@ missing physical effect, add it and show the gap shrink.
 (['coulomb_friction'], 'no candidate passes the evidence threshold: ...')
 
 Modules: :mod:`.effects` (the effect library), :mod:`.model` (the fit of
-the rigid drive, :class:`motorid.plants.RigidDrive`, whose free run the plants compile), :mod:`.kinematics`
+the rigid drive, :class:`motorid.drive.RigidDrive`, whose free run the drive compiles), :mod:`.kinematics`
 (zero-phase differentiation and decimation, noise floors), :mod:`.artefacts` (a held start
 and drop-out spikes, left out), :mod:`.locate`, :mod:`.workflow` (:func:`diagnose` of one
 record or of several records of one drive, :class:`Diagnosis`), :mod:`.figures`, :mod:`.synthetic`

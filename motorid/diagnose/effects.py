@@ -1,7 +1,7 @@
 """The effect library: the physical effects the workflow can name and add to a model.
 
-The model is the rigid drive of :mod:`motorid.plants.rigid`
-(:class:`~motorid.plants.rigid.RigidDrive`: inertia J, input gain g and the effects'
+The model is the rigid drive of :mod:`motorid.drive.rigid`
+(:class:`~motorid.drive.rigid.RigidDrive`: inertia J, input gain g and the effects'
 parameters; its module holds the table of terms and units)::
 
     J dw/dt = F_in(u) - Σ_e T_e(w),    F_in(u) = B(g · L(Δ(D(S(u)))))        [F]
@@ -17,8 +17,8 @@ few shape parameters fitted by a bounded search), its signature (where it shows 
 the residual), the search interval of its shape parameters, and how it adds itself
 to the model: friction-type effects give regressor columns ``T_e(w) = Σ θ_i c_i(w)``,
 input-path effects transform the input. Both are evaluated by the drive's compiled
-functions in :mod:`motorid.plants` (:func:`~motorid.plants.rigid.term_columns`,
-:func:`~motorid.plants.rigid.input_path`, :func:`~motorid.plants.rigid.backlash_dwell`),
+functions in :mod:`motorid.drive` (:func:`~motorid.drive.rigid.term_columns`,
+:func:`~motorid.drive.rigid.input_path`, :func:`~motorid.drive.rigid.backlash_dwell`),
 the ones its free run uses, so no term is written twice.
 
 What ``backlash`` models: lost motion in a rigid drive seen from the measured
@@ -36,7 +36,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from motorid.plants.rigid import (
+from motorid.drive.rigid import (
     RIGID_EFFECTS,
     backlash_dwell,
     input_dynamics,
@@ -122,7 +122,7 @@ class Effect:
         self, w: np.ndarray, shape: dict[str, float], stribeck_shape: str = "exponential"
     ) -> np.ndarray:
         """Regressor columns ``c_i(w)``, shape (N, len(linear)): the torque per unit parameter
-        (the rigid drive's compiled terms, :func:`motorid.plants.rigid.term_columns`)."""
+        (the rigid drive's compiled terms, :func:`motorid.drive.rigid.term_columns`)."""
         if not self.linear:
             return np.zeros((w.size, 0))
         return term_columns(self.linear, w, shape.get("stribeck_velocity", 1.0), stribeck_shape)
@@ -382,7 +382,7 @@ _CLASSES: tuple[type[Effect], ...] = (
 )
 
 #: The library: effect name -> effect class, in the order of the drive's effects
-#: (:data:`motorid.plants.rigid.RIGID_EFFECTS`).
+#: (:data:`motorid.drive.rigid.RIGID_EFFECTS`).
 EFFECTS: dict[str, type[Effect]] = {
     name: cls for name in RIGID_EFFECTS for cls in _CLASSES if cls.name == name
 }

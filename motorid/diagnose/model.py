@@ -1,6 +1,6 @@
 """The doctor's fit of a rigid drive to the torque balance of a record.
 
-The model is :class:`motorid.plants.rigid.RigidDrive` (see :mod:`motorid.diagnose.effects`
+The model is :class:`motorid.drive.rigid.RigidDrive` (see :mod:`motorid.diagnose.effects`
 for the terms)::
 
     J dw/dt = F_in(u) - Σ_e T_e(w)                                        [F]
@@ -25,8 +25,8 @@ record's force and columns are built and decimated on its own (its own filters, 
 and moving samples), and their rows stacked into one least-squares problem, so the
 parameters are shared and the residual sum of squares is the pooled one.
 
-Free run: :meth:`RigidDrive.free_run <motorid.plants.rigid.RigidDrive.free_run>`
-(semi-implicit Euler with Karnopp's stick/slip rule, compiled in the plants), on the
+Free run: :meth:`RigidDrive.free_run <motorid.drive.rigid.RigidDrive.free_run>`
+(semi-implicit Euler with Karnopp's stick/slip rule, compiled in the drive), on the
 same compiled terms as the regressor columns here.
 """
 
@@ -40,7 +40,7 @@ import numpy as np
 
 from motorid.diagnose.effects import EFFECTS, Effect, get_effect
 from motorid.diagnose.kinematics import Kinematics
-from motorid.plants.rigid import RigidDrive, effect_order
+from motorid.drive.rigid import RigidDrive, effect_order
 
 # --------------------------------------------------------------------------- data
 #: Memory [bytes] :meth:`BalanceData.decimated` may keep cached columns in (between 16 and
@@ -569,7 +569,7 @@ def fit_model(
     Returns
     -------
     FitResult
-        The model (a :class:`~motorid.plants.rigid.RigidDrive` at the record's sample time,
+        The model (a :class:`~motorid.drive.rigid.RigidDrive` at the record's sample time,
         all parameters in SI units), the residual sum of squares
         [F²] on ``rows``, their number and the number of free parameters.
     """

@@ -29,7 +29,7 @@ import pandas as pd
 
 from motorid.datasets import EMPS_INIT_SAMPLES, simulate_position
 from motorid.diagnose.effects import get_effect
-from motorid.plants.rigid import RIGID_EFFECTS, RigidDrive
+from motorid.drive.rigid import RIGID_EFFECTS, RigidDrive
 
 logger = logging.getLogger(__name__)
 

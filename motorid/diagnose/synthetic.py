@@ -1,6 +1,6 @@
 """Records with hidden effects, for testing the workflow and calibrating its threshold.
 
-Most effects are planted in the two-mass rig (:mod:`motorid.plants`) with what
+Most effects are planted in the two-mass rig (:mod:`motorid.drive`) with what
 it already has: Coulomb and Stribeck friction laws, the amplifier's dead zone
 and saturation, a constant load torque for an offset, and the back-EMF and
 bearing losses as viscous friction. The rig is drawn at random around the
@@ -9,7 +9,7 @@ with a stiff shaft, since the grey-box model is rigid.
 
 The effects the rig has no law for in the rigid sense of the library are
 planted with the rigid drive's simulator at a finer step
-(:meth:`RigidDrive.free_run <motorid.plants.rigid.RigidDrive.free_run>` with 20 sub-steps) plus white measurement
+(:meth:`RigidDrive.free_run <motorid.drive.rigid.RigidDrive.free_run>` with 20 sub-steps) plus white measurement
 noise: ``quadratic_drag``, ``asymmetric_friction`` (the viscous asymmetry,
 which is what tells it from an offset) and ``backlash`` (the rig's backlash is
 a gap in a two-mass shaft whose signature in the load speed is an impact, not
@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from motorid.plants.rigid import RigidDrive
+from motorid.drive.rigid import RigidDrive
 
 #: Effects planted in the rig.
 RIG_EFFECTS = (
@@ -184,7 +184,7 @@ def encoder_speed(w: np.ndarray, rng: np.random.Generator) -> np.ndarray:
 def _excitation(
     rng: np.random.Generator, duration: float, dt: float, excitation_seed: int | None
 ) -> np.ndarray:
-    from motorid.plants.signals import two_sine_signal
+    from motorid.signals import two_sine_signal
 
     amp = float(rng.uniform(3.0, 6.0))
     if excitation_seed is not None:  # the draws above are made anyway, so the drive stays the same
@@ -205,7 +205,7 @@ def _rig_record(
     sizes: dict[str, float],
     excitation_seed: int | None,
 ) -> Planted:
-    from motorid.plants import Amplifier, CoulombFriction, StribeckFriction, paper_rig
+    from motorid.drive import Amplifier, CoulombFriction, StribeckFriction, paper_rig
 
     J_m = float(rng.uniform(1.5e-5, 4e-5))
     J_l = float(rng.uniform(4e-5, 1.2e-4))

@@ -122,8 +122,8 @@ from motorid.diagnose.model import (
     stacked,
 )
 from motorid.diagnose.rests import Rests, rests
+from motorid.drive.rigid import RigidDrive, check_sample_time, effect_order
 from motorid.errors import DataError
-from motorid.plants.rigid import RigidDrive, check_sample_time, effect_order
 from motorid.records import record_timing
 from motorid.units import UNNAMED_OUTPUT, input_unit_name, rate
 from motorid.validation import check_signals
@@ -532,7 +532,7 @@ class Pool:
         record (:attr:`Prepared.rests`; those that break away in the full-rate ``samples``):
         ``F_b - T(0+)`` breaking away forwards, ``T(0-) - F_b`` backwards, with ``F_b`` the force
         of the input at breakaway (:meth:`RigidDrive.input_force
-        <motorid.plants.rigid.RigidDrive.input_force>`: through the model's dead zone, delay and
+        <motorid.drive.rigid.RigidDrive.input_force>`: through the model's dead zone, delay and
         lag) and ``T(0±)`` the model's friction (and offset) at ±0; and the force's rate there
         [F/s], in the direction of the motion (central differences)."""
         eps = max(1e-9, 1e-6 * self.data.scale["w_max"])
@@ -1495,7 +1495,7 @@ def diagnose(
         effect can mislead it). By default the record's ``attrs["timing"]``
         (:func:`motorid.datasets.load_emps` sets ``"sampled"``: the controller
         reads the position, then holds its output), else ``"hold"``, the
-        motorid convention of :mod:`motorid.plants`.
+        motorid convention of :mod:`motorid.drive`.
     band : float, optional
         Useful band [Hz] (:mod:`.kinematics`).
     model : RigidDrive, optional

@@ -27,7 +27,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
 
-from motorid.plants.files import KIND_ESTIMATOR, model_file, write_model_file
+from motorid.drive.files import KIND_ESTIMATOR, model_file, write_model_file
 
 logger = logging.getLogger(__name__)
 
@@ -387,7 +387,7 @@ class Estimator(ABC):
         (the format and what is saved: :mod:`motorid.models`).
 
         Written whole; ``overwrite=False`` refuses an existing file
-        (:func:`motorid.plants.files.write_model_file`).
+        (:func:`motorid.drive.files.write_model_file`).
 
         Parameters
         ----------

@@ -50,16 +50,16 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
+from motorid.drive import kernels
+from motorid.drive.friction import LuGreFriction, StaticFriction
+from motorid.drive.kernels import armature_voltage, armature_voltages
+from motorid.drive.ranges import LARGEST, MOST_SUBSTEPS, check_count, check_parameter
+from motorid.drive.rigid import InputPathState, RigidDrive
+from motorid.drive.two_mass import TwoMassRig, paper_rig
 from motorid.errors import FilterDivergenceError
 from motorid.estimators import friction_model as fm
 from motorid.estimators.base import BatchResult, Estimator, as_float_vector, check_covariance, first_bad_index
 from motorid.estimators.rls import check_positive
-from motorid.plants import physics
-from motorid.plants.friction import LuGreFriction, StaticFriction
-from motorid.plants.physics import armature_voltage, armature_voltages
-from motorid.plants.ranges import LARGEST, MOST_SUBSTEPS, check_count, check_parameter
-from motorid.plants.rig import TwoMassRig, paper_rig
-from motorid.plants.rigid import InputPathState, RigidDrive
 
 OnDivergence = Literal["raise", "warn", "ignore"]
 
@@ -177,7 +177,7 @@ def friction_prior(model: TwoMassRig | RigidDrive, stribeck: bool = True) -> dic
                         n * a[1],
                         n * a[4],
                         a[2] if a[1] > 0.0 else a[5],
-                        physics.STRIBECK_SHAPES[law.shape_code()],
+                        kernels.STRIBECK_SHAPES[law.shape_code()],
                     )
                 )
             elif isinstance(law, LuGreFriction):
@@ -311,9 +311,9 @@ class _FrictionFilter(Estimator):
         rigid = isinstance(rig, RigidDrive)
         if self.friction_side not in ("motor", "load"):
             raise ValueError(f"friction_side must be 'motor' or 'load', got {self.friction_side!r}")
-        if self.stribeck_shape not in physics.STRIBECK_SHAPES:
+        if self.stribeck_shape not in kernels.STRIBECK_SHAPES:
             raise ValueError(
-                f"stribeck_shape must be one of {', '.join(physics.STRIBECK_SHAPES)}, got {self.stribeck_shape!r}"
+                f"stribeck_shape must be one of {', '.join(kernels.STRIBECK_SHAPES)}, got {self.stribeck_shape!r}"
             )
         if rigid:
             check_rigid_drive(rig)
@@ -516,7 +516,7 @@ class _FrictionFilter(Estimator):
         """What :meth:`update` has learnt: ``x``, ``P``, ``sample_index``, the NIS window
         (``nis_ring``, ``nis_count``, ``nis_mean``) and ``diverged``, and on a rigid drive with
         an input delay or lag the memory of its input path (``input_ring``, ``input_lag``:
-        :class:`~motorid.plants.rigid.InputPathState`); :meth:`set_state` puts it back.
+        :class:`~motorid.drive.rigid.InputPathState`); :meth:`set_state` puts it back.
         Refused between a :meth:`predict` and its :meth:`update`."""
         if self._pending:
             raise ValueError("the filter is between predict() and update(): call update() first")
@@ -562,7 +562,7 @@ class _FrictionFilter(Estimator):
         P = check_covariance("P", P)
         if np.any(np.abs(x) > LARGEST):
             raise ValueError(f"x must be within ±{LARGEST:g} (the physical range of a drive's states)")
-        if not physics.is_healthy(x, P):
+        if not kernels.is_healthy(x, P):
             raise ValueError("P must be symmetric positive definite and x finite")
         for key in ("sample_index", "nis_count"):
             if isinstance(state[key], bool) or not isinstance(state[key], int | np.integer) or state[key] < 0:
@@ -625,7 +625,7 @@ class _FrictionFilter(Estimator):
         """The model's input per sample for the commands ``u`` [V] held over each: a two-mass
         rig's armature voltage [V] (its amplifier), a rigid drive's input after saturation,
         dead zone, delay and lag (:meth:`RigidDrive.input_signal
-        <motorid.plants.rigid.RigidDrive.input_signal>`) on the input path's memory ``state``,
+        <motorid.drive.rigid.RigidDrive.input_signal>`) on the input path's memory ``state``,
         updated in place (None: a record from rest). The one input map of :meth:`predict`,
         ``batch_filter`` and :meth:`simulate`."""
         u = np.ascontiguousarray(u, dtype=float)
@@ -646,7 +646,7 @@ class _FrictionFilter(Estimator):
             if i >= 0:
                 x0[i] = self.x[i]
         v = self.model_inputs(u_arr, None)
-        return physics.filter_free_run(v, x0, self._c)[:, self._speed].copy()
+        return kernels.filter_free_run(v, x0, self._c)[:, self._speed].copy()
 
     def _sample_input(self, u: float) -> float:
         """:meth:`model_inputs` of one command on the filter's running input memory (a two-mass
@@ -698,7 +698,7 @@ class _FrictionFilter(Estimator):
     # ------------------------------------------------------------------ consistency
     def _record_nis(self, e: float, s: float) -> None:
         self.nis = e * e / s
-        self._nis_count, self.nis_mean = physics.push_nis(self._nis_ring, self._nis_count, self.nis)
+        self._nis_count, self.nis_mean = kernels.push_nis(self._nis_ring, self._nis_count, self.nis)
 
     def _breakdown(self, sample: int) -> None:
         self.diverged = True
@@ -710,7 +710,7 @@ class _FrictionFilter(Estimator):
 
     def _check_health(self, sample: int) -> None:
         """Raise on a numerical breakdown; flag (and raise or warn) on a NIS excursion."""
-        if not physics.is_healthy(self.x, self.P):
+        if not kernels.is_healthy(self.x, self.P):
             self._breakdown(sample)
         if self.nis_mean > self.divergence_nis:
             self._flag_divergence(sample, self.nis_mean)
@@ -755,7 +755,7 @@ class FrictionEKF(_FrictionFilter):
     rig : TwoMassRig or RigidDrive, optional
         The known constants of the drive: R_a [Ω], L_a [H], K_m [N m/A], J_m, J_L
         [kg m²], k_s [N m/rad], B_s [N m s/rad], T_d [N m], dt [s], the amplifier
-        and the tacho + A/D chain (for R). Default :func:`~motorid.plants.paper_rig`.
+        and the tacho + A/D chain (for R). Default :func:`~motorid.drive.paper_rig`.
         Its friction laws and B_m, B_L are not used here: they are estimated
         (:meth:`from_rig` starts from them). A rigid drive (one mass, the doctor's
         model) gives its inertia, input gain, offset torque, dead zone, saturation
@@ -830,7 +830,7 @@ class FrictionEKF(_FrictionFilter):
 
     Examples
     --------
-    >>> from motorid.plants import paper_rig
+    >>> from motorid.drive import paper_rig
     >>> ekf = FrictionEKF.from_rig(paper_rig(), coulomb0=3e-3)
     >>> result = ekf.batch_filter(df["u"], df["y"])          # doctest: +SKIP
     >>> ekf.params["coulomb"], ekf.params["coulomb_std"]    # doctest: +SKIP
@@ -846,7 +846,7 @@ class FrictionEKF(_FrictionFilter):
         if self._pending:
             self.update(None)
         v = self._sample_input(u)
-        x_prior, P_prior, F = physics.ekf_predict(self.x, self.P, v, self._c, self.Q)
+        x_prior, P_prior, F = kernels.ekf_predict(self.x, self.P, v, self._c, self.Q)
         self.v = v
         self.F = F
         self.x = self.x_prior = x_prior
@@ -882,7 +882,7 @@ class FrictionEKF(_FrictionFilter):
             self.nis = math.nan
         else:
             self.z = value
-            x, P, K, e, s, count, nis_mean, healthy = physics.ekf_update_step(
+            x, P, K, e, s, count, nis_mean, healthy = kernels.ekf_update_step(
                 self.x, self.P, self._h_speed, value, self._r, self._lower, self._nis_ring, self._nis_count
             )
             self.x, self.P, self.K = x, P, K
@@ -890,7 +890,7 @@ class FrictionEKF(_FrictionFilter):
             self.nis = self.y * self.y / self.S
             self._nis_count, self.nis_mean = count, nis_mean
         if i_meas is not None:
-            self.x, self.P, _, e, s = physics.joseph_update(
+            self.x, self.P, _, e, s = kernels.joseph_update(
                 self.x,
                 self.P,
                 self._h_current,
@@ -900,9 +900,9 @@ class FrictionEKF(_FrictionFilter):
                 self._lower,
             )
             self.y_current, self.S_current = float(e), float(s)
-            healthy = physics.is_healthy(self.x, self.P)
+            healthy = kernels.is_healthy(self.x, self.P)
         elif value is None:
-            healthy = physics.is_healthy(self.x, self.P)
+            healthy = kernels.is_healthy(self.x, self.P)
         self.x_post, self.P_post = self.x, self.P
         if not healthy:
             self._breakdown(self.sample_index - 1)
@@ -945,7 +945,7 @@ class FrictionEKF(_FrictionFilter):
         (
             X, P_diag, y_hat, innovation, S, NIS, x, P, x_prior, P_prior, F, K, e, s,
             count, nis_mean, flag, flag_at, flag_mean, done,
-        ) = physics.ekf_batch(
+        ) = kernels.ekf_batch(
             v, np.where(present, z_arr, 0.0), present, cur, cur_present, self.x.copy(), self.P.copy(),
             self._c, self.Q, self._r, float(self.R_current), self._h_speed, self._h_current,
             self._current_gain, self._lower, ring, self._nis_count, float(self.divergence_nis),
@@ -969,9 +969,9 @@ class FrictionEKF(_FrictionFilter):
                     state = copy.deepcopy(self._input_state)
                     self.model_inputs(u_arr[:done], state)
                 self._input_state = state
-        if flag == physics.FLAG_BREAKDOWN:
+        if flag == kernels.FLAG_BREAKDOWN:
             self._check_health(self.sample_index - 1)
-        elif flag == physics.FLAG_NIS:
+        elif flag == kernels.FLAG_NIS:
             self.diverged = already
             self._flag_divergence(self.sample_index - (done - flag_at), float(flag_mean))
         return BatchResult(
@@ -1045,7 +1045,7 @@ class FrictionUKF(_FrictionFilter):
         i = self._speed
 
         def fx(x: np.ndarray, dt: float, v: float = 0.0) -> np.ndarray:
-            return physics.filter_propagate(x, v, c, empty, False)
+            return kernels.filter_propagate(x, v, c, empty, False)
 
         def hx(x: np.ndarray) -> np.ndarray:
             return x[i : i + 1]

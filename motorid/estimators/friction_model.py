@@ -2,7 +2,7 @@
 its analytic Jacobian and its sub-stepped discretisation.
 
 The model is the drive's physics, so it is compiled where the drive's physics is:
-:mod:`motorid.plants.physics` (``filter_drift``, ``filter_direction``,
+:mod:`motorid.drive.kernels` (``filter_drift``, ``filter_direction``,
 ``filter_propagate``, ``filter_free_run`` and the EKF's kernels ``ekf_predict``,
 ``joseph_update``, ``ekf_batch``). Its friction torque is eq. (11)'s ``friction_law``
 with the ``stribeck_decay`` (exponential or Gaussian) and its slope, and its stick/slip
@@ -27,7 +27,7 @@ T_c-      N m          backward Coulomb level (only with ``asymmetric``)
 T_s       N m          Stribeck excess α1 (only with ``stribeck``)
 ========= ============ =====================================================
 
-A rigid drive (:class:`~motorid.plants.rigid.RigidDrive`) has one mass: the state is
+A rigid drive (:class:`~motorid.drive.rigid.RigidDrive`) has one mass: the state is
 ``x = [ω, T_c, B, (T_c-), (T_s)]`` and ω is what is measured.
 
 The friction parameters are random walks (zero drift in f; their process noise
@@ -98,7 +98,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from motorid.plants import physics
+from motorid.drive import kernels
 
 #: indices of the mechanical states in x (two-mass drive; a rigid drive's ω is at 0)
 I_OMEGA_M = 0
@@ -168,7 +168,7 @@ def pack_constants(
     breakaway_excess: float = 0.0,
 ) -> np.ndarray:
     """The constant vector ``c`` the compiled model reads (SI units; indices ``C_*`` of
-    :mod:`motorid.plants.physics`). A layout with ``index["twist"] == -1`` is the
+    :mod:`motorid.drive.kernels`). A layout with ``index["twist"] == -1`` is the
     rigid drive: ``J_m`` its inertia, ``T_d`` its offset torque, ``input_gain`` its g,
     ``breakaway_excess`` its static friction's ΔF_s [N m] (the stick rule's levels at rest).
 
@@ -191,7 +191,7 @@ def pack_constants(
     stribeck_decay : float
         Stribeck rate 1/v_s [s/rad].
     stribeck_shape : str
-        A shape of :data:`motorid.plants.physics.STRIBECK_SHAPES`.
+        A shape of :data:`motorid.drive.kernels.STRIBECK_SHAPES`.
     dt : float
         Sample time [s].
     substeps : int
@@ -205,28 +205,28 @@ def pack_constants(
     breakaway_excess : float
         The rigid drive's static friction ΔF_s [N m].
     """
-    c = np.zeros(physics.N_FILTER_CONSTANTS)
-    c[physics.C_JM], c[physics.C_JL], c[physics.C_KM], c[physics.C_RA], c[physics.C_LA] = (
+    c = np.zeros(kernels.N_FILTER_CONSTANTS)
+    c[kernels.C_JM], c[kernels.C_JL], c[kernels.C_KM], c[kernels.C_RA], c[kernels.C_LA] = (
         J_m,
         J_l,
         K_m,
         R_a,
         L_a,
     )
-    c[physics.C_KS], c[physics.C_BS], c[physics.C_TD], c[physics.C_DECAY] = k_s, B_s, T_d, stribeck_decay
-    c[physics.C_SHAPE] = physics.STRIBECK_SHAPES.index(stribeck_shape)
-    c[physics.C_H] = dt / substeps
-    c[physics.C_NSUB] = substeps
-    c[physics.C_SIDE] = 0 if friction_side == "motor" else 1
-    c[physics.C_I_CURRENT] = index["i_a"]
-    c[physics.C_I_COULOMB] = index["coulomb"]
-    c[physics.C_I_VISCOUS] = index["viscous"]
-    c[physics.C_I_COULOMB_NEG] = index["coulomb_neg"]
-    c[physics.C_I_STRIBECK] = index["stribeck"]
-    c[physics.C_RIGID] = 1.0 if index["twist"] < 0 else 0.0
-    c[physics.C_GAIN] = input_gain
-    c[physics.C_I_SPEED] = index["speed"]
-    c[physics.C_BREAKAWAY] = breakaway_excess
+    c[kernels.C_KS], c[kernels.C_BS], c[kernels.C_TD], c[kernels.C_DECAY] = k_s, B_s, T_d, stribeck_decay
+    c[kernels.C_SHAPE] = kernels.STRIBECK_SHAPES.index(stribeck_shape)
+    c[kernels.C_H] = dt / substeps
+    c[kernels.C_NSUB] = substeps
+    c[kernels.C_SIDE] = 0 if friction_side == "motor" else 1
+    c[kernels.C_I_CURRENT] = index["i_a"]
+    c[kernels.C_I_COULOMB] = index["coulomb"]
+    c[kernels.C_I_VISCOUS] = index["viscous"]
+    c[kernels.C_I_COULOMB_NEG] = index["coulomb_neg"]
+    c[kernels.C_I_STRIBECK] = index["stribeck"]
+    c[kernels.C_RIGID] = 1.0 if index["twist"] < 0 else 0.0
+    c[kernels.C_GAIN] = input_gain
+    c[kernels.C_I_SPEED] = index["speed"]
+    c[kernels.C_BREAKAWAY] = breakaway_excess
     return c
 
 
@@ -245,7 +245,7 @@ def stiffest_rate(c: np.ndarray, x: np.ndarray, v: float = 0.0) -> float:
     n = x.shape[0]
     f = np.zeros(n)
     A = np.zeros((n, n))
-    physics.filter_drift(x, v, c, 1.0, False, f, A)
+    kernels.filter_drift(x, v, c, 1.0, False, f, A)
     return float(np.max(np.abs(np.linalg.eigvals(A))))
 
 

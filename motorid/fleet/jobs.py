@@ -204,8 +204,8 @@ class DoctorJob:
         """The rigid drive of the ``model`` file (None without one); DataError for another model."""
         if self.model is None:
             return None
+        from motorid.drive import RigidDrive
         from motorid.models import load_model
-        from motorid.plants import RigidDrive
 
         model = load_model(self.model)
         if not isinstance(model, RigidDrive):

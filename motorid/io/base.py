@@ -34,7 +34,7 @@ __all__ = [
 
 @runtime_checkable
 class Plant(Protocol):
-    """What a DAQ needs from a simulated rig (``motorid.plants.paper_rig()`` fits).
+    """What a DAQ needs from a simulated rig (``motorid.drive.paper_rig()`` fits).
 
     Attributes
     ----------

@@ -32,7 +32,7 @@ def daq_from_url(
         ``sim`` (the simulated rig, in process), ``modbus://HOST:PORT`` (Modbus
         TCP) or ``modbus-rtu:///dev/DEVICE?baudrate=N`` (Modbus RTU).
     plant : Plant, optional
-        Simulated rig for ``sim`` (default ``motorid.plants.paper_rig()``).
+        Simulated rig for ``sim`` (default ``motorid.drive.paper_rig()``).
     seed : int, optional
         Noise seed of the simulated rig (``sim`` only).
     dt : float, optional

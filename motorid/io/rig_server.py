@@ -75,7 +75,7 @@ class RigServer:
     Parameters
     ----------
     plant : drive model or Plant, optional
-        The simulated rig: a model such as ``motorid.plants.paper_rig()`` (the
+        The simulated rig: a model such as ``motorid.drive.paper_rig()`` (the
         default), run in a simulation of the server's own, or a running
         :class:`Plant` (``dt``, ``reset(seed)``, ``step(u)``).
     host : str

@@ -16,7 +16,7 @@ def plant_to_step(plant: object | None) -> Plant:
     """The running plant a simulated DAQ or the rig server steps.
 
     A drive model (a description with ``simulation()``, such as
-    ``motorid.plants.paper_rig()`` or a ``RigidDrive``, the doctor's model) gives
+    ``motorid.drive.paper_rig()`` or a ``RigidDrive``, the doctor's model) gives
     a new simulation of its own, so two
     DAQs of one model never share a state; a :class:`Plant` (``dt``,
     ``reset``, ``step``) is stepped as it is; None is the paper's rig.
@@ -27,7 +27,7 @@ def plant_to_step(plant: object | None) -> Plant:
         A drive model, a :class:`Plant`, or None.
     """
     if plant is None:
-        from motorid.plants import paper_rig  # plants are optional at import time
+        from motorid.drive import paper_rig  # the drive models load only when used
 
         plant = paper_rig()
     simulation = getattr(plant, "simulation", None)
@@ -70,7 +70,7 @@ class SimulatedDAQ(DAQ):
     Parameters
     ----------
     plant : drive model or Plant, optional
-        The simulated rig: a model such as ``motorid.plants.paper_rig()`` (the
+        The simulated rig: a model such as ``motorid.drive.paper_rig()`` (the
         default), run in a simulation of the DAQ's own, or a running
         :class:`Plant` (``dt``, ``reset(seed)``, ``step(u)``).
     dt : float, optional

@@ -4,8 +4,8 @@ A model file, a record's attributes or a caller can hand motorid any float; a va
 no drive has (a sample time of 1e308 s, a viscous coefficient of 1e308 N m s/rad, a
 filter noise of 1e308 rad/s) would only overflow later, far from its cause, or ask
 for memory or time without end. So every parameter of the drive models
-(:class:`~motorid.plants.rig.TwoMassRig`, its friction laws, amplifier and sensors;
-:class:`~motorid.plants.rigid.RigidDrive`) and of the friction filters is checked
+(:class:`~motorid.drive.two_mass.TwoMassRig`, its friction laws, amplifier and sensors;
+:class:`~motorid.drive.rigid.RigidDrive`) and of the friction filters is checked
 with :func:`check_parameter` against these ranges, in SI units:
 
 - a magnitude of at most :data:`LARGEST` = 1e12: the largest drives built

@@ -37,7 +37,7 @@ steps the same record a sample at a time. A first-order lag of the measured spee
 lag on a drive's linear part; the model carries the input lag only.
 
 Every term is evaluated by the compiled functions of
-:mod:`~motorid.plants.physics` (``rigid_term``, ``stribeck_decay``,
+:mod:`~motorid.drive.kernels` (``rigid_term``, ``stribeck_decay``,
 ``stick_or_slip``, ``rigid_motion``: speed and position; the input path by ``armature_voltages``, the
 amplifier's own dead zone and saturation at unit gain), the same ones the doctor's fit
 (:mod:`motorid.diagnose`) builds its regressor columns from.
@@ -49,7 +49,7 @@ well above the band the record excites and the electrical time constant L_a/R_a 
 short beside a sample; then the back-EMF and the bearings act as one viscous term and
 the motor and load frictions add up. It needs no motor current or constants, so it is
 what a velocity (or position) record and an input identify. Use
-:class:`~motorid.plants.rig.TwoMassRig` when the shaft mode or the backlash gap shows in
+:class:`~motorid.drive.two_mass.TwoMassRig` when the shaft mode or the backlash gap shows in
 the record (oscillation or impacts after reversals), when motor and load speeds are
 both measured, or when the armature current or voltage matters.
 """
@@ -66,11 +66,11 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from motorid.drive import kernels
+from motorid.drive.files import KIND_RIGID, model_file, write_model_file
+from motorid.drive.ranges import MOST_DELAY_SAMPLES, SAMPLE_TIME, check_parameter
 from motorid.errors import ModelFileError
 from motorid.json_input import build, key_path, number, object_keys, shown, text
-from motorid.plants import physics
-from motorid.plants.files import KIND_RIGID, model_file, write_model_file
-from motorid.plants.ranges import MOST_DELAY_SAMPLES, SAMPLE_TIME, check_parameter
 
 #: The effects of a rigid drive and their parameters, in the library's order.
 RIGID_EFFECTS: dict[str, tuple[str, ...]] = {
@@ -89,13 +89,13 @@ RIGID_EFFECTS: dict[str, tuple[str, ...]] = {
 }
 #: The compiled term of each parameter that enters the balance linearly.
 TERM_OF: dict[str, int] = {
-    "viscous": physics.TERM_VISCOUS,
-    "viscous_asymmetry": physics.TERM_VISCOUS_ASYMMETRY,
-    "quadratic_drag": physics.TERM_QUADRATIC_DRAG,
-    "coulomb": physics.TERM_COULOMB,
-    "stribeck": physics.TERM_STRIBECK,
-    "coulomb_asymmetry": physics.TERM_COULOMB_ASYMMETRY,
-    "offset": physics.TERM_OFFSET,
+    "viscous": kernels.TERM_VISCOUS,
+    "viscous_asymmetry": kernels.TERM_VISCOUS_ASYMMETRY,
+    "quadratic_drag": kernels.TERM_QUADRATIC_DRAG,
+    "coulomb": kernels.TERM_COULOMB,
+    "stribeck": kernels.TERM_STRIBECK,
+    "coulomb_asymmetry": kernels.TERM_COULOMB_ASYMMETRY,
+    "offset": kernels.TERM_OFFSET,
 }
 #: Parameters every rigid drive has: inertia J [F s/v] and input gain g [F/u].
 DRIVE_PARAMETERS = ("inertia", "input_gain")
@@ -109,7 +109,7 @@ _NONNEGATIVE = (
 
 def check_sample_time(dt: object) -> float:
     """``dt`` [s] as a float; ValueError unless it is a real number (not a bool) in
-    :data:`~motorid.plants.ranges.SAMPLE_TIME`, [1e-9, 3600] s."""
+    :data:`~motorid.drive.ranges.SAMPLE_TIME`, [1e-9, 3600] s."""
     if (
         isinstance(dt, bool)
         or not isinstance(dt, int | float | np.number)
@@ -148,18 +148,18 @@ def time_since_reversal(x: np.ndarray, dt: float, before_first: float | None = N
     """Time [s] since the last change of sign of ``x`` (zeros keep the previous sign).
 
     Before the first reversal the time counts from the start of the record, or
-    is ``before_first`` when given (:func:`~motorid.plants.physics.reversal_clock`).
+    is ``before_first`` when given (:func:`~motorid.drive.kernels.reversal_clock`).
     """
     arr = np.ascontiguousarray(np.asarray(x, dtype=float))
     first = math.nan if before_first is None else float(before_first)
-    return physics.reversal_clock(arr, float(dt), first, InputPathState.fresh_clock())
+    return kernels.reversal_clock(arr, float(dt), first, InputPathState.fresh_clock())
 
 
 def input_path(u: npt.ArrayLike, dead_zone: float = 0.0, saturation: float = math.inf) -> np.ndarray:
     """``D(S(u))`` [u]: saturation at ±``saturation``, then the dead zone of half-width ``dead_zone``
     (the amplifier's compiled map at unit gain)."""
     x = np.ascontiguousarray(np.asarray(u, dtype=float))
-    return physics.armature_voltages(x, 1.0, float(dead_zone), float(saturation))
+    return kernels.armature_voltages(x, 1.0, float(dead_zone), float(saturation))
 
 
 def input_dynamics(
@@ -171,12 +171,12 @@ def input_dynamics(
 ) -> np.ndarray:
     """``L(Δ(x))``: the held signal ``x`` delayed by ``delay`` [s] (whole and fractional samples),
     then lagged with ``time_constant`` [s] (0: none), as the mean over each sample; one map, exact
-    for the held input (:func:`~motorid.plants.physics.rigid_input_dynamics`). ``state``: the
+    for the held input (:func:`~motorid.drive.kernels.rigid_input_dynamics`). ``state``: the
     running state of the map (updated in place); None starts at rest on the first input."""
     arr = np.ascontiguousarray(np.asarray(x, dtype=float))
     if state is None:
         state = InputPathState.fresh(dt, delay)
-    return physics.rigid_input_dynamics(
+    return kernels.rigid_input_dynamics(
         arr, float(dt), float(delay), float(time_constant), state.ring, state.lag
     )
 
@@ -186,11 +186,11 @@ def backlash_dwell(
 ) -> np.ndarray:
     """``B(F)``: the force ``F`` is not transmitted for ``backlash_time`` [s] after each reversal
     of its sign (lost motion crossed by the driving side; before the first reversal it is);
-    :func:`~motorid.plants.physics.backlash_dwell`. ``state``: the running state (updated in
+    :func:`~motorid.drive.kernels.backlash_dwell`. ``state``: the running state (updated in
     place); None starts before any reversal."""
     arr = np.ascontiguousarray(np.asarray(force, dtype=float))
     clock = InputPathState.fresh_clock() if state is None else state.clock
-    return physics.backlash_dwell(arr, float(dt), float(backlash_time), clock)
+    return kernels.backlash_dwell(arr, float(dt), float(backlash_time), clock)
 
 
 @dataclass
@@ -204,7 +204,7 @@ class InputPathState:
     lag : numpy.ndarray
         ``[z, samples seen]``: the lag's state and the samples the delay has seen.
     clock : numpy.ndarray
-        The backlash dwell's clock (:func:`~motorid.plants.physics.reversal_clock`).
+        The backlash dwell's clock (:func:`~motorid.drive.kernels.reversal_clock`).
     """
 
     ring: np.ndarray
@@ -219,7 +219,7 @@ class InputPathState:
     @classmethod
     def fresh(cls, dt: float, delay: float = 0.0) -> InputPathState:
         """The state before the first input of a path with ``delay`` [s] at sample time ``dt`` [s]."""
-        m, _ = physics.rigid_delay_samples(float(dt), float(delay))
+        m, _ = kernels.rigid_delay_samples(float(dt), float(delay))
         return cls(ring=np.zeros(m + 2), lag=np.zeros(2), clock=cls.fresh_clock())
 
 
@@ -227,17 +227,17 @@ def term_columns(
     params: tuple[str, ...], omega: np.ndarray, stribeck_velocity: float = 1.0, shape: str = "exponential"
 ) -> np.ndarray:
     """Torque per unit parameter of the linear ``params`` at each speed, shape (N, len(params)),
-    for a drive moving in the direction sgn(ω) (:func:`~motorid.plants.physics.rigid_columns`)."""
+    for a drive moving in the direction sgn(ω) (:func:`~motorid.drive.kernels.rigid_columns`)."""
     terms = np.array([TERM_OF[p] for p in params], dtype=np.int64)
     w = np.ascontiguousarray(np.asarray(omega, dtype=float))
-    return physics.rigid_columns(terms, w, 1.0 / stribeck_velocity, physics.STRIBECK_SHAPES.index(shape))
+    return kernels.rigid_columns(terms, w, 1.0 / stribeck_velocity, kernels.STRIBECK_SHAPES.index(shape))
 
 
 @dataclass(frozen=True)
 class RigidDrive:
     """A rigid drive: inertia, input gain and a set of effects with their parameters.
 
-    Same family as :class:`~motorid.plants.rig.TwoMassRig`: an immutable description,
+    Same family as :class:`~motorid.drive.two_mass.TwoMassRig`: an immutable description,
     :meth:`simulate` runs a record, :meth:`simulation` a running simulation stepped a sample at
     a time (the same record to the last bit; both noise free, a rigid drive has no sensor),
     :meth:`to_dict`/:meth:`from_dict` and :meth:`save`
@@ -296,9 +296,9 @@ class RigidDrive:
                 f"input_delay must be at most {MOST_DELAY_SAMPLES} samples ({MOST_DELAY_SAMPLES * self.dt:g} s "
                 f"at dt = {self.dt:g} s), got {delay!r} s"
             )
-        if self.stribeck_shape not in physics.STRIBECK_SHAPES:
+        if self.stribeck_shape not in kernels.STRIBECK_SHAPES:
             raise ValueError(
-                f"stribeck_shape must be one of {', '.join(physics.STRIBECK_SHAPES)}, got {self.stribeck_shape!r}"
+                f"stribeck_shape must be one of {', '.join(kernels.STRIBECK_SHAPES)}, got {self.stribeck_shape!r}"
             )
 
     # ------------------------------------------------------------------ parts
@@ -315,7 +315,7 @@ class RigidDrive:
     def check_physical(self) -> RigidDrive:
         """This drive if it is physical (positive inertia, gain, Stribeck velocity, saturation;
         non-negative levels, dead zone, dwell; every parameter in the physical range of
-        :mod:`~motorid.plants.ranges`); ValueError naming the parameter otherwise."""
+        :mod:`~motorid.drive.ranges`); ValueError naming the parameter otherwise."""
         for name, value in self.params.items():
             sign = "> 0" if name in _POSITIVE else ">= 0" if name in _NONNEGATIVE else "any"
             check_parameter(name, value, "(SI units)", sign=sign)
@@ -409,7 +409,7 @@ class RigidDrive:
         input ``u`` [u] held over it, from velocity ``w0`` and position ``q0``.
 
         The position is integrated inside the compiled free run, over its internal steps
-        (:func:`~motorid.plants.physics.rigid_motion`); the velocity is :meth:`free_run`'s to the
+        (:func:`~motorid.drive.kernels.rigid_motion`); the velocity is :meth:`free_run`'s to the
         last bit. Parameters as in :meth:`free_run`.
 
         Returns
@@ -422,20 +422,20 @@ class RigidDrive:
         if not J > 0.0:
             nan = np.full(force.size, np.nan)
             return nan, nan.copy()
-        return physics.rigid_motion(force, dt, nsub, J, coef, rate, shape, float(w0), float(q0), excess)
+        return kernels.rigid_motion(force, dt, nsub, J, coef, rate, shape, float(w0), float(q0), excess)
 
     def _free_run_setup(self, substeps: int | None) -> tuple:
-        """The arguments of :func:`~motorid.plants.physics.rigid_free_run` other than the
+        """The arguments of :func:`~motorid.drive.kernels.rigid_free_run` other than the
         force and the start speed: ``(dt, substeps, J, coef, rate, shape, breakaway_excess)``."""
         J = self.inertia
-        coef = np.zeros(physics.N_TERMS)
+        coef = np.zeros(kernels.N_TERMS)
         for name in self._terms():
             coef[TERM_OF[name]] = self.params[name]
         if substeps is None:
-            substeps = int(min(50, max(1, math.ceil(20.0 * self.dt * abs(coef[physics.TERM_VISCOUS]) / J))))
+            substeps = int(min(50, max(1, math.ceil(20.0 * self.dt * abs(coef[kernels.TERM_VISCOUS]) / J))))
         vs = self.params.get("stribeck_velocity", 1.0)
         rate = 1.0 / vs if vs > 0.0 else 1.0
-        shape = physics.STRIBECK_SHAPES.index(self.stribeck_shape)
+        shape = kernels.STRIBECK_SHAPES.index(self.stribeck_shape)
         excess = self.params.get("breakaway_excess", 0.0)
         return self.dt, int(substeps), J, coef, rate, shape, excess
 
@@ -445,7 +445,7 @@ class RigidDrive:
         dt, substeps, J, coef, rate, shape, excess = setup
         if not J > 0.0:
             return np.full(force.size, np.nan)  # no free run without a positive inertia
-        return physics.rigid_free_run(force, dt, substeps, J, coef, rate, shape, w0, excess)
+        return kernels.rigid_free_run(force, dt, substeps, J, coef, rate, shape, w0, excess)
 
     def simulation(self, seed: int | None = None) -> RigidSimulation:
         """A running simulation of this drive at rest (``reset``, ``step``), the
@@ -530,7 +530,7 @@ class RigidDrive:
         """Write the drive as a model file; :func:`motorid.load_model` reads it.
 
         Written whole; ``overwrite=False`` refuses an existing file
-        (:func:`motorid.plants.files.write_model_file`).
+        (:func:`motorid.drive.files.write_model_file`).
 
         Parameters
         ----------

@@ -32,8 +32,8 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from motorid.plants.friction import LuGreFriction, pack_static_friction
-from motorid.plants.physics import lugre_rate, static_friction, stick_or_slip
+from motorid.drive.friction import LuGreFriction, pack_static_friction
+from motorid.drive.kernels import lugre_rate, static_friction, stick_or_slip
 
 logger = logging.getLogger(__name__)
 
@@ -43,7 +43,7 @@ _BREAKAWAY_MARGIN = 1e-9
 
 
 class ReferenceIntegrator:
-    """Event-driven ``solve_ivp`` integration of a :class:`~motorid.plants.rig.TwoMassRig`.
+    """Event-driven ``solve_ivp`` integration of a :class:`~motorid.drive.two_mass.TwoMassRig`.
 
     Parameters
     ----------

@@ -10,7 +10,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from numpy.polynomial import polynomial as npoly
 
-from motorid.plants import (
+from motorid.drive import (
     ADConverter,
     Amplifier,
     CoulombFriction,
@@ -19,8 +19,8 @@ from motorid.plants import (
     TwoMassRig,
     paper_rig,
 )
-from motorid.plants.reference_integrator import ReferenceIntegrator
-from motorid.plants.signals import two_sine_signal
+from motorid.drive.reference_integrator import ReferenceIntegrator
+from motorid.signals import two_sine_signal
 
 IDEAL_SENSOR = {"tacho": Tachogenerator(noise_std=0.0), "adc": ADConverter(bits=0)}
 

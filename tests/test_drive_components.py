@@ -9,7 +9,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from motorid.plants import (
+from motorid.drive import (
     ADConverter,
     Amplifier,
     AsymmetricFriction,
@@ -210,8 +210,8 @@ def test_encoder_counts():
 def test_friction_objects_evaluate_the_integrators_law_bit_for_bit():
     """torque() and z_dot() are the compiled functions the integrators call (one statement
     of each law), so they agree to the last bit with the packed rows the fast path uses."""
-    from motorid.plants.friction import pack_static_friction
-    from motorid.plants.physics import lugre_rate, static_friction
+    from motorid.drive.friction import pack_static_friction
+    from motorid.drive.kernels import lugre_rate, static_friction
 
     law = AsymmetricFriction(1e-3, 5e-4, 0.2, 2e-3, 1e-4, 0.3, side="motor")
     rows = pack_static_friction((law,))

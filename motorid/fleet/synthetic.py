@@ -1,6 +1,6 @@
 """A synthetic fleet: drives of one design with spread constants, some wearing, one growing a dead zone.
 
-Each drive is the paper's rig (:func:`~motorid.plants.rig.paper_rig`) without the
+Each drive is the paper's rig (:func:`~motorid.drive.two_mass.paper_rig`) without the
 amplifier dead zone, its constants (R_a, K_m, J_m, J_L, the Coulomb levels and the
 viscous coefficients) each scaled by a factor drawn uniformly in ``1 ± spread``.
 A drive records one record a day on the paper's test signal (a new seed per
@@ -13,7 +13,7 @@ and a drive with a dead zone day ``d0`` has an amplifier dead zone of
 ``dead_zone`` [V] from that day on. The records carry ``attrs["drive"]`` and
 ``attrs["time"]`` (ISO 8601), which ``motorid fleet`` reads.
 
->>> from motorid.plants.fleet import make_fleet
+>>> from motorid.fleet.synthetic import make_fleet
 >>> fleet = make_fleet(n_drives=4, seed=0)
 >>> [d.name for d in fleet]
 ['drive-00', 'drive-01', 'drive-02', 'drive-03']
@@ -32,11 +32,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from motorid.plants.amplifier import Amplifier
-from motorid.plants.friction import CoulombFriction
-from motorid.plants.rig import TwoMassRig, paper_rig
-from motorid.plants.signals import two_sine_signal
+from motorid.drive.components import Amplifier
+from motorid.drive.friction import CoulombFriction
+from motorid.drive.two_mass import TwoMassRig, paper_rig
 from motorid.records import DRIVE_ATTR, TIME_ATTR, write_record
+from motorid.signals import two_sine_signal
 
 logger = logging.getLogger(__name__)
 

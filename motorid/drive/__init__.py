@@ -1,13 +1,13 @@
 """Plants: the two-mass DC motor rig, its nonlinear effects, sensors and excitation signals.
 
->>> from motorid.plants import paper_rig
+>>> from motorid.drive import paper_rig
 >>> rig = paper_rig()                # the model: a description, saved with rig.save(path)
 >>> sim = rig.simulation(seed=0)    # a running simulation of it
 >>> y = sim.step(3.0)               # one 40 ms sample at 3 V; measured load speed [rad/s]
 """
 
-from motorid.plants.amplifier import Amplifier
-from motorid.plants.friction import (
+from motorid.drive.components import ADConverter, Amplifier, Encoder, Tachogenerator, measure_speed
+from motorid.drive.friction import (
     AsymmetricFriction,
     CoulombFriction,
     Friction,
@@ -17,7 +17,8 @@ from motorid.plants.friction import (
     ViscousFriction,
     friction_from_dict,
 )
-from motorid.plants.rig import (
+from motorid.drive.rigid import RIGID_EFFECTS, RigidDrive
+from motorid.drive.two_mass import (
     PHYSICAL_DEFAULTS,
     RECORD_UNITS,
     RigSimulation,
@@ -25,8 +26,6 @@ from motorid.plants.rig import (
     paper_rig,
     steady_state_speed,
 )
-from motorid.plants.rigid import RIGID_EFFECTS, RigidDrive
-from motorid.plants.sensors import ADConverter, Encoder, Tachogenerator, measure_speed
 
 __all__ = [
     "PHYSICAL_DEFAULTS",

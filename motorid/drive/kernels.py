@@ -38,7 +38,7 @@ With every nonlinearity off the method is exact for a zero-order-hold input
 (to rounding). With Coulomb friction and dead zone the only errors are the
 event times, resolved to h.
 
-The rigid drive (:class:`~motorid.plants.rigid.RigidDrive`, the doctor's model) is
+The rigid drive (:class:`~motorid.drive.rigid.RigidDrive`, the doctor's model) is
 here too: its terms (:func:`rigid_term`, with the one Stribeck decay
 :func:`stribeck_decay`, exponential or Gaussian), their regressor columns
 (:func:`rigid_columns`), its input path's maps with memory (:func:`rigid_input_dynamics`,
@@ -927,7 +927,7 @@ def ekf_batch(
 
 # --------------------------------------------------------------------------- rigid drive
 # The terms of the rigid drive's torque balance J dω/dt = F_in - Σ θ_t T_t(ω)
-# (:class:`~motorid.plants.rigid.RigidDrive`), by code. Speed terms scale with ω
+# (:class:`~motorid.drive.rigid.RigidDrive`), by code. Speed terms scale with ω
 # (T_t = ω k_t(ω, s)) and are integrated implicitly; level terms do not.
 TERM_VISCOUS = 0  # B ω
 TERM_VISCOUS_ASYMMETRY = 1  # ΔF_v s ω = ΔF_v |ω| while moving

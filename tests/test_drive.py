@@ -13,7 +13,7 @@ from conftest import examples
 from hypothesis import given
 from hypothesis import strategies as st
 
-from motorid.plants import (
+from motorid.drive import (
     PHYSICAL_DEFAULTS,
     ADConverter,
     Amplifier,

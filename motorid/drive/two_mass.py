@@ -35,12 +35,10 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
-from motorid.errors import ModelFileError
-from motorid.json_input import build, integer, key_path, number, object_keys, scalars, shown
-from motorid.plants import physics
-from motorid.plants.amplifier import Amplifier
-from motorid.plants.files import KIND_RIG, model_file, write_model_file
-from motorid.plants.friction import (
+from motorid.drive import kernels
+from motorid.drive.components import ADConverter, Amplifier, Encoder, Tachogenerator, measure_speed
+from motorid.drive.files import KIND_RIG, model_file, write_model_file
+from motorid.drive.friction import (
     CoulombFriction,
     Friction,
     LuGreFriction,
@@ -50,9 +48,10 @@ from motorid.plants.friction import (
     pack_static_friction,
     viscous_total,
 )
-from motorid.plants.ranges import MOST_SUBSTEPS, check_count, check_parameter
-from motorid.plants.rigid import check_input, check_sample_time
-from motorid.plants.sensors import ADConverter, Encoder, Tachogenerator, measure_speed
+from motorid.drive.ranges import MOST_SUBSTEPS, check_count, check_parameter
+from motorid.drive.rigid import check_input, check_sample_time
+from motorid.errors import ModelFileError
+from motorid.json_input import build, integer, key_path, number, object_keys, scalars, shown
 
 logger = logging.getLogger(__name__)
 
@@ -267,7 +266,7 @@ class TwoMassRig:
     def _discretise(self, h: float) -> tuple[np.ndarray, np.ndarray]:
         import scipy.linalg  # here, not at the top: the rigid-drive users (the doctor) never need it
 
-        n, m = physics.N_LINEAR, 3
+        n, m = kernels.N_LINEAR, 3
         phi = np.zeros((8, n, n))
         gam = np.zeros((8, n, m))
         for mode in range(8):
@@ -287,23 +286,23 @@ class TwoMassRig:
         return np.ascontiguousarray(phi), np.ascontiguousarray(gam)
 
     def _packed_parameters(self) -> np.ndarray:
-        p = np.zeros(physics.N_PARAMS)
-        p[physics.P_K] = self.K_m
-        p[physics.P_KS] = self.k_s
-        p[physics.P_BS] = self.B_s
-        p[physics.P_BACKLASH] = self.backlash
-        p[physics.P_H] = self.h
-        p[physics.P_NSUB] = int(self.substeps)
-        p[physics.P_AMP_GAIN] = self.amplifier.gain
-        p[physics.P_DEAD_ZONE] = self.amplifier.dead_zone
-        p[physics.P_VMAX] = self.amplifier.v_max
-        p[physics.P_TACHO_GAIN] = self.tacho.gain
-        p[physics.P_TACHO_NOISE] = self.tacho.noise_std
-        p[physics.P_ADC_BITS] = self.adc.bits
-        p[physics.P_ADC_VMIN] = self.adc.v_min
-        p[physics.P_ADC_VMAX] = self.adc.v_max
-        p[physics.P_BREAK_POS_M], p[physics.P_BREAK_NEG_M] = self.breakaway("motor")
-        p[physics.P_BREAK_POS_L], p[physics.P_BREAK_NEG_L] = self.breakaway("load")
+        p = np.zeros(kernels.N_PARAMS)
+        p[kernels.P_K] = self.K_m
+        p[kernels.P_KS] = self.k_s
+        p[kernels.P_BS] = self.B_s
+        p[kernels.P_BACKLASH] = self.backlash
+        p[kernels.P_H] = self.h
+        p[kernels.P_NSUB] = int(self.substeps)
+        p[kernels.P_AMP_GAIN] = self.amplifier.gain
+        p[kernels.P_DEAD_ZONE] = self.amplifier.dead_zone
+        p[kernels.P_VMAX] = self.amplifier.v_max
+        p[kernels.P_TACHO_GAIN] = self.tacho.gain
+        p[kernels.P_TACHO_NOISE] = self.tacho.noise_std
+        p[kernels.P_ADC_BITS] = self.adc.bits
+        p[kernels.P_ADC_VMIN] = self.adc.v_min
+        p[kernels.P_ADC_VMAX] = self.adc.v_max
+        p[kernels.P_BREAK_POS_M], p[kernels.P_BREAK_NEG_M] = self.breakaway("motor")
+        p[kernels.P_BREAK_POS_L], p[kernels.P_BREAK_NEG_L] = self.breakaway("load")
         return p
 
     # ----------------------------------------------------------- online use
@@ -332,7 +331,7 @@ class TwoMassRig:
             Seed of the sensor noise.
         integrator : {"fast", "reference"}
             The compiled fixed-step integrator or the ``solve_ivp`` reference
-            (:class:`~motorid.plants.reference_integrator.ReferenceIntegrator`,
+            (:class:`~motorid.drive.reference_integrator.ReferenceIntegrator`,
             which takes ``reference_options``).
         load_torque : array_like, shape (N,), optional
             Load disturbance T_d [N m] per sample; default the constant ``self.T_d``
@@ -359,14 +358,14 @@ class TwoMassRig:
         noise = np.random.default_rng(seed).standard_normal(n)
         phi, gam, p, fric, lug = self._compiled
         if integrator == "fast":
-            rows = physics.simulate_kernel(
-                np.zeros(physics.N_STATE), u_arr, t_d, noise, phi, gam, p, fric, lug
+            rows = kernels.simulate_kernel(
+                np.zeros(kernels.N_STATE), u_arr, t_d, noise, phi, gam, p, fric, lug
             )
             v_a = rows[:, 1]
             states = rows[:, 2:]
             y = rows[:, 0]
         elif integrator == "reference":
-            from motorid.plants.reference_integrator import ReferenceIntegrator
+            from motorid.drive.reference_integrator import ReferenceIntegrator
 
             ref = ReferenceIntegrator(self, **reference_options)
             v_a, states = ref.run(u_arr, t_d)
@@ -465,7 +464,7 @@ class TwoMassRig:
         """Write the rig as a model file; :func:`motorid.load_model` reads it.
 
         Written whole; ``overwrite=False`` refuses an existing file
-        (:func:`motorid.plants.files.write_model_file`).
+        (:func:`motorid.drive.files.write_model_file`).
 
         Parameters
         ----------
@@ -515,8 +514,8 @@ class RigSimulation:
             Seed of the noise generator; the measurements after ``reset(seed)``
             equal the ``y`` column of ``rig.simulate(u, seed=seed)`` for the same inputs.
         """
-        self._x = np.zeros(physics.N_STATE)
-        self._out = np.zeros(physics.N_OUT)
+        self._x = np.zeros(kernels.N_STATE)
+        self._out = np.zeros(kernels.N_OUT)
         self._rng = np.random.default_rng(seed)
         self._noise = np.empty(0)
         self._noise_pos = 0
@@ -550,7 +549,7 @@ class RigSimulation:
         self._noise_pos += 1
         self.sample_index += 1
         phi, gam, p, fric, lug = self.rig._compiled
-        return physics.advance_sample(self._x, u, t_d, noise, phi, gam, p, fric, lug, self._out)
+        return kernels.advance_sample(self._x, u, t_d, noise, phi, gam, p, fric, lug, self._out)
 
     def run(self, u: npt.ArrayLike) -> np.ndarray:
         """Apply the commands ``u`` [V] one sample each (zero-order hold, the rig's ``T_d``) and
@@ -581,7 +580,7 @@ class RigSimulation:
             self._noise_pos += part
             taken += part
         phi, gam, p, fric, lug = self.rig._compiled
-        rows = physics.simulate_kernel(
+        rows = kernels.simulate_kernel(
             self._x, u_arr, np.full(n, float(self.rig.T_d)), noise, phi, gam, p, fric, lug
         )
         if n:
@@ -632,11 +631,11 @@ def paper_rig(**overrides: Any) -> TwoMassRig:
     - about 2400 rpm at 12 V (section 4, "maximum output shaft speed of
       2400 rev/min"): the steady state at u = 12 V (and beyond, saturated) is
       2400 rpm within 0.012 % (2400.2 rpm), as close as K_m, set for it to four
-      digits, can hold it (tests/test_plants.py).
+      digits, can hold it (tests/test_drive.py).
     - settling time about 400 ms (section 5, pretest step response): the
       mechanical time constant J R / (K² + R B) is ≈ 0.1 s; the 2 % settling
       time of the 12 V step response is 0.41 s (0.409 s at 1 ms resolution;
-      tests/test_plants.py).
+      tests/test_drive.py).
     - sampling interval 40 ms (section 5): ``dt = 0.04``, with 40 internal
       steps (1 kHz) for the fast integrator.
     - Coulomb friction on both masses and a dead zone (section 2.1, eqs. 12-13,

@@ -26,7 +26,7 @@ Zero speed is not smoothed: the integrators use the breakaway torques of the
 static laws for Karnopp-style stick/slip switching (a mass at exactly zero speed
 stays there while the torque applied to it lies inside
 ``[-breakaway_negative, breakaway_positive]``). Each law is written once, as a
-compiled function in :mod:`~motorid.plants.physics` (eq. 11:
+compiled function in :mod:`~motorid.drive.kernels` (eq. 11:
 ``friction_law``; LuGre: ``lugre_level`` and ``lugre_rate``; the stick/slip rule:
 ``stick_or_slip``): the ``torque`` methods here, the fast integrator (from
 :func:`pack_static_friction` rows) and the reference integrator all call them.
@@ -48,16 +48,16 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 import numpy.typing as npt
 
-from motorid.errors import ModelFileError
-from motorid.json_input import key_path, scalars, text
-from motorid.plants.physics import (
+from motorid.drive.kernels import (
     STRIBECK_EXPONENTIAL,
     STRIBECK_SHAPES,
     friction_torques,
     lugre_levels,
     lugre_rates,
 )
-from motorid.plants.ranges import check_parameter
+from motorid.drive.ranges import check_parameter
+from motorid.errors import ModelFileError
+from motorid.json_input import key_path, scalars, text
 
 Side = Literal["motor", "load", "both"]
 SIDES: tuple[str, ...] = ("motor", "load", "both")
@@ -175,7 +175,7 @@ class StaticFriction(Friction):
         ``sgn(direction)`` is returned (the kinetic level at 0±, what the
         integrators use at breakaway); ``direction=0`` gives 0 there, as sgn(0) = 0
         in eq. (10). Evaluated by the integrators' compiled law
-        (:func:`~motorid.plants.physics.friction_law`).
+        (:func:`~motorid.drive.kernels.friction_law`).
         """
         w = np.asarray(omega, dtype=float)
         flat = np.ascontiguousarray(w.reshape(-1))
@@ -340,13 +340,13 @@ class LuGreFriction(Friction):
             raise ValueError(f"Fs must be >= Fc, got Fs={self.Fs!r} < Fc={self.Fc!r}")
 
     def g(self, omega: npt.ArrayLike) -> np.ndarray:
-        """Stribeck curve g(ω) [N m] (:func:`~motorid.plants.physics.lugre_level`)."""
+        """Stribeck curve g(ω) [N m] (:func:`~motorid.drive.kernels.lugre_level`)."""
         w = np.asarray(omega, dtype=float)
         flat = np.ascontiguousarray(w.reshape(-1))
         return lugre_levels(self.Fc, self.Fs, self.omega_s, flat).reshape(w.shape)
 
     def z_dot(self, z: npt.ArrayLike, omega: npt.ArrayLike) -> np.ndarray:
-        """Bristle rate dz/dt [rad/s] (:func:`~motorid.plants.physics.lugre_rate`)."""
+        """Bristle rate dz/dt [rad/s] (:func:`~motorid.drive.kernels.lugre_rate`)."""
         zb, wb = np.broadcast_arrays(np.asarray(z, dtype=float), np.asarray(omega, dtype=float))
         flat_z = np.ascontiguousarray(zb.reshape(-1))
         flat_w = np.ascontiguousarray(wb.reshape(-1))
