@@ -180,6 +180,13 @@ def count_data_lines(path: str | os.PathLike[str], chunk_bytes: int = 1 << 24) -
 
     A file whose last line has no line break counts one more. Used to refuse a
     record too long to hold in memory before it is parsed.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The file.
+    chunk_bytes : int
+        Bytes read at a time (the memory it takes).
     """
     count = 0
     last = b"\n"
@@ -414,7 +421,13 @@ MAT_ATTRS_VARIABLE = "motorid_record"
 
 
 def record_format(path: str | os.PathLike[str]) -> str:
-    """The format :func:`read_record` reads ``path`` as: a value of :data:`RECORD_FORMATS`, else ``"CSV"``."""
+    """The format :func:`read_record` reads ``path`` as: a value of :data:`RECORD_FORMATS`, else ``"CSV"``.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The record file; only its extension is looked at.
+    """
     return RECORD_FORMATS.get(os.path.splitext(os.fspath(path))[1].lower(), "CSV")
 
 
@@ -447,6 +460,13 @@ def check_attrs(attrs: Mapping[str, Any], source: str) -> None:
     :data:`motorid.units.RECORD_UNITS`; ``timing`` a keyword of :data:`TIMINGS`;
     ``drive``, ``time`` and ``integrator`` text; ``samples`` an integer >= 0 and
     ``seed`` one or null; ``rig`` and ``model`` objects.
+
+    Parameters
+    ----------
+    attrs : Mapping
+        The record's attributes, as read from its file.
+    source : str
+        Names the file (and where in it the attributes are) in the error.
 
     Raises
     ------
@@ -942,7 +962,7 @@ def read_record(
         Keep the file's other columns too (default; in the binary formats those
         of the same length that hold numbers); False reads only ``columns``
         (less memory and time on a wide file).
-    time, input, output, time_unit, input_unit, output_unit, supply_voltage, input_full_scale, resample
+    time, input, output, time_unit, input_unit, output_unit, supply_voltage, input_full_scale, resample : optional
         As :class:`RecordOptions` (``--time``, ``--input`` ... on the command line).
     sep : str, optional
         Separator of a CSV (one character; ``--sep``). Default: detected from the
@@ -1040,7 +1060,7 @@ def normalise_record(
     ----------
     record : pandas.DataFrame
         The measurement; ``attrs`` may hold ``dt`` and ``units``.
-    time, input, output, dt, time_unit, input_unit, output_unit, supply_voltage, input_full_scale, resample, dt_rtol
+    time, input, output, dt, time_unit, input_unit, output_unit, supply_voltage, input_full_scale, resample, dt_rtol : optional
         As :class:`RecordOptions`.
     min_samples : int
         Fewest rows accepted, >= 1.

@@ -59,6 +59,18 @@ def flatten(payload: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
     Lists of numbers become ``key[0]``, ``key[1]``, ...; lists of text one comma-joined
     value; empty lists and lists of objects (a doctor's steps and rankings) are left out; NaN and inf
     become None, as in ``--json``.
+
+    Parameters
+    ----------
+    payload : Mapping
+        The JSON object (a command's ``--json`` payload).
+    prefix : str
+        Put in front of every key (the nested object's own key and a dot, when recursing).
+
+    Returns
+    -------
+    dict
+        One flat row: dotted keys, scalar values.
     """
     row: dict[str, Any] = {}
     for key, value in payload.items():
@@ -94,6 +106,11 @@ class ResultsStore:
     CSV rewrites of a long run do not read the folder again. One run writes to a folder at a time
     (the command line locks it: :class:`motorid.outputs.FolderLock`); even without the lock, a
     store deletes only parts whose rows it has merged into a part already on disk.
+
+    Parameters
+    ----------
+    folder : str or PathLike
+        The run folder; its ``results.parquet/`` is made when missing.
     """
 
     def __init__(self, folder: str | os.PathLike[str]):
@@ -202,6 +219,11 @@ class ResultsStore:
 
 def load_results(folder: str | os.PathLike[str]) -> pd.DataFrame:
     """The results table of a run folder (one row per record), ``time`` as datetime.
+
+    Parameters
+    ----------
+    folder : str or PathLike
+        The run folder (``motorid fleet --out``), holding ``results.parquet/``.
 
     Raises
     ------

@@ -31,6 +31,13 @@ RECORD_EXTENSIONS = (".csv", *RECORD_FORMATS)
 def find_records(items: list[str]) -> list[Path]:
     """The record files named by ``items`` (globs, folders, ``@list`` files, files), sorted, each once.
 
+    Parameters
+    ----------
+    items : list of str
+        Each a record file, a glob (``logs/*.csv``), a folder (its files of the known record
+        formats, :data:`RECORD_EXTENSIONS`) or ``@list.txt`` (one path a line, relative to the
+        list file; ``#`` starts a comment).
+
     Raises
     ------
     DataError
@@ -76,6 +83,11 @@ class FilenamePattern:
     text that is ignored. Everything else in the pattern is literal. The pattern matches the
     end of the path: as many of its last parts as the pattern has (``{drive}/{date:%Y%m%d}.csv``
     takes the drive from the folder).
+
+    Attributes
+    ----------
+    pattern : str
+        The pattern, e.g. ``"{drive}_{date:%Y%m%d}.csv"`` (``motorid fleet --pattern``).
     """
 
     pattern: str
@@ -139,6 +151,20 @@ def identity(
 
     ``given`` (from a :class:`FilenamePattern`) comes first, then ``attrs``, then the file stem for
     the drive.
+
+    Parameters
+    ----------
+    path : str or PathLike
+        The record file (its stem is the drive id when nothing else names one).
+    attrs : dict
+        The record's attributes (``attrs["drive"]``, ``attrs["time"]`` in ISO 8601).
+    given : dict
+        What the file name says (:meth:`FilenamePattern.parse`): ``drive`` and ``time``.
+
+    Raises
+    ------
+    DataError
+        When ``attrs["time"]`` is text that is not an ISO 8601 time.
     """
     drive = given.get("drive", attrs.get(DRIVE_ATTR))
     when = given.get("time", attrs.get(TIME_ATTR))

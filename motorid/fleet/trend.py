@@ -45,6 +45,11 @@ RISING = ("coulomb", "viscous")
 def friction_trends(results: pd.DataFrame) -> pd.DataFrame:
     """The friction parameters of every successful record, one row per record and parameter.
 
+    Parameters
+    ----------
+    results : pandas.DataFrame
+        A fleet run's results (:func:`~motorid.fleet.results.load_results`), one row per record.
+
     Returns
     -------
     pandas.DataFrame
@@ -106,6 +111,13 @@ def relative_rise(time: pd.Series, value: pd.Series) -> float:
     """(f(t_end) - f(t_start)) / f(t_start) for the least-squares line f through ``value`` against ``time``.
 
     NaN with fewer than 3 records or a line that is not positive at t_start.
+
+    Parameters
+    ----------
+    time : pandas.Series
+        The records' times (datetimes or ISO 8601 text); the line is fitted against days.
+    value : pandas.Series
+        The parameter's value in each record (any unit: the rise is a share).
     """
     if len(value) < 3:
         return float("nan")
@@ -128,6 +140,22 @@ def flag_drives(
         One row per drive, flagged ones first: ``drive``, ``records``, ``coulomb_rise`` and
         ``viscous_rise`` (shares, NaN when not estimated), ``appeared`` (``effect from
         YYYY-MM-DD``, comma-separated), ``flagged`` (bool), ``reason``.
+
+    Parameters
+    ----------
+    trends : pandas.DataFrame
+        :func:`friction_trends` of the results.
+    results : pandas.DataFrame
+        The run's results (the effects each record named, for ``appeared``).
+    threshold : float
+        A rise (share, > 0) over the window above which a drive is flagged, e.g. 0.2 for 20 %.
+    window_days : float
+        The window [days], > 0, ending at each drive's last record.
+
+    Raises
+    ------
+    ValueError
+        For a threshold or window that is not > 0.
     """
     if not threshold > 0:
         raise ValueError(f"threshold must be > 0, got {threshold!r}")
@@ -179,6 +207,13 @@ def parameter_label(name: str, units: pd.Series) -> str:
 
     Records that name different units (drives set up differently) are listed; results that
     name none say so, rather than guess one.
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name (``coulomb``).
+    units : pandas.Series
+        The unit each record gives it (text; empty or None where not said).
     """
     named = list(dict.fromkeys(u for u in units if isinstance(u, str) and u))
     return f"{name} [{', '.join(named) if named else 'unit not in the results'}]"
@@ -227,7 +262,18 @@ def trend_figure(drive: str, own: pd.DataFrame, reason: str = "", appeared: str 
 
 
 def plot_trends(trends: pd.DataFrame, flags: pd.DataFrame, out: str | os.PathLike[str]) -> list[Path]:
-    """One PNG per drive, ``<drive>.png`` (:func:`trend_figure`). The paths."""
+    """One PNG per drive, ``<drive>.png`` (:func:`trend_figure`). The paths.
+
+    Parameters
+    ----------
+    trends : pandas.DataFrame
+        :func:`friction_trends` of the results.
+    flags : pandas.DataFrame
+        :func:`flag_drives` of them (the reason and the effects that appeared go in the titles).
+    out : str or PathLike
+        The folder the figures are written to (made when missing); a drive's name is made safe
+        as a file name (:func:`motorid.outputs.safe_file_name`).
+    """
     from motorid.figures import save
     from motorid.outputs import safe_file_name
 
