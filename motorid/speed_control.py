@@ -30,8 +30,7 @@ import pandas as pd
 from motorid.compensation import FrictionCompensation
 from motorid.drive.rigid import RigidDrive, check_sample_time
 from motorid.io.base import DAQ
-from motorid.io.online import KEEP_WITH_FILE, RunRecorder, StopRequest
-from motorid.progress import progress_bar
+from motorid.io.online import KEEP_WITH_FILE, RunRecorder, sample_loop, samples_for
 
 logger = logging.getLogger(__name__)
 
@@ -413,18 +412,7 @@ def run_closed_loop(
         Ctrl-C or SIGTERM: the loop stops before the next sample, with the same clean-up.
     """
     dt = float(daq.dt)
-    if duration is None:
-        if callable(reference):
-            raise ValueError("run_closed_loop: duration is required with a callable reference")
-        n = len(reference)
-    else:
-        if not (math.isfinite(duration) and duration > 0):
-            raise ValueError(f"run_closed_loop: duration must be a positive time [s], got {duration!r}")
-        n = round(duration / dt)
-        if n < 1:
-            raise ValueError(
-                f"run_closed_loop: duration {duration!r} s is shorter than one sample ({dt!r} s)"
-            )
+    n = samples_for(duration, dt, reference, "run_closed_loop", "reference")
     if callable(reference):
         r = np.array([float(reference(k * dt)) for k in range(n)])
     else:
@@ -442,40 +430,26 @@ def run_closed_loop(
     recorder = RunRecorder(out, overwrite=overwrite, keep=keep)
     controller.reset()
     warm_up(controller)
-    bar = progress_bar(show=progress, total=n, unit="sample", desc="control")
-    try:
-        with StopRequest().installed() as stop:
-            daq.open()
+    y = 0.0  # the speed the controller acts on: read at the start of each sample
+
+    def sample(k: int) -> dict[str, float | int]:
+        nonlocal y
+        if k == 0:
             daq.write(0.0)
             y = daq.read().y
-            for k in range(n):
-                stop.check()
-                u = controller.step(r[k], y)
-                daq.write(u)
-                sample = daq.read()
-                recorder.append({"t": k * dt, "reference": float(r[k]), "u": sample.u, "y": y,
-                                 "clamped": int(sample.clamped)})  # fmt: skip
-                if metrics is not None:
-                    metrics.add(k * dt, float(r[k]), y)
-                y = sample.y
-                bar.update()
-    except BaseException as exc:
-        where = f" in {recorder.path}" if recorder.path is not None else ""
-        msg = f"run_closed_loop stopped after {recorder.count} of {n} samples (recorded{where})"
-        logger.error("%s: %s: %s", msg, type(exc).__name__, exc or "interrupted")
-        exc.add_note(msg)
-        raise
-    finally:
-        bar.close()
-        try:
-            daq.close()  # commands 0 V where it can
-        finally:
-            recorder.close()
-    df = pd.DataFrame(
-        list(recorder.rows), columns=recorder.columns or ["t", "reference", "u", "y", "clamped"]
+        u = controller.step(r[k], y)
+        daq.write(u)
+        taken = daq.read()
+        if metrics is not None:
+            metrics.add(k * dt, float(r[k]), y)
+        row = {"t": k * dt, "reference": float(r[k]), "u": taken.u, "y": y, "clamped": int(taken.clamped)}
+        y = taken.y
+        return row
+
+    sample_loop(daq, n, sample, recorder, "run_closed_loop", progress)
+    return recorder.frame(
+        dt,
+        columns=("t", "reference", "u", "y", "clamped"),
+        units={"t": "s", "reference": "rad/s", "u": "V", "y": "rad/s"},
+        timing="sampled",
     )
-    df.attrs["dt"] = dt
-    df.attrs["units"] = {"t": "s", "reference": "rad/s", "u": "V", "y": "rad/s"}
-    df.attrs["timing"] = "sampled"  # a keyword of motorid.records.TIMINGS
-    df.attrs["samples"] = recorder.count
-    return df

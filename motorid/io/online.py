@@ -287,17 +287,35 @@ class RunRecorder:
                 os.close(self._fd)
                 self._fd = None
 
-    def frame(self, dt: float) -> pd.DataFrame:
+    def frame(
+        self,
+        dt: float,
+        columns: Sequence[str] = ("t", "seq", "u", "y", "clamped"),
+        units: Mapping[str, str] | None = None,
+        timing: str = "hold",
+    ) -> pd.DataFrame:
         """The rows kept in memory as a DataFrame.
 
         ``attrs`` holds ``dt`` [s], ``units``, ``timing`` and ``samples``, the
         number of rows recorded in all (more than the frame's length when
         ``keep`` bounded it; the file holds every row).
+
+        Parameters
+        ----------
+        dt : float
+            The run's sample time [s].
+        columns : sequence of str
+            The columns of a run that recorded no row (else those of its rows).
+        units : mapping, optional
+            Column -> unit; default ``t`` in s, ``u`` in V, ``y`` in rad/s.
+        timing : str
+            A keyword of :data:`motorid.records.TIMINGS`: ``"hold"`` (``y`` measured at
+            the end of the sample) or ``"sampled"`` (at its start).
         """
-        df = pd.DataFrame(list(self.rows), columns=self.columns or ["t", "seq", "u", "y", "clamped"])
+        df = pd.DataFrame(list(self.rows), columns=self.columns or list(columns))
         df.attrs["dt"] = dt
-        df.attrs["units"] = {"t": "s", "u": "V", "y": "rad/s"}
-        df.attrs["timing"] = "hold"  # a keyword of motorid.records.TIMINGS
+        df.attrs["units"] = dict(units) if units is not None else {"t": "s", "u": "V", "y": "rad/s"}
+        df.attrs["timing"] = timing
         df.attrs["samples"] = self.count
         return df
 
@@ -371,6 +389,103 @@ class StopRequest:
         finally:
             for s, handler in previous.items():
                 signal.signal(s, handler)
+
+
+def samples_for(duration: float | None, dt: float, series: object, who: str, what: str) -> int:
+    """The samples a run of ``duration`` [s] at ``dt`` [s] takes; without a duration, the length of
+    ``series`` (the excitation or reference of ``who``, called ``what`` in the errors).
+
+    Parameters
+    ----------
+    duration : float or None
+        Length of the run [s], > 0 and at least one sample; None: the whole ``series``.
+    dt : float
+        Sample time [s].
+    series : array or callable
+        Per-sample values, or a function of time (then ``duration`` is required).
+    who : str
+        The run's name in the errors (``run_online``).
+    what : str
+        The series' name in the errors (``excitation``).
+
+    Raises
+    ------
+    ValueError
+        Naming ``who`` and what is wrong with the duration.
+    """
+    if duration is None:
+        if callable(series):
+            raise ValueError(f"{who}: duration is required with a callable {what}")
+        return len(series)  # type: ignore[arg-type]
+    if not (math.isfinite(duration) and duration > 0):
+        raise ValueError(f"{who}: duration must be a positive time [s], got {duration!r}")
+    n = round(duration / dt)
+    if n < 1:
+        raise ValueError(f"{who}: duration {duration!r} s is shorter than one sample ({dt!r} s)")
+    return n
+
+
+def sample_loop(
+    daq: DAQ,
+    n: int,
+    sample: Callable[[int], dict[str, float | int]],
+    recorder: RunRecorder,
+    who: str,
+    progress: bool = False,
+    then: Callable[[int], None] | None = None,
+) -> None:
+    """Open ``daq``, take ``n`` samples recording the row ``sample(k)`` returns for each, and close
+    the DAQ (which commands 0 V), whatever happens: the one loop of every run on a rig.
+
+    ``sample(k)`` does the sample's reads and writes. Ctrl-C or SIGTERM stops the loop between two
+    samples (:class:`StopRequest`). When anything stops it early, the DAQ is closed, the recording
+    closed on a whole row, and a note on the exception says how many samples were taken and what
+    is on disk (``{who} stopped after 11 of 50 samples (11 rows in run.csv)``), then it is re-raised.
+
+    Parameters
+    ----------
+    daq : DAQ
+        The rig (not yet open).
+    n : int
+        Samples to take.
+    sample : callable
+        ``k -> row``: sample ``k``'s reads and writes, and its row (column -> value).
+    recorder : RunRecorder
+        Where the rows go; closed on return.
+    who : str
+        The run's name in the note (``run_online``).
+    progress : bool
+        A progress bar on stderr (:func:`motorid.progress.progress_bar`).
+    then : callable, optional
+        ``k -> None``: what follows once sample ``k``'s row is recorded (the next command of an
+        open loop, so a failure computing it keeps the row it follows).
+    """
+    bar = progress_bar(show=progress, total=n, unit="sample", desc=who)
+    try:
+        with StopRequest().installed() as stop:
+            daq.open()
+            for k in range(n):
+                stop.check()
+                recorder.append(sample(k))
+                bar.update()
+                if then is not None:
+                    then(k)
+    except BaseException as exc:
+        bar.close()
+        try:
+            daq.close()  # commands 0 V where it can
+        finally:
+            kept = _close_recording(recorder, exc)
+        msg = f"{who} stopped after {recorder.count} of {n} samples ({kept})"
+        reason = str(exc) or ("interrupted" if isinstance(exc, KeyboardInterrupt) else "no message")
+        logger.info("%s: %s: %s", msg, type(exc).__name__, reason)  # the note on exc tells the caller
+        exc.add_note(msg)
+        raise
+    bar.close()
+    try:
+        daq.close()  # commands 0 V where it can
+    finally:
+        recorder.close()
 
 
 def run_online(
@@ -448,16 +563,7 @@ def run_online(
     """
     named = name_estimators(estimators)
     dt = float(daq.dt)
-    if duration is None:
-        if callable(excitation):
-            raise ValueError("run_online: duration is required with a callable excitation")
-        n = len(excitation)
-    else:
-        if not (math.isfinite(duration) and duration > 0):
-            raise ValueError(f"run_online: duration must be a positive time [s], got {duration!r}")
-        n = round(duration / dt)
-        if n < 1:
-            raise ValueError(f"run_online: duration {duration!r} s is shorter than one sample ({dt!r} s)")
+    n = samples_for(duration, dt, excitation, "run_online", "excitation")
     if not callable(excitation):
         if np.ndim(excitation) != 1:
             raise ValueError(
@@ -473,46 +579,30 @@ def run_online(
         keep = KEEP_WITH_FILE
     recorder = RunRecorder(out, flush_every=flush_every, overwrite=overwrite, keep=keep)
     warm_up(named)
-    bar = progress_bar(show=progress, total=n, unit="sample", desc="online")
-    try:
-        with StopRequest().installed() as stop:
-            daq.open()
+
+    def sample(k: int) -> dict[str, float | int]:
+        if k == 0:
             daq.write(_command_for(excitation, 0, 0.0))
-            for k in range(n):
-                stop.check()
-                sample: Sample = daq.read()
-                row: dict[str, float | int] = {
-                    "t": sample.t - dt,
-                    "seq": sample.seq,
-                    "u": sample.u,
-                    "y": sample.y,
-                    "clamped": int(sample.clamped),
-                }
-                for name, est in named.items():
-                    y_hat = est.predict(sample.u)
-                    est.update(sample.y)
-                    row[f"{name}.y_hat"] = float(np.asarray(y_hat, dtype=float).ravel()[0])
-                    row.update(flatten_params(name, getattr(est, "params", {})))
-                recorder.append(row)
-                bar.update()
-                if k + 1 < n:
-                    daq.write(_command_for(excitation, k + 1, (k + 1) * dt))
-    except BaseException as exc:
-        bar.close()
-        try:
-            daq.close()  # commands 0 V where it can
-        finally:
-            kept = _close_recording(recorder, exc)
-        msg = f"run_online stopped after {recorder.count} of {n} samples ({kept})"
-        reason = str(exc) or ("interrupted" if isinstance(exc, KeyboardInterrupt) else "no message")
-        logger.info("%s: %s: %s", msg, type(exc).__name__, reason)  # the note on exc tells the caller
-        exc.add_note(msg)
-        raise
-    bar.close()
-    try:
-        daq.close()  # commands 0 V where it can
-    finally:
-        recorder.close()
+        taken: Sample = daq.read()
+        row: dict[str, float | int] = {
+            "t": taken.t - dt,
+            "seq": taken.seq,
+            "u": taken.u,
+            "y": taken.y,
+            "clamped": int(taken.clamped),
+        }
+        for name, est in named.items():
+            y_hat = est.predict(taken.u)
+            est.update(taken.y)
+            row[f"{name}.y_hat"] = float(np.asarray(y_hat, dtype=float).ravel()[0])
+            row.update(flatten_params(name, getattr(est, "params", {})))
+        return row
+
+    def next_command(k: int) -> None:
+        if k + 1 < n:
+            daq.write(_command_for(excitation, k + 1, (k + 1) * dt))
+
+    sample_loop(daq, n, sample, recorder, "run_online", progress, then=next_command)
     return recorder.frame(dt)
 
 
