@@ -15,6 +15,7 @@ from __future__ import annotations
 import importlib.util
 import json
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -96,3 +97,36 @@ def test_the_comparison_fails_on_a_changed_name_or_number():
     assert differences(report, {"steps": [], "note": None})
     assert differences(report, {"steps": [{"effect": "coulomb_friction", "gap": 1.0}], "note": 0.0})
     assert differences(report, {"steps": [{"effect": "coulomb_friction", "gap": 1.0}]})
+
+
+def sentence_pattern(template: str) -> str:
+    """A sentence of :data:`~motorid.diagnose.results.STOP_SENTENCES` as a regular expression:
+    its words exactly, each figure any text."""
+    parts = re.split(r"\{[^}]*\}", template)
+    return ".+?".join(re.escape(p) for p in parts)
+
+
+def test_every_stop_reason_of_the_golden_records_is_a_sentence_of_the_table():
+    """A stop reason is the search's sentence, then the final gap's, both from the one table."""
+    from motorid.diagnose.results import STOP_SENTENCES
+
+    finals = ("final_at_floor", "final_missing")
+    search = "|".join(sentence_pattern(t) for k, t in STOP_SENTENCES.items() if k not in finals)
+    final = "|".join(sentence_pattern(STOP_SENTENCES[k]) for k in finals)
+    reasons = [
+        json.loads(path.read_text(encoding="utf-8"))["stop_reason"]
+        for path in sorted(GOLDEN.GOLDEN.glob("*.json"))
+    ]
+    assert len(reasons) == len(GOLDEN.CASES)
+    for reason in reasons:
+        assert re.fullmatch(f"(?:{search}); (?:{final})", reason), reason
+
+
+def test_a_stop_sentence_names_its_figures():
+    from motorid.diagnose.results import Stop
+
+    stop = Stop("no_evidence", {"effect": "quadratic_drag", "delta_bic": 3.14159, "threshold": 10.0})
+    assert stop.sentence() == (
+        "no candidate passes the evidence threshold: the best, quadratic_drag, has ΔBIC = 3.1 <= 10"
+    )
+    assert Stop("max_steps", {"max_steps": 2}).sentence() == "max_steps = 2 reached"
