@@ -122,7 +122,8 @@ class Breakaway:
     """What the rests of a pool say of static friction, against a model's kinetic level.
 
     The force at breakaway above the kinetic level at 0±, ``e_i`` [F] at rest i
-    (:meth:`Pool.breakaway_excess`), is fitted by least squares as a level and a lag::
+    (:meth:`Pool.breakaway_excess <motorid.diagnose.prepare.Pool.breakaway_excess>`), is fitted
+    by least squares as a level and a lag::
 
         e_i = ΔF_s + τ g r_i
 

@@ -240,7 +240,7 @@ class Diagnosis:
         it counts as at rest), the final model's ``kinetic_level`` at 0 [F] (mean of the two
         directions), ``breakaway_excess`` [F] (the force at breakaway above it at an input that
         rises infinitely slowly, and its ``breakaway_excess_std``) and ``breakaway_lag`` [s] (how
-        much later the force follows the input: :class:`Breakaway`).
+        much later the force follows the input: :class:`~motorid.diagnose.measures.Breakaway`).
     notes : list of str
         One line per logging artefact left out of a record (a held start, drop-out spikes:
         :mod:`.artefacts`); with several records each begins with the record's label.
