@@ -5,7 +5,7 @@ and each of the four wheel motors (a train and a validation record), prints one 
 row per run: the base structure, the effects named (``~`` marks a lookalike the rule named, the
 other one in brackets), the kinetic friction level and the inertia with one standard error (the
 inertia with the share of the input force its term carries, ``n.d.`` where the record does not
-determine it: :attr:`~motorid.diagnose.workflow.Diagnosis.undetermined`), the final free-run gap, the noise floor, the gap in noise floors, and the wall time. The joint run
+determine it: :attr:`~motorid.diagnose.results.Diagnosis.undetermined`), the final free-run gap, the noise floor, the gap in noise floors, and the wall time. The joint run
 fits one model to all records of the motor (``motorid doctor A.csv B.csv ...``).
 
 Usage::
@@ -87,7 +87,7 @@ def rests(d) -> str:
     count = sum(r["count"] for r in d.rests)
     excess = [r["breakaway_excess"] for r in d.rests]
     if len(d.rests) > 1:  # the joint run: the pooled rests, as the doctor judged them
-        from motorid.diagnose.workflow import breakaway
+        from motorid.diagnose.measures import breakaway
 
         found = breakaway(d._pool, d.model)
         excess, std = [found.excess], [found.standard_error]

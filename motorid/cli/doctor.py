@@ -28,7 +28,7 @@ from .options import (
 from .report import emit_json, say, show_progress
 
 if TYPE_CHECKING:
-    from motorid.diagnose.workflow import Diagnosis
+    from motorid.diagnose.results import Diagnosis
     from motorid.drive import RigidDrive
     from motorid.fleet import DoctorJob
 

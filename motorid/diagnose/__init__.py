@@ -10,14 +10,18 @@ Modules: :mod:`.effects` (the effect library), :mod:`.model` (the fit of
 the rigid drive, :class:`motorid.drive.RigidDrive`, whose free run the drive compiles), :mod:`.kinematics`
 (zero-phase differentiation and decimation, noise floors), :mod:`.artefacts` (a held start
 and drop-out spikes, left out), :mod:`.locate`, :mod:`.workflow` (:func:`diagnose` of one
-record or of several records of one drive, :class:`Diagnosis`), :mod:`.figures`, :mod:`.synthetic`
-(records with planted effects) and :mod:`.calibration` (false-alarm rate).
+record or of several records of one drive, in named stages: :mod:`.prepare` the records,
+:mod:`.measures` the gaps, residuals and evidence, :mod:`.search` the structure and the effects,
+:mod:`.results` the :class:`Diagnosis`), :mod:`.figures`, :mod:`.synthetic` (records with planted
+effects) and :mod:`.calibration` (false-alarm rate).
 """
 
 from motorid.diagnose.effects import EFFECTS, Effect, get_effect
 from motorid.diagnose.locate import Region
 from motorid.diagnose.model import fit_model
-from motorid.diagnose.workflow import DEFAULT_BASE, DEFAULT_THRESHOLD, Diagnosis, Step, diagnose
+from motorid.diagnose.results import Diagnosis, Step
+from motorid.diagnose.search import DEFAULT_BASE, DEFAULT_THRESHOLD
+from motorid.diagnose.workflow import diagnose
 
 __all__ = [
     "DEFAULT_BASE",

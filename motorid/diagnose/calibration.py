@@ -90,8 +90,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from motorid.diagnose.effects import EFFECTS
+from motorid.diagnose.results import MISSING_FACTOR
+from motorid.diagnose.search import DEFAULT_THRESHOLD, NOISE_SHRINK
 from motorid.diagnose.synthetic import BASE_FOR, SENSORS, planted_record
-from motorid.diagnose.workflow import DEFAULT_THRESHOLD, MISSING_FACTOR, NOISE_SHRINK, diagnose
+from motorid.diagnose.workflow import diagnose
 
 
 @dataclass

@@ -14,7 +14,8 @@ from motorid.figures import save, set_title, subplots
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-    from motorid.diagnose.workflow import Diagnosis, Prepared
+    from motorid.diagnose.prepare import Prepared
+    from motorid.diagnose.results import Diagnosis
 
 
 #: Most points of one series in the residual scatter; longer series show every k-th sample.

@@ -32,7 +32,7 @@ from motorid.app.identify import IdentifyOptions
 from motorid.errors import DataError
 
 if TYPE_CHECKING:
-    from motorid.diagnose.workflow import Diagnosis
+    from motorid.diagnose.results import Diagnosis
 
 
 @dataclass(frozen=True)

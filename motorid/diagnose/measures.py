@@ -1,0 +1,344 @@
+"""The doctor's measures of a model against records: the gaps, the torque-balance residual, the
+evidence, and what the rests say of static friction.
+
+- :func:`gaps`: the free-run output gap overall and in a region [v] and the force error [%];
+  :func:`balance_residual`: the force residual on the decimated samples; :func:`free_run_error`.
+- :func:`evidence`: ΔBIC on the effective sample size (:mod:`motorid.diagnose.workflow`, step 3);
+  :func:`holdout_rows`: the blocks a candidate is checked on.
+- :class:`Breakaway` (:func:`breakaway`, :func:`breakaway_evidence`, :func:`breakaway_holdout`)
+  and :func:`fit_static_friction`: static friction measured at the rests.
+
+The noise floors per speed band are :meth:`Pool.noise_bands
+<motorid.diagnose.prepare.Pool.noise_bands>` and :meth:`Pool.band_floor
+<motorid.diagnose.prepare.Pool.band_floor>`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from motorid.diagnose.locate import Region
+from motorid.diagnose.model import BalanceData, model_balance, model_key
+from motorid.drive.rigid import RigidDrive
+
+if TYPE_CHECKING:
+    from motorid.diagnose.prepare import Pool, Prepared
+
+
+def balance_residual(model: RigidDrive, data: BalanceData) -> tuple[np.ndarray, np.ndarray]:
+    """Force residual ``F_in - F_model`` on the decimated samples, and the commanded force ``g u``.
+
+    On samples near rest (not moving) static friction holds whatever force lies
+    between the model's friction levels at 0- and 0+ (widened by its static friction
+    ``ΔF_s``): there the model force is ``J a + clip(F_in - J a, T(0-) - ΔF_s, T(0+) + ΔF_s)``.
+    """
+    f_in, f_model = model_balance(model, data)
+    f_meas = data.decimated("F|", data.balance_force(data.input_gain * data.kin.u))
+    eps = max(1e-9, 1e-6 * data.scale["w_max"])
+    t_pos, t_neg = model.friction(np.array([eps, -eps]))
+    excess = model.params.get("breakaway_excess", 0.0)  # static friction widens the band at rest
+    lo, hi = min(t_pos, t_neg) - excess, max(t_pos, t_neg) + excess
+    rest = ~data.moving
+    ja = model.params["inertia"] * data.a[rest]
+    f_model = f_model.copy()
+    f_model[rest] = ja + np.clip(f_in[rest] - ja, lo, hi)
+    return f_in - f_model, f_meas
+
+
+def rms(x: np.ndarray) -> float:
+    x = x[np.isfinite(x)]
+    return float(np.sqrt(np.mean(x**2))) if x.size else float("nan")
+
+
+def gaps(model: RigidDrive, prep: Prepared, region: Region | None) -> dict[str, float]:
+    """Output gap overall and in ``region`` [v] (free run) and force error [%].
+
+    Parameters
+    ----------
+    model : RigidDrive
+        The model run free on the record's input.
+    prep : Prepared
+        The record.
+    region : Region or None
+        Where the second gap is measured (None: NaN).
+
+    Returns
+    -------
+    dict
+        ``overall`` and ``region`` [v], ``force_error_percent`` [%].
+    """
+    return dict(gaps_and_weights(model, prep, region)[0])
+
+
+def gaps_and_weights(
+    model: RigidDrive, prep: Prepared, region: Region | None
+) -> tuple[dict[str, float], dict[str, float]]:
+    """:func:`gaps` and what a pool weighs them by: the samples each RMS is over (``overall``,
+    ``region``) and the norm of the commanded force (``force_error_percent``)."""
+    key = (model_key(model), region)
+    if key not in prep._gaps:
+        w_sim = prep.simulate(model)
+        err = prep.kin.w - w_sim
+        valid = prep.kin.valid & np.isfinite(w_sim)
+        in_region = valid & prep.region_mask(region) if region is not None else np.zeros_like(valid)
+        r, f_in = balance_residual(model, prep.data)
+        f_norm = float(np.linalg.norm(f_in))
+        prep._gaps[key] = (
+            {
+                "overall": rms(err[valid]),
+                "region": rms(err[in_region]) if region is not None else float("nan"),
+                "force_error_percent": 100.0 * float(np.linalg.norm(r) / max(f_norm, 1e-300)),
+            },
+            {"overall": int(valid.sum()), "region": int(in_region.sum()), "force_error_percent": f_norm},
+        )
+    return prep._gaps[key]
+
+
+def free_run_error(prep: Prepared, model: RigidDrive) -> np.ndarray:
+    """Measured minus free-run velocity [v] at every sample (NaN outside the settled span).
+
+    Parameters
+    ----------
+    prep : Prepared
+        The record.
+    model : RigidDrive
+        The model run free on its input.
+    """
+    err = prep.kin.w - prep.simulate(model)
+    err[~prep.kin.valid] = np.nan
+    return err
+
+
+#: Fewest rests a record (or pool) needs before its breakaway says anything.
+MIN_RESTS = 5
+
+
+@dataclass(frozen=True)
+class Breakaway:
+    """What the rests of a pool say of static friction, against a model's kinetic level.
+
+    The force at breakaway above the kinetic level at 0±, ``e_i`` [F] at rest i
+    (:meth:`Pool.breakaway_excess <motorid.diagnose.prepare.Pool.breakaway_excess>`), is fitted
+    by least squares as a level and a lag::
+
+        e_i = ΔF_s + τ g r_i
+
+    with ``r_i`` the input's rate at breakaway [u/s] (:class:`~motorid.diagnose.rests.Rests`):
+    a lag τ [s] between input and force (an armature's electrical time constant) raises the input
+    a drive breaks away at in proportion to how fast the input rises, static friction ΔF_s does
+    not. ΔF_s is the breakaway at an input that rises infinitely slowly; rests whose rates do not
+    spread (a sine's reversals all alike) cannot tell it from a lag, and its standard error says so.
+
+    Attributes
+    ----------
+    rests : int
+        Rests counted.
+    excess : float
+        ΔF_s [F] (NaN for fewer than 3 rests, or rates that do not spread).
+    standard_error : float
+        Standard error of ΔF_s [F] from the fit's residual.
+    lag : float
+        τ [s].
+    shown : bool
+        The rests show breakaway above the kinetic level: at least :data:`MIN_RESTS` rests and
+        ΔF_s above twice its standard error.
+    """
+
+    rests: int
+    excess: float
+    standard_error: float
+    lag: float
+    shown: bool
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"rests": self.rests, "excess": self.excess, "standard_error": self.standard_error,
+                "lag": self.lag, "shown": self.shown}  # fmt: skip
+
+
+#: The rates at breakaway spread enough to tell a level from a lag when their standard deviation
+#: is at least this share of their mean magnitude (a sine's reversals: 0.1-0.5 %; a chirp's: 40 %).
+RATE_SPREAD = 0.2
+
+
+def _breakaway_fit(excess: np.ndarray, rate: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
+    """Least-squares ``excess = ΔF_s + τ rate``: the coefficients, their covariance and the RSS.
+    The covariance is inf where the rates do not spread by :data:`RATE_SPREAD` of their mean
+    magnitude: reversals at one input rate cannot tell a level from a lag."""
+    x = np.column_stack([np.ones(excess.size), rate])
+    coef, *_ = np.linalg.lstsq(x, excess, rcond=None)
+    resid = excess - x @ coef
+    rss = float(resid @ resid)
+    xtx = x.T @ x
+    if not np.any(rate):  # every breakaway under a held input: no lag to tell, the level alone
+        level = float(np.mean(excess))
+        rss = float(np.sum((excess - level) ** 2))
+        var = rss / max(excess.size - 1, 1) / excess.size
+        return np.array([level, 0.0]), np.array([[var, 0.0], [0.0, 0.0]]), rss
+    if float(np.std(rate)) < RATE_SPREAD * float(np.mean(np.abs(rate))) or np.linalg.cond(xtx) > 1e12:
+        return coef, np.full((2, 2), np.inf), rss
+    return coef, rss / max(excess.size - 2, 1) * np.linalg.inv(xtx), rss
+
+
+def _typical(excess: np.ndarray, rate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rests that look like a breakaway: the input rising (or held) in the direction the
+    drive then moves (a drive that leaves a rest while its input falls was not held by friction
+    but crept off), and, of those, the ones whose breakaway lies within 3 robust standard
+    deviations (1.4826 MAD) of the fit of :class:`Breakaway`, refitted until none is left out
+    (at most 3 times: a rest the filtered speed left by noise would pull a least-squares level)."""
+    keep = rate >= 0.0
+    excess, rate = excess[keep], rate[keep]
+    for _ in range(3):
+        if excess.size < 3:
+            break
+        coef, *_ = _breakaway_fit(excess, rate)
+        resid = excess - coef[0] - coef[1] * rate
+        centre = float(np.median(resid))
+        spread = 1.4826 * float(np.median(np.abs(resid - centre)))
+        keep = np.abs(resid - centre) <= 3.0 * spread
+        if spread <= 0 or keep.all():
+            break
+        excess, rate = excess[keep], rate[keep]
+    return excess, rate
+
+
+def breakaway(pool: Pool, model: RigidDrive, samples: list[np.ndarray] | None = None) -> Breakaway:
+    """The breakaway the rests of ``pool`` show above ``model``'s kinetic level (see
+    :class:`Breakaway`; the rests that break away in the full-rate ``samples``, the typical ones:
+    :func:`_typical`)."""
+    excess, rate = _typical(*pool.breakaway_excess(model, samples))
+    n = int(excess.size)
+    if n < 3:
+        return Breakaway(n, math.nan, math.nan, math.nan, False)
+    coef, cov, _ = _breakaway_fit(excess, rate)
+    se = math.sqrt(cov[0, 0])
+    if not math.isfinite(se):  # the rates cannot tell a level from a lag
+        return Breakaway(n, math.nan, math.inf, math.nan, False)
+    level = float(coef[0])
+    return Breakaway(n, level, se, float(coef[1]), n >= MIN_RESTS and level > 2.0 * se)
+
+
+def breakaway_evidence(excess: np.ndarray, rate: np.ndarray) -> dict[str, float]:
+    """ΔBIC of static friction on the rests: the fit of :class:`Breakaway` against the lag alone
+    (``e_i = τ g r_i``, no level above the kinetic one)::
+
+        ΔBIC = n ln(RSS_lag / RSS_lag+level) - ln n
+
+    (:func:`evidence` with the typical rests as its samples: one per reversal)."""
+    excess, rate = _typical(excess, rate)
+    n = int(excess.size)
+    if n < 3:
+        return {"delta_bic": -math.inf, "n": n, "n_eff": float(n), "rho": 0.0, "rss_ratio": 1.0}
+    coef, _, rss1 = _breakaway_fit(excess, rate)
+    slope = float(rate @ excess / (rate @ rate)) if float(rate @ rate) > 0 else 0.0
+    resid0 = excess - slope * rate
+    return evidence(float(resid0 @ resid0), rss1, n, 1, excess - coef[0] - coef[1] * rate)
+
+
+def breakaway_holdout(
+    train: Pool,
+    train_samples: list[np.ndarray] | None,
+    held: Pool,
+    held_samples: list[np.ndarray] | None,
+    model: RigidDrive,
+) -> tuple[float, float]:
+    """Held-out check of static friction on the rests: the fits of :class:`Breakaway` on the
+    rests of ``train`` (in ``train_samples``), with and without the level ΔF_s, predict the
+    breakaway of the rests of ``held`` (in ``held_samples``; those with the input rising) above
+    ``model``'s kinetic level; the median absolute errors [F] without and with it (a median: a
+    few held-out rests cannot be sifted for the typical ones; NaN without rests to fit or check)."""
+    e_t, r_t = _typical(*train.breakaway_excess(model, train_samples))
+    e_h, r_h = held.breakaway_excess(model, held_samples)
+    e_h, r_h = e_h[r_h >= 0.0], r_h[r_h >= 0.0]
+    if e_t.size < 3 or e_h.size == 0:
+        return math.nan, math.nan
+    coef, _, _ = _breakaway_fit(e_t, r_t)
+    lag_only = float(r_t @ e_t / (r_t @ r_t)) if float(r_t @ r_t) > 0 else 0.0
+    level = max(float(coef[0]), 0.0)
+    return float(np.median(np.abs(e_h - lag_only * r_h))), float(
+        np.median(np.abs(e_h - level - coef[1] * r_h))
+    )
+
+
+def fit_static_friction(pool: Pool, model: RigidDrive, samples: list[np.ndarray] | None) -> RigidDrive:
+    """``model`` with ``static_friction`` and its ``breakaway_excess`` ΔF_s [F], from the full-rate
+    ``samples`` of each record of ``pool`` (None: all).
+
+    Static friction acts on a drive at rest only, so the balance of the moving samples cannot
+    fit it. Where the records show at least :data:`MIN_RESTS` typical rests, they measure it: the
+    force at breakaway above the model's kinetic level (:func:`breakaway`; 0 when they show
+    none above it). With fewer, the free run fits it: the ΔF_s that minimises the free-run gap,
+    from a grid of 17 values on [0, half the largest input force] and a bounded search between
+    the best one's neighbours.
+
+    Parameters
+    ----------
+    pool : Pool
+        The records of the drive.
+    model : RigidDrive
+        The model static friction is added to (its kinetic level is the reference).
+    samples : list of ndarray or None
+        Each record's full-rate samples to fit on (the training blocks), None for all.
+    """
+    from scipy.optimize import minimize_scalar
+
+    effects = tuple(dict.fromkeys((*model.effects, "static_friction")))
+
+    def with_excess(excess: float) -> RigidDrive:
+        return model.with_effects(effects, {**model.params, "breakaway_excess": float(excess)})
+
+    found = breakaway(pool, model, samples)
+    if found.rests >= MIN_RESTS:
+        return with_excess(max(found.excess, 0.0) if math.isfinite(found.excess) else 0.0)
+    top = 0.5 * pool.data.scale["u_max"] * abs(model.input_gain)
+
+    def cost(excess: float) -> float:
+        err = pool.free_run_error(with_excess(excess), samples)
+        err = err[np.isfinite(err)]
+        return float(np.mean(err**2)) if err.size else math.inf
+
+    grid = np.linspace(0.0, top, 17)
+    costs = [cost(e) for e in grid]
+    i = int(np.argmin(costs))
+    best = minimize_scalar(
+        cost,
+        bounds=(grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]),
+        method="bounded",
+        options={"xatol": 1e-4 * top, "maxiter": 500},
+    )
+    return with_excess(best.x if best.fun <= costs[i] else grid[i])
+
+
+def _lag1(r: np.ndarray) -> float:
+    r = r - r.mean()
+    den = float(np.dot(r, r))
+    return float(np.dot(r[1:], r[:-1]) / den) if den > 0 and r.size > 2 else 0.0
+
+
+def evidence(rss0: float, rss1: float, n: int, dk: int, residual: np.ndarray) -> dict[str, float]:
+    """ΔBIC on the effective sample size (see the module notes)."""
+    rho = min(max(_lag1(residual), 0.0), 0.95)
+    n_eff = max(n * (1.0 - rho) / (1.0 + rho), 2.0)
+    ratio = rss0 / rss1 if rss1 > 0 else np.inf
+    dbic = n_eff * math.log(ratio) - max(dk, 0) * math.log(n_eff) if np.isfinite(ratio) else np.inf
+    return {
+        "delta_bic": float(dbic),
+        "n": int(n),
+        "n_eff": float(n_eff),
+        "rho": float(rho),
+        "rss_ratio": float(ratio),
+    }
+
+
+def holdout_rows(n: int, fraction: float, blocks: int = 10) -> np.ndarray:
+    """Held-out decimated rows: ``round(blocks * fraction)`` of ``blocks`` equal blocks, spread out."""
+    m = min(max(round(blocks * fraction), 1), blocks - 1)
+    chosen = np.unique(np.round(np.linspace(0, blocks - 1, m + 2)[1:-1]).astype(int))
+    block = np.minimum((np.arange(n) * blocks) // max(n, 1), blocks - 1)
+    return np.isin(block, chosen)
+
+
+__all__ = ["MIN_RESTS", "Breakaway", "fit_static_friction", "free_run_error"]

@@ -1,0 +1,650 @@
+"""The doctor's first stage: records made ready to fit and judge.
+
+:func:`prepare` checks one record and computes what every later stage reads of it
+(:class:`Prepared`: its kinematics, the torque-balance data, the features a region is located
+on, its rests and the free-run start); :func:`pool_records` prepares the records of one drive at
+one timing (:class:`Pool`: fitted and judged as one model), and :func:`held_out` the rows and
+samples a candidate is checked on.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from motorid.diagnose.artefacts import clean_output
+from motorid.diagnose.kinematics import Kinematics, kinematics, noise_bands, quantisation_step
+from motorid.diagnose.locate import Region, feature, features
+from motorid.diagnose.measures import (
+    balance_residual,
+    free_run_error,
+    gaps,
+    gaps_and_weights,
+    holdout_rows,
+    rms,
+)
+from motorid.diagnose.model import BalanceData, PooledBalance, fit_model, stacked
+from motorid.diagnose.rests import Rests, rests
+from motorid.drive.rigid import RigidDrive, check_sample_time
+from motorid.errors import DataError
+from motorid.units import UNNAMED_OUTPUT, input_unit_name, rate
+from motorid.validation import check_signals
+
+logger = logging.getLogger(__name__)
+
+#: The speed bands the noise floor is reported in, as shares of the largest |w|: near rest
+#: (where static friction and Stribeck act), low, middle and high speed.
+SPEED_BANDS = (0.0, 0.1, 0.3, 0.6, 1.0)
+
+
+@dataclass
+class Prepared:
+    """One record made ready: kinematics, balance data, features and the free-run start, and a
+    note for each logging artefact left out (:mod:`.artefacts`).
+
+    The features are kept on the decimated samples only (``feats_dec``); a
+    region's full-rate mask is computed when asked for (:meth:`region_mask`). Every
+    model's gaps (:func:`~motorid.diagnose.measures.gaps`) are kept: the workflow asks for some
+    more than once.
+
+    Attributes
+    ----------
+    kin : Kinematics
+        The filtered, differentiated and decimated record (:mod:`.kinematics`).
+    data : BalanceData
+        The torque-balance rows on the decimated samples (:mod:`.model`).
+    feats_dec : dict
+        Feature name -> its value on each decimated sample (:func:`~motorid.diagnose.locate.features`).
+    timing : str
+        ``hold`` or ``sampled`` (:func:`prepare`).
+    units : dict
+        Units of velocity ``v``, force ``F``, input ``u`` and time ``s``.
+    notes : list of str
+        One line per logging artefact left out (:mod:`.artefacts`).
+    quantisation : float or None
+        The output's quantisation step [its unit], when it shows.
+    rests : Rests or None
+        The record's rests (:func:`rests_of`).
+    """
+
+    kin: Kinematics
+    data: BalanceData
+    feats_dec: dict[str, np.ndarray]
+    timing: str
+    units: dict[str, str]
+    notes: list[str] = field(default_factory=list)
+    quantisation: float | None = None
+    rests: Rests | None = None
+    _masks: dict[Region, np.ndarray] = field(default_factory=dict, repr=False)
+    _gaps: dict[tuple, tuple[dict[str, float], dict[str, float]]] = field(default_factory=dict, repr=False)
+
+    def region_mask(self, region: Region) -> np.ndarray:
+        """Full-rate samples inside ``region`` (cached per region)."""
+        if region not in self._masks:
+            kin = self.kin
+            x = feature(region.feature, kin.w, kin.a, kin.u, kin.dt, self.data.w_threshold)
+            self._masks[region] = region.mask({region.feature: x})
+        return self._masks[region]
+
+    @property
+    def start(self) -> int:
+        valid = np.flatnonzero(self.kin.valid)
+        return int(valid[0]) if valid.size else 1
+
+    def simulate(self, model: RigidDrive) -> np.ndarray:
+        """Free-run velocity at every sample (NaN before the settled span)."""
+        i0 = max(self.start, 1)
+        out = np.full(self.kin.n, np.nan)
+        out[i0:] = model.free_run(self.kin.u, w0=float(self.kin.w[i0 - 1]), start=i0)
+        return out
+
+    def balance_residual(self, model: RigidDrive) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`~motorid.diagnose.measures.balance_residual` of this record's decimated samples."""
+        return balance_residual(model, self.data)
+
+
+def _column(record: pd.DataFrame, name: str, role: str) -> np.ndarray:
+    if not isinstance(name, str) or name not in record.columns:
+        raise DataError(f"{role} column {name!r} is not in the record; columns are {list(record.columns)}")
+    values = pd.to_numeric(record[name], errors="coerce").to_numpy(dtype=float)
+    bad = np.flatnonzero(~np.isfinite(values))
+    if bad.size:
+        k = int(bad[0])
+        raise DataError(f"column {name!r} is not finite at sample {k}: {record[name].iloc[k]!r}")
+    return values
+
+
+def _sample_time(record: pd.DataFrame, dt: float | None) -> float:
+    if dt is None:
+        dt = record.attrs.get("dt")
+    if dt is None and "t" in record.columns:
+        t = pd.to_numeric(record["t"], errors="coerce").to_numpy(dtype=float)
+        if t.size >= 2 and np.all(np.isfinite(t)):
+            dt = float(np.median(np.diff(t)))
+    if dt is None:
+        raise DataError("dt is not given and the record has neither attrs['dt'] nor a 't' column")
+    try:
+        return check_sample_time(dt)
+    except ValueError as exc:
+        raise DataError(str(exc)) from None
+
+
+def _units(
+    record: pd.DataFrame, input: str, output: str, output_kind: str, gain_given: bool
+) -> dict[str, str]:
+    """Concrete units of velocity ``v``, force ``F``, input ``u`` and time ``s`` for a record.
+
+    The force unit is N (linear drive: velocity in m/s) or N m when the input
+    gain is given; without it the model's forces are per input unit, so ``F``
+    is the input's unit (``attrs["units"][input]``, else ``"input units"``). A
+    velocity whose unit the record does not name is in ``"output units"`` (per
+    second for a position): no unit is invented (:mod:`motorid.units`).
+    """
+    known = record.attrs.get("units") or {}
+    unit = known.get(output)
+    v = rate(unit) if output_kind == "position" else unit or UNNAMED_OUTPUT
+    u = input_unit_name(known.get(input))
+    if gain_given:
+        force = "N" if v.startswith("m/") else "N m"
+    else:
+        force = u
+    return {"v": v, "u": u, "s": "s", "F": force}
+
+
+def prepare(
+    record: pd.DataFrame,
+    dt: float | None = None,
+    input: str = "u",
+    output: str = "y",
+    output_kind: str = "velocity",
+    input_gain: float | None = None,
+    timing: str = "hold",
+    band: float | None = None,
+) -> Prepared:
+    """Check a record and compute its kinematics and balance data.
+
+    Parameters
+    ----------
+    record : DataFrame
+        The record, in motorid's columns.
+    dt : float, optional
+        Sample time [s]; default ``attrs["dt"]`` or the median step of the ``t`` column.
+    input, output : str
+        The input and output columns.
+    output_kind : {"velocity", "position"}
+        What the output is (a position is differentiated).
+    input_gain : float, optional
+        Force per input unit g [N/V or N m/V], > 0; None (not known) fits with g = 1: the forces
+        are then in the input's unit (see :func:`_units`).
+    timing : {"hold", "sampled"}
+        ``hold``: ``y[k]`` is measured at the end of the interval over which ``u[k]`` is held
+        (motorid records); ``sampled``: ``y[k]`` is measured when ``u[k]`` is computed and
+        ``u[k]`` then held (a sampled controller, EMPS). The second is brought to the first by
+        pairing ``u[k]`` with ``y[k+1]``.
+    band : float, optional
+        Useful band [Hz] (:mod:`.kinematics`).
+
+    Returns
+    -------
+    Prepared
+    """
+    if not isinstance(record, pd.DataFrame):
+        raise DataError(f"record must be a pandas DataFrame, got {type(record).__name__}")
+    if output_kind not in ("velocity", "position"):
+        raise DataError(f"output_kind must be 'velocity' or 'position', got {output_kind!r}")
+    if timing not in ("hold", "sampled"):
+        raise DataError(f"timing must be 'hold', 'sampled' or 'auto', got {timing!r}")
+    gain_given = input_gain is not None
+    if input_gain is None:
+        input_gain = 1.0
+    if isinstance(input_gain, bool) or not isinstance(input_gain, int | float | np.number):
+        raise DataError(f"input_gain must be a number or None, got {input_gain!r}")
+    if not math.isfinite(input_gain) or input_gain <= 0:
+        raise DataError(f"input_gain must be finite and > 0, got {input_gain!r}")
+    dt = _sample_time(record, dt)
+    if "t" in (input, output) or input == output:
+        raise DataError(
+            f"input {input!r} and output {output!r} must be two columns other than the time column 't'"
+        )
+    u = _column(record, input, "input")
+    y = _column(record, output, "output")
+    check_signals({input: u, output: y})
+    units = _units(record, input, output, output_kind, gain_given)
+    y_unit = units["v"] if output_kind == "velocity" else (record.attrs.get("units") or {}).get(output, "")
+    u, y, notes = clean_output(u, y, dt, (units["u"], y_unit), start=output_kind == "velocity")
+    for note in notes:
+        logger.info("%s", note)
+    if timing == "sampled":
+        u, y = u[:-1], y[1:]
+    kin = kinematics(u, y, dt, output_kind, band)  # type: ignore[arg-type]
+    if kin.decimated_index.size < 30:
+        raise DataError(
+            f"the record is too short: {len(record)} samples give {kin.decimated_index.size} decimated "
+            f"samples after the filter edges (at least 30 needed; decimation factor {kin.factor})"
+        )
+    data = BalanceData(kin, float(input_gain))
+    feats = features(kin.w, kin.a, kin.u, dt, data.w_threshold, at=data.idx)
+    step = quantisation_step(y)
+    return Prepared(kin, data, feats, timing, units, notes, step, rests_of(kin, step))
+
+
+def rests_of(kin: Kinematics, step: float | None) -> Rests:
+    """The rests of a record (:func:`~motorid.diagnose.rests.rests`), at rest below the larger of
+    the output's quantisation ``step`` and three noise floors of its band nearest rest
+    (:data:`SPEED_BANDS`).
+
+    Parameters
+    ----------
+    kin : Kinematics
+        The record's kinematics.
+    step : float or None
+        The output's quantisation step [its unit], when it shows.
+    """
+    speed = np.abs(kin.w[kin.valid])
+    floor = 0.0
+    if speed.size:
+        near = noise_bands(speed, kin.hf[kin.valid], np.asarray(SPEED_BANDS[:2]) * float(np.max(speed)),
+                           kin.band, kin.dt)[0]["noise_floor"]  # fmt: skip
+        floor = near if math.isfinite(near) else kin.noise
+    w_rest = max(step or 0.0, 3.0 * floor, 1e-12)
+    return rests(kin.u, kin.w, kin.dt, w_rest, kin.valid)
+
+
+@dataclass
+class Pool:
+    """The records of one drive, prepared, fitted and judged as one model.
+
+    The parameters are shared; each record keeps its own kinematics, filter edges, moving
+    samples and decimation, its own initial state (its free run starts from its own measured
+    speed) and its own time origin (each record's free run is compared with that record only).
+    The torque balance stacks the records' decimated rows (:class:`PooledBalance`), and every
+    figure of merit is pooled over the samples it is an RMS of:
+
+        gap = sqrt(Σ_i n_i gap_i² / Σ_i n_i),    σ_w = sqrt(Σ_i n_i σ_i² / Σ_i n_i),
+        force error = 100 sqrt(Σ_i ||r_i||²) / sqrt(Σ_i ||F_in,i||²)
+
+    (n_i the settled samples of record i). A pool of one record is that record: every figure
+    is the record's own, computed as for it alone.
+
+    Attributes
+    ----------
+    parts : list of Prepared
+        The records, prepared (at one sample time, decimation and units).
+    labels : list of str
+        A name for each record.
+    """
+
+    parts: list[Prepared]
+    labels: list[str]
+    data: BalanceData | PooledBalance = field(init=False)
+    feats_dec: dict[str, np.ndarray] = field(init=False)
+    noise: float = field(init=False)
+
+    def __post_init__(self) -> None:
+        first = self.parts[0]
+        if len(self.parts) == 1:
+            self.data, self.feats_dec, self.noise = first.data, first.feats_dec, first.kin.noise
+            return
+        for label, part in zip(self.labels[1:], self.parts[1:], strict=True):
+            if abs(part.kin.dt - first.kin.dt) > 1e-6 * first.kin.dt or part.kin.factor != first.kin.factor:
+                raise DataError(
+                    f"{label}: sample time {part.kin.dt:.9g} s (decimation {part.kin.factor}) differs from "
+                    f"{self.labels[0]}'s {first.kin.dt:.9g} s ({first.kin.factor}): the records of one drive "
+                    "are pooled at one sample time (resample them first)"
+                )
+            if part.units != first.units:
+                raise DataError(
+                    f"{label}: units {part.units} differ from {self.labels[0]}'s {first.units}: the records "
+                    "of one drive are pooled in the same units"
+                )
+        counts = [int(p.kin.valid.sum()) for p in self.parts]
+        self.noise = math.sqrt(
+            sum(n * p.kin.noise**2 for n, p in zip(counts, self.parts, strict=True)) / max(sum(counts), 1)
+        )
+        self.data = PooledBalance(tuple(p.data for p in self.parts), self.noise)
+        self.feats_dec = {k: np.concatenate([p.feats_dec[k] for p in self.parts]) for k in first.feats_dec}
+
+    @property
+    def units(self) -> dict[str, str]:
+        return self.parts[0].units
+
+    @property
+    def dt(self) -> float:
+        return self.parts[0].kin.dt
+
+    def gaps(self, model: RigidDrive, region: Region | None) -> dict[str, float]:
+        """The pooled :func:`~motorid.diagnose.measures.gaps` (see the class notes)."""
+        if len(self.parts) == 1:
+            return gaps(model, self.parts[0], region)
+        pairs = [gaps_and_weights(model, p, region) for p in self.parts]
+        out = {}
+        for key in ("overall", "region", "force_error_percent"):
+            # a gap is an RMS over n samples, the force error a norm ratio: pool the squares
+            power = 2 if key == "force_error_percent" else 1
+            terms = [(g[key], w[key] ** power) for g, w in pairs]
+            terms = [(g, wt) for g, wt in terms if wt > 0 and math.isfinite(g)]
+            total = sum(wt for _, wt in terms)
+            out[key] = math.sqrt(sum(g * g * wt for g, wt in terms) / total) if total > 0 else float("nan")
+        return out
+
+    def record_gaps(self, model: RigidDrive, region: Region | None) -> list[dict[str, float]]:
+        """:func:`~motorid.diagnose.measures.gaps` of each record."""
+        return [gaps(model, p, region) for p in self.parts]
+
+    def balance_residual(self, model: RigidDrive) -> tuple[np.ndarray, np.ndarray]:
+        """:func:`~motorid.diagnose.measures.balance_residual` of each record, stacked as the pooled
+        rows are."""
+        if len(self.parts) == 1:
+            return balance_residual(model, self.parts[0].data)
+        pairs = [balance_residual(model, p.data) for p in self.parts]
+        return np.concatenate([r for r, _ in pairs]), np.concatenate([f for _, f in pairs])
+
+    def free_run_error(self, model: RigidDrive, samples: list[np.ndarray] | None = None) -> np.ndarray:
+        """:func:`~motorid.diagnose.measures.free_run_error` of each record (on its full-rate
+        ``samples``), stacked."""
+        errors = [free_run_error(p, model) for p in self.parts]
+        if samples is not None:
+            errors = [e[m] for e, m in zip(errors, samples, strict=True)]
+        return stacked(errors)
+
+    def noise_bands(self) -> list[dict[str, float]]:
+        """The noise floor per speed band (:func:`~motorid.diagnose.kinematics.noise_bands`) over
+        the settled samples of every record, the bands :data:`SPEED_BANDS` of the largest |w|."""
+        speed = stacked([np.abs(p.kin.w[p.kin.valid]) for p in self.parts])
+        if speed.size == 0:
+            return []
+        hf = stacked([p.kin.hf[p.kin.valid] for p in self.parts])
+        edges = np.asarray(SPEED_BANDS) * float(np.max(speed))
+        kin = self.parts[0].kin
+        return noise_bands(speed, hf, edges, kin.band, kin.dt)
+
+    def band_floor(self, acts: str) -> float:
+        """The noise floor [v] where an effect acts (:attr:`Effect.acts
+        <motorid.diagnose.effects.Effect.acts>`): the band nearest rest for ``rest`` and ``rests``, the top band
+        for ``speed`` (:meth:`noise_bands`), else the record-wide floor. A band of too few samples
+        to measure falls back to the record-wide floor."""
+        if not acts:
+            return self.noise
+        bands = self.noise_bands()
+        if not bands:
+            return self.noise
+        floor = bands[-1 if acts == "speed" else 0]["noise_floor"]
+        return floor if math.isfinite(floor) and floor > 0 else self.noise
+
+    def acting_samples(self, acts: str) -> list[np.ndarray] | None:
+        """Each record's full-rate samples where an effect acts: its rests and, after each, as long
+        again (the breakaway and the speed it picks up: :attr:`Prepared.rests`) for ``rests``;
+        speeds below the first edge of :data:`SPEED_BANDS` (of the largest |w| over the records)
+        for ``rest``, above the last inner edge for ``speed``; None (every sample) for an effect
+        that acts everywhere."""
+        if not acts:
+            return None
+        if acts == "rests":
+            out = []
+            for p in self.parts:
+                mask = np.zeros(p.kin.n, dtype=bool)
+                for a, b in zip(p.rests.start, p.rests.stop, strict=True):
+                    mask[a : b + 1 + (b - a + 1)] = True
+                out.append(mask)
+            return out
+        top = max(float(np.max(np.abs(p.kin.w[p.kin.valid]), initial=0.0)) for p in self.parts)
+        if acts == "rest":
+            return [np.abs(p.kin.w) < SPEED_BANDS[1] * top for p in self.parts]
+        return [np.abs(p.kin.w) >= SPEED_BANDS[-2] * top for p in self.parts]
+
+    def acting_gap(self, model: RigidDrive, acts: str) -> float:
+        """RMS free-run gap [v] over the samples where an effect acts (:meth:`acting_samples`)."""
+        return rms(self.free_run_error(model, self.acting_samples(acts)))
+
+    def breakaway_excess(
+        self, model: RigidDrive, samples: list[np.ndarray] | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The force at breakaway above ``model``'s kinetic level at 0± [F], at each rest of each
+        record (:attr:`Prepared.rests`; those that break away in the full-rate ``samples``):
+        ``F_b - T(0+)`` breaking away forwards, ``T(0-) - F_b`` backwards, with ``F_b`` the force
+        of the input at breakaway (:meth:`RigidDrive.input_force
+        <motorid.drive.rigid.RigidDrive.input_force>`: through the model's dead zone, delay and
+        lag) and ``T(0±)`` the model's friction (and offset) at ±0; and the force's rate there
+        [F/s], in the direction of the motion (central differences)."""
+        eps = max(1e-9, 1e-6 * self.data.scale["w_max"])
+        t_pos, t_neg = model.friction(np.array([eps, -eps]))
+        out, rates = [], []
+        for k, p in enumerate(self.parts):
+            r = p.rests if samples is None else p.rests.within(samples[k])
+            f_in = model.input_force(p.kin.u)  # through the model's input path (dead zone, lag...)
+            force = r.direction * f_in[r.stop]  # in the direction of the motion
+            out.append(np.where(r.direction > 0, force - t_pos, force + t_neg))
+            rates.append(r.direction * np.gradient(f_in, p.kin.dt)[r.stop])
+        return stacked(out), stacked(rates)
+
+    @property
+    def quantisation(self) -> float | None:
+        """The output's quantisation step [its unit] when every record shows the same one (1 %)."""
+        steps = [p.quantisation for p in self.parts]
+        if any(q is None for q in steps) or max(steps) > 1.01 * min(steps):  # type: ignore[type-var]
+            return None
+        return steps[0]
+
+    def holdout_rows(self, fraction: float) -> np.ndarray:
+        """Each record's held-out decimated rows (:func:`~motorid.diagnose.measures.holdout_rows`),
+        stacked."""
+        return stacked([holdout_rows(p.data.n, fraction) for p in self.parts])
+
+    def holdout_samples(self, fraction: float) -> list[np.ndarray]:
+        """Each record's held-out full-rate samples: the same blocks as :meth:`holdout_rows`."""
+        return [holdout_rows(p.kin.n, fraction) for p in self.parts]
+
+
+def normalised_records(
+    records: Sequence[pd.DataFrame],
+    labels: Sequence[str],
+    columns: dict[str, str | None],
+    reading: dict[str, object],
+) -> list[pd.DataFrame]:
+    """Each record brought to motorid's columns and units (:func:`motorid.records.normalise_record`).
+
+    Parameters
+    ----------
+    records : sequence of DataFrame
+        The records as the user holds them.
+    labels : sequence of str
+        A name for each record, put before an error's text when there are several.
+    columns : dict
+        ``time``, ``input`` and ``output``: the columns to read (``time`` None: ``t``).
+    reading : dict
+        The rest of :func:`~motorid.records.normalise_record`'s options (``dt``, units...).
+
+    Returns
+    -------
+    list of DataFrame
+        Columns ``t`` (when given), ``u``, ``y``: only the columns the doctor reads are brought
+        over (a simulated record's true states stay behind).
+    """
+    from motorid.records import normalise_record
+
+    time = columns["time"]
+
+    def normalised(r: pd.DataFrame, label: str) -> pd.DataFrame:
+        part = r
+        if isinstance(r, pd.DataFrame):
+            named = [c for c in (time or "t", columns["input"], columns["output"]) if c in r.columns]
+            if len(named) == 3 or (len(named) == 2 and time is None):
+                part = r[named]
+                part.attrs = dict(r.attrs)
+        try:
+            return normalise_record(part, **columns, **reading)
+        except DataError as exc:
+            raise DataError(f"{label}: {exc}" if len(records) > 1 else str(exc)) from None
+
+    return [normalised(r, label) for r, label in zip(records, labels, strict=True)]
+
+
+def common_timing(records: Sequence[pd.DataFrame], labels: Sequence[str]) -> str:
+    """The timing the records say (:func:`motorid.records.record_timing`), one for all of them.
+
+    Parameters
+    ----------
+    records : sequence of DataFrame
+        Normalised records (their ``attrs`` read).
+    labels : sequence of str
+        Their names, for the error when they differ.
+
+    Returns
+    -------
+    str
+        ``hold`` or ``sampled``.
+    """
+    from motorid.records import record_timing
+
+    own = [record_timing(getattr(r, "attrs", {})) for r in records]
+    if len(set(own)) > 1:
+        raise DataError(
+            f"the records say different timings ({', '.join(f'{x}: {t}' for x, t in zip(labels, own, strict=True))}): "
+            "pass timing= for all of them"
+        )
+    return own[0]
+
+
+def pool_records(
+    records: list[pd.DataFrame],
+    labels: Sequence[str],
+    timing: str,
+    options: dict[str, object],
+    base: tuple[str, ...],
+    stribeck_shape: str,
+) -> Pool:
+    """The records of one drive prepared (:func:`prepare`) and pooled (:class:`Pool`).
+
+    Parameters
+    ----------
+    records : list of DataFrame
+        Normalised records (:func:`normalised_records`); emptied once prepared (each part holds
+        what it needs).
+    labels : list of str
+        A name for each record.
+    timing : {"hold", "sampled", "auto"}
+        Input/output timing (:func:`prepare`); ``auto`` prepares both and keeps the one whose
+        ``base`` model fits the torque balance better, relative to the commanded input's energy
+        on the moving samples.
+    options : dict
+        :func:`prepare`'s other options (``dt``, ``input``, ``output``, ``output_kind``,
+        ``input_gain``, ``band``).
+    base : tuple of str
+        The base effects, fitted for ``auto``.
+    stribeck_shape : str
+        Their Stribeck shape.
+
+    Returns
+    -------
+    Pool
+    """
+
+    def pooled(timing: str) -> Pool:
+        parts = []
+        for label, r in zip(labels, records, strict=True):
+            try:
+                parts.append(prepare(r, timing=timing, **options))  # type: ignore[arg-type]
+            except DataError as exc:
+                raise DataError(f"{label}: {exc}" if len(records) > 1 else str(exc)) from None
+        return Pool(parts, list(labels))
+
+    if timing == "auto":
+        pools = [pooled(t) for t in ("hold", "sampled")]
+        scores = []
+        for p in pools:
+            fit = fit_model(p.data, base, stribeck_shape=stribeck_shape)
+            commanded = sum(
+                float(np.sum(q.data.kin.decimate(q.data.kin.u)[q.data.moving] ** 2)) for q in p.parts
+            )
+            scores.append(fit.rss / max(commanded, 1e-300))
+        pool = pools[int(np.argmin(scores))]
+        pools.clear()  # the other timing's arrays go now
+    else:
+        pool = pooled(timing)
+    records.clear()  # the normalised copies go: each part holds what it needs
+    return pool
+
+
+@dataclass
+class HeldOut:
+    """What a candidate is checked on: the held-out blocks of the pool, or a second record.
+
+    Attributes
+    ----------
+    train : ndarray of bool
+        The pool's decimated rows a held-out check fits on.
+    rows : ndarray of bool
+        The held-out decimated rows (moving samples only) it is scored on: the pool's, or
+        ``other``'s.
+    samples : list of ndarray or None
+        The same blocks at full rate, per record (static friction is held out on the rests in
+        them); None with a second record.
+    other : Prepared or None
+        The second record, when one is given.
+    """
+
+    train: np.ndarray
+    rows: np.ndarray
+    samples: list[np.ndarray] | None
+    other: Prepared | None
+
+    def balance_residual(self, pool: Pool, model: RigidDrive) -> np.ndarray:
+        """``model``'s :func:`~motorid.diagnose.measures.balance_residual` on the held-out rows.
+
+        Parameters
+        ----------
+        pool : Pool
+            The records fitted.
+        model : RigidDrive
+            A model fitted on :attr:`train`.
+        """
+        if self.other is not None:
+            r, _ = balance_residual(model, self.other.data)
+        else:
+            r, _ = pool.balance_residual(model)
+        return r[self.rows]
+
+
+def held_out(pool: Pool, holdout: float | pd.DataFrame, options: dict[str, object]) -> HeldOut:
+    """The held-out check's rows: ``round(10 holdout)`` of 10 interleaved blocks of each record
+    (:func:`~motorid.diagnose.measures.holdout_rows`), or every row of the pool against a second,
+    normalised record.
+
+    Parameters
+    ----------
+    pool : Pool
+        The records fitted.
+    holdout : float or DataFrame
+        Share held out, in (0, 0.9), or the second record (prepared at the pool's timing).
+    options : dict
+        :func:`prepare`'s options for the second record (``timing`` is the pool's).
+
+    Returns
+    -------
+    HeldOut
+    """
+    data = pool.data
+    if isinstance(holdout, pd.DataFrame):
+        other = prepare(holdout, **options, timing=pool.parts[0].timing)  # type: ignore[arg-type]
+        return HeldOut(np.ones(data.n, dtype=bool), other.data.moving, None, other)
+    held = pool.holdout_rows(float(holdout))
+    return HeldOut(~held, held & data.moving, pool.holdout_samples(float(holdout)), None)
+
+
+__all__ = [
+    "SPEED_BANDS",
+    "HeldOut",
+    "Pool",
+    "Prepared",
+    "common_timing",
+    "held_out",
+    "normalised_records",
+    "pool_records",
+    "prepare",
+    "rests_of",
+]

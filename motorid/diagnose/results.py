@@ -1,0 +1,607 @@
+"""The doctor's results: what :func:`~motorid.diagnose.workflow.diagnose` found and how it says it.
+
+:class:`Diagnosis` (with its :class:`Step` per effect added, the :class:`Lookalike` effects the
+data cannot tell apart and the base :class:`Structure`), the per-record summaries
+(:func:`record_summaries`, :func:`rest_summaries`) and the sentences of a stop reason, all built
+in one place (:class:`Stop`, :data:`STOP_SENTENCES`, :func:`final_gap_sentence`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from motorid.diagnose.effects import param_unit
+from motorid.diagnose.locate import Region
+from motorid.diagnose.measures import breakaway, gaps
+from motorid.diagnose.prepare import Pool, prepare
+from motorid.drive.rigid import RigidDrive
+
+#: Share of the input force below which the inertia is not determined by a record: the kit
+#: motor's 0.5 Hz sines put 4.6 % of it into acceleration, its 1 Hz sines 9.5 %, its chirps 20 %
+#: and their joint run 15 % (``scripts/realmotors_doctor.py``); the sines' inertias differ from
+#: the chirps' by 3-10 %, many times their standard errors. 12 % lies a quarter away from both.
+INERTIA_SHARE_LIMIT = 0.12
+#: Relative standard error above which a parameter is not determined by a record.
+RELATIVE_STD_LIMIT = 0.5
+#: A final gap above this many noise floors says an effect is still missing, within it "at the
+#: noise floor": above the largest final gap (3.18) of 899 models that found their one planted
+#: effect, and above the 99th percentile (3.04) of 191 on an encoder's speed (quantised, noise
+#: growing with speed) (:mod:`.calibration`).
+MISSING_FACTOR = 3.5
+
+
+@dataclass
+class Structure:
+    """The base structure chosen from the record before any other effect is judged.
+
+    Attributes
+    ----------
+    effects : tuple of str
+        The structure effects taken (``input_delay``, ``input_lag``; none for a drive
+        that answers its input at once).
+    params : dict
+        Their parameters [s], held fixed in every later fit.
+    probe : tuple of str
+        The effects of the model the structures were compared in (the base and
+        Coulomb friction: a missing friction level must not pass for a lag).
+    gap_before, gap_after : float
+        Free-run output gap [v] of the probe model without and with the structure.
+    candidates : list of dict
+        Each structure tried: ``effects``, ``params``, ``delta_bic`` (against the
+        probe, or against the best single effect for the pair) and ``gap`` [v].
+    reason : str
+        Why this structure.
+    """
+
+    effects: tuple[str, ...] = ()
+    params: dict[str, float] = field(default_factory=dict)
+    probe: tuple[str, ...] = ()
+    gap_before: float = float("nan")
+    gap_after: float = float("nan")
+    candidates: list[dict[str, Any]] = field(default_factory=list)
+    reason: str = "not searched"
+
+    def describe(self, dt: float) -> str:
+        """One line for the report, e.g. ``input_delay = 0.012 s (1.20 samples)``."""
+        if not self.effects:
+            return "no input delay or lag"
+        return ", ".join(f"{p} = {v:.4g} s ({v / dt:.2f} samples)" for p, v in self.params.items())
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "effects": list(self.effects), "params": self.params, "probe": list(self.probe),
+            "gap_before": self.gap_before, "gap_after": self.gap_after,
+            "candidates": self.candidates, "reason": self.reason,
+        }  # fmt: skip
+
+
+@dataclass
+class Lookalike:
+    """Effects the data cannot tell apart: one physics, fitted alike by two or more effects.
+
+    Attributes
+    ----------
+    physics : str
+        What they are forms of (:meth:`Effect.physics <motorid.diagnose.effects.Effect.physics>`),
+        e.g. ``kinetic friction``.
+    named : str
+        The effect the lookalike rule named (:func:`~motorid.diagnose.workflow.diagnose`, step 4).
+    gaps : dict
+        Effect -> free-run gap [v] of the model with it, the named one first.
+    levels : dict
+        Effect -> the size of the physics in that model [F] (:meth:`Effect.level <motorid.diagnose.effects.Effect.level>`).
+    tolerance : float
+        Two gaps closer than this [v] fit alike: ``noise_shrink`` noise floors.
+    """
+
+    physics: str
+    named: str
+    gaps: dict[str, float]
+    levels: dict[str, float]
+    tolerance: float
+
+    def describe(self, units: dict[str, str]) -> str:
+        """One line, e.g. ``kinetic friction 0.73 V: coulomb_friction and input_dead_zone fit alike
+        (free-run gap 4.771 vs 4.802 rad/s, within 0.21 rad/s); named coulomb_friction by the
+        lookalike rule (the first in the library's order)``."""
+        names = list(self.gaps)
+        figures = " vs ".join(f"{g:.4g}" for g in self.gaps.values())
+        return (
+            f"{self.physics} {self.levels[self.named]:.3g} {units['F']}: {' and '.join(names)} fit alike "
+            f"(free-run gap {figures} {units['v']}, within {self.tolerance:.3g} {units['v']}); named "
+            f"{self.named} by the lookalike rule (the first in the library's order)"
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "physics": self.physics, "named": self.named, "effects": list(self.gaps),
+            "free_run_gaps": self.gaps, "levels": self.levels, "tolerance": self.tolerance,
+        }  # fmt: skip
+
+
+@dataclass
+class Step:
+    """One accepted effect.
+
+    Attributes
+    ----------
+    effect : str
+        The effect's name.
+    params : dict
+        Its parameters (SI units) in the refitted model.
+    region : Region
+        Where the disagreement concentrated before it was added.
+    gap_before, gap_after : dict
+        ``overall`` and ``region`` output gap [v], ``force_error_percent`` [%].
+    evidence : dict
+        ΔBIC and its threshold, held-out errors [F], the candidate ranking.
+    model : RigidDrive
+        The refitted model after this step.
+    record_gaps : list of dict
+        Several records: each record's ``record`` label and overall ``gap_before`` and
+        ``gap_after`` [v] (the step's gaps are the pooled ones); empty for one record.
+    lookalike : Lookalike or None
+        The effects that fit alike here, and which one the lookalike rule named.
+    """
+
+    effect: str
+    params: dict[str, float]
+    region: Region
+    gap_before: dict[str, float]
+    gap_after: dict[str, float]
+    evidence: dict[str, Any]
+    model: RigidDrive
+    record_gaps: list[dict[str, Any]] = field(default_factory=list)
+    lookalike: Lookalike | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        out = {
+            "effect": self.effect,
+            "params": self.params,
+            "region": self.region.to_dict(),
+            "gap_before": self.gap_before,
+            "gap_after": self.gap_after,
+            "evidence": self.evidence,
+            "model_params": self.model.params,
+        }
+        if self.record_gaps:
+            out["record_gaps"] = self.record_gaps
+        if self.lookalike is not None:
+            out["lookalike"] = self.lookalike.to_dict()
+        return out
+
+
+@dataclass
+class Diagnosis:
+    """What :func:`~motorid.diagnose.workflow.diagnose` found.
+
+    Attributes
+    ----------
+    initial_gap, final_gap : dict
+        ``overall`` output gap [v] (RMS of measured minus free-run velocity),
+        ``region`` (the same in the first located region) and
+        ``force_error_percent`` [%] (torque-balance error on the decimated samples).
+    steps : list of Step
+    stop_reason : str
+        Why the search stopped, then the final gap against the noise floor: at it, or
+        many times it ("something is still missing") and where it concentrates.
+    noise_floor : float
+        σ_w [v]: standard deviation of the noise on the measured velocity the free
+        run is compared with, estimated from the record (see the module notes; several
+        records: pooled over them, :class:`Pool`).
+    final_region : Region
+        Where the final model's torque-balance residual concentrates.
+    model : RigidDrive
+        The final fitted model (``model.params``: inertia, input_gain, viscous, ...),
+        at the record's sample time; ``model.save(path)`` writes it as a model file.
+    initial_model : RigidDrive
+        The user's model as given (``diagnose(model=...)``), else the fitted base.
+    region : Region
+        The region located on the initial model's residual.
+    units : dict
+        Units of velocity (``v``), force (``F``) and input (``u``): ``F`` is
+        N or N m with a known input gain, else the input's unit.
+    settings : dict
+        Options used (for :meth:`evaluate` on another record).
+    rejected : list of dict
+        Candidates that passed the evidence threshold but were not accepted, and why.
+    refitted_model, refitted_gap : RigidDrive and dict, or None
+        With a given model: its effects refitted to the record, and their gaps (the
+        start of the first step).
+    param_std : dict
+        Standard error of each linear parameter of the final model (inertia and the
+        effects' levels, in the units of ``param_units``), from the fit's residual
+        (:func:`motorid.diagnose.model.linear_param_std`); shape parameters have none.
+    param_share : dict
+        Share of the input force each linear parameter's term carries
+        (:func:`motorid.diagnose.model.force_shares`) [-].
+    structure : Structure
+        The input delay and lag chosen from the record before any other effect was judged.
+    structure_model : RigidDrive or None
+        The base refitted with that structure, when one was taken.
+    noise_bands : list of dict
+        The noise floor per speed band (:meth:`Pool.noise_bands`): ``speed_from``, ``speed_to``
+        [v], ``samples``, ``noise_floor`` [v]. An encoder's noise often grows with speed, where
+        :attr:`noise_floor` is one figure over every speed.
+    quantisation_step : float or None
+        The step the output is quantised in [its unit] (an encoder's count per sample), when it
+        shows (:func:`~motorid.diagnose.kinematics.quantisation_step`).
+    rests : list of dict
+        Per record (:func:`rest_summaries`): its ``record`` label, the ``count`` of its rests,
+        their ``median_length`` [s], ``median_breakaway_input`` [u] (the input it breaks away
+        at, in the direction it then moves: :mod:`.rests`) and ``median_input_rate`` [u/s] (how
+        fast that input rises there), ``w_rest`` [v] (the speed below which
+        it counts as at rest), the final model's ``kinetic_level`` at 0 [F] (mean of the two
+        directions), ``breakaway_excess`` [F] (the force at breakaway above it at an input that
+        rises infinitely slowly, and its ``breakaway_excess_std``) and ``breakaway_lag`` [s] (how
+        much later the force follows the input: :class:`~motorid.diagnose.measures.Breakaway`).
+    notes : list of str
+        One line per logging artefact left out of a record (a held start, drop-out spikes:
+        :mod:`.artefacts`); with several records each begins with the record's label.
+    records : list of dict
+        Several records of one drive (:class:`Pool`): per record its ``record`` label,
+        ``samples``, ``noise_floor`` [v], ``initial_gap`` and ``final_gap`` (as above, of that
+        record alone) and ``final_gap_noise_floors``; the gaps above are the pooled ones.
+        Empty for one record.
+    """
+
+    initial_gap: dict[str, float]
+    final_gap: dict[str, float]
+    steps: list[Step]
+    stop_reason: str
+    noise_floor: float
+    final_region: Region
+    model: RigidDrive
+    initial_model: RigidDrive
+    region: Region
+    units: dict[str, str]
+    settings: dict[str, Any]
+    rejected: list[dict[str, Any]] = field(default_factory=list)
+    refitted_model: RigidDrive | None = None
+    refitted_gap: dict[str, float] | None = None
+    param_std: dict[str, float] = field(default_factory=dict)
+    param_share: dict[str, float] = field(default_factory=dict)
+    structure: Structure = field(default_factory=Structure)
+    structure_model: RigidDrive | None = None
+    records: list[dict[str, Any]] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    noise_bands: list[dict[str, float]] = field(default_factory=list)
+    quantisation_step: float | None = None
+    rests: list[dict[str, Any]] = field(default_factory=list)
+    _pool: Pool | None = field(default=None, repr=False)
+
+    @property
+    def named(self) -> list[str]:
+        """The effects added, in order."""
+        return [s.effect for s in self.steps]
+
+    @property
+    def lookalikes(self) -> list[Lookalike]:
+        """The steps' lookalikes: effects that fit alike and the one the rule named."""
+        return [s.lookalike for s in self.steps if s.lookalike is not None]
+
+    @property
+    def undetermined(self) -> dict[str, str]:
+        """The linear parameters the record(s) cannot determine, each with why.
+
+        A parameter is not determined when its standard error exceeds
+        :data:`RELATIVE_STD_LIMIT` of its value, and the inertia also when its term carries less
+        than :data:`INERTIA_SHARE_LIMIT` of the input force (a slow sine spends its force on
+        friction; the inertia then follows whatever the rigid model leaves unexplained, and
+        records of other signals disagree with it by more than its standard error). The fitted
+        value stays in :attr:`model` for the free run; the report does not present it as a
+        finding. A dropped column (value and standard error 0) is not listed.
+        """
+        out = {}
+        for name, std in self.param_std.items():
+            value = self.model.params.get(name, math.nan)
+            share = self.param_share.get(name, math.nan)
+            if value == 0.0 and std == 0.0:
+                continue
+            if name == "inertia" and share < INERTIA_SHARE_LIMIT:
+                out[name] = (
+                    f"its term carries {100 * share:.1f} % of the input force, below {100 * INERTIA_SHARE_LIMIT:.0f} %"
+                )
+            elif not std <= RELATIVE_STD_LIMIT * abs(value):
+                out[name] = (
+                    f"standard error {std:.2g} is above {100 * RELATIVE_STD_LIMIT:.0f} % of {value:.3g}"
+                )
+        return out
+
+    @property
+    def param_units(self) -> dict[str, str]:
+        """Concrete unit of each parameter of the final model, e.g. ``{"coulomb": "N m"}``."""
+        return {name: param_unit(name, self.units) for name in self.model.params}
+
+    @property
+    def models(self) -> list[tuple[str, RigidDrive]]:
+        """``(label, model)`` for the initial model and after each step."""
+        out = [("initial", self.initial_model)]
+        if self.refitted_model is not None:
+            out.append(("refitted", self.refitted_model))
+        if self.structure_model is not None:
+            out.append(("+" + "+".join(self.structure.effects), self.structure_model))
+        out += [(f"+{s.effect}", s.model) for s in self.steps]
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON shape of ``motorid doctor --json``."""
+        return {
+            "initial_gap": self.initial_gap,
+            "final_gap": self.final_gap,
+            "steps": [s.to_dict() for s in self.steps],
+            "stop_reason": self.stop_reason,
+            "noise_floor": self.noise_floor,
+            "noise_bands": self.noise_bands,
+            "quantisation_step": self.quantisation_step,
+            "at_noise_floor_factor": self.settings["missing_factor"],
+            "rests": self.rests,
+            "region": self.region.to_dict(),
+            "final_region": self.final_region.to_dict(),
+            "model": {
+                "effects": list(self.model.effects),
+                "params": self.model.params,
+                "params_std": self.param_std,
+                "params_share": self.param_share,
+                "params_undetermined": self.undetermined,
+            },
+            "rejected": self.rejected,
+            "units": {
+                "gap": f"{self.units['v']} (RMS of measured minus free-run velocity"
+                + (
+                    "; velocity derived from position)" if self.settings["output_kind"] == "position" else ")"
+                ),
+                "force_error_percent": "%",
+                "force": self.units["F"],
+                "velocity": self.units["v"],
+                "input": self.units["u"],
+                "params": self.param_units,
+            },
+            "settings": self.settings,
+            "initial_model": {
+                "effects": list(self.initial_model.effects),
+                "params": self.initial_model.params,
+            },
+            "refitted_gap": self.refitted_gap,
+            "structure": self.structure.to_dict(),
+            **({"records": self.records} if self.records else {}),
+            **({"lookalikes": [x.to_dict() for x in self.lookalikes]} if self.lookalikes else {}),
+            **({"notes": self.notes} if self.notes else {}),
+        }
+
+    def table(self) -> pd.DataFrame:
+        """Gap before and after each step, overall and in the step's region."""
+        rows = []
+        for s in self.steps:
+            rows.append(
+                {
+                    "effect": s.effect,
+                    "region": s.region.description,
+                    "gap_before": s.gap_before["overall"],
+                    "gap_after": s.gap_after["overall"],
+                    "region_gap_before": s.gap_before["region"],
+                    "region_gap_after": s.gap_after["region"],
+                    "force_error_before_percent": s.gap_before["force_error_percent"],
+                    "force_error_after_percent": s.gap_after["force_error_percent"],
+                    "delta_bic": s.evidence["delta_bic"],
+                }
+            )
+        df = pd.DataFrame(rows, columns=[
+            "effect", "region", "gap_before", "gap_after", "region_gap_before", "region_gap_after",
+            "force_error_before_percent", "force_error_after_percent", "delta_bic",
+        ])  # fmt: skip
+        df.index = pd.RangeIndex(1, len(df) + 1, name="step")
+        df.attrs["units"] = {"gap": self.units["v"], "force_error": "%"}
+        return df
+
+    def evaluate(self, record: pd.DataFrame, **overrides: Any) -> pd.DataFrame:
+        """Gaps of the initial model and of the model after each step on another record.
+
+        No refitting: the models found here are simulated on ``record``'s input
+        and their torque balance evaluated on its data. Column names, output
+        kind, input gain, timing and band, and the way the record is read (its
+        columns and units, :func:`motorid.records.normalise_record`), are those of
+        this diagnosis unless overridden (``input=``, ``output=``, ``dt=`` ...).
+
+        Returns
+        -------
+        pandas.DataFrame
+            One row per model (``initial``, ``+effect``...), columns ``overall``
+            and ``region`` [v] (the region located on this record's initial
+            residual) and ``force_error_percent`` [%].
+        """
+        from motorid.records import normalise_record
+
+        reading = {"input": self.settings["input"], "output": self.settings["output"], "dt": None,
+                   **self.settings.get("reading", {})}  # fmt: skip
+        reading.update({k: v for k, v in overrides.items() if k in reading})
+        record = normalise_record(record, **reading)
+        keys = ("output_kind", "input_gain", "timing", "band")
+        opts = {k: self.settings[k] for k in keys}
+        opts.update({k: v for k, v in overrides.items() if k not in reading})
+        prep = prepare(record, input="u", output="y", dt=reading["dt"], **opts)
+        rows = {label: gaps(model, prep, self.region) for label, model in self.models}
+        df = pd.DataFrame.from_dict(rows, orient="index")
+        df.index.name = "model"
+        df.attrs["units"] = {
+            "overall": self.units["v"],
+            "region": self.units["v"],
+            "force_error_percent": "%",
+        }
+        return df
+
+    def write_figures(self, out_dir: str | Path) -> list[Path]:
+        """PNG figures: residual against speed before/after each step; simulation against measurement.
+
+        Several records: one pair of figures per record, named with its number (``doctor_2_...``).
+        """
+        from motorid.diagnose.figures import write_figures
+
+        if self._pool is None:
+            raise ValueError("this diagnosis holds no record data to plot")
+        parts = self._pool.parts
+        if len(parts) == 1:
+            return write_figures(self, parts[0], Path(out_dir))
+        return [
+            path
+            for k, prep in enumerate(parts, 1)
+            for path in write_figures(self, prep, Path(out_dir), prefix=f"doctor_{k}_")
+        ]
+
+
+def record_summaries(
+    pool: Pool, initial: RigidDrive, final: RigidDrive, region: Region
+) -> list[dict[str, Any]]:
+    """Each record's gaps of the ``initial`` and ``final`` models and its noise floor
+    (:attr:`Diagnosis.records`); none for a pool of one record.
+
+    Parameters
+    ----------
+    pool : Pool
+        The records of the drive.
+    initial, final : RigidDrive
+        The models before and after the search.
+    region : Region
+        The region the gaps are also measured in.
+    """
+    if len(pool.parts) == 1:
+        return []
+    out = []
+    for label, prep, before, after in zip(
+        pool.labels,
+        pool.parts,
+        pool.record_gaps(initial, region),
+        pool.record_gaps(final, region),
+        strict=True,
+    ):
+        floor = prep.kin.noise
+        out.append({
+            "record": label, "samples": prep.kin.n, "noise_floor": floor, "initial_gap": before,
+            "final_gap": after, "final_gap_noise_floors": after["overall"] / floor if floor > 0 else math.inf,
+        })  # fmt: skip
+    return out
+
+
+def rest_summaries(pool: Pool, model: RigidDrive) -> list[dict[str, Any]]:
+    """Each record's rests (:meth:`Rests.summary <motorid.diagnose.rests.Rests.summary>`) and the
+    breakaway they show above ``model``'s kinetic level (:func:`~motorid.diagnose.measures.breakaway`)
+    (:attr:`Diagnosis.rests`).
+
+    Parameters
+    ----------
+    pool : Pool
+        The records of the drive.
+    model : RigidDrive
+        The model whose kinetic level the breakaway is measured above.
+    """
+    eps = max(1e-9, 1e-6 * pool.data.scale["w_max"])
+    t_pos, t_neg = model.friction(np.array([eps, -eps]))
+    out = []
+    for k, (label, prep) in enumerate(zip(pool.labels, pool.parts, strict=True)):
+        only = [np.full(p.kin.n, j == k) for j, p in enumerate(pool.parts)]
+        found = breakaway(pool, model, only)
+        out.append({
+            "record": label, **prep.rests.summary(), "kinetic_level": 0.5 * float(t_pos - t_neg),
+            "breakaway_excess": found.excess, "breakaway_excess_std": found.standard_error,
+            "breakaway_lag": found.lag,
+        })  # fmt: skip
+    return out
+
+
+#: The sentences of a stop reason, by the :attr:`Stop.kind` that ends a search: every one the
+#: doctor says is here, its figures filled in by :meth:`Stop.sentence`.
+STOP_SENTENCES: dict[str, str] = {
+    "max_steps": "max_steps = {max_steps} reached",
+    "all_in_model": "every candidate effect is already in the model (or needs one that is not)",
+    "at_noise_floor": (
+        "the free-run gap {gap:.4g} {v} is {ratio:.2f} x the noise floor {floor:.4g} {v}: no further effect "
+        "can shrink it by more than {noise_shrink:g} x the noise (and none acts where the noise is lower)"
+    ),
+    "no_evidence": (
+        "no candidate passes the evidence threshold: the best, {effect}, has ΔBIC = {delta_bic:.1f} <= {threshold:g}"
+    ),
+    "no_improvement": (
+        "no candidate improves held-out data and shrinks the free-run gap beyond the noise: {rejected}"
+    ),
+    # the final gap against the noise floor, said after any of the above
+    "final_at_floor": (
+        "final gap {gap:.4g} {v} = {ratio:.1f} x the noise floor {floor:.3g} {v}: at the noise floor, "
+        "nothing more to explain"
+    ),
+    "final_missing": (
+        "final gap {gap:.4g} {v} = {ratio:.1f} x the noise floor {floor:.3g} {v}: something is still "
+        "missing; the gap concentrates where {where} (final gap there {region_gap:.4g} {v})"
+    ),
+}
+
+
+@dataclass(frozen=True)
+class Stop:
+    """Why an effect search stopped: a kind of :data:`STOP_SENTENCES` and the figures its sentence
+    names.
+
+    Attributes
+    ----------
+    kind : str
+        A key of :data:`STOP_SENTENCES`.
+    figures : dict
+        The values its sentence is filled with (names as in the sentence).
+    """
+
+    kind: str
+    figures: dict[str, Any] = field(default_factory=dict)
+
+    def sentence(self) -> str:
+        """The stop reason in words."""
+        return STOP_SENTENCES[self.kind].format(**self.figures)
+
+
+def final_gap_sentence(
+    gap: float, region_gap: float, region: Region, floor: float, missing_factor: float, unit: str
+) -> str:
+    """The final gap against the noise floor, and where it concentrates when far above.
+
+    Parameters
+    ----------
+    gap : float
+        The final model's overall free-run gap [unit].
+    region_gap : float
+        Its gap in ``region`` [unit].
+    region : Region
+        Where the final model's torque-balance residual concentrates.
+    floor : float
+        The noise floor σ_w [unit].
+    missing_factor : float
+        Gap, in noise floors, above which something is still missing.
+    unit : str
+        The velocity's unit.
+    """
+    ratio = gap / floor if floor > 0 else (0.0 if gap == 0 else math.inf)
+    figures = {"gap": gap, "ratio": ratio, "floor": floor, "v": unit}
+    if ratio <= missing_factor:
+        return Stop("final_at_floor", figures).sentence()
+    return Stop(
+        "final_missing", {**figures, "where": region.description, "region_gap": region_gap}
+    ).sentence()
+
+
+__all__ = [
+    "INERTIA_SHARE_LIMIT",
+    "MISSING_FACTOR",
+    "RELATIVE_STD_LIMIT",
+    "STOP_SENTENCES",
+    "Diagnosis",
+    "Lookalike",
+    "Step",
+    "Stop",
+    "Structure",
+    "final_gap_sentence",
+    "record_summaries",
+    "rest_summaries",
+]

@@ -1,0 +1,889 @@
+"""The doctor's search: the base structure, then the effects, one step at a time.
+
+:func:`choose_structure` takes the input delay and lag from the record before any other effect is
+judged. :class:`Search` runs the steps of :func:`~motorid.diagnose.workflow.diagnose` (the module
+notes there give the rules): each effect tried is a :class:`Candidate` (its fit and its evidence),
+each check of one a :class:`Decision` (held-out error, free-run gap, noise), the lookalike rule
+(:func:`lookalike_rule`) names one effect of a physics, and the search ends with a
+:class:`~motorid.diagnose.results.Stop` (:class:`SearchOutcome`).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from motorid.diagnose.effects import EFFECTS, get_effect
+from motorid.diagnose.locate import Region, locate
+from motorid.diagnose.measures import (
+    MIN_RESTS,
+    breakaway,
+    breakaway_evidence,
+    breakaway_holdout,
+    evidence,
+    fit_static_friction,
+    free_run_error,
+    rms,
+)
+from motorid.diagnose.model import FitResult, fit_model
+from motorid.diagnose.prepare import HeldOut, Pool
+from motorid.diagnose.results import Lookalike, Step, Stop, Structure
+from motorid.drive.rigid import RigidDrive, effect_order
+from motorid.errors import DataError
+
+logger = logging.getLogger(__name__)
+
+#: Default evidence threshold on ΔBIC: above the 99th percentile (6.7) of the best candidate's
+#: ΔBIC on 200 no-effect records, where the workflow named nothing (:mod:`.calibration`).
+DEFAULT_THRESHOLD = 10.0
+#: Share of the best candidate's RSS reduction above which two candidates are "alike".
+ALIKE = 0.8
+DEFAULT_BASE = ("viscous_friction", "offset")
+#: Smallest free-run gap shrink of a second or later step, in noise floors σ_w: a second effect
+#: was named on 1 of 900 one-effect records with it, on 14 without (:mod:`.calibration`).
+NOISE_SHRINK = 0.5
+
+
+#: The structures tried, each single effect first; the pair only when a single one passes.
+STRUCTURES: tuple[tuple[str, ...], ...] = (("input_delay",), ("input_lag",), ("input_delay", "input_lag"))
+
+
+def choose_structure(
+    pool: Pool,
+    base: tuple[str, ...],
+    start: dict[str, float],
+    stribeck_shape: str,
+    threshold: float,
+    min_gap_shrink: float,
+    noise_shrink: float,
+) -> Structure:
+    """Choose the input delay and lag of the drive from its records, before friction is judged.
+
+    The base and Coulomb friction (the probe) are fitted to the torque balance on the moving
+    samples with each structure of :data:`STRUCTURES` added (the delay and the time constant
+    by the bounded search of :func:`~motorid.diagnose.model.fit_model`). A structure is taken
+    when its ΔBIC against the probe (for the pair: against the best single effect) exceeds
+    ``threshold`` and its free-run output gap shrinks by more than ``min_gap_shrink`` of the
+    probe's and by more than ``noise_shrink`` noise floors: the same rules as a step.
+
+    Parameters
+    ----------
+    pool : Pool
+        The records of the drive.
+    base : tuple of str
+        The base effects.
+    start : dict
+        Parameters the fits start from (the base's fit).
+    stribeck_shape : str
+        The Stribeck shape of the fits.
+    threshold : float
+        ΔBIC a structure needs.
+    min_gap_shrink : float
+        Smallest relative shrink of the probe's free-run gap.
+    noise_shrink : float
+        Smallest shrink of it in noise floors.
+
+    Returns
+    -------
+    Structure
+    """
+    data = pool.data
+    floor = pool.noise
+    probe = effect_order((*base, "coulomb_friction"))
+    fit_p = fit_model(data, probe, start=start, stribeck_shape=stribeck_shape)
+    gap_p = pool.gaps(fit_p.model, None)["overall"]
+    tried: list[dict[str, Any]] = []
+    fits: dict[tuple[str, ...], FitResult] = {}
+
+    def fit_pair(against: FitResult) -> FitResult:
+        """The pair's fit: a delay and a lag trade along a valley (their sum is what the balance
+        sees first), where a search one coordinate at a time stalls; so the delay is searched at
+        each lag of a grid up to the single effect's total (a profile), then both refined."""
+        names = STRUCTURES[-1]
+        total = sum(against.model.params.get(p, 0.0) for p in ("input_delay", "lag_time_constant"))
+        lo = get_effect("input_lag").bounds(data.scale)["lag_time_constant"][0]
+        profile = [
+            fit_model(data, (*probe, *names), start=against.model.params, stribeck_shape=stribeck_shape,
+                      fixed={"lag_time_constant": lag})
+            for lag in np.geomspace(lo, max(total, 2.0 * lo), 9)
+        ]  # fmt: skip
+        best = min(profile, key=lambda f: f.rss)
+        fit = fit_model(data, (*probe, *names), start=best.model.params, stribeck_shape=stribeck_shape)
+        return fit if fit.rss <= best.rss else best
+
+    def try_structure(names: tuple[str, ...], against: FitResult) -> dict[str, Any]:
+        if len(names) > 1:
+            fit = fit_pair(against)
+        else:
+            fit = fit_model(data, (*probe, *names), start=against.model.params, stribeck_shape=stribeck_shape)
+        ev = evidence(
+            against.rss, fit.rss, fit.n_rows, fit.n_params - against.n_params, fit.residual[data.moving]
+        )
+        params = {p: fit.model.params[p] for n in names for p in get_effect(n).nonlinear}
+        row = {"effects": list(names), "params": params, "delta_bic": ev["delta_bic"], "gap": math.nan}
+        fits[names] = fit
+        tried.append(row)
+        return row
+
+    singles = [try_structure(names, fit_p) for names in STRUCTURES if len(names) == 1]
+    passing = sorted((r for r in singles if r["delta_bic"] > threshold), key=lambda r: -r["delta_bic"])
+    # ΔBIC alone decides between the single effects: a delay and a lag of 1-2 samples fit alike,
+    # and on 24 records with one planted the balance named the right one 23 times, the free-run
+    # gap (biased towards the lag) only 18 times
+    if passing:
+        best_single = tuple(passing[0]["effects"])
+        pair = try_structure(STRUCTURES[-1], fits[best_single])
+        if pair["delta_bic"] > threshold:
+            passing.insert(0, pair)
+    reasons = []
+    for row in passing:
+        names = tuple(row["effects"])
+        row["gap"] = gap1 = pool.gaps(fits[names].model, None)["overall"]
+        shrink = (gap_p - gap1) / floor if floor > 0 else math.inf
+        if gap1 < (1.0 - min_gap_shrink) * gap_p and shrink > noise_shrink:
+            reason = (
+                f"chosen from the moving samples: ΔBIC {row['delta_bic']:.1f} > {threshold:g}, free-run gap of "
+                f"{' + '.join(probe)} {gap_p:.4g} -> {gap1:.4g} ({shrink:.1f} noise floors)"
+            )
+            return Structure(names, row["params"], probe, gap_p, gap1, tried, reason)
+        reasons.append(
+            f"{'+'.join(names)} (free-run gap {gap_p:.4g} -> {gap1:.4g}, {shrink:.2f} noise floors)"
+        )
+    if reasons:
+        reason = (
+            "no delay or lag: the structures that pass ΔBIC do not shrink the free-run gap: "
+            + ", ".join(reasons)
+        )
+    else:
+        best = max(tried, key=lambda r: r["delta_bic"])
+        reason = (
+            f"no delay or lag: the best, {'+'.join(best['effects'])}, has ΔBIC {best['delta_bic']:.1f} "
+            f"<= {threshold:g}"
+        )
+    return Structure((), {}, probe, gap_p, gap_p, tried, reason)
+
+
+def effect_names(value: Sequence[str] | str | None, what: str) -> tuple[str, ...]:
+    """Effect names checked against the library, each once, in the order given.
+
+    Parameters
+    ----------
+    value : sequence of str, comma-separated str or None
+        The names (None: none).
+    what : str
+        The argument they came in, named by the error on an unknown one.
+    """
+    if value is None:
+        return ()
+    if isinstance(value, str):
+        value = [v.strip() for v in value.split(",") if v.strip()]
+    out = []
+    for name in value:
+        if name not in EFFECTS:
+            raise DataError(f"{what}: unknown effect {name!r}; known effects: {', '.join(EFFECTS)}")
+        out.append(name)
+    return tuple(dict.fromkeys(out))
+
+
+def candidate_names(base: tuple[str, ...], candidates: Sequence[str] | str | None) -> tuple[str, ...]:
+    """The effects to try: ``candidates`` (checked) or every effect of the library but the
+    structure effects, less those in ``base``.
+
+    Parameters
+    ----------
+    base : tuple of str
+        The effects already in the model.
+    candidates : sequence of str, comma-separated str or None
+        The effects asked for (None: the library's).
+    """
+    if candidates is None:
+        return tuple(n for n in EFFECTS if n not in base and not EFFECTS[n].structure)
+    return tuple(n for n in effect_names(candidates, "candidates") if n not in base)
+
+
+def friction_given(base: tuple[str, ...]) -> bool:
+    """Whether a model's ``base`` holds an effect beyond :data:`DEFAULT_BASE` and the structure:
+    it then stands where a step would have put it, and what comes next is judged by the rules
+    of a second step.
+
+    Parameters
+    ----------
+    base : tuple of str
+        The effects of the model the search starts from.
+    """
+    return any(n not in DEFAULT_BASE and not EFFECTS[n].structure for n in base)
+
+
+#: Where an effect that acts in one place is judged, in the words of a decision.
+WHERE = {"rests": " at the rests", "rest": " near rest", "speed": " at speed"}
+
+
+@dataclass(eq=False)
+class Candidate:
+    """An effect tried in a step: its fit added to the step's model, and its evidence.
+
+    Attributes
+    ----------
+    effect : str
+        The effect's name.
+    fit : FitResult
+        The step's model with it, fitted (static friction: from the rests or the free run).
+    evidence : dict
+        ``delta_bic``, ``n``, ``n_eff``, ``rho``, ``rss_ratio``
+        (:func:`~motorid.diagnose.measures.evidence`), and for static friction the ``measure``
+        it is judged on and its ``breakaway``; a ``note`` where it cannot pass.
+    acts : str
+        Where it is judged (:attr:`Effect.acts <motorid.diagnose.effects.Effect.acts>`; empty:
+        everywhere, as static friction on too few rests).
+    free_run_gap : float
+        Its free-run gap [v] in the step's region, measured for the candidates alike in the
+        torque balance (NaN otherwise).
+    """
+
+    effect: str
+    fit: FitResult
+    evidence: dict[str, Any]
+    acts: str
+    free_run_gap: float = math.nan
+
+    @property
+    def delta_bic(self) -> float:
+        """Its ΔBIC."""
+        return self.evidence["delta_bic"]
+
+    def row(self) -> dict[str, Any]:
+        """Its row of a step's candidate ranking: the effect and its evidence."""
+        return {"effect": self.effect, **self.evidence}
+
+
+@dataclass(frozen=True)
+class StepStart:
+    """Where a step starts: the model so far and what a candidate is measured against.
+
+    Attributes
+    ----------
+    fit : FitResult
+        The model so far, fitted.
+    effects : tuple of str
+        Its effects.
+    region : Region
+        Where its disagreement concentrates.
+    gap : dict
+        Its gaps (:meth:`Pool.gaps <motorid.diagnose.prepare.Pool.gaps>`) in ``region``.
+    held_error : float
+        Its held-out torque-balance error [v/s] (:meth:`Search.held_error`).
+    later : bool
+        A second or later step (or a given model with friction of its own): a candidate's gap
+        must shrink by more than ``noise_shrink`` noise floors.
+    """
+
+    fit: FitResult
+    effects: tuple[str, ...]
+    region: Region
+    gap: dict[str, float]
+    held_error: float
+    later: bool
+
+
+@dataclass(eq=False)
+class Decision:
+    """The checks of one candidate (step 4 of the workflow's notes) and their outcome.
+
+    Attributes
+    ----------
+    candidate : Candidate
+        The candidate checked.
+    held_before, held_after : float
+        Held-out error without and with it ([v/s] on the balance, [F] on the rests, [v] on the
+        free run).
+    gap_before, gap_after : dict
+        The step model's and the candidate's gaps in the step's region.
+    shrink : float
+        The free-run gap's shrink where it is judged, in noise floors of that band.
+    acts : str
+        Where it was judged (empty: everywhere).
+    acting : tuple of float or None
+        Where it acts: the gap before and after [v] and the noise floor there [v].
+    reasons : list of str
+        Each check it fails; none when it is accepted.
+    """
+
+    candidate: Candidate
+    held_before: float
+    held_after: float
+    gap_before: dict[str, float]
+    gap_after: dict[str, float]
+    shrink: float
+    acts: str
+    acting: tuple[float, float, float] | None
+    reasons: list[str] = field(default_factory=list)
+
+    @property
+    def accepted(self) -> bool:
+        """It passes every check."""
+        return not self.reasons
+
+    @property
+    def reason(self) -> str:
+        """Why it was not accepted ("" when it was)."""
+        return "; ".join(self.reasons)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON shape of a rejected candidate (``rejected`` of ``motorid doctor --json``)."""
+        out = {
+            "effect": self.candidate.effect, "delta_bic": self.candidate.delta_bic,
+            "held_out_error_before": self.held_before, "held_out_error_after": self.held_after,
+            "gap_before": self.gap_before["overall"], "gap_after": self.gap_after["overall"],
+            "gap_shrink_noise_floors": self.shrink,
+        }  # fmt: skip
+        if self.acting is not None:
+            before, after, floor = self.acting
+            out.update({"judged": WHERE.get(self.acts, "").strip(), "acting_gap_before": before,
+                        "acting_gap_after": after, "acting_noise_floor": floor})  # fmt: skip
+        if self.reasons:
+            out["reason"] = self.reason
+        return out
+
+
+def lookalike_rule(
+    accepted: Decision,
+    passing: list[Candidate],
+    judge: Callable[[Candidate], Decision],
+    pool: Pool,
+    region: Region,
+    tolerance: float,
+    model: tuple[str, ...],
+) -> tuple[Decision, Lookalike | None]:
+    """The lookalike rule (step 4 of the workflow's notes): among the accepted candidate and the
+    passing candidates of the same physics (:meth:`Effect.physics
+    <motorid.diagnose.effects.Effect.physics>` in the ``model`` they are added to) whose
+    free-run gap lies within ``tolerance`` [v] of its own, the first in the library's order
+    (:data:`~motorid.diagnose.effects.EFFECTS`) is named, when it passes the checks too.
+
+    Parameters
+    ----------
+    accepted : Decision
+        The candidate the checks accepted.
+    passing : list of Candidate
+        The candidates that passed the evidence threshold.
+    judge : callable
+        The checks of a candidate (:meth:`Search.judge` at this step).
+    pool : Pool
+        The records of the drive.
+    region : Region
+        The step's region.
+    tolerance : float
+        Two free-run gaps closer than this [v] fit alike.
+    model : tuple of str
+        The effects of the model the candidates are added to.
+
+    Returns
+    -------
+    Decision, Lookalike or None
+        The decision accepted and the lookalike (None when nothing fits alike).
+    """
+    c, gap1 = accepted.candidate, accepted.gap_after
+    physics = get_effect(c.effect).physics(model)
+    if not physics:
+        return accepted, None
+    alike = [(c, gap1)]
+    for m in passing:
+        if m is not c and get_effect(m.effect).physics(model) == physics:
+            gap_m = pool.gaps(m.fit.model, region)
+            if abs(gap_m["overall"] - gap1["overall"]) <= tolerance:
+                alike.append((m, gap_m))
+    if len(alike) == 1:
+        return accepted, None
+    order = list(EFFECTS)
+    preferred = min(alike, key=lambda item: order.index(item[0].effect))[0]
+    if preferred is not c:
+        decision = judge(preferred)
+        if decision.accepted:
+            accepted = decision
+    named = accepted.candidate
+    alike.sort(key=lambda item: item[0] is not named)
+    lookalike = Lookalike(
+        physics=physics,
+        named=named.effect,
+        gaps={m.effect: g["overall"] for m, g in alike},
+        levels={m.effect: get_effect(m.effect).level(m.fit.model.params) for m, _ in alike},
+        tolerance=tolerance,
+    )
+    return accepted, lookalike
+
+
+@dataclass
+class SearchOutcome:
+    """What an effect search ends with.
+
+    Attributes
+    ----------
+    steps : list of Step
+        The effects added, in order.
+    rejected : list of dict
+        The candidates that passed the evidence threshold but not the checks
+        (:meth:`Decision.to_dict`, with the ``step``).
+    stop : Stop
+        Why the search stopped.
+    fit : FitResult
+        The final model, fitted.
+    """
+
+    steps: list[Step]
+    rejected: list[dict[str, Any]]
+    stop: Stop
+    fit: FitResult
+
+
+@dataclass
+class Search:
+    """The effect search on the records of one drive (:func:`~motorid.diagnose.workflow.diagnose`).
+
+    Attributes
+    ----------
+    pool : Pool
+        The records of the drive.
+    held : HeldOut
+        What a candidate's held-out error is measured on.
+    stribeck_shape : str
+        The Stribeck shape of every fit.
+    threshold : float
+        ΔBIC a candidate needs to pass.
+    min_holdout_gain, min_gap_shrink : float
+        Smallest relative improvement of the held-out error and of the free-run gap.
+    noise_shrink : float
+        Smallest free-run gap shrink of a later step, in noise floors.
+    given : bool
+        The model given holds friction of its own (:func:`friction_given`).
+    progress : bool
+        Show a progress bar over each step's candidates.
+    fixed : dict
+        Parameters held fixed in every fit: the structure's delay and lag once chosen.
+    """
+
+    pool: Pool
+    held: HeldOut
+    stribeck_shape: str
+    threshold: float
+    min_holdout_gain: float
+    min_gap_shrink: float
+    noise_shrink: float
+    given: bool
+    progress: bool = False
+    fixed: dict[str, float] = field(default_factory=dict)
+
+    def fit_base(self, base: tuple[str, ...], model: RigidDrive | None) -> FitResult:
+        """The base effects fitted to the pooled torque balance; a rest-only effect of the user's
+        ``model`` (static friction) keeps its value: the balance cannot refit it.
+
+        Parameters
+        ----------
+        base : tuple of str
+            The base effects.
+        model : RigidDrive or None
+            The user's model, when given.
+        """
+        kept = (
+            {p: model.params[p] for n in base if EFFECTS[n].rest_only for p in EFFECTS[n].nonlinear}
+            if model
+            else {}
+        )
+        return fit_model(self.pool.data, base, stribeck_shape=self.stribeck_shape, start=kept or None)
+
+    def base_structure(
+        self, fit: FitResult, effects: tuple[str, ...], wanted: bool, bar: Any
+    ) -> tuple[Structure, FitResult, tuple[str, ...], RigidDrive | None]:
+        """Choose the input delay and lag (:func:`choose_structure`) unless not ``wanted`` or the
+        base holds one, and hold them fixed from now on.
+
+        Parameters
+        ----------
+        fit : FitResult
+            The base, fitted.
+        effects : tuple of str
+            Its effects.
+        wanted : bool
+            Search the structure at all.
+        bar : progress bar
+            Told what runs.
+
+        Returns
+        -------
+        Structure, FitResult, tuple of str, RigidDrive or None
+            The structure, the model fitted with it and its effects (as given when none is
+            taken), and that model (None when none is taken).
+        """
+        chosen = Structure(
+            reason="not searched: " + ("structure=False" if not wanted else "the base holds it")
+        )
+        if not wanted or any(EFFECTS[n].structure for n in effects):
+            return chosen, fit, effects, None
+        bar.set_postfix_str("base structure")
+        chosen = choose_structure(
+            self.pool, effects, fit.model.params, self.stribeck_shape, self.threshold, self.min_gap_shrink,
+            self.noise_shrink,
+        )  # fmt: skip
+        logger.info("structure: %s", chosen.reason)
+        if not chosen.effects:
+            return chosen, fit, effects, None
+        self.fixed.update(chosen.params)
+        fit = fit_model(
+            self.pool.data, (*effects, *chosen.effects), start=fit.model.params, stribeck_shape=self.stribeck_shape,
+            fixed=self.fixed,
+        )  # fmt: skip
+        return chosen, fit, fit.model.effects, fit.model
+
+    def held_error(self, effects: tuple[str, ...], start: dict[str, float] | None) -> float:
+        """RMS torque-balance residual / J [v/s] on the held-out rows, fitted on the training rows.
+
+        Parameters
+        ----------
+        effects : tuple of str
+            The model's effects.
+        start : dict or None
+            Parameters the fit starts from.
+        """
+        fit = fit_model(
+            self.pool.data, effects, rows=self.held.train, start=start, stribeck_shape=self.stribeck_shape,
+            fixed=self.fixed,
+        )  # fmt: skip
+        inertia = fit.model.params["inertia"]
+        if not inertia > 0:
+            return math.inf
+        return rms(self.held.balance_residual(self.pool, fit.model)) / inertia
+
+    def static_friction(self, fit: FitResult) -> Candidate:
+        """Static friction as a candidate: measured by the rests (the input it takes to start the
+        drive again), the evidence theirs, judged on the free run at the rests; on records with
+        fewer than :data:`~motorid.diagnose.measures.MIN_RESTS` rests, fitted and judged on the
+        whole free run.
+
+        Parameters
+        ----------
+        fit : FitResult
+            The step's model, fitted.
+        """
+        name = "static_friction"
+        pool = self.pool
+        found = breakaway(pool, fit.model)
+        fitted = fit_static_friction(pool, fit.model, None)
+        with_it = FitResult(fitted, fit.rss, fit.rss_force, fit.n_rows, fit.n_params + 1, fit.residual)
+        if found.rests < MIN_RESTS:
+            err0, err1 = pool.free_run_error(fit.model), pool.free_run_error(fitted)
+            ok = np.isfinite(err0) & np.isfinite(err1)
+            ev = evidence(
+                float(np.sum(err0[ok] ** 2)), float(np.sum(err1[ok] ** 2)), int(ok.sum()), 1, err1[ok]
+            )
+            ev["measure"] = f"free run ({found.rests} rests, fewer than {MIN_RESTS})"
+            return Candidate(name, with_it, ev, "")
+        ev = breakaway_evidence(*pool.breakaway_excess(fit.model))
+        ev["measure"] = "rests"
+        ev["breakaway"] = found.to_dict()
+        if not found.shown:  # the rests do not show breakaway above the kinetic level
+            ev["delta_bic"] = -math.inf
+            if not math.isfinite(found.standard_error):
+                ev["note"] = (
+                    f"{found.rests} rests, all at one input rate: a breakaway level and a lag "
+                    "between input and force look alike there"
+                )
+            else:
+                ev["note"] = (
+                    f"{found.rests} rests break away {found.excess:.3g} ± {found.standard_error:.2g} "
+                    f"{pool.units['F']} above the kinetic level: not shown"
+                )
+        return Candidate(name, with_it, ev, get_effect(name).acts)
+
+    def rank(self, fit: FitResult, effects: tuple[str, ...], names: list[str]) -> list[Candidate]:
+        """Each effect of ``names`` fitted added to the step's model, highest ΔBIC first.
+
+        Parameters
+        ----------
+        fit : FitResult
+            The step's model, fitted.
+        effects : tuple of str
+            Its effects.
+        names : list of str
+            The effects to try.
+        """
+        from motorid.progress import progress_bar
+
+        data = self.pool.data
+        ranking = []
+        for name in progress_bar(names, show=self.progress, desc="candidates", unit="effect", leave=False):
+            effect = get_effect(name)
+            if effect.rest_only:
+                ranking.append(self.static_friction(fit))
+                continue
+            fit1 = fit_model(
+                data,
+                (*effects, name),
+                start=fit.model.params,
+                stribeck_shape=self.stribeck_shape,
+                fixed=self.fixed,
+            )
+            ev = evidence(
+                fit.rss, fit1.rss, fit1.n_rows, fit1.n_params - fit.n_params, fit1.residual[data.moving]
+            )
+            negative = [p for p in effect.nonnegative if fit1.model.params[p] < 0.0]
+            if negative:  # fitted with the wrong sign: not this physical effect
+                ev["delta_bic"] = -math.inf
+                ev["note"] = f"{negative[0]} = {fit1.model.params[negative[0]]:.4g} < 0 is not physical"
+            ranking.append(Candidate(name, fit1, ev, effect.acts))
+        ranking.sort(key=lambda c: -c.delta_bic)
+        return ranking
+
+    def judge_order(self, passing: list[Candidate], fit: FitResult, region: Region) -> list[Candidate]:
+        """The order the passing candidates are checked in: by evidence, except that of the
+        candidates alike in the torque balance (each removes at least :data:`ALIKE` of what the
+        best removes) the one with the smallest free-run gap goes first when it is 2 % below the
+        best's.
+
+        Parameters
+        ----------
+        passing : list of Candidate
+            The candidates above the threshold, highest ΔBIC first.
+        fit : FitResult
+            The step's model, fitted.
+        region : Region
+            The step's region.
+        """
+        best = passing[0]
+        drop_best = fit.rss - best.fit.rss
+        alike = [c for c in passing if fit.rss - c.fit.rss >= ALIKE * drop_best]
+        for c in alike:
+            c.free_run_gap = self.pool.gaps(c.fit.model, region)["overall"]
+        order = list(passing)
+        if len(alike) > 1:
+            pick = min(alike, key=lambda c: np.nan_to_num(c.free_run_gap, nan=np.inf))
+            if pick.free_run_gap < 0.98 * best.free_run_gap:
+                order.remove(pick)
+                order.insert(0, pick)
+        return order
+
+    def judge(self, c: Candidate, at: StepStart) -> Decision:
+        """Whether candidate ``c`` improves held-out data and shrinks the free-run gap beyond the
+        noise, against the step's model.
+
+        Parameters
+        ----------
+        c : Candidate
+            The candidate.
+        at : StepStart
+            The step it is judged in.
+        """
+        pool, held = self.pool, self.held
+        v = pool.units["v"]
+        effect = get_effect(c.effect)
+        acts = c.acts
+        model0 = at.fit.model
+        if effect.rest_only and not acts:  # too few rests: held out on the free run
+            trained = fit_static_friction(
+                pool, model0, None if held.samples is None else [~m for m in held.samples]
+            )
+            if held.samples is None:
+                base_held, cand_held = (
+                    rms(free_run_error(held.other, model0)),
+                    rms(free_run_error(held.other, trained)),
+                )
+            else:
+                base_held = rms(pool.free_run_error(model0, held.samples))
+                cand_held = rms(pool.free_run_error(trained, held.samples))
+        elif effect.rest_only:  # held out on the rests: ΔF_s and τ from the training rests
+            if held.samples is None:
+                base_held, cand_held = breakaway_holdout(
+                    pool, None, Pool([held.other], ["held out"]), None, model0
+                )
+            else:
+                base_held, cand_held = breakaway_holdout(
+                    pool, [~m for m in held.samples], pool, held.samples, model0
+                )
+        else:
+            base_held = at.held_error
+            cand_held = self.held_error((*at.effects, c.effect), c.fit.model.params)
+        gap1 = pool.gaps(c.fit.model, at.region)
+        ok_held = cand_held < (1.0 - self.min_holdout_gain) * base_held
+        # judged where it acts: the gap there against the noise floor there
+        where = WHERE.get(acts, "")
+        if acts:
+            before, after = pool.acting_gap(model0, acts), pool.acting_gap(c.fit.model, acts)
+            ok_gap = after < (1.0 - self.min_gap_shrink) * before and gap1["overall"] <= at.gap["overall"]
+        else:
+            before, after = at.gap["overall"], gap1["overall"]
+            ok_gap = after < (1.0 - self.min_gap_shrink) * before
+        floor = pool.band_floor(acts)
+        shrink = (before - after) / floor if floor > 0 else math.inf
+        ok_noise = not at.later or shrink > self.noise_shrink
+        why = []
+        if not ok_held:
+            unit = v + "/s" if not effect.rest_only else pool.units["F"] if acts else v
+            why.append(f"held-out error {cand_held:.4g} vs {base_held:.4g} {unit}")
+        if not ok_gap:
+            why.append(f"free-run gap{where} {after:.4g} vs {before:.4g} {v}")
+        elif not ok_noise:
+            why.append(
+                f"free-run gap{where} {after:.4g} vs {before:.4g} {v}, a shrink of {shrink:.2f} "
+                f"noise floors{where} ({floor:.3g} {v}), not above {self.noise_shrink:g}"
+            )
+        acting = (before, after, floor) if acts else None
+        return Decision(c, base_held, cand_held, at.gap, gap1, shrink, acts, acting, why)
+
+    def step(
+        self, decision: Decision, lookalike: Lookalike | None, at: StepStart, ranking: list[Candidate],
+        passing: list[Candidate],
+    ) -> Step:  # fmt: skip
+        """The step that adds the accepted candidate: its parameters, gaps and evidence.
+
+        Parameters
+        ----------
+        decision : Decision
+            The candidate accepted and its checks.
+        lookalike : Lookalike or None
+            The effects that fit alike, when the lookalike rule named it.
+        at : StepStart
+            The step.
+        ranking : list of Candidate
+            Every candidate tried, highest ΔBIC first.
+        passing : list of Candidate
+            Those above the threshold.
+        """
+        pool = self.pool
+        c = decision.candidate
+        fit1 = c.fit
+        eff = get_effect(c.effect)
+        params = {p: fit1.model.params[p] for p in (*eff.linear, *eff.nonlinear)}
+        ev = {
+            "delta_bic": c.delta_bic, "threshold": self.threshold, "n": c.evidence["n"],
+            "n_eff": c.evidence["n_eff"], "rss_ratio": c.evidence["rss_ratio"],
+            "held_out_error_before": decision.held_before, "held_out_error_after": decision.held_after,
+            "gap_shrink_noise_floors": decision.shrink, "noise_floor": pool.noise,
+            "chosen_by": "free-run gap among alike candidates" if c is not passing[0] else "evidence",
+            "ranking": [r.row() for r in ranking],
+        }  # fmt: skip
+        if lookalike is not None:
+            ev["chosen_by"] = "the lookalike rule"
+        before, after = pool.record_gaps(at.fit.model, at.region), pool.record_gaps(fit1.model, at.region)
+        per_record = [
+            {"record": label, "gap_before": g0["overall"], "gap_after": g1["overall"]}
+            for label, g0, g1 in zip(pool.labels, before, after, strict=True)
+        ]
+        step = Step(
+            c.effect, params, at.region, at.gap, decision.gap_after, ev, fit1.model, lookalike=lookalike
+        )
+        step.record_gaps = per_record if len(pool.labels) > 1 else []
+        return step
+
+    def run(
+        self,
+        fit: FitResult,
+        effects: tuple[str, ...],
+        candidates: tuple[str, ...],
+        first_region: Region,
+        relocate: bool,
+        max_steps: int,
+        bar: Any,
+    ) -> SearchOutcome:
+        """Add effects one step at a time until none passes, all are in, or ``max_steps``.
+
+        Parameters
+        ----------
+        fit : FitResult
+            The model the search starts from, fitted.
+        effects : tuple of str
+            Its effects.
+        candidates : tuple of str
+            The effects to try.
+        first_region : Region
+            The region located on the initial model's residual: the first step's, unless
+            ``relocate``.
+        relocate : bool
+            Locate the first step's region on ``fit``'s residual (a structure was taken).
+        max_steps : int
+            Most effects added.
+        bar : progress bar
+            Told each step.
+        """
+        pool = self.pool
+        floor = pool.noise
+        steps: list[Step] = []
+        rejected: list[dict[str, Any]] = []
+        stop = Stop("max_steps", {"max_steps": max_steps})
+        for _ in range(max_steps):
+            bar.set_postfix_str(f"step {len(steps) + 1}")
+            remaining = [
+                c
+                for c in candidates
+                if c not in effects and all(r in effects for r in get_effect(c).requires)
+            ]
+            if not remaining:
+                stop = Stop("all_in_model")
+                break
+            r_cur, _ = pool.balance_residual(fit.model)
+            region = first_region if not steps and not relocate else locate(r_cur, pool.feats_dec, pool.units)
+            gap0 = pool.gaps(fit.model, region)
+            later = bool(steps) or self.given
+            at_floor = later and gap0["overall"] <= (1.0 + self.noise_shrink) * floor
+            if at_floor:
+                # at the record-wide floor: only an effect judged where it acts, against the floor
+                # there (near rest, where an encoder's noise is least), can still show
+                remaining = [c for c in remaining if get_effect(c).acts]
+            if at_floor and not remaining:
+                stop = Stop("at_noise_floor", {
+                    "gap": gap0["overall"], "ratio": gap0["overall"] / floor, "floor": floor,
+                    "v": pool.units["v"], "noise_shrink": self.noise_shrink,
+                })  # fmt: skip
+                break
+            ranking = self.rank(fit, effects, remaining)
+            passing = [c for c in ranking if c.delta_bic > self.threshold]
+            if not passing:
+                best = ranking[0]
+                stop = Stop("no_evidence", {"effect": best.effect, "delta_bic": best.delta_bic,
+                                            "threshold": self.threshold})  # fmt: skip
+                break
+            order = self.judge_order(passing, fit, region)
+            at = StepStart(fit, effects, region, gap0, self.held_error(effects, fit.model.params), later)
+            accepted = None
+            reasons = []
+            for c in order:
+                decision = self.judge(c, at)
+                if decision.accepted:
+                    accepted = decision
+                    break
+                rejected.append({"step": len(steps) + 1, **decision.to_dict()})
+                reasons.append(f"{c.effect} ({decision.reason})")
+            if accepted is None:
+                stop = Stop("no_improvement", {"rejected": ", ".join(reasons)})
+                break
+            accepted, lookalike = lookalike_rule(
+                accepted, passing, lambda c, at=at: self.judge(c, at), pool, region, self.noise_shrink * floor,
+                effects,
+            )  # fmt: skip
+            steps.append(self.step(accepted, lookalike, at, ranking, passing))
+            logger.info("added %s: %s", steps[-1].effect, steps[-1].params)
+            fit = accepted.candidate.fit
+            effects = fit.model.effects
+            bar.update(1)
+        return SearchOutcome(steps, rejected, stop, fit)
+
+
+__all__ = [
+    "ALIKE",
+    "DEFAULT_BASE",
+    "DEFAULT_THRESHOLD",
+    "NOISE_SHRINK",
+    "STRUCTURES",
+    "Candidate",
+    "Decision",
+    "Search",
+    "SearchOutcome",
+    "StepStart",
+    "candidate_names",
+    "choose_structure",
+    "effect_names",
+    "friction_given",
+    "lookalike_rule",
+]
