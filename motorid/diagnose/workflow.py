@@ -98,6 +98,7 @@ The default ``threshold`` was calibrated on records with no hidden effect, and
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from collections.abc import Callable, Sequence
@@ -123,6 +124,7 @@ from motorid.diagnose.model import (
 )
 from motorid.diagnose.rests import Rests, rests
 from motorid.drive.rigid import RigidDrive, check_sample_time, effect_order
+from motorid.drive.two_mass import TwoMassRig
 from motorid.errors import DataError
 from motorid.records import record_timing
 from motorid.units import UNNAMED_OUTPUT, input_unit_name, rate
@@ -201,6 +203,53 @@ class Prepared:
     def balance_residual(self, model: RigidDrive) -> tuple[np.ndarray, np.ndarray]:
         """:func:`balance_residual` of this record's decimated samples."""
         return balance_residual(model, self.data)
+
+
+@dataclass(frozen=True)
+class GivenRig(RigidDrive):
+    """A two-mass rig given to the doctor (``diagnose(model=rig)``), as the doctor judges it: its
+    torque balance is that of its rigid equivalent (:meth:`TwoMassRig.rigid_equivalent
+    <motorid.drive.two_mass.TwoMassRig.rigid_equivalent>`, whose effects and parameters this drive
+    holds), its free run the rig's own simulation.
+
+    Parameters
+    ----------
+    effects, params, dt, stribeck_shape
+        The rigid equivalent's (:class:`~motorid.drive.rigid.RigidDrive`).
+    rig : TwoMassRig
+        The rig as given.
+    """
+
+    rig: TwoMassRig | None = None
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        if not isinstance(self.rig, TwoMassRig):
+            raise ValueError(f"rig must be a TwoMassRig, got {type(self.rig).__name__}")
+
+    def free_run(
+        self, u: np.ndarray, w0: float = 0.0, substeps: int | None = None, start: int = 0
+    ) -> np.ndarray:
+        """The rig's measured load speed [rad/s] for the command ``u`` [V], through its sensors
+        noise free (tacho gain and A/D steps), at this drive's sample time: from rest at the first
+        sample (the rig starts there, ``w0`` is not taken; its internal steps are its own), the
+        samples from ``start`` on.
+
+        Parameters
+        ----------
+        u : numpy.ndarray, shape (N,)
+            Command [V], held over each sample.
+        w0 : float
+            Not taken: the rig runs from rest.
+        substeps : int, optional
+            Not taken: the rig's own.
+        start : int
+            The first sample returned.
+        """
+        assert self.rig is not None  # checked at construction
+        quiet = dataclasses.replace(self.rig.tacho, noise_std=0.0)
+        y = self.rig.replace(dt=self.dt, tacho=quiet).simulate(u, seed=0)["y"].to_numpy()
+        return y[start:]
 
 
 def _column(record: pd.DataFrame, name: str, role: str) -> np.ndarray:
@@ -985,7 +1034,12 @@ class Diagnosis:
         much later the force follows the input: :class:`Breakaway`).
     notes : list of str
         One line per logging artefact left out of a record (a held start, drop-out spikes:
-        :mod:`.artefacts`); with several records each begins with the record's label.
+        :mod:`.artefacts`); with several records each begins with the record's label. With a
+        two-mass rig given, a last line says the search ran on its rigid equivalent
+        (:func:`rig_note`).
+    rig : TwoMassRig or None
+        The two-mass rig given (``diagnose(model=rig)``); :attr:`improved_model` puts the
+        final model back on it.
     records : list of dict
         Several records of one drive (:class:`Pool`): per record its ``record`` label,
         ``samples``, ``noise_floor`` [v], ``initial_gap`` and ``final_gap`` (as above, of that
@@ -1016,7 +1070,19 @@ class Diagnosis:
     noise_bands: list[dict[str, float]] = field(default_factory=list)
     quantisation_step: float | None = None
     rests: list[dict[str, Any]] = field(default_factory=list)
+    rig: TwoMassRig | None = None
     _pool: Pool | None = field(default=None, repr=False)
+
+    @property
+    def improved_model(self) -> RigidDrive | TwoMassRig:
+        """The model the doctor improved, of the kind it was given: :attr:`model`, or with a
+        two-mass rig given, that rig with :attr:`model`'s effects and parameters put back
+        (:meth:`TwoMassRig.with_rigid_equivalent
+        <motorid.drive.two_mass.TwoMassRig.with_rigid_equivalent>`; it keeps its own sample
+        time). ValueError naming an effect the rig cannot carry."""
+        if self.rig is None:
+            return self.model
+        return self.rig.with_rigid_equivalent(self.model)
 
     @property
     def named(self) -> list[str]:
@@ -1115,7 +1181,22 @@ class Diagnosis:
             **({"records": self.records} if self.records else {}),
             **({"lookalikes": [x.to_dict() for x in self.lookalikes]} if self.lookalikes else {}),
             **({"notes": self.notes} if self.notes else {}),
+            **({"two_mass_rig": self._rig_dict()} if self.rig is not None else {}),
         }
+
+    def _rig_dict(self) -> dict[str, Any]:
+        """The given rig and the improved one (:attr:`improved_model`), or why the rig cannot
+        carry the final model (``refused``)."""
+        out: dict[str, Any] = {
+            "searched_on": "rigid equivalent",
+            "given": self.rig.to_dict() if self.rig else None,
+        }
+        try:
+            out["improved"] = self.improved_model.to_dict()
+        except ValueError as exc:
+            out["improved"] = None
+            out["refused"] = str(exc)
+        return out
 
     def table(self) -> pd.DataFrame:
         """Gap before and after each step, overall and in the step's region."""
@@ -1409,6 +1490,32 @@ def _names(value: Sequence[str] | str | None, what: str) -> tuple[str, ...]:
     return tuple(dict.fromkeys(out))
 
 
+def rig_note(rig: TwoMassRig, band: float) -> str:
+    """What the doctor says of a two-mass rig it was given: searched on its rigid equivalent, and
+    where the shaft mode lies against the ``band`` [Hz] the record excites.
+
+    Parameters
+    ----------
+    rig : TwoMassRig
+        The rig given.
+    band : float
+        The record's useful band [Hz] (:mod:`.kinematics`).
+    """
+    mode = math.sqrt(rig.k_s * (1.0 / rig.J_m + 1.0 / rig.J_l)) / (2.0 * math.pi)
+    where = (
+        f"above the {band:.3g} Hz band the record excites, so the record does not show it"
+        if mode > band
+        else f"inside the {band:.3g} Hz band the record excites: where the record shows it, the rigid "
+        "equivalent misses it"
+    )
+    return (
+        "searched on the rigid equivalent of the two-mass rig (inertias summed, the amplifier and "
+        f"K_m/R_a as input gain, its dead zone and saturation): the shaft mode at {mode:.3g} Hz lies {where}; "
+        "the initial gap is the rig as given, simulated noise free, and the effects found are handed "
+        "back to the rig (its improved model is a two-mass rig)"
+    )
+
+
 def diagnose(
     record: pd.DataFrame | Sequence[pd.DataFrame],
     dt: float | None = None,
@@ -1429,7 +1536,7 @@ def diagnose(
     missing_factor: float = MISSING_FACTOR,
     timing: Literal["hold", "sampled", "auto"] | None = None,
     band: float | None = None,
-    model: RigidDrive | None = None,
+    model: RigidDrive | TwoMassRig | None = None,
     structure: bool = True,
     time: str | None = None,
     time_unit: str | None = None,
@@ -1504,6 +1611,12 @@ def diagnose(
         workflow refits its effects (every parameter free; its Stribeck shape kept),
         then names, adds and refits as without it. Its input gain is the force scale
         unless ``input_gain`` is given; its effects are the base (give no ``base``).
+        A two-mass rig (:class:`~motorid.drive.two_mass.TwoMassRig`, its input the command [V],
+        its output the load speed [rad/s]): the initial gap is the rig's own simulation, noise
+        free, from rest; the search runs on its rigid equivalent
+        (:meth:`~motorid.drive.two_mass.TwoMassRig.rigid_equivalent`: a record rarely shows the
+        shaft mode, a note says where it lies against the record's band) and
+        :attr:`Diagnosis.improved_model` hands the result back to the rig.
     structure : bool
         Choose the input delay and lag from the record before any other effect is
         judged (:func:`choose_structure`; skipped when the base already holds one);
@@ -1529,8 +1642,18 @@ def diagnose(
     if isinstance(holdout, pd.DataFrame):
         holdout = normalise_record(holdout, **columns, **reading)
     input, output = "u", "y"
+    rig = model if isinstance(model, TwoMassRig) else None
+    if rig is not None:
+        # the search runs on the rig's rigid equivalent; its free run stays the rig's own
+        try:
+            equivalent = rig.rigid_equivalent()
+        except ValueError as exc:
+            raise DataError(f"model: {exc}") from None
+        model = GivenRig(
+            equivalent.effects, equivalent.params, equivalent.dt, equivalent.stribeck_shape, rig=rig
+        )
     if model is not None and not isinstance(model, RigidDrive):
-        raise DataError(f"model must be a RigidDrive, got {type(model).__name__}")
+        raise DataError(f"model must be a RigidDrive or a TwoMassRig, got {type(model).__name__}")
     if model is not None and base is not None:
         raise DataError("base: give either base effects or a model (its effects are the base), not both")
     if model is not None:
@@ -1927,6 +2050,13 @@ def diagnose(
     )  # fmt: skip
     bar.update(1)
     bar.close()
+    notes = [
+        f"{label}: {note}" if len(labels) > 1 else note
+        for label, prep in zip(labels, pool.parts, strict=True)
+        for note in prep.notes
+    ]
+    if rig is not None:
+        notes.append(rig_note(rig, first.kin.band))
     return Diagnosis(
         initial_gap=initial_gap, final_gap=final_gap, steps=steps, stop_reason=stop_reason,
         noise_floor=floor, final_region=final_region,
@@ -1935,12 +2065,7 @@ def diagnose(
         refitted_gap=refitted_gap, param_std=fit0.param_std, param_share=fit0.param_share, structure=chosen, structure_model=structure_model,
         records=record_summaries(pool, initial_model, final_model, first_region), _pool=pool,
         noise_bands=pool.noise_bands(), quantisation_step=pool.quantisation,
-        rests=rest_summaries(pool, final_model),
-        notes=[
-            f"{label}: {note}" if len(labels) > 1 else note
-            for label, prep in zip(labels, pool.parts, strict=True)
-            for note in prep.notes
-        ],
+        rests=rest_summaries(pool, final_model), notes=notes, rig=rig,
     )  # fmt: skip
 
 
