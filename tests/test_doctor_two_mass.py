@@ -189,3 +189,34 @@ def test_python_diagnose_refuses_a_rig_without_a_rigid_equivalent(doctored):
     folder = doctored
     with pytest.raises(DataError, match=r"^model: backlash: the rig's shaft has a gap"):
         diagnose(read_record(folder / "meas.csv"), model=datasheet_rig().replace(backlash=1e-3))
+
+
+def test_an_effect_found_that_the_rig_cannot_carry_refuses_the_save(capsys, tmp_path):
+    """A drive with quadratic drag (a rigid drive's, measured with 0.3 rad/s of noise): the doctor
+    from the datasheet rig names it, the JSON says the rig cannot carry it, and --save-model is
+    refused in one line, nothing written."""
+    from motorid.records import write_record
+    from motorid.signals import two_sine_signal
+
+    sheet = datasheet_rig()
+    sheet.save(tmp_path / "sheet.json")
+    equivalent = sheet.rigid_equivalent()
+    drag = equivalent.with_effects(
+        (*equivalent.effects, "quadratic_drag"), {**equivalent.params, "quadratic_drag": 3e-7}
+    )
+    _, u = two_sine_signal(duration=60.0, dt=sheet.dt, seed=1)
+    record = drag.simulate(u)[["t", "u", "y"]]
+    record["y"] += np.random.default_rng(0).normal(0.0, 0.3, len(record))
+    write_record(record, tmp_path / "drag.csv")
+    argv = ["doctor", str(tmp_path / "drag.csv"), "--model", str(tmp_path / "sheet.json"),
+            "--candidates", "quadratic_drag", "--max-steps", "1"]  # fmt: skip
+    code, out, err = run(capsys, *argv, "--json")
+    assert code == 0, err
+    assert out["steps"][0]["effect"] == "quadratic_drag" and out["two_mass_rig"]["improved"] is None
+    assert out["two_mass_rig"]["refused"].startswith("quadratic_drag: a two-mass rig cannot carry it")
+    code, _, err = run(capsys, *argv, "--save-model", str(tmp_path / "better.json"))
+    assert code == 2 and not (tmp_path / "better.json").exists()
+    assert (
+        f"--save-model {tmp_path / 'better.json'}: the two-mass rig cannot take the improved model: "
+        "quadratic_drag: a two-mass rig cannot carry it" in err
+    )
