@@ -104,7 +104,7 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, cast
 
 import numpy as np
 import pandas as pd
@@ -246,9 +246,9 @@ class GivenRig(RigidDrive):
         start : int
             The first sample returned.
         """
-        assert self.rig is not None  # checked at construction
-        quiet = dataclasses.replace(self.rig.tacho, noise_std=0.0)
-        y = self.rig.replace(dt=self.dt, tacho=quiet).simulate(u, seed=0)["y"].to_numpy()
+        rig = cast(TwoMassRig, self.rig)  # checked at construction
+        quiet = dataclasses.replace(rig.tacho, noise_std=0.0)
+        y = rig.replace(dt=self.dt, tacho=quiet).simulate(u, seed=0)["y"].to_numpy()
         return y[start:]
 
 
