@@ -243,13 +243,13 @@ def test_doctor_saved_emps_model_validates_below_the_published_force_error(capsy
     "extra, words",
     [
         (("--base", "viscous_friction"), "--base cannot be combined with --model"),
-        (("--model", "{rig}"), "holds a TwoMassRig; the doctor starts from a rigid-drive model"),
+        (("--model", "{rig}"), "backlash: the rig's shaft has a gap of ±0.001 rad"),
     ],
 )
 def test_doctor_model_options_refuse_what_does_not_fit(capsys, record_csv, tmp_path, extra, words):
     from motorid.drive import paper_rig
 
-    paper_rig().save(tmp_path / "rig.json")
+    paper_rig(backlash=1e-3).save(tmp_path / "rig.json")  # a rig without a rigid equivalent
     datasheet_model(stribeck_rig()).save(tmp_path / "sheet.json")
     argv = [
         "doctor",

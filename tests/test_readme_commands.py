@@ -117,3 +117,30 @@ def test_every_readme_command_runs_as_printed(tmp_path):
         assert server.returncode == 0, server.stderr.read()
     assert (tmp_path / "rec.csv").exists() and (tmp_path / "run.csv").exists()
     assert len(pd.read_csv(tmp_path / "control.csv")) == 300  # motorid control over Modbus: 12 s at 40 ms
+
+
+def test_the_readme_two_mass_doctor_block_names_stribeck_and_improves_the_rig(tmp_path):
+    """The README's block on the doctor from a two-mass rig, its lines run as printed: the doctor
+    names Stribeck friction, writes a two-mass rig that simulate runs, and compare shows the
+    low-speed RMSE the README quotes."""
+    import json
+
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    block = next(b for b in re.findall(r"```sh\n(.*?)```", text, flags=re.S) if "--model sheet.json" in b)
+    lines = shell_lines(f"```sh\n{block}```")
+    assert [shlex.split(line)[1] for line in lines] == [
+        "simulate", "simulate", "doctor", "simulate", "simulate", "compare",
+    ]  # fmt: skip
+    err = {}
+    for line in lines:
+        done = subprocess.run([str(MOTORID), *shlex.split(line)[1:]], cwd=tmp_path, capture_output=True,
+                              text=True, timeout=600)  # fmt: skip
+        assert done.returncode == 0, f"{line!r} exited with {done.returncode}:\n{done.stderr[-3000:]}"
+        err[shlex.split(line)[1]] = done.stderr
+    assert "+ stribeck_friction" in err["doctor"] and "searched on the rigid equivalent" in err["doctor"]
+    assert json.loads((tmp_path / "better.json").read_text())["kind"] == "two-mass-rig"
+    assert len(pd.read_csv(tmp_path / "better_rec.csv", comment="#")) == 500
+    low = {m: float(re.search(rf"^{m}\s+two-mass rig\s+\S+\s+\S+\s+(\S+)", err["compare"], flags=re.M).group(1))
+           for m in ("sheet.json", "better.json")}  # fmt: skip
+    quoted = re.search(r"low-speed RMSE (\S+) \(sheet.json\) -> (\S+) rad/s", block)
+    assert (f"{low['sheet.json']:.2f}", f"{low['better.json']:.2f}") == quoted.groups()

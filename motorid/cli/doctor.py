@@ -29,7 +29,7 @@ from .report import emit_json, say, show_progress
 
 if TYPE_CHECKING:
     from motorid.diagnose.results import Diagnosis
-    from motorid.drive import RigidDrive
+    from motorid.drive import RigidDrive, TwoMassRig
     from motorid.fleet import DoctorJob
 
 
@@ -96,8 +96,9 @@ def read_record_segment(args: argparse.Namespace, min_samples: int = 20) -> tupl
     return read_head(args.data, args.max_samples, min_samples, **record_options_from_args(args))
 
 
-def rigid_drive_from_file(path: Path) -> RigidDrive:
-    """The rigid drive of the model file ``path`` (``--model``); DataError for another model."""
+def start_model_from_file(path: Path) -> RigidDrive | TwoMassRig:
+    """The drive model of the model file ``path`` (``--model``): a rigid drive or a two-mass rig;
+    DataError for another model."""
     from motorid.fleet import DoctorJob
 
     return DoctorJob(model=path).start_model()
@@ -111,7 +112,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     if args.model is not None:
         if args.base is not None:
             raise DataError("--base cannot be combined with --model: the model's effects are the base")
-        rigid_drive_from_file(args.model)
+        start_model_from_file(args.model)
     if args.save_model is not None:
         check_out_file(args.save_model, True, "--save-model")
     read = [read_trimmed(args, path) for path in args.data]
@@ -212,13 +213,18 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         with pd.option_context("display.width", 160):
             say(scores.round(4).to_string())
     if args.save_model is not None:
+        rig = diagnosis.rig is not None
         try:
-            diagnosis.model.save(args.save_model)
+            diagnosis.improved_model.save(args.save_model)
         except ValueError as exc:
-            raise DataError(
-                f"--save-model {args.save_model}: the improved model is not physical: {exc}"
-            ) from None
-        say(f"  wrote {args.save_model}: the improved model (motorid simulate --model reads it)")
+            what = (
+                "the two-mass rig cannot take the improved model"
+                if rig
+                else "the improved model is not physical"
+            )
+            raise DataError(f"--save-model {args.save_model}: {what}: {exc}") from None
+        kind = "the improved two-mass rig" if rig else "the improved model"
+        say(f"  wrote {args.save_model}: {kind} (motorid simulate --model reads it)")
     figures = []
     if args.out:
         say(f"  writing figures in {args.out}/")
@@ -287,11 +293,13 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", type=Path, help="folder for the figures and the table (replaced if there)")
     add_wait(p)
     p.add_argument("--model", type=Path, metavar="FILE",
-                   help="start from your own rigid-drive model file: the first gap is it as given")  # fmt: skip
+                   help="start from your own drive model file, a rigid drive or a two-mass rig (searched on "
+                        "its rigid equivalent): the first gap is it as given")  # fmt: skip
     p.add_argument("--validate", type=Path, metavar="FILE",
                    help="a second record of the same drive (read with the same options): the models "
                         "found are scored on it without refitting")  # fmt: skip
     p.add_argument("--save-model", type=Path, metavar="FILE",
-                   help="write the improved model as a rigid-drive model file (replaced if there)")  # fmt: skip
+                   help="write the improved model as a model file (replaced if there): a rigid drive, or a "
+                        "two-mass rig when --model gave one")  # fmt: skip
     add_json(p)
     p.set_defaults(func=cmd_doctor)

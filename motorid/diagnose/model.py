@@ -187,7 +187,8 @@ def stacked(columns: list[np.ndarray]) -> np.ndarray:
 # --------------------------------------------------------------------------- model
 def model_key(model: RigidDrive) -> tuple:
     """All a rigid drive's free run and balance depend on, every number to the bit: two models
-    with equal keys give equal outputs.
+    with equal keys give equal outputs. A two-mass rig given to the doctor
+    (:class:`~motorid.diagnose.given_rig.GivenRig`) adds the rig its free run simulates.
 
     Parameters
     ----------
@@ -195,7 +196,7 @@ def model_key(model: RigidDrive) -> tuple:
         The model.
     """
     params = tuple((name, value.hex()) for name, value in model.params.items())
-    return model.effects, params, model.dt.hex(), model.stribeck_shape
+    return model.effects, params, model.dt.hex(), model.stribeck_shape, getattr(model, "rig", None)
 
 
 def model_balance(model: RigidDrive, data: BalanceData) -> tuple[np.ndarray, np.ndarray]:

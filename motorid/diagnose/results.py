@@ -21,6 +21,7 @@ from motorid.diagnose.locate import Region
 from motorid.diagnose.measures import breakaway, gaps
 from motorid.diagnose.prepare import Pool, prepare
 from motorid.drive.rigid import RigidDrive
+from motorid.drive.two_mass import TwoMassRig
 
 #: Share of the input force below which the inertia is not determined by a record: the kit
 #: motor's 0.5 Hz sines put 4.6 % of it into acceleration, its 1 Hz sines 9.5 %, its chirps 20 %
@@ -243,7 +244,12 @@ class Diagnosis:
         much later the force follows the input: :class:`~motorid.diagnose.measures.Breakaway`).
     notes : list of str
         One line per logging artefact left out of a record (a held start, drop-out spikes:
-        :mod:`.artefacts`); with several records each begins with the record's label.
+        :mod:`.artefacts`); with several records each begins with the record's label. With a
+        two-mass rig given, a last line says the search ran on its rigid equivalent
+        (:func:`~motorid.diagnose.given_rig.rig_note`).
+    rig : TwoMassRig or None
+        The two-mass rig given (``diagnose(model=rig)``); :attr:`improved_model` puts the
+        final model back on it.
     records : list of dict
         Several records of one drive (:class:`Pool`): per record its ``record`` label,
         ``samples``, ``noise_floor`` [v], ``initial_gap`` and ``final_gap`` (as above, of that
@@ -274,7 +280,19 @@ class Diagnosis:
     noise_bands: list[dict[str, float]] = field(default_factory=list)
     quantisation_step: float | None = None
     rests: list[dict[str, Any]] = field(default_factory=list)
+    rig: TwoMassRig | None = None
     _pool: Pool | None = field(default=None, repr=False)
+
+    @property
+    def improved_model(self) -> RigidDrive | TwoMassRig:
+        """The model the doctor improved, of the kind it was given: :attr:`model`, or with a
+        two-mass rig given, that rig with :attr:`model`'s effects and parameters put back
+        (:meth:`TwoMassRig.with_rigid_equivalent
+        <motorid.drive.two_mass.TwoMassRig.with_rigid_equivalent>`; it keeps its own sample
+        time). ValueError naming an effect the rig cannot carry."""
+        if self.rig is None:
+            return self.model
+        return self.rig.with_rigid_equivalent(self.model)
 
     @property
     def named(self) -> list[str]:
@@ -373,7 +391,22 @@ class Diagnosis:
             **({"records": self.records} if self.records else {}),
             **({"lookalikes": [x.to_dict() for x in self.lookalikes]} if self.lookalikes else {}),
             **({"notes": self.notes} if self.notes else {}),
+            **({"two_mass_rig": self._rig_dict()} if self.rig is not None else {}),
         }
+
+    def _rig_dict(self) -> dict[str, Any]:
+        """The given rig and the improved one (:attr:`improved_model`), or why the rig cannot
+        carry the final model (``refused``)."""
+        out: dict[str, Any] = {
+            "searched_on": "rigid equivalent",
+            "given": self.rig.to_dict() if self.rig else None,
+        }
+        try:
+            out["improved"] = self.improved_model.to_dict()
+        except ValueError as exc:
+            out["improved"] = None
+            out["refused"] = str(exc)
+        return out
 
     def table(self) -> pd.DataFrame:
         """Gap before and after each step, overall and in the step's region."""

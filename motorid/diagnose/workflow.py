@@ -114,6 +114,7 @@ from typing import Literal
 import numpy as np
 import pandas as pd
 
+from motorid.diagnose.given_rig import GivenRig, rig_note
 from motorid.diagnose.locate import locate
 from motorid.diagnose.measures import fit_static_friction, free_run_error, gaps
 from motorid.diagnose.prepare import (
@@ -148,6 +149,7 @@ from motorid.diagnose.search import (
     friction_given,
 )
 from motorid.drive.rigid import RigidDrive
+from motorid.drive.two_mass import TwoMassRig
 from motorid.errors import DataError
 
 logger = logging.getLogger(__name__)
@@ -173,7 +175,7 @@ def diagnose(
     missing_factor: float = MISSING_FACTOR,
     timing: Literal["hold", "sampled", "auto"] | None = None,
     band: float | None = None,
-    model: RigidDrive | None = None,
+    model: RigidDrive | TwoMassRig | None = None,
     structure: bool = True,
     time: str | None = None,
     time_unit: str | None = None,
@@ -242,12 +244,18 @@ def diagnose(
         motorid convention of :mod:`motorid.drive`.
     band : float, optional
         Useful band [Hz] (:mod:`.kinematics`).
-    model : RigidDrive, optional
+    model : RigidDrive or TwoMassRig, optional
         The user's own model of the drive. The initial gap is then this model, as
         given, against the measurement ("where does my simulation disagree"); the
         workflow refits its effects (every parameter free; its Stribeck shape kept),
         then names, adds and refits as without it. Its input gain is the force scale
         unless ``input_gain`` is given; its effects are the base (give no ``base``).
+        A two-mass rig (:class:`~motorid.drive.two_mass.TwoMassRig`, its input the command [V],
+        its output the load speed [rad/s]): the initial gap is the rig's own simulation, noise
+        free, from rest; the search runs on its rigid equivalent
+        (:meth:`~motorid.drive.two_mass.TwoMassRig.rigid_equivalent`: a record rarely shows the
+        shaft mode, a note says where it lies against the record's band) and
+        :attr:`Diagnosis.improved_model` hands the result back to the rig.
     structure : bool
         Choose the input delay and lag from the record before any other effect is
         judged (:func:`choose_structure`; skipped when the base already holds one);
@@ -274,8 +282,15 @@ def diagnose(
     if isinstance(holdout, pd.DataFrame):
         holdout = normalise_record(holdout, **columns, **reading)
     input, output = "u", "y"
+    rig = model if isinstance(model, TwoMassRig) else None
+    if rig is not None:
+        # the search runs on the rig's rigid equivalent; its free run stays the rig's own
+        try:
+            model = GivenRig.of(rig)
+        except ValueError as exc:
+            raise DataError(f"model: {exc}") from None
     if model is not None and not isinstance(model, RigidDrive):
-        raise DataError(f"model must be a RigidDrive, got {type(model).__name__}")
+        raise DataError(f"model must be a RigidDrive or a TwoMassRig, got {type(model).__name__}")
     if model is not None and base is not None:
         raise DataError("base: give either base effects or a model (its effects are the base), not both")
     if model is not None:
@@ -364,6 +379,13 @@ def diagnose(
     )  # fmt: skip
     bar.update(1)
     bar.close()
+    notes = [
+        f"{label}: {note}" if len(labels) > 1 else note
+        for label, prep in zip(labels, pool.parts, strict=True)
+        for note in prep.notes
+    ]
+    if rig is not None:
+        notes.append(rig_note(rig, pool.parts[0].kin.band))
     return Diagnosis(
         initial_gap=initial_gap, final_gap=final_gap, steps=outcome.steps, stop_reason=stop_reason,
         noise_floor=pool.noise, final_region=final_region,
@@ -373,12 +395,7 @@ def diagnose(
         structure=chosen, structure_model=structure_model,
         records=record_summaries(pool, initial_model, final_model, first_region), _pool=pool,
         noise_bands=pool.noise_bands(), quantisation_step=pool.quantisation,
-        rests=rest_summaries(pool, final_model),
-        notes=[
-            f"{label}: {note}" if len(labels) > 1 else note
-            for label, prep in zip(labels, pool.parts, strict=True)
-            for note in prep.notes
-        ],
+        rests=rest_summaries(pool, final_model), notes=notes, rig=rig,
     )  # fmt: skip
 
 

@@ -39,17 +39,22 @@ from motorid.drive import kernels
 from motorid.drive.components import ADConverter, Amplifier, Encoder, Tachogenerator, measure_speed
 from motorid.drive.files import KIND_RIG, model_file, write_model_file
 from motorid.drive.friction import (
+    AsymmetricFriction,
     CoulombFriction,
     Friction,
     LuGreFriction,
+    StaticFriction,
+    StribeckFriction,
+    ViscousFriction,
     breakaway,
     friction_from_dict,
     pack_lugre,
     pack_static_friction,
     viscous_total,
 )
+from motorid.drive.kernels import STRIBECK_SHAPES
 from motorid.drive.ranges import MOST_SUBSTEPS, check_count, check_parameter
-from motorid.drive.rigid import check_input, check_sample_time
+from motorid.drive.rigid import RigidDrive, check_input, check_sample_time
 from motorid.errors import ModelFileError
 from motorid.json_input import build, integer, key_path, number, object_keys, scalars, shown
 
@@ -80,6 +85,110 @@ _NOISE_BLOCK = 1024
 def _about(unit: str, meaning: str) -> dict[str, str]:
     """Field metadata of a physical parameter: its unit and what it is (for the tables)."""
     return {"unit": unit, "meaning": meaning}
+
+
+#: The rigid drive's effects a two-mass rig has no place for, and why.
+NOT_ON_A_RIG: dict[str, str] = {
+    "quadratic_drag": "its friction laws have no drag growing with the square of the speed",
+    "backlash": "the rigid drive's backlash is a dwell time after reversals, the rig's a gap in the shaft "
+    "[rad]; one does not give the other",
+    "input_delay": "it has no transport delay between the command and the armature",
+    "input_lag": "its one input lag is the electrical time constant L_a/R_a, which its rigid equivalent "
+    "takes as short",
+    "static_friction": "its friction laws break away at their kinetic level at rest (α0 + α1), with no "
+    "excess above it",
+}
+
+
+@dataclass(frozen=True)
+class FrictionLevels:
+    """A rig's friction laws summed over both masses, as its rigid equivalent sees them.
+
+    Attributes
+    ----------
+    forward, backward : float
+        C+ and C-: the summed Coulomb levels α0 and α3 [N m] (LuGre's Fc in both); a law on
+        ``side="both"`` counts once per mass.
+    stribeck : float
+        (S+ + S-)/2: the mean of the summed Stribeck excesses α1 and α4 [N m] (LuGre's Fs - Fc).
+    velocity : float
+        1/ᾱ [rad/s], ᾱ the excess-weighted mean decay rate [s/rad] (1 without an excess).
+    shape : {"exponential", "gaussian"}
+        The decay shape of the laws with an excess (LuGre's is Gaussian).
+    """
+
+    forward: float = 0.0
+    backward: float = 0.0
+    stribeck: float = 0.0
+    velocity: float = 1.0
+    shape: str = "exponential"
+
+    @property
+    def coulomb(self) -> float:
+        """F_c = (C+ + C-)/2 [N m]."""
+        return 0.5 * (self.forward + self.backward)
+
+    @property
+    def asymmetry(self) -> float:
+        """ΔF_c = (C+ - C-)/2 [N m]."""
+        return 0.5 * (self.forward - self.backward)
+
+    @classmethod
+    def of(cls, frictions: tuple[Friction, ...]) -> FrictionLevels:
+        """The summed levels of ``frictions``; ValueError for Stribeck laws of both shapes.
+
+        Parameters
+        ----------
+        frictions : tuple of Friction
+            The rig's friction laws.
+        """
+        forward = backward = s_pos = s_neg = 0.0
+        excesses: list[tuple[float, float, str]] = []  # (excess [N m], rate [s/rad], shape)
+        for f in frictions:
+            for _ in f.sides():
+                if isinstance(f, LuGreFriction):
+                    forward += f.Fc
+                    backward += f.Fc
+                    excess = f.Fs - f.Fc
+                    s_pos += excess
+                    s_neg += excess
+                    excesses += [(excess, 1.0 / f.omega_s, "gaussian")] * 2
+                elif isinstance(f, StaticFriction):
+                    a = f.coefficients()
+                    shape = STRIBECK_SHAPES[f.shape_code()]
+                    forward += a[0]
+                    backward += a[3]
+                    s_pos += a[1]
+                    s_neg += a[4]
+                    excesses += [(a[1], a[2], shape), (a[4], a[5], shape)]
+        excesses = [e for e in excesses if e[0] > 0.0]
+        shapes = sorted({shape for _, _, shape in excesses})
+        if len(shapes) > 1:
+            raise ValueError(
+                "stribeck_friction: the rig's Stribeck laws have both decay shapes (exponential and "
+                "gaussian); its rigid equivalent has one"
+            )
+        total = sum(e for e, _, _ in excesses)
+        rate = sum(e * r for e, r, _ in excesses) / total if total > 0.0 else 0.0
+        if rate == 0.0:  # an excess that never decays is Coulomb friction
+            return cls(forward + s_pos, backward + s_neg)
+        return cls(forward, backward, 0.5 * (s_pos + s_neg), 1.0 / rate, shapes[0])
+
+
+def _static_law(a: tuple[float, ...], like: StaticFriction, shape: str | None) -> StaticFriction:
+    """A static law on ``like``'s side with the eq. (11) coefficients ``a`` = (α0 ... α5): ``like``
+    itself when they and the ``shape`` (None: ``like``'s) are its own, else of ``like``'s class when
+    that class can hold them, else an :class:`~motorid.drive.friction.AsymmetricFriction`."""
+    own = STRIBECK_SHAPES[like.shape_code()]
+    shape = own if shape is None else shape
+    if tuple(a) == like.coefficients() and shape == own:
+        return like
+    symmetric = a[0] == a[3] and a[1] == a[4] and a[2] == a[5]
+    if isinstance(like, CoulombFriction) and symmetric and not a[1]:
+        return CoulombFriction(alpha=a[0], side=like.side)
+    if isinstance(like, CoulombFriction | StribeckFriction) and symmetric:
+        return StribeckFriction(alpha0=a[0], alpha1=a[1], alpha2=a[2], stribeck_shape=shape, side=like.side)  # type: ignore[arg-type]
+    return AsymmetricFriction(*a, stribeck_shape=shape, side=like.side)  # type: ignore[arg-type]
 
 
 @dataclass(frozen=True)
@@ -475,6 +584,286 @@ class TwoMassRig:
         """
         write_model_file(model_file(KIND_RIG, self.to_dict()), path, overwrite=overwrite)
 
+    # ------------------------------------------------------ rigid equivalent
+    def rigid_equivalent(self, dt: float | None = None) -> RigidDrive:
+        """The rigid drive that the measured load speed sees when the shaft is stiff.
+
+        With the shaft mode well above the band a record excites (ω_L = ω_m = ω) and the
+        electrical time constant L_a/R_a short beside a sample (i_a = (v_a - K_m ω)/R_a),
+        eqs. (1)-(13) add up to one mass::
+
+            (J_m + J_L) dω/dt = (K_m/R_a) v_a - (B_m + B_L + K_m²/R_a) ω - T_f,m(ω) - T_f,L(ω) - T_d
+            v_a = D_d(clip(G u, ±V_max)) = G D_{d/G}(clip(u, ±V_max/G))
+
+        so the rigid drive (:class:`~motorid.drive.rigid.RigidDrive`, input in the command's
+        unit [V]) has
+
+        ======================= ===============================================================
+        inertia                 J_m + J_L [kg m²]                                        exact
+        input_gain              g = G K_m/R_a [N m/V]                                     exact
+        viscous                 B_m + B_L + K_m²/R_a + the viscous laws and LuGre σ2      exact
+        offset                  T_d [N m]                                                 exact
+        dead_zone, saturation   d/G and V_max/G [V] (when the amplifier has them)        exact
+        coulomb                 F_c = (C+ + C-)/2, C± the summed levels α0 (α3) of the    exact
+                                static laws on both masses plus LuGre's Fc
+        coulomb_asymmetry       ΔF_c = (C+ - C-)/2 (asymmetric_friction, when C+ ≠ C-)    exact
+        stribeck                F_s = (S+ + S-)/2, S± the summed excesses α1 (α4) and     exact for one
+                                LuGre's Fs - Fc                                           decay rate
+        stribeck_velocity       1/ᾱ, ᾱ the excess-weighted mean of the laws' decay rates  approximate
+                                α2, α5 (1/ω_s for LuGre, whose shape is Gaussian)
+        ======================= ===============================================================
+
+        A law on ``side="both"`` counts once per mass. The rig's Karnopp breakaway at rest
+        (α0 + α1 per mass) is the rigid drive's kinetic level at 0±, so no ``static_friction``
+        appears. Approximated: the electrical lag L_a/R_a, the shaft's compliance and damping
+        (k_s, B_s), LuGre's pre-sliding (its steady state g(ω) sgn ω + σ2 ω is kept) and, with
+        several Stribeck laws, their decay rates (one mean rate) and a Stribeck asymmetry S+ ≠ S-
+        (their mean). The tachogenerator, the A/D converter and an encoder are sensors, not
+        dynamics: left out.
+
+        Parameters
+        ----------
+        dt : float, optional
+            Sample time [s] of the rigid drive; default the rig's.
+
+        Returns
+        -------
+        RigidDrive
+            Effects ``viscous_friction`` and ``offset`` always (the back-EMF is a viscous term,
+            T_d an offset), ``coulomb_friction``, ``asymmetric_friction``, ``stribeck_friction``,
+            ``input_dead_zone`` and ``input_saturation`` when the rig has them.
+
+        Raises
+        ------
+        ValueError
+            For what has no rigid equivalent, named: a backlash gap in the shaft, or Stribeck
+            laws of both decay shapes.
+        """
+        if self.backlash > 0.0:
+            raise ValueError(
+                f"backlash: the rig's shaft has a gap of ±{self.backlash:g} rad; a rigid drive has no "
+                "shaft to carry it (its backlash is a dwell time), so the rig has no rigid equivalent"
+            )
+        levels = FrictionLevels.of(self.friction)
+        K, R, G = self.K_m, self.R_a, self.amplifier.gain
+        effects = ["viscous_friction", "offset"]
+        params = {
+            "inertia": self.J_m + self.J_l,
+            "input_gain": G * K / R,
+            "viscous": self.viscous("motor") + self.viscous("load") + K * K / R,
+            "offset": float(self.T_d),
+        }
+        if levels.forward or levels.backward or levels.stribeck:
+            effects.append("coulomb_friction")
+            params["coulomb"] = levels.coulomb
+        if levels.forward != levels.backward:
+            effects.append("asymmetric_friction")
+            params.update(coulomb_asymmetry=levels.asymmetry, viscous_asymmetry=0.0)
+        if levels.stribeck:
+            effects.append("stribeck_friction")
+            params.update(stribeck=levels.stribeck, stribeck_velocity=levels.velocity)
+        if self.amplifier.dead_zone > 0.0:
+            effects.append("input_dead_zone")
+            params["dead_zone"] = self.amplifier.dead_zone / G
+        if math.isfinite(self.amplifier.v_max):
+            effects.append("input_saturation")
+            params["saturation"] = self.amplifier.v_max / G
+        return RigidDrive(tuple(effects), params, self.dt if dt is None else dt, stribeck_shape=levels.shape)
+
+    def with_rigid_equivalent(self, drive: RigidDrive) -> TwoMassRig:
+        """This rig changed so that its :meth:`rigid_equivalent` is ``drive`` (e.g. the model the
+        doctor fitted on the rig's rigid equivalent): the effects found put back on the rig.
+
+        Each rigid parameter goes back where :meth:`rigid_equivalent` took it from; a value
+        equal to the rig's own equivalent leaves the rig's parameters as they are (so
+        ``rig.with_rigid_equivalent(rig.rigid_equivalent()) == rig``), a changed one maps back
+        proportionally:
+
+        - inertia J: J_m and J_L both times J / (J_m + J_L) (their ratio, and so the shape of
+          the shaft mode, kept);
+        - input gain g: the amplifier gain G times g / (G K_m/R_a) (the motor constants K_m,
+          R_a kept, and with them the back-EMF K_m²/R_a);
+        - viscous B: the mechanical part B - K_m²/R_a shared by B_m, B_L, the viscous laws and
+          LuGre σ2 in their proportions (all on B_m if they are all 0);
+        - offset T_0: the load torque T_d = T_0;
+        - dead zone and saturation [V of the command]: d = G dead_zone, V_max = G saturation
+          (none when ``drive`` has no such effect);
+        - Coulomb F_c and asymmetry ΔF_c: the forward levels α0 of every static law scaled by
+          (F_c + ΔF_c)/C+, the backward α3 by (F_c - ΔF_c)/C- (a symmetric law becomes an
+          :class:`~motorid.drive.friction.AsymmetricFriction` when the two differ; LuGre's
+          Fc, symmetric, by their common ratio);
+        - Stribeck F_s: every excess α1, α4 (LuGre's Fs - Fc) scaled by F_s / S; a changed
+          ``stribeck_velocity`` v_s sets every decay rate to 1/v_s (ω_s = v_s for LuGre), a
+          changed shape every law's shape.
+
+        An effect the rig has none of (levels 0) is added as its own law on the motor side:
+        :class:`~motorid.drive.friction.CoulombFriction`,
+        :class:`~motorid.drive.friction.StribeckFriction` (with the Coulomb level if that is
+        new too) or :class:`~motorid.drive.friction.AsymmetricFriction`. ``drive.dt`` is not
+        taken: the rig keeps its own sample time and substeps.
+
+        Parameters
+        ----------
+        drive : RigidDrive
+            The rigid drive to put back, its input in the rig's command unit [V] and its forces
+            in N m.
+
+        Returns
+        -------
+        TwoMassRig
+
+        Raises
+        ------
+        ValueError
+            Naming the effect the rig cannot carry (``quadratic_drag``, ``backlash``,
+            ``input_delay``, ``input_lag``, ``static_friction``, a ``viscous_asymmetry``),
+            or a level the rig cannot hold (negative, a viscous coefficient below the
+            back-EMF's K_m²/R_a, an asymmetry on a rig whose Coulomb level is LuGre's).
+        """
+        if not isinstance(drive, RigidDrive):
+            raise ValueError(f"drive must be a RigidDrive, got {type(drive).__name__}")
+        for effect in drive.effects:
+            if effect in NOT_ON_A_RIG:
+                raise ValueError(f"{effect}: a two-mass rig cannot carry it ({NOT_ON_A_RIG[effect]})")
+        p = dict(drive.params)
+        if p.get("viscous_asymmetry", 0.0) != 0.0:
+            raise ValueError(
+                f"asymmetric_friction: viscous_asymmetry = {p['viscous_asymmetry']:.4g} N m s/rad; a two-mass "
+                "rig cannot carry it (its friction laws have no viscous term that depends on the direction)"
+            )
+        here = self.rigid_equivalent(drive.dt)
+        q = here.params
+        changes: dict[str, Any] = {}
+
+        # inertia and gain, proportionally
+        if p["inertia"] != q["inertia"]:
+            ratio = p["inertia"] / q["inertia"]
+            changes.update(J_m=self.J_m * ratio, J_l=self.J_l * ratio)
+        gain_changed = p["input_gain"] != q["input_gain"]
+        gain = (
+            self.amplifier.gain * (p["input_gain"] / q["input_gain"]) if gain_changed else self.amplifier.gain
+        )
+
+        def in_volts(name: str, own: float, none: float) -> float:
+            """The amplifier's ``own`` value [V], or the drive's ``name`` [V of the command] times the gain."""
+            value = p.get(name, none)
+            return own if not gain_changed and value == q.get(name, none) else gain * value
+
+        amplifier = Amplifier(
+            gain=gain,
+            dead_zone=in_volts("dead_zone", self.amplifier.dead_zone, 0.0),
+            v_max=in_volts("saturation", self.amplifier.v_max, math.inf),
+        )
+        if amplifier != self.amplifier:
+            changes["amplifier"] = amplifier
+        changes["T_d"] = p.get("offset", 0.0)
+
+        # viscous: the mechanical part, in the rig's proportions
+        viscous_ratio = 1.0
+        if p["viscous"] != q["viscous"]:
+            back_emf = self.K_m**2 / self.R_a
+            mechanical = p["viscous"] - back_emf
+            if mechanical < 0.0:
+                raise ValueError(
+                    f"viscous_friction: viscous = {p['viscous']:.4g} N m s/rad is below the back-EMF's "
+                    f"K_m²/R_a = {back_emf:.4g} N m s/rad; the rig's motor constants cannot carry it"
+                )
+            old = self.viscous("motor") + self.viscous("load")
+            if old > 0.0:
+                viscous_ratio = mechanical / old
+                changes.update(B_m=self.B_m * viscous_ratio, B_l=self.B_l * viscous_ratio)
+            else:
+                changes["B_m"] = mechanical
+        changes["friction"] = self._friction_for(drive, here, viscous_ratio)
+        return self.replace(**changes)
+
+    def _friction_for(
+        self, drive: RigidDrive, here: RigidDrive, viscous_ratio: float
+    ) -> tuple[Friction, ...]:
+        """The rig's friction laws carrying ``drive``'s friction levels (see
+        :meth:`with_rigid_equivalent`); ``here`` is the rig's own rigid equivalent."""
+        p, q = drive.params, here.params
+        levels = FrictionLevels.of(self.friction)
+        coulomb, asymmetry = p.get("coulomb", 0.0), p.get("coulomb_asymmetry", 0.0)
+        forward, backward = coulomb + asymmetry, coulomb - asymmetry
+        stribeck = p.get("stribeck", 0.0)
+        for name, value in (("coulomb", backward), ("coulomb", forward), ("stribeck", stribeck)):
+            if value < 0.0:
+                effect = "stribeck_friction" if name == "stribeck" else "coulomb_friction"
+                raise ValueError(
+                    f"{effect}: a level of {value:.4g} N m < 0 is not physical; the rig cannot carry it"
+                )
+        same_coulomb = p.get("coulomb", 0.0) == q.get("coulomb", 0.0) and asymmetry == q.get(
+            "coulomb_asymmetry", 0.0
+        )
+        k_forward = k_backward = 1.0
+        if not same_coulomb and (levels.forward or levels.backward):
+            if not (levels.forward and levels.backward):
+                raise ValueError(
+                    "coulomb_friction: the rig's static friction acts in one direction only; its levels "
+                    "cannot be scaled to the ones fitted"
+                )
+            k_forward, k_backward = forward / levels.forward, backward / levels.backward
+        k_stribeck = 1.0
+        if stribeck != q.get("stribeck", 0.0) and levels.stribeck:
+            k_stribeck = stribeck / levels.stribeck
+        velocity = p.get("stribeck_velocity", q.get("stribeck_velocity", 1.0))
+        rate = None if velocity == q.get("stribeck_velocity") else 1.0 / velocity
+        shape = drive.stribeck_shape
+
+        laws: list[Friction] = []
+        for f in self.friction:
+            if isinstance(f, ViscousFriction):
+                laws.append(f if viscous_ratio == 1.0 else dataclasses.replace(f, B=f.B * viscous_ratio))
+            elif isinstance(f, LuGreFriction):
+                if k_forward != k_backward:
+                    raise ValueError(
+                        "asymmetric_friction: the rig's Coulomb level is a LuGre law's, which is the "
+                        "same both ways; the rig cannot carry an asymmetry"
+                    )
+                if f.Fs > f.Fc and shape != "gaussian":
+                    raise ValueError(
+                        "stribeck_friction: the rig's Stribeck decay is a LuGre law's, Gaussian; it "
+                        f"cannot take the {shape} shape"
+                    )
+                fc = f.Fc * k_forward
+                laws.append(dataclasses.replace(
+                    f, Fc=fc, Fs=fc + (f.Fs - f.Fc) * k_stribeck, sigma2=f.sigma2 * viscous_ratio,
+                    omega_s=f.omega_s if rate is None else velocity,
+                ))  # fmt: skip
+            elif isinstance(f, StaticFriction):
+                a = f.coefficients()
+                r_pos = a[2] if rate is None or not a[1] else rate
+                r_neg = a[5] if rate is None or not a[4] else rate
+                new = (
+                    a[0] * k_forward,
+                    a[1] * k_stribeck,
+                    r_pos,
+                    a[3] * k_backward,
+                    a[4] * k_stribeck,
+                    r_neg,
+                )
+                laws.append(_static_law(new, f, shape if (a[1] or a[4]) else None))
+            else:
+                laws.append(f)
+        # what the rig has none of: its own law on the motor side
+        new_coulomb = not (levels.forward or levels.backward) and (forward or backward)
+        new_stribeck = not levels.stribeck and stribeck > 0.0
+        if new_coulomb or new_stribeck:
+            c_pos, c_neg = (forward, backward) if new_coulomb else (0.0, 0.0)
+            s = stribeck if new_stribeck else 0.0
+            r = 1.0 / velocity if new_stribeck else 0.0
+            if c_pos != c_neg:
+                laws.append(AsymmetricFriction(alpha0=c_pos, alpha1=s, alpha2=r, alpha3=c_neg, alpha4=s,
+                                               alpha5=r, stribeck_shape=shape, side="motor"))  # fmt: skip
+            elif s:
+                laws.append(
+                    StribeckFriction(alpha0=c_pos, alpha1=s, alpha2=r, stribeck_shape=shape, side="motor")
+                )
+            else:
+                laws.append(CoulombFriction(alpha=c_pos, side="motor"))
+        return tuple(laws)
+
 
 class RigSimulation:
     """A running simulation of a :class:`TwoMassRig`: its state and noise stream.
@@ -737,9 +1126,11 @@ def steady_state_speed(rig: TwoMassRig, u: float) -> float:
 
 
 __all__ = [
+    "NOT_ON_A_RIG",
     "PAPER_NONLINEARITIES",
     "PHYSICAL_DEFAULTS",
     "RECORD_UNITS",
+    "FrictionLevels",
     "RigSimulation",
     "TwoMassRig",
     "paper_rig",

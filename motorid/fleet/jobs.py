@@ -152,8 +152,9 @@ class DoctorJob:
         Choose the input delay and lag from the record first; False is ``--no-structure``
         (the base as given).
     model : Path, optional
-        A rigid-drive model file to start from (``motorid doctor --save-model`` writes one);
-        its effects are the base, so ``base`` stays None.
+        A drive model file to start from, a rigid drive (``motorid doctor --save-model`` writes
+        one) or a two-mass rig (``motorid simulate --save-model``); its effects are the base, so
+        ``base`` stays None.
     """
 
     output_kind: Literal["velocity", "position"] = "velocity"
@@ -201,18 +202,25 @@ class DoctorJob:
         )  # fmt: skip
 
     def start_model(self) -> Any:
-        """The rigid drive of the ``model`` file (None without one); DataError for another model."""
+        """The drive model of the ``model`` file (None without one): a rigid drive, or a two-mass
+        rig that has a rigid equivalent; DataError for another model or a rig without one."""
         if self.model is None:
             return None
-        from motorid.drive import RigidDrive
+        from motorid.drive import RigidDrive, TwoMassRig
         from motorid.models import load_model
 
         model = load_model(self.model)
-        if not isinstance(model, RigidDrive):
+        if not isinstance(model, RigidDrive | TwoMassRig):
             raise DataError(
-                f"--model {self.model}: holds a {type(model).__name__}; the doctor starts from a rigid-drive "
-                "model (a file motorid doctor --save-model wrote, or a RigidDrive saved in Python)"
+                f"--model {self.model}: holds a {type(model).__name__}; the doctor starts from a drive model "
+                "(a rigid drive motorid doctor --save-model wrote, or a two-mass rig motorid simulate "
+                "--save-model wrote)"
             )
+        if isinstance(model, TwoMassRig):
+            try:
+                model.rigid_equivalent()  # the doctor searches on it
+            except ValueError as exc:
+                raise DataError(f"--model {self.model}: {exc}") from None
         return model
 
     def row(self, records: list[pd.DataFrame], labels: list[str], figures: Path | None) -> dict[str, Any]:
