@@ -80,6 +80,10 @@ def test_the_doctor_names_stribeck_on_the_datasheet_rig_and_writes_a_better_rig(
     for name in ("k_s", "B_s", "R_a", "L_a", "K_m", "dt", "substeps", "tacho", "adc", "encoder"):
         assert getattr(better, name) == getattr(sheet, name), name
     assert better.J_m / better.J_l == pytest.approx(sheet.J_m / sheet.J_l, rel=1e-12)
+    # the record never reaches the amplifier's 12 V rating, so it cannot tell it: the rating stays
+    u_max = float(np.abs(read_record(folder / "meas.csv")["u"]).max())
+    assert u_max < 12.0 and out["model"]["params"]["saturation"] == 12.0
+    assert better.amplifier.v_max == pytest.approx(sheet.amplifier.v_max, rel=1e-12)
     # its rigid equivalent is the doctor's final model (the round trip's rounding only)
     again = better.rigid_equivalent().params
     for key, value in out["model"]["params"].items():

@@ -587,7 +587,13 @@ def fit_model(
         if get_effect(n).rest_only
         for p in get_effect(n).nonlinear
     }
-    fixed = {**rest, **(fixed or {})}
+    # an input saturation at or above the largest input of the records is never reached there, so
+    # they cannot tell its level: it keeps the value it starts from (a clip at the records' largest
+    # input would clip any larger input the model is later given)
+    unreached: dict[str, float] = {}
+    if "input_saturation" in effects and start and start.get("saturation", 0.0) >= data.scale["u_max"]:
+        unreached["saturation"] = float(start["saturation"])
+    fixed = {**rest, **unreached, **(fixed or {})}
     shaped = [
         (p, get_effect(n).bounds(data.scale)[p])
         for n in effects

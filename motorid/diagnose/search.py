@@ -479,7 +479,8 @@ class Search:
 
     def fit_base(self, base: tuple[str, ...], model: RigidDrive | None) -> FitResult:
         """The base effects fitted to the pooled torque balance; a rest-only effect of the user's
-        ``model`` (static friction) keeps its value: the balance cannot refit it.
+        ``model`` (static friction) keeps its value: the balance cannot refit it; nor can it refit
+        a saturation the records never reach (:func:`~motorid.diagnose.model.fit_model`).
 
         Parameters
         ----------
@@ -489,7 +490,12 @@ class Search:
             The user's model, when given.
         """
         kept = (
-            {p: model.params[p] for n in base if EFFECTS[n].rest_only for p in EFFECTS[n].nonlinear}
+            {
+                p: model.params[p]
+                for n in base
+                if EFFECTS[n].rest_only or n == "input_saturation"
+                for p in EFFECTS[n].nonlinear
+            }
             if model
             else {}
         )
