@@ -98,3 +98,46 @@ def test_effects_the_record_tells_apart_are_not_lookalikes():
     planted = planted_record("input_dead_zone", 2, sizes={"dead_zone": 0.5})
     d = diagnose(planted.record, input_gain=planted.input_gain, base=planted.base, max_steps=1)
     assert d.named == ["input_dead_zone"] and d.lookalikes == [] and "lookalikes" not in d.to_dict()
+
+
+def test_stribeck_and_static_friction_that_fit_alike_are_said_with_both_figures(capsys, tmp_path):
+    """A Stribeck excess that decays within 3 rad/s (a few noise floors of speed) acts at the
+    rests and the breakaways only: the rests measure it as static friction's breakaway, and the
+    free run of either model comes within half a noise floor of the other's, so the record cannot
+    tell a fast decay from a step at rest. The report says both names with both free-run gaps and
+    names the first in the library's order, Stribeck friction; the JSON carries the pair."""
+    excess = 0.004  # N m: the Stribeck level planted, the excess at rest over the kinetic level
+    planted = planted_record(
+        "stribeck_friction", 2, sizes={"stribeck": excess, "stribeck_velocity": 3.0}, duration=60.0
+    )
+    path = tmp_path / "fast_stribeck.csv"
+    write_record(planted.record, path)
+    code, out, err = run(
+        capsys, "doctor", str(path), "--input-gain", repr(planted.input_gain), "--base",
+        ",".join(planted.base), "--max-steps", "1", "--json",
+    )  # fmt: skip
+    assert code == 0, err
+    step = out["steps"][0]
+    assert step["effect"] == "stribeck_friction"
+    look = step["lookalike"]
+    assert out["lookalikes"] == [look]
+    assert look["physics"] == "breakaway friction above the kinetic level"
+    assert look["named"] == "stribeck_friction"
+    assert look["effects"] == ["stribeck_friction", "static_friction"]
+    gaps = look["free_run_gaps"]
+    assert abs(gaps["stribeck_friction"] - gaps["static_friction"]) <= look["tolerance"]
+    assert look["tolerance"] == pytest.approx(0.5 * out["noise_floor"])
+    # each level is its own model's: the balance's Stribeck level, the rests' breakaway excess
+    static = {c["effect"]: c for c in step["evidence"]["ranking"]}["static_friction"]
+    assert look["levels"]["stribeck_friction"] == step["params"]["stribeck"]
+    assert look["levels"]["static_friction"] == static["breakaway"]["excess"]
+    # the rests measure the planted excess: 0.00487 ± 0.00054 N m (1.6 standard errors off)
+    breakaway = static["breakaway"]
+    assert abs(breakaway["excess"] - excess) < 3.0 * breakaway["standard_error"]
+    line = (
+        f"breakaway friction above the kinetic level {look['levels']['stribeck_friction']:.3g} N m: "
+        f"stribeck_friction and static_friction fit alike (free-run gap {gaps['stribeck_friction']:.4g} "
+        f"vs {gaps['static_friction']:.4g} rad/s, within {look['tolerance']:.3g} rad/s); named "
+        "stribeck_friction by the lookalike rule"
+    )
+    assert line in err, err

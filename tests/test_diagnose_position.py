@@ -7,7 +7,8 @@ import pandas as pd
 import pytest
 
 from motorid.datasets import emps_benchmark_rmse
-from motorid.diagnose.position import refit_in_position, refitted_parameters
+from motorid.diagnose.model import refitted_parameters
+from motorid.diagnose.position import refit_in_position
 from motorid.drive import RigidDrive
 
 TRUE = RigidDrive(

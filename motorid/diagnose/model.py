@@ -32,6 +32,7 @@ same compiled terms as the regressor columns here.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable, Hashable
 from dataclasses import dataclass, field
@@ -40,7 +41,9 @@ import numpy as np
 
 from motorid.diagnose.effects import EFFECTS, Effect, get_effect
 from motorid.diagnose.kinematics import Kinematics
-from motorid.drive.rigid import RigidDrive, effect_order
+from motorid.drive.rigid import RIGID_EFFECTS, RigidDrive, effect_order
+
+logger = logging.getLogger(__name__)
 
 # --------------------------------------------------------------------------- data
 #: Memory [bytes] :meth:`BalanceData.decimated` may keep cached columns in (between 16 and
@@ -672,6 +675,77 @@ def _accel_rss(rss: float, inertia: float) -> float:
     return rss / inertia**2 if inertia > 0.0 and math.isfinite(inertia) else math.inf
 
 
+# --------------------------------------------------------------------------- output error
+#: Lower bound of each parameter an output-error fit keeps it above: a level or a viscous
+#: coefficient >= 0, an inertia or a Stribeck velocity > 0 (the others are free).
+OUTPUT_ERROR_LOWER = {
+    "inertia": 1e-12, "stribeck_velocity": 1e-12, "viscous": 0.0, "coulomb": 0.0, "stribeck": 0.0,
+    "quadratic_drag": -np.inf,
+}  # fmt: skip
+
+
+def refitted_parameters(model: RigidDrive) -> tuple[str, ...]:
+    """The parameters :func:`fit_output_error` fits: the inertia and every parameter of the
+    model's effects but the structure's (delay, lag) and a rest-only one (static friction); the
+    input gain stays (it sets the force scale).
+
+    Parameters
+    ----------
+    model : RigidDrive
+        The model whose effects name the parameters.
+    """
+    names = ["inertia"]
+    for effect in model.effects:
+        spec = get_effect(effect)
+        if not (spec.structure or spec.rest_only):
+            names += RIGID_EFFECTS[effect]
+    return tuple(names)
+
+
+def fit_output_error(model: RigidDrive, error: Callable[[RigidDrive], np.ndarray]) -> RigidDrive:
+    """``model`` with its :func:`refitted_parameters` fitted to an output error::
+
+        θ* = argmin_θ Σ_k e_k(θ)²,    e = error(model with θ)
+
+    started from ``model``'s values (SciPy's ``least_squares``, trust region reflective, each
+    parameter above its :data:`OUTPUT_ERROR_LOWER`). The free run does not change smoothly with
+    the delay, the lag or a static friction's breakaway, so they stay.
+
+    Parameters
+    ----------
+    model : RigidDrive
+        The starting model (the doctor's, fitted to the torque balance).
+    error : callable
+        ``error(trial)`` -> the output error of a trial model, one entry per sample compared
+        (measured minus simulated speed [v], or simulated minus measured position); the entries
+        not finite for the starting model are left out of every trial's sum.
+
+    Returns
+    -------
+    RigidDrive
+        The same effects, the fitted parameters replaced.
+    """
+    from scipy.optimize import least_squares
+
+    names = refitted_parameters(model)
+    x0 = np.array([model.params[n] for n in names])
+    lower = np.array([OUTPUT_ERROR_LOWER.get(n, -np.inf) for n in names])
+    x0 = np.maximum(x0, np.where(np.isfinite(lower), lower, x0))
+    kept = np.isfinite(error(model))
+
+    def residual(x: np.ndarray) -> np.ndarray:
+        out = error(model.with_params(**dict(zip(names, x.tolist(), strict=True))))[kept]
+        return np.where(np.isfinite(out), out, 0.0)
+
+    fit = least_squares(residual, x0, bounds=(lower, np.full(x0.size, np.inf)), x_scale=np.abs(x0) + 1e-3,
+                        diff_step=1e-4)  # fmt: skip
+    logger.info(
+        "fitted to the output error: RMS %.4g -> %.4g (%d evaluations)",
+        float(np.sqrt(np.mean(residual(x0) ** 2))), float(np.sqrt(np.mean(fit.fun**2))), fit.nfev,
+    )  # fmt: skip
+    return model.with_params(**dict(zip(names, fit.x.tolist(), strict=True)))
+
+
 __all__ = [
     "BalanceData",
     "FitResult",
@@ -679,8 +753,10 @@ __all__ = [
     "PooledBalance",
     "Regressors",
     "fit_model",
+    "fit_output_error",
     "force_shares",
     "linear_param_std",
     "model_balance",
     "model_key",
+    "refitted_parameters",
 ]

@@ -22,39 +22,11 @@ change smoothly with them).
 
 from __future__ import annotations
 
-import logging
-
-import numpy as np
 import pandas as pd
 
 from motorid.datasets import EMPS_INIT_SAMPLES, simulate_position
-from motorid.diagnose.effects import get_effect
-from motorid.drive.rigid import RIGID_EFFECTS, RigidDrive
-
-logger = logging.getLogger(__name__)
-
-#: Lower bound of each parameter that must be >= 0 (a level, a viscous coefficient) or > 0.
-_LOWER = {
-    "inertia": 1e-12, "stribeck_velocity": 1e-12, "viscous": 0.0, "coulomb": 0.0, "stribeck": 0.0,
-    "quadratic_drag": -np.inf,
-}  # fmt: skip
-
-
-def refitted_parameters(model: RigidDrive) -> tuple[str, ...]:
-    """The parameters :func:`refit_in_position` fits: the inertia and every parameter of the
-    model's effects but the structure's (delay, lag) and a rest-only one (static friction).
-
-    Parameters
-    ----------
-    model : RigidDrive
-        The model whose effects name the parameters.
-    """
-    names = ["inertia"]
-    for effect in model.effects:
-        spec = get_effect(effect)
-        if not (spec.structure or spec.rest_only):
-            names += RIGID_EFFECTS[effect]
-    return tuple(names)
+from motorid.diagnose.model import fit_output_error
+from motorid.drive.rigid import RigidDrive
 
 
 def refit_in_position(
@@ -77,28 +49,13 @@ def refit_in_position(
     Returns
     -------
     RigidDrive
-        The same effects; :func:`refitted_parameters` refitted.
+        The same effects; :func:`~motorid.diagnose.model.refitted_parameters` refitted
+        (:func:`~motorid.diagnose.model.fit_output_error`).
     """
-    from scipy.optimize import least_squares
-
-    names = refitted_parameters(model)
     y = record["y"].to_numpy(dtype=float)[init_samples:]
-    x0 = np.array([model.params[n] for n in names])
-    lower = np.array([_LOWER.get(n, -np.inf) for n in names])
-    x0 = np.maximum(x0, np.where(np.isfinite(lower), lower, x0))
-
-    def residual(x: np.ndarray) -> np.ndarray:
-        trial = model.with_params(**dict(zip(names, x.tolist(), strict=True)))
-        return simulate_position(trial, record, init_samples)[init_samples:] - y
-
-    fit = least_squares(residual, x0, bounds=(lower, np.full(x0.size, np.inf)), x_scale=np.abs(x0) + 1e-3,
-                        diff_step=1e-4)  # fmt: skip
-    refitted = model.with_params(**dict(zip(names, fit.x.tolist(), strict=True)))
-    logger.info(
-        "refitted in position: RMS %.4g -> %.4g (%d evaluations)",
-        float(np.sqrt(np.mean(residual(x0) ** 2))), float(np.sqrt(np.mean(fit.fun**2))), fit.nfev,
-    )  # fmt: skip
-    return refitted
+    return fit_output_error(
+        model, lambda trial: simulate_position(trial, record, init_samples)[init_samples:] - y
+    )
 
 
-__all__ = ["refit_in_position", "refitted_parameters"]
+__all__ = ["refit_in_position"]
