@@ -29,7 +29,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from motorid.drive.rigid import InputPathState, RigidDrive, check_sample_time
+from motorid.drive.input_path import InputPathState
+from motorid.drive.rigid import RigidDrive, check_sample_time
 from motorid.drive.two_mass import TwoMassRig
 
 if TYPE_CHECKING:
@@ -248,7 +249,7 @@ def nonlinear_system(drive: RigidDrive | TwoMassRig, name: str | None = None) ->
     saturation, delay, lag, backlash) and, on the rig, the shaft.
 
     State: the rigid drive's ``[ω, the input path's memory...]`` (its delay ring, lag and
-    dwell clock, :class:`~motorid.drive.rigid.InputPathState`), or the rig's 7 states
+    dwell clock, :class:`~motorid.drive.input_path.InputPathState`), or the rig's 7 states
     ``[i_a, ω_m, ω_L, δ, θ_L, z_m, z_L]``. Input ``u`` [V]; output ``y``: the speed [rad/s]
     (the rig's true load speed, without the tachogenerator's noise and quantisation). Start
     from :func:`rest_state` (``initial_state=`` of ``input_output_response``), the drive at

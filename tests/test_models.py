@@ -478,8 +478,8 @@ def test_rig_from_dict_is_the_same_strict_reader_as_the_model_files():
 
 def test_friction_laws_are_named_with_the_effect_vocabulary():
     """A law's kind in a model file is the effect name the doctor reports (one vocabulary)."""
-    from motorid.diagnose import EFFECTS
+    from motorid.drive import effects
     from motorid.drive.friction import FRICTION_KINDS
 
-    assert set(FRICTION_KINDS) - {"lugre_friction"} <= set(EFFECTS)
+    assert set(FRICTION_KINDS) - {"lugre_friction"} <= set(effects.names())
     assert all(name.endswith("_friction") for name in FRICTION_KINDS)

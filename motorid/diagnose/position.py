@@ -28,8 +28,8 @@ import numpy as np
 import pandas as pd
 
 from motorid.datasets import EMPS_INIT_SAMPLES, simulate_position
-from motorid.diagnose.effects import get_effect
-from motorid.drive.rigid import RIGID_EFFECTS, RigidDrive
+from motorid.drive.effects import get as get_effect
+from motorid.drive.rigid import RigidDrive
 
 logger = logging.getLogger(__name__)
 
@@ -53,7 +53,7 @@ def refitted_parameters(model: RigidDrive) -> tuple[str, ...]:
     for effect in model.effects:
         spec = get_effect(effect)
         if not (spec.structure or spec.rest_only):
-            names += RIGID_EFFECTS[effect]
+            names += (p.name for p in spec.parameters)
     return tuple(names)
 
 

@@ -41,7 +41,7 @@ The workflow (:func:`diagnose`):
    the noise floor.
 
    **Lookalikes**: effects that are forms of one physics
-   (:meth:`Effect.physics <motorid.diagnose.effects.Effect.physics>`: Coulomb
+   (:meth:`Effect.physics <motorid.drive.effects.base.Effect.physics>`: Coulomb
    friction, an input dead zone and, in a model without either, a Stribeck decay
    are kinetic friction; beside a kinetic level, Stribeck and static friction are
    breakaway friction) fit alike when both pass the evidence threshold and their
@@ -49,7 +49,7 @@ The workflow (:func:`diagnose`):
    cannot tell them apart (a drive that never reverses while moving is held back
    alike by Coulomb friction and a dead zone). **The rule**: of effects that fit
    alike, the first in the library's order
-   (:data:`~motorid.diagnose.effects.EFFECTS`: ``coulomb_friction``,
+   (:func:`motorid.drive.effects.names`: ``coulomb_friction``,
    ``stribeck_friction``, ..., ``input_dead_zone``, ..., ``static_friction``) is
    named, whichever the evidence ranked first, so one physics gets one name on
    every record of a motor; the step reports the others beside it with their
@@ -73,7 +73,7 @@ the torque-balance residual of the final model concentrates.
 
 **Where an effect acts.** An encoder's speed noise grows with speed, so one record-wide σ_w is
 too high near rest and too low at speed. An effect that acts in one place
-(:attr:`Effect.acts <motorid.diagnose.effects.Effect.acts>`) is judged there: its free-run gap
+(:attr:`Effect.acts <motorid.drive.effects.base.Effect.acts>`) is judged there: its free-run gap
 where it acts (static friction: the rests and breakaways; Stribeck friction: below a tenth of the
 largest speed; quadratic drag: above 0.6 of it) must shrink by ``min_gap_shrink`` and by more than
 ``noise_shrink`` times the noise floor of that speed band (:meth:`Pool.band_floor`), and a search
@@ -109,7 +109,6 @@ import numpy as np
 import pandas as pd
 
 from motorid.diagnose.artefacts import clean_output
-from motorid.diagnose.effects import EFFECTS, get_effect, param_unit
 from motorid.diagnose.kinematics import Kinematics, kinematics, noise_bands, quantisation_step
 from motorid.diagnose.locate import Region, feature, features, locate
 from motorid.diagnose.model import (
@@ -122,7 +121,10 @@ from motorid.diagnose.model import (
     stacked,
 )
 from motorid.diagnose.rests import Rests, rests
-from motorid.drive.rigid import RigidDrive, check_sample_time, effect_order
+from motorid.drive.effects import effect_order, param_unit
+from motorid.drive.effects import get as get_effect
+from motorid.drive.effects import names as effect_names
+from motorid.drive.rigid import RigidDrive, check_sample_time
 from motorid.errors import DataError
 from motorid.records import record_timing
 from motorid.units import UNNAMED_OUTPUT, input_unit_name, rate
@@ -489,7 +491,7 @@ class Pool:
 
     def band_floor(self, acts: str) -> float:
         """The noise floor [v] where an effect acts (:attr:`Effect.acts
-        <motorid.diagnose.effects.Effect.acts>`): the band nearest rest for ``rest`` and ``rests``, the top band
+        <motorid.drive.effects.base.Effect.acts>`): the band nearest rest for ``rest`` and ``rests``, the top band
         for ``speed`` (:meth:`noise_bands`), else the record-wide floor. A band of too few samples
         to measure falls back to the record-wide floor."""
         if not acts:
@@ -834,14 +836,14 @@ class Lookalike:
     Attributes
     ----------
     physics : str
-        What they are forms of (:meth:`Effect.physics <motorid.diagnose.effects.Effect.physics>`),
+        What they are forms of (:meth:`Effect.physics <motorid.drive.effects.base.Effect.physics>`),
         e.g. ``kinetic friction``.
     named : str
         The effect the lookalike rule named (:func:`diagnose`, step 4).
     gaps : dict
         Effect -> free-run gap [v] of the model with it, the named one first.
     levels : dict
-        Effect -> the size of the physics in that model [F] (:meth:`Effect.level <motorid.diagnose.effects.Effect.level>`).
+        Effect -> the size of the physics in that model [F] (:meth:`Effect.level <motorid.drive.effects.base.Effect.level>`).
     tolerance : float
         Two gaps closer than this [v] fit alike: ``noise_shrink`` noise floors.
     """
@@ -1209,9 +1211,9 @@ def _lookalike_rule(
 ) -> tuple[tuple[dict[str, Any], dict[str, float], dict[str, Any]], Lookalike | None]:
     """The lookalike rule (step 4 of the module notes): among the accepted candidate and the
     passing candidates of the same physics (:meth:`Effect.physics
-    <motorid.diagnose.effects.Effect.physics>` in the ``model`` they are added to) whose
+    <motorid.drive.effects.base.Effect.physics>` in the ``model`` they are added to) whose
     free-run gap lies within ``tolerance`` [v] of its own, the first in the library's order
-    (:data:`~motorid.diagnose.effects.EFFECTS`) is named, when it passes :func:`diagnose`'s
+    (:func:`motorid.drive.effects.names`) is named, when it passes :func:`diagnose`'s
     checks too. Returns the candidate accepted and the lookalike (None when nothing fits alike).
     """
     c, gap1, _ = accepted
@@ -1226,7 +1228,7 @@ def _lookalike_rule(
                 alike.append((m, gap_m))
     if len(alike) == 1:
         return accepted, None
-    order = list(EFFECTS)
+    order = list(effect_names())
     preferred = min(alike, key=lambda item: order.index(item[0]["effect"]))[0]
     if preferred is not c:
         ok, gap_p, record_p = judge(preferred)
@@ -1403,8 +1405,8 @@ def _names(value: Sequence[str] | str | None, what: str) -> tuple[str, ...]:
         value = [v.strip() for v in value.split(",") if v.strip()]
     out = []
     for name in value:
-        if name not in EFFECTS:
-            raise DataError(f"{what}: unknown effect {name!r}; known effects: {', '.join(EFFECTS)}")
+        if name not in effect_names():
+            raise DataError(f"{what}: unknown effect {name!r}; known effects: {', '.join(effect_names())}")
         out.append(name)
     return tuple(dict.fromkeys(out))
 
@@ -1541,7 +1543,7 @@ def diagnose(
         base_names = _names(DEFAULT_BASE if base is None else base, "base")
     stribeck_shape = "exponential" if model is None else model.stribeck_shape
     if candidates is None:
-        cand_names = tuple(n for n in EFFECTS if n not in base_names and not EFFECTS[n].structure)
+        cand_names = tuple(n for n in effect_names() if n not in base_names and not get_effect(n).structure)
     else:
         cand_names = tuple(n for n in _names(candidates, "candidates") if n not in base_names)
     if isinstance(max_steps, bool) or not isinstance(max_steps, int | np.integer) or max_steps < 0:
@@ -1660,7 +1662,7 @@ def diagnose(
     bar.set_postfix_str(f"initial fit on {data.n} decimated samples")
     # a rest-only effect of the user's model (static friction) keeps its value: the balance cannot refit it
     kept = (
-        {p: model.params[p] for n in current if EFFECTS[n].rest_only for p in EFFECTS[n].nonlinear}
+        {p: model.params[p] for n in current if get_effect(n).rest_only for p in get_effect(n).nonlinear}
         if model
         else {}
     )
@@ -1677,12 +1679,12 @@ def diagnose(
     v = pool.units["v"]
     # a model given with a friction effect of its own stands where a step would have put it: the
     # same rules judge what comes next, so the names do not depend on where the search starts
-    given = any(n not in DEFAULT_BASE and not EFFECTS[n].structure for n in base_names)
+    given = any(n not in DEFAULT_BASE and not get_effect(n).structure for n in base_names)
     chosen = Structure(
         reason="not searched: " + ("structure=False" if not structure else "the base holds it")
     )
     structure_model = None
-    if structure and not any(EFFECTS[n].structure for n in current):
+    if structure and not any(get_effect(n).structure for n in current):
         bar.set_postfix_str("base structure")
         chosen = choose_structure(
             pool, current, fit0.model.params, stribeck_shape, threshold, min_gap_shrink, noise_shrink

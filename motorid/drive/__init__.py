@@ -1,4 +1,4 @@
-"""Plants: the two-mass DC motor rig, its nonlinear effects, sensors and excitation signals.
+"""The drive: the two-mass DC motor rig, the rigid drive and its effects (:mod:`.effects`), sensors.
 
 >>> from motorid.drive import paper_rig
 >>> rig = paper_rig()                # the model: a description, saved with rig.save(path)
@@ -17,7 +17,7 @@ from motorid.drive.friction import (
     ViscousFriction,
     friction_from_dict,
 )
-from motorid.drive.rigid import RIGID_EFFECTS, RigidDrive
+from motorid.drive.rigid import RigidDrive
 from motorid.drive.two_mass import (
     PHYSICAL_DEFAULTS,
     RECORD_UNITS,
@@ -30,7 +30,6 @@ from motorid.drive.two_mass import (
 __all__ = [
     "PHYSICAL_DEFAULTS",
     "RECORD_UNITS",
-    "RIGID_EFFECTS",
     "ADConverter",
     "Amplifier",
     "AsymmetricFriction",
