@@ -227,12 +227,12 @@ def linearise(
 def _rig_static_slope(rig: TwoMassRig, side: str, speed: float, direction: float) -> float:
     """d/dω of the static friction laws on ``side`` of the rig at ``speed`` [N m s/rad]."""
     from motorid.drive import kernels
-    from motorid.drive.friction import StaticFriction
+    from motorid.drive.friction import MemorylessLaw
 
     s = math.copysign(1.0, speed) if speed != 0.0 else math.copysign(1.0, direction)
     slope = 0.0
     for f in rig.friction:
-        if isinstance(f, StaticFriction) and side in f.sides():
+        if isinstance(f, MemorylessLaw) and side in f.sides():
             a = f.coefficients()
             level, rate = (a[1], a[2]) if s > 0 else (-a[4], a[5])
             slope += level * kernels.stribeck_decay_slope(speed, rate, f.shape_code(), s)

@@ -39,9 +39,9 @@ from motorid.drive import kernels
 from motorid.drive.components import ADConverter, Amplifier, Encoder, Tachogenerator, measure_speed
 from motorid.drive.files import KIND_RIG, model_file, write_model_file
 from motorid.drive.friction import (
-    CoulombFriction,
+    CoulombLaw,
     Friction,
-    LuGreFriction,
+    LuGreLaw,
     breakaway,
     friction_from_dict,
     pack_lugre,
@@ -210,7 +210,7 @@ class TwoMassRig:
 
     @property
     def has_lugre(self) -> bool:
-        return any(isinstance(f, LuGreFriction) for f in self.friction)
+        return any(isinstance(f, LuGreLaw) for f in self.friction)
 
     def replace(self, **changes: Any) -> TwoMassRig:
         """A copy with some parameters changed (validated again)."""
@@ -614,8 +614,8 @@ class RigSimulation:
 #: What :func:`paper_rig` adds to the defaults of :class:`TwoMassRig`.
 PAPER_NONLINEARITIES: dict[str, Any] = {
     "friction": (
-        CoulombFriction(alpha=4.0e-3, side="motor"),
-        CoulombFriction(alpha=2.0e-3, side="load"),
+        CoulombLaw(alpha=4.0e-3, side="motor"),
+        CoulombLaw(alpha=2.0e-3, side="load"),
     ),
     "amplifier": Amplifier(gain=1.0, dead_zone=0.6, v_max=12.0),
 }
@@ -719,7 +719,7 @@ def steady_state_speed(rig: TwoMassRig, u: float) -> float:
     def friction_at(w: float) -> float:
         total = 0.0
         for f in rig.friction:
-            if isinstance(f, LuGreFriction):
+            if isinstance(f, LuGreLaw):
                 total += float(f.steady_state_torque(w)) * len(f.sides()) - f.sigma2 * w * len(f.sides())
             elif hasattr(f, "coefficients"):
                 total += float(f.torque(w)) * len(f.sides())

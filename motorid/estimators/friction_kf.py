@@ -51,7 +51,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from motorid.drive import effects, kernels
-from motorid.drive.friction import LuGreFriction, StaticFriction
+from motorid.drive.friction import LuGreLaw, MemorylessLaw
 from motorid.drive.input_path import InputPathState
 from motorid.drive.kernels import armature_voltage, armature_voltages
 from motorid.drive.ranges import LARGEST, MOST_SUBSTEPS, check_count, check_parameter
@@ -173,7 +173,7 @@ def friction_prior(model: TwoMassRig | RigidDrive, stribeck: bool = True) -> dic
         parts = []
         for law in model.friction:
             n = len(law.sides())
-            if isinstance(law, StaticFriction):
+            if isinstance(law, MemorylessLaw):
                 a = law.coefficients()
                 forward += n * a[0]
                 backward += n * a[3]
@@ -185,7 +185,7 @@ def friction_prior(model: TwoMassRig | RigidDrive, stribeck: bool = True) -> dic
                         kernels.STRIBECK_SHAPES[law.shape_code()],
                     )
                 )
-            elif isinstance(law, LuGreFriction):
+            elif isinstance(law, LuGreLaw):
                 forward += n * law.Fc
                 backward += n * law.Fc
                 excess = n * (law.Fs - law.Fc)
