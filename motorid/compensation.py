@@ -53,7 +53,7 @@ import math
 import numpy as np
 
 from motorid.drive import kernels
-from motorid.drive.rigid import RIGID_EFFECTS, TERM_OF, RigidDrive
+from motorid.drive.rigid import RigidDrive
 
 __all__ = ["SOURCES", "FrictionCompensation"]
 
@@ -112,10 +112,9 @@ class FrictionCompensation:
         if not (isinstance(input_band, int | float) and math.isfinite(input_band) and input_band > 0):
             raise ValueError(f"input_band must be a finite number > 0 [u], got {input_band!r}")
         self.input_band = float(input_band)
-        names = [p for e in drive.effects for p in RIGID_EFFECTS[e] if p in TERM_OF]
-        kept = [p for p in names if drive.params[p] != 0.0]
-        self._terms = np.array([TERM_OF[p] for p in kept], dtype=np.int64)
-        self._coefs = np.array([drive.params[p] for p in kept])
+        kept = [(p, term) for p, term in drive.linear_terms() if drive.params[p] != 0.0]
+        self._terms = np.array([term for _, term in kept], dtype=np.int64)
+        self._coefs = np.array([drive.params[p] for p, _ in kept])
         vs = drive.params.get("stribeck_velocity", 1.0)
         self._rate = 1.0 / vs
         self._shape = kernels.STRIBECK_SHAPES.index(drive.stribeck_shape)

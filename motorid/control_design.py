@@ -29,7 +29,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from motorid.drive.rigid import InputPathState, RigidDrive, check_sample_time
+from motorid.drive.input_path import InputPathState
+from motorid.drive.rigid import RigidDrive, check_sample_time
 from motorid.drive.two_mass import TwoMassRig
 
 if TYPE_CHECKING:
@@ -226,12 +227,12 @@ def linearise(
 def _rig_static_slope(rig: TwoMassRig, side: str, speed: float, direction: float) -> float:
     """d/dω of the static friction laws on ``side`` of the rig at ``speed`` [N m s/rad]."""
     from motorid.drive import kernels
-    from motorid.drive.friction import StaticFriction
+    from motorid.drive.friction import MemorylessLaw
 
     s = math.copysign(1.0, speed) if speed != 0.0 else math.copysign(1.0, direction)
     slope = 0.0
     for f in rig.friction:
-        if isinstance(f, StaticFriction) and side in f.sides():
+        if isinstance(f, MemorylessLaw) and side in f.sides():
             a = f.coefficients()
             level, rate = (a[1], a[2]) if s > 0 else (-a[4], a[5])
             slope += level * kernels.stribeck_decay_slope(speed, rate, f.shape_code(), s)
@@ -248,7 +249,7 @@ def nonlinear_system(drive: RigidDrive | TwoMassRig, name: str | None = None) ->
     saturation, delay, lag, backlash) and, on the rig, the shaft.
 
     State: the rigid drive's ``[ω, the input path's memory...]`` (its delay ring, lag and
-    dwell clock, :class:`~motorid.drive.rigid.InputPathState`), or the rig's 7 states
+    dwell clock, :class:`~motorid.drive.input_path.InputPathState`), or the rig's 7 states
     ``[i_a, ω_m, ω_L, δ, θ_L, z_m, z_L]``. Input ``u`` [V]; output ``y``: the speed [rad/s]
     (the rig's true load speed, without the tachogenerator's noise and quantisation). Start
     from :func:`rest_state` (``initial_state=`` of ``input_output_response``), the drive at

@@ -42,10 +42,10 @@ from IPython.display import Image, display
 
 from motorid import load_model
 from motorid.datasets import EMPS_BENCHMARK_RESULTS, EMPS_REFERENCE, emps_benchmark_rmse, load_emps
-from motorid.diagnose import EFFECTS, diagnose
+from motorid.diagnose import diagnose
 from motorid.diagnose.position import refit_in_position
 from motorid.diagnose.synthetic import planted_record
-from motorid.drive import CoulombFriction, RigidDrive, StribeckFriction, paper_rig
+from motorid.drive import CoulombLaw, RigidDrive, StribeckLaw, effects, paper_rig
 from motorid.estimators import FrictionEKF
 from motorid.estimators.friction_kf import tacho_variance
 from motorid.io import ModbusDAQ, RigServer, run_online
@@ -54,7 +54,7 @@ from motorid.signals import two_sine_signal
 pd.set_option("display.width", 180)
 pd.set_option("display.max_colwidth", 60)
 WORK = Path(tempfile.mkdtemp(prefix="motorid-03-"))
-print("effect library:", ", ".join(EFFECTS))
+print("effect library:", ", ".join(effects.names()))
 
 # %% [markdown]
 # ## A record with a hidden effect
@@ -112,8 +112,8 @@ for path in hidden.write_figures(WORK / "hidden"):
 drive = paper_rig(
     dt=0.01, substeps=20, k_s=20.0, B_s=0.02,
     friction=(
-        CoulombFriction(alpha=4e-3, side="motor"), CoulombFriction(alpha=2e-3, side="load"),
-        StribeckFriction(alpha0=0.0, alpha1=6e-3, alpha2=0.1, side="motor"),
+        CoulombLaw(alpha=4e-3, side="motor"), CoulombLaw(alpha=2e-3, side="load"),
+        StribeckLaw(alpha0=0.0, alpha1=6e-3, alpha2=0.1, side="motor"),
     ),
 )  # fmt: skip
 datasheet = RigidDrive(

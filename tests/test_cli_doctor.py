@@ -115,11 +115,11 @@ def test_doctor_names_a_nan_sample(capsys, record_csv, tmp_path):
 # --------------------------------------------------------------------------- the user's own model
 def stribeck_rig():
     """The measured drive: the paper's rig (stiff shaft, 100 Hz) with Stribeck friction on the motor."""
-    from motorid.drive import CoulombFriction, StribeckFriction, paper_rig
+    from motorid.drive import CoulombLaw, StribeckLaw, paper_rig
 
     friction = (
-        CoulombFriction(alpha=4e-3, side="motor"), CoulombFriction(alpha=2e-3, side="load"),
-        StribeckFriction(alpha0=0.0, alpha1=6e-3, alpha2=0.1, side="motor"),
+        CoulombLaw(alpha=4e-3, side="motor"), CoulombLaw(alpha=2e-3, side="load"),
+        StribeckLaw(alpha0=0.0, alpha1=6e-3, alpha2=0.1, side="motor"),
     )  # fmt: skip
     return paper_rig(dt=0.01, substeps=20, k_s=20.0, B_s=0.02, friction=friction)
 

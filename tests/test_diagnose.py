@@ -21,13 +21,15 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from motorid.diagnose import EFFECTS, diagnose
+from motorid.diagnose import diagnose
 from motorid.diagnose.calibration import false_alarms
 from motorid.diagnose.kinematics import kinematics
 from motorid.diagnose.model import force_shares, linear_param_std
 from motorid.diagnose.synthetic import BASE_FOR, planted_record
 from motorid.diagnose.workflow import MISSING_FACTOR, NOISE_SHRINK
-from motorid.drive.rigid import RigidDrive, time_since_reversal
+from motorid.drive import effects
+from motorid.drive.input_path import time_since_reversal
+from motorid.drive.rigid import RigidDrive
 
 EXAMPLES = 3
 SETTINGS = settings(
@@ -63,13 +65,13 @@ def test_library_covers_the_design_names_and_each_effect_describes_itself():
         "coulomb_friction", "stribeck_friction", "asymmetric_friction", "viscous_friction",
         "quadratic_drag", "input_dead_zone", "input_saturation", "backlash", "offset",
     }  # fmt: skip
-    assert required <= set(EFFECTS)
+    assert required <= set(effects.names())
     # the structure is chosen before the steps, and static friction is judged on the free run:
     # both are planted in tests/test_diagnose_structure.py
     elsewhere = {"input_delay", "input_lag", "static_friction"}
     assert set(SIZES) == required == set(BASE_FOR) - elsewhere
-    for name, cls in EFFECTS.items():
-        eff = cls()
+    for name in effects.names():
+        eff = effects.get(name)
         assert eff.name == name and eff.signature
         assert set(eff.units) == set(eff.linear) | set(eff.nonlinear)
         assert eff.kind in ("friction", "input")

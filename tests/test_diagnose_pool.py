@@ -12,10 +12,10 @@ import pytest
 from cli_fixtures import run
 
 from motorid.diagnose import diagnose
-from motorid.diagnose.effects import get_effect
 from motorid.diagnose.model import PooledBalance, fit_model
 from motorid.diagnose.synthetic import planted_record
 from motorid.diagnose.workflow import free_run_error, prepare
+from motorid.drive.effects import get as get_effect
 from motorid.records import write_record
 
 COULOMB = 8e-3  # N m, planted

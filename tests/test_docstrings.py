@@ -34,12 +34,6 @@ UNDOCUMENTED: set[str] = {
     "motorid.fleet.runner.FleetRun",
     "motorid.fleet.runner.fleet_client",
     "motorid.fleet.runner.pending_records",
-    "motorid.drive.rigid.backlash_dwell",
-    "motorid.drive.rigid.effect_order",
-    "motorid.drive.rigid.input_dynamics",
-    "motorid.drive.rigid.input_path",
-    "motorid.drive.rigid.term_columns",
-    "motorid.drive.rigid.time_since_reversal",
 }
 
 

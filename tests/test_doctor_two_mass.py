@@ -13,10 +13,10 @@ from cli_fixtures import run
 from io_fixtures import free_port, start_rig_process
 
 from motorid import load_model
-from motorid.drive import StribeckFriction, TwoMassRig, paper_rig
+from motorid.drive import StribeckLaw, TwoMassRig, paper_rig
 from motorid.records import read_record
 
-STRIBECK = StribeckFriction(alpha0=0.0, alpha1=6e-3, alpha2=0.1, side="motor")
+STRIBECK = StribeckLaw(alpha0=0.0, alpha1=6e-3, alpha2=0.1, side="motor")
 
 
 def datasheet_rig() -> TwoMassRig:
@@ -73,7 +73,7 @@ def test_the_doctor_names_stribeck_on_the_datasheet_rig_and_writes_a_better_rig(
     assert json.loads((folder / "better.json").read_text())["kind"] == "two-mass-rig"
     better = load_model(folder / "better.json")
     assert isinstance(better, TwoMassRig) and better.to_dict() == out["two_mass_rig"]["improved"]
-    assert better.friction[:2] != sheet.friction[:2] and isinstance(better.friction[2], StribeckFriction)
+    assert better.friction[:2] != sheet.friction[:2] and isinstance(better.friction[2], StribeckLaw)
     assert better.friction[2].side == "motor" and len(better.friction) == 3
     # what the record does not speak of stays the datasheet's: the shaft, the motor constants, the ratio
     # of the inertias, the sensors and the sampling

@@ -12,13 +12,13 @@ from hypothesis import strategies as st
 from motorid.drive import (
     ADConverter,
     Amplifier,
-    AsymmetricFriction,
-    CoulombFriction,
+    AsymmetricLaw,
+    CoulombLaw,
     Encoder,
-    LuGreFriction,
-    StribeckFriction,
+    LuGreLaw,
+    StribeckLaw,
     Tachogenerator,
-    ViscousFriction,
+    ViscousLaw,
     friction_from_dict,
     measure_speed,
     paper_rig,
@@ -32,18 +32,18 @@ coef = st.floats(0.0, 0.05)
 @given(w=speeds, a0=coef, a1=coef, a2=st.floats(0.0, 5.0))
 def test_coulomb_and_stribeck_follow_eqs_8_and_9(w, a0, a1, a2):
     sgn = float(np.sign(w))  # eq. (10): sgn(0) = 0
-    assert CoulombFriction(alpha=a0).torque(w) == pytest.approx(a0 * sgn)
+    assert CoulombLaw(alpha=a0).torque(w) == pytest.approx(a0 * sgn)
     expected = a0 * sgn + a1 * math.exp(-a2 * abs(w)) * sgn
-    assert StribeckFriction(a0, a1, a2).torque(w) == pytest.approx(expected)
+    assert StribeckLaw(a0, a1, a2).torque(w) == pytest.approx(expected)
 
 
 @given(w=speeds, a0=coef, a1=coef, a2=st.floats(0.0, 5.0))
 def test_gaussian_stribeck_decays_with_the_square_of_the_speed(w, a0, a1, a2):
     sgn = float(np.sign(w))
     expected = (a0 + a1 * math.exp(-((a2 * w) ** 2))) * sgn
-    assert StribeckFriction(a0, a1, a2, stribeck_shape="gaussian").torque(w) == pytest.approx(expected)
+    assert StribeckLaw(a0, a1, a2, stribeck_shape="gaussian").torque(w) == pytest.approx(expected)
     decay = math.exp(-((a2 * w) ** 2))
-    asymmetric = AsymmetricFriction(a0, a1, a2, a1, a0, a2, stribeck_shape="gaussian").torque(w)
+    asymmetric = AsymmetricLaw(a0, a1, a2, a1, a0, a2, stribeck_shape="gaussian").torque(w)
     assert asymmetric == pytest.approx(
         a0 + a1 * decay if w >= 0 else -(a1 + a0 * decay)
     )  # eq. (11): sgn1(0) = 1
@@ -57,7 +57,7 @@ def test_a_gaussian_stribeck_rig_runs_at_its_own_steady_state():
     a0, a1, a2 = 1e-3, 8e-3, 0.05
     rates = {}
     for shape in ("gaussian", "exponential"):
-        law = StribeckFriction(a0, a1, a2, stribeck_shape=shape, side="motor")
+        law = StribeckLaw(a0, a1, a2, stribeck_shape=shape, side="motor")
         rig = paper_rig(friction=(law,), amplifier=Amplifier())
         decay = (
             (lambda w: math.exp(-((a2 * w) ** 2))) if shape == "gaussian" else (lambda w: math.exp(-a2 * w))
@@ -80,37 +80,37 @@ def test_asymmetric_follows_eq_11(w, a):
     expected = (a[0] + a[1] * math.exp(-a[2] * abs(w))) * sgn1 + (
         a[3] + a[4] * math.exp(-a[5] * abs(w))
     ) * sgn2
-    assert AsymmetricFriction(*a).torque(w) == pytest.approx(expected)
+    assert AsymmetricLaw(*a).torque(w) == pytest.approx(expected)
 
 
 def test_breakaway_and_direction_at_zero_speed():
-    f = AsymmetricFriction(1e-3, 2e-3, 1.0, 3e-3, 1e-3, 1.0)
+    f = AsymmetricLaw(1e-3, 2e-3, 1.0, 3e-3, 1e-3, 1.0)
     assert f.breakaway_positive == pytest.approx(3e-3)
     assert f.breakaway_negative == pytest.approx(4e-3)
-    assert StribeckFriction(1e-3, 2e-3, 1.0).torque(0.0, direction=-1) == pytest.approx(-3e-3)
-    assert CoulombFriction(alpha=2e-3).torque(0.0) == 0.0
+    assert StribeckLaw(1e-3, 2e-3, 1.0).torque(0.0, direction=-1) == pytest.approx(-3e-3)
+    assert CoulombLaw(alpha=2e-3).torque(0.0) == 0.0
 
 
 def test_friction_dict_round_trip_and_sides():
     laws = [
-        ViscousFriction(B=1e-5, side="motor"),
-        CoulombFriction(alpha=1e-3, side="load"),
-        StribeckFriction(1e-3, 1e-3, 2.0),
-        AsymmetricFriction(1e-3, 0.0, 0.0, 2e-3, 0.0, 0.0, side="motor"),
-        LuGreFriction(sigma0=2.0, sigma1=1e-3, sigma2=1e-5, Fc=1e-3, Fs=2e-3, omega_s=1.0),
+        ViscousLaw(B=1e-5, side="motor"),
+        CoulombLaw(alpha=1e-3, side="load"),
+        StribeckLaw(1e-3, 1e-3, 2.0),
+        AsymmetricLaw(1e-3, 0.0, 0.0, 2e-3, 0.0, 0.0, side="motor"),
+        LuGreLaw(sigma0=2.0, sigma1=1e-3, sigma2=1e-5, Fc=1e-3, Fs=2e-3, omega_s=1.0),
     ]
     for law in laws:
         assert friction_from_dict(law.to_dict()) == law
-    assert StribeckFriction().sides() == ("motor", "load")
+    assert StribeckLaw().sides() == ("motor", "load")
     with pytest.raises(ValueError, match="kind"):
         friction_from_dict({"kind": "magic"})
     with pytest.raises(ValueError, match="LuGre"):
-        paper_rig(friction=(laws[4], LuGreFriction(Fc=1e-3, Fs=1e-3, side="motor")))
+        paper_rig(friction=(laws[4], LuGreLaw(Fc=1e-3, Fs=1e-3, side="motor")))
 
 
 def test_asymmetric_friction_shows_in_the_rig():
     """Asymmetric friction: the same |u| gives different |speed| in the two directions."""
-    fr = (AsymmetricFriction(2e-3, 0.0, 0.0, 8e-3, 0.0, 0.0, side="both"),)
+    fr = (AsymmetricLaw(2e-3, 0.0, 0.0, 8e-3, 0.0, 0.0, side="both"),)
     rig = paper_rig(friction=fr)
     fwd = steady_state_speed(rig, 3.0)
     back = steady_state_speed(rig, -3.0)
@@ -122,7 +122,7 @@ def test_asymmetric_friction_shows_in_the_rig():
 
 
 def test_lugre_reaches_its_steady_state_curve():
-    lugre = LuGreFriction(sigma0=2.0, sigma1=3e-3, sigma2=0.0, Fc=3e-3, Fs=4e-3, omega_s=2.0)
+    lugre = LuGreLaw(sigma0=2.0, sigma1=3e-3, sigma2=0.0, Fc=3e-3, Fs=4e-3, omega_s=2.0)
     rig = paper_rig(friction=(lugre,))
     for u in (2.0, 6.0, -4.0):
         w = rig.simulate(np.full(60, u), seed=0)["omega_l"].iloc[-1]
@@ -213,14 +213,14 @@ def test_friction_objects_evaluate_the_integrators_law_bit_for_bit():
     from motorid.drive.friction import pack_static_friction
     from motorid.drive.kernels import lugre_rate, static_friction
 
-    law = AsymmetricFriction(1e-3, 5e-4, 0.2, 2e-3, 1e-4, 0.3, side="motor")
+    law = AsymmetricLaw(1e-3, 5e-4, 0.2, 2e-3, 1e-4, 0.3, side="motor")
     rows = pack_static_friction((law,))
     for w in np.linspace(-3.0, 3.0, 61):
         for d in (-1.0, 1.0):
             assert float(law.torque(w, direction=d)) == static_friction(
                 rows, 0, w, d if w == 0 else np.sign(w)
             )
-    lugre = LuGreFriction(sigma0=2.0, sigma1=1e-3, Fc=1e-3, Fs=2e-3, omega_s=1.0)
+    lugre = LuGreLaw(sigma0=2.0, sigma1=1e-3, Fc=1e-3, Fs=2e-3, omega_s=1.0)
     z, w = np.linspace(-1e-3, 1e-3, 7), np.linspace(-2.0, 2.0, 7)
     assert lugre.z_dot(z, w).tolist() == [
         lugre_rate(2.0, 1e-3, 2e-3, 1.0, a, b) for a, b in zip(z, w, strict=True)

@@ -13,10 +13,10 @@ from conftest import examples
 from hypothesis import given
 from hypothesis import strategies as st
 
-from motorid.diagnose import EFFECTS
-from motorid.drive import RIGID_EFFECTS, RigidDrive
+from motorid.drive import RigidDrive, effects
+from motorid.drive.input_path import input_dynamics, input_path
 from motorid.drive.kernels import lugre_level, stribeck_decay
-from motorid.drive.rigid import DRIVE_PARAMETERS, input_dynamics, input_path, term_columns
+from motorid.drive.rigid import term_columns
 from motorid.errors import DataError
 from motorid.models import load_model
 
@@ -41,9 +41,13 @@ def reference_friction(p: dict, w: np.ndarray, shape: str) -> np.ndarray:
 
 
 def test_the_drive_and_the_doctor_name_the_same_effects_and_parameters():
-    assert list(EFFECTS) == list(RIGID_EFFECTS)
-    for name, cls in EFFECTS.items():
-        assert (*cls.linear, *cls.nonlinear) == RIGID_EFFECTS[name]
+    assert effects.names() == (
+        "coulomb_friction", "stribeck_friction", "asymmetric_friction", "viscous_friction", "quadratic_drag",
+        "input_dead_zone", "input_saturation", "backlash", "offset", "input_delay", "input_lag", "static_friction",
+    )  # fmt: skip
+    for name in effects.names():
+        cls = effects.get(name)
+        assert (*cls.linear, *cls.nonlinear) == tuple(p.name for p in cls.parameters)
 
 
 @pytest.mark.parametrize("shape", ["exponential", "gaussian"])
@@ -291,12 +295,12 @@ PARAMETER_RANGES = {
 @st.composite
 def drives(draw) -> RigidDrive:
     """A rigid drive with a random set of effects, parameters, sample time and Stribeck shape."""
-    effects = draw(st.lists(st.sampled_from(list(RIGID_EFFECTS)), unique=True))
-    names = [*DRIVE_PARAMETERS, *(p for e in effects for p in RIGID_EFFECTS[e])]
+    chosen = draw(st.lists(st.sampled_from(list(effects.names())), unique=True))
+    names = effects.parameter_names(chosen)
     params = {n: draw(st.floats(*PARAMETER_RANGES[n])) for n in names}
     dt = draw(st.sampled_from([0.001, 0.005, 0.01, 0.02]))
     shape = draw(st.sampled_from(["exponential", "gaussian"]))
-    return RigidDrive(tuple(effects), params, dt=dt, stribeck_shape=shape)
+    return RigidDrive(tuple(chosen), params, dt=dt, stribeck_shape=shape)
 
 
 @st.composite

@@ -13,13 +13,13 @@ import pytest
 from motorid.drive import (
     ADConverter,
     Amplifier,
-    AsymmetricFriction,
-    CoulombFriction,
-    LuGreFriction,
+    AsymmetricLaw,
+    CoulombLaw,
+    LuGreLaw,
     RigidDrive,
-    StribeckFriction,
+    StribeckLaw,
     Tachogenerator,
-    ViscousFriction,
+    ViscousLaw,
     paper_rig,
 )
 from motorid.drive.two_mass import NOT_ON_A_RIG
@@ -30,18 +30,18 @@ RIGS = {
     "linear": paper_rig(friction=(), amplifier=Amplifier()),
     "every law": paper_rig(
         friction=(
-            CoulombFriction(alpha=4e-3, side="both"),
-            StribeckFriction(alpha0=1e-3, alpha1=2e-3, alpha2=0.1, side="motor"),
-            AsymmetricFriction(
+            CoulombLaw(alpha=4e-3, side="both"),
+            StribeckLaw(alpha0=1e-3, alpha1=2e-3, alpha2=0.1, side="motor"),
+            AsymmetricLaw(
                 alpha0=1e-3, alpha1=1e-3, alpha2=0.3, alpha3=2e-3, alpha4=5e-4, alpha5=0.2, side="load"
             ),
-            ViscousFriction(B=1e-5, side="load"),
+            ViscousLaw(B=1e-5, side="load"),
         ),
         T_d=1e-3,
     ),
     "lugre": paper_rig(
         friction=(
-            LuGreFriction(sigma0=2.0, sigma1=1e-3, sigma2=1e-5, Fc=3e-3, Fs=5e-3, omega_s=2.0, side="motor"),
+            LuGreLaw(sigma0=2.0, sigma1=1e-3, sigma2=1e-5, Fc=3e-3, Fs=5e-3, omega_s=2.0, side="motor"),
         ),
         substeps=200,
     ),
@@ -130,7 +130,7 @@ def test_changed_parameters_map_back_proportionally_and_forward_again():
     for key, value in p.items():
         assert again.params[key] == pytest.approx(value, rel=1e-12, abs=1e-15), key
     # the symmetric laws became asymmetric where the fitted levels differ forwards and backwards
-    assert isinstance(better.friction[0], AsymmetricFriction) and better.friction[0].side == "both"
+    assert isinstance(better.friction[0], AsymmetricLaw) and better.friction[0].side == "both"
 
 
 def test_an_effect_new_to_the_rig_is_its_own_law_on_the_motor_side():
@@ -140,25 +140,26 @@ def test_an_effect_new_to_the_rig_is_its_own_law_on_the_motor_side():
         (*here.effects, "stribeck_friction"), {**here.params, "stribeck": 3e-3, "stribeck_velocity": 5.0}
     )
     better = rig.with_rigid_equivalent(drive)
-    assert better.friction == (*rig.friction, StribeckFriction(alpha1=3e-3, alpha2=0.2, side="motor"))
+    assert better.friction == (*rig.friction, StribeckLaw(alpha1=3e-3, alpha2=0.2, side="motor"))
     assert better.rigid_equivalent().params == {**drive.params}
     linear = RIGS["linear"]
     coulomb = linear.rigid_equivalent()
     coulomb = coulomb.with_effects(
         (*coulomb.effects, "coulomb_friction"), {**coulomb.params, "coulomb": 2e-3}
     )
-    assert linear.with_rigid_equivalent(coulomb).friction == (CoulombFriction(alpha=2e-3, side="motor"),)
+    assert linear.with_rigid_equivalent(coulomb).friction == (CoulombLaw(alpha=2e-3, side="motor"),)
 
 
 @pytest.mark.parametrize("effect", sorted(NOT_ON_A_RIG))
 def test_an_effect_the_rig_cannot_carry_is_refused_by_name(effect):
-    from motorid.drive import RIGID_EFFECTS
+    from motorid.drive.effects import get as get_effect
 
     here = paper_rig().rigid_equivalent()
     values = {"quadratic_drag": 1e-6, "backlash_time": 0.01, "input_delay": 0.01, "lag_time_constant": 0.01,
               "breakaway_excess": 1e-3}  # fmt: skip
     drive = here.with_effects(
-        (*here.effects, effect), {**here.params, **{k: values[k] for k in RIGID_EFFECTS[effect]}}
+        (*here.effects, effect),
+        {**here.params, **{p.name: values[p.name] for p in get_effect(effect).parameters}},
     )
     with pytest.raises(ValueError, match=f"^{effect}: a two-mass rig cannot carry it"):
         paper_rig().with_rigid_equivalent(drive)
@@ -177,8 +178,8 @@ def test_what_has_no_place_on_the_other_side_is_refused():
         rig.with_rigid_equivalent(here.with_params(coulomb=-1e-3))
     with pytest.raises(ValueError, match=r"^backlash: the rig's shaft has a gap"):
         rig.replace(backlash=1e-3).rigid_equivalent()
-    mixed = (StribeckFriction(alpha1=1e-3, alpha2=0.1, side="motor"),
-             StribeckFriction(alpha1=1e-3, alpha2=0.1, stribeck_shape="gaussian", side="load"))  # fmt: skip
+    mixed = (StribeckLaw(alpha1=1e-3, alpha2=0.1, side="motor"),
+             StribeckLaw(alpha1=1e-3, alpha2=0.1, stribeck_shape="gaussian", side="load"))  # fmt: skip
     with pytest.raises(
         ValueError, match=r"^stribeck_friction: the rig's Stribeck laws have both decay shapes"
     ):

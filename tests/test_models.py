@@ -20,15 +20,15 @@ import motorid
 from motorid.drive import (
     ADConverter,
     Amplifier,
-    AsymmetricFriction,
-    CoulombFriction,
+    AsymmetricLaw,
+    CoulombLaw,
     Encoder,
-    LuGreFriction,
+    LuGreLaw,
     RigidDrive,
-    StribeckFriction,
+    StribeckLaw,
     Tachogenerator,
     TwoMassRig,
-    ViscousFriction,
+    ViscousLaw,
     paper_rig,
 )
 from motorid.drive.files import FORMAT, VERSION
@@ -43,11 +43,11 @@ ROOT = Path(__file__).resolve().parent.parent
 def every_part_rig() -> TwoMassRig:
     """A rig using every friction law, a finite and every sensor part, backlash and a load torque."""
     friction = (
-        CoulombFriction(alpha=3e-3, side="motor"),
-        StribeckFriction(alpha0=1e-3, alpha1=2e-3, alpha2=0.1, side="motor"),
-        AsymmetricFriction(alpha0=1e-3, alpha1=5e-4, alpha2=0.2, alpha3=2e-3, alpha4=1e-4, alpha5=0.3, side="load"),
-        ViscousFriction(B=1e-6, side="both"),
-        LuGreFriction(sigma0=20.0, sigma1=0.01, sigma2=1e-6, Fc=1e-3, Fs=1.5e-3, omega_s=0.5, side="load"),
+        CoulombLaw(alpha=3e-3, side="motor"),
+        StribeckLaw(alpha0=1e-3, alpha1=2e-3, alpha2=0.1, side="motor"),
+        AsymmetricLaw(alpha0=1e-3, alpha1=5e-4, alpha2=0.2, alpha3=2e-3, alpha4=1e-4, alpha5=0.3, side="load"),
+        ViscousLaw(B=1e-6, side="both"),
+        LuGreLaw(sigma0=20.0, sigma1=0.01, sigma2=1e-6, Fc=1e-3, Fs=1.5e-3, omega_s=0.5, side="load"),
     )  # fmt: skip
     return paper_rig(
         friction=friction, backlash=2e-3, T_d=1e-4, substeps=80,
@@ -87,11 +87,11 @@ positive = st.floats(1e-6, 1e3, allow_nan=False)
 level = st.floats(0.0, 0.05, allow_nan=False)
 side = st.sampled_from(["motor", "load", "both"])
 laws = st.one_of(
-    st.builds(CoulombFriction, alpha=level, side=side),
-    st.builds(StribeckFriction, alpha0=level, alpha1=level, alpha2=st.floats(0.0, 10.0), side=side,
+    st.builds(CoulombLaw, alpha=level, side=side),
+    st.builds(StribeckLaw, alpha0=level, alpha1=level, alpha2=st.floats(0.0, 10.0), side=side,
               stribeck_shape=st.sampled_from(["exponential", "gaussian"])),
-    st.builds(ViscousFriction, B=st.floats(0.0, 1e-3), side=side),
-    st.builds(AsymmetricFriction, alpha0=level, alpha1=level, alpha2=st.floats(0.0, 10.0), alpha3=level,
+    st.builds(ViscousLaw, B=st.floats(0.0, 1e-3), side=side),
+    st.builds(AsymmetricLaw, alpha0=level, alpha1=level, alpha2=st.floats(0.0, 10.0), alpha3=level,
               alpha4=level, alpha5=st.floats(0.0, 10.0), side=side,
               stribeck_shape=st.sampled_from(["exponential", "gaussian"])),
 )  # fmt: skip
@@ -173,8 +173,8 @@ def test_friction_filter_starts_from_a_rig_model_file_with_its_friction(tmp_path
     """A two-mass rig's friction, summed over both masses, is the filter's initial x:
     Coulomb 4 + 2 mN m, Stribeck excess 6 mN m at 0.1 s/rad, viscous B_m + B_L."""
     friction = (
-        CoulombFriction(alpha=4e-3, side="motor"), CoulombFriction(alpha=2e-3, side="load"),
-        StribeckFriction(alpha0=0.0, alpha1=6e-3, alpha2=0.1, side="motor"),
+        CoulombLaw(alpha=4e-3, side="motor"), CoulombLaw(alpha=2e-3, side="load"),
+        StribeckLaw(alpha0=0.0, alpha1=6e-3, alpha2=0.1, side="motor"),
     )  # fmt: skip
     rig = paper_rig(J_l=9e-5, B_m=2e-5, B_l=1e-5, friction=friction)
     rig.save(tmp_path / "rig.json")
@@ -186,7 +186,7 @@ def test_friction_filter_starts_from_a_rig_model_file_with_its_friction(tmp_path
     # a given prior overrides the model's
     assert FrictionEKF.from_rig(rig, coulomb0=1e-3).x[ekf.state_names.index("coulomb")] == 1e-3
     # the rig's Stribeck shape is the filter's
-    gaussian = (*friction[:2], StribeckFriction(0.0, 6e-3, 0.1, stribeck_shape="gaussian", side="motor"))
+    gaussian = (*friction[:2], StribeckLaw(0.0, 6e-3, 0.1, stribeck_shape="gaussian", side="motor"))
     assert FrictionEKF.from_rig(rig.replace(friction=gaussian)).stribeck_shape == "gaussian"
 
 
@@ -355,8 +355,8 @@ def test_simulate_saves_the_rig_its_options_describe_and_simulates_a_model_file(
                        "--dead-zone", "0.3", "--coulomb-load", "0", "--json")  # fmt: skip
     assert code == 0 and out["model"] == str(model)
     expected = paper_rig(
-        friction=(CoulombFriction(alpha=4e-3, side="motor"),
-                  StribeckFriction(alpha0=0.0, alpha1=0.002, alpha2=0.1, side="motor")),
+        friction=(CoulombLaw(alpha=4e-3, side="motor"),
+                  StribeckLaw(alpha0=0.0, alpha1=0.002, alpha2=0.1, side="motor")),
         amplifier=Amplifier(gain=1.0, dead_zone=0.3, v_max=12.0),
     )  # fmt: skip
     assert load_model(model) == expected
@@ -372,8 +372,8 @@ def test_simulate_saves_the_rig_its_options_describe_and_simulates_a_model_file(
     gauss = tmp_path / "gauss.json"
     code, _, _ = run(capsys, "simulate", "--save-model", str(gauss), "--stribeck", "0.002", "0.1",
                      "--stribeck-shape", "gaussian", "--json")  # fmt: skip
-    law = [f for f in load_model(gauss).friction if isinstance(f, StribeckFriction)]
-    assert code == 0 and law == [StribeckFriction(0.0, 0.002, 0.1, stribeck_shape="gaussian", side="motor")]
+    law = [f for f in load_model(gauss).friction if isinstance(f, StribeckLaw)]
+    assert code == 0 and law == [StribeckLaw(0.0, 0.002, 0.1, stribeck_shape="gaussian", side="motor")]
     code, _, err = run(
         capsys, "simulate", "--save-model", str(tmp_path / "no.json"), "--stribeck-shape", "gaussian"
     )
@@ -478,8 +478,8 @@ def test_rig_from_dict_is_the_same_strict_reader_as_the_model_files():
 
 def test_friction_laws_are_named_with_the_effect_vocabulary():
     """A law's kind in a model file is the effect name the doctor reports (one vocabulary)."""
-    from motorid.diagnose import EFFECTS
+    from motorid.drive import effects
     from motorid.drive.friction import FRICTION_KINDS
 
-    assert set(FRICTION_KINDS) - {"lugre_friction"} <= set(EFFECTS)
+    assert set(FRICTION_KINDS) - {"lugre_friction"} <= set(effects.names())
     assert all(name.endswith("_friction") for name in FRICTION_KINDS)

@@ -11,7 +11,7 @@ import pytest
 
 from motorid.compensation import FrictionCompensation
 from motorid.drive import RigidDrive, paper_rig
-from motorid.drive.rigid import input_path
+from motorid.drive.input_path import input_path
 from motorid.errors import DAQError
 from motorid.io import SimulatedDAQ
 from motorid.speed_control import (

@@ -35,14 +35,14 @@ if TYPE_CHECKING:
 
 def effect_list(text: str | None, option: str) -> list[str]:
     """Comma-separated effect names, each checked against the library (none for None)."""
-    from motorid.diagnose import EFFECTS
+    from motorid.drive.effects import names as effect_names
 
     if text is None:
         return []
     names = [n.strip() for n in text.split(",") if n.strip()]
     for name in names:
-        if name not in EFFECTS:
-            raise DataError(f"{option}: unknown effect {name!r}; known effects: {', '.join(EFFECTS)}")
+        if name not in effect_names():
+            raise DataError(f"{option}: unknown effect {name!r}; known effects: {', '.join(effect_names())}")
     return names
 
 

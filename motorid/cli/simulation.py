@@ -78,15 +78,15 @@ def rig_from_args(args: argparse.Namespace):
     An option not given keeps the default rig's value, so every default is the
     rig's own and written once, in :mod:`motorid.drive.two_mass`.
     """
-    from motorid.drive import CoulombFriction, StribeckFriction, ViscousFriction, paper_rig
+    from motorid.drive import CoulombLaw, StribeckLaw, ViscousLaw, paper_rig
 
     rig = paper_rig()
-    coulomb = {f.side: f.alpha for f in rig.friction if isinstance(f, CoulombFriction)}
+    coulomb = {f.side: f.alpha for f in rig.friction if isinstance(f, CoulombLaw)}
     for side, given in (("motor", args.coulomb_motor), ("load", args.coulomb_load)):
         if given is not None:
             coulomb[side] = given
-    friction: list = [CoulombFriction(alpha=a, side=side) for side, a in coulomb.items() if a > 0]
-    friction += [f for f in rig.friction if not isinstance(f, CoulombFriction)]
+    friction: list = [CoulombLaw(alpha=a, side=side) for side, a in coulomb.items() if a > 0]
+    friction += [f for f in rig.friction if not isinstance(f, CoulombLaw)]
     if args.stribeck_shape is not None and args.stribeck is None:
         raise DataError(
             "--stribeck-shape needs --stribeck ALPHA1 ALPHA2: the shape of which Stribeck friction?"
@@ -94,11 +94,9 @@ def rig_from_args(args: argparse.Namespace):
     if args.stribeck is not None:
         a1, a2 = args.stribeck
         shape = args.stribeck_shape or "exponential"
-        friction.append(
-            StribeckFriction(alpha0=0.0, alpha1=a1, alpha2=a2, stribeck_shape=shape, side="motor")
-        )
+        friction.append(StribeckLaw(alpha0=0.0, alpha1=a1, alpha2=a2, stribeck_shape=shape, side="motor"))
     if args.viscous:
-        friction.append(ViscousFriction(B=args.viscous, side="motor"))
+        friction.append(ViscousLaw(B=args.viscous, side="motor"))
     amplifier = rig.amplifier
     changes = {k: v for k, v in (("dead_zone", args.dead_zone), ("v_max", args.u_max)) if v is not None}
     if changes:

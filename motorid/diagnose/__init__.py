@@ -1,12 +1,13 @@
 """Find the missing effect: locate where simulation and measurement disagree, name the
 missing physical effect, add it and show the gap shrink.
 
->>> from motorid.diagnose import diagnose, EFFECTS
+>>> from motorid.diagnose import diagnose
 >>> d = diagnose(record, base=("viscous_friction", "offset"))   # doctest: +SKIP
 >>> d.named, d.stop_reason                                      # doctest: +SKIP
 (['coulomb_friction'], 'no candidate passes the evidence threshold: ...')
 
-Modules: :mod:`.effects` (the effect library), :mod:`.model` (the fit of
+The effects it names are :mod:`motorid.drive.effects` (one class each, and the registry).
+Modules: :mod:`.model` (the fit of
 the rigid drive, :class:`motorid.drive.RigidDrive`, whose free run the drive compiles), :mod:`.kinematics`
 (zero-phase differentiation and decimation, noise floors), :mod:`.artefacts` (a held start
 and drop-out spikes, left out), :mod:`.locate`, :mod:`.workflow` (:func:`diagnose` of one
@@ -16,7 +17,6 @@ record or of several records of one drive, in named stages: :mod:`.prepare` the 
 effects) and :mod:`.calibration` (false-alarm rate).
 """
 
-from motorid.diagnose.effects import EFFECTS, Effect, get_effect
 from motorid.diagnose.locate import Region
 from motorid.diagnose.model import fit_model
 from motorid.diagnose.results import Diagnosis, Step
@@ -26,12 +26,9 @@ from motorid.diagnose.workflow import diagnose
 __all__ = [
     "DEFAULT_BASE",
     "DEFAULT_THRESHOLD",
-    "EFFECTS",
     "Diagnosis",
-    "Effect",
     "Region",
     "Step",
     "diagnose",
     "fit_model",
-    "get_effect",
 ]

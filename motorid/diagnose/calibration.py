@@ -109,11 +109,11 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from motorid.diagnose.effects import EFFECTS
 from motorid.diagnose.results import INERTIA_SHARE_LIMIT, MISSING_FACTOR
 from motorid.diagnose.search import DEFAULT_THRESHOLD, NOISE_SHRINK
 from motorid.diagnose.synthetic import BASE_FOR, SENSORS, planted_record
 from motorid.diagnose.workflow import diagnose
+from motorid.drive.effects import get as get_effect
 
 
 @dataclass
@@ -472,7 +472,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.second:
         seeds = range(args.first, args.first + args.seeds)
         # the structure (delay, lag) is chosen before the steps, never named as one
-        steps = [e for e in BASE_FOR if not EFFECTS[e].structure]
+        steps = [e for e in BASE_FOR if not get_effect(e).structure]
         sys.stdout.write(_second_report(second_steps(steps, seeds, sensor=args.sensor)))
         return 0
     fa = false_alarms(

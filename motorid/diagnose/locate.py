@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from motorid.drive.rigid import time_since_reversal
+from motorid.drive.input_path import time_since_reversal
 
 MIN_FRACTION = 0.05
 MAX_FRACTION = 0.8

@@ -1,6 +1,6 @@
 """The doctor's fit of a rigid drive to the torque balance of a record.
 
-The model is :class:`motorid.drive.rigid.RigidDrive` (see :mod:`motorid.diagnose.effects`
+The model is :class:`motorid.drive.rigid.RigidDrive` (see :mod:`motorid.drive.effects`
 for the terms)::
 
     J dw/dt = F_in(u) - Σ_e T_e(w)                                        [F]
@@ -39,9 +39,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from motorid.diagnose.effects import EFFECTS, Effect, get_effect
 from motorid.diagnose.kinematics import Kinematics
-from motorid.drive.rigid import RIGID_EFFECTS, RigidDrive, effect_order
+from motorid.drive.effects import Effect, effect_order
+from motorid.drive.effects import get as get_effect
+from motorid.drive.rigid import RigidDrive
 
 logger = logging.getLogger(__name__)
 
@@ -370,7 +371,7 @@ def _linear_solve(
     reuses them.
     """
     input_effects = sorted(
-        (get_effect(n) for n in effects if EFFECTS[n].kind == "input" and n != "backlash"),
+        (get_effect(n) for n in effects if get_effect(n).kind == "input" and n != "backlash"),
         key=lambda e: e.order,
     )
     key_parts = [f"{eff.name}={shape[eff.nonlinear[0]]:.12g}" for eff in input_effects]
@@ -698,7 +699,7 @@ def refitted_parameters(model: RigidDrive) -> tuple[str, ...]:
     for effect in model.effects:
         spec = get_effect(effect)
         if not (spec.structure or spec.rest_only):
-            names += RIGID_EFFECTS[effect]
+            names += (p.name for p in spec.parameters)
     return tuple(names)
 
 

@@ -365,7 +365,7 @@ class Pool:
 
     def band_floor(self, acts: str) -> float:
         """The noise floor [v] where an effect acts (:attr:`Effect.acts
-        <motorid.diagnose.effects.Effect.acts>`): the band nearest rest for ``rest`` and ``rests``, the top band
+        <motorid.drive.effects.base.Effect.acts>`): the band nearest rest for ``rest`` and ``rests``, the top band
         for ``speed`` (:meth:`noise_bands`), else the record-wide floor. A band of too few samples
         to measure falls back to the record-wide floor."""
         if not acts:

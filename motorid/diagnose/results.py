@@ -16,10 +16,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from motorid.diagnose.effects import param_unit
 from motorid.diagnose.locate import Region
 from motorid.diagnose.measures import breakaway, gaps
 from motorid.diagnose.prepare import Pool, prepare
+from motorid.drive.effects import param_unit
 from motorid.drive.rigid import RigidDrive
 from motorid.drive.two_mass import TwoMassRig
 
@@ -92,14 +92,14 @@ class Lookalike:
     Attributes
     ----------
     physics : str
-        What they are forms of (:meth:`Effect.physics <motorid.diagnose.effects.Effect.physics>`),
+        What they are forms of (:meth:`Effect.physics <motorid.drive.effects.base.Effect.physics>`),
         e.g. ``kinetic friction``.
     named : str
         The effect the lookalike rule named (:func:`~motorid.diagnose.workflow.diagnose`, step 4).
     gaps : dict
         Effect -> free-run gap [v] of the model with it, the named one first.
     levels : dict
-        Effect -> the size of the physics in that model [F] (:meth:`Effect.level <motorid.diagnose.effects.Effect.level>`).
+        Effect -> the size of the physics in that model [F] (:meth:`Effect.level <motorid.drive.effects.base.Effect.level>`).
     tolerance : float
         Two gaps closer than this [v] fit alike: ``noise_shrink`` noise floors.
     """

@@ -18,7 +18,6 @@ from typing import Any
 
 import numpy as np
 
-from motorid.diagnose.effects import EFFECTS, get_effect
 from motorid.diagnose.locate import Region, locate
 from motorid.diagnose.measures import (
     MIN_RESTS,
@@ -33,7 +32,10 @@ from motorid.diagnose.measures import (
 from motorid.diagnose.model import FitResult, fit_model
 from motorid.diagnose.prepare import HeldOut, Pool
 from motorid.diagnose.results import Lookalike, Step, Stop, Structure
-from motorid.drive.rigid import RigidDrive, effect_order
+from motorid.drive.effects import effect_order
+from motorid.drive.effects import get as get_effect
+from motorid.drive.effects import names as effect_library
+from motorid.drive.rigid import RigidDrive
 from motorid.errors import DataError
 
 logger = logging.getLogger(__name__)
@@ -184,8 +186,8 @@ def effect_names(value: Sequence[str] | str | None, what: str) -> tuple[str, ...
         value = [v.strip() for v in value.split(",") if v.strip()]
     out = []
     for name in value:
-        if name not in EFFECTS:
-            raise DataError(f"{what}: unknown effect {name!r}; known effects: {', '.join(EFFECTS)}")
+        if name not in effect_library():
+            raise DataError(f"{what}: unknown effect {name!r}; known effects: {', '.join(effect_library())}")
         out.append(name)
     return tuple(dict.fromkeys(out))
 
@@ -202,7 +204,7 @@ def candidate_names(base: tuple[str, ...], candidates: Sequence[str] | str | Non
         The effects asked for (None: the library's).
     """
     if candidates is None:
-        return tuple(n for n in EFFECTS if n not in base and not EFFECTS[n].structure)
+        return tuple(n for n in effect_library() if n not in base and not get_effect(n).structure)
     return tuple(n for n in effect_names(candidates, "candidates") if n not in base)
 
 
@@ -216,7 +218,7 @@ def friction_given(base: tuple[str, ...]) -> bool:
     base : tuple of str
         The effects of the model the search starts from.
     """
-    return any(n not in DEFAULT_BASE and not EFFECTS[n].structure for n in base)
+    return any(n not in DEFAULT_BASE and not get_effect(n).structure for n in base)
 
 
 #: Where an effect that acts in one place is judged, in the words of a decision.
@@ -238,7 +240,7 @@ class Candidate:
         (:func:`~motorid.diagnose.measures.evidence`), and for static friction the ``measure``
         it is judged on and its ``breakaway``; a ``note`` where it cannot pass.
     acts : str
-        Where it is judged (:attr:`Effect.acts <motorid.diagnose.effects.Effect.acts>`; empty:
+        Where it is judged (:attr:`Effect.acts <motorid.drive.effects.base.Effect.acts>`; empty:
         everywhere, as static friction on too few rests).
     free_run_gap : float
         Its free-run gap [v] in the step's region, measured for the candidates alike in the
@@ -361,9 +363,9 @@ def lookalike_rule(
 ) -> tuple[Decision, Lookalike | None]:
     """The lookalike rule (step 4 of the workflow's notes): among the accepted candidate and the
     passing candidates of the same physics (:meth:`Effect.physics
-    <motorid.diagnose.effects.Effect.physics>` in the ``model`` they are added to) whose
+    <motorid.drive.effects.base.Effect.physics>` in the ``model`` they are added to) whose
     free-run gap lies within ``tolerance`` [v] of its own, the first in the library's order
-    (:data:`~motorid.diagnose.effects.EFFECTS`) is named, when it passes the checks too.
+    (:func:`motorid.drive.effects.names`) is named, when it passes the checks too.
 
     Parameters
     ----------
@@ -399,7 +401,7 @@ def lookalike_rule(
                 alike.append((m, gap_m))
     if len(alike) == 1:
         return accepted, None
-    order = list(EFFECTS)
+    order = list(effect_library())
     preferred = min(alike, key=lambda item: order.index(item[0].effect))[0]
     if preferred is not c:
         decision = judge(preferred)
@@ -493,8 +495,8 @@ class Search:
             {
                 p: model.params[p]
                 for n in base
-                if EFFECTS[n].rest_only or n == "input_saturation"
-                for p in EFFECTS[n].nonlinear
+                if get_effect(n).rest_only or n == "input_saturation"
+                for p in get_effect(n).nonlinear
             }
             if model
             else {}
@@ -527,7 +529,7 @@ class Search:
         chosen = Structure(
             reason="not searched: " + ("structure=False" if not wanted else "the base holds it")
         )
-        if not wanted or any(EFFECTS[n].structure for n in effects):
+        if not wanted or any(get_effect(n).structure for n in effects):
             return chosen, fit, effects, None
         bar.set_postfix_str("base structure")
         chosen = choose_structure(

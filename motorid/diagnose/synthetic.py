@@ -205,7 +205,7 @@ def _rig_record(
     sizes: dict[str, float],
     excitation_seed: int | None,
 ) -> Planted:
-    from motorid.drive import Amplifier, CoulombFriction, StribeckFriction, paper_rig
+    from motorid.drive import Amplifier, CoulombLaw, StribeckLaw, paper_rig
 
     J_m = float(rng.uniform(1.5e-5, 4e-5))
     J_l = float(rng.uniform(4e-5, 1.2e-4))
@@ -224,15 +224,15 @@ def _rig_record(
     if has_coulomb:
         share = float(rng.uniform(0.3, 0.7))
         friction += [
-            CoulombFriction(alpha=share * coulomb, side="motor"),
-            CoulombFriction(alpha=(1.0 - share) * coulomb, side="load"),
+            CoulombLaw(alpha=share * coulomb, side="motor"),
+            CoulombLaw(alpha=(1.0 - share) * coulomb, side="load"),
         ]
         if "coulomb_friction" in names:
             planted["coulomb_friction"] = {"coulomb": coulomb}
     if "stribeck_friction" in names:
         fs = float(sizes.get("stribeck", rng.uniform(4e-3, 9e-3)))
         vs = float(sizes.get("stribeck_velocity", rng.uniform(6.0, 12.0)))
-        friction.append(StribeckFriction(alpha0=0.0, alpha1=fs, alpha2=1.0 / vs, side="motor"))
+        friction.append(StribeckLaw(alpha0=0.0, alpha1=fs, alpha2=1.0 / vs, side="motor"))
         planted["stribeck_friction"] = {"stribeck": fs, "stribeck_velocity": vs}
     dead_zone = 0.0
     if "input_dead_zone" in names:

@@ -41,7 +41,7 @@ The workflow (:func:`diagnose`):
    the noise floor.
 
    **Lookalikes**: effects that are forms of one physics
-   (:meth:`Effect.physics <motorid.diagnose.effects.Effect.physics>`: Coulomb
+   (:meth:`Effect.physics <motorid.drive.effects.base.Effect.physics>`: Coulomb
    friction, an input dead zone and, in a model without either, a Stribeck decay
    are kinetic friction; beside a kinetic level, Stribeck and static friction are
    breakaway friction) fit alike when both pass the evidence threshold and their
@@ -49,7 +49,7 @@ The workflow (:func:`diagnose`):
    cannot tell them apart (a drive that never reverses while moving is held back
    alike by Coulomb friction and a dead zone). **The rule**: of effects that fit
    alike, the first in the library's order
-   (:data:`~motorid.diagnose.effects.EFFECTS`: ``coulomb_friction``,
+   (:func:`motorid.drive.effects.names`: ``coulomb_friction``,
    ``stribeck_friction``, ..., ``input_dead_zone``, ..., ``static_friction``) is
    named, whichever the evidence ranked first, so one physics gets one name on
    every record of a motor; the step reports the others beside it with their
@@ -81,7 +81,7 @@ the torque-balance residual of the final model concentrates.
 
 **Where an effect acts.** An encoder's speed noise grows with speed, so one record-wide σ_w is
 too high near rest and too low at speed. An effect that acts in one place
-(:attr:`Effect.acts <motorid.diagnose.effects.Effect.acts>`) is judged there: its free-run gap
+(:attr:`Effect.acts <motorid.drive.effects.base.Effect.acts>`) is judged there: its free-run gap
 where it acts (static friction: the rests and breakaways; Stribeck friction: below a tenth of the
 largest speed; quadratic drag: above 0.6 of it) must shrink by ``min_gap_shrink`` and by more than
 ``noise_shrink`` times the noise floor of that speed band (:meth:`Pool.band_floor <motorid.diagnose.prepare.Pool.band_floor>`), and a search

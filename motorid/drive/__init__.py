@@ -1,4 +1,4 @@
-"""Plants: the two-mass DC motor rig, its nonlinear effects, sensors and excitation signals.
+"""The drive: the two-mass DC motor rig, the rigid drive and its effects (:mod:`.effects`), sensors.
 
 >>> from motorid.drive import paper_rig
 >>> rig = paper_rig()                # the model: a description, saved with rig.save(path)
@@ -8,16 +8,16 @@
 
 from motorid.drive.components import ADConverter, Amplifier, Encoder, Tachogenerator, measure_speed
 from motorid.drive.friction import (
-    AsymmetricFriction,
-    CoulombFriction,
+    AsymmetricLaw,
+    CoulombLaw,
     Friction,
-    LuGreFriction,
-    StaticFriction,
-    StribeckFriction,
-    ViscousFriction,
+    LuGreLaw,
+    MemorylessLaw,
+    StribeckLaw,
+    ViscousLaw,
     friction_from_dict,
 )
-from motorid.drive.rigid import RIGID_EFFECTS, RigidDrive
+from motorid.drive.rigid import RigidDrive
 from motorid.drive.two_mass import (
     PHYSICAL_DEFAULTS,
     RECORD_UNITS,
@@ -30,21 +30,20 @@ from motorid.drive.two_mass import (
 __all__ = [
     "PHYSICAL_DEFAULTS",
     "RECORD_UNITS",
-    "RIGID_EFFECTS",
     "ADConverter",
     "Amplifier",
-    "AsymmetricFriction",
-    "CoulombFriction",
+    "AsymmetricLaw",
+    "CoulombLaw",
     "Encoder",
     "Friction",
-    "LuGreFriction",
+    "LuGreLaw",
+    "MemorylessLaw",
     "RigSimulation",
     "RigidDrive",
-    "StaticFriction",
-    "StribeckFriction",
+    "StribeckLaw",
     "Tachogenerator",
     "TwoMassRig",
-    "ViscousFriction",
+    "ViscousLaw",
     "friction_from_dict",
     "measure_speed",
     "paper_rig",

@@ -9,17 +9,17 @@ torques, so the friction torque on a mass in eqs. (12)-(13) of the paper is
 
 Static (memoryless) laws, all special cases of the asymmetric law, eq. (11):
 
-- :class:`ViscousFriction`       T_f = B ω                                [N m]
-- :class:`CoulombFriction`       T_f = α sgn(ω)                            eq. (8)
-- :class:`StribeckFriction`      T_f = (α0 + α1 exp(-α2 |ω|)) sgn(ω)      eq. (9)
-- :class:`AsymmetricFriction`    T_f = (α0 + α1 e^{-α2|ω|}) sgn1(ω)
+- :class:`ViscousLaw`       T_f = B ω                                [N m]
+- :class:`CoulombLaw`       T_f = α sgn(ω)                            eq. (8)
+- :class:`StribeckLaw`      T_f = (α0 + α1 exp(-α2 |ω|)) sgn(ω)      eq. (9)
+- :class:`AsymmetricLaw`    T_f = (α0 + α1 e^{-α2|ω|}) sgn1(ω)
                                      + (α3 + α4 e^{-α5|ω|}) sgn2(ω)        eq. (11)
 
 The Stribeck and asymmetric laws take ``stribeck_shape="gaussian"`` for the decay
 exp(-(α2 ω)²) instead of the paper's exp(-α2 |ω|): both shapes are common on real
 drives, and the doctor names either.
 
-and one dynamic law, :class:`LuGreFriction` (Canudas de Wit et al., 1995), with
+and one dynamic law, :class:`LuGreLaw` (Canudas de Wit et al., 1995), with
 an internal bristle state z per mass.
 
 Zero speed is not smoothed: the integrators use the breakaway torques of the
@@ -34,7 +34,9 @@ compiled function in :mod:`~motorid.drive.kernels` (eq. 11:
 Each law's ``kind`` (its name in ``to_dict`` and in model files) is its effect name,
 the snake_case vocabulary the diagnose workflow names effects with:
 ``viscous_friction``, ``coulomb_friction``, ``stribeck_friction``,
-``asymmetric_friction``, and ``lugre_friction``.
+``asymmetric_friction``, and ``lugre_friction``. A law is the per-side, α-form of an
+effect on one mass of the rig (``*Law``); the effect itself, on a rigid drive, is the class
+of that name in :mod:`motorid.drive.effects` (``CoulombFriction``, ...).
 """
 
 from __future__ import annotations
@@ -111,7 +113,7 @@ class Friction:
 
 
 @dataclass(frozen=True)
-class ViscousFriction(Friction):
+class ViscousLaw(Friction):
     """Viscous friction ``T_f = B ω`` [N m], added to B_m or B_L of eqs. (4)-(5).
 
     Parameters
@@ -134,7 +136,7 @@ class ViscousFriction(Friction):
 
 
 @dataclass(frozen=True)
-class StaticFriction(Friction):
+class MemorylessLaw(Friction):
     """A memoryless friction law written in the asymmetric form of eq. (11).
 
     Subclasses provide :meth:`coefficients`: ``(α0, α1, α2, α3, α4, α5)`` with
@@ -186,7 +188,7 @@ class StaticFriction(Friction):
 
 
 @dataclass(frozen=True)
-class CoulombFriction(StaticFriction):
+class CoulombLaw(MemorylessLaw):
     """Coulomb friction, eq. (8): ``T_f(ω) = α sgn(ω)`` [N m].
 
     Parameters
@@ -208,7 +210,7 @@ class CoulombFriction(StaticFriction):
 
 
 @dataclass(frozen=True)
-class StribeckFriction(StaticFriction):
+class StribeckLaw(MemorylessLaw):
     """Coulomb plus Stribeck friction, eq. (9).
 
     ``T_f(ω) = α0 sgn(ω) + α1 exp(-α2 |ω|) sgn(ω)`` [N m].
@@ -245,7 +247,7 @@ class StribeckFriction(StaticFriction):
 
 
 @dataclass(frozen=True)
-class AsymmetricFriction(StaticFriction):
+class AsymmetricLaw(MemorylessLaw):
     """Asymmetric Coulomb-Stribeck friction, eq. (11).
 
     ``T_f(ω) = (α0 + α1 e^{-α2|ω|}) sgn1(ω) + (α3 + α4 e^{-α5|ω|}) sgn2(ω)`` [N m],
@@ -291,7 +293,7 @@ class AsymmetricFriction(StaticFriction):
 
 
 @dataclass(frozen=True)
-class LuGreFriction(Friction):
+class LuGreLaw(Friction):
     """LuGre dynamic friction (Canudas de Wit, Olsson, Åström, Lischinsky 1995).
 
     With bristle deflection z [rad] on a mass turning at ω [rad/s]::
@@ -366,11 +368,11 @@ class LuGreFriction(Friction):
 FRICTION_KINDS: dict[str, type[Friction]] = {
     cls.kind: cls
     for cls in (
-        ViscousFriction,
-        CoulombFriction,
-        StribeckFriction,
-        AsymmetricFriction,
-        LuGreFriction,
+        ViscousLaw,
+        CoulombLaw,
+        StribeckLaw,
+        AsymmetricLaw,
+        LuGreLaw,
     )
 }
 
@@ -417,7 +419,7 @@ def pack_static_friction(frictions: Iterable[Friction]) -> np.ndarray:
     """
     rows: list[list[float]] = []
     for f in frictions:
-        if isinstance(f, StaticFriction):
+        if isinstance(f, MemorylessLaw):
             for s in f.sides():
                 rows.append([float(side_index(s)), *map(float, f.coefficients()), float(f.shape_code())])
     if not rows:
@@ -437,23 +439,23 @@ def pack_lugre(frictions: Sequence[Friction]) -> np.ndarray:
     out[:, 4] = 1.0
     out[:, 5] = 1.0
     for f in frictions:
-        if isinstance(f, LuGreFriction):
+        if isinstance(f, LuGreLaw):
             for s in f.sides():
                 k = side_index(s)
                 if out[k, 0]:
-                    raise ValueError(f"friction: more than one LuGreFriction on the {s} side")
+                    raise ValueError(f"friction: more than one LuGreLaw on the {s} side")
                 out[k] = [1.0, f.sigma0, f.sigma1, f.Fc, f.Fs, f.omega_s]
     return out
 
 
 def viscous_total(frictions: Iterable[Friction], side: str) -> float:
-    """Extra viscous coefficient [N m s/rad] on ``side`` (ViscousFriction B + LuGre σ2)."""
+    """Extra viscous coefficient [N m s/rad] on ``side`` (ViscousLaw B + LuGre σ2)."""
     total = 0.0
     for f in frictions:
         if side in f.sides():
-            if isinstance(f, ViscousFriction):
+            if isinstance(f, ViscousLaw):
                 total += f.B
-            elif isinstance(f, LuGreFriction):
+            elif isinstance(f, LuGreLaw):
                 total += f.sigma2
     return total
 
@@ -462,7 +464,7 @@ def breakaway(frictions: Iterable[Friction], side: str) -> tuple[float, float]:
     """Breakaway torques ``(positive, negative magnitude)`` [N m] of the static laws on ``side``."""
     pos = neg = 0.0
     for f in frictions:
-        if isinstance(f, StaticFriction) and side in f.sides():
+        if isinstance(f, MemorylessLaw) and side in f.sides():
             pos += f.breakaway_positive
             neg += f.breakaway_negative
     return pos, neg

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from motorid.drive.friction import LuGreFriction, pack_static_friction
+from motorid.drive.friction import LuGreLaw, pack_static_friction
 from motorid.drive.kernels import lugre_rate, static_friction, stick_or_slip
 
 logger = logging.getLogger(__name__)
@@ -75,10 +75,10 @@ class ReferenceIntegrator:
         self.max_step = max_step
         self.method = method
         self._static_rows = pack_static_friction(rig.friction)
-        self._lugre: list[LuGreFriction | None] = [None, None]
+        self._lugre: list[LuGreLaw | None] = [None, None]
         for f in rig.friction:
             for side in f.sides():
-                if isinstance(f, LuGreFriction):
+                if isinstance(f, LuGreLaw):
                     self._lugre[0 if side == "motor" else 1] = f
         self._viscous = (rig.viscous("motor"), rig.viscous("load"))
         self._J = (rig.J_m, rig.J_l)

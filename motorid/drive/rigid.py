@@ -30,9 +30,13 @@ effect                    term T (or input map)                         paramete
                           breaks away high and keeps moving down low)
 ========================= ============================================= ==============================
 
+Each effect is one class of :mod:`motorid.drive.effects` (its parameters with their units,
+physical signs and compiled terms); the drive knows them through that package's registry, so
+an effect registered there (or by a plugin) is an effect of the drive and of its model files.
+
 The delay and the lag act on the held input as one map (``rigid_input_dynamics``): each
 sample holds the mean over it of the delayed, then lagged signal, exact for a held input. The memory of the input path (the delay's last inputs, the lag's state,
-the dwell's clock) is an explicit :class:`InputPathState`, so :meth:`RigidDrive.simulation`
+the dwell's clock) is an explicit :class:`~motorid.drive.input_path.InputPathState`, so :meth:`RigidDrive.simulation`
 steps the same record a sample at a time. A first-order lag of the measured speed (a speed filter) acts like the input
 lag on a drive's linear part; the model carries the input lag only.
 
@@ -67,44 +71,13 @@ import numpy.typing as npt
 import pandas as pd
 
 from motorid.drive import kernels
+from motorid.drive.effects import registry
+from motorid.drive.effects.registry import effect_order, parameter_names
 from motorid.drive.files import KIND_RIGID, model_file, write_model_file
+from motorid.drive.input_path import InputPathState, backlash_dwell, input_dynamics, input_path
 from motorid.drive.ranges import MOST_DELAY_SAMPLES, SAMPLE_TIME, check_parameter
 from motorid.errors import ModelFileError
 from motorid.json_input import build, key_path, number, object_keys, shown, text
-
-#: The effects of a rigid drive and their parameters, in the library's order.
-RIGID_EFFECTS: dict[str, tuple[str, ...]] = {
-    "coulomb_friction": ("coulomb",),
-    "stribeck_friction": ("stribeck", "stribeck_velocity"),
-    "asymmetric_friction": ("coulomb_asymmetry", "viscous_asymmetry"),
-    "viscous_friction": ("viscous",),
-    "quadratic_drag": ("quadratic_drag",),
-    "input_dead_zone": ("dead_zone",),
-    "input_saturation": ("saturation",),
-    "backlash": ("backlash_time",),
-    "offset": ("offset",),
-    "input_delay": ("input_delay",),
-    "input_lag": ("lag_time_constant",),
-    "static_friction": ("breakaway_excess",),
-}
-#: The compiled term of each parameter that enters the balance linearly.
-TERM_OF: dict[str, int] = {
-    "viscous": kernels.TERM_VISCOUS,
-    "viscous_asymmetry": kernels.TERM_VISCOUS_ASYMMETRY,
-    "quadratic_drag": kernels.TERM_QUADRATIC_DRAG,
-    "coulomb": kernels.TERM_COULOMB,
-    "stribeck": kernels.TERM_STRIBECK,
-    "coulomb_asymmetry": kernels.TERM_COULOMB_ASYMMETRY,
-    "offset": kernels.TERM_OFFSET,
-}
-#: Parameters every rigid drive has: inertia J [F s/v] and input gain g [F/u].
-DRIVE_PARAMETERS = ("inertia", "input_gain")
-#: Parameters that must be > 0 and >= 0 in a physical drive (a model file's).
-_POSITIVE = ("inertia", "input_gain", "stribeck_velocity", "saturation")
-_NONNEGATIVE = (
-    "viscous", "coulomb", "stribeck", "quadratic_drag", "dead_zone", "backlash_time",
-    "input_delay", "lag_time_constant", "breakaway_excess",
-)  # fmt: skip
 
 
 def check_sample_time(dt: object) -> float:
@@ -135,100 +108,39 @@ def check_input(name: str, values: npt.ArrayLike) -> np.ndarray:
     return np.ascontiguousarray(arr)
 
 
-def effect_order(effects: tuple[str, ...] | list[str]) -> tuple[str, ...]:
-    """``effects`` without repeats in the library's order; ValueError naming an unknown one."""
-    for name in effects:
-        if name not in RIGID_EFFECTS:
-            raise ValueError(f"unknown effect {name!r}; known effects: {', '.join(RIGID_EFFECTS)}")
-    order = list(RIGID_EFFECTS)
-    return tuple(sorted(dict.fromkeys(effects), key=order.index))
+def linear_term(name: str) -> int:
+    """The compiled term code of the linear parameter ``name``; ValueError for a shape parameter.
 
-
-def time_since_reversal(x: np.ndarray, dt: float, before_first: float | None = None) -> np.ndarray:
-    """Time [s] since the last change of sign of ``x`` (zeros keep the previous sign).
-
-    Before the first reversal the time counts from the start of the record, or
-    is ``before_first`` when given (:func:`~motorid.drive.kernels.reversal_clock`).
-    """
-    arr = np.ascontiguousarray(np.asarray(x, dtype=float))
-    first = math.nan if before_first is None else float(before_first)
-    return kernels.reversal_clock(arr, float(dt), first, InputPathState.fresh_clock())
-
-
-def input_path(u: npt.ArrayLike, dead_zone: float = 0.0, saturation: float = math.inf) -> np.ndarray:
-    """``D(S(u))`` [u]: saturation at ±``saturation``, then the dead zone of half-width ``dead_zone``
-    (the amplifier's compiled map at unit gain)."""
-    x = np.ascontiguousarray(np.asarray(u, dtype=float))
-    return kernels.armature_voltages(x, 1.0, float(dead_zone), float(saturation))
-
-
-def input_dynamics(
-    x: npt.ArrayLike,
-    dt: float,
-    delay: float = 0.0,
-    time_constant: float = 0.0,
-    state: InputPathState | None = None,
-) -> np.ndarray:
-    """``L(Δ(x))``: the held signal ``x`` delayed by ``delay`` [s] (whole and fractional samples),
-    then lagged with ``time_constant`` [s] (0: none), as the mean over each sample; one map, exact
-    for the held input (:func:`~motorid.drive.kernels.rigid_input_dynamics`). ``state``: the
-    running state of the map (updated in place); None starts at rest on the first input."""
-    arr = np.ascontiguousarray(np.asarray(x, dtype=float))
-    if state is None:
-        state = InputPathState.fresh(dt, delay)
-    return kernels.rigid_input_dynamics(
-        arr, float(dt), float(delay), float(time_constant), state.ring, state.lag
-    )
-
-
-def backlash_dwell(
-    force: np.ndarray, dt: float, backlash_time: float, state: InputPathState | None = None
-) -> np.ndarray:
-    """``B(F)``: the force ``F`` is not transmitted for ``backlash_time`` [s] after each reversal
-    of its sign (lost motion crossed by the driving side; before the first reversal it is);
-    :func:`~motorid.drive.kernels.backlash_dwell`. ``state``: the running state (updated in
-    place); None starts before any reversal."""
-    arr = np.ascontiguousarray(np.asarray(force, dtype=float))
-    clock = InputPathState.fresh_clock() if state is None else state.clock
-    return kernels.backlash_dwell(arr, float(dt), float(backlash_time), clock)
-
-
-@dataclass
-class InputPathState:
-    """The memory of a rigid drive's input path, updated in place as inputs pass.
-
-    Attributes
+    Parameters
     ----------
-    ring : numpy.ndarray
-        The latest m + 2 inputs of the delay (m whole samples of delay).
-    lag : numpy.ndarray
-        ``[z, samples seen]``: the lag's state and the samples the delay has seen.
-    clock : numpy.ndarray
-        The backlash dwell's clock (:func:`~motorid.drive.kernels.reversal_clock`).
+    name : str
+        A parameter of some effect.
     """
-
-    ring: np.ndarray
-    lag: np.ndarray
-    clock: np.ndarray
-
-    @staticmethod
-    def fresh_clock() -> np.ndarray:
-        """A reversal clock before any input: no sign yet, no reversal."""
-        return np.array([0.0, -1.0, 0.0])
-
-    @classmethod
-    def fresh(cls, dt: float, delay: float = 0.0) -> InputPathState:
-        """The state before the first input of a path with ``delay`` [s] at sample time ``dt`` [s]."""
-        m, _ = kernels.rigid_delay_samples(float(dt), float(delay))
-        return cls(ring=np.zeros(m + 2), lag=np.zeros(2), clock=cls.fresh_clock())
+    term = registry.parameter(name).term
+    if term is None:
+        raise ValueError(f"{name} does not enter the balance linearly (it has no compiled term)")
+    return term
 
 
 def term_columns(
     params: tuple[str, ...], omega: np.ndarray, stribeck_velocity: float = 1.0, shape: str = "exponential"
 ) -> np.ndarray:
     """Torque per unit parameter of the linear ``params`` at each speed, shape (N, len(params)),
-    for a drive moving in the direction sgn(ω) (:func:`~motorid.drive.kernels.rigid_columns`)."""
-    terms = np.array([TERM_OF[p] for p in params], dtype=np.int64)
+    for a drive moving in the direction sgn(ω) (:func:`~motorid.drive.kernels.rigid_columns`).
+
+    Parameters
+    ----------
+    params : tuple of str
+        Linear parameters of any effects (each with a compiled term,
+        :attr:`Parameter.term <motorid.drive.effects.base.Parameter.term>`).
+    omega : numpy.ndarray, shape (N,)
+        Speeds ω [v].
+    stribeck_velocity : float
+        v_s [v] of a Stribeck term.
+    shape : {"exponential", "gaussian"}
+        Shape of the Stribeck decay.
+    """
+    terms = np.array([linear_term(p) for p in params], dtype=np.int64)
     w = np.ascontiguousarray(np.asarray(omega, dtype=float))
     return kernels.rigid_columns(terms, w, 1.0 / stribeck_velocity, kernels.STRIBECK_SHAPES.index(shape))
 
@@ -247,7 +159,7 @@ class RigidDrive:
     Parameters
     ----------
     effects : tuple of str
-        Effect names (:data:`RIGID_EFFECTS`); kept in the library's order.
+        Effect names (:func:`motorid.drive.effects.names`); kept in the library's order.
     params : dict
         ``inertia`` [F s/v = kg m² or kg], ``input_gain`` [F/u] and every parameter of
         each effect (the module table), all finite. A fitted model may hold
@@ -271,7 +183,7 @@ class RigidDrive:
         object.__setattr__(self, "effects", effects)
         if not isinstance(self.params, dict):
             raise ValueError(f"params must be a dict of parameter values, got {type(self.params).__name__}")
-        expected = [*DRIVE_PARAMETERS, *(p for e in effects for p in RIGID_EFFECTS[e])]
+        expected = list(parameter_names(effects))
         missing = [p for p in expected if p not in self.params]
         if missing:
             raise ValueError(f"params: {missing[0]!r} is missing (the model holds {', '.join(expected)})")
@@ -317,8 +229,7 @@ class RigidDrive:
         non-negative levels, dead zone, dwell; every parameter in the physical range of
         :mod:`~motorid.drive.ranges`); ValueError naming the parameter otherwise."""
         for name, value in self.params.items():
-            sign = "> 0" if name in _POSITIVE else ">= 0" if name in _NONNEGATIVE else "any"
-            check_parameter(name, value, "(SI units)", sign=sign)
+            check_parameter(name, value, "(SI units)", sign=registry.parameter(name).sign)
         return self
 
     def replace(self, **changes: Any) -> RigidDrive:
@@ -363,12 +274,15 @@ class RigidDrive:
         """The input path's memory before the first input (see :meth:`input_force`)."""
         return InputPathState.fresh(self.dt, self.params.get("input_delay", 0.0))
 
-    def _terms(self) -> list[str]:
-        return [p for e in self.effects for p in RIGID_EFFECTS[e] if p in TERM_OF]
+    def linear_terms(self) -> list[tuple[str, int]]:
+        """Each parameter of the drive that enters the balance linearly, with the code of its
+        compiled term (:attr:`Parameter.term <motorid.drive.effects.base.Parameter.term>`), in
+        the order of the drive's effects."""
+        return [(name, term) for e in self.effects for name, term in registry.get(e).terms.items()]
 
     def friction(self, omega: npt.ArrayLike) -> np.ndarray:
         """Σ_t θ_t T_t(ω) [F] at speeds ``omega`` [v] for a drive moving in the direction sgn(ω)."""
-        names = tuple(self._terms())
+        names = tuple(name for name, _ in self.linear_terms())
         w = np.asarray(omega, dtype=float)
         if not names:
             return np.zeros_like(w)
@@ -429,8 +343,8 @@ class RigidDrive:
         force and the start speed: ``(dt, substeps, J, coef, rate, shape, breakaway_excess)``."""
         J = self.inertia
         coef = np.zeros(kernels.N_TERMS)
-        for name in self._terms():
-            coef[TERM_OF[name]] = self.params[name]
+        for name, term in self.linear_terms():
+            coef[term] += self.params[name]  # effects from outside the package may share a term
         if substeps is None:
             substeps = int(min(50, max(1, math.ceil(20.0 * self.dt * abs(coef[kernels.TERM_VISCOUS]) / J))))
         vs = self.params.get("stribeck_velocity", 1.0)
@@ -507,13 +421,14 @@ class RigidDrive:
             raise ModelFileError(e_where, f"must be a list of effect names, got {shown(data['effects'])}")
         effects = []
         for k, name in enumerate(data["effects"]):
-            if text(name, key_path(e_where, k)) not in RIGID_EFFECTS:
+            known = registry.names()
+            if text(name, key_path(e_where, k)) not in known:
                 raise ModelFileError(
-                    key_path(e_where, k), f"unknown effect {name!r} (known: {', '.join(RIGID_EFFECTS)})"
+                    key_path(e_where, k), f"unknown effect {name!r} (known: {', '.join(known)})"
                 )
             effects.append(name)
         p_where = key_path(where, "params")
-        names = [*DRIVE_PARAMETERS, *(p for e in dict.fromkeys(effects) for p in RIGID_EFFECTS[e])]
+        names = list(parameter_names(tuple(dict.fromkeys(effects))))
         params = object_keys(data["params"], names, p_where)
         values = {n: number(params[n], key_path(p_where, n)) for n in names}
         dt = number(data["dt"], key_path(where, "dt"))
@@ -622,15 +537,4 @@ class RigidSimulation:
         return {"t": self.sample_index * self.drive.dt, "omega": self._w}
 
 
-__all__ = [
-    "RIGID_EFFECTS",
-    "InputPathState",
-    "RigidDrive",
-    "RigidSimulation",
-    "backlash_dwell",
-    "effect_order",
-    "input_dynamics",
-    "input_path",
-    "term_columns",
-    "time_since_reversal",
-]
+__all__ = ["RigidDrive", "RigidSimulation", "linear_term", "term_columns"]

@@ -39,13 +39,13 @@ from motorid.drive import kernels
 from motorid.drive.components import ADConverter, Amplifier, Encoder, Tachogenerator, measure_speed
 from motorid.drive.files import KIND_RIG, model_file, write_model_file
 from motorid.drive.friction import (
-    AsymmetricFriction,
-    CoulombFriction,
+    AsymmetricLaw,
+    CoulombLaw,
     Friction,
-    LuGreFriction,
-    StaticFriction,
-    StribeckFriction,
-    ViscousFriction,
+    LuGreLaw,
+    MemorylessLaw,
+    StribeckLaw,
+    ViscousLaw,
     breakaway,
     friction_from_dict,
     pack_lugre,
@@ -146,14 +146,14 @@ class FrictionLevels:
         excesses: list[tuple[float, float, str]] = []  # (excess [N m], rate [s/rad], shape)
         for f in frictions:
             for _ in f.sides():
-                if isinstance(f, LuGreFriction):
+                if isinstance(f, LuGreLaw):
                     forward += f.Fc
                     backward += f.Fc
                     excess = f.Fs - f.Fc
                     s_pos += excess
                     s_neg += excess
                     excesses += [(excess, 1.0 / f.omega_s, "gaussian")] * 2
-                elif isinstance(f, StaticFriction):
+                elif isinstance(f, MemorylessLaw):
                     a = f.coefficients()
                     shape = STRIBECK_SHAPES[f.shape_code()]
                     forward += a[0]
@@ -175,20 +175,20 @@ class FrictionLevels:
         return cls(forward, backward, 0.5 * (s_pos + s_neg), 1.0 / rate, shapes[0])
 
 
-def _static_law(a: tuple[float, ...], like: StaticFriction, shape: str | None) -> StaticFriction:
+def _static_law(a: tuple[float, ...], like: MemorylessLaw, shape: str | None) -> MemorylessLaw:
     """A static law on ``like``'s side with the eq. (11) coefficients ``a`` = (α0 ... α5): ``like``
     itself when they and the ``shape`` (None: ``like``'s) are its own, else of ``like``'s class when
-    that class can hold them, else an :class:`~motorid.drive.friction.AsymmetricFriction`."""
+    that class can hold them, else an :class:`~motorid.drive.friction.AsymmetricLaw`."""
     own = STRIBECK_SHAPES[like.shape_code()]
     shape = own if shape is None else shape
     if tuple(a) == like.coefficients() and shape == own:
         return like
     symmetric = a[0] == a[3] and a[1] == a[4] and a[2] == a[5]
-    if isinstance(like, CoulombFriction) and symmetric and not a[1]:
-        return CoulombFriction(alpha=a[0], side=like.side)
-    if isinstance(like, CoulombFriction | StribeckFriction) and symmetric:
-        return StribeckFriction(alpha0=a[0], alpha1=a[1], alpha2=a[2], stribeck_shape=shape, side=like.side)  # type: ignore[arg-type]
-    return AsymmetricFriction(*a, stribeck_shape=shape, side=like.side)  # type: ignore[arg-type]
+    if isinstance(like, CoulombLaw) and symmetric and not a[1]:
+        return CoulombLaw(alpha=a[0], side=like.side)
+    if isinstance(like, CoulombLaw | StribeckLaw) and symmetric:
+        return StribeckLaw(alpha0=a[0], alpha1=a[1], alpha2=a[2], stribeck_shape=shape, side=like.side)  # type: ignore[arg-type]
+    return AsymmetricLaw(*a, stribeck_shape=shape, side=like.side)  # type: ignore[arg-type]
 
 
 @dataclass(frozen=True)
@@ -319,7 +319,7 @@ class TwoMassRig:
 
     @property
     def has_lugre(self) -> bool:
-        return any(isinstance(f, LuGreFriction) for f in self.friction)
+        return any(isinstance(f, LuGreLaw) for f in self.friction)
 
     def replace(self, **changes: Any) -> TwoMassRig:
         """A copy with some parameters changed (validated again)."""
@@ -690,16 +690,16 @@ class TwoMassRig:
           (none when ``drive`` has no such effect);
         - Coulomb F_c and asymmetry ΔF_c: the forward levels α0 of every static law scaled by
           (F_c + ΔF_c)/C+, the backward α3 by (F_c - ΔF_c)/C- (a symmetric law becomes an
-          :class:`~motorid.drive.friction.AsymmetricFriction` when the two differ; LuGre's
+          :class:`~motorid.drive.friction.AsymmetricLaw` when the two differ; LuGre's
           Fc, symmetric, by their common ratio);
         - Stribeck F_s: every excess α1, α4 (LuGre's Fs - Fc) scaled by F_s / S; a changed
           ``stribeck_velocity`` v_s sets every decay rate to 1/v_s (ω_s = v_s for LuGre), a
           changed shape every law's shape.
 
         An effect the rig has none of (levels 0) is added as its own law on the motor side:
-        :class:`~motorid.drive.friction.CoulombFriction`,
-        :class:`~motorid.drive.friction.StribeckFriction` (with the Coulomb level if that is
-        new too) or :class:`~motorid.drive.friction.AsymmetricFriction`. ``drive.dt`` is not
+        :class:`~motorid.drive.friction.CoulombLaw`,
+        :class:`~motorid.drive.friction.StribeckLaw` (with the Coulomb level if that is
+        new too) or :class:`~motorid.drive.friction.AsymmetricLaw`. ``drive.dt`` is not
         taken: the rig keeps its own sample time and substeps.
 
         Parameters
@@ -813,9 +813,9 @@ class TwoMassRig:
 
         laws: list[Friction] = []
         for f in self.friction:
-            if isinstance(f, ViscousFriction):
+            if isinstance(f, ViscousLaw):
                 laws.append(f if viscous_ratio == 1.0 else dataclasses.replace(f, B=f.B * viscous_ratio))
-            elif isinstance(f, LuGreFriction):
+            elif isinstance(f, LuGreLaw):
                 if k_forward != k_backward:
                     raise ValueError(
                         "asymmetric_friction: the rig's Coulomb level is a LuGre law's, which is the "
@@ -831,7 +831,7 @@ class TwoMassRig:
                     f, Fc=fc, Fs=fc + (f.Fs - f.Fc) * k_stribeck, sigma2=f.sigma2 * viscous_ratio,
                     omega_s=f.omega_s if rate is None else velocity,
                 ))  # fmt: skip
-            elif isinstance(f, StaticFriction):
+            elif isinstance(f, MemorylessLaw):
                 a = f.coefficients()
                 r_pos = a[2] if rate is None or not a[1] else rate
                 r_neg = a[5] if rate is None or not a[4] else rate
@@ -854,14 +854,12 @@ class TwoMassRig:
             s = stribeck if new_stribeck else 0.0
             r = 1.0 / velocity if new_stribeck else 0.0
             if c_pos != c_neg:
-                laws.append(AsymmetricFriction(alpha0=c_pos, alpha1=s, alpha2=r, alpha3=c_neg, alpha4=s,
+                laws.append(AsymmetricLaw(alpha0=c_pos, alpha1=s, alpha2=r, alpha3=c_neg, alpha4=s,
                                                alpha5=r, stribeck_shape=shape, side="motor"))  # fmt: skip
             elif s:
-                laws.append(
-                    StribeckFriction(alpha0=c_pos, alpha1=s, alpha2=r, stribeck_shape=shape, side="motor")
-                )
+                laws.append(StribeckLaw(alpha0=c_pos, alpha1=s, alpha2=r, stribeck_shape=shape, side="motor"))
             else:
-                laws.append(CoulombFriction(alpha=c_pos, side="motor"))
+                laws.append(CoulombLaw(alpha=c_pos, side="motor"))
         return tuple(laws)
 
 
@@ -1003,8 +1001,8 @@ class RigSimulation:
 #: What :func:`paper_rig` adds to the defaults of :class:`TwoMassRig`.
 PAPER_NONLINEARITIES: dict[str, Any] = {
     "friction": (
-        CoulombFriction(alpha=4.0e-3, side="motor"),
-        CoulombFriction(alpha=2.0e-3, side="load"),
+        CoulombLaw(alpha=4.0e-3, side="motor"),
+        CoulombLaw(alpha=2.0e-3, side="load"),
     ),
     "amplifier": Amplifier(gain=1.0, dead_zone=0.6, v_max=12.0),
 }
@@ -1108,7 +1106,7 @@ def steady_state_speed(rig: TwoMassRig, u: float) -> float:
     def friction_at(w: float) -> float:
         total = 0.0
         for f in rig.friction:
-            if isinstance(f, LuGreFriction):
+            if isinstance(f, LuGreLaw):
                 total += float(f.steady_state_torque(w)) * len(f.sides()) - f.sigma2 * w * len(f.sides())
             elif hasattr(f, "coefficients"):
                 total += float(f.torque(w)) * len(f.sides())

@@ -50,11 +50,12 @@ from typing import Any, ClassVar, Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
-from motorid.drive import kernels
-from motorid.drive.friction import LuGreFriction, StaticFriction
+from motorid.drive import effects, kernels
+from motorid.drive.friction import LuGreLaw, MemorylessLaw
+from motorid.drive.input_path import InputPathState
 from motorid.drive.kernels import armature_voltage, armature_voltages
 from motorid.drive.ranges import LARGEST, MOST_SUBSTEPS, check_count, check_parameter
-from motorid.drive.rigid import InputPathState, RigidDrive
+from motorid.drive.rigid import RigidDrive
 from motorid.drive.two_mass import TwoMassRig, paper_rig
 from motorid.errors import FilterDivergenceError
 from motorid.estimators import friction_model as fm
@@ -93,13 +94,6 @@ def tacho_variance(rig: TwoMassRig) -> float:
     return (rig.tacho.noise_std / g) ** 2 + (rig.adc.lsb / g) ** 2 / 12.0
 
 
-#: Effects of a rigid drive the filters' model holds (the others are refused by name).
-RIGID_FILTER_EFFECTS = (
-    "coulomb_friction", "stribeck_friction", "asymmetric_friction", "viscous_friction",
-    "offset", "input_dead_zone", "input_saturation", "input_delay", "input_lag", "static_friction",
-)  # fmt: skip
-
-
 #: The parts of a rigid drive's input-path memory (its delay and lag) in a filter's state
 #: (``input_ring``, ``input_lag``; the filters hold no backlash, so no dwell clock).
 INPUT_STATE_KEYS = ("ring", "lag")
@@ -113,17 +107,25 @@ def check_rigid_drive(drive: RigidDrive) -> None:
     drive : RigidDrive
         The drive a filter is to model.
     """
-    for effect in drive.effects:
-        if effect not in RIGID_FILTER_EFFECTS:
+    for name in drive.effects:
+        if not effects.get(name).in_filter:
             raise ValueError(
-                f"rig: the rigid drive's {effect} is not in the friction filters' model "
-                f"(it holds {', '.join(RIGID_FILTER_EFFECTS)})"
+                f"rig: the rigid drive's {name} is not in the friction filters' model "
+                f"(it holds {', '.join(filter_effects())})"
             )
-    if drive.params.get("viscous_asymmetry", 0.0) != 0.0:
-        raise ValueError(
-            "rig: the rigid drive's viscous_asymmetry is not in the friction filters' model "
-            f"(it must be 0, got {drive.params['viscous_asymmetry']!r})"
-        )
+        for param in effects.get(name).filter_zero:
+            if drive.params[param] != 0.0:
+                raise ValueError(
+                    f"rig: the rigid drive's {param} is not in the friction filters' model "
+                    f"(it must be 0, got {drive.params[param]!r})"
+                )
+
+
+def filter_effects() -> tuple[str, ...]:
+    """The effects of a rigid drive the filters' model holds, as estimated states or known parts
+    (:attr:`Effect.in_filter <motorid.drive.effects.base.Effect.in_filter>`); the others are
+    refused by name."""
+    return tuple(name for name in effects.names() if effects.get(name).in_filter)
 
 
 def friction_prior(model: TwoMassRig | RigidDrive, stribeck: bool = True) -> dict[str, Any]:
@@ -155,20 +157,23 @@ def friction_prior(model: TwoMassRig | RigidDrive, stribeck: bool = True) -> dic
     """
     if isinstance(model, RigidDrive):
         check_rigid_drive(model)
-        p = model.params
-        forward = p.get("coulomb", 0.0) + p.get("coulomb_asymmetry", 0.0)
-        backward = p.get("coulomb", 0.0) - p.get("coulomb_asymmetry", 0.0)
-        viscous = p.get("viscous", 0.0)
+        forward = backward = viscous = 0.0
         parts = []
-        if "stribeck_friction" in model.effects:
-            parts.append((p["stribeck"], p["stribeck"], 1.0 / p["stribeck_velocity"], model.stribeck_shape))
+        for name in model.effects:  # each effect's share (Effect.filter_prior)
+            share = effects.get(name).filter_prior(model.params, model.stribeck_shape)
+            forward += share.get("coulomb0", 0.0)
+            backward += share.get("coulomb_neg0", 0.0)
+            viscous += share.get("viscous0", 0.0)
+            if "stribeck0" in share:
+                excess = share["stribeck0"]
+                parts.append((excess, excess, share["stribeck_decay"], share["stribeck_shape"]))
     else:
         forward = backward = 0.0
         viscous = model.viscous("motor") + model.viscous("load")
         parts = []
         for law in model.friction:
             n = len(law.sides())
-            if isinstance(law, StaticFriction):
+            if isinstance(law, MemorylessLaw):
                 a = law.coefficients()
                 forward += n * a[0]
                 backward += n * a[3]
@@ -180,7 +185,7 @@ def friction_prior(model: TwoMassRig | RigidDrive, stribeck: bool = True) -> dic
                         kernels.STRIBECK_SHAPES[law.shape_code()],
                     )
                 )
-            elif isinstance(law, LuGreFriction):
+            elif isinstance(law, LuGreLaw):
                 forward += n * law.Fc
                 backward += n * law.Fc
                 excess = n * (law.Fs - law.Fc)
@@ -516,7 +521,7 @@ class _FrictionFilter(Estimator):
         """What :meth:`update` has learnt: ``x``, ``P``, ``sample_index``, the NIS window
         (``nis_ring``, ``nis_count``, ``nis_mean``) and ``diverged``, and on a rigid drive with
         an input delay or lag the memory of its input path (``input_ring``, ``input_lag``:
-        :class:`~motorid.drive.rigid.InputPathState`); :meth:`set_state` puts it back.
+        :class:`~motorid.drive.input_path.InputPathState`); :meth:`set_state` puts it back.
         Refused between a :meth:`predict` and its :meth:`update`."""
         if self._pending:
             raise ValueError("the filter is between predict() and update(): call update() first")
@@ -1157,10 +1162,10 @@ class FrictionUKF(_FrictionFilter):
 
 __all__ = [
     "PARAM_UNITS",
-    "RIGID_FILTER_EFFECTS",
     "FrictionEKF",
     "FrictionUKF",
     "check_rigid_drive",
+    "filter_effects",
     "friction_prior",
     "tacho_variance",
 ]

@@ -138,7 +138,7 @@ class DoctorJob:
         Force or torque per input unit [N/V or N m/V], > 0; None: the forces come out per
         input unit.
     base : tuple of str, optional
-        Effects already in the model (:data:`motorid.diagnose.EFFECTS` names); None: the
+        Effects already in the model (:func:`motorid.drive.effects.names`); None: the
         doctor's default base, or the effects of ``model``.
     candidates : tuple of str, optional
         Effects to try; None (or empty): every effect not in the base.
@@ -170,7 +170,7 @@ class DoctorJob:
     command = "doctor"
 
     def __post_init__(self) -> None:
-        from motorid.diagnose import EFFECTS
+        from motorid.drive.effects import names as effect_names
 
         for key in ("base", "candidates"):
             names = getattr(self, key)
@@ -180,8 +180,10 @@ class DoctorJob:
                 raise DataError(f"{key} must be a sequence of effect names, got the text {names!r}")
             object.__setattr__(self, key, tuple(names))
             for name in names:
-                if name not in EFFECTS:
-                    raise DataError(f"{key}: unknown effect {name!r}; known effects: {', '.join(EFFECTS)}")
+                if name not in effect_names():
+                    raise DataError(
+                        f"{key}: unknown effect {name!r}; known effects: {', '.join(effect_names())}"
+                    )
         if self.model is not None and self.base is not None:
             raise DataError("base cannot be combined with model: the model's effects are the base")
 

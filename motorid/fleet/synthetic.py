@@ -33,7 +33,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.drive.components import Amplifier
-from motorid.drive.friction import CoulombFriction
+from motorid.drive.friction import CoulombLaw
 from motorid.drive.two_mass import TwoMassRig, paper_rig
 from motorid.records import DRIVE_ATTR, TIME_ATTR, write_record
 from motorid.signals import two_sine_signal
@@ -78,7 +78,7 @@ class FleetDrive:
         """The drive as it is on ``day`` (0-based): friction grown, dead zone there or not."""
         scale = 1.0 + self.friction_growth * day
         friction = tuple(
-            dataclasses.replace(f, alpha=f.alpha * scale) if isinstance(f, CoulombFriction) else f
+            dataclasses.replace(f, alpha=f.alpha * scale) if isinstance(f, CoulombLaw) else f
             for f in self.rig.friction
         )
         amplifier = self.rig.amplifier
