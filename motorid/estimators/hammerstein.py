@@ -10,6 +10,7 @@ from numpy.typing import ArrayLike
 
 from motorid.estimators.basis import Basis, BasisFunction, basis_from_spec, polynomial
 from motorid.estimators.rls import LaggedRegressionRLS, check_order
+from motorid.outputs import jsonable
 
 GammaMethod = Literal["paper", "svd"]
 
@@ -77,6 +78,7 @@ class HammersteinRLS(LaggedRegressionRLS):
     """
 
     name = "hammerstein-rls"
+    text_settings = ("basis", "gamma_method")
 
     def __init__(
         self,
@@ -152,19 +154,24 @@ class HammersteinRLS(LaggedRegressionRLS):
         b, gamma = self.factorize()
         return np.concatenate([self.a, np.outer(gamma, b).ravel()])
 
-    def to_dict(self) -> dict[str, Any]:
-        """As :meth:`LaggedRegressionRLS.to_dict`, with the basis (:meth:`Basis.spec
-        <motorid.estimators.basis.Basis.spec>`) and ``gamma_method`` in the settings.
+    def get_params(self) -> dict[str, Any]:
+        """As :meth:`LaggedRegressionRLS.get_params
+        <motorid.estimators.rls.LaggedRegressionRLS.get_params>`, with the ``basis`` in use (a
+        :class:`~motorid.estimators.basis.Basis`; ``degree`` is then left out) and ``gamma_method``."""
+        return {**super().get_params(), "basis": self.basis, "gamma_method": self.gamma_method}
+
+    def params_to_json(self) -> dict[str, Any]:
+        """:meth:`get_params` as JSON values, the basis as its text (:meth:`Basis.spec
+        <motorid.estimators.basis.Basis.spec>`).
 
         Raises
         ------
         ValueError
-            Between :meth:`predict` and :meth:`update`, or for a custom basis function.
+            For a custom basis function.
         """
-        out = super().to_dict()
-        out["settings"]["basis"] = self.basis.spec()
-        out["settings"]["gamma_method"] = self.gamma_method
-        return out
+        params = self.get_params()
+        params["basis"] = self.basis.spec()
+        return jsonable(params)
 
     @property
     def params(self) -> dict[str, Any]:

@@ -48,14 +48,24 @@ contracts no multiply-add into a fused one without ``fastmath``).
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike
 
-from motorid.estimators.base import LARGEST_VARIANCE, BatchResult, Estimator, as_float_vector, first_bad_index
+from motorid.errors import ModelFileError
+from motorid.estimators.base import (
+    LARGEST_VALUE,
+    LARGEST_VARIANCE,
+    BatchResult,
+    Estimator,
+    as_float_vector,
+    check_covariance,
+    first_bad_index,
+)
 from motorid.estimators.basis import Basis, builtin_row
+from motorid.json_input import boolean, float_array, integer, key_path, number, object_keys, shown, text
 
 
 # --------------------------------------------------------------------------- kernels
@@ -376,6 +386,9 @@ class LaggedRegressionRLS(Estimator):
         Initial estimate (zeros by default).
     """
 
+    #: The settings of a model file read as text beside the common ones (a subclass's arguments).
+    text_settings: ClassVar[tuple[str, ...]] = ()
+
     def __init__(
         self,
         na: int,
@@ -613,9 +626,55 @@ class LaggedRegressionRLS(Estimator):
         theta = self.x if theta is None else np.asarray(theta)
         return theta[..., self.na :].reshape(*theta.shape[:-1], len(self.basis), self.n_lags_used)
 
-    def to_dict(self) -> dict[str, Any]:
-        """The estimator's description in a model file: its name, its constructor's settings and
-        what it has learnt (``x``, ``P``, the lagged outputs and inputs, the sample index).
+    # ------------------------------------------------------------------ saving
+    def get_params(self) -> dict[str, Any]:
+        """The constructor arguments that build this estimator at its prior: ``na``, ``nb``,
+        ``lam``, ``delta``, ``direct_term``, ``max_trace`` (the bound in use: ``delta * n``
+        where None was given), ``R`` and ``x0`` (the initial estimate, an array)."""
+        return {
+            "na": self.na,
+            "nb": self.nb,
+            "lam": self.lam,
+            "delta": self.delta,
+            "direct_term": self.direct_term,
+            "max_trace": self.max_trace,
+            "R": self.R,
+            "x0": self.x0.copy(),
+        }
+
+    @classmethod
+    def params_from_json(cls, settings: Any, where: str) -> dict[str, Any]:
+        """The constructor arguments from a model file's ``settings`` (:meth:`get_params` as
+        JSON, ``max_trace`` null for no bound, and a subclass's :attr:`text_settings`), each
+        checked for its type.
+
+        Parameters
+        ----------
+        settings : Any
+            The JSON value of ``settings``.
+        where : str
+            Its path in the file, named in a :class:`~motorid.errors.ModelFileError`.
+        """
+        names = ["na", "nb", "lam", "delta", "direct_term", "max_trace", "R", "x0", *cls.text_settings]
+        object_keys(settings, names, where)
+        x0 = settings["x0"]
+        if not isinstance(x0, list):
+            raise ModelFileError(key_path(where, "x0"), f"must be a list of numbers, got {shown(x0)}")
+        return {
+            "na": integer(settings["na"], key_path(where, "na")),
+            "nb": integer(settings["nb"], key_path(where, "nb")),
+            "lam": number(settings["lam"], key_path(where, "lam")),
+            "delta": number(settings["delta"], key_path(where, "delta")),
+            "direct_term": boolean(settings["direct_term"], key_path(where, "direct_term")),
+            "max_trace": number(settings["max_trace"], key_path(where, "max_trace"), none_is=math.inf),
+            "R": number(settings["R"], key_path(where, "R")),
+            "x0": float_array(x0, key_path(where, "x0"), (len(x0),), LARGEST_VALUE),
+            **{name: text(settings[name], key_path(where, name)) for name in cls.text_settings},
+        }
+
+    def get_state(self) -> dict[str, Any]:
+        """What the filter has learnt: ``x``, ``P``, the lagged outputs ``y_history`` (na) and
+        basis values ``g_history`` (nb + 1 lags by basis functions), and ``sample_index``.
 
         Raises
         ------
@@ -624,24 +683,60 @@ class LaggedRegressionRLS(Estimator):
         """
         if self._pending is not None:
             raise ValueError(f"{self.name} is between predict() and update(): call update() first")
-        settings: dict[str, Any] = {
-            "na": self.na,
-            "nb": self.nb,
-            "lam": self.lam,
-            "delta": self.delta,
-            "direct_term": self.direct_term,
-            "max_trace": None if math.isinf(self.max_trace) else self.max_trace,
-            "R": self.R,
-            "x0": self.x0.tolist(),
-        }
-        state = {
-            "x": self.x.tolist(),
-            "P": self.P.tolist(),
-            "y_history": self.y_history.tolist(),
-            "g_history": self.g_history.tolist(),
+        return {
+            "x": self.x.copy(),
+            "P": self.P.copy(),
+            "y_history": self.y_history.copy(),
+            "g_history": self.g_history.copy(),
             "sample_index": self.sample_index,
         }
-        return {"estimator": self.name, "settings": settings, "state": state}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Continue from a :meth:`get_state` of an estimator built with the same parameters.
+
+        Parameters
+        ----------
+        state : dict
+            ``x``, ``P``, ``y_history``, ``g_history`` and ``sample_index``.
+
+        Raises
+        ------
+        ValueError
+            Naming the entry of the wrong shape, a value that is not finite or beyond
+            :data:`~motorid.estimators.base.LARGEST_VALUE`, a covariance that is not symmetric
+            positive semi-definite (:func:`~motorid.estimators.base.check_covariance`), a
+            negative sample index.
+        """
+        n = len(self.x0)
+        shapes = {
+            "x": (n,),
+            "P": (n, n),
+            "y_history": self.y_history.shape,
+            "g_history": self.g_history.shape,
+        }
+        missing = [key for key in (*shapes, "sample_index") if key not in state]
+        if missing:
+            raise ValueError(f"{missing[0]} is missing from the state")
+        arrays = {}
+        for key, shape in shapes.items():
+            value = np.array(state[key], dtype=float)
+            if value.shape != shape:
+                raise ValueError(f"{key} must have shape {shape} for this estimator, got {value.shape}")
+            bad = first_bad_index(value.reshape(-1))
+            if bad is not None:
+                raise ValueError(f"{key} must be finite, got {value.reshape(-1)[bad]!r}")
+            if key != "P" and value.size and float(np.max(np.abs(value))) > LARGEST_VALUE:
+                raise ValueError(f"{key} must be within ±{LARGEST_VALUE:g}")
+            arrays[key] = np.ascontiguousarray(value)
+        P = check_covariance("P", arrays["P"])
+        index = state["sample_index"]
+        if isinstance(index, bool) or not isinstance(index, int | np.integer) or index < 0:
+            raise ValueError(f"sample_index must be an integer >= 0, got {index!r}")
+        self.x = self.x_prior = self.x_post = self._own_x = arrays["x"]
+        self.P = self.P_prior = self.P_post = self._own_P = P
+        self.y_history, self.g_history = arrays["y_history"], arrays["g_history"]
+        self.sample_index = int(index)
+        self._pending = None
 
     def __repr__(self) -> str:
         head = (
