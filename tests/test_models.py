@@ -598,7 +598,7 @@ class OneOrder(HammersteinRLS):
 
 
 def test_a_plugin_estimator_registered_at_run_time_is_saved_loaded_and_continues_bit_for_bit(
-    tmp_path, record
+    capsys, tmp_path, record
 ):
     from motorid.estimators import register, unregister
 
@@ -626,6 +626,21 @@ def test_a_plugin_estimator_registered_at_run_time_is_saved_loaded_and_continues
             (tmp_path / "bad.json").write_text(json.dumps(_set(data, path, value)))
             with pytest.raises(DataError, match=f"bad.json: {message}"):
                 load_model(tmp_path / "bad.json")
+        # identify --save-model writes it as well (the README's promise)
+        import pandas as pd
+
+        from motorid.records import write_record
+
+        frame = pd.DataFrame({"t": np.arange(len(u)) * 0.04, "u": u, "y": y})
+        frame.attrs["dt"] = 0.04
+        write_record(frame, tmp_path / "rec.csv")
+        code, out, _ = run(capsys, "identify", str(tmp_path / "rec.csv"), "--estimator", GainRLS.name,
+                           "--lam", "0.95", "--save-model", str(tmp_path / "cli.json"), "--json")  # fmt: skip
+        assert code == 0 and out["model"] == str(tmp_path / "cli.json")
+        reference = GainRLS(lam=0.95)
+        reference.batch_filter(u, y)
+        from_cli = load_model(tmp_path / "cli.json")
+        assert type(from_cli) is GainRLS and from_cli.params == reference.params
     finally:
         unregister(GainRLS.name)
     # what cannot be read back is refused when saved, and the file is left as it was
