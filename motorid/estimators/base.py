@@ -521,7 +521,12 @@ class Estimator(ABC):
                 f"cannot save a {cls.__name__}: get_params() gives {', '.join(sorted(extra))}, which its "
                 "constructor does not take; give it a get_params() of its own arguments"
             )
-        state = jsonable(self.get_state())
+        state = {  # a finite array as its list straight away: a covariance holds up to 10**6 numbers
+            key: value.tolist()
+            if isinstance(value, np.ndarray) and np.isfinite(value).all()
+            else jsonable(value)
+            for key, value in self.get_state().items()
+        }
         return {"estimator": self.name, "settings": settings, "state": state}
 
     @classmethod
