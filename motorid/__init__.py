@@ -12,10 +12,11 @@ __all__ = ["__version__", "load_model", "save_model"]
 
 
 def __getattr__(name: str) -> Any:
-    """``load_model`` and ``save_model`` of :mod:`motorid.models`, imported on first use
-    (they pull in the drive models and numba, which ``import motorid`` should not)."""
+    """``load_model`` and ``save_model`` of :mod:`motorid.drive.files`, with every kind of model
+    file registered (the drive models' and the estimators'), imported on first use (they pull
+    in the drive models and numba, which ``import motorid`` should not)."""
     if name in ("load_model", "save_model"):
-        from motorid import models
+        from motorid import estimators
 
-        return getattr(models, name)
+        return getattr(estimators, name)
     raise AttributeError(f"module 'motorid' has no attribute {name!r}")

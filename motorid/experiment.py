@@ -117,14 +117,17 @@ class PaperExperiment:
                     {n: hist[:, i] for i, n in enumerate(names) if n.startswith("b")},
                 ),
             ]
-            if isinstance(est, HammersteinRLS) and est.degree > 1:
+            if isinstance(est, HammersteinRLS) and est.n_basis > 1:
                 _, gamma = est.factorize(hist)
                 # gamma_j weighs g_j(u) = u^j (the polynomial built above) against g_1(u) = u: [u]^(1-j)
                 power = u_unit if " " not in u_unit else f"({u_unit})"
                 groups.append(
                     (
                         f"nonlinearity gamma_j [{power}^(1-j)]",
-                        {f"gamma_{j + 1} ({est.basis.names[j]})": gamma[:, j] for j in range(1, est.degree)},
+                        {
+                            f"gamma_{j + 1} ({est.basis_functions.names[j]})": gamma[:, j]
+                            for j in range(1, est.n_basis)
+                        },
                     )
                 )
             slug = label.lower().replace(" ", "_").replace(",", "").replace("-", "_")

@@ -312,7 +312,7 @@ def _model_file(path: Path, make, *keys_and_value) -> None:
     """Write the model file of ``make()`` with the value at ``keys`` replaced (JSON text for a raw token)."""
     import json
 
-    from motorid.models import model_to_dict
+    from motorid.drive.files import model_to_dict
 
     data = model_to_dict(make())
     *keys, value = keys_and_value

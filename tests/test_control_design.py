@@ -84,7 +84,7 @@ def test_hammerstein_transfer_function_is_the_block_after_the_static_map():
     y = friction_drive().simulate(u)["y"].to_numpy()
     est = create("hammerstein-rls", na=3, nb=3, degree=3)
     est.batch_filter(u, y)
-    x = est.basis.evaluate(u) @ est.params["gamma"]  # x = Σ γ_j g_j(u)
+    x = est.basis_functions.evaluate(u) @ est.params["gamma"]  # x = Σ γ_j g_j(u)
     y_pc = pc_response(transfer_function(est, DT), x)
     assert np.max(np.abs(y_pc - est.simulate(u))) < 1e-8 * np.ptp(y)
 

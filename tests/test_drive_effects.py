@@ -14,12 +14,12 @@ import pandas as pd
 import pytest
 from cli_fixtures import run
 
+from motorid import load_model
 from motorid.cli.doctor import effect_list
 from motorid.drive import RigidDrive, effects, kernels
 from motorid.drive.effects import Effect, Parameter
 from motorid.estimators.friction_kf import check_rigid_drive, filter_effects
 from motorid.fleet import DoctorJob
-from motorid.models import load_model
 from motorid.records import write_record
 
 

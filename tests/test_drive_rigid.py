@@ -18,7 +18,7 @@ from motorid.drive.input_path import input_dynamics, input_path
 from motorid.drive.kernels import lugre_level, stribeck_decay
 from motorid.drive.rigid import term_columns
 from motorid.errors import DataError
-from motorid.models import load_model
+from motorid.estimators import load_model
 
 EVERY_TERM = {
     "inertia": 2e-3, "input_gain": 0.05, "viscous": 2e-3, "coulomb": 0.02, "stribeck": 0.015,

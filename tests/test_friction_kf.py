@@ -381,7 +381,7 @@ def test_rigid_drive_filter_online_equals_batch_and_reloads_its_input_memory(cls
     function over the record: the same estimates. A filter saved mid-record and reloaded goes
     on with the same memory (the delay's last inputs, the lag's state)."""
     from motorid.errors import DataError
-    from motorid.models import load_model
+    from motorid.estimators import load_model
 
     drive = delayed_rigid_drive()
     _, u = two_sine_signal(6.0, drive.dt, seed=2)

@@ -24,9 +24,9 @@ from hypothesis import strategies as st
 
 from motorid.cli import main
 from motorid.drive import RigidDrive, TwoMassRig, paper_rig
+from motorid.drive.files import model_to_dict
 from motorid.errors import DataError
-from motorid.estimators import Estimator, FrictionEKF, FrictionUKF, create
-from motorid.models import load_model, model_to_dict
+from motorid.estimators import Estimator, FrictionEKF, FrictionUKF, create, load_model
 from motorid.records import ATTRS_MARKER, read_record, write_record
 from motorid.signals import two_sine_signal
 

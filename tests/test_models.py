@@ -31,10 +31,17 @@ from motorid.drive import (
     ViscousLaw,
     paper_rig,
 )
-from motorid.drive.files import FORMAT, VERSION
+from motorid.drive.files import FORMAT, VERSION, model_to_dict
 from motorid.errors import DataError
-from motorid.estimators import FrictionEKF, FrictionUKF, HammersteinRLS, create
-from motorid.models import load_model, model_to_dict, save_model
+from motorid.estimators import (
+    Estimator,
+    FrictionEKF,
+    FrictionUKF,
+    HammersteinRLS,
+    create,
+    load_model,
+    save_model,
+)
 from motorid.signals import two_sine_signal
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -318,7 +325,7 @@ BAD_FILES = [
     ("filter rig", lambda: _set(_ekf_file(), ("model", "settings", "rig"), {"R_a": 2.0}), "model.settings.rig.L_a: missing"),
     ("filter setting", lambda: _set(_ekf_file(), ("model", "settings", "stribeck"), "yes"), "model.settings.stribeck: must be true or false"),
     ("filter side", lambda: _set(_ekf_file(), ("model", "settings", "friction_side"), "shaft"), "model.settings: friction_side must be"),
-    ("covariance not positive definite", lambda: _set(_ekf_file(), ("model", "state", "P", 0, 0), -1.0), "model.state: P must be positive semi-definite"),
+    ("covariance not positive definite", lambda: _set(_ekf_file(), ("model", "state", "P", 0, 0), -1.0), "model.state.P: P must be positive semi-definite"),
     ("NIS window of another length", lambda: _set(_ekf_file(), ("model", "state", "nis_ring"), [0.0]), r"model.state.nis_ring: must have shape \(5,\)"),
 ]  # fmt: skip
 
@@ -483,3 +490,167 @@ def test_friction_laws_are_named_with_the_effect_vocabulary():
 
     assert set(FRICTION_KINDS) - {"lugre_friction"} <= set(effects.names())
     assert all(name.endswith("_friction") for name in FRICTION_KINDS)
+
+
+# --------------------------------------------------------------------------- files of earlier versions
+#: Model files written by motorid before estimators were saved through get_params()/get_state()
+#: (commit 73f823e): each estimator after the first 120 samples of tests/data/model_files/record.csv,
+#: and again after the 80 samples that follow (``NAME.continued.json``).
+FROZEN = ROOT / "tests" / "data" / "model_files"
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "arx-rls",
+        "arx-rls-no-trace-bound",
+        "hammerstein-rls",
+        "friction-ekf",
+        "friction-ukf",
+        "friction-ekf-rigid-drive",
+    ],
+)
+def test_an_estimator_file_written_by_an_earlier_motorid_loads_and_continues_bit_for_bit(name):
+    """The file reads back into what writes it again byte for byte (the format is unchanged), and
+    filtering the next 80 samples reaches the state the earlier motorid saved after them, to the
+    last bit (the continued file compared as JSON, which keeps every float exactly)."""
+    import pandas as pd
+
+    record = pd.read_csv(FROZEN / "record.csv")
+    u, y = record["u"].to_numpy(), record["y"].to_numpy()
+    saved = json.loads((FROZEN / f"{name}.json").read_text())
+    est = load_model(FROZEN / f"{name}.json")
+    assert model_to_dict(est) == saved
+    assert est.sample_index == 120
+    est.batch_filter(u[120:], y[120:])
+    assert model_to_dict(est) == json.loads((FROZEN / f"{name}.continued.json").read_text())
+
+
+# --------------------------------------------------------------------------- a plugin estimator
+class GainRLS(Estimator):
+    """A plugin's estimator: the gain k of ``y = k u`` by RLS with forgetting (a scalar Kalman
+    filter, x = (k,)). Its constructor stores its arguments as given (validated in ``reset``);
+    it saves through the base class's get_params() and its own get_state()/set_state()."""
+
+    name = "test-gain-rls"
+
+    def __init__(self, lam: float = 0.98, delta: float = 100.0):
+        self.lam = lam
+        self.delta = delta
+        self.reset()
+
+    def reset(self) -> None:
+        if not 0.0 < self.lam <= 1.0 or not self.delta > 0.0:
+            raise ValueError(f"lam must be in (0, 1] and delta > 0, got {self.lam!r}, {self.delta!r}")
+        self.x, self.P = np.zeros(1), np.array([[self.delta]])
+        self.x_prior, self.P_prior, self.x_post, self.P_post = self.x, self.P, self.x, self.P
+        self.K, self.y, self.S, self.z, self.sample_index = np.zeros(1), 0.0, 0.0, None, 0
+        self._u = 0.0
+
+    def predict(self, u: float) -> float:
+        self._u = self.check_input(u)
+        self.P = self.P_prior = self.P / self.lam
+        self.x_prior = self.x
+        self.sample_index += 1
+        return float(self.x[0] * self._u)
+
+    def update(self, z: float | None) -> None:
+        if z is None:
+            return
+        self.z = z
+        self.S = float(self._u * self.P[0, 0] * self._u + 1.0)
+        self.K = self.P[:, 0] * self._u / self.S
+        self.y = z - float(self.x[0] * self._u)
+        self.x = self.x_post = self.x + self.K * self.y
+        self.P = self.P_post = self.P - np.outer(self.K, self.K) * self.S
+
+    @property
+    def params(self) -> dict:
+        return {"k": float(self.x[0])}
+
+    @property
+    def state_names(self) -> tuple[str, ...]:
+        return ("k",)
+
+    def simulate(self, u) -> np.ndarray:
+        return self.x[0] * np.asarray(u, dtype=float)
+
+    def get_state(self) -> dict:
+        return {"x": self.x.copy(), "P": self.P.copy(), "sample_index": self.sample_index}
+
+    def set_state(self, state: dict) -> None:
+        from motorid.estimators.base import check_covariance
+
+        if np.shape(state["x"]) != (1,) or not np.all(np.isfinite(state["x"])):
+            raise ValueError(f"x must be one finite number, got {state['x']!r}")
+        self.P = self.P_prior = self.P_post = check_covariance("P", np.array(state["P"], dtype=float))
+        self.x = self.x_prior = self.x_post = np.array(state["x"], dtype=float)
+        self.sample_index = state["sample_index"]
+
+
+class OneOrder(HammersteinRLS):
+    """A subclass whose constructor takes other arguments than the ones it inherits get_params() for."""
+
+    name = "one-order"
+
+    def __init__(self, order: int = 2):
+        super().__init__(order, order)
+
+
+def test_a_plugin_estimator_registered_at_run_time_is_saved_loaded_and_continues_bit_for_bit(
+    capsys, tmp_path, record
+):
+    from motorid.estimators import register, unregister
+
+    u, y = record
+    register(GainRLS.name, GainRLS)
+    try:
+        est = create(GainRLS.name, lam=0.95)
+        est.batch_filter(u[:200], y[:200])
+        est.save(tmp_path / "gain.json")
+        data = json.loads((tmp_path / "gain.json").read_text())
+        assert data["kind"] == "estimator" and data["model"]["estimator"] == "test-gain-rls"
+        assert data["model"]["settings"] == {"lam": 0.95, "delta": 100.0}  # get_params(), as given
+        back = motorid.load_model(tmp_path / "gain.json")
+        assert type(back) is GainRLS and back.params == est.params and back.sample_index == 200
+        a, b = est.batch_filter(u[200:], y[200:]), back.batch_filter(u[200:], y[200:])
+        np.testing.assert_array_equal(a.x, b.x)
+        np.testing.assert_array_equal(back.P, est.P)
+        # its state is checked on the way in, and a setting by its own constructor
+        for path, value, message in [
+            (("model", "state", "P", 0, 0), -1.0, r"model.state.P: P must be positive semi-definite"),
+            (("model", "state", "x"), [1.0, 2.0], r"model.state.x: must have shape \(1,\)"),
+            (("model", "settings", "lam"), 1.5, "model.settings: lam must be in"),
+            (("model", "settings", "delta2"), 1.0, "model.settings.delta2: unknown key"),
+        ]:
+            (tmp_path / "bad.json").write_text(json.dumps(_set(data, path, value)))
+            with pytest.raises(DataError, match=f"bad.json: {message}"):
+                load_model(tmp_path / "bad.json")
+        # identify --save-model writes it as well (the README's promise)
+        import pandas as pd
+
+        from motorid.records import write_record
+
+        frame = pd.DataFrame({"t": np.arange(len(u)) * 0.04, "u": u, "y": y})
+        frame.attrs["dt"] = 0.04
+        write_record(frame, tmp_path / "rec.csv")
+        code, out, _ = run(capsys, "identify", str(tmp_path / "rec.csv"), "--estimator", GainRLS.name,
+                           "--lam", "0.95", "--save-model", str(tmp_path / "cli.json"), "--json")  # fmt: skip
+        assert code == 0 and out["model"] == str(tmp_path / "cli.json")
+        reference = GainRLS(lam=0.95)
+        reference.batch_filter(u, y)
+        from_cli = load_model(tmp_path / "cli.json")
+        assert type(from_cli) is GainRLS and from_cli.params == reference.params
+    finally:
+        unregister(GainRLS.name)
+    # what cannot be read back is refused when saved, and the file is left as it was
+    before = (tmp_path / "gain.json").read_bytes()
+    with pytest.raises(ValueError, match=r"cannot save a Forgetful: it does not implement get_state\(\)"):
+        type("Forgetful", (GainRLS,), {"get_state": Estimator.get_state})().save(tmp_path / "gain.json")
+    with pytest.raises(
+        ValueError, match=r"cannot save a OneOrder: get_params\(\) gives R, basis, .*, which its constructor"
+    ):
+        OneOrder().save(tmp_path / "gain.json")
+    assert (tmp_path / "gain.json").read_bytes() == before
+    with pytest.raises(DataError, match=r"model\.estimator: unknown estimator 'test-gain-rls'"):
+        load_model(tmp_path / "gain.json")

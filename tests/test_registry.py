@@ -121,12 +121,12 @@ class _ForgetsDifferently(ARXRLS):
     """Broken: its batch path applies a forgetting factor off by one part in a million."""
 
     def batch_filter(self, u, z, saver=None):
-        lam = self.lam
-        self.lam = lam * (1.0 - 1e-6)
+        lam = self._lam  # the factor in use (lam as resolved by reset())
+        self._lam = lam * (1.0 - 1e-6)
         try:
             return super().batch_filter(u, z, saver)
         finally:
-            self.lam = lam
+            self._lam = lam
 
 
 class _AsymmetricP(ARXRLS):
@@ -221,3 +221,47 @@ def test_a_plugin_registered_through_entry_point_metadata(tmp_path, monkeypatch,
         assert report["check_batch_equals_loop"] == 0.0  # it inherits motorid's batch kernel
     finally:
         sys.modules.pop("motorid_demo_plugin", None)
+
+
+@pytest.mark.parametrize(
+    ("name", "kwargs"),
+    [
+        ("arx-rls", {"na": 2, "nb": 1, "lam": 0.99}),
+        ("arx-rls", {"na": 1, "nb": 1, "max_trace": None, "x0": [0.1, 0.2, 0.3]}),
+        ("hammerstein-rls", {"na": 2, "nb": 2, "basis": "u,sign", "gamma_method": "svd"}),
+        ("hammerstein-rls", {"na": 1, "nb": 1, "degree": 2, "lam": 0.98}),
+        ("friction-ekf", {"nis_window": 7, "stribeck": True}),
+    ],
+)
+def test_get_params_gives_the_arguments_as_given_and_rebuilds_the_same_estimator(name, kwargs):
+    """As scikit-learn: the constructor stores its arguments unchanged (a list stays the list,
+    None stays None), get_params() gives them, and the class built from them filters a record
+    to the same bits."""
+    from motorid.estimators.base import constructor_parameters
+
+    est = create(name, **kwargs)
+    params = est.get_params()
+    assert all(params[key] is value for key, value in kwargs.items())
+    if name != "friction-ekf":  # its get_params also names the arguments of the shared base
+        assert list(params) == constructor_parameters(type(est))
+    twin = type(est)(**params)
+    u, y = conformance_record()
+    np.testing.assert_array_equal(est.batch_filter(u, y).x, twin.batch_filter(u, y).x)
+
+
+def test_an_argument_changed_takes_effect_at_reset_where_it_is_checked():
+    u, y = conformance_record()
+    est = ARXRLS(2, 2, lam=0.99)
+    est.lam = 1.5
+    with pytest.raises(ValueError, match=r"lam must satisfy 0 < lam <= 1, got 1\.5"):
+        est.reset()
+    est.lam = 0.9
+    est.reset()
+    np.testing.assert_array_equal(est.batch_filter(u, y).x, ARXRLS(2, 2, lam=0.9).batch_filter(u, y).x)
+    hammerstein = HammersteinRLS(2, 2, degree=2)
+    hammerstein.basis = "u,sign"
+    with pytest.raises(ValueError, match="give degree or basis, not both"):
+        hammerstein.reset()
+    hammerstein.degree = None
+    hammerstein.reset()
+    assert hammerstein.basis_functions.names == ("u", "sign(u)") and hammerstein.n_basis == 2

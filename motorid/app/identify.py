@@ -316,7 +316,7 @@ def create_estimator(name: str, options: Any, rig: Any = None) -> Any:
 def drive_model_from_file(path: Path, option: str = "--model") -> Any:
     """The drive model in the model file ``path``: a two-mass rig or a rigid drive; DataError otherwise."""
     from motorid.drive import RigidDrive, TwoMassRig
-    from motorid.models import load_model
+    from motorid.estimators import load_model
 
     model = load_model(path)
     if not isinstance(model, TwoMassRig | RigidDrive):

@@ -34,7 +34,7 @@ logger = logging.getLogger(__name__)
 def cmd_compare(args: argparse.Namespace) -> int:
     """Each model simulated free on the record's input: FIT, RMSE and low-speed RMSE, and a figure."""
     from motorid.comparison import MIN_SCORED_SAMPLES, compare_models
-    from motorid.models import load_model
+    from motorid.estimators import load_model
 
     models = {
         str(path): load_model(path) for path in args.model

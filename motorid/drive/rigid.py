@@ -73,7 +73,7 @@ import pandas as pd
 from motorid.drive import kernels
 from motorid.drive.effects import registry
 from motorid.drive.effects.registry import effect_order, parameter_names
-from motorid.drive.files import KIND_RIGID, model_file, write_model_file
+from motorid.drive.files import KIND_RIGID, register_kind, save_model
 from motorid.drive.input_path import InputPathState, backlash_dwell, input_dynamics, input_path
 from motorid.drive.ranges import MOST_DELAY_SAMPLES, SAMPLE_TIME, check_parameter
 from motorid.errors import ModelFileError
@@ -459,8 +459,26 @@ class RigidDrive:
         ValueError
             For a drive that is not physical (:meth:`check_physical`).
         """
-        self.check_physical()
-        write_model_file(model_file(KIND_RIGID, self.to_dict()), path, overwrite=overwrite)
+        save_model(self, path, overwrite=overwrite)
+
+
+def physical_description(drive: RigidDrive) -> dict[str, Any]:
+    """The model file's description of ``drive`` (:meth:`RigidDrive.to_dict`), for a physical drive only.
+
+    Parameters
+    ----------
+    drive : RigidDrive
+        The drive to save.
+
+    Raises
+    ------
+    ValueError
+        For a drive that is not physical (:meth:`RigidDrive.check_physical`).
+    """
+    return drive.check_physical().to_dict()
+
+
+register_kind(KIND_RIGID, RigidDrive, RigidDrive.from_dict, physical_description)
 
 
 class RigidSimulation:

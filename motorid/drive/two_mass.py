@@ -37,7 +37,7 @@ import pandas as pd
 
 from motorid.drive import kernels
 from motorid.drive.components import ADConverter, Amplifier, Encoder, Tachogenerator, measure_speed
-from motorid.drive.files import KIND_RIG, model_file, write_model_file
+from motorid.drive.files import KIND_RIG, register_kind, save_model
 from motorid.drive.friction import (
     AsymmetricLaw,
     CoulombLaw,
@@ -582,7 +582,7 @@ class TwoMassRig:
         overwrite : bool
             False refuses an existing file.
         """
-        write_model_file(model_file(KIND_RIG, self.to_dict()), path, overwrite=overwrite)
+        save_model(self, path, overwrite=overwrite)
 
     # ------------------------------------------------------ rigid equivalent
     def rigid_equivalent(self, dt: float | None = None) -> RigidDrive:
@@ -861,6 +861,9 @@ class TwoMassRig:
             else:
                 laws.append(CoulombLaw(alpha=c_pos, side="motor"))
         return tuple(laws)
+
+
+register_kind(KIND_RIG, TwoMassRig, TwoMassRig.from_dict)
 
 
 class RigSimulation:

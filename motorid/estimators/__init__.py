@@ -2,8 +2,12 @@
 
 >>> from motorid.estimators import create
 >>> est = create("hammerstein-rls", na=4, nb=4, degree=3, lam=0.99)
+
+``load_model`` and ``save_model`` are those of :mod:`motorid.drive.files`, here with the
+estimators' kind of model file registered (importing this package registers it).
 """
 
+from motorid.drive.files import load_model, save_model
 from motorid.estimators.arx import ARXRLS
 from motorid.estimators.base import BatchResult, Estimator
 from motorid.estimators.basis import Basis, BasisFunction, basis_from_spec, dead_zone, polynomial, power, sign
@@ -33,9 +37,11 @@ __all__ = [
     "create",
     "dead_zone",
     "factory",
+    "load_model",
     "polynomial",
     "power",
     "register",
+    "save_model",
     "sign",
     "unregister",
 ]

@@ -66,14 +66,14 @@ class ARXRLS(LaggedRegressionRLS):
 
     @property
     def state_names(self) -> tuple[str, ...]:
-        return tuple(f"a{i}" for i in range(1, self.na + 1)) + tuple(
-            f"b{k}" for k in range(self.k0, self.nb + 1)
+        return tuple(f"a{i}" for i in range(1, self._na + 1)) + tuple(
+            f"b{k}" for k in range(self.k0, self._nb + 1)
         )
 
     @property
     def b(self) -> np.ndarray:
         """Coefficients b_k0..b_nb of B(q^-1) (current estimate)."""
-        return self.x[self.na :].copy()
+        return self.x[self._na :].copy()
 
     @property
     def params(self) -> dict[str, Any]:

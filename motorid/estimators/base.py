@@ -14,6 +14,8 @@ Inside a sample loop::
 
 from __future__ import annotations
 
+import inspect
+import json
 import logging
 import math
 import os
@@ -27,7 +29,10 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
 
-from motorid.drive.files import KIND_ESTIMATOR, model_file, write_model_file
+from motorid.drive.files import save_model
+from motorid.errors import ModelFileError
+from motorid.json_input import boolean, build, float_array, integer, key_path, number, object_keys
+from motorid.outputs import jsonable
 
 logger = logging.getLogger(__name__)
 
@@ -132,6 +137,22 @@ def check_covariance(name: str, P: np.ndarray) -> np.ndarray:
     return P
 
 
+def constructor_parameters(cls: type) -> list[str]:
+    """The names of the keyword arguments ``cls``'s constructor takes (``*args`` and ``**kwargs`` left out).
+
+    Parameters
+    ----------
+    cls : type
+        An estimator class.
+    """
+    kinds = (inspect.Parameter.POSITIONAL_OR_KEYWORD, inspect.Parameter.KEYWORD_ONLY)
+    return [
+        name
+        for name, p in inspect.signature(cls.__init__).parameters.items()  # type: ignore[misc]
+        if name != "self" and p.kind in kinds
+    ]
+
+
 def first_bad_index(values: np.ndarray) -> int | None:
     """Index of the first non-finite entry of ``values``, or None."""
     bad = np.flatnonzero(~np.isfinite(values))
@@ -165,7 +186,10 @@ class Estimator(ABC):
     Subclasses implement :meth:`predict`, :meth:`update`, :attr:`params`,
     :meth:`simulate` and :meth:`reset`, keep the attributes below current, and may
     override :meth:`batch_filter` with a compiled path that gives the same numbers
-    as the sample loop.
+    as the sample loop. One that implements :meth:`get_state` and :meth:`set_state`
+    (and, where its constructor does not store its arguments under their own names,
+    :meth:`get_params`) is saved as a model file and loaded back by its registered
+    name (:meth:`to_dict`, :meth:`from_dict`).
 
     Attributes
     ----------
@@ -367,24 +391,180 @@ class Estimator(ABC):
                 saver.save()
         return BatchResult(x_hist, p_diag, y_hat, innovation, s_hist, self.state_names)
 
-    def to_dict(self) -> dict[str, Any]:
-        """The estimator's description in a model file: ``{"estimator": NAME, "settings": {...},
-        "state": {...}}`` (:mod:`motorid.models` reads it back).
+    # ------------------------------------------------------------------ saving
+    def get_params(self) -> dict[str, Any]:
+        """The constructor arguments by name, as scikit-learn's ``BaseEstimator.get_params``:
+        ``type(self)(**est.get_params())`` builds the same estimator at its prior.
+
+        By default the attribute of each name in the constructor's signature (a constructor
+        stores its arguments under their own names).
+        """
+        return {name: getattr(self, name) for name in constructor_parameters(type(self))}
+
+    def get_state(self) -> dict[str, Any]:
+        """What the estimator has learnt, by name (arrays, numbers, flags): what :meth:`set_state`
+        needs to continue as this one would. A model file holds it (:meth:`to_dict`).
 
         Raises
         ------
         ValueError
-            For an estimator that has no model file form (this base class's answer; the
-            built-in estimators give theirs).
+            For an estimator that does not implement it (this base class's answer), or one
+            that cannot be saved now (between ``predict`` and ``update``).
         """
         raise ValueError(
-            f"cannot save a {type(self).__name__}: model files hold arx-rls, hammerstein-rls, "
-            "friction-ekf and friction-ukf"
+            f"cannot save a {type(self).__name__}: it does not implement get_state() and set_state()"
         )
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Continue from a :meth:`get_state` of an estimator built with the same parameters,
+        every value checked (shape, finite, a covariance symmetric positive semi-definite).
+
+        Parameters
+        ----------
+        state : dict
+            A :meth:`get_state`, e.g. read back from a model file.
+
+        Raises
+        ------
+        ValueError
+            Naming the entry that does not fit (this base class: for any state).
+        """
+        raise ValueError(
+            f"cannot restore a {type(self).__name__}: it does not implement get_state() and set_state()"
+        )
+
+    def params_to_json(self) -> dict[str, Any]:
+        """:meth:`get_params` as JSON values, the ``settings`` of a model file (arrays as lists,
+        NaN and infinities as null: :func:`motorid.outputs.jsonable`).
+
+        Raises
+        ------
+        ValueError
+            For a parameter that has no JSON form.
+        """
+        settings = jsonable(self.get_params())
+        try:
+            json.dumps(settings, allow_nan=False)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(
+                f"cannot save a {type(self).__name__}: its parameters are not JSON ({exc})"
+            ) from None
+        return settings
+
+    @classmethod
+    def params_from_json(cls, settings: Any, where: str) -> dict[str, Any]:
+        """The constructor arguments from a model file's ``settings`` (the inverse of
+        :meth:`params_to_json`): by default every argument of the constructor's signature,
+        required, as the JSON value (the constructor checks it).
+
+        Parameters
+        ----------
+        settings : Any
+            The JSON value of ``settings``.
+        where : str
+            Its path in the file, named in a :class:`~motorid.errors.ModelFileError`.
+        """
+        return dict(object_keys(settings, constructor_parameters(cls), where))
+
+    def state_from_json(self, state: Any, where: str) -> dict[str, Any]:
+        """A model file's ``state`` as a :meth:`set_state` argument, read against this estimator's
+        own :meth:`get_state` (at its prior): the same keys, each array of the same shape (so no
+        size comes from the file), each count an integer, each flag true or false, each number
+        finite or null (NaN).
+
+        Parameters
+        ----------
+        state : Any
+            The JSON value of ``state``.
+        where : str
+            Its path in the file, named in a :class:`~motorid.errors.ModelFileError`.
+        """
+        template = self.get_state()
+        object_keys(state, list(template), where)
+        values: dict[str, Any] = {}
+        for key, fresh in template.items():
+            value, at = state[key], key_path(where, key)
+            if isinstance(fresh, np.ndarray):
+                values[key] = float_array(value, at, fresh.shape)
+            elif isinstance(fresh, bool | np.bool_):
+                values[key] = boolean(value, at)
+            elif isinstance(fresh, int | np.integer):
+                values[key] = integer(value, at)
+            elif isinstance(fresh, float | np.floating):
+                values[key] = number(value, at, none_is=math.nan)
+            else:
+                raise ModelFileError(at, f"{type(self).__name__} reads no {type(fresh).__name__} from a file")
+        return values
+
+    def to_dict(self) -> dict[str, Any]:
+        """The estimator's description in a model file: ``{"estimator": NAME, "settings":
+        {...}, "state": {...}}``, its registered name, :meth:`params_to_json` and
+        :meth:`get_state` as JSON values (:mod:`motorid.drive.files` describes the format).
+
+        Raises
+        ------
+        ValueError
+            For an estimator that has no model file form (no registered name, no
+            :meth:`get_state`, a :meth:`get_params` its constructor does not take, a custom
+            basis function) or is between ``predict`` and ``update``.
+        """
+        cls = type(self)
+        if not self.name:
+            raise ValueError(
+                f"cannot save a {cls.__name__}: it has no registered name (class attribute name)"
+            )
+        settings = self.params_to_json()
+        signature = inspect.signature(cls.__init__).parameters.values()  # type: ignore[misc]
+        extra = set(settings) - set(constructor_parameters(cls))
+        if extra and not any(p.kind is inspect.Parameter.VAR_KEYWORD for p in signature):
+            raise ValueError(
+                f"cannot save a {cls.__name__}: get_params() gives {', '.join(sorted(extra))}, which its "
+                "constructor does not take; give it a get_params() of its own arguments"
+            )
+        state = {  # a finite array as its list straight away: a covariance holds up to 10**6 numbers
+            key: value.tolist()
+            if isinstance(value, np.ndarray) and np.isfinite(value).all()
+            else jsonable(value)
+            for key, value in self.get_state().items()
+        }
+        return {"estimator": self.name, "settings": settings, "state": state}
+
+    @classmethod
+    def from_dict(cls, data: Any, where: str = "") -> Estimator:
+        """The estimator a model file's ``model`` describes (:meth:`to_dict`): built from
+        :meth:`params_from_json`, then :meth:`set_state` with :meth:`state_from_json`; an
+        error of :meth:`set_state` whose message starts with an entry's name is named at that
+        entry (``model.state.P: P must be symmetric ...``).
+
+        Parameters
+        ----------
+        data : Any
+            The JSON value: ``estimator``, ``settings`` and ``state``.
+        where : str
+            Its path in the file, named in the errors.
+
+        Raises
+        ------
+        ModelFileError
+            Naming the key of a missing, unknown or bad value.
+        """
+        object_keys(data, ("estimator", "settings", "state"), where)
+        s_where, x_where = key_path(where, "settings"), key_path(where, "state")
+        try:
+            estimator = build(cls, cls.params_from_json(data["settings"], s_where), s_where)
+        except TypeError as exc:  # a constructor that does not take a setting's name
+            raise ModelFileError(s_where, f"{cls.__name__} does not take these settings: {exc}") from None
+        values = estimator.state_from_json(data["state"], x_where)
+        try:
+            estimator.set_state(values)
+        except ValueError as exc:  # named at the entry where the message starts with one
+            entry = str(exc).split(" ", 1)[0]
+            raise ModelFileError(key_path(x_where, entry) if entry in values else x_where, str(exc)) from None
+        return estimator
 
     def save(self, path: str | os.PathLike[str], *, overwrite: bool = True) -> None:
         """Write the estimator as a model file; ``motorid.load_model`` reads it back
-        (the format and what is saved: :mod:`motorid.models`).
+        (the format and what is saved: :mod:`motorid.drive.files`).
 
         Written whole; ``overwrite=False`` refuses an existing file
         (:func:`motorid.drive.files.write_model_file`).
@@ -396,7 +576,7 @@ class Estimator(ABC):
         overwrite : bool
             False refuses an existing file.
         """
-        write_model_file(model_file(KIND_ESTIMATOR, self.to_dict()), path, overwrite=overwrite)
+        save_model(self, path, overwrite=overwrite)
 
     def __repr__(self) -> str:
         lines = [f"{type(self).__name__} object"]

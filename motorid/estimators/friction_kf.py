@@ -61,6 +61,8 @@ from motorid.errors import FilterDivergenceError
 from motorid.estimators import friction_model as fm
 from motorid.estimators.base import BatchResult, Estimator, as_float_vector, check_covariance, first_bad_index
 from motorid.estimators.rls import check_positive
+from motorid.json_input import boolean, integer, key_path, number, object_keys, text
+from motorid.outputs import jsonable
 
 OnDivergence = Literal["raise", "warn", "ignore"]
 
@@ -490,21 +492,49 @@ class _FrictionFilter(Estimator):
                     out.setdefault(name, str(p.annotation))
         return out
 
-    def to_dict(self) -> dict[str, Any]:
-        """The filter's description in a model file: its name, :meth:`get_params` (the rig as
-        its description) and :meth:`get_state` as JSON values.
+    def params_to_json(self) -> dict[str, Any]:
+        """:meth:`get_params` as JSON values, the rig as its description (``to_dict()``), the
+        ``settings`` of a model file."""
+        params = self.get_params()
+        params["rig"] = None if params["rig"] is None else params["rig"].to_dict()
+        return jsonable(params)
 
-        Raises
-        ------
-        ValueError
-            Between :meth:`predict` and :meth:`update`.
+    @classmethod
+    def params_from_json(cls, settings: Any, where: str) -> dict[str, Any]:
+        """The constructor arguments from a model file's ``settings``, each read for the type
+        its annotation names (:meth:`parameter_annotations`); the rig is a two-mass rig or a
+        rigid drive (whose description has ``effects``), or null.
+
+        Parameters
+        ----------
+        settings : Any
+            The JSON value of ``settings``.
+        where : str
+            Its path in the file, named in a :class:`~motorid.errors.ModelFileError`.
         """
-        settings = self.get_params()
-        settings["rig"] = None if settings["rig"] is None else settings["rig"].to_dict()
-        state = self.get_state()
-        state = {k: v.tolist() if isinstance(v, np.ndarray) else v for k, v in state.items()}
-        state["nis_mean"] = None if math.isnan(state["nis_mean"]) else state["nis_mean"]
-        return {"estimator": self.name, "settings": settings, "state": state}
+        annotations = cls.parameter_annotations()
+        object_keys(settings, list(annotations), where)
+        kw: dict[str, Any] = {}
+        for name, annotation in annotations.items():
+            key, value = key_path(where, name), settings[name]
+            if name == "rig":
+                if value is None:
+                    kw[name] = None
+                elif isinstance(value, dict) and "effects" in value:
+                    kw[name] = RigidDrive.from_dict(value, key)
+                else:
+                    kw[name] = TwoMassRig.from_dict(value, key)
+            elif value is None and "None" in annotation:
+                kw[name] = None
+            elif annotation.startswith("bool"):
+                kw[name] = boolean(value, key)
+            elif annotation.startswith("int"):
+                kw[name] = integer(value, key)
+            elif annotation.startswith("float"):
+                kw[name] = number(value, key)
+            else:  # a Literal of names
+                kw[name] = text(value, key)
+        return kw
 
     def get_params(self) -> dict[str, Any]:
         """The constructor arguments, by name (``rig`` included): ``type(self)(**get_params())``

@@ -77,6 +77,7 @@ class HammersteinRLS(LaggedRegressionRLS):
     """
 
     name = "hammerstein-rls"
+    text_settings = ("basis", "gamma_method")
 
     def __init__(
         self,
@@ -92,34 +93,47 @@ class HammersteinRLS(LaggedRegressionRLS):
         R: float = 1.0,
         x0: ArrayLike | None = None,
     ):
-        if basis is None:
-            resolved = polynomial(3 if degree is None else check_order("degree", degree, 1))
-        elif degree is not None:
-            raise ValueError("give degree or basis, not both: degree sets the polynomial basis")
-        elif isinstance(basis, str):
-            resolved = basis_from_spec(basis)
-        else:
-            resolved = basis if isinstance(basis, Basis) else Basis(basis)
-        if gamma_method not in ("paper", "svd"):
-            raise ValueError(f"gamma_method must be 'paper' or 'svd', got {gamma_method!r}")
+        self.degree = degree
         self.gamma_method = gamma_method
-        if gamma_method == "paper" and direct_term and check_order("nb", nb, 0) < 1:
-            raise ValueError("nb must be >= 1 for gamma_method='paper': its sums run over k = 1..nb")
         super().__init__(
-            na, nb, resolved, lam=lam, delta=delta, direct_term=direct_term,
+            na, nb, basis, lam=lam, delta=delta, direct_term=direct_term,
             max_trace=max_trace, R=R, x0=x0,
         )  # fmt: skip
 
+    def resolve_basis(self) -> Basis:
+        """The basis functions ``degree`` or ``basis`` describe (the polynomial of degree 3 by
+        default), with ``gamma_method`` checked.
+
+        Raises
+        ------
+        ValueError
+            For both ``degree`` and ``basis``, an unknown ``gamma_method``, or ``nb`` < 1
+            with ``gamma_method="paper"`` and the direct term.
+        """
+        if self.basis is None:
+            resolved = polynomial(3 if self.degree is None else check_order("degree", self.degree, 1))
+        elif self.degree is not None:
+            raise ValueError("give degree or basis, not both: degree sets the polynomial basis")
+        elif isinstance(self.basis, str):
+            resolved = basis_from_spec(self.basis)
+        else:
+            resolved = self.basis if isinstance(self.basis, Basis) else Basis(self.basis)
+        if self.gamma_method not in ("paper", "svd"):
+            raise ValueError(f"gamma_method must be 'paper' or 'svd', got {self.gamma_method!r}")
+        if self.gamma_method == "paper" and self._direct_term and self._nb < 1:
+            raise ValueError("nb must be >= 1 for gamma_method='paper': its sums run over k = 1..nb")
+        return resolved
+
     @property
-    def degree(self) -> int:
+    def n_basis(self) -> int:
         """Number of basis functions n of the static block."""
-        return len(self.basis)
+        return len(self.basis_functions)
 
     @property
     def state_names(self) -> tuple[str, ...]:
-        lags = range(self.k0, self.nb + 1)
-        names = [f"a{i}" for i in range(1, self.na + 1)] + [f"b{k}" for k in lags]
-        for j in range(2, self.degree + 1):
+        lags = range(self.k0, self._nb + 1)
+        names = [f"a{i}" for i in range(1, self._na + 1)] + [f"b{k}" for k in lags]
+        for j in range(2, self.n_basis + 1):
             names += [f"s{j}_{k}" for k in lags]
         return tuple(names)
 
@@ -152,19 +166,22 @@ class HammersteinRLS(LaggedRegressionRLS):
         b, gamma = self.factorize()
         return np.concatenate([self.a, np.outer(gamma, b).ravel()])
 
-    def to_dict(self) -> dict[str, Any]:
-        """As :meth:`LaggedRegressionRLS.to_dict`, with the basis (:meth:`Basis.spec
-        <motorid.estimators.basis.Basis.spec>`) and ``gamma_method`` in the settings.
+    def params_to_json(self) -> dict[str, Any]:
+        """As :meth:`LaggedRegressionRLS.params_to_json
+        <motorid.estimators.rls.LaggedRegressionRLS.params_to_json>`, with the basis functions in
+        use as text (:meth:`Basis.spec <motorid.estimators.basis.Basis.spec>`; ``degree`` is left
+        out) and ``gamma_method``.
 
         Raises
         ------
         ValueError
-            Between :meth:`predict` and :meth:`update`, or for a custom basis function.
+            For a custom basis function.
         """
-        out = super().to_dict()
-        out["settings"]["basis"] = self.basis.spec()
-        out["settings"]["gamma_method"] = self.gamma_method
-        return out
+        return {
+            **super().params_to_json(),
+            "basis": self.basis_functions.spec(),
+            "gamma_method": self.gamma_method,
+        }
 
     @property
     def params(self) -> dict[str, Any]:
@@ -176,5 +193,5 @@ class HammersteinRLS(LaggedRegressionRLS):
             "b": b,
             "gamma": gamma,
             "s": self.lagged_coefficients().copy(),
-            "basis": self.basis.names,
+            "basis": self.basis_functions.names,
         }

@@ -8,6 +8,12 @@ the group ``motorid.estimators``, e.g. in its ``pyproject.toml``::
 
 The entry point names a class (or any factory) whose call with keyword arguments
 returns an :class:`~motorid.estimators.base.Estimator`.
+
+This module registers the ``estimator`` kind of model files
+(:mod:`motorid.drive.files`): a file names its estimator by the registered name, and
+:func:`estimator_from_dict` builds that class from the saved parameters and restores
+its state, so a registered class (a plugin's included) that implements ``get_state``
+and ``set_state`` is saved and loaded like the built-in ones.
 """
 
 from __future__ import annotations
@@ -17,10 +23,13 @@ from collections.abc import Callable
 from importlib.metadata import entry_points
 from typing import Any
 
+from motorid.drive.files import KIND_ESTIMATOR, register_kind
+from motorid.errors import ModelFileError
 from motorid.estimators.arx import ARXRLS
 from motorid.estimators.base import Estimator
 from motorid.estimators.friction_kf import FrictionEKF, FrictionUKF
 from motorid.estimators.hammerstein import HammersteinRLS
+from motorid.json_input import key_path, object_keys, text
 
 logger = logging.getLogger(__name__)
 
@@ -146,3 +155,39 @@ def factory(name: str) -> EstimatorFactory:
     if name not in factories:
         raise ValueError(f"unknown estimator {name!r}; available: {', '.join(sorted(factories))}")
     return factories[name]
+
+
+def estimator_from_dict(data: Any, where: str = "") -> Estimator:
+    """The estimator of a model file's ``model`` (``{"estimator": NAME, "settings": {...},
+    "state": {...}}``): the class registered as NAME reads the rest
+    (:meth:`Estimator.from_dict <motorid.estimators.base.Estimator.from_dict>`).
+
+    Parameters
+    ----------
+    data : Any
+        The JSON value of the file's ``model``.
+    where : str
+        Its path in the file, named in the errors.
+
+    Raises
+    ------
+    ModelFileError
+        Naming the key: an unknown name, a name registered by a function (which has no
+        reader), or a bad setting or state.
+    """
+    object_keys(data, ("estimator", "settings", "state"), where)
+    at = key_path(where, "estimator")
+    name = text(data["estimator"], at)
+    factories = _factories()
+    if name not in factories:
+        raise ModelFileError(at, f"unknown estimator {name!r} (known: {', '.join(sorted(factories))})")
+    cls = factories[name]
+    if not (isinstance(cls, type) and issubclass(cls, Estimator)):
+        raise ModelFileError(
+            at,
+            f"estimator {name!r} is registered as a function, not an Estimator class: no reader of its files",
+        )
+    return cls.from_dict(data, where)
+
+
+register_kind(KIND_ESTIMATOR, Estimator, estimator_from_dict)

@@ -48,14 +48,25 @@ contracts no multiply-add into a fused one without ``fastmath``).
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike
 
-from motorid.estimators.base import LARGEST_VARIANCE, BatchResult, Estimator, as_float_vector, first_bad_index
+from motorid.errors import ModelFileError
+from motorid.estimators.base import (
+    LARGEST_VALUE,
+    LARGEST_VARIANCE,
+    BatchResult,
+    Estimator,
+    as_float_vector,
+    check_covariance,
+    first_bad_index,
+)
 from motorid.estimators.basis import Basis, builtin_row
+from motorid.json_input import boolean, float_array, integer, key_path, number, object_keys, shown, text
+from motorid.outputs import jsonable
 
 
 # --------------------------------------------------------------------------- kernels
@@ -347,6 +358,11 @@ class LaggedRegressionRLS(Estimator):
     :class:`~motorid.estimators.arx.ARXRLS` and
     :class:`~motorid.estimators.hammerstein.HammersteinRLS`.
 
+    As in scikit-learn, the constructor stores its arguments unchanged under their own
+    names (:meth:`get_params` gives them back) and :meth:`reset` checks and resolves them:
+    the basis functions in use are :attr:`basis_functions`, the bound on tr(P) in use
+    :attr:`trace_bound`. Change an argument's attribute, then call :meth:`reset`.
+
     Parameters
     ----------
     na : int
@@ -376,6 +392,9 @@ class LaggedRegressionRLS(Estimator):
         Initial estimate (zeros by default).
     """
 
+    #: The settings of a model file read as text beside the common ones (a subclass's arguments).
+    text_settings: ClassVar[tuple[str, ...]] = ()
+
     def __init__(
         self,
         na: int,
@@ -388,57 +407,95 @@ class LaggedRegressionRLS(Estimator):
         R: float = 1.0,
         x0: ArrayLike | None = None,
     ):
-        self.na = check_order("na", na, 0)
-        self.direct_term = bool(direct_term)
-        self.nb = check_order("nb", nb, 0 if self.direct_term else 1)
-        if not isinstance(basis, Basis):
-            raise ValueError(f"basis must be a motorid Basis, got {type(basis).__name__}")
+        self.na = na
+        self.nb = nb
         self.basis = basis
-        self.lam = check_positive("lam", lam)
-        if self.lam > 1.0:
-            raise ValueError(f"lam must satisfy 0 < lam <= 1, got {lam!r}")
-        self.delta = check_positive("delta", delta)
-        self.R = check_positive("R", R)
-        for name, value in (("delta", self.delta), ("R", self.R)):
+        self.lam = lam
+        self.delta = delta
+        self.direct_term = direct_term
+        self.max_trace = max_trace
+        self.R = R
+        self.x0 = x0
+        self.reset()
+
+    def resolve_basis(self) -> Basis:
+        """The basis functions the constructor's arguments describe (here ``basis`` itself).
+
+        Raises
+        ------
+        ValueError
+            For a ``basis`` that is not a :class:`~motorid.estimators.basis.Basis`.
+        """
+        if not isinstance(self.basis, Basis):
+            raise ValueError(f"basis must be a motorid Basis, got {type(self.basis).__name__}")
+        return self.basis
+
+    def _configure(self) -> None:
+        """Validate the stored arguments (errors name the argument) and resolve them: the basis
+        functions in use (:attr:`basis_functions`), the orders, the floats the kernels take,
+        the trace bound in use (:attr:`trace_bound`) and the initial estimate."""
+        self._direct_term = bool(self.direct_term)
+        self._na = check_order("na", self.na, 0)
+        self._nb = check_order("nb", self.nb, 0 if self._direct_term else 1)
+        basis = self.resolve_basis()
+        lam = check_positive("lam", self.lam)
+        if lam > 1.0:
+            raise ValueError(f"lam must satisfy 0 < lam <= 1, got {self.lam!r}")
+        delta = check_positive("delta", self.delta)
+        r = check_positive("R", self.R)
+        for name, value in (("delta", delta), ("R", r)):
             if value > LARGEST_VARIANCE:
                 raise ValueError(f"{name} must be at most {LARGEST_VARIANCE:g} (a variance), got {value!r}")
-        n = self.na + len(basis) * self.n_lags_used
+        n = self._na + len(basis) * (self._nb + 1 - (0 if self._direct_term else 1))
         if n > MOST_PARAMETERS:  # before P (n x n) is allocated
             raise ValueError(
                 f"na, nb: the model would have {n} parameters (na + basis functions x input lags), "
                 f"more than {MOST_PARAMETERS}"
             )
-        self.max_trace = (
-            self.delta * n if max_trace is None else check_positive("max_trace", max_trace, allow_inf=True)
+        max_trace = (
+            delta * n
+            if self.max_trace is None
+            else check_positive("max_trace", self.max_trace, allow_inf=True)
         )
-        if x0 is None:
-            self.x0 = np.zeros(n)
+        if self.x0 is None:
+            x0 = np.zeros(n)
         else:
-            self.x0 = as_float_vector(x0, "x0")
-            if self.x0.shape != (n,):
+            x0 = as_float_vector(self.x0, "x0")
+            if x0.shape != (n,):
                 raise ValueError(
-                    f"x0 must have shape ({n},) for na={self.na}, nb={self.nb}, got {self.x0.shape}"
+                    f"x0 must have shape ({n},) for na={self._na}, nb={self._nb}, got {x0.shape}"
                 )
-            bad = first_bad_index(self.x0)
+            bad = first_bad_index(x0)
             if bad is not None:
                 raise ValueError(f"x0[{bad}] is not finite")
-        self.reset()
+        #: The basis functions in use (:class:`~motorid.estimators.basis.Basis`).
+        self.basis_functions = basis
+        self._lam, self._delta, self._R, self._max_trace, self._x0 = lam, delta, r, max_trace, x0
+
+    @property
+    def trace_bound(self) -> float:
+        """The bound on tr(P) in use: ``max_trace``, or ``delta * n`` where it is None."""
+        return self._max_trace
 
     # ------------------------------------------------------------------ structure
     @property
     def k0(self) -> int:
         """First input lag in the regressor: 0 with the direct term, else 1."""
-        return 0 if self.direct_term else 1
+        return 0 if self._direct_term else 1
 
     @property
     def n_lags_used(self) -> int:
         """Input lags per basis function in the regressor, nb + 1 - k0."""
-        return self.nb + 1 - self.k0
+        return self._nb + 1 - self.k0
 
     def reset(self) -> None:
-        n = len(self.x0)
-        self.x = self.x0.copy()
-        self.P = self.delta * np.eye(n)
+        """Validate the arguments and return to the prior: ``x0`` with covariance ``delta I`` and
+        an empty history. Change an argument's attribute, then call ``reset()`` for it to take
+        effect."""
+        self._configure()
+        n = len(self._x0)
+        self.x = self._x0.copy()
+        self.P = self._delta * np.eye(n)
         self._own_x, self._own_P = self.x, self.P
         self.x_prior, self.P_prior = self.x.copy(), self.P.copy()
         self.x_post, self.P_post = self.x.copy(), self.P.copy()
@@ -447,11 +504,11 @@ class LaggedRegressionRLS(Estimator):
         self.S = 0.0
         self.z = None
         self.sample_index = 0
-        self.y_history = np.zeros(self.na)
-        self.g_history = np.zeros((self.nb + 1, len(self.basis)))
+        self.y_history = np.zeros(self._na)
+        self.g_history = np.zeros((self._nb + 1, len(self.basis_functions)))
         # work arrays of the compiled per-sample kernels: basis values, regressor,
         # P_prior phi, and (S, column of a non-finite basis value)
-        self._g = np.zeros(len(self.basis))
+        self._g = np.zeros(len(self.basis_functions))
         self._phi = np.zeros(n)
         self._Pphi = np.zeros(n)
         self._out = np.zeros(2)
@@ -463,7 +520,7 @@ class LaggedRegressionRLS(Estimator):
         """Check ``x`` and ``P``, called where they are not the arrays this estimator
         made last (a user assigned them): the kernels need x of shape (n,) and P of
         shape (n, n), exactly symmetric (module docstring)."""
-        n = len(self.x0)
+        n = len(self._x0)
         x = np.ascontiguousarray(as_float_vector(self.x, "x"))
         P = np.ascontiguousarray(np.asarray(self.P, dtype=float))
         if x.shape != (n,):
@@ -503,7 +560,7 @@ class LaggedRegressionRLS(Estimator):
         u = self.check_input(u)
         if self.x is not self._own_x or self.P is not self._own_P:
             self._check_state()
-        basis = self.basis
+        basis = self.basis_functions
         if self._pending is not None or basis.has_custom:
             # raises on a non-finite basis value before anything is changed
             self._g[:] = basis.evaluate(np.array([u]), start=self.sample_index)[0]
@@ -512,7 +569,7 @@ class LaggedRegressionRLS(Estimator):
         P_prior = np.empty(self.P.shape)
         y_hat = rls_predict(
             u, self._g, basis.kinds, basis.parameters, self.y_history, self.g_history,
-            self.x, self.P, self.lam, self.max_trace, self.R, self.k0, self._phi, P_prior, self._Pphi, self._out,
+            self.x, self.P, self._lam, self._max_trace, self._R, self.k0, self._phi, P_prior, self._Pphi, self._out,
         )  # fmt: skip
         if math.isnan(y_hat) and self._out[1] >= 0:
             column = int(self._out[1])
@@ -566,7 +623,7 @@ class LaggedRegressionRLS(Estimator):
         u_arr, z_arr, present = self.check_record(u, z)
         if self.x is not self._own_x or self.P is not self._own_P:
             self._check_state()
-        G = self.basis.evaluate(u_arr, start=self.sample_index)
+        G = self.basis_functions.evaluate(u_arr, start=self.sample_index)
         if self._pending is not None:
             self.update(None)
         N, n = len(u_arr), len(self.x)
@@ -576,7 +633,7 @@ class LaggedRegressionRLS(Estimator):
         y_hat, innovation, S = np.empty(N), np.empty(N), np.empty(N)
         e = rls_batch(
             G, z_arr, present, self.y_history, self.g_history, x, P,
-            self.lam, self.max_trace, self.R, self.k0,
+            self._lam, self._max_trace, self._R, self.k0,
             X, P_diag, y_hat, innovation, S, x_prior, P_prior, K,
         )  # fmt: skip
         if N:
@@ -604,18 +661,66 @@ class LaggedRegressionRLS(Estimator):
     @property
     def a(self) -> np.ndarray:
         """Coefficients a_1..a_na of A(q^-1) = 1 + a_1 q^-1 + ... (current estimate)."""
-        return self.x[: self.na].copy()
+        return self.x[: self._na].copy()
 
     def lagged_coefficients(self, theta: np.ndarray | None = None) -> np.ndarray:
         """The input coefficients as a matrix, row j = basis function j, column k =
         lag k0..nb: ``[b; s_2; ...; s_n]`` of paper eq. 19. Works on stacks of
         estimates, shape (..., n) -> (..., n_basis, n_lags)."""
         theta = self.x if theta is None else np.asarray(theta)
-        return theta[..., self.na :].reshape(*theta.shape[:-1], len(self.basis), self.n_lags_used)
+        return theta[..., self._na :].reshape(*theta.shape[:-1], len(self.basis_functions), self.n_lags_used)
 
-    def to_dict(self) -> dict[str, Any]:
-        """The estimator's description in a model file: its name, its constructor's settings and
-        what it has learnt (``x``, ``P``, the lagged outputs and inputs, the sample index).
+    # ------------------------------------------------------------------ saving
+    def params_to_json(self) -> dict[str, Any]:
+        """The ``settings`` of a model file: the arguments as resolved, which build the same
+        estimator (``na``, ``nb``, ``lam``, ``delta``, ``direct_term``, ``max_trace`` the
+        bound in use, null for none, ``R`` and ``x0`` the initial estimate)."""
+        return jsonable(
+            {
+                "na": self._na,
+                "nb": self._nb,
+                "lam": self._lam,
+                "delta": self._delta,
+                "direct_term": self._direct_term,
+                "max_trace": self._max_trace,
+                "R": self._R,
+                "x0": self._x0,
+            }
+        )
+
+    @classmethod
+    def params_from_json(cls, settings: Any, where: str) -> dict[str, Any]:
+        """The constructor arguments from a model file's ``settings`` (:meth:`params_to_json`,
+        ``max_trace`` null for no bound, and a subclass's :attr:`text_settings`), each checked
+        for its type.
+
+        Parameters
+        ----------
+        settings : Any
+            The JSON value of ``settings``.
+        where : str
+            Its path in the file, named in a :class:`~motorid.errors.ModelFileError`.
+        """
+        names = ["na", "nb", "lam", "delta", "direct_term", "max_trace", "R", "x0", *cls.text_settings]
+        object_keys(settings, names, where)
+        x0 = settings["x0"]
+        if not isinstance(x0, list):
+            raise ModelFileError(key_path(where, "x0"), f"must be a list of numbers, got {shown(x0)}")
+        return {
+            "na": integer(settings["na"], key_path(where, "na")),
+            "nb": integer(settings["nb"], key_path(where, "nb")),
+            "lam": number(settings["lam"], key_path(where, "lam")),
+            "delta": number(settings["delta"], key_path(where, "delta")),
+            "direct_term": boolean(settings["direct_term"], key_path(where, "direct_term")),
+            "max_trace": number(settings["max_trace"], key_path(where, "max_trace"), none_is=math.inf),
+            "R": number(settings["R"], key_path(where, "R")),
+            "x0": float_array(x0, key_path(where, "x0"), (len(x0),), LARGEST_VALUE),
+            **{name: text(settings[name], key_path(where, name)) for name in cls.text_settings},
+        }
+
+    def get_state(self) -> dict[str, Any]:
+        """What the filter has learnt: ``x``, ``P``, the lagged outputs ``y_history`` (na) and
+        basis values ``g_history`` (nb + 1 lags by basis functions), and ``sample_index``.
 
         Raises
         ------
@@ -624,29 +729,65 @@ class LaggedRegressionRLS(Estimator):
         """
         if self._pending is not None:
             raise ValueError(f"{self.name} is between predict() and update(): call update() first")
-        settings: dict[str, Any] = {
-            "na": self.na,
-            "nb": self.nb,
-            "lam": self.lam,
-            "delta": self.delta,
-            "direct_term": self.direct_term,
-            "max_trace": None if math.isinf(self.max_trace) else self.max_trace,
-            "R": self.R,
-            "x0": self.x0.tolist(),
-        }
-        state = {
-            "x": self.x.tolist(),
-            "P": self.P.tolist(),
-            "y_history": self.y_history.tolist(),
-            "g_history": self.g_history.tolist(),
+        return {
+            "x": self.x.copy(),
+            "P": self.P.copy(),
+            "y_history": self.y_history.copy(),
+            "g_history": self.g_history.copy(),
             "sample_index": self.sample_index,
         }
-        return {"estimator": self.name, "settings": settings, "state": state}
+
+    def set_state(self, state: dict[str, Any]) -> None:
+        """Continue from a :meth:`get_state` of an estimator built with the same parameters.
+
+        Parameters
+        ----------
+        state : dict
+            ``x``, ``P``, ``y_history``, ``g_history`` and ``sample_index``.
+
+        Raises
+        ------
+        ValueError
+            Naming the entry of the wrong shape, a value that is not finite or beyond
+            :data:`~motorid.estimators.base.LARGEST_VALUE`, a covariance that is not symmetric
+            positive semi-definite (:func:`~motorid.estimators.base.check_covariance`), a
+            negative sample index.
+        """
+        n = len(self._x0)
+        shapes = {
+            "x": (n,),
+            "P": (n, n),
+            "y_history": self.y_history.shape,
+            "g_history": self.g_history.shape,
+        }
+        missing = [key for key in (*shapes, "sample_index") if key not in state]
+        if missing:
+            raise ValueError(f"{missing[0]} is missing from the state")
+        arrays = {}
+        for key, shape in shapes.items():
+            value = np.array(state[key], dtype=float)
+            if value.shape != shape:
+                raise ValueError(f"{key} must have shape {shape} for this estimator, got {value.shape}")
+            bad = first_bad_index(value.reshape(-1))
+            if bad is not None:
+                raise ValueError(f"{key} must be finite, got {value.reshape(-1)[bad]!r}")
+            if key != "P" and value.size and float(np.max(np.abs(value))) > LARGEST_VALUE:
+                raise ValueError(f"{key} must be within ±{LARGEST_VALUE:g}")
+            arrays[key] = np.ascontiguousarray(value)
+        P = check_covariance("P", arrays["P"])
+        index = state["sample_index"]
+        if isinstance(index, bool) or not isinstance(index, int | np.integer) or index < 0:
+            raise ValueError(f"sample_index must be an integer >= 0, got {index!r}")
+        self.x = self.x_prior = self.x_post = self._own_x = arrays["x"]
+        self.P = self.P_prior = self.P_post = self._own_P = P
+        self.y_history, self.g_history = arrays["y_history"], arrays["g_history"]
+        self.sample_index = int(index)
+        self._pending = None
 
     def __repr__(self) -> str:
         head = (
-            f"{type(self).__name__}(na={self.na}, nb={self.nb}, basis={self.basis!r}, lam={self.lam}, "
-            f"delta={self.delta}, direct_term={self.direct_term}, max_trace={self.max_trace}, R={self.R})"
+            f"{type(self).__name__}(na={self._na}, nb={self._nb}, basis={self.basis_functions!r}, lam={self._lam}, "
+            f"delta={self._delta}, direct_term={self._direct_term}, max_trace={self._max_trace}, R={self._R})"
         )
         return head + "\n" + super().__repr__()
 
@@ -667,11 +808,11 @@ class FreeRun:
     """
 
     def __init__(self, estimator: LaggedRegressionRLS):
-        self.basis = estimator.basis
+        self.basis = estimator.basis_functions
         self.theta = np.array(estimator.simulation_theta(), dtype=float)
         self.k0 = estimator.k0
-        self.y_history = np.zeros(estimator.na)
-        self.g_history = np.zeros((estimator.nb + 1, len(estimator.basis)))
+        self.y_history = np.zeros(len(estimator.y_history))
+        self.g_history = np.zeros(estimator.g_history.shape)
         #: Samples simulated so far (the index of the next block's first sample).
         self.sample_index = 0
 

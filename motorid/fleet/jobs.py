@@ -209,7 +209,7 @@ class DoctorJob:
         if self.model is None:
             return None
         from motorid.drive import RigidDrive, TwoMassRig
-        from motorid.models import load_model
+        from motorid.estimators import load_model
 
         model = load_model(self.model)
         if not isinstance(model, RigidDrive | TwoMassRig):
