@@ -10,6 +10,7 @@ import argparse
 import math
 import os
 from collections.abc import Callable, Iterator
+from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.app.identify import PAPER_ORDER
+from motorid.app.reading import ReadOptions
 from motorid.errors import DataError
 from motorid.units import INPUT_UNITS, OUTPUT_UNITS
 
@@ -180,6 +182,11 @@ def record_options_from_args(args: argparse.Namespace) -> dict[str, Any]:
         "supply_voltage": args.supply_voltage, "input_full_scale": args.input_full_scale,
         "resample": args.resample, "sep": args.sep, "decimal": args.decimal,
     }  # fmt: skip
+
+
+def read_options_from_args(args: argparse.Namespace) -> ReadOptions:
+    """The record options (:func:`add_record_columns`) as :class:`motorid.app.ReadOptions`."""
+    return ReadOptions(**{f.name: getattr(args, f.name) for f in fields(ReadOptions)})
 
 
 def iter_record_from_args(
