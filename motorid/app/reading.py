@@ -128,10 +128,12 @@ class ReadOptions:
         record, segment = read_head(path, self.max_samples, min_samples, **self._options())
         return trim_record(record, self.start, self.stop, path, min_samples=min_samples), segment
 
-    def iter_blocks(self, path: str | os.PathLike[str], min_samples: int = 20) -> Iterator[pd.DataFrame]:
-        """The record ``path`` in consecutive blocks of :data:`motorid.record_chunks.CHUNK_ROWS` rows,
-        each read, checked and converted as the whole record is (:func:`motorid.record_chunks.iter_record`);
-        neither ``max_samples`` nor the span applies. A record whose time stamps jitter raises
+    def iter_blocks(
+        self, path: str | os.PathLike[str], min_samples: int = 20, chunk_rows: int | None = None
+    ) -> Iterator[pd.DataFrame]:
+        """The record ``path`` in consecutive blocks of ``chunk_rows`` rows, each read, checked and
+        converted as the whole record is (:func:`motorid.record_chunks.iter_record`); neither
+        ``max_samples`` nor the span applies. A record whose time stamps jitter raises
         :class:`motorid.errors.UniformGridError` (it is resampled whole: :meth:`read`).
 
         Parameters
@@ -140,10 +142,14 @@ class ReadOptions:
             The record file.
         min_samples : int
             Fewest samples the record must hold.
+        chunk_rows : int, optional
+            Rows per block; default :data:`motorid.record_chunks.CHUNK_ROWS`.
         """
         from motorid.record_chunks import CHUNK_ROWS, iter_record
 
-        return iter_record(path, min_samples=min_samples, chunk_rows=CHUNK_ROWS, **self._options())
+        return iter_record(
+            path, min_samples=min_samples, chunk_rows=chunk_rows or CHUNK_ROWS, **self._options()
+        )
 
 
 __all__ = ["ReadOptions"]
