@@ -115,5 +115,7 @@ def test_compare_refuses_bad_options_naming_them(logged):
         compare(frame, [str(root / "missing.json")], **READING)
     with pytest.raises(DataError, match="a sequence of model files"):
         compare(frame, str(root / "true.json"), **READING)
+    with pytest.raises(DataError, match="a TwoMassRig in a sequence has no name"):
+        compare(frame, [load_model(root / "true.json")], **READING)
     with pytest.raises(DataError, match="low_speed_rpm must be a speed > 0"):
         CompareOptions(low_speed_rpm=0.0)

@@ -81,6 +81,13 @@ def load_models(models: Mapping[str, Any] | Sequence[str | os.PathLike[str]]) ->
         raise DataError(
             f"models must be a sequence of model files or a mapping of names to models, got {models!r}"
         )
+    if not isinstance(models, Mapping):
+        for model in models:
+            if not isinstance(model, str | os.PathLike):
+                raise DataError(
+                    f"models: a {type(model).__name__} in a sequence has no name; give model files, "
+                    "or a mapping of names to models"
+                )
     named = dict(models) if isinstance(models, Mapping) else {str(path): path for path in models}
     return {
         name: load_model(model) if isinstance(model, str | os.PathLike) else model
