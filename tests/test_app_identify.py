@@ -18,7 +18,7 @@ import pandas as pd
 import pytest
 from cli_fixtures import run
 
-from motorid.app import IdentifyOptions, identify
+from motorid.app import IdentifyOptions, ReadOptions, identify, identify_file
 from motorid.cli.report import jsonable
 from motorid.drive import paper_rig
 from motorid.errors import DataError
@@ -93,3 +93,20 @@ def test_the_fleets_identify_job_is_the_application_layers_options():
     assert IdentifyOptions(na=2, param=["R=0.1"]).param == ("R=0.1",)
     with pytest.raises(DataError, match="KEY=VALUE texts"):
         IdentifyOptions(param="R=0.1")
+
+
+@pytest.mark.parametrize("span", [{}, {"start": 2.0, "stop": 40.0}])
+def test_identify_file_with_read_options_equals_the_command(capsys, tmp_path, logged, span):
+    """A file read through the shared record options: in blocks, or with a span cut from the record
+    read whole, the payload of ``motorid identify FILE --json`` with the same options."""
+    path = tmp_path / "log.csv"
+    logged.to_csv(path, index=False)
+    read = ReadOptions(**READING, **span)
+    payload, _, _ = identify_file(path, IdentifyOptions(na=2, nb=2, degree=3), read)
+    spanned = [arg for key, value in span.items() for arg in (f"--{key}", repr(value))]
+    code, out, err = run(capsys, "identify", str(path), "--na", "2", "--nb", "2", "--degree", "3",
+                         *COMMAND_LINE, *spanned, "--json")  # fmt: skip
+    assert code == 0, err
+    assert out.pop("figure") is None and out.pop("model") is None
+    assert json.loads(json.dumps(jsonable(payload))) == out
+    assert payload["samples"] == (len(logged) if not span else round(38.0 / 0.04) + 1)

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from motorid.app.reading import ReadOptions
 from motorid.errors import DataError
 
 logger = logging.getLogger(__name__)
@@ -639,10 +640,7 @@ def identify_blocks(
 
 
 def identify_file(
-    path: str | os.PathLike[str],
-    options: IdentifyOptions,
-    reading: dict[str, Any],
-    max_samples: int = 2_000_000,
+    path: str | os.PathLike[str], options: IdentifyOptions, read: ReadOptions
 ) -> tuple[dict[str, Any], list, Any]:
     """:func:`identify_blocks` on the record file ``path``, read in blocks
     (:func:`motorid.record_chunks.iter_record`): memory does not grow with the record.
@@ -651,7 +649,7 @@ def identify_file(
     an output in another unit than rad/s takes one more pass, for its largest magnitude (the
     low-speed band, :func:`output_band`). A record whose time stamps jitter
     is put on a uniform grid, which takes it whole: it is then read and identified as
-    :func:`identify_record` does (within ``max_samples``); the reader's one line says how
+    :func:`identify_record` does (within ``read.max_samples``); the reader's one line says how
     the stamps were resampled, and the log (``-v``) why the record is held whole.
 
     Parameters
@@ -660,11 +658,10 @@ def identify_file(
         The record file (any format :func:`motorid.records.read_record` reads).
     options : IdentifyOptions
         The estimator and the scores' options.
-    reading : dict
-        How the record is read: :func:`motorid.records.read_record`'s options (``time``,
-        ``input``, ``output``, ``dt``, ``time_unit``, ``input_unit`` ...).
-    max_samples : int
-        Most rows of a record that must be held whole (one whose stamps jitter).
+    read : ReadOptions
+        How the record is read (columns, units, sample time; ``max_samples``: most rows of a
+        record that must be held whole, one whose stamps jitter). A span (``start``, ``stop``)
+        is cut from the record read whole, which is then identified as :func:`identify_record` does.
 
     Returns
     -------
@@ -672,13 +669,14 @@ def identify_file(
         What :func:`identify_record` returns.
     """
     from motorid.errors import UniformGridError
-    from motorid.record_chunks import CHUNK_ROWS, iter_record
-    from motorid.records import read_record
 
-    names = (reading.get("input") or "u", reading.get("output") or "y")
+    names = (read.input, read.output)
+    if read.spanned:  # a span is cut from the record read whole
+        record = read.read(path)
+        return identify_record(record, options, source=str(path), input=names[0], output=names[1])
 
     def read_blocks() -> Iterator[pd.DataFrame]:
-        return iter_record(path, min_samples=20, chunk_rows=CHUNK_ROWS, **reading)
+        return read.iter_blocks(path)
 
     try:
         passes: Iterator[pd.DataFrame] | None = read_blocks()
@@ -699,8 +697,8 @@ def identify_file(
 
         return identify_blocks(blocks, options, est, notes, unit, threshold, names)
     except UniformGridError as exc:
-        logger.info("%s: identify reads it whole (--max-samples %d)", exc, max_samples)
-        record = read_record(path, min_samples=20, max_samples=max_samples, other_columns=False, **reading)
+        logger.info("%s: identify reads it whole (--max-samples %d)", exc, read.max_samples)
+        record = read.read(path)
         return identify_record(record, options, source=str(path), input=names[0], output=names[1])
 
 

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
+from motorid.app.doctor import DoctorOptions, start_model_from_file
 from motorid.errors import DataError
 from motorid.outputs import write_file
 
@@ -22,15 +23,12 @@ from .options import (
     hold_out_folder,
     number,
     positive,
-    record_options_from_args,
-    trim_from_args,
+    read_options_from_args,
 )
 from .report import emit_json, say, show_progress
 
 if TYPE_CHECKING:
     from motorid.diagnose.results import Diagnosis
-    from motorid.drive import RigidDrive, TwoMassRig
-    from motorid.fleet import DoctorJob
 
 
 def effect_list(text: str | None, option: str) -> list[str]:
@@ -46,88 +44,39 @@ def effect_list(text: str | None, option: str) -> list[str]:
     return names
 
 
-def doctor_job_from_args(args: argparse.Namespace) -> DoctorJob:
-    """``motorid doctor``'s options as :class:`motorid.fleet.DoctorJob` (effect names checked)."""
-    from motorid.fleet import DoctorJob
-
+def doctor_options_from_args(args: argparse.Namespace) -> DoctorOptions:
+    """``motorid doctor``'s options as :class:`motorid.app.DoctorOptions` (effect names checked)."""
     base = effect_list(args.base, "--base") if args.base is not None else None
     candidates = effect_list(args.candidates, "--candidates") if args.candidates else None
     model = getattr(args, "model", None)
     if model is not None and base is not None:
         raise DataError("--base cannot be combined with --model: the model's effects are the base")
-    return DoctorJob(
+    return DoctorOptions(
         output_kind=args.output_kind, input_gain=args.input_gain, base=base, candidates=candidates,
         holdout=args.holdout, max_steps=args.max_steps, timing=args.timing, structure=not args.no_structure,
         model=model,
     )  # fmt: skip
 
 
-def doctor_record(
-    record: pd.DataFrame | list[pd.DataFrame],
-    args: argparse.Namespace,
-    progress: bool = False,
-    labels: list[str] | None = None,
-) -> Diagnosis:
-    """What ``motorid doctor`` computes on a record with columns ``t``, ``u``, ``y`` (or on
-    several records of one drive, fitted as one model; ``labels`` name them).
-
-    ``progress`` shows the doctor's progress bar. ``motorid fleet doctor`` runs the same
-    :class:`motorid.fleet.DoctorJob` on each record or drive (without the bar), so a fleet's
-    rows equal the single-record command's ``--json`` output.
-    """
-    return doctor_job_from_args(args).diagnose(record, labels=labels, progress=progress)
-
-
-def read_trimmed(args: argparse.Namespace, path: Path) -> tuple[pd.DataFrame, bool]:
-    """The record ``path``, read with the command's record options (a segment of a long one:
-    :func:`read_record_segment`) and trimmed to --start/--stop; and whether it is a segment."""
-    options = argparse.Namespace(**{**vars(args), "data": path})
-    record, segment = read_record_segment(options)
-    return trim_from_args(record, options, 20), segment
-
-
-def read_record_segment(args: argparse.Namespace, min_samples: int = 20) -> tuple[pd.DataFrame, bool]:
-    """The record of ``args`` as :func:`.options.read_record_from_args` reads it (without the span),
-    when it has at most ``--max-samples`` rows; else its first ``--max-samples`` rows (a segment,
-    :func:`motorid.record_chunks.read_head`: the doctor's memory is bounded by ``--max-samples``
-    whatever the length of the file). Returns the record and whether it is a segment."""
-    from motorid.record_chunks import read_head
-
-    return read_head(args.data, args.max_samples, min_samples, **record_options_from_args(args))
-
-
-def start_model_from_file(path: Path) -> RigidDrive | TwoMassRig:
-    """The drive model of the model file ``path`` (``--model``): a rigid drive or a two-mass rig;
-    DataError for another model."""
-    from motorid.fleet import DoctorJob
-
-    return DoctorJob(model=path).start_model()
-
-
 def cmd_doctor(args: argparse.Namespace) -> int:
     """Find the missing effect: where model and measurement disagree, which effect, how much better."""
-    effect_list(args.base, "--base")  # bad effect names stop the command before anything is read
-    if args.candidates:
-        effect_list(args.candidates, "--candidates")
+    options = doctor_options_from_args(args)  # bad effect names stop the command before anything is read
     if args.model is not None:
-        if args.base is not None:
-            raise DataError("--base cannot be combined with --model: the model's effects are the base")
         start_model_from_file(args.model)
     if args.save_model is not None:
         check_out_file(args.save_model, True, "--save-model")
-    read = [read_trimmed(args, path) for path in args.data]
+    reading = read_options_from_args(args)
+    read = [reading.read_segment(path) for path in args.data]
     records = [record for record, _ in read]
     labels = [str(path) for path in args.data]
     validation = None
     if args.validate is not None:
         # the same record options (columns, dt, units, span) as the records the models are fitted on
-        validation, _ = read_trimmed(args, args.validate)
+        validation, _ = reading.read_segment(args.validate)
     if args.out:
         check_out_folder(args.out)
         hold_out_folder(args, args.out)
-    diagnosis = doctor_record(
-        records[0] if len(records) == 1 else records, args, progress=show_progress(), labels=labels
-    )
+    diagnosis = options.diagnose(records[0] if len(records) == 1 else records, labels, show_progress())
     units, param_units = diagnosis.units, diagnosis.param_units
     start = f"the model in {args.model}" if args.model is not None else "inertia, input gain"
     if len(records) == 1:

@@ -11,11 +11,10 @@ from __future__ import annotations
 
 import argparse
 import os
-from dataclasses import fields
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from .doctor import add_doctor_options, doctor_job_from_args
+from .doctor import add_doctor_options, doctor_options_from_args
 from .identification import add_identify_options, identify_options_from_args
 from .options import (
     RECORD_FILES,
@@ -26,18 +25,9 @@ from .options import (
     hold_out_folder,
     number,
     positive,
+    read_options_from_args,
 )
 from .report import emit_json, frame_records, say, say_error, show_progress
-
-if TYPE_CHECKING:
-    from motorid.fleet import ReadOptions
-
-
-def read_options_from_args(args: argparse.Namespace) -> ReadOptions:
-    """The record options (:func:`.options.add_record_columns`) as :class:`motorid.fleet.ReadOptions`."""
-    from motorid.fleet import ReadOptions
-
-    return ReadOptions(**{f.name: getattr(args, f.name) for f in fields(ReadOptions)})
 
 
 def _run(args: argparse.Namespace, command: str) -> int:
@@ -51,7 +41,7 @@ def _run(args: argparse.Namespace, command: str) -> int:
         create_estimator(job.estimator, job)  # a bad option stops before any work
         start_model(job)  # and a bad --model
     else:
-        job = doctor_job_from_args(args)
+        job = doctor_options_from_args(args)
     read = read_options_from_args(args)  # a bad span stops before any work too
     per_drive = getattr(args, "per_drive", False)
     paths = find_records(args.records)

@@ -38,8 +38,8 @@ from .options import (
     hold_out_folder,
     int_range,
     number,
+    read_options_from_args,
     read_record_from_args,
-    record_options_from_args,
 )
 from .report import emit_json, frame_records, say, say_params, show_progress
 
@@ -73,8 +73,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
     if args.save_model:
         check_out_file(args.save_model, args.overwrite, "--save-model")
     if record is None:
-        reading = record_options_from_args(args)
-        payload, tests, est = identify_file(args.data, options, reading, args.max_samples)
+        payload, tests, est = identify_file(args.data, options, read_options_from_args(args))
     else:
         payload, tests, est = identify_record(record, options, source=str(args.data), input=args.input,
                                               output=args.output)  # fmt: skip

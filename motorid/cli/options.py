@@ -10,6 +10,7 @@ import argparse
 import math
 import os
 from collections.abc import Callable, Iterator
+from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
@@ -17,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.app.identify import PAPER_ORDER
+from motorid.app.reading import ReadOptions
 from motorid.errors import DataError
 from motorid.units import INPUT_UNITS, OUTPUT_UNITS
 
@@ -151,35 +153,20 @@ def separator(text: str) -> str:
     return value
 
 
+def read_options_from_args(args: argparse.Namespace) -> ReadOptions:
+    """The record options (:func:`add_record_columns`) as :class:`motorid.app.ReadOptions`."""
+    return ReadOptions(**{f.name: getattr(args, f.name) for f in fields(ReadOptions)})
+
+
 def read_record_from_args(args: argparse.Namespace, min_samples: int = 20) -> pd.DataFrame:
     """Read the record named by :func:`add_record_input`'s options, with columns ``t`` [s], ``u``, ``y``.
 
-    :func:`motorid.records.read_record` with the options by their names: the time
+    :meth:`motorid.app.ReadOptions.read` with the options by their names: the time
     column is optional when the sample time is known (``--dt``, the file's attrs),
     and the input and output are converted to motorid's units as they are read; then the
-    span of ``--start``/``--stop`` is kept (:func:`trim_from_args`).
+    span of ``--start``/``--stop`` is kept.
     """
-    from motorid.records import read_record
-
-    record = read_record(
-        args.data,
-        min_samples=min_samples,
-        max_samples=args.max_samples,
-        other_columns=False,
-        **record_options_from_args(args),
-    )
-    return trim_from_args(record, args, min_samples)
-
-
-def record_options_from_args(args: argparse.Namespace) -> dict[str, Any]:
-    """The record options of :func:`add_record_columns` as the keyword arguments of
-    :func:`motorid.records.read_record` and :func:`motorid.record_chunks.iter_record`."""
-    return {
-        "dt": args.dt, "time": args.time, "input": args.input, "output": args.output,
-        "time_unit": args.time_unit, "input_unit": args.input_unit, "output_unit": args.output_unit,
-        "supply_voltage": args.supply_voltage, "input_full_scale": args.input_full_scale,
-        "resample": args.resample, "sep": args.sep, "decimal": args.decimal,
-    }  # fmt: skip
+    return read_options_from_args(args).read(args.data, min_samples)
 
 
 def iter_record_from_args(
@@ -187,41 +174,21 @@ def iter_record_from_args(
 ) -> Iterator[pd.DataFrame]:
     """The record of :func:`read_record_from_args` in consecutive blocks of ``chunk_rows`` rows
     (default :data:`motorid.record_chunks.CHUNK_ROWS`), each read, checked and converted as the
-    whole record is, with the same options (:func:`motorid.record_chunks.iter_record`);
+    whole record is, with the same options (:meth:`motorid.app.ReadOptions.iter_blocks`);
     ``--max-samples`` does not apply, since memory does not grow with the record. A record whose
     time stamps jitter raises :class:`motorid.errors.UniformGridError` (it is resampled
     whole: :func:`read_record_from_args`)."""
-    from motorid.record_chunks import CHUNK_ROWS, iter_record
-
-    return iter_record(
-        args.data,
-        min_samples=min_samples,
-        chunk_rows=chunk_rows or CHUNK_ROWS,
-        **record_options_from_args(args),
-    )
+    return read_options_from_args(args).iter_blocks(args.data, min_samples, chunk_rows)
 
 
 def add_trim_options(parser: argparse.ArgumentParser) -> None:
-    """--start and --stop: the span of each record a command uses (:func:`trim_from_args`)."""
+    """--start and --stop: the span of each record a command uses (:class:`motorid.app.ReadOptions`)."""
     group = parser.add_argument_group("span")
     group.add_argument("--start", type=number(float, low=0.0, unit="s"), metavar="SECONDS",
                        help="leave out the samples before this time [s] of the record's time column "
                             "(without one: k dt from its first sample)")  # fmt: skip
     group.add_argument("--stop", type=number(float, low=0.0, low_open=True, unit="s"), metavar="SECONDS",
                        help="leave out the samples after this time [s]")  # fmt: skip
-
-
-def trim_from_args(record: pd.DataFrame, args: argparse.Namespace, min_samples: int = 2) -> pd.DataFrame:
-    """``record`` (read from ``args.data``) trimmed to ``--start``/``--stop`` (:func:`motorid.records.trim_record`).
-
-    The one place a command applies the span: :func:`read_record_from_args` calls it on every
-    record a command reads; a reader of its own (one that reads in blocks) calls it too, or
-    refuses the options by name.
-    """
-    from motorid.records import trim_record
-
-    start, stop = getattr(args, "start", None), getattr(args, "stop", None)
-    return trim_record(record, start, stop, args.data, min_samples=min_samples)
 
 
 def add_estimator_options(parser: argparse.ArgumentParser, repeatable: bool = False) -> None:

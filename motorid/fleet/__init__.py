@@ -7,6 +7,8 @@
 - :func:`~motorid.fleet.runner.run` with a :class:`~motorid.fleet.jobs.DoctorJob` or
   :class:`~motorid.fleet.jobs.IdentifyJob` (and :class:`~motorid.fleet.jobs.ReadOptions`):
   a whole run from Python, per record or (the doctor) per drive, as ``motorid fleet`` does;
+  the jobs are the application layer's options (:class:`motorid.app.DoctorOptions`,
+  :class:`motorid.app.IdentifyOptions`, :class:`motorid.app.ReadOptions`) under the fleet's names;
 - :func:`~motorid.fleet.results.load_results`: the results table;
 - :func:`~motorid.fleet.trend.friction_trends` and :func:`~motorid.fleet.trend.flag_drives`:
   friction against time per drive, the drives whose friction rose or that grew an effect.

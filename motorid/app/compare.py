@@ -1,0 +1,300 @@
+"""``motorid compare``'s work on a record, with typed options: the command line calls it.
+
+- :class:`CompareOptions`: the options of ``motorid compare`` by their names (the low-speed
+  band and the samples skipped at the start);
+- :func:`compare`: on a DataFrame of the user's own, columns and units named as on the command
+  line: the ``--json`` payload of ``motorid compare``;
+- :func:`compare_file`: on a record file, read in blocks when every model's free run carries
+  from block to block (memory that does not grow with the record), else whole;
+- :func:`load_models`: the models to compare, from model files or as given.
+
+The comparison itself, each model run free on the record's input and scored, is
+:mod:`motorid.comparison`'s.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, fields
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+
+from motorid.app.identify import low_speed_band, output_band
+from motorid.app.reading import ReadOptions
+from motorid.errors import DataError
+
+if TYPE_CHECKING:
+    from motorid.comparison import Comparison
+
+logger = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class CompareOptions:
+    """``motorid compare``'s options by their names.
+
+    Attributes
+    ----------
+    low_speed_rpm : float
+        The low-speed band of the scores, ``|y| <`` this [rpm] on an output in rad/s
+        (any other output: 10 % of its largest magnitude, :func:`motorid.app.identify.low_speed_band`).
+    skip : int
+        Leading samples left out of the scores (the models start from rest), >= 0.
+    """
+
+    low_speed_rpm: float = 150.0
+    skip: int = 50
+
+    #: The command whose work this is.
+    command = "compare"
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.skip, int) or isinstance(self.skip, bool) or self.skip < 0:
+            raise DataError(f"skip must be an integer >= 0, got {self.skip!r}")
+        if not (isinstance(self.low_speed_rpm, int | float) and 0.0 < self.low_speed_rpm < float("inf")):
+            raise DataError(f"low_speed_rpm must be a speed > 0 [rpm], got {self.low_speed_rpm!r}")
+
+    @property
+    def min_samples(self) -> int:
+        """Fewest samples a record must hold: ``skip`` and :data:`motorid.comparison.MIN_SCORED_SAMPLES` to score."""
+        from motorid.comparison import MIN_SCORED_SAMPLES
+
+        return self.skip + MIN_SCORED_SAMPLES
+
+
+def load_models(models: Mapping[str, Any] | Sequence[str | os.PathLike[str]]) -> dict[str, Any]:
+    """The models to compare, by name: each model file loaded (:func:`motorid.load_model`).
+
+    Parameters
+    ----------
+    models : mapping or sequence
+        Model files, each named by its path as the command names it; or a mapping of names to
+        models (a drive model or an identified estimator) or to model files.
+    """
+    from motorid.estimators import load_model
+
+    if isinstance(models, str | os.PathLike):
+        raise DataError(
+            f"models must be a sequence of model files or a mapping of names to models, got {models!r}"
+        )
+    if not isinstance(models, Mapping):
+        for model in models:
+            if not isinstance(model, str | os.PathLike):
+                raise DataError(
+                    f"models: a {type(model).__name__} in a sequence has no name; give model files, "
+                    "or a mapping of names to models"
+                )
+    named = dict(models) if isinstance(models, Mapping) else {str(path): path for path in models}
+    return {
+        name: load_model(model) if isinstance(model, str | os.PathLike) else model
+        for name, model in named.items()
+    }
+
+
+def compare_file(
+    path: str | os.PathLike[str], models: Mapping[str, Any], options: CompareOptions, read: ReadOptions
+) -> tuple[Comparison, str, dict[str, str]]:
+    """``motorid compare`` on the record file ``path``: the comparison, the low-speed band in
+    words and the record's units.
+
+    The record is compared in blocks (:func:`compare_in_blocks`) when it can be, else read
+    whole (:func:`read_whole`) and compared by :func:`motorid.comparison.compare_models`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The record file.
+    models : mapping of str to model
+        Label -> a drive model or an identified estimator (:func:`load_models`).
+    options : CompareOptions
+        The low-speed band and the samples skipped.
+    read : ReadOptions
+        How the record is read.
+    """
+    from motorid.comparison import compare_models
+
+    streamed = compare_in_blocks(path, models, options, read)
+    if streamed is not None:
+        return streamed
+    record = read_whole(path, models, options, read)
+    units = record.attrs.get("units") or {}
+    _, threshold, band = low_speed_band(record, options.low_speed_rpm)
+    return compare_models(record, models, threshold, options.skip), band, units
+
+
+def compare_in_blocks(
+    path: str | os.PathLike[str], models: Mapping[str, Any], options: CompareOptions, read: ReadOptions
+) -> tuple[Comparison, str, dict[str, str]] | None:
+    """:func:`motorid.comparison.compare_blocks` on the record ``path`` read in blocks
+    (:meth:`ReadOptions.iter_blocks`), in memory that does not grow with the record:
+    the comparison, the low-speed band in words and the record's units. An output in another
+    unit than rad/s takes one more pass, for its largest magnitude (the low-speed band,
+    :func:`motorid.app.identify.output_band`).
+
+    None when the record is compared whole instead (:func:`read_whole`): a span (``start``,
+    ``stop``), a model whose free run takes the record whole (a friction filter), a record
+    of positions (its band is judged on the speed derived from them) or one whose time stamps
+    jitter (it is put on a uniform grid, whole); the log says why.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The record file.
+    models : mapping of str to model
+        Label -> model.
+    options : CompareOptions
+        The low-speed band and the samples skipped.
+    read : ReadOptions
+        How the record is read.
+    """
+    from motorid.comparison import POSITION_UNITS, compare_blocks, runs_in_blocks
+    from motorid.errors import UniformGridError
+
+    if read.spanned or not all(map(runs_in_blocks, models.values())):
+        return None
+    try:
+        first = next(read.iter_blocks(path, min_samples=options.min_samples))
+        units = dict(first.attrs.get("units") or {})
+        unit = units.get("y")
+        if unit in POSITION_UNITS:
+            logger.info(
+                "%s: a record of positions, compared whole (--max-samples %d)", path, read.max_samples
+            )
+            return None
+        largest = None
+        if unit != "rad/s":
+            largest = max(float(np.max(np.abs(b["y"].to_numpy()))) for b in read.iter_blocks(path))
+        _, threshold, band = output_band(unit, options.low_speed_rpm, largest)
+        blocks = read.iter_blocks(path, min_samples=options.min_samples)
+        return compare_blocks(blocks, models, threshold, options.skip), band, units
+    except UniformGridError as exc:
+        logger.info("%s: compare reads it whole (--max-samples %d)", exc, read.max_samples)
+        return None
+
+
+def read_whole(
+    path: str | os.PathLike[str], models: Mapping[str, Any], options: CompareOptions, read: ReadOptions
+) -> pd.DataFrame:
+    """The record ``path`` read whole, for a comparison that cannot be made in blocks
+    (:func:`compare_in_blocks`): a span of it (``start``, ``stop``) or, within
+    ``max_samples``, the record.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The record file.
+    models : mapping of str to model
+        Label -> model (named in the message when one takes a long record whole).
+    options : CompareOptions
+        The samples skipped (the record must hold more).
+    read : ReadOptions
+        How the record is read.
+
+    Raises
+    ------
+    DataError
+        For a record longer than ``max_samples``, naming what takes it whole.
+    """
+    from motorid.comparison import model_kind, runs_in_blocks
+
+    if read.spanned:
+        return read.read(path, min_samples=options.min_samples)
+    record, more = read.read_segment(path, min_samples=options.min_samples)
+    if more:
+        whole = [
+            f"the free run of {name} ({model_kind(m)})" for name, m in models.items() if not runs_in_blocks(m)
+        ]
+        raise DataError(
+            f"{path}: longer than --max-samples {read.max_samples}, and "
+            f"{whole[0] if whole else 'a record of positions'} takes the record whole: raise --max-samples"
+        )
+    return record
+
+
+def compare(
+    record: pd.DataFrame,
+    models: Mapping[str, Any] | Sequence[str | os.PathLike[str]],
+    *,
+    time: str | None = None,
+    input: str = "u",
+    output: str = "y",
+    time_unit: str | None = None,
+    dt: float | None = None,
+    resample: bool = False,
+    input_unit: str | None = None,
+    input_full_scale: float | None = None,
+    output_unit: str | None = None,
+    supply_voltage: float | None = None,
+    **options: Any,
+) -> dict[str, Any]:
+    """``motorid compare`` on a DataFrame of the user's own: its ``--json`` payload.
+
+    The record is read as the command line reads a file with the same options
+    (:func:`motorid.records.normalise_record`: the named columns become ``t`` [s], ``u`` and
+    ``y`` in motorid's units), then each model runs free on its input and is scored
+    (:func:`motorid.comparison.compare_models`), so the result equals
+    ``motorid compare FILE --model ... --json`` on the same data written to a file (without its
+    ``record`` and ``figure``); the command reads a long file in blocks, whose scores are the
+    whole record's up to the rounding of running sums.
+
+    Parameters
+    ----------
+    record : pandas.DataFrame
+        The samples, one row each, with the time (or ``dt``), input and output columns.
+    models : mapping or sequence
+        Model files (named by their paths, as the command names them), or a mapping of names
+        to models or model files (:func:`load_models`).
+    time : str, optional
+        Name of the time column (default ``t``; none needed when ``dt`` is known).
+    input, output : str
+        Names of the input and output columns.
+    time_unit : {"s", "ms", "us", "ns"}, optional
+        Unit of the time column (default: the record's ``attrs["units"]["t"]``, else seconds).
+    dt : float, optional
+        Sample time [s]; a time column that says otherwise is refused.
+    resample : bool
+        Put a record with gaps on the uniform grid instead of refusing it.
+    input_unit, output_unit : str, optional
+        Units of the input and output columns, converted to motorid's
+        (:data:`motorid.units.INPUT_UNITS`, :data:`motorid.units.OUTPUT_UNITS`).
+    input_full_scale : float, optional
+        The count of full duty, for ``input_unit="counts"``.
+    supply_voltage : float, optional
+        Supply voltage [V] of a PWM drive: a duty in % (or counts) becomes volts.
+    **options :
+        The fields of :class:`CompareOptions` (``low_speed_rpm``, ``skip``).
+
+    Returns
+    -------
+    dict
+        ``samples``, ``scored_samples``, ``dt``, ``timing``, ``skip``, ``output_unit``,
+        ``low_speed_threshold`` and per model its FIT %, RMSE and low-speed RMSE
+        (:meth:`motorid.comparison.Comparison.to_dict`): what ``motorid compare --json`` prints.
+
+    Examples
+    --------
+    >>> compare(df, ["rig.json", "arx.json"], input="pwm", input_unit="%", supply_voltage=24,
+    ...         output="rpm", output_unit="rpm")  # doctest: +SKIP
+    """
+    from motorid.comparison import compare_models
+    from motorid.records import normalise_record
+
+    unknown = sorted(set(options) - {f.name for f in fields(CompareOptions)})
+    if unknown:
+        raise DataError(f"compare: unknown option {unknown[0]!r}")
+    settings = CompareOptions(**options)
+    loaded = load_models(models)
+    normalised = normalise_record(
+        record, time=time, input=input, output=output, time_unit=time_unit, dt=dt, resample=resample,
+        input_unit=input_unit, input_full_scale=input_full_scale, output_unit=output_unit,
+        supply_voltage=supply_voltage, min_samples=settings.min_samples,
+    )  # fmt: skip
+    _, threshold, _ = low_speed_band(normalised, settings.low_speed_rpm)
+    return compare_models(normalised, loaded, threshold, settings.skip).to_dict()
+
+
+__all__ = ["CompareOptions", "compare", "compare_file", "compare_in_blocks", "load_models", "read_whole"]

@@ -1,0 +1,255 @@
+"""``motorid doctor``'s work on a record, or on the records of one drive, with typed options:
+the command line and the fleet call it.
+
+- :class:`DoctorOptions`: the options of ``motorid doctor`` by their names (the fleet's
+  :class:`motorid.fleet.DoctorJob`); its :meth:`~DoctorOptions.diagnose` runs the doctor
+  (:func:`motorid.diagnose.diagnose`) on one record or on several records of one drive fitted
+  as one model;
+- :func:`doctor`: on a DataFrame of the user's own (or several), columns and units named as on
+  the command line: the ``--json`` payload of ``motorid doctor``;
+- :func:`start_model_from_file`: the drive model of a ``--model`` file (a rigid drive or a
+  two-mass rig), checked before any record is read.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal
+
+import pandas as pd
+
+from motorid.errors import DataError
+
+if TYPE_CHECKING:
+    from motorid.diagnose.results import Diagnosis
+    from motorid.drive import RigidDrive, TwoMassRig
+
+
+@dataclass(frozen=True)
+class DoctorOptions:
+    """``motorid doctor``'s options (:func:`motorid.diagnose.diagnose`'s arguments by the same names).
+
+    Attributes
+    ----------
+    output_kind : {"velocity", "position"}
+        What the output column is; a position is differentiated to a velocity.
+    input_gain : float, optional
+        Force or torque per input unit [N/V or N m/V], > 0; None: the forces come out per
+        input unit.
+    base : tuple of str, optional
+        Effects already in the model (:func:`motorid.drive.effects.names`); None: the
+        doctor's default base, or the effects of ``model``.
+    candidates : tuple of str, optional
+        Effects to try; None (or empty): every effect not in the base.
+    holdout : float
+        Share of the record held out for the held-out check, in (0, 0.9).
+    max_steps : int
+        Most effects added, >= 0.
+    timing : {"hold", "sampled", "auto"}, optional
+        Input/output timing; None: the record's ``attrs["timing"]``, else ``"hold"``.
+    structure : bool
+        Choose the input delay and lag from the record first; False is ``--no-structure``
+        (the base as given).
+    model : Path, optional
+        A drive model file to start from, a rigid drive (``motorid doctor --save-model`` writes
+        one) or a two-mass rig (``motorid simulate --save-model``); its effects are the base, so
+        ``base`` stays None.
+    """
+
+    output_kind: Literal["velocity", "position"] = "velocity"
+    input_gain: float | None = None
+    base: tuple[str, ...] | None = None
+    candidates: tuple[str, ...] | None = None
+    holdout: float = 0.3
+    max_steps: int = 3
+    timing: Literal["hold", "sampled", "auto"] | None = None
+    structure: bool = True
+    model: Path | None = None
+
+    #: The command whose work this is (a fleet's rows say it).
+    command = "doctor"
+
+    def __post_init__(self) -> None:
+        from motorid.drive.effects import names as effect_names
+
+        for key in ("base", "candidates"):
+            names = getattr(self, key)
+            if names is None:
+                continue
+            if isinstance(names, str):
+                raise DataError(f"{key} must be a sequence of effect names, got the text {names!r}")
+            object.__setattr__(self, key, tuple(names))
+            for name in names:
+                if name not in effect_names():
+                    raise DataError(
+                        f"{key}: unknown effect {name!r}; known effects: {', '.join(effect_names())}"
+                    )
+        if self.model is not None and self.base is not None:
+            raise DataError("base cannot be combined with model: the model's effects are the base")
+
+    def diagnose(
+        self, records: pd.DataFrame | Sequence[pd.DataFrame], labels: Sequence[str] | None = None,
+        progress: bool = False,
+    ) -> Diagnosis:  # fmt: skip
+        """The doctor on a record, or on several records of one drive fitted as one model.
+
+        Parameters
+        ----------
+        records : pandas.DataFrame or sequence of DataFrame
+            A record with columns ``t`` [s], ``u``, ``y`` (as :class:`ReadOptions` reads a file),
+            or the records of one drive.
+        labels : sequence of str, optional
+            A name for each record in the report (its file); default ``record 1``, ...
+        progress : bool
+            Show the doctor's progress bar on stderr.
+        """
+        from motorid.diagnose import diagnose
+
+        return diagnose(
+            records, input="u", output="y", output_kind=self.output_kind, input_gain=self.input_gain,
+            base=None if self.base is None else list(self.base),
+            candidates=None if not self.candidates else list(self.candidates), holdout=self.holdout,
+            max_steps=self.max_steps, progress=progress, timing=self.timing, model=self.start_model(),
+            structure=self.structure, labels=labels,
+        )  # fmt: skip
+
+    def start_model(self) -> Any:
+        """The drive model of the ``model`` file (None without one): a rigid drive, or a two-mass
+        rig that has a rigid equivalent; DataError for another model or a rig without one."""
+        if self.model is None:
+            return None
+        from motorid.drive import RigidDrive, TwoMassRig
+        from motorid.estimators import load_model
+
+        model = load_model(self.model)
+        if not isinstance(model, RigidDrive | TwoMassRig):
+            raise DataError(
+                f"--model {self.model}: holds a {type(model).__name__}; the doctor starts from a drive model "
+                "(a rigid drive motorid doctor --save-model wrote, or a two-mass rig motorid simulate "
+                "--save-model wrote)"
+            )
+        if isinstance(model, TwoMassRig):
+            try:
+                model.rigid_equivalent()  # the doctor searches on it
+            except ValueError as exc:
+                raise DataError(f"--model {self.model}: {exc}") from None
+        return model
+
+    def row(self, records: list[pd.DataFrame], labels: list[str], figures: Path | None) -> dict[str, Any]:
+        """The ``--json`` payload of the doctor on ``records`` (with ``named``, ``figures``): a
+        fleet's row (:class:`motorid.fleet.RecordTask`, :class:`motorid.fleet.DriveTask`).
+
+        Parameters
+        ----------
+        records : list of DataFrame
+            One record, or the records of one drive (columns ``t``, ``u``, ``y``).
+        labels : list of str
+            Each record's name (its file).
+        figures : Path, optional
+            The folder the doctor's figures are written into; None: none written.
+        """
+        diagnosis = self.diagnose(records[0] if len(records) == 1 else records, labels=labels)
+        written = diagnosis.write_figures(figures) if figures is not None else []
+        return {
+            **diagnosis.to_dict(),
+            "named": ",".join(diagnosis.named),
+            "figures": [str(f) for f in written],
+        }
+
+
+def doctor(
+    records: pd.DataFrame | Sequence[pd.DataFrame],
+    *,
+    labels: Sequence[str] | None = None,
+    time: str | None = None,
+    input: str = "u",
+    output: str = "y",
+    time_unit: str | None = None,
+    dt: float | None = None,
+    resample: bool = False,
+    input_unit: str | None = None,
+    input_full_scale: float | None = None,
+    output_unit: str | None = None,
+    supply_voltage: float | None = None,
+    **options: Any,
+) -> dict[str, Any]:
+    """``motorid doctor`` on a DataFrame of the user's own, or on several of one drive: its ``--json`` payload.
+
+    Each record is read as the command line reads a file with the same options
+    (:func:`motorid.records.normalise_record`: the named columns become ``t`` [s], ``u`` and
+    ``y`` in motorid's units, as the payload's ``settings`` name them), then doctored by :meth:`DoctorOptions.diagnose`, so the result
+    equals ``motorid doctor FILE... --json`` on the same data written to files (without its
+    ``figures`` and ``segment``: a DataFrame is never a segment), when ``labels`` are the files'
+    names.
+
+    Parameters
+    ----------
+    records : pandas.DataFrame or sequence of DataFrame
+        The samples, one row each, with the time (or ``dt``), input and output columns; several
+        records of one drive are fitted as one model.
+    labels : sequence of str, optional
+        A name for each record in the payload; default ``record 1``, ``record 2`` ...
+    time : str, optional
+        Name of the time column (default ``t``; none needed when ``dt`` is known).
+    input, output : str
+        Names of the input and output columns.
+    time_unit : {"s", "ms", "us", "ns"}, optional
+        Unit of the time column (default: the record's ``attrs["units"]["t"]``, else seconds).
+    dt : float, optional
+        Sample time [s]; a time column that says otherwise is refused.
+    resample : bool
+        Put a record with gaps on the uniform grid instead of refusing it.
+    input_unit, output_unit : str, optional
+        Units of the input and output columns, converted to motorid's
+        (:data:`motorid.units.INPUT_UNITS`, :data:`motorid.units.OUTPUT_UNITS`).
+    input_full_scale : float, optional
+        The count of full duty, for ``input_unit="counts"``.
+    supply_voltage : float, optional
+        Supply voltage [V] of a PWM drive: a duty in % (or counts) becomes volts.
+    **options :
+        The fields of :class:`DoctorOptions` (``base``, ``candidates``, ``input_gain``,
+        ``max_steps``, ``holdout``, ``timing``, ``structure``, ``model`` ...).
+
+    Returns
+    -------
+    dict
+        :meth:`motorid.diagnose.Diagnosis.to_dict`: the effects named, the gaps before and after
+        [output unit], the final model and its units, the stop reason, the noise floors: what
+        ``motorid doctor --json`` prints.
+
+    Examples
+    --------
+    >>> doctor(df, input="pwm", input_unit="%", supply_voltage=24, output="rpm", output_unit="rpm")  # doctest: +SKIP
+    """
+    from motorid.records import normalise_record
+
+    unknown = sorted(set(options) - {f.name for f in fields(DoctorOptions)})
+    if unknown:
+        raise DataError(f"doctor: unknown option {unknown[0]!r}")
+    settings = DoctorOptions(**options)
+    reading = {"time": time, "input": input, "output": output, "time_unit": time_unit, "dt": dt,
+               "resample": resample, "input_unit": input_unit, "input_full_scale": input_full_scale,
+               "output_unit": output_unit, "supply_voltage": supply_voltage}  # fmt: skip
+    several = not isinstance(records, pd.DataFrame)
+    normalised = [
+        normalise_record(record, **reading, min_samples=20) for record in (records if several else [records])
+    ]
+    diagnosis = settings.diagnose(normalised if several else normalised[0], labels=labels)
+    return diagnosis.to_dict()
+
+
+def start_model_from_file(path: Path) -> RigidDrive | TwoMassRig:
+    """The drive model of the model file ``path`` (``--model``): a rigid drive or a two-mass rig;
+    DataError for another model.
+
+    Parameters
+    ----------
+    path : Path
+        The model file.
+    """
+    return DoctorOptions(model=path).start_model()
+
+
+__all__ = ["DoctorOptions", "doctor", "start_model_from_file"]
