@@ -89,6 +89,39 @@ def test_doctor_rows_equal_the_single_doctor_command(doctor_run, fleet_folder, c
         assert got == expected, path.name
 
 
+def test_fleet_doctor_starts_from_a_two_mass_rig_as_the_single_command_does(
+    fleet_folder, address, tmp_path, capsys
+):
+    """``motorid fleet doctor --model rig.json``: each row is the single doctor's from that rig, the
+    search on its rigid equivalent and the improved rig in the row; a bad --model stops the run
+    before any work, the folder not made."""
+    from motorid.drive import paper_rig
+
+    paper_rig().save(tmp_path / "sheet.json")
+    two = records(fleet_folder)[:2]
+    out = tmp_path / "results"
+    argv = ["--model", str(tmp_path / "sheet.json"), "--max-steps", "1"]
+    assert main(["fleet", "doctor", *map(str, two), "--out", str(out), "--scheduler", address, "--no-figures",
+                 *argv]) == 0  # fmt: skip
+    rows = load_results(out).set_index("record")
+    for path in two:
+        row = rows.loc[os.path.abspath(path)]
+        assert row["status"] == "ok", row["error"]
+        expected = single_command_row(capsys, ["doctor", str(path), *argv])
+        expected.pop("figures", None)
+        assert "searched on the rigid equivalent of the two-mass rig" in expected["notes"]
+        assert (
+            expected["two_mass_rig.searched_on"] == "rigid equivalent"
+            and "two_mass_rig.improved.J_m" in expected
+        )
+        got = {k: (None if pd.isna(row[k]) else row[k]) for k in expected}
+        assert got == expected, path.name
+    (tmp_path / "est.json").write_text('{"format": "motorid-model"}', encoding="utf-8")
+    code = main(["fleet", "doctor", *map(str, two), "--out", str(tmp_path / "never"), "--scheduler", address,
+                 "--model", str(tmp_path / "est.json")])  # fmt: skip
+    assert code == 2 and "est.json" in capsys.readouterr().err and not (tmp_path / "never").exists()
+
+
 def test_identify_rows_equal_the_single_identify_command(fleet_folder, address, tmp_path, capsys):
     chosen = records(fleet_folder)[::6]
     listing = tmp_path / "some.txt"

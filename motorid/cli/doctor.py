@@ -48,7 +48,7 @@ def doctor_options_from_args(args: argparse.Namespace) -> DoctorOptions:
     """``motorid doctor``'s options as :class:`motorid.app.DoctorOptions` (effect names checked)."""
     base = effect_list(args.base, "--base") if args.base is not None else None
     candidates = effect_list(args.candidates, "--candidates") if args.candidates else None
-    model = getattr(args, "model", None)
+    model = args.model
     if model is not None and base is not None:
         raise DataError("--base cannot be combined with --model: the model's effects are the base")
     return DoctorOptions(
@@ -229,6 +229,9 @@ def add_doctor_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-structure", action="store_true",
                         help="keep the base as given: do not choose an input delay and lag from the record "
                              "before judging friction")  # fmt: skip
+    parser.add_argument("--model", type=Path, metavar="FILE",
+                        help="start from your own drive model file, a rigid drive or a two-mass rig (searched "
+                             "on its rigid equivalent): the first gap is it as given")  # fmt: skip
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
@@ -241,9 +244,6 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     add_doctor_options(p)
     p.add_argument("--out", type=Path, help="folder for the figures and the table (replaced if there)")
     add_wait(p)
-    p.add_argument("--model", type=Path, metavar="FILE",
-                   help="start from your own drive model file, a rigid drive or a two-mass rig (searched on "
-                        "its rigid equivalent): the first gap is it as given")  # fmt: skip
     p.add_argument("--validate", type=Path, metavar="FILE",
                    help="a second record of the same drive (read with the same options): the models "
                         "found are scored on it without refitting")  # fmt: skip

@@ -42,6 +42,7 @@ def _run(args: argparse.Namespace, command: str) -> int:
         start_model(job)  # and a bad --model
     else:
         job = doctor_options_from_args(args)
+        job.start_model()  # a bad --model stops before any work
     read = read_options_from_args(args)  # a bad span stops before any work too
     per_drive = getattr(args, "per_drive", False)
     paths = find_records(args.records)
