@@ -31,9 +31,6 @@ PACKAGE = Path(motorid.__file__).parent
 UNDOCUMENTED: set[str] = {
     "motorid.diagnose.kinematics.filtered_noise",
     "motorid.diagnose.kinematics.noise_bands",
-    "motorid.fleet.runner.FleetRun",
-    "motorid.fleet.runner.fleet_client",
-    "motorid.fleet.runner.pending_records",
 }
 
 

@@ -181,6 +181,24 @@ def test_no_import_goes_up_a_layer():
     assert gone == [], "listed in UPWARD but no longer there: take them out of the list"
 
 
+#: What the drive package may import of motorid besides itself: the design's errors and units, and
+#: the checked reading and whole writing of files its model files need (json_input, outputs). The
+#: physics of a drive stands on nothing else of the package.
+DRIVE_MAY_IMPORT = ("motorid.errors", "motorid.units", "motorid.json_input", "motorid.outputs")
+
+
+def test_the_drive_imports_nothing_of_motorid_but_errors_units_and_file_io():
+    found = {
+        f"{module} imports {target} (line {line})"
+        for module, targets in GRAPH.items()
+        if module == "motorid.drive" or module.startswith("motorid.drive.")
+        for target, line in targets.items()
+        if not (target == "motorid.drive" or target.startswith("motorid.drive."))
+        and target not in DRIVE_MAY_IMPORT
+    }
+    assert sorted(found) == []
+
+
 def test_no_two_modules_import_each_other():
     mutual = {
         frozenset({module, target})

@@ -46,6 +46,13 @@ def fleet_client(scheduler: str | None = None, workers: int | None = None) -> It
 
     The LocalCluster has ``workers`` processes (default: the machine's cores), one thread
     each, and no dashboard; it is closed on exit, as is the client.
+
+    Parameters
+    ----------
+    scheduler : str, optional
+        The address of a running scheduler; None starts a LocalCluster.
+    workers : int, optional
+        Worker processes of the LocalCluster (default: the machine's cores).
     """
     # the cluster's own log (start and stop, a worker lost and its tasks rerun) at the level the caller
     # gave the "distributed" logger (motorid's command line: critical only, all with -v); dask resets
@@ -89,7 +96,17 @@ def pending_records(
     retry_failed: bool = False,
 ) -> list[str]:
     """The absolute paths of ``paths`` that have no row in ``out``'s results (with ``retry_failed``,
-    no successful row): what a run has to do."""
+    no successful row): what a run has to do.
+
+    Parameters
+    ----------
+    paths : sequence of path
+        The run's record files.
+    out : path or ResultsStore
+        The run folder, or its open store.
+    retry_failed : bool
+        Count a record whose row is a failure as still to do.
+    """
     store = out if isinstance(out, ResultsStore) else ResultsStore(out)
     previous = store.rows()
     kept = previous if not retry_failed else previous[previous["status"] == "ok"]
@@ -104,6 +121,21 @@ class FleetRun:
     In a run per drive (:func:`run_fleet_per_drive`), ``drives`` is the number of drives and
     ``skipped``, ``done`` and ``failed`` count drives (a record that cannot be read is a failed
     drive of its own).
+
+    Attributes
+    ----------
+    records : int
+        Records found.
+    skipped : int
+        Already in the results (records, or drives in a run per drive).
+    done : int
+        Computed in this run.
+    failed : int
+        Whose row is a failure.
+    seconds : float
+        Wall time of the run [s].
+    drives : int, optional
+        Drives, in a run per drive; None otherwise.
     """
 
     records: int
