@@ -106,7 +106,7 @@ rigid model's own error on a filtered record, which every signal shows, and the 
 weakest sines. Every record at or above a share of 7.0 % determines the inertia (191 of 191), 95 %
 of those at or above 3.6 %; at the limit of 7.5 %, 185 of 185 above it do and 22 of the 115 below
 it do not, so the limit stays. The kit motor's real sines are not moved by the compensation (their
-inertia rises by 0.2-0.5 %: the noise measured above the band is small there), and its 0.5 Hz
+inertia rises by 0.2-0.6 %: the noise measured above the band is small there), and its 0.5 Hz
 sines still fit the inertia 11-16 % below what the same records give in a 10 Hz band: the real
 encoder's speed carries something below the cut-off that its noise above the band does not show.
 """
