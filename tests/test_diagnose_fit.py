@@ -1,5 +1,5 @@
-"""The doctor's balance fit against plain NumPy references: the least-squares solve and its
-covariance, the dropped column, and the per-model results the workflow keeps (decimated
+"""The doctor's balance fit against plain NumPy references: the solve (least squares compensated
+for the acceleration's noise) and its covariance, the dropped column, and the per-model results the workflow keeps (decimated
 balance, gaps) returned for the model asked about and no other."""
 
 from __future__ import annotations
@@ -34,7 +34,16 @@ def reference_target(prep) -> np.ndarray:
     return kin.decimate(held)
 
 
-def test_the_balance_solve_equals_plain_least_squares_and_its_inverse_normal_matrix(prep):
+def compensation(data, rows, k: int) -> np.ndarray:
+    """D: the noise the fitted rows put on the inertia's entry of XᵀX, M σ_a²."""
+    D = np.zeros((k, k))
+    D[0, 0] = rows.sum() * data.accel_noise
+    return D
+
+
+def test_the_balance_solve_equals_the_compensated_normal_equations_and_their_inverse(prep):
+    """θ = (XᵀX - D)⁻¹ Xᵀy, solved by NumPy from the columns written out; the record's speed is
+    noisy, so the compensation is not nil (and without it, plain least squares fits a lower J)."""
     data = prep.data
     rows = data.moving
     solve = _linear_solve(
@@ -43,11 +52,14 @@ def test_the_balance_solve_equals_plain_least_squares_and_its_inverse_normal_mat
     names = ["offset", "coulomb", "viscous"]  # the solve puts an offset first, then the library order
     X = reference_columns(prep, names)[rows]
     y = reference_target(prep)[rows]
-    theta, *_ = np.linalg.lstsq(X, y, rcond=None)
-    cov = np.linalg.inv(X.T @ X)
+    normal = X.T @ X - compensation(data, rows, 4)
+    theta = np.linalg.solve(normal, X.T @ y)
+    cov = np.linalg.inv(normal)
+    plain, *_ = np.linalg.lstsq(X, y, rcond=None)
+    assert data.accel_noise > 0.0 and plain[0] < theta[0]
     unit = X / np.linalg.norm(X, axis=0)
-    # two algorithms (QR of the unit-norm columns; SVD) agree to about cond * 1e-16 relative: the
-    # tolerance holds for a condition number up to 1e5, checked here
+    # two ways to the normal matrix (the QR factor of the unit-norm columns; XᵀX written out) agree
+    # to about cond² * 1e-16 relative: the tolerance holds for a condition number up to 1e3, checked
     assert np.linalg.cond(unit) < 1e3
     assert list(solve.theta) == ["inertia", *names]
     np.testing.assert_allclose(list(solve.theta.values()), theta, rtol=1e-10)
@@ -90,11 +102,12 @@ def test_a_column_that_repeats_the_offset_is_dropped_with_zero_estimate_and_cova
     assert not cov[dropped].any() and not cov[:, dropped].any()
     kept = [n for n in names[1:] if n != "coulomb_asymmetry"]
     X = reference_columns(prep, kept)[data.moving]
-    theta, *_ = np.linalg.lstsq(X, reference_target(prep)[data.moving], rcond=None)
+    normal = X.T @ X - compensation(data, data.moving, X.shape[1])
+    theta = np.linalg.solve(normal, X.T @ reference_target(prep)[data.moving])
     rest = [i for i in range(len(names)) if i != dropped]
-    # as above: QR against SVD on a well-conditioned matrix
+    # as above: two algorithms on a well-conditioned matrix
     np.testing.assert_allclose([solve.theta[n] for n in ["inertia", *kept]], theta, rtol=1e-10)
-    np.testing.assert_allclose(cov[np.ix_(rest, rest)], np.linalg.inv(X.T @ X), rtol=1e-10)
+    np.testing.assert_allclose(cov[np.ix_(rest, rest)], np.linalg.inv(normal), rtol=1e-10)
 
 
 def test_each_model_gets_its_own_balance_and_gaps_not_another_ones(prep):

@@ -30,12 +30,13 @@ def drive():
     ]
 
 
-def test_a_pooled_fit_is_the_least_squares_of_the_stacked_rows(drive):
-    """Independent reference: numpy's SVD least squares on each record's moving rows stacked."""
+def test_a_pooled_fit_is_the_compensated_least_squares_of_the_stacked_rows(drive):
+    """Independent reference: the normal equations of each record's moving rows stacked, solved by
+    numpy, the inertia's entry less each record's noise on its rows (M_r σ_a,r²)."""
     effects = ("viscous_friction", "coulomb_friction", "offset")
     preps = [prepare(p.record, input_gain=p.input_gain) for p in drive]
     fit = fit_model(PooledBalance(tuple(q.data for q in preps), preps[0].kin.noise), effects)
-    rows, target = [], []
+    rows, target, noise = [], [], 0.0
     for q in preps:
         kin, data = q.kin, q.data
         cols = [data.a] + [
@@ -46,10 +47,16 @@ def test_a_pooled_fit_is_the_least_squares_of_the_stacked_rows(drive):
         held = np.append(0.5 * (force[:-1] + force[1:]), force[-1])  # force held over a sample
         rows.append(np.column_stack(cols)[data.moving])
         target.append(kin.decimate(held)[data.moving])
-    theta, *_ = np.linalg.lstsq(np.vstack(rows), np.concatenate(target), rcond=None)
+        noise += int(data.moving.sum()) * data.accel_noise
+    X, y = np.vstack(rows), np.concatenate(target)
+    normal = X.T @ X
+    normal[0, 0] -= noise
+    theta = np.linalg.solve(normal, X.T @ y)
+    assert noise > 0.0
     got = [fit.model.params[k] for k in ("inertia", "coulomb", "viscous", "offset")]
-    # QR and SVD solutions of a problem with condition number ~1e4 agree to ~1e-12 relative;
-    # the offset is near 0, so it is held absolutely, at 1e-9 of the Coulomb level
+    # two ways to the normal equations of a problem with condition number ~1e4 (the QR factor of
+    # the unit columns; XᵀX written out in the columns' units) agree to ~1e-9 relative; the offset
+    # is near 0, so it is held absolutely, at 1e-9 of the Coulomb level
     np.testing.assert_allclose(got[:3], theta[:3], rtol=1e-8)
     assert got[3] == pytest.approx(theta[3], abs=1e-9 * COULOMB)
     assert fit.n_rows == sum(int(q.data.moving.sum()) for q in preps)

@@ -23,6 +23,13 @@ benchmark publishes its reference model with):
 
 The default band is ``f_b = min(40 Hz, f_s / 10)``: for EMPS (1 kHz) this is
 the published recipe (100 Hz cut-off, decimation by 10).
+
+A measured speed's noise is noise in the acceleration, a regressor of the balance, and least
+squares pulls a noisy regressor's coefficient towards zero (errors in variables): a slow sine's
+inertia comes out low. The noise of a speed record is measured above the band (the white part of
+:attr:`Kinematics.hf`), and what the recipe makes of white noise is known
+(:func:`acceleration_noise_gain`), so the noise variance of the decimated acceleration is known
+(:func:`acceleration_noise`) and the fit can take it out (:mod:`motorid.diagnose.model`).
 """
 
 from __future__ import annotations
@@ -268,6 +275,81 @@ def filtered_noise(hf: np.ndarray, cutoff: float, dt: float) -> float:
     return sigma * math.sqrt(min(1.0, 2.0 * cutoff * dt))
 
 
+def white_noise_variance(kin: Kinematics, samples: np.ndarray) -> float:
+    """Per-sample variance σ² [v²] of the white noise on the measured velocity of a velocity record
+    ``kin`` at the full-rate ``samples`` (bool), from its high-frequency part (:attr:`Kinematics.hf`,
+    the velocity less its low-pass at ``f_h = min(0.45 / dt, 10 f_b)``)::
+
+        σ² = mean(hf²) / Σ_k g[k]²
+
+    ``g`` the impulse response of that high-pass (1 minus the zero-phase Butterworth low-pass at
+    ``f_h``): the share of white noise's variance it keeps. 0 with no sample.
+
+    Parameters
+    ----------
+    kin : Kinematics
+        A record's kinematics.
+    samples : ndarray of bool, shape (N,)
+        The samples the noise is measured on (an encoder's grows with speed).
+    """
+    hf = kin.hf[samples]
+    if hf.size == 0:
+        return 0.0
+    return float(np.mean(hf**2)) / _high_pass_gain(kin.dt, kin.band)
+
+
+@functools.cache
+def _high_pass_gain(dt: float, band: float) -> float:
+    """``Σ_k g[k]²`` of :func:`white_noise_variance`'s high-pass (sample time ``dt`` [s], band [Hz])."""
+    cutoff = min(0.45 / dt, 4.0 * 2.5 * band)
+    n = 2 * (math.ceil(40.0 / (cutoff * dt)) + 40) + 1
+    impulse = np.zeros(n)
+    impulse[n // 2] = 1.0
+    return float(np.sum((impulse - lowpass(impulse, dt, cutoff)) ** 2))
+
+
+@functools.cache
+def acceleration_noise_gain(dt: float, band: float) -> float:
+    """Variance of the decimated acceleration per unit variance of white noise on a measured
+    velocity [1/s²]: ``G = Σ_k h[k]²``, ``h`` the impulse response of the velocity recipe (the
+    low-pass at ``2.5 band``, the central difference, the decimation's anti-alias filter).
+
+    Parameters
+    ----------
+    dt : float
+        Sample time [s].
+    band : float
+        Useful band f_b [Hz].
+    """
+    factor = decimation_factor(dt, band)
+    n = 2 * (math.ceil(40.0 / (2.5 * band * dt)) + 40 * factor) + 1
+    impulse = np.zeros(n)
+    impulse[n // 2] = 1.0
+    h = anti_alias(np.gradient(lowpass(impulse, dt, 2.5 * band), dt), factor)
+    return float(np.sum(h**2))
+
+
+def acceleration_noise(kin: Kinematics, samples: np.ndarray) -> float:
+    """Variance [v²/s²] of the noise on the decimated acceleration of a velocity record, the
+    measured velocity's noise white of variance σ² at the full-rate ``samples``::
+
+        var(a_noise) = σ² G(dt, f_b)
+
+    (:func:`white_noise_variance`, :func:`acceleration_noise_gain`). 0 for a position record: its
+    noise is on the position, which this does not describe.
+
+    Parameters
+    ----------
+    kin : Kinematics
+        A record's kinematics.
+    samples : ndarray of bool, shape (N,)
+        The samples the noise is measured on.
+    """
+    if kin.output_kind != "velocity":
+        return 0.0
+    return white_noise_variance(kin, samples) * acceleration_noise_gain(kin.dt, kin.band)
+
+
 def noise_bands(
     speed: np.ndarray, hf: np.ndarray, edges: np.ndarray, band: float, dt: float
 ) -> list[dict[str, float]]:
@@ -315,6 +397,8 @@ def quantisation_step(y: np.ndarray) -> float | None:
 
 __all__ = [
     "Kinematics",
+    "acceleration_noise",
+    "acceleration_noise_gain",
     "anti_alias",
     "decimation_factor",
     "default_band",
@@ -323,5 +407,6 @@ __all__ = [
     "lowpass",
     "noise_bands",
     "quantisation_step",
+    "white_noise_variance",
     "zero_phase",
 ]

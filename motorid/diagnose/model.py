@@ -12,6 +12,19 @@ of w) of::
 
     F_in,d = J a_d + Σ_i θ_i c_i,d                                        (linear part)
 
+bias-compensated for the noise in the acceleration: ``a_d`` is the derivative of the measured
+speed, and its noise (variance ``σ_a²`` per row, :func:`~motorid.diagnose.kinematics.acceleration_noise`)
+would pull J towards zero by ``σ_a² / var(a_d)`` (errors in variables: a slow sine's inertia
+comes out low). With ``X`` the columns on the M fitted rows and ``D`` zero but for the inertia's
+entry ``M σ_a²`` (per record in a pool)::
+
+    θ = (XᵀX - D)⁻¹ Xᵀ F_in,d
+
+which is least squares when the record's noise is nil (a position record: its noise is on the
+position, where this estimate of σ_a² does not hold). The friction columns are functions of the
+filtered speed, whose noise is far smaller than its signal, and their noise is uncorrelated with
+the acceleration's at the same instant; they are not compensated.
+
 and, for effects with shape parameters (Stribeck velocity, dead zone,
 saturation level, backlash time), a coarse logarithmic grid refined by a
 bounded scalar search around the best point (SciPy's bounded Brent search),
@@ -39,7 +52,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from motorid.diagnose.kinematics import Kinematics
+from motorid.diagnose.kinematics import Kinematics, acceleration_noise
 from motorid.drive.effects import Effect, effect_order
 from motorid.drive.effects import get as get_effect
 from motorid.drive.rigid import RigidDrive
@@ -64,6 +77,12 @@ class BalanceData:
         g: force per input unit [F/u].
     rows : ndarray of bool, optional
         Decimated samples used in fits (default: the moving ones).
+
+    Attributes
+    ----------
+    accel_noise : float
+        Variance of the noise on the decimated acceleration over the moving samples [v²/s²]
+        (:func:`~motorid.diagnose.kinematics.acceleration_noise`), taken out of the fit.
     """
 
     kin: Kinematics
@@ -73,6 +92,7 @@ class BalanceData:
     w: np.ndarray = field(init=False)
     moving: np.ndarray = field(init=False)
     w_threshold: float = field(init=False)
+    accel_noise: float = field(init=False)
     scale: dict[str, float] = field(init=False)
     _cache: dict = field(init=False, default_factory=dict, repr=False)
 
@@ -89,6 +109,7 @@ class BalanceData:
         width = 2 * half + 1
         near_slow = np.convolve(slow, np.ones(width), mode="same") > 0
         self.moving = ~near_slow[self.idx]
+        self.accel_noise = acceleration_noise(kin, kin.valid & ~near_slow)
         u = kin.u[kin.valid] if kin.valid.any() else kin.u
         self.scale = {
             "w_max": w_max,
@@ -267,8 +288,8 @@ class LinearSolve:
 
     ``theta`` are the linear parameters θ [their units], ``rss`` the residual sum of squares on
     the fitted rows [F²], ``rank`` the number of columns kept, ``residual`` ``F_in - X θ`` on
-    every decimated sample [F]. ``R_kept`` holds the columns kept (indices ``keep``) of the
-    triangular factor of the unit-norm columns, whose norms are ``norms``.
+    every decimated sample [F]. ``gram`` is the compensated normal matrix ``XsᵀXs - Ds`` of the
+    unit-norm columns kept (indices ``keep``), whose norms are ``norms``.
 
     Attributes
     ----------
@@ -280,8 +301,8 @@ class LinearSolve:
         Columns kept.
     residual : ndarray
         ``F_in - X θ`` on every decimated sample [F].
-    R_kept : ndarray
-        The kept columns of the triangular factor of the unit-norm columns.
+    gram : ndarray
+        The compensated normal matrix of the kept unit-norm columns.
     keep : ndarray
         Indices of the kept columns.
     norms : ndarray
@@ -295,23 +316,22 @@ class LinearSolve:
     rss: float
     rank: int
     residual: np.ndarray
-    R_kept: np.ndarray
+    gram: np.ndarray
     keep: np.ndarray
     norms: np.ndarray
     X: np.ndarray
 
     def unit_cov(self) -> np.ndarray:
-        """C = (XᵀX)⁻¹ over the columns kept (zero rows and columns for a dropped one), in the
+        """C = (XᵀX - D)⁻¹ over the columns kept (zero rows and columns for a dropped one), in the
         parameters' units: θ's covariance is σ² C. Asked for by the final fit only.
 
-        XsᵀXs = RᵀR on the kept unit columns; unscaling column j divides its row and column of
-        the inverse by norm_j.
+        Unscaling unit column j divides its row and column of the inverse by norm_j.
         """
         k = self.norms.size
         if self.keep.size == 0:
             return np.zeros((k, k))
         norms = self.norms[self.keep]
-        cov = np.linalg.inv(self.R_kept.T @ self.R_kept) / np.outer(norms, norms)
+        cov = np.linalg.inv(self.gram) / np.outer(norms, norms)
         if self.keep.size == k:
             return cov
         unit_cov = np.zeros((k, k))
@@ -441,14 +461,35 @@ def _linear_solve(
     keep = np.flatnonzero(np.abs(np.diag(R)[:k]) > 1e-3)
     theta = np.zeros(k)
     kept = R[:, keep]
+    gram = kept.T @ kept
     if keep.size:
         sol, *_ = np.linalg.lstsq(kept, R[:, k], rcond=None)
+        noise = _acceleration_noise_sum(data, rows)
+        if noise > 0.0 and keep[0] == 0:
+            # the inertia's unit column: its noise, M σ_a², divided by its squared norm
+            compensated = gram.copy()
+            compensated[0, 0] -= noise / norms[0] ** 2
+            if np.all(np.linalg.eigvalsh(compensated) > 0.0):
+                sol = np.linalg.solve(compensated, kept.T @ R[:, k])
+                gram = compensated
+            else:
+                logger.info("the acceleration's noise is as large as its signal: the fit is not compensated")
         theta[keep] = sol / norms[keep]
     residual = target - X @ theta
     rss = float(np.sum(residual.take(fitted) ** 2))
     return LinearSolve(
-        dict(zip(names, theta.tolist(), strict=True)), rss, int(keep.size), residual, kept, keep, norms, X
+        dict(zip(names, theta.tolist(), strict=True)), rss, int(keep.size), residual, gram, keep, norms, X
     )
+
+
+def _acceleration_noise_sum(data: BalanceData | PooledBalance, rows: np.ndarray) -> float:
+    """``Σ_records M_r σ_a,r²``: the noise the fitted ``rows`` (M_r of record r) put on the
+    acceleration's normal-matrix entry [(v/s²)²]."""
+    total, start = 0.0, 0
+    for part in data.parts:
+        total += int(np.count_nonzero(rows[start : start + part.n])) * part.accel_noise
+        start += part.n
+    return total
 
 
 #: Contiguous blocks of fitted rows in the block sandwich of :func:`linear_param_std`.
@@ -465,7 +506,10 @@ def linear_param_std(
     time shorter than a block: the fitted rows are cut into G = :data:`STD_BLOCKS` contiguous
     blocks b, and with the score of each, ``s_b = X_bᵀ r_b``, and C = (XᵀX)⁻¹::
 
-        Cov(θ) = G / (G - 1) · (n / (n - rank)) · C (Σ_b s_b s_bᵀ) C
+        Cov(θ) = G / (G - 1) · (n / (n - rank)) · C (Σ_b (s_b - s̄)(s_b - s̄)ᵀ) C
+
+    (s̄ the mean score: 0 for least squares; for the fit compensated for the acceleration's noise,
+    C = (XᵀX - D)⁻¹ and s̄ = -D θ / G, the compensation spread over the blocks by their rows).
 
     The balance residual of filtered, decimated signals is not white: a lag-1 (AR(1))
     correction sees the filter's correlation only, while a misfit that changes along the
@@ -481,7 +525,7 @@ def linear_param_std(
     names : list of str
         The linear parameters, in column order.
     unit_cov : ndarray
-        C = (XᵀX)⁻¹ of the columns, in the parameters' units.
+        C = (XᵀX - D)⁻¹ of the columns, in the parameters' units.
     residual : ndarray
         The balance residual on every decimated sample [F].
     rows : ndarray of bool
@@ -503,6 +547,7 @@ def linear_param_std(
         return {name: math.nan for name in names}
     r = residual[idx]
     scores = np.add.reduceat(X[idx] * r[:, None], np.linspace(0, idx.size, STD_BLOCKS + 1).astype(int)[:-1])
+    scores -= scores.mean(axis=0)
     meat = scores.T @ scores * (STD_BLOCKS / (STD_BLOCKS - 1)) * (idx.size / dof)
     cov = unit_cov @ meat @ unit_cov
     std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
