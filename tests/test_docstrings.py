@@ -6,11 +6,7 @@ constructor, documented in the class's or ``__init__``'s docstring) must appear 
 ``name : type`` at the start of a line (``a, b : float`` documents both; ``*args`` and
 ``**kwargs`` as ``*args :`` and ``**kwargs :``). Dataclass fields documented under
 ``Attributes`` count. Protocols (no constructor of their own) and exceptions that keep
-the built-in constructor are left out.
-
-What does not pass today is listed in :data:`UNDOCUMENTED`; the list only shrinks: a
-listed name whose parameters are now all documented fails the test, so it is taken
-out of the list.
+the built-in constructor are left out. There are no exceptions: every public name passes.
 """
 
 from __future__ import annotations
@@ -26,12 +22,6 @@ from typing import Any
 import motorid
 
 PACKAGE = Path(motorid.__file__).parent
-
-#: Public functions and classes whose docstrings do not yet document every parameter.
-UNDOCUMENTED: set[str] = {
-    "motorid.diagnose.kinematics.filtered_noise",
-    "motorid.diagnose.kinematics.noise_bands",
-}
 
 
 def module_names() -> list[str]:
@@ -105,12 +95,5 @@ def test_the_check_reads_numpydoc_entries():
 
 
 def test_public_functions_and_classes_document_their_parameters():
-    problems = docstring_problems()
-    new = [
-        f"{name}: {', '.join(missing)}"
-        for name, missing in sorted(problems.items())
-        if name not in UNDOCUMENTED
-    ]
-    fixed = sorted(UNDOCUMENTED - set(problems))
-    assert new == [], "public functions or classes whose docstrings miss parameters"
-    assert fixed == [], "documented now: take them out of UNDOCUMENTED"
+    problems = [f"{name}: {', '.join(missing)}" for name, missing in sorted(docstring_problems().items())]
+    assert problems == [], "public functions or classes whose docstrings miss parameters"

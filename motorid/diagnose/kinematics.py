@@ -270,7 +270,17 @@ def filtered_noise(hf: np.ndarray, cutoff: float, dt: float) -> float:
     """Standard deviation [v] of the noise left on the velocity low-passed at ``cutoff`` [Hz]
     (sample time ``dt`` [s]), from ``hf``, the part of the measured velocity above ``4 cutoff``:
     σ = std(hf) / sqrt(max(1 - min(8 f_c dt, 0.9), 0.1)) (hf misses the noise below 4 f_c), and
-    what the low-pass leaves of white noise of that σ: σ sqrt(min(1, 2 f_c dt))."""
+    what the low-pass leaves of white noise of that σ: σ sqrt(min(1, 2 f_c dt)).
+
+    Parameters
+    ----------
+    hf : numpy.ndarray
+        The measured velocity's part above ``4 cutoff`` [v].
+    cutoff : float
+        The low-pass's cut-off f_c [Hz].
+    dt : float
+        Sample time [s].
+    """
     sigma = float(np.std(hf)) * math.sqrt(max(1.0 - min(8.0 * cutoff * dt, 0.9), 0.1)) ** -1
     return sigma * math.sqrt(min(1.0, 2.0 * cutoff * dt))
 
@@ -357,7 +367,21 @@ def noise_bands(
     its upper edge), :func:`filtered_noise` of the ``hf`` of the samples in it (velocity filtered
     for the useful ``band`` [Hz]): an encoder's speed noise grows with speed, so one record-wide
     figure is too high near rest and too low at speed. Each band: ``speed_from``, ``speed_to``
-    [v], ``samples`` and ``noise_floor`` [v] (NaN for a band of fewer than 10 samples)."""
+    [v], ``samples`` and ``noise_floor`` [v] (NaN for a band of fewer than 10 samples).
+
+    Parameters
+    ----------
+    speed : numpy.ndarray
+        |velocity| at each sample [v].
+    hf : numpy.ndarray
+        The velocity's high-frequency part at each sample [v] (:attr:`Kinematics.hf`).
+    edges : numpy.ndarray
+        The band edges [v], increasing.
+    band : float
+        The record's useful band [Hz]: the noise is taken as left by a low-pass at 2.5 times it.
+    dt : float
+        Sample time [s].
+    """
     out = []
     for k, (lo, hi) in enumerate(itertools.pairwise(edges)):
         last = k == len(edges) - 2
