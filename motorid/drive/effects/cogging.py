@@ -29,6 +29,10 @@ class Cogging(Effect):
     the drive's: from the integral of a measured speed the true model's own free-run gap can stay
     several noise floors, so a final gap after cogging may still read as something missing. The
     friction filters do not hold it.
+
+    The doctor tries it on request (``candidates``): the evidence threshold was calibrated on
+    records without it, and on the EMPS record (a linear drive) its ripple passes the threshold
+    at the first step yet does not shrink the free-run gap.
     """
 
     name = "cogging"
@@ -39,6 +43,7 @@ class Cogging(Effect):
     )
     signature = "periodic in the position, the same at every pass of a position, in both directions"
     position = True
+    on_request = True
     derived_units: ClassVar[dict[str, str]] = {"cogging_amplitude": "F", "cogging_phase": "rad"}
     #: Position bins per shortest period searched, the zero padding of the spectrum, and the most
     #: bins (beyond, a bin holds more than a quarter period and the shortest periods go unseen).
