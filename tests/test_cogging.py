@@ -326,3 +326,27 @@ def test_the_doctor_tries_cogging_when_asked_only():
     assert "cogging" not in d.settings["candidates"]
     assert "cogging" not in d.named
     assert set(d.settings["candidates"]) == set(EVERY_CANDIDATE) - {*BASE, "cogging"}
+
+
+def test_motorid_doctor_names_cogging_when_its_candidates_ask_for_it(capsys, tmp_path):
+    """The command line as the README says: ``--candidates`` naming cogging; the JSON reports its
+    amplitude and phase beside its parameters, with their units (tolerance as the doctor's test)."""
+    from cli_fixtures import run
+
+    from motorid.records import write_record
+
+    write_record(cogging_record(1), tmp_path / "cog.csv")
+    base = ["--input-gain", "0.02", "--base", ",".join(BASE), "--json"]
+    code, out, err = run(
+        capsys, "doctor", str(tmp_path / "cog.csv"), *base, "--candidates", "cogging,stribeck_friction"
+    )
+    assert code == 0, err
+    assert [step["effect"] for step in out["steps"]] == ["cogging"]
+    assert out["steps"][0]["params"]["cogging_amplitude"] == pytest.approx(4e-3, rel=0.1)
+    assert out["units"]["params"]["cogging_phase"] == "rad"
+    code, out, err = run(capsys, "doctor", str(tmp_path / "cog.csv"), *base)
+    assert code == 0, err
+    # by default cogging is not tried (on this record the doctor then names stribeck_friction in its
+    # stead, measured: the ripple's residual is taken for another effect unless cogging is asked for)
+    assert "cogging" not in out["settings"]["candidates"]
+    assert "cogging" not in [step["effect"] for step in out["steps"]]
