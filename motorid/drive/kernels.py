@@ -1153,18 +1153,11 @@ def rigid_free_run(
     shape: int,
     w0: float,
     breakaway_excess: float = 0.0,
-    q0: float = 0.0,
-    ripple_sin: float = 0.0,
-    ripple_cos: float = 0.0,
-    ripple_periods: float = 0.0,
 ) -> np.ndarray:
     """Speed of a rigid drive at the end of each sample for the input force [F] held over it:
-    the speed of :func:`rigid_motion` from position ``q0`` (the speed depends on the position
-    only through a position ripple)."""
-    return rigid_motion(
-        force, dt, nsub, inertia, coef, rate, shape, w0, q0, breakaway_excess,
-        ripple_sin, ripple_cos, ripple_periods,
-    )[0]  # fmt: skip
+    the speed of :func:`rigid_motion` (from position 0; without a position ripple the speed does not
+    depend on it: a drive with one runs :func:`rigid_motion`)."""
+    return rigid_motion(force, dt, nsub, inertia, coef, rate, shape, w0, 0.0, breakaway_excess)[0]
 
 
 @numba.njit(cache=True)

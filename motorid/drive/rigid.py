@@ -424,7 +424,8 @@ class RigidDrive:
     def _free_run_setup(self, substeps: int | None) -> tuple:
         """The arguments of :func:`~motorid.drive.kernels.rigid_motion` other than the force and
         the start speed and position: ``(dt, substeps, J, coef, rate, shape, breakaway_excess,
-        ripple_sin, ripple_cos, ripple_periods)``."""
+        ripple)``, ``ripple`` = ``(ripple_sin, ripple_cos, ripple_periods)`` of a drive with a
+        position ripple, ``()`` without (the kernels' defaults: nothing passed, nothing evaluated)."""
         J = self.inertia
         coef = np.zeros(kernels.N_TERMS)
         for name, term in self.linear_terms():
@@ -435,30 +436,29 @@ class RigidDrive:
         rate = 1.0 / vs if vs > 0.0 else 1.0
         shape = kernels.STRIBECK_SHAPES.index(self.stribeck_shape)
         excess = self.params.get("breakaway_excess", 0.0)
-        return self.dt, int(substeps), J, coef, rate, shape, excess, *self._ripple()
+        ripple = self._ripple() if self.position_effects else ()
+        return self.dt, int(substeps), J, coef, rate, shape, excess, ripple
 
     @staticmethod
     def _free_run_force(setup: tuple, force: np.ndarray, w0: float, q0: float = 0.0) -> np.ndarray:
         """The free run from ``w0`` [v] and ``q0`` [v s] for the input force ``force`` [F] (NaN
         without a positive inertia)."""
-        dt, substeps, J, coef, rate, shape, excess, a_s, a_c, periods = setup
+        dt, substeps, J, coef, rate, shape, excess, ripple = setup
         if not J > 0.0:
             return np.full(force.size, np.nan)  # no free run without a positive inertia
-        return kernels.rigid_free_run(
-            force, dt, substeps, J, coef, rate, shape, w0, excess, q0, a_s, a_c, periods
-        )
+        if ripple:  # the speed depends on the position only through a ripple
+            return kernels.rigid_motion(force, dt, substeps, J, coef, rate, shape, w0, q0, excess, *ripple)[0]
+        return kernels.rigid_free_run(force, dt, substeps, J, coef, rate, shape, w0, excess)
 
     @staticmethod
     def _motion_force(setup: tuple, force: np.ndarray, w0: float, q0: float) -> tuple[np.ndarray, np.ndarray]:
         """Speed and position from ``w0`` [v] and ``q0`` [v s] for the input force ``force`` [F]
         (NaN without a positive inertia)."""
-        dt, substeps, J, coef, rate, shape, excess, a_s, a_c, periods = setup
+        dt, substeps, J, coef, rate, shape, excess, ripple = setup
         if not J > 0.0:
             nan = np.full(force.size, np.nan)
             return nan, nan.copy()
-        return kernels.rigid_motion(
-            force, dt, substeps, J, coef, rate, shape, w0, q0, excess, a_s, a_c, periods
-        )
+        return kernels.rigid_motion(force, dt, substeps, J, coef, rate, shape, w0, q0, excess, *ripple)
 
     def simulation(self, seed: int | None = None) -> RigidSimulation:
         """A running simulation of this drive at rest (``reset``, ``step``), the
@@ -607,6 +607,7 @@ class RigidSimulation:
     def __init__(self, drive: RigidDrive, seed: int | None = None) -> None:
         self.drive = drive
         self._setup = drive._free_run_setup(None)
+        self._position = bool(drive.position_effects)  # the position is carried where the speed needs it
         self.reset(seed)
 
     @property
@@ -627,8 +628,11 @@ class RigidSimulation:
         if not math.isfinite(u):
             raise ValueError(f"u must be finite, got {u!r} at sample {self.sample_index}")
         force = self.drive.input_force(np.array([u]), self._input)
-        speed, position = self.drive._motion_force(self._setup, force, self._w, self._q)
-        self._w, self._q = float(speed[0]), float(position[0])
+        if self._position:
+            speed, position = self.drive._motion_force(self._setup, force, self._w, self._q)
+            self._w, self._q = float(speed[0]), float(position[0])
+        else:
+            self._w = float(self.drive._free_run_force(self._setup, force, self._w)[0])
         self.sample_index += 1
         return self._w
 
@@ -644,16 +648,25 @@ class RigidSimulation:
         """
         arr = check_input("u", u)
         force = np.ascontiguousarray(self.drive.input_force(arr, self._input), dtype=float)
-        speed, position = self.drive._motion_force(self._setup, force, self._w, self._q)
+        if self._position:
+            speed, position = self.drive._motion_force(self._setup, force, self._w, self._q)
+            if speed.size:
+                self._q = float(position[-1])
+        else:
+            speed = self.drive._free_run_force(self._setup, force, self._w)
         if speed.size:
-            self._w, self._q = float(speed[-1]), float(position[-1])
+            self._w = float(speed[-1])
         self.sample_index += speed.size
         return speed
 
     @property
     def state(self) -> dict[str, float]:
-        """``t`` [s], the speed ``omega`` [v] and the ``position`` [v s] after the last :meth:`step`."""
-        return {"t": self.sample_index * self.drive.dt, "omega": self._w, "position": self._q}
+        """``t`` [s] and the speed ``omega`` [v] after the last :meth:`step`, and for a drive with a
+        position ripple (cogging), whose speed depends on it, the ``position`` [v s]."""
+        state = {"t": self.sample_index * self.drive.dt, "omega": self._w}
+        if self._position:
+            state["position"] = self._q
+        return state
 
 
 __all__ = ["RigidDrive", "RigidSimulation", "linear_term", "term_columns"]
