@@ -102,3 +102,51 @@ def test_run_interrupted_by_ctrl_c_says_what_is_on_disk(tmp_path):
     motorid = Path(sys.executable).with_name("motorid")
     argv = [str(motorid), "run", "--estimator", "arx-rls", "--duration", "100000", "--out", str(out)]
     interrupt_when_written(argv, out, 20_000, 2_500_000)
+
+
+def test_simulate_cogging_puts_the_ripple_on_the_rigs_motor(capsys, tmp_path):
+    """--cogging SIN COS PERIODS is the rig's motor ripple: the model file holds it, the record
+    is that rig's (the same record again from the model file), and the ripple changes the record."""
+    from motorid import load_model
+
+    common = ["--duration", "10", "--seed", "2", "--plant-seed", "1"]
+    code, out, _ = run(
+        capsys, "simulate", "--out", str(tmp_path / "cog.csv"), "--save-model", str(tmp_path / "cog.json"),
+        "--cogging", "0.02", "-0.01", "6", "--json", *common,
+    )  # fmt: skip
+    assert code == 0
+    assert (out["rig"]["cogging_sin"], out["rig"]["cogging_cos"], out["rig"]["cogging_periods"]) == (
+        0.02,
+        -0.01,
+        6.0,
+    )
+    rig = load_model(tmp_path / "cog.json")
+    assert (rig.cogging_sin, rig.cogging_cos, rig.cogging_periods) == (0.02, -0.01, 6.0)
+    code, _, _ = run(
+        capsys,
+        "simulate",
+        "--out",
+        str(tmp_path / "again.csv"),
+        "--model",
+        str(tmp_path / "cog.json"),
+        *common,
+    )
+    assert code == 0
+    cogged = read_record(tmp_path / "cog.csv")
+    pd.testing.assert_frame_equal(read_record(tmp_path / "again.csv"), cogged)
+    code, _, _ = run(capsys, "simulate", "--out", str(tmp_path / "plain.csv"), *common)
+    assert code == 0
+    assert (read_record(tmp_path / "plain.csv")["omega_m"] - cogged["omega_m"]).abs().max() > 0.1
+
+
+def test_simulate_cogging_refuses_a_period_count_of_zero_and_a_model_file(capsys, tmp_path):
+    code, _, err = run(capsys, "simulate", "--out", str(tmp_path / "r.csv"), "--cogging", "0.02", "0", "0")
+    assert code == 2 and "--cogging" in err and "PERIODS must be > 0" in err
+    assert not (tmp_path / "r.csv").exists()
+    assert main(["simulate", "--save-model", str(tmp_path / "rig.json")]) == 0
+    code, _, err = run(
+        capsys, "simulate", "--out", str(tmp_path / "r.csv"), "--model", str(tmp_path / "rig.json"),
+        "--cogging", "0.02", "0", "6",
+    )  # fmt: skip
+    assert code == 2 and "--cogging cannot be combined with --model" in err
+    assert not (tmp_path / "r.csv").exists()

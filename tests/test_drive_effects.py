@@ -62,13 +62,14 @@ def test_each_parameter_is_spelled_once_with_its_unit_sign_and_term():
             assert p.name not in seen, f"{p.name} of {name} is also {seen[p.name]}'s"
             seen[p.name] = name
             assert effects.parameter(p.name) is p
-            assert (p.term is not None) == (p.name in effect.linear)
+            assert (p.term is not None or p.in_position) == (p.name in effect.linear)
+            assert not p.in_position or effect.position  # a position amplitude only in a position effect
     # the physical signs a model file checks, and the compiled terms of the balance
     assert {n for n in seen if effects.parameter(n).sign == "> 0"} == {
-        "inertia", "input_gain", "stribeck_velocity", "saturation",
+        "inertia", "input_gain", "stribeck_velocity", "saturation", "cogging_periods",
     }  # fmt: skip
     assert {n for n in seen if effects.parameter(n).sign == "any"} == {
-        "coulomb_asymmetry", "viscous_asymmetry", "offset",
+        "coulomb_asymmetry", "viscous_asymmetry", "offset", "cogging_sin", "cogging_cos",
     }  # fmt: skip
     terms = {n: effects.parameter(n).term for n in seen if effects.parameter(n).term is not None}
     assert terms == {

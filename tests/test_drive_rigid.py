@@ -44,6 +44,7 @@ def test_the_drive_and_the_doctor_name_the_same_effects_and_parameters():
     assert effects.names() == (
         "coulomb_friction", "stribeck_friction", "asymmetric_friction", "viscous_friction", "quadratic_drag",
         "input_dead_zone", "input_saturation", "backlash", "offset", "input_delay", "input_lag", "static_friction",
+        "cogging",
     )  # fmt: skip
     for name in effects.names():
         cls = effects.get(name)
@@ -289,6 +290,7 @@ PARAMETER_RANGES = {
     "viscous_asymmetry": (-5e-3, 5e-3), "quadratic_drag": (0.0, 1e-3), "offset": (-0.02, 0.02),
     "dead_zone": (0.0, 1.0), "saturation": (0.5, 12.0), "backlash_time": (0.0, 0.1),
     "input_delay": (0.0, 0.1), "lag_time_constant": (0.0, 0.1), "breakaway_excess": (0.0, 0.05),
+    "cogging_sin": (-0.02, 0.02), "cogging_cos": (-0.02, 0.02), "cogging_periods": (0.5, 50.0),
 }  # fmt: skip
 
 

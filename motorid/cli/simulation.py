@@ -68,7 +68,8 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 #: The rig options of ``motorid simulate`` (dest names); none may be combined with --model.
 RIG_OPTIONS = (
-    "coulomb_motor", "coulomb_load", "stribeck", "stribeck_shape", "viscous", "dead_zone", "backlash", "u_max",
+    "coulomb_motor", "coulomb_load", "stribeck", "stribeck_shape", "viscous", "dead_zone", "backlash", "cogging",
+    "u_max",
 )  # fmt: skip
 
 
@@ -102,7 +103,15 @@ def rig_from_args(args: argparse.Namespace):
     if changes:
         amplifier = dataclasses.replace(amplifier, **changes)
     backlash = rig.backlash if args.backlash is None else args.backlash
-    return rig.replace(friction=tuple(friction), amplifier=amplifier, backlash=backlash)
+    ripple = {}
+    if args.cogging is not None:
+        a_s, a_c, periods = args.cogging
+        if not periods > 0.0:
+            raise DataError(
+                f"--cogging: PERIODS must be > 0 [1/rad, periods per revolution], got {periods:g}"
+            )
+        ripple = {"cogging_sin": a_s, "cogging_cos": a_c, "cogging_periods": periods}
+    return rig.replace(friction=tuple(friction), amplifier=amplifier, backlash=backlash, **ripple)
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
@@ -173,6 +182,9 @@ def add_rig_options(group: argparse._ActionsContainer, model_help: str) -> None:
     group.add_argument("--viscous", type=non_negative, help="extra viscous friction, motor side [N m s/rad]")
     group.add_argument("--dead-zone", type=non_negative, help="amplifier dead zone half-width [V]")
     group.add_argument("--backlash", type=non_negative, help="shaft backlash, half-width of the gap [rad]")
+    group.add_argument("--cogging", type=number(float), nargs=3, metavar=("SIN", "COS", "PERIODS"),
+                       help="the motor's cogging ripple SIN sin(PERIODS θ_m) + COS cos(PERIODS θ_m) [N m], "
+                       "PERIODS per revolution")  # fmt: skip
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:

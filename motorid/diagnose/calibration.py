@@ -254,7 +254,7 @@ def stiction(seeds: range | list[int], duration: float = 60.0, **kwargs) -> Stic
             d = diagnose(p.record, input_gain=p.input_gain)
             ratio = math.nan
             if "static_friction" in d.named and planted:
-                t_pos, t_neg = d.model.friction(np.array([1e-9, -1e-9]))
+                t_pos, t_neg = d.model.without(*d.model.position_effects).friction(np.array([1e-9, -1e-9]))
                 level = 0.5 * float(t_pos - t_neg) + d.model.params["breakaway_excess"]
                 ratio = level / (p.notes["coulomb"] + p.effects["static_friction"]["breakaway_excess"])
             out.seeds.append(seed)

@@ -55,7 +55,7 @@ class GivenRig(RigidDrive):
         return cls(equivalent.effects, equivalent.params, equivalent.dt, equivalent.stribeck_shape, rig=rig)
 
     def free_run(
-        self, u: np.ndarray, w0: float = 0.0, substeps: int | None = None, start: int = 0
+        self, u: np.ndarray, w0: float = 0.0, substeps: int | None = None, start: int = 0, q0: float = 0.0
     ) -> np.ndarray:
         """The rig's measured load speed [rad/s] for the command ``u`` [V], through its sensors
         noise free (tacho gain and A/D steps), at this drive's sample time: from rest at the first
@@ -72,6 +72,8 @@ class GivenRig(RigidDrive):
             Not taken: the rig's own.
         start : int
             The first sample returned.
+        q0 : float
+            Not taken: the rig runs from its own position 0 (its motor's ripple counts from there).
         """
         rig = cast(TwoMassRig, self.rig)  # checked at construction
         quiet = dataclasses.replace(rig.tacho, noise_std=0.0)

@@ -174,6 +174,11 @@ class Kinematics:
     hf : ndarray
         The high-frequency part of the measured velocity the noise is estimated from
         (:func:`noise_bands`).
+    q : ndarray
+        Position [rad or m] at the instants of ``w``: the low-passed measured position of a
+        position record, else the trapezoidal integral of ``w`` from 0 at the first sample (the
+        position an effect whose torque depends on it, cogging, is a function of; its origin is
+        then arbitrary).
     """
 
     dt: float
@@ -186,6 +191,7 @@ class Kinematics:
     noise: float
     output_kind: str
     hf: np.ndarray
+    q: np.ndarray
 
     @property
     def n(self) -> int:
@@ -251,6 +257,7 @@ def kinematics(
         w = lowpass(y, dt, cutoff)
         a = np.gradient(w, dt)
         w_meas = y
+        q = np.concatenate([[0.0], np.cumsum(0.5 * dt * (w[1:] + w[:-1]))])
     else:
         raise ValueError(f"output_kind must be 'velocity' or 'position', got {output_kind!r}")
     edge = math.ceil(5.0 / (cutoff * dt)) + 2
@@ -262,7 +269,7 @@ def kinematics(
     return Kinematics(
         dt=float(dt), u=np.asarray(u, dtype=float), w=w, a=a, valid=valid,
         band=band, factor=decimation_factor(dt, band), noise=filtered_noise(hf[keep], cutoff, dt),
-        output_kind=output_kind, hf=hf,
+        output_kind=output_kind, hf=hf, q=q,
     )  # fmt: skip
 
 

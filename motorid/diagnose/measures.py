@@ -34,15 +34,17 @@ def balance_residual(model: RigidDrive, data: BalanceData) -> tuple[np.ndarray, 
 
     On samples near rest (not moving) static friction holds whatever force lies
     between the model's friction levels at 0- and 0+ (widened by its static friction
-    ``ΔF_s``): there the model force is ``J a + clip(F_in - J a, T(0-) - ΔF_s, T(0+) + ΔF_s)``.
+    ``ΔF_s``, moved by a position ripple's torque ``T_q`` where the drive rests): there the
+    model force is ``J a + clip(F_in - J a, T(0-) - ΔF_s + T_q, T(0+) + ΔF_s + T_q)``.
     """
     f_in, f_model = model_balance(model, data)
     f_meas = data.decimated("F|", data.balance_force(data.input_gain * data.kin.u))
     eps = max(1e-9, 1e-6 * data.scale["w_max"])
-    t_pos, t_neg = model.friction(np.array([eps, -eps]))
+    t_pos, t_neg = model.without(*model.position_effects).friction(np.array([eps, -eps]))
     excess = model.params.get("breakaway_excess", 0.0)  # static friction widens the band at rest
-    lo, hi = min(t_pos, t_neg) - excess, max(t_pos, t_neg) + excess
     rest = ~data.moving
+    ripple = model.position_torque(data.kin.q[data.idx[rest]])  # moves the band where it rests
+    lo, hi = min(t_pos, t_neg) - excess + ripple, max(t_pos, t_neg) + excess + ripple
     ja = model.params["inertia"] * data.a[rest]
     f_model = f_model.copy()
     f_model[rest] = ja + np.clip(f_in[rest] - ja, lo, hi)

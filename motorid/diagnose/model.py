@@ -111,12 +111,15 @@ class BalanceData:
         self.moving = ~near_slow[self.idx]
         self.accel_noise = acceleration_noise(kin, kin.valid & ~near_slow)
         u = kin.u[kin.valid] if kin.valid.any() else kin.u
+        q = kin.q[kin.valid] if kin.valid.any() else kin.q
         self.scale = {
             "w_max": w_max,
             "w_noise": kin.noise,
             "u_max": float(np.max(np.abs(u))) if u.size else 1.0,
             "dt": kin.dt,
             "dt_band": kin.dt * kin.factor,
+            "band": kin.band,
+            "q_span": float(np.ptp(q)) if q.size else 0.0,
         }
 
     @property
@@ -188,6 +191,7 @@ class PooledBalance:
             **first.scale,
             "w_max": max(p.scale["w_max"] for p in self.parts),
             "u_max": max(p.scale["u_max"] for p in self.parts),
+            "q_span": max(p.scale["q_span"] for p in self.parts),
             "w_noise": self.noise,
         }
 
@@ -240,7 +244,7 @@ def model_balance(model: RigidDrive, data: BalanceData) -> tuple[np.ndarray, np.
     kin = data.kin
     key = model_key(model)
     f_in = data.decimated(("input force", key), lambda: data.balance_force(model.input_force(kin.u)))
-    f_model = model.inertia * data.a + data.decimated(("friction", key), lambda: model.friction(kin.w))
+    f_model = model.inertia * data.a + data.decimated(("friction", key), lambda: model.friction(kin.w, kin.q))
     return f_in, f_model
 
 
@@ -429,8 +433,12 @@ def _linear_solve(
 
         def column(k: int, j: int, eff: Effect = eff, full: list[list[np.ndarray]] = full) -> np.ndarray:
             if not full[k]:
-                full[k].append(eff.columns(data.parts[k].kin.w, shape, stribeck_shape))
-            return full[k][0][:, j]
+                kin = data.parts[k].kin
+                full[k].append(eff.columns(kin.w, shape, stribeck_shape, kin.q if eff.position else None))
+            col = full[k][0][:, j]
+            if j == len(eff.linear) - 1:
+                full[k].clear()  # the record's full-rate columns go once the last is decimated
+            return col
 
         for j, pname in enumerate(eff.linear):
             names.append(pname)
@@ -643,15 +651,25 @@ def fit_model(
     if "input_saturation" in effects and start and start.get("saturation", 0.0) >= data.scale["u_max"]:
         unreached["saturation"] = float(start["saturation"])
     fixed = {**rest, **unreached, **(fixed or {})}
-    shaped = [
-        (p, get_effect(n).bounds(data.scale)[p])
-        for n in effects
-        for p in get_effect(n).nonlinear
-        if p not in fixed
-    ]
+    bounds = {n: get_effect(n).bounds(data.scale) for n in effects}
     shape: dict[str, float] = {p: float(v) for p, v in fixed.items() if p in _shape_params(effects)}
-    for p, (lo, hi) in shaped:
-        shape[p] = math.sqrt(lo * hi) if not start or p not in start else float(start[p])
+    for n in effects:
+        for p, (lo, hi) in bounds[n].items():
+            if p not in fixed:
+                shape[p] = math.sqrt(lo * hi) if not start or p not in start else float(start[p])
+    for n in effects:
+        if type(get_effect(n)).locate is not Effect.locate and not set(bounds[n]) <= set(fixed):
+            # found where the residual of the model without it shows it (a period in position)
+            others = tuple(e for e in effects if e != n)
+            fitted = np.flatnonzero(rows)
+            residual = _linear_solve(data, others, shape, gain, rows, stribeck_shape).residual[fitted]
+            position = stacked([part.kin.q[part.idx] for part in data.parts])[fitted]
+            bounds[n] = get_effect(n).locate(bounds[n], residual, position)
+            del residual, position
+            for p, (lo, hi) in bounds[n].items():
+                if p not in fixed and not lo <= shape[p] <= hi:
+                    shape[p] = 0.5 * (lo + hi)
+    shaped = [(p, bounds[n][p]) for n in effects for p in get_effect(n).nonlinear if p not in fixed]
 
     nonnegative = [
         p

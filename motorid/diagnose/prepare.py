@@ -100,7 +100,8 @@ class Prepared:
         """Free-run velocity at every sample (NaN before the settled span)."""
         i0 = max(self.start, 1)
         out = np.full(self.kin.n, np.nan)
-        out[i0:] = model.free_run(self.kin.u, w0=float(self.kin.w[i0 - 1]), start=i0)
+        w0, q0 = float(self.kin.w[i0 - 1]), float(self.kin.q[i0 - 1])  # the position for a ripple
+        out[i0:] = model.free_run(self.kin.u, w0=w0, start=i0, q0=q0)
         return out
 
     def balance_residual(self, model: RigidDrive) -> tuple[np.ndarray, np.ndarray]:
@@ -409,16 +410,18 @@ class Pool:
         ``F_b - T(0+)`` breaking away forwards, ``T(0-) - F_b`` backwards, with ``F_b`` the force
         of the input at breakaway (:meth:`RigidDrive.input_force
         <motorid.drive.rigid.RigidDrive.input_force>`: through the model's dead zone, delay and
-        lag) and ``T(0±)`` the model's friction (and offset) at ±0; and the force's rate there
-        [F/s], in the direction of the motion (central differences)."""
+        lag) and ``T(0±)`` the model's friction (and offset) at ±0, with a position ripple's torque
+        where the drive rests; and the force's rate there [F/s], in the direction of the motion
+        (central differences)."""
         eps = max(1e-9, 1e-6 * self.data.scale["w_max"])
-        t_pos, t_neg = model.friction(np.array([eps, -eps]))
+        t_pos, t_neg = model.without(*model.position_effects).friction(np.array([eps, -eps]))
         out, rates = [], []
         for k, p in enumerate(self.parts):
             r = p.rests if samples is None else p.rests.within(samples[k])
             f_in = model.input_force(p.kin.u)  # through the model's input path (dead zone, lag...)
             force = r.direction * f_in[r.stop]  # in the direction of the motion
-            out.append(np.where(r.direction > 0, force - t_pos, force + t_neg))
+            ripple = model.position_torque(p.kin.q[r.stop])  # where the drive rests
+            out.append(np.where(r.direction > 0, force - (t_pos + ripple), force + (t_neg + ripple)))
             rates.append(r.direction * np.gradient(f_in, p.kin.dt)[r.stop])
         return stacked(out), stacked(rates)
 

@@ -337,8 +337,10 @@ class Diagnosis:
 
     @property
     def param_units(self) -> dict[str, str]:
-        """Concrete unit of each parameter of the final model, e.g. ``{"coulomb": "N m"}``."""
-        return {name: param_unit(name, self.units) for name in self.model.params}
+        """Concrete unit of each parameter of the final model, e.g. ``{"coulomb": "N m"}``, and of
+        the figures a step reports beside them (the cogging's amplitude and phase)."""
+        names = dict.fromkeys([*self.model.params, *(p for step in self.steps for p in step.params)])
+        return {name: param_unit(name, self.units) for name in names}
 
     @property
     def models(self) -> list[tuple[str, RigidDrive]]:
@@ -537,7 +539,9 @@ def rest_summaries(pool: Pool, model: RigidDrive) -> list[dict[str, Any]]:
         The model whose kinetic level the breakaway is measured above.
     """
     eps = max(1e-9, 1e-6 * pool.data.scale["w_max"])
-    t_pos, t_neg = model.friction(np.array([eps, -eps]))
+    t_pos, t_neg = model.without(*model.position_effects).friction(
+        np.array([eps, -eps])
+    )  # a ripple averages out
     out = []
     for k, (label, prep) in enumerate(zip(pool.labels, pool.parts, strict=True)):
         only = [np.full(p.kin.n, j == k) for j, p in enumerate(pool.parts)]

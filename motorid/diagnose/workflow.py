@@ -217,7 +217,8 @@ def diagnose(
         Effects already in the model (inertia and input gain always are); default
         :data:`DEFAULT_BASE`, or the effects of ``model``.
     candidates : sequence of str, optional
-        Effects to try; default every effect of the library not in ``base``.
+        Effects to try; default every effect of the library not in ``base`` but those tried on
+        request only (``cogging``: name it here).
     holdout : float or DataFrame
         Share of the record held out (in 10 interleaved blocks), in (0, 0.9),
         or a second record for the held-out check.

@@ -19,7 +19,8 @@ The linear part, eqs. (1)-(7), with state ``x = [i_a, ω_m, ω_L, δ, θ_L]``
 is advanced exactly over one internal step h by ``x+ = Φ x + Γ w`` with
 ``[Φ Γ] = expm([[A, B], [0, 0]] h)``. The extra torques τ collect what is not
 linear: the static friction laws (eqs. 8, 9, 11) evaluated at the start of the
-step, the LuGre torque, the load disturbance -T_d and the backlash offset.
+step, the LuGre torque, the load disturbance -T_d, the backlash offset and the motor's
+position ripple (cogging) at θ_m = θ_L + δ (:func:`ripple_torque`).
 
 Modes. There is one (Φ, Γ) pair per mode ``stuck_m + 2 stuck_L + 4 gap``:
 
@@ -97,7 +98,10 @@ P_BREAK_POS_M = 14
 P_BREAK_NEG_M = 15
 P_BREAK_POS_L = 16
 P_BREAK_NEG_L = 17
-N_PARAMS = 18
+P_RIPPLE_SIN = 18  # the motor's position ripple A_s sin(p θ_m) + A_c cos(p θ_m) [N m]
+P_RIPPLE_COS = 19
+P_RIPPLE_PERIODS = 20  # p [1/rad]
+N_PARAMS = 21
 
 
 @numba.njit(cache=True)
@@ -368,12 +372,17 @@ def _substep(
     if lug[1, 0] != 0.0:
         f_lug_l = lug[1, 1] * x[6] + lug[1, 2] * _lugre_zdot(lug, 1, x[6], wl)
 
-    tau_m = offset - f_lug_m
+    # the motor's position ripple at θ_m = θ_L + δ (nothing evaluated without it)
+    cog = 0.0
+    if p[P_RIPPLE_SIN] != 0.0 or p[P_RIPPLE_COS] != 0.0:
+        cog = ripple_torque(x[4] + d, p[P_RIPPLE_SIN], p[P_RIPPLE_COS], p[P_RIPPLE_PERIODS])
+
+    tau_m = offset - f_lug_m - cog
     tau_l = -offset - t_d - f_lug_l
 
     # Karnopp stick test on each mass at exactly zero speed
     has_m = p[P_BREAK_POS_M] > 0.0 or p[P_BREAK_NEG_M] > 0.0
-    stuck_m, dir_m = stick_or_slip(wm, K * i_a - t_s - f_lug_m, p[P_BREAK_POS_M], p[P_BREAK_NEG_M])
+    stuck_m, dir_m = stick_or_slip(wm, K * i_a - t_s - f_lug_m - cog, p[P_BREAK_POS_M], p[P_BREAK_NEG_M])
     if stuck_m == 0 and dir_m != 0.0:
         tau_m -= static_friction(fric, 0, wm, dir_m)
     has_l = p[P_BREAK_POS_L] > 0.0 or p[P_BREAK_NEG_L] > 0.0
@@ -1101,6 +1110,39 @@ def backlash_dwell(force: np.ndarray, dt: float, backlash_time: float, clock: np
 
 
 @numba.njit(cache=True)
+def ripple_torque(position: float, ripple_sin: float, ripple_cos: float, periods: float) -> float:
+    """A torque ripple periodic in the position, ``A_s sin(p θ) + A_c cos(p θ)`` [F] at position θ
+    [rad or m], with ``p`` = ``periods`` [1/rad or 1/m]: for a rotary drive the ripple's count per
+    revolution (p periods over 2π rad), for a linear one 2π over its pitch; amplitude
+    sqrt(A_s² + A_c²), phase atan2(A_c, A_s). The one law of a torque that depends on the position
+    (the ``cogging`` effect): the rigid drive, the two-mass rig's motor and the doctor's columns
+    evaluate it."""
+    x = periods * position
+    return ripple_sin * math.sin(x) + ripple_cos * math.cos(x)
+
+
+@numba.njit(cache=True)
+def ripple_torques(position: np.ndarray, ripple_sin: float, ripple_cos: float, periods: float) -> np.ndarray:
+    """Vectorised :func:`ripple_torque`: the ripple [F] at each position."""
+    out = np.empty(position.size)
+    for k in range(position.size):
+        out[k] = ripple_torque(position[k], ripple_sin, ripple_cos, periods)
+    return out
+
+
+@numba.njit(cache=True)
+def ripple_columns(position: np.ndarray, periods: float) -> np.ndarray:
+    """The ripple's torque per unit ``A_s`` and ``A_c`` (:func:`ripple_torque`),
+    ``sin(p θ[k])`` and ``cos(p θ[k])``, as two rows, shape (2, N): each column of the
+    transpose (N, 2) lies contiguous in memory."""
+    out = np.empty((2, position.size))
+    for k in range(position.size):
+        out[0, k] = ripple_torque(position[k], 1.0, 0.0, periods)
+        out[1, k] = ripple_torque(position[k], 0.0, 1.0, periods)
+    return out
+
+
+@numba.njit(cache=True)
 def rigid_free_run(
     force: np.ndarray,
     dt: float,
@@ -1113,7 +1155,8 @@ def rigid_free_run(
     breakaway_excess: float = 0.0,
 ) -> np.ndarray:
     """Speed of a rigid drive at the end of each sample for the input force [F] held over it:
-    the speed of :func:`rigid_motion` (from position 0; the speed does not depend on it)."""
+    the speed of :func:`rigid_motion` (from position 0; without a position ripple the speed does not
+    depend on it: a drive with one runs :func:`rigid_motion`)."""
     return rigid_motion(force, dt, nsub, inertia, coef, rate, shape, w0, 0.0, breakaway_excess)[0]
 
 
@@ -1129,6 +1172,9 @@ def rigid_motion(
     w0: float,
     q0: float,
     breakaway_excess: float = 0.0,
+    ripple_sin: float = 0.0,
+    ripple_cos: float = 0.0,
+    ripple_periods: float = 0.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Speed and position of a rigid drive at the end of each sample for the input force [F]
     held over it, from speed ``w0`` [v] and position ``q0`` [v s: rad or m].
@@ -1149,6 +1195,10 @@ def rigid_motion(
     The position advances over the same internal steps by the trapezoidal rule on the
     speed, ``q+ = q + h (ω + ω+)/2`` (exact for the speed's straight course over a step; a
     stuck step leaves it), so ``q[k] = q0 + Σ`` of the steps, no second integrator.
+    The position ripple :func:`ripple_torque` at the position at the start of each step
+    (``ripple_sin``, ``ripple_cos`` [F], ``ripple_periods`` [1/rad or 1/m]; cogging) joins the level
+    terms, and at rest the torque the drive must overcome (a drive without it skips it: both
+    amplitudes 0 evaluate nothing).
     Returns ``(speed, position)``, each of shape (N,).
     """
     n = force.size
@@ -1165,14 +1215,18 @@ def rigid_motion(
     break_pos = up - rest + breakaway_excess
     break_neg = rest - down + breakaway_excess
     static = break_pos > 0.0 or break_neg > 0.0
+    rippled = ripple_sin != 0.0 or ripple_cos != 0.0
     w = w0
     q = q0
     for k in range(n):
         f = force[k]
         for _ in range(nsub):
+            ripple = 0.0
+            if rippled:
+                ripple = ripple_torque(q, ripple_sin, ripple_cos, ripple_periods)
             at_rest = w == 0.0
             if at_rest:
-                t_net = f - rest
+                t_net = f - rest - ripple
                 stuck, s = stick_or_slip(w, t_net, break_pos, break_neg)
                 if stuck == 1:
                     continue
@@ -1180,7 +1234,7 @@ def rigid_motion(
                     s = 1.0 if t_net >= 0.5 * (break_pos - break_neg) else -1.0
             else:
                 s = 1.0 if w > 0.0 else -1.0
-            level = 0.0
+            level = ripple
             for t in range(N_SPEED_TERMS, N_TERMS):
                 level += coef[t] * rigid_level(t, w, s, rate, shape)
             damp = 0.0

@@ -16,6 +16,9 @@ model ends an integration segment at an event located by root finding:
 - the shaft twist entering or leaving the backlash gap (``|δ| = b``);
 - the sample boundaries, where the zero-order-hold input changes.
 
+The motor's cogging ripple (a torque periodic in θ_m = θ_L + δ) is a smooth term of the motor's
+equation, evaluated by the fast path's compiled law.
+
 While a mass is stuck its speed equation is replaced by dω/dt = 0, so it stays
 at exactly 0. ``max_step`` is bounded (default 1 ms) so that no sign change of
 an event function is stepped over. It is slow (pure Python right-hand side):
@@ -33,7 +36,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from motorid.drive.friction import LuGreLaw, pack_static_friction
-from motorid.drive.kernels import lugre_rate, static_friction, stick_or_slip
+from motorid.drive.kernels import lugre_rate, ripple_torque, static_friction, stick_or_slip
 
 logger = logging.getLogger(__name__)
 
@@ -98,6 +101,11 @@ class ReferenceIntegrator:
         zdot = lugre_rate(f.sigma0, f.Fc, f.Fs, f.omega_s, z, omega)
         return f.sigma0 * z + f.sigma1 * zdot, zdot
 
+    def _cogging(self, x: np.ndarray) -> float:
+        """The motor's cogging ripple at θ_m = θ_L + δ [N m] (the fast path's compiled law)."""
+        rig = self.rig
+        return ripple_torque(x[4] + x[3], rig.cogging_sin, rig.cogging_cos, rig.cogging_periods)
+
     def _shaft_torque(self, x: np.ndarray, regime: int) -> float:
         if regime == 0:
             return 0.0
@@ -109,7 +117,7 @@ class ReferenceIntegrator:
         t_s = self._shaft_torque(x, regime)
         f_lug = self._lugre_parts(k, x[5 + k], x[1 + k])[0]
         if k == 0:
-            return self.rig.K_m * x[0] - t_s - f_lug
+            return self.rig.K_m * x[0] - t_s - f_lug - self._cogging(x)
         return t_s - t_d - f_lug
 
     def _rhs_factory(
@@ -122,7 +130,7 @@ class ReferenceIntegrator:
             t_s = self._shaft_torque(x, regime)
             acc = [0.0, 0.0]
             zdot = [0.0, 0.0]
-            drive = (K * x[0] - t_s, t_s - t_d)
+            drive = (K * x[0] - t_s - self._cogging(x), t_s - t_d)
             for k in (0, 1):
                 w = x[1 + k]
                 f_lug, zdot[k] = self._lugre_parts(k, x[5 + k], w)

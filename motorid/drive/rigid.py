@@ -28,7 +28,18 @@ effect                    term T (or input map)                         paramete
                           level at 0± (Karnopp rule only: a moving
                           drive slows against the kinetic level, so it
                           breaks away high and keeps moving down low)
+``cogging``               A_s sin(p θ) + A_c cos(p θ), periodic in the   cogging_sin [F], cogging_cos [F],
+                          position θ = ∫ω dt (also at rest): amplitude   cogging_periods [1/(v s)]
+                          sqrt(A_s² + A_c²), phase atan2(A_c, A_s)
 ========================= ============================================= ==============================
+
+An effect whose torque depends on the position (:attr:`Effect.position
+<motorid.drive.effects.base.Effect.position>`, cogging) gives it as the compiled position
+ripple (:meth:`Effect.ripple <motorid.drive.effects.base.Effect.ripple>`,
+:func:`~motorid.drive.kernels.ripple_torque`), so a drive with one integrates the position
+(:meth:`RigidDrive.motion`; :meth:`RigidDrive.free_run` from ``q0``); a drive holds at most one.
+The cogging ripple's ``cogging_periods`` p is per radian of a rotary drive, so the count of
+ripple periods per revolution, or per metre of a linear one (2π over the ripple's pitch).
 
 Each effect is one class of :mod:`motorid.drive.effects` (its parameters with their units,
 physical signs and compiled terms); the drive knows them through that package's registry, so
@@ -208,6 +219,11 @@ class RigidDrive:
                 f"input_delay must be at most {MOST_DELAY_SAMPLES} samples ({MOST_DELAY_SAMPLES * self.dt:g} s "
                 f"at dt = {self.dt:g} s), got {delay!r} s"
             )
+        if len(self.position_effects) > 1:
+            raise ValueError(
+                f"effects: at most one effect whose torque depends on the position, got "
+                f"{', '.join(self.position_effects)}"
+            )
         if self.stribeck_shape not in kernels.STRIBECK_SHAPES:
             raise ValueError(
                 f"stribeck_shape must be one of {', '.join(kernels.STRIBECK_SHAPES)}, got {self.stribeck_shape!r}"
@@ -243,6 +259,32 @@ class RigidDrive:
     def with_effects(self, effects: tuple[str, ...], params: dict[str, float]) -> RigidDrive:
         """A copy holding ``effects`` with ``params`` (same dt and Stribeck shape)."""
         return dataclasses.replace(self, effects=tuple(effects), params=dict(params))
+
+    def without(self, *effects: str) -> RigidDrive:
+        """A copy without ``effects`` and their parameters; this drive itself when it has none.
+
+        Parameters
+        ----------
+        *effects : str
+            Effect names (:func:`motorid.drive.effects.names`).
+        """
+        gone = [e for e in effects if e in self.effects]
+        if not gone:
+            return self
+        dropped = {p.name for e in gone for p in registry.get(e).parameters}
+        params = {k: v for k, v in self.params.items() if k not in dropped}
+        return self.with_effects(tuple(e for e in self.effects if e not in gone), params)
+
+    @property
+    def position_effects(self) -> tuple[str, ...]:
+        """The drive's effects whose torque depends on the position (cogging)."""
+        return tuple(e for e in self.effects if registry.get(e).position)
+
+    def _ripple(self) -> tuple[float, float, float]:
+        """``(A_s, A_c, p)`` of the compiled position ripple: its position effect's, else none."""
+        for e in self.position_effects:
+            return registry.get(e).ripple(self.params)
+        return 0.0, 0.0, 0.0
 
     def input_signal(self, u: npt.ArrayLike, state: InputPathState | None = None) -> np.ndarray:
         """``L(Δ(D(S(u))))`` [u]: the input after saturation, dead zone, delay and lag, before
@@ -280,17 +322,60 @@ class RigidDrive:
         the order of the drive's effects."""
         return [(name, term) for e in self.effects for name, term in registry.get(e).terms.items()]
 
-    def friction(self, omega: npt.ArrayLike) -> np.ndarray:
-        """Σ_t θ_t T_t(ω) [F] at speeds ``omega`` [v] for a drive moving in the direction sgn(ω)."""
+    def friction(self, omega: npt.ArrayLike, position: npt.ArrayLike | None = None) -> np.ndarray:
+        """Σ_t θ_t T_t(ω) [F] at speeds ``omega`` [v] for a drive moving in the direction sgn(ω),
+        with the position ripple at ``position`` [v s] of a drive that has one (cogging).
+
+        Parameters
+        ----------
+        omega : array_like
+            Speeds [v].
+        position : array_like, optional
+            Positions [v s: rad or m], of the shape of ``omega``; needed by a drive with a
+            position effect (ValueError without), ignored by one without.
+        """
         names = tuple(name for name, _ in self.linear_terms())
         w = np.asarray(omega, dtype=float)
-        if not names:
-            return np.zeros_like(w)
-        cols = term_columns(names, w, self.params.get("stribeck_velocity", 1.0), self.stribeck_shape)
-        return cols @ np.array([self.params[n] for n in names])
+        if names:
+            cols = term_columns(names, w, self.params.get("stribeck_velocity", 1.0), self.stribeck_shape)
+            total = cols @ np.array([self.params[n] for n in names])
+            del cols  # a record's columns go before the ripple is computed
+        else:
+            total = np.zeros_like(w)
+        if self.position_effects:
+            if position is None:
+                raise ValueError(
+                    f"position is needed for the {self.position_effects[0]} ripple of this drive"
+                )
+            q = np.asarray(position, dtype=float)
+            if q.shape != w.shape:
+                raise ValueError(f"position must have the shape of omega {w.shape}, got {q.shape}")
+            total = total + self.position_torque(q)
+        return total
+
+    def position_torque(self, position: npt.ArrayLike) -> np.ndarray | float:
+        """The position ripple A_s sin(p θ) + A_c cos(p θ) [F] at ``position`` θ [v s]
+        (:func:`~motorid.drive.kernels.ripple_torque`) of the drive's position effect; 0.0 for a
+        drive without one.
+
+        Parameters
+        ----------
+        position : array_like
+            Positions [v s: rad or m].
+        """
+        if not self.position_effects:
+            return 0.0
+        q = np.asarray(position, dtype=float)
+        flat = np.ascontiguousarray(q.ravel())
+        return kernels.ripple_torques(flat, *self._ripple()).reshape(q.shape)
 
     def free_run(
-        self, u: npt.ArrayLike, w0: float = 0.0, substeps: int | None = None, start: int = 0
+        self,
+        u: npt.ArrayLike,
+        w0: float = 0.0,
+        substeps: int | None = None,
+        start: int = 0,
+        q0: float = 0.0,
     ) -> np.ndarray:
         """Free-run velocity [v] at the end of each sample for the input ``u`` [u] held over it.
 
@@ -307,9 +392,11 @@ class RigidDrive:
             Start the free run at sample ``start`` (with ``w0``); the input path
             (the backlash dwell) still sees the whole input. The result has
             ``N - start`` samples.
+        q0 : float
+            Position at the start [v s: rad or m]; only a position ripple (cogging) depends on it.
         """
         force = np.ascontiguousarray(self.input_force(u)[start:], dtype=float)
-        return self._free_run_force(self._free_run_setup(substeps), force, float(w0))
+        return self._free_run_force(self._free_run_setup(substeps), force, float(w0), float(q0))
 
     def motion(
         self,
@@ -332,15 +419,13 @@ class RigidDrive:
             Each of shape (N - start,); NaN without a positive inertia.
         """
         force = np.ascontiguousarray(self.input_force(u)[start:], dtype=float)
-        dt, nsub, J, coef, rate, shape, excess = self._free_run_setup(substeps)
-        if not J > 0.0:
-            nan = np.full(force.size, np.nan)
-            return nan, nan.copy()
-        return kernels.rigid_motion(force, dt, nsub, J, coef, rate, shape, float(w0), float(q0), excess)
+        return self._motion_force(self._free_run_setup(substeps), force, float(w0), float(q0))
 
     def _free_run_setup(self, substeps: int | None) -> tuple:
-        """The arguments of :func:`~motorid.drive.kernels.rigid_free_run` other than the
-        force and the start speed: ``(dt, substeps, J, coef, rate, shape, breakaway_excess)``."""
+        """The arguments of :func:`~motorid.drive.kernels.rigid_motion` other than the force and
+        the start speed and position: ``(dt, substeps, J, coef, rate, shape, breakaway_excess,
+        ripple)``, ``ripple`` = ``(ripple_sin, ripple_cos, ripple_periods)`` of a drive with a
+        position ripple, ``()`` without (the kernels' defaults: nothing passed, nothing evaluated)."""
         J = self.inertia
         coef = np.zeros(kernels.N_TERMS)
         for name, term in self.linear_terms():
@@ -351,15 +436,29 @@ class RigidDrive:
         rate = 1.0 / vs if vs > 0.0 else 1.0
         shape = kernels.STRIBECK_SHAPES.index(self.stribeck_shape)
         excess = self.params.get("breakaway_excess", 0.0)
-        return self.dt, int(substeps), J, coef, rate, shape, excess
+        ripple = self._ripple() if self.position_effects else ()
+        return self.dt, int(substeps), J, coef, rate, shape, excess, ripple
 
     @staticmethod
-    def _free_run_force(setup: tuple, force: np.ndarray, w0: float) -> np.ndarray:
-        """The free run from ``w0`` for the input force ``force`` [F] (NaN without a positive inertia)."""
-        dt, substeps, J, coef, rate, shape, excess = setup
+    def _free_run_force(setup: tuple, force: np.ndarray, w0: float, q0: float = 0.0) -> np.ndarray:
+        """The free run from ``w0`` [v] and ``q0`` [v s] for the input force ``force`` [F] (NaN
+        without a positive inertia)."""
+        dt, substeps, J, coef, rate, shape, excess, ripple = setup
         if not J > 0.0:
             return np.full(force.size, np.nan)  # no free run without a positive inertia
+        if ripple:  # the speed depends on the position only through a ripple
+            return kernels.rigid_motion(force, dt, substeps, J, coef, rate, shape, w0, q0, excess, *ripple)[0]
         return kernels.rigid_free_run(force, dt, substeps, J, coef, rate, shape, w0, excess)
+
+    @staticmethod
+    def _motion_force(setup: tuple, force: np.ndarray, w0: float, q0: float) -> tuple[np.ndarray, np.ndarray]:
+        """Speed and position from ``w0`` [v] and ``q0`` [v s] for the input force ``force`` [F]
+        (NaN without a positive inertia)."""
+        dt, substeps, J, coef, rate, shape, excess, ripple = setup
+        if not J > 0.0:
+            nan = np.full(force.size, np.nan)
+            return nan, nan.copy()
+        return kernels.rigid_motion(force, dt, substeps, J, coef, rate, shape, w0, q0, excess, *ripple)
 
     def simulation(self, seed: int | None = None) -> RigidSimulation:
         """A running simulation of this drive at rest (``reset``, ``step``), the
@@ -508,6 +607,7 @@ class RigidSimulation:
     def __init__(self, drive: RigidDrive, seed: int | None = None) -> None:
         self.drive = drive
         self._setup = drive._free_run_setup(None)
+        self._position = bool(drive.position_effects)  # the position is carried where the speed needs it
         self.reset(seed)
 
     @property
@@ -519,6 +619,7 @@ class RigidSimulation:
         """Return to rest (speed 0, the input path before its first input); ``seed`` is ignored."""
         self._input = self.drive.input_state()
         self._w = 0.0
+        self._q = 0.0
         self.sample_index = 0
 
     def step(self, u: float) -> float:
@@ -527,7 +628,11 @@ class RigidSimulation:
         if not math.isfinite(u):
             raise ValueError(f"u must be finite, got {u!r} at sample {self.sample_index}")
         force = self.drive.input_force(np.array([u]), self._input)
-        self._w = float(self.drive._free_run_force(self._setup, force, self._w)[0])
+        if self._position:
+            speed, position = self.drive._motion_force(self._setup, force, self._w, self._q)
+            self._w, self._q = float(speed[0]), float(position[0])
+        else:
+            self._w = float(self.drive._free_run_force(self._setup, force, self._w)[0])
         self.sample_index += 1
         return self._w
 
@@ -543,7 +648,12 @@ class RigidSimulation:
         """
         arr = check_input("u", u)
         force = np.ascontiguousarray(self.drive.input_force(arr, self._input), dtype=float)
-        speed = self.drive._free_run_force(self._setup, force, self._w)
+        if self._position:
+            speed, position = self.drive._motion_force(self._setup, force, self._w, self._q)
+            if speed.size:
+                self._q = float(position[-1])
+        else:
+            speed = self.drive._free_run_force(self._setup, force, self._w)
         if speed.size:
             self._w = float(speed[-1])
         self.sample_index += speed.size
@@ -551,8 +661,12 @@ class RigidSimulation:
 
     @property
     def state(self) -> dict[str, float]:
-        """``t`` [s] and the speed ``omega`` [v] after the last :meth:`step`."""
-        return {"t": self.sample_index * self.drive.dt, "omega": self._w}
+        """``t`` [s] and the speed ``omega`` [v] after the last :meth:`step`, and for a drive with a
+        position ripple (cogging), whose speed depends on it, the ``position`` [v s]."""
+        state = {"t": self.sample_index * self.drive.dt, "omega": self._w}
+        if self._position:
+            state["position"] = self._q
+        return state
 
 
 __all__ = ["RigidDrive", "RigidSimulation", "linear_term", "term_columns"]

@@ -3,14 +3,17 @@
 Model (paper, section 2 and 2.1), SI units throughout::
 
     v_a = R_a i_a + L_a di_a/dt + e_a,    e_a = K_m ω_m,    T_m = K_m i_a        (1)-(3)
-    J_m dω_m/dt = T_m - T_s - B_m ω_m - T_f,m(ω_m)                              (12)
+    J_m dω_m/dt = T_m - T_s - B_m ω_m - T_f,m(ω_m) - T_cog(θ_m)                 (12)
     J_L dω_L/dt = T_s - B_L ω_L - T_d - T_f,L(ω_L)                              (13)
     T_s = k_s (θ_m - θ_L) + B_s (ω_m - ω_L)                                     (6)
     dθ_m/dt = ω_m,   dθ_L/dt = ω_L                                              (7)
 
 with T_f the sum of the friction objects on each side (:mod:`.friction`), an
 amplifier with dead zone and saturation in front of the armature
-(:mod:`.amplifier`), optional backlash of half-width b in the shaft (T_s = 0 for
+(:mod:`.amplifier`), the motor's cogging ripple
+T_cog(θ_m) = A_s sin(p θ_m) + A_c cos(p θ_m) (``cogging_sin``, ``cogging_cos`` [N m],
+``cogging_periods`` p [1/rad]: the ripple's periods per revolution; the rigid drive's
+``cogging`` effect, one spelling), optional backlash of half-width b in the shaft (T_s = 0 for
 |δ| < b, δ = θ_m - θ_L, else k_s (δ - b sgn δ) + B_s (ω_m - ω_L): the
 "dead-zone" backlash model, whose contact damping can briefly pull while the
 teeth separate) and the tachogenerator + A/D chain on the load speed
@@ -37,6 +40,7 @@ import pandas as pd
 
 from motorid.drive import kernels
 from motorid.drive.components import ADConverter, Amplifier, Encoder, Tachogenerator, measure_speed
+from motorid.drive.effects.cogging import Cogging
 from motorid.drive.files import KIND_RIG, register_kind, save_model
 from motorid.drive.friction import (
     AsymmetricLaw,
@@ -78,6 +82,8 @@ RECORD_UNITS: dict[str, str] = {
 }
 
 _POSITIVE = ("R_a", "L_a", "K_m", "J_m", "J_l", "k_s")
+#: The motor's cogging ripple: the ``cogging`` effect's parameters, one spelling.
+COGGING = tuple(p.name for p in Cogging.parameters)
 _NONNEGATIVE = ("B_m", "B_l", "B_s", "backlash")
 _NOISE_BLOCK = 1024
 
@@ -230,6 +236,11 @@ class TwoMassRig:
         A/D converter reading the tacho voltage.
     encoder : Encoder or None
         Optional incremental encoder (adds a ``theta_enc`` column to records).
+    cogging_sin, cogging_cos : float
+        The motor's cogging ripple A_s sin(p θ_m) + A_c cos(p θ_m) [N m] (0: none; amplitude
+        sqrt(A_s² + A_c²), phase atan2(A_c, A_s)).
+    cogging_periods : float
+        p [1/rad], its periods per revolution, > 0 with a ripple (>= 0 without).
 
     Notes
     -----
@@ -267,6 +278,9 @@ class TwoMassRig:
     tacho: Tachogenerator = field(default_factory=Tachogenerator)
     adc: ADConverter = field(default_factory=ADConverter)
     encoder: Encoder | None = None
+    cogging_sin: float = 0.0
+    cogging_cos: float = 0.0
+    cogging_periods: float = 0.0
 
     # ------------------------------------------------------------------ setup
     def __post_init__(self) -> None:
@@ -279,6 +293,10 @@ class TwoMassRig:
         ):
             check_parameter(name, getattr(self, name), units[name], sign=sign)
         check_count("substeps", self.substeps, 1, MOST_SUBSTEPS)
+        check_parameter("cogging_sin", self.cogging_sin, "N m", sign="any")
+        check_parameter("cogging_cos", self.cogging_cos, "N m", sign="any")
+        ripple = self.cogging_sin != 0.0 or self.cogging_cos != 0.0
+        check_parameter("cogging_periods", self.cogging_periods, "1/rad", sign="> 0" if ripple else ">= 0")
         friction = tuple(self.friction)
         for f in friction:
             if not isinstance(f, Friction):
@@ -412,6 +430,9 @@ class TwoMassRig:
         p[kernels.P_ADC_VMAX] = self.adc.v_max
         p[kernels.P_BREAK_POS_M], p[kernels.P_BREAK_NEG_M] = self.breakaway("motor")
         p[kernels.P_BREAK_POS_L], p[kernels.P_BREAK_NEG_L] = self.breakaway("load")
+        p[kernels.P_RIPPLE_SIN] = self.cogging_sin
+        p[kernels.P_RIPPLE_COS] = self.cogging_cos
+        p[kernels.P_RIPPLE_PERIODS] = self.cogging_periods
         return p
 
     # ----------------------------------------------------------- online use
@@ -513,10 +534,13 @@ class TwoMassRig:
 
     # ---------------------------------------------------------- description
     def to_dict(self) -> dict[str, Any]:
-        """JSON-able description of every parameter (inverse: :meth:`from_dict`)."""
+        """JSON-able description of every parameter (inverse: :meth:`from_dict`); the cogging keys
+        only for a rig with a cogging parameter other than 0 (a file without them has none)."""
         out: dict[str, Any] = {}
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
+            if f.name in COGGING and all(getattr(self, n) == 0.0 for n in COGGING):
+                continue
             if f.name == "friction":
                 out[f.name] = [fr.to_dict() for fr in value]
             elif value is None:
@@ -547,6 +571,8 @@ class TwoMassRig:
             A DataError naming the missing, unknown, mistyped or out-of-range key.
         """
         fields = [f for f in dataclasses.fields(cls) if f.init]
+        if isinstance(data, dict) and not any(n in data for n in COGGING):
+            fields = [f for f in fields if f.name not in COGGING]  # a rig without cogging (older files)
         object_keys(data, [f.name for f in fields], where)
         parts = {"amplifier": Amplifier, "tacho": Tachogenerator, "adc": ADConverter}
         values: dict[str, Any] = {}
@@ -611,6 +637,8 @@ class TwoMassRig:
                                 LuGre's Fs - Fc                                           decay rate
         stribeck_velocity       1/ᾱ, ᾱ the excess-weighted mean of the laws' decay rates  approximate
                                 α2, α5 (1/ω_s for LuGre, whose shape is Gaussian)
+        cogging_sin, _cos,      the motor's ripple A_s, A_c [N m] and p [1/rad]          exact
+        cogging_periods         (θ_m = θ_L = θ on a stiff shaft)
         ======================= ===============================================================
 
         A law on ``side="both"`` counts once per mass. The rig's Karnopp breakaway at rest
@@ -631,7 +659,7 @@ class TwoMassRig:
         RigidDrive
             Effects ``viscous_friction`` and ``offset`` always (the back-EMF is a viscous term,
             T_d an offset), ``coulomb_friction``, ``asymmetric_friction``, ``stribeck_friction``,
-            ``input_dead_zone`` and ``input_saturation`` when the rig has them.
+            ``input_dead_zone``, ``input_saturation`` and ``cogging`` when the rig has them.
 
         Raises
         ------
@@ -668,6 +696,9 @@ class TwoMassRig:
         if math.isfinite(self.amplifier.v_max):
             effects.append("input_saturation")
             params["saturation"] = self.amplifier.v_max / G
+        if self.cogging_sin != 0.0 or self.cogging_cos != 0.0:
+            effects.append("cogging")
+            params.update({name: float(getattr(self, name)) for name in COGGING})
         return RigidDrive(tuple(effects), params, self.dt if dt is None else dt, stribeck_shape=levels.shape)
 
     def with_rigid_equivalent(self, drive: RigidDrive) -> TwoMassRig:
@@ -694,7 +725,9 @@ class TwoMassRig:
           Fc, symmetric, by their common ratio);
         - Stribeck F_s: every excess α1, α4 (LuGre's Fs - Fc) scaled by F_s / S; a changed
           ``stribeck_velocity`` v_s sets every decay rate to 1/v_s (ω_s = v_s for LuGre), a
-          changed shape every law's shape.
+          changed shape every law's shape;
+        - cogging: the motor's ripple ``cogging_sin``, ``cogging_cos`` [N m] and
+          ``cogging_periods`` [1/rad] are the drive's (none when ``drive`` has no cogging).
 
         An effect the rig has none of (levels 0) is added as its own law on the motor side:
         :class:`~motorid.drive.friction.CoulombLaw`,
@@ -775,6 +808,10 @@ class TwoMassRig:
             else:
                 changes["B_m"] = mechanical
         changes["friction"] = self._friction_for(drive, here, viscous_ratio)
+        if "cogging" in drive.effects:
+            changes.update({name: p[name] for name in COGGING})
+        elif "cogging" in here.effects:
+            changes.update(dict.fromkeys(COGGING, 0.0))
         return self.replace(**changes)
 
     def _friction_for(

@@ -16,6 +16,7 @@ entry-point group ``motorid.effects``.
 from motorid.drive.effects.asymmetric import AsymmetricFriction
 from motorid.drive.effects.backlash import Backlash
 from motorid.drive.effects.base import DRIVE_PARAMETERS, Effect, Parameter
+from motorid.drive.effects.cogging import Cogging
 from motorid.drive.effects.coulomb import CoulombFriction
 from motorid.drive.effects.dead_zone import InputDeadZone
 from motorid.drive.effects.delay import InputDelay
@@ -43,6 +44,7 @@ __all__ = [
     "ENTRY_POINT_GROUP",
     "AsymmetricFriction",
     "Backlash",
+    "Cogging",
     "CoulombFriction",
     "Effect",
     "InputDeadZone",

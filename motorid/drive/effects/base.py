@@ -6,8 +6,9 @@ effects' parameters)::
     J dω/dt = F_in(u) - Σ_e T_e(ω),    F_in(u) = B(g · L(Δ(D(S(u)))))        [F]
 
 ``F`` stands for the force unit of the model (N m or N, that of ``g u``; without a known g
-the fit takes g = 1 and F is the input's unit), ``v`` for the velocity unit and ``u`` for
-the input unit (e.g. V); :func:`motorid.drive.effects.param_unit` makes them concrete.
+the fit takes g = 1 and F is the input's unit), ``v`` for the velocity unit, ``q`` for the
+position unit (v s: rad or m) and ``u`` for the input unit (e.g. V);
+:func:`motorid.drive.effects.param_unit` makes them concrete.
 
 An effect (one class, one file of this package) is what every part of the library needs
 of it:
@@ -18,7 +19,8 @@ of it:
 - the doctor: its signature (where it shows in the residual of a model that lacks it), the
   search interval of its shape parameters (:meth:`Effect.bounds`), the physics it is a form
   of, where it acts, what it requires; friction-type effects give regressor columns
-  ``T_e(ω) = Σ θ_i c_i(ω)``, input-path effects transform the input; both are the drive's
+  ``T_e(ω) = Σ θ_i c_i(ω)`` (``c_i(ω, θ)`` for an effect whose torque depends on the position
+  θ, :attr:`Effect.position`), input-path effects transform the input; both are the drive's
   compiled functions, so no term is written twice;
 - the friction filters (:mod:`motorid.estimators.friction_kf`): the states it maps to, or
   whether their model holds it as a known part (input path, offset, stick rule).
@@ -62,13 +64,19 @@ class Parameter:
     term : int or None
         For a parameter that enters the balance linearly (fitted by least squares), the code of
         its compiled term ``T_t`` (``kernels.TERM_*``): its torque is ``θ T_t(ω)``. None for a
-        shape parameter (fitted by a bounded search).
+        shape parameter (fitted by a bounded search) and for a linear parameter of a torque that
+        depends on the position (``in_position``).
+    in_position : bool
+        It enters the balance linearly as the amplitude of a torque that depends on the position
+        (the effect's :meth:`Effect.columns` from the position; the drive's compiled position
+        ripple, :func:`~motorid.drive.kernels.ripple_torque`), not through a speed term.
     """
 
     name: str
     unit: str
     sign: str = ">= 0"
     term: int | None = None
+    in_position: bool = False
 
     def __post_init__(self) -> None:
         if not isinstance(self.name, str) or not self.name.isidentifier():
@@ -83,11 +91,14 @@ class Parameter:
             raise ValueError(
                 f"{self.name}: term must be a compiled term code in [0, {kernels.N_TERMS}), got {self.term!r}"
             )
+        if self.in_position and self.term is not None:
+            raise ValueError(f"{self.name}: a parameter of a position torque has no speed term")
 
     @property
     def linear(self) -> bool:
-        """Whether it enters the balance linearly (it has a compiled term)."""
-        return self.term is not None
+        """Whether it enters the balance linearly (it has a compiled term, or is the amplitude of
+        a torque that depends on the position)."""
+        return self.term is not None or self.in_position
 
 
 #: The parameters every rigid drive has: inertia J [F s/v = kg m² or kg] and input gain g [F/u].
@@ -148,6 +159,17 @@ class Effect:
         An effect with neither is refused by the filters.
     filter_zero : tuple of str
         Parameters the filters' model does not hold: they must be 0 for it to hold the effect.
+    position : bool
+        Its torque depends on the position θ [v s] (a ripple periodic in it, cogging): its
+        :meth:`columns` need the position, the drive runs its :meth:`ripple` in the compiled free
+        run, and the doctor finds its shape where the residual shows it in position
+        (:meth:`locate`).
+    derived_units : dict
+        Unit of each figure :meth:`derived` reports beside the parameters.
+    on_request : bool
+        The doctor tries it only when it is asked for (its ``candidates``): an effect outside the
+        set its evidence threshold was calibrated on, so a record's report without it stays what
+        it was.
     """
 
     name: ClassVar[str] = ""
@@ -162,6 +184,9 @@ class Effect:
     filter_states: ClassVar[tuple[str, ...]] = ()
     filter_known: ClassVar[bool] = False
     filter_zero: ClassVar[tuple[str, ...]] = ()
+    position: ClassVar[bool] = False
+    derived_units: ClassVar[dict[str, str]] = {}
+    on_request: ClassVar[bool] = False
 
     # derived from ``parameters`` when the class is made
     linear: ClassVar[tuple[str, ...]] = ()
@@ -212,7 +237,11 @@ class Effect:
         return math.nan
 
     def columns(
-        self, w: np.ndarray, shape: dict[str, float], stribeck_shape: str = "exponential"
+        self,
+        w: np.ndarray,
+        shape: dict[str, float],
+        stribeck_shape: str = "exponential",
+        position: np.ndarray | None = None,
     ) -> np.ndarray:
         """Regressor columns ``c_i(ω)``, shape (N, len(linear)): the torque per unit parameter of
         the linear parameters, for a drive moving in the direction sgn(ω)
@@ -226,6 +255,9 @@ class Effect:
             Shape parameters by name (``stribeck_velocity`` [v]; 1 when absent).
         stribeck_shape : {"exponential", "gaussian"}
             Shape of the Stribeck decay.
+        position : numpy.ndarray, shape (N,), optional
+            Positions θ [v s] at the samples of ``w``, for an effect whose torque depends on it
+            (:attr:`position`); the others ignore it.
         """
         if not self.linear:
             return np.zeros((w.size, 0))
@@ -254,8 +286,51 @@ class Effect:
         Parameters
         ----------
         scale : dict
-            ``w_max`` [v], ``w_noise`` [v], ``u_max`` [u], ``dt`` [s] and ``dt_band`` [s], the
-            decimated sample time.
+            ``w_max`` [v], ``w_noise`` [v], ``u_max`` [u], ``dt`` [s], ``dt_band`` [s], the
+            decimated sample time, ``band`` [Hz], the useful band, and ``q_span`` [v s], the span
+            of positions the record covers.
+        """
+        return {}
+
+    def locate(
+        self, bounds: dict[str, tuple[float, float]], residual: np.ndarray, position: np.ndarray
+    ) -> dict[str, tuple[float, float]]:
+        """The search intervals narrowed where the ``residual`` [F] of a model without this effect
+        shows it against the ``position`` [v s] of its samples (an effect periodic in position:
+        its period); the :meth:`bounds` as they are for the others.
+
+        Parameters
+        ----------
+        bounds : dict
+            Search interval of each nonlinear parameter (:meth:`bounds`).
+        residual : numpy.ndarray
+            The balance residual of the model without this effect on the fitted rows [F].
+        position : numpy.ndarray
+            The position at those rows [v s].
+        """
+        return bounds
+
+    def ripple(self, params: dict[str, float]) -> tuple[float, float, float]:
+        """An effect whose torque depends on the position (:attr:`position`): its torque as the
+        compiled position ripple ``A_s sin(p θ) + A_c cos(p θ)``
+        (:func:`~motorid.drive.kernels.ripple_torque`), ``(A_s [F], A_c [F], p [1/(v s)])`` from a
+        drive's ``params``; no ripple, ``(0, 0, 0)``, for the others.
+
+        Parameters
+        ----------
+        params : dict
+            The drive's parameters.
+        """
+        return 0.0, 0.0, 0.0
+
+    def derived(self, params: dict[str, float]) -> dict[str, float]:
+        """Figures reported beside the fitted parameters (their units in :attr:`derived_units`);
+        none here.
+
+        Parameters
+        ----------
+        params : dict
+            The effect's fitted parameters.
         """
         return {}
 

@@ -25,6 +25,7 @@ from importlib.metadata import entry_points
 from motorid.drive.effects.asymmetric import AsymmetricFriction
 from motorid.drive.effects.backlash import Backlash
 from motorid.drive.effects.base import DRIVE_PARAMETERS, Effect, Parameter
+from motorid.drive.effects.cogging import Cogging
 from motorid.drive.effects.coulomb import CoulombFriction
 from motorid.drive.effects.dead_zone import InputDeadZone
 from motorid.drive.effects.delay import InputDelay
@@ -56,6 +57,7 @@ _BUILT_IN: dict[str, type[Effect]] = {
         InputDelay,
         InputLag,
         StaticFriction,
+        Cogging,
     )
 }
 _REGISTERED: dict[str, type[Effect]] = {}
@@ -79,7 +81,13 @@ def check_effect(effect: object, known: dict[str, type[Effect]]) -> type[Effect]
     name = effect.name
     if not isinstance(name, str) or not name.isidentifier():
         raise ValueError(f"{effect.__name__}: name must be a snake_case identifier, got {name!r}")
-    if effect.kind != "friction" or effect.nonlinear or effect.rest_only or effect.structure:
+    if (
+        effect.kind != "friction"
+        or effect.nonlinear
+        or effect.rest_only
+        or effect.structure
+        or effect.position
+    ):
         raise ValueError(
             f"effect {name!r}: an effect from outside motorid adds torque terms only (kind 'friction', "
             "every parameter entering the balance linearly through a compiled term)"
@@ -236,15 +244,33 @@ def parameter(name: str) -> Parameter:
     raise ValueError(f"unknown parameter {name!r}: neither a drive's nor any effect's")
 
 
+def parameter_unit(name: str) -> str:
+    """The unit of parameter ``name`` or of a figure an effect derives from its parameters
+    (:attr:`Effect.derived_units <motorid.drive.effects.base.Effect.derived_units>`), in the
+    model's ``F``, ``v``, ``q`` and ``u``; ValueError for neither.
+
+    Parameters
+    ----------
+    name : str
+        The parameter's or figure's name.
+    """
+    for cls in _effects().values():
+        if name in cls.derived_units:
+            return cls.derived_units[name]
+    return parameter(name).unit
+
+
 def param_unit(name: str, units: dict[str, str]) -> str:
-    """Concrete unit of parameter ``name`` (of any effect, or ``inertia``/``input_gain``).
+    """Concrete unit of parameter ``name`` (of any effect, or ``inertia``/``input_gain``), or of a
+    figure an effect derives from its parameters (the cogging's amplitude and phase).
 
     Parameters
     ----------
     name : str
         Parameter name, e.g. ``"viscous"``.
     units : dict
-        Concrete ``F``, ``v`` and ``u`` (:attr:`motorid.diagnose.Diagnosis.units`).
+        Concrete ``F``, ``v`` and ``u`` (:attr:`motorid.diagnose.Diagnosis.units`); the position
+        unit ``q`` is the velocity's with the "/s" taken off (``v s`` otherwise) unless given.
 
     Returns
     -------
@@ -252,9 +278,12 @@ def param_unit(name: str, units: dict[str, str]) -> str:
         E.g. ``"N m s/(rad/s)"`` for ``viscous`` of a rotary drive with a known
         input gain, ``"V"`` for ``coulomb`` without one (forces per volt).
     """
+    if "q" not in units:  # the position unit: the velocity's per second taken off
+        v = units.get("v", "v")
+        units = {**units, "q": v[: -len("/s")] if v.endswith("/s") else f"{v} s"}
     out = []
     after_slash = False
-    for token in parameter(name).unit.replace("/", " / ").split():
+    for token in parameter_unit(name).replace("/", " / ").split():
         base = token.rstrip("²")
         power = token[len(base) :]
         unit = units.get(base, base)
@@ -273,6 +302,7 @@ __all__ = [
     "param_unit",
     "parameter",
     "parameter_names",
+    "parameter_unit",
     "register",
     "unregister",
 ]
