@@ -225,7 +225,7 @@ def cogging_record(seed: int, cogging: bool = True) -> pd.DataFrame:
 
 CLEAN = {"inertia": 1e-4, "input_gain": 0.02, "viscous": 8e-4, "coulomb": 5e-3, "offset": 0.0}
 BASE = ("viscous_friction", "coulomb_friction", "offset")
-#: Every effect the doctor may try, cogging (tried on request only) among them.
+#: Every effect the doctor tries, cogging among them.
 EVERY_CANDIDATE = tuple(n for n in effects.names() if not effects.get(n).structure)
 
 
@@ -237,13 +237,14 @@ def test_the_doctor_names_cogging_with_its_amplitude_and_period(seed):
 
     The free run of a drive with a ripple follows the position it starts from (here the integral
     of the measured speed, a few hundredths of a radian off the truth): the true model's own
-    free-run gap is 5-12 noise floors. The named model's gap is measured 1.03-1.42 times the
-    truth's and 0.45-0.72 of the model without cogging's; asserted below 1.6 and 0.8."""
+    free-run gap is 5-12 noise floors. The named model's gap is measured 0.73-1.25 times the
+    truth's and 0.37-0.83 of the model without cogging's (seeds 1-6; the inertia fitted without the
+    noise bias, within 0.25 % of the truth); asserted below 1.6 and 0.9."""
     d = diagnose(cogging_record(seed), input_gain=0.02, base=BASE, candidates=EVERY_CANDIDATE)
     assert d.named == ["cogging"], d.stop_reason
     truth = gaps(RigidDrive((*BASE, "cogging"), {**CLEAN, **COGGED}, 0.005), d._pool.parts[0], None)
     assert d.final_gap["overall"] < 1.6 * truth["overall"]
-    assert d.final_gap["overall"] < 0.8 * d.initial_gap["overall"]
+    assert d.final_gap["overall"] < 0.9 * d.initial_gap["overall"]
     params = d.steps[0].params
     assert params["cogging_amplitude"] == pytest.approx(4e-3, rel=0.1)
     assert params["cogging_periods"] == pytest.approx(6.0, rel=2e-3)
@@ -318,17 +319,14 @@ def test_the_rigs_motor_ripple_is_its_rigid_equivalents_cogging_both_ways():
     assert carried.with_rigid_equivalent(carried.rigid_equivalent().without("cogging")) == plain
 
 
-def test_the_doctor_tries_cogging_when_asked_only():
-    """Cogging is outside the set the evidence threshold was calibrated on: the default candidates
-    leave it out (so a record's report without it stays as it was), and a record with a ripple
-    gets it named only when it is asked for."""
+def test_the_doctor_tries_cogging_by_default():
+    """The default candidates hold cogging: a record with a ripple gets it named without asking."""
     d = diagnose(cogging_record(1), input_gain=0.02, base=BASE)
-    assert "cogging" not in d.settings["candidates"]
-    assert "cogging" not in d.named
-    assert set(d.settings["candidates"]) == set(EVERY_CANDIDATE) - {*BASE, "cogging"}
+    assert set(d.settings["candidates"]) == set(EVERY_CANDIDATE) - set(BASE)
+    assert d.named == ["cogging"], d.stop_reason
 
 
-def test_motorid_doctor_names_cogging_when_its_candidates_ask_for_it(capsys, tmp_path):
+def test_motorid_doctor_names_cogging_asked_for_or_by_default(capsys, tmp_path):
     """The command line as the README says: ``--candidates`` naming cogging; the JSON reports its
     amplitude and phase beside its parameters, with their units (tolerance as the doctor's test)."""
     from cli_fixtures import run
@@ -346,7 +344,6 @@ def test_motorid_doctor_names_cogging_when_its_candidates_ask_for_it(capsys, tmp
     assert out["units"]["params"]["cogging_phase"] == "rad"
     code, out, err = run(capsys, "doctor", str(tmp_path / "cog.csv"), *base)
     assert code == 0, err
-    # by default cogging is not tried (on this record the doctor then names stribeck_friction in its
-    # stead, measured: the ripple's residual is taken for another effect unless cogging is asked for)
-    assert "cogging" not in out["settings"]["candidates"]
-    assert "cogging" not in [step["effect"] for step in out["steps"]]
+    # tried by default too, among all the others: named all the same
+    assert "cogging" in out["settings"]["candidates"]
+    assert [step["effect"] for step in out["steps"]] == ["cogging"]

@@ -218,7 +218,7 @@ def add_doctor_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--candidates",
         metavar="EFFECT,...",
-        help="effects to try (default: all others but those tried on request only: cogging)",
+        help="effects to try (default: all others)",
     )
     parser.add_argument("--holdout", type=number(float, low=0.0, high=0.9, low_open=True), default=0.3,
                         help="share of the record held out, in (0, 0.9] (default: 0.3)")  # fmt: skip

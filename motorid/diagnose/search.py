@@ -194,7 +194,7 @@ def effect_names(value: Sequence[str] | str | None, what: str) -> tuple[str, ...
 
 def candidate_names(base: tuple[str, ...], candidates: Sequence[str] | str | None) -> tuple[str, ...]:
     """The effects to try: ``candidates`` (checked) or every effect of the library but the
-    structure effects and those tried on request only (cogging), less those in ``base``.
+    structure effects, less those in ``base``.
 
     Parameters
     ----------
@@ -204,11 +204,7 @@ def candidate_names(base: tuple[str, ...], candidates: Sequence[str] | str | Non
         The effects asked for (None: the library's).
     """
     if candidates is None:
-        return tuple(
-            n
-            for n in effect_library()
-            if n not in base and not (get_effect(n).structure or get_effect(n).on_request)
-        )
+        return tuple(n for n in effect_library() if n not in base and not get_effect(n).structure)
     return tuple(n for n in effect_names(candidates, "candidates") if n not in base)
 
 

@@ -166,10 +166,6 @@ class Effect:
         (:meth:`locate`).
     derived_units : dict
         Unit of each figure :meth:`derived` reports beside the parameters.
-    on_request : bool
-        The doctor tries it only when it is asked for (its ``candidates``): an effect outside the
-        set its evidence threshold was calibrated on, so a record's report without it stays what
-        it was.
     """
 
     name: ClassVar[str] = ""
@@ -186,7 +182,6 @@ class Effect:
     filter_zero: ClassVar[tuple[str, ...]] = ()
     position: ClassVar[bool] = False
     derived_units: ClassVar[dict[str, str]] = {}
-    on_request: ClassVar[bool] = False
 
     # derived from ``parameters`` when the class is made
     linear: ClassVar[tuple[str, ...]] = ()
