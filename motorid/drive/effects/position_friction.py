@@ -33,9 +33,13 @@ class PositionFriction(Effect):
     The doctor tries it by default on position records only (:attr:`Effect.measured_position
     <motorid.drive.effects.base.Effect.measured_position>`): the level is tied to places along the
     travel, and a model of it holds for records of the same origin. Over the integral of a
-    measured speed, which drifts, a smooth level in position is a slow level in time, and on the
-    kit motor's chirps in ``realmotors/`` it took up what a slow drift leaves (named on both,
-    where no name was before). Asked for (``candidates``) it is tried on any record.
+    measured speed, which drifts, a smooth level in position is a slow level in time: tried there,
+    it was named on none of 40 planted records that hide nothing (nor of 40 of an encoder's
+    speed), but on both of the kit motor's chirps in ``realmotors/``, where no name was before.
+    Asked for (``candidates``) it is tried on any record. On simulated position-loop records
+    (``tests/test_position_friction.py``) the first step names it on 30 of 30 with it and on
+    none of 30 without; on EMPS the doctor names it third, a level of -1.3 to +1.2 N about the
+    Coulomb level's 19.9 N along the 0.25 m travel.
     """
 
     name = "position_friction"
