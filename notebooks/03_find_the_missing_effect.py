@@ -263,7 +263,8 @@ if estimation is not None:
 # Fv- = 240.4 N s/m). It is accepted because it lowers the error on held-out blocks of the
 # estimation record, and the validation record, which the workflow never saw, agrees. Its
 # Coulomb part would duplicate the offset while the axis moves, which only stuck phases
-# could tell apart, so the fit leaves it at zero.
+# could tell apart, so the fit leaves it at zero. Third, it names `position_friction`: the
+# Coulomb level varies along the ball screw's travel, by -1.3 to +1.2 N about 19.9 N.
 
 # %% [markdown]
 # ### The benchmark's own figure: the position of the test set, in mm
@@ -307,6 +308,6 @@ if estimation is not None:
 # asymmetric friction, which lowers the force error on both sets, raises the test set's
 # position error, and refitting in position helps every model. The doctor's models with
 # Coulomb friction land at 5.4-9.1 mm, not yet below the LTI (5.53 mm) and NARX (5.17 mm)
-# baselines. The same effects refitted on the test set reach 0.84 mm with a Coulomb level
-# 0.6 N higher: the two runs differ by more than the millimetre needs, and the train set
-# alone does not pin it.
+# baselines; the level along the travel takes the final model from 9.06 to 7.35 mm. The same
+# effects refitted on the test set reach 0.66 mm with a Coulomb level 1.0 N lower: the two
+# runs differ by more than the millimetre needs, and the train set alone does not pin it.

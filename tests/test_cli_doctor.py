@@ -211,8 +211,10 @@ def test_doctor_saved_emps_model_validates_below_the_published_force_error(capsy
     without Coulomb friction: inertia, viscous, offset), run unchanged on the validation set
     (DATA_EMPS_PULSES.mat). On the published recipe (tests/emps_fixtures.py) the published
     model's force error is 6.00 % there (published: 5.98 %); the saved model must do better
-    than the published figure. Measured: 5.32 % on that recipe, 3.25 % on the doctor's own
+    than the published figure. Measured: 5.28 % on that recipe, 3.17 % on the doctor's own
     torque balance (its given-model gap on the validation record)."""
+
+    import scipy.signal
 
     from motorid import load_model
     from motorid.datasets import EMPS_REFERENCE, load_emps
@@ -236,7 +238,11 @@ def test_doctor_saved_emps_model_validates_below_the_published_force_error(capsy
     qd, qdd, force = published_inverse_dynamics(
         val["t"].to_numpy(), val["y"].to_numpy(), val["force"].to_numpy()
     )
-    assert force_error_percent(force, model.inertia * qdd + model.friction(qd)) < published
+    # the position on the recipe's grid (its 50 edge samples dropped, decimated by 12), for the
+    # level along the travel the doctor names third
+    position = scipy.signal.decimate(val["y"].to_numpy()[50:-50], 12, ftype="fir", zero_phase=True)
+    error = force_error_percent(force, model.inertia * qdd + model.friction(qd, position))
+    assert error < published
 
 
 @pytest.mark.parametrize(

@@ -67,9 +67,11 @@ def test_each_parameter_is_spelled_once_with_its_unit_sign_and_term():
     # the physical signs a model file checks, and the compiled terms of the balance
     assert {n for n in seen if effects.parameter(n).sign == "> 0"} == {
         "inertia", "input_gain", "stribeck_velocity", "saturation", "cogging_periods",
+        "position_friction_periods",
     }  # fmt: skip
     assert {n for n in seen if effects.parameter(n).sign == "any"} == {
         "coulomb_asymmetry", "viscous_asymmetry", "offset", "cogging_sin", "cogging_cos",
+        *(f"position_friction_{k}" for k in ("sin", "cos", "sin2", "cos2", "sin3", "cos3")),
     }  # fmt: skip
     terms = {n: effects.parameter(n).term for n in seen if effects.parameter(n).term is not None}
     assert terms == {

@@ -44,7 +44,7 @@ def test_the_drive_and_the_doctor_name_the_same_effects_and_parameters():
     assert effects.names() == (
         "coulomb_friction", "stribeck_friction", "asymmetric_friction", "viscous_friction", "quadratic_drag",
         "input_dead_zone", "input_saturation", "backlash", "offset", "input_delay", "input_lag", "static_friction",
-        "cogging",
+        "cogging", "position_friction",
     )  # fmt: skip
     for name in effects.names():
         cls = effects.get(name)
@@ -291,6 +291,8 @@ PARAMETER_RANGES = {
     "dead_zone": (0.0, 1.0), "saturation": (0.5, 12.0), "backlash_time": (0.0, 0.1),
     "input_delay": (0.0, 0.1), "lag_time_constant": (0.0, 0.1), "breakaway_excess": (0.0, 0.05),
     "cogging_sin": (-0.02, 0.02), "cogging_cos": (-0.02, 0.02), "cogging_periods": (0.5, 50.0),
+    **{f"position_friction_{k}": (-0.01, 0.01) for k in ("sin", "cos", "sin2", "cos2", "sin3", "cos3")},
+    "position_friction_periods": (0.1, 5.0),
 }  # fmt: skip
 
 
@@ -298,6 +300,8 @@ PARAMETER_RANGES = {
 def drives(draw) -> RigidDrive:
     """A rigid drive with a random set of effects, parameters, sample time and Stribeck shape."""
     chosen = draw(st.lists(st.sampled_from(list(effects.names())), unique=True))
+    if "cogging" in chosen and "position_friction" in chosen:  # one torque that depends on the position
+        chosen.remove(draw(st.sampled_from(["cogging", "position_friction"])))
     names = effects.parameter_names(chosen)
     params = {n: draw(st.floats(*PARAMETER_RANGES[n])) for n in names}
     dt = draw(st.sampled_from([0.001, 0.005, 0.01, 0.02]))

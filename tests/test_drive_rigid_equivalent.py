@@ -156,7 +156,9 @@ def test_an_effect_the_rig_cannot_carry_is_refused_by_name(effect):
 
     here = paper_rig().rigid_equivalent()
     values = {"quadratic_drag": 1e-6, "backlash_time": 0.01, "input_delay": 0.01, "lag_time_constant": 0.01,
-              "breakaway_excess": 1e-3}  # fmt: skip
+              "breakaway_excess": 1e-3,
+              **{f"position_friction_{k}": 1e-4 for k in ("sin", "cos", "sin2", "cos2", "sin3", "cos3")},
+              "position_friction_periods": 1.0}  # fmt: skip
     drive = here.with_effects(
         (*here.effects, effect),
         {**here.params, **{p.name: values[p.name] for p in get_effect(effect).parameters}},

@@ -192,9 +192,12 @@ def effect_names(value: Sequence[str] | str | None, what: str) -> tuple[str, ...
     return tuple(dict.fromkeys(out))
 
 
-def candidate_names(base: tuple[str, ...], candidates: Sequence[str] | str | None) -> tuple[str, ...]:
+def candidate_names(
+    base: tuple[str, ...], candidates: Sequence[str] | str | None, output_kind: str = "velocity"
+) -> tuple[str, ...]:
     """The effects to try: ``candidates`` (checked) or every effect of the library but the
-    structure effects, less those in ``base``.
+    structure effects, and on a velocity record those that need a measured position
+    (:attr:`~motorid.drive.effects.base.Effect.measured_position`), less those in ``base``.
 
     Parameters
     ----------
@@ -202,9 +205,17 @@ def candidate_names(base: tuple[str, ...], candidates: Sequence[str] | str | Non
         The effects already in the model.
     candidates : sequence of str, comma-separated str or None
         The effects asked for (None: the library's).
+    output_kind : {"velocity", "position"}
+        What the records measure.
     """
     if candidates is None:
-        return tuple(n for n in effect_library() if n not in base and not get_effect(n).structure)
+        return tuple(
+            n
+            for n in effect_library()
+            if n not in base
+            and not get_effect(n).structure
+            and (output_kind == "position" or not get_effect(n).measured_position)
+        )
     return tuple(n for n in effect_names(candidates, "candidates") if n not in base)
 
 
@@ -826,8 +837,10 @@ class Search:
             remaining = [
                 c
                 for c in candidates
-                if c not in effects and all(r in effects for r in get_effect(c).requires)
-            ]
+                if c not in effects
+                and all(r in effects for r in get_effect(c).requires)
+                and not (get_effect(c).position and any(get_effect(e).position for e in effects))
+            ]  # a drive holds one torque that depends on the position
             if not remaining:
                 stop = Stop("all_in_model")
                 break

@@ -301,7 +301,7 @@ def diagnose(
     else:
         base_names = effect_names(DEFAULT_BASE if base is None else base, "base")
     stribeck_shape = "exponential" if model is None else model.stribeck_shape
-    cand_names = candidate_names(base_names, candidates)
+    cand_names = candidate_names(base_names, candidates, output_kind)
     if isinstance(max_steps, bool) or not isinstance(max_steps, int | np.integer) or max_steps < 0:
         raise DataError(f"max_steps must be an integer >= 0, got {max_steps!r}")
     if not isinstance(holdout, pd.DataFrame):

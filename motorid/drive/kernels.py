@@ -1121,12 +1121,42 @@ def ripple_torque(position: float, ripple_sin: float, ripple_cos: float, periods
     return ripple_sin * math.sin(x) + ripple_cos * math.cos(x)
 
 
+#: No harmonics beyond the first of a position torque (:func:`position_torque`).
+NO_HARMONICS = np.zeros(0)
+
+
 @numba.njit(cache=True)
-def ripple_torques(position: np.ndarray, ripple_sin: float, ripple_cos: float, periods: float) -> np.ndarray:
-    """Vectorised :func:`ripple_torque`: the ripple [F] at each position."""
+def position_torque(
+    position: float,
+    ripple_sin: float,
+    ripple_cos: float,
+    periods: float,
+    harmonic_sin: np.ndarray,
+    harmonic_cos: np.ndarray,
+) -> float:
+    """A torque periodic in the position with harmonics, ``Σ_k A_s,k sin(k p θ) + A_c,k cos(k p θ)``
+    [F] at position θ [rad or m], k = 1 (``ripple_sin``, ``ripple_cos``) then 2, 3, ...
+    (``harmonic_sin[k - 2]``, ``harmonic_cos[k - 2]``): :func:`ripple_torque` of each harmonic.
+    Without harmonics it is the ripple's bits."""
+    total = ripple_torque(position, ripple_sin, ripple_cos, periods)
+    for k in range(harmonic_sin.size):
+        total += ripple_torque(position, harmonic_sin[k], harmonic_cos[k], (k + 2) * periods)
+    return total
+
+
+@numba.njit(cache=True)
+def position_torques(
+    position: np.ndarray,
+    ripple_sin: float,
+    ripple_cos: float,
+    periods: float,
+    harmonic_sin: np.ndarray,
+    harmonic_cos: np.ndarray,
+) -> np.ndarray:
+    """Vectorised :func:`position_torque`: the torque [F] at each position."""
     out = np.empty(position.size)
     for k in range(position.size):
-        out[k] = ripple_torque(position[k], ripple_sin, ripple_cos, periods)
+        out[k] = position_torque(position[k], ripple_sin, ripple_cos, periods, harmonic_sin, harmonic_cos)
     return out
 
 
@@ -1175,6 +1205,9 @@ def rigid_motion(
     ripple_sin: float = 0.0,
     ripple_cos: float = 0.0,
     ripple_periods: float = 0.0,
+    ripple_directed: bool = False,
+    harmonic_sin: np.ndarray = NO_HARMONICS,
+    harmonic_cos: np.ndarray = NO_HARMONICS,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Speed and position of a rigid drive at the end of each sample for the input force [F]
     held over it, from speed ``w0`` [v] and position ``q0`` [v s: rad or m].
@@ -1198,7 +1231,10 @@ def rigid_motion(
     The position ripple :func:`ripple_torque` at the position at the start of each step
     (``ripple_sin``, ``ripple_cos`` [F], ``ripple_periods`` [1/rad or 1/m]; cogging) joins the level
     terms, and at rest the torque the drive must overcome (a drive without it skips it: both
-    amplitudes 0 evaluate nothing).
+    amplitudes 0 evaluate nothing). ``harmonic_sin[k]``, ``harmonic_cos[k]`` [F] add the harmonic
+    ``k + 2`` of it (:func:`position_torque`). With ``ripple_directed`` the ripple is a level
+    against the motion, ``F(θ) sgn ω`` (position-dependent friction): at rest it raises both
+    breakaway levels by ``F(θ)`` instead.
     Returns ``(speed, position)``, each of shape (N,).
     """
     n = force.size
@@ -1215,7 +1251,7 @@ def rigid_motion(
     break_pos = up - rest + breakaway_excess
     break_neg = rest - down + breakaway_excess
     static = break_pos > 0.0 or break_neg > 0.0
-    rippled = ripple_sin != 0.0 or ripple_cos != 0.0
+    rippled = ripple_sin != 0.0 or ripple_cos != 0.0 or harmonic_sin.size > 0
     w = w0
     q = q0
     for k in range(n):
@@ -1223,18 +1259,24 @@ def rigid_motion(
         for _ in range(nsub):
             ripple = 0.0
             if rippled:
-                ripple = ripple_torque(q, ripple_sin, ripple_cos, ripple_periods)
+                ripple = position_torque(
+                    q, ripple_sin, ripple_cos, ripple_periods, harmonic_sin, harmonic_cos
+                )
             at_rest = w == 0.0
             if at_rest:
-                t_net = f - rest - ripple
-                stuck, s = stick_or_slip(w, t_net, break_pos, break_neg)
+                if ripple_directed:
+                    t_net = f - rest
+                    stuck, s = stick_or_slip(w, t_net, break_pos + ripple, break_neg + ripple)
+                else:
+                    t_net = f - rest - ripple
+                    stuck, s = stick_or_slip(w, t_net, break_pos, break_neg)
                 if stuck == 1:
                     continue
                 if s == 0.0:
                     s = 1.0 if t_net >= 0.5 * (break_pos - break_neg) else -1.0
             else:
                 s = 1.0 if w > 0.0 else -1.0
-            level = ripple
+            level = s * ripple if ripple_directed else ripple
             for t in range(N_SPEED_TERMS, N_TERMS):
                 level += coef[t] * rigid_level(t, w, s, rate, shape)
             damp = 0.0

@@ -280,11 +280,12 @@ class RigidDrive:
         """The drive's effects whose torque depends on the position (cogging)."""
         return tuple(e for e in self.effects if registry.get(e).position)
 
-    def _ripple(self) -> tuple[float, float, float]:
-        """``(A_s, A_c, p)`` of the compiled position ripple: its position effect's, else none."""
+    def _ripple(self) -> tuple:
+        """The compiled position torque's arguments (:meth:`Effect.ripple
+        <motorid.drive.effects.base.Effect.ripple>`): its position effect's, else none."""
         for e in self.position_effects:
             return registry.get(e).ripple(self.params)
-        return 0.0, 0.0, 0.0
+        return 0.0, 0.0, 0.0, False, kernels.NO_HARMONICS, kernels.NO_HARMONICS
 
     def input_signal(self, u: npt.ArrayLike, state: InputPathState | None = None) -> np.ndarray:
         """``L(Δ(D(S(u))))`` [u]: the input after saturation, dead zone, delay and lag, before
@@ -350,13 +351,15 @@ class RigidDrive:
             q = np.asarray(position, dtype=float)
             if q.shape != w.shape:
                 raise ValueError(f"position must have the shape of omega {w.shape}, got {q.shape}")
-            total = total + self.position_torque(q)
+            torque = self.position_torque(q)
+            total = total + (np.sign(w) * torque if self._ripple()[3] else torque)
         return total
 
     def position_torque(self, position: npt.ArrayLike) -> np.ndarray | float:
-        """The position ripple A_s sin(p θ) + A_c cos(p θ) [F] at ``position`` θ [v s]
-        (:func:`~motorid.drive.kernels.ripple_torque`) of the drive's position effect; 0.0 for a
-        drive without one.
+        """The position torque Σ_k A_s,k sin(k p θ) + A_c,k cos(k p θ) [F] at ``position`` θ [v s]
+        (:func:`~motorid.drive.kernels.position_torque`) of the drive's position effect, for a
+        position friction its level F(θ) (the torque against the motion); 0.0 for a drive without
+        one.
 
         Parameters
         ----------
@@ -367,7 +370,8 @@ class RigidDrive:
             return 0.0
         q = np.asarray(position, dtype=float)
         flat = np.ascontiguousarray(q.ravel())
-        return kernels.ripple_torques(flat, *self._ripple()).reshape(q.shape)
+        a_s, a_c, p, _, h_s, h_c = self._ripple()
+        return kernels.position_torques(flat, a_s, a_c, p, h_s, h_c).reshape(q.shape)
 
     def free_run(
         self,
@@ -424,7 +428,7 @@ class RigidDrive:
     def _free_run_setup(self, substeps: int | None) -> tuple:
         """The arguments of :func:`~motorid.drive.kernels.rigid_motion` other than the force and
         the start speed and position: ``(dt, substeps, J, coef, rate, shape, breakaway_excess,
-        ripple)``, ``ripple`` = ``(ripple_sin, ripple_cos, ripple_periods)`` of a drive with a
+        ripple)``, ``ripple`` = the compiled position torque's arguments (:meth:`_ripple`) of a drive with a
         position ripple, ``()`` without (the kernels' defaults: nothing passed, nothing evaluated)."""
         J = self.inertia
         coef = np.zeros(kernels.N_TERMS)

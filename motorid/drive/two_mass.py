@@ -103,6 +103,7 @@ NOT_ON_A_RIG: dict[str, str] = {
     "takes as short",
     "static_friction": "its friction laws break away at their kinetic level at rest (α0 + α1), with no "
     "excess above it",
+    "position_friction": "its friction laws have levels that do not depend on the position",
 }
 
 

@@ -22,6 +22,7 @@ from motorid.drive.effects.dead_zone import InputDeadZone
 from motorid.drive.effects.delay import InputDelay
 from motorid.drive.effects.lag import InputLag
 from motorid.drive.effects.offset import Offset
+from motorid.drive.effects.position_friction import PositionFriction
 from motorid.drive.effects.quadratic_drag import QuadraticDrag
 from motorid.drive.effects.registry import (
     ENTRY_POINT_GROUP,
@@ -53,6 +54,7 @@ __all__ = [
     "InputSaturation",
     "Offset",
     "Parameter",
+    "PositionFriction",
     "QuadraticDrag",
     "StaticFriction",
     "StribeckFriction",

@@ -164,6 +164,10 @@ class Effect:
         :meth:`columns` need the position, the drive runs its :meth:`ripple` in the compiled free
         run, and the doctor finds its shape where the residual shows it in position
         (:meth:`locate`).
+    measured_position : bool
+        The doctor tries it by default only on a record of the position (asked for, on any): the
+        position the effect depends on is then where the drive is, not the integral of a measured
+        speed, which drifts.
     derived_units : dict
         Unit of each figure :meth:`derived` reports beside the parameters.
     """
@@ -181,6 +185,7 @@ class Effect:
     filter_known: ClassVar[bool] = False
     filter_zero: ClassVar[tuple[str, ...]] = ()
     position: ClassVar[bool] = False
+    measured_position: ClassVar[bool] = False
     derived_units: ClassVar[dict[str, str]] = {}
 
     # derived from ``parameters`` when the class is made
@@ -305,18 +310,20 @@ class Effect:
         """
         return bounds
 
-    def ripple(self, params: dict[str, float]) -> tuple[float, float, float]:
+    def ripple(self, params: dict[str, float]) -> tuple:
         """An effect whose torque depends on the position (:attr:`position`): its torque as the
-        compiled position ripple ``A_s sin(p θ) + A_c cos(p θ)``
-        (:func:`~motorid.drive.kernels.ripple_torque`), ``(A_s [F], A_c [F], p [1/(v s)])`` from a
-        drive's ``params``; no ripple, ``(0, 0, 0)``, for the others.
+        compiled position torque ``Σ_k A_s,k sin(k p θ) + A_c,k cos(k p θ)``
+        (:func:`~motorid.drive.kernels.position_torque`), ``(A_s,1 [F], A_c,1 [F], p [1/(v s)],
+        directed, A_s,2.. [F], A_c,2.. [F])`` from a drive's ``params`` (``directed``: a level
+        against the motion, times sgn ω; the overtones as arrays); no torque,
+        ``(0, 0, 0, False, [], [])``, for the others.
 
         Parameters
         ----------
         params : dict
             The drive's parameters.
         """
-        return 0.0, 0.0, 0.0
+        return 0.0, 0.0, 0.0, False, kernels.NO_HARMONICS, kernels.NO_HARMONICS
 
     def derived(self, params: dict[str, float]) -> dict[str, float]:
         """Figures reported beside the fitted parameters (their units in :attr:`derived_units`);

@@ -134,15 +134,21 @@ class Cogging(Effect):
         dp = periods[1]
         return {"cogging_periods": (max(lo, periods[k] - dp), min(hi, periods[k] + dp))}
 
-    def ripple(self, params: dict[str, float]) -> tuple[float, float, float]:
-        """``(A_s, A_c, p)`` of the drive's ``params``: the ripple is the compiled one.
+    def ripple(self, params: dict[str, float]) -> tuple:
+        """``(A_s, A_c, p)`` of the drive's ``params``, at any direction (False) and without
+        overtones: the ripple is the compiled one.
 
         Parameters
         ----------
         params : dict
             The drive's parameters.
         """
-        return float(params["cogging_sin"]), float(params["cogging_cos"]), float(params["cogging_periods"])
+        a_s, a_c, p = (
+            float(params["cogging_sin"]),
+            float(params["cogging_cos"]),
+            float(params["cogging_periods"]),
+        )
+        return a_s, a_c, p, False, kernels.NO_HARMONICS, kernels.NO_HARMONICS
 
     def derived(self, params: dict[str, float]) -> dict[str, float]:
         """``cogging_amplitude`` A [F] and ``cogging_phase`` φ [rad] of ``A sin(p θ + φ)``.

@@ -31,6 +31,7 @@ from motorid.drive.effects.dead_zone import InputDeadZone
 from motorid.drive.effects.delay import InputDelay
 from motorid.drive.effects.lag import InputLag
 from motorid.drive.effects.offset import Offset
+from motorid.drive.effects.position_friction import PositionFriction
 from motorid.drive.effects.quadratic_drag import QuadraticDrag
 from motorid.drive.effects.saturation import InputSaturation
 from motorid.drive.effects.static_friction import StaticFriction
@@ -58,6 +59,7 @@ _BUILT_IN: dict[str, type[Effect]] = {
         InputLag,
         StaticFriction,
         Cogging,
+        PositionFriction,
     )
 }
 _REGISTERED: dict[str, type[Effect]] = {}
