@@ -644,12 +644,8 @@ def fit_model(
         if get_effect(n).rest_only
         for p in get_effect(n).nonlinear
     }
-    # an input saturation at or above the largest input of the records is never reached there, so
-    # they cannot tell its level: it keeps the value it starts from (a clip at the records' largest
-    # input would clip any larger input the model is later given)
-    unreached: dict[str, float] = {}
-    if "input_saturation" in effects and start and start.get("saturation", 0.0) >= data.scale["u_max"]:
-        unreached["saturation"] = float(start["saturation"])
+    # what the records never reach (a saturation above their largest input) keeps its start value
+    unreached = {p: v for n in effects for p, v in get_effect(n).unreached(start or {}, data.scale).items()}
     fixed = {**rest, **unreached, **(fixed or {})}
     bounds = {n: get_effect(n).bounds(data.scale) for n in effects}
     shape: dict[str, float] = {p: float(v) for p, v in fixed.items() if p in _shape_params(effects)}

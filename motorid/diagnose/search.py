@@ -493,7 +493,8 @@ class Search:
     def fit_base(self, base: tuple[str, ...], model: RigidDrive | None) -> FitResult:
         """The base effects fitted to the pooled torque balance; a rest-only effect of the user's
         ``model`` (static friction) keeps its value: the balance cannot refit it; nor can it refit
-        a saturation the records never reach (:func:`~motorid.diagnose.model.fit_model`).
+        what the records never reach (:meth:`Effect.unreached
+        <motorid.drive.effects.base.Effect.unreached>`: a saturation above their largest input).
 
         Parameters
         ----------
@@ -502,16 +503,13 @@ class Search:
         model : RigidDrive or None
             The user's model, when given.
         """
-        kept = (
-            {
-                p: model.params[p]
-                for n in base
-                if get_effect(n).rest_only or n == "input_saturation"
-                for p in get_effect(n).nonlinear
-            }
-            if model
-            else {}
-        )
+        kept: dict[str, float] = {}
+        if model is not None:
+            for n in base:
+                effect = get_effect(n)
+                if effect.rest_only:
+                    kept.update({p: model.params[p] for p in effect.nonlinear})
+                kept.update(effect.unreached(model.params, self.pool.data.scale))
         return fit_model(self.pool.data, base, stribeck_shape=self.stribeck_shape, start=kept or None)
 
     def base_structure(

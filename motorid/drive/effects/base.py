@@ -292,6 +292,20 @@ class Effect:
         """
         return {}
 
+    def unreached(self, params: dict[str, float], scale: dict[str, float]) -> dict[str, float]:
+        """The shape parameters of this effect, valued as in ``params``, that records of these
+        ``scale`` never reach and so cannot tell (:meth:`bounds`' scales): a fit holds them at
+        those values. None by default.
+
+        Parameters
+        ----------
+        params : dict
+            A model's parameters (a given model's, or a fit's start).
+        scale : dict
+            The records' scales, as in :meth:`bounds`.
+        """
+        return {}
+
     def locate(
         self, bounds: dict[str, tuple[float, float]], residual: np.ndarray, position: np.ndarray
     ) -> dict[str, tuple[float, float]]:

@@ -25,5 +25,19 @@ class InputSaturation(Effect):
     def bounds(self, scale: dict[str, float]) -> dict[str, tuple[float, float]]:
         return {"saturation": (0.2 * scale["u_max"], scale["u_max"])}
 
+    def unreached(self, params: dict[str, float], scale: dict[str, float]) -> dict[str, float]:
+        """A saturation at or above the records' largest |u| [u]: they never reach it (a clip at
+        their largest input would clip any larger input the model is later given).
+
+        Parameters
+        ----------
+        params : dict
+            A model's parameters.
+        scale : dict
+            The records' scales (``u_max`` [u]).
+        """
+        level = params.get("saturation", 0.0)
+        return {"saturation": float(level)} if level >= scale["u_max"] else {}
+
 
 __all__ = ["InputSaturation"]
