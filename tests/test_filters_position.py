@@ -160,3 +160,45 @@ def test_online_equals_batch_and_a_saved_filter_goes_on(tmp_path):
             np.testing.assert_array_equal(est.x, loop.x)
             np.testing.assert_array_equal(est.P, loop.P)
     assert loop.x[loop.state_names.index("position")] == position[-1]
+
+
+def test_identify_runs_the_filter_on_a_record_with_its_position_and_refuses_one_without(tmp_path, capsys):
+    """The application's identify takes a record's ``position`` column for a model with cogging (a
+    rigid drive's simulated record has it) and refuses a record without it, naming the effect;
+    ``motorid identify`` (which reads t, u and y) exits 2 with that line."""
+    from motorid.app.identify import IdentifyOptions, identify_record
+    from motorid.cli import main
+    from motorid.errors import DataError
+
+    drive = cogging_drive()
+    drive.save(tmp_path / "cogging.json")
+    record = drive.simulate(slow_input(2000))
+    record["y"] += np.random.default_rng(3).normal(0.0, NOISE, len(record))
+    options = IdentifyOptions(
+        estimator="friction-ekf", model=tmp_path / "cogging.json", param=(f"R={NOISE**2}", "coulomb0=0.02")
+    )
+    payload, _, est = identify_record(record, options)
+    assert payload["samples"] == len(record)
+    direct = FrictionEKF.from_rig(drive, R=NOISE**2, coulomb0=0.02)
+    direct.batch_filter(record["u"], record["y"], position=record["position"])
+    np.testing.assert_array_equal(est.x, direct.x)
+    with pytest.raises(DataError, match=r"the record: the model's cogging torque depends on the position"):
+        identify_record(record.drop(columns="position"), options)
+    record.to_csv(tmp_path / "rec.csv", index=False)
+    args = ["identify", str(tmp_path / "rec.csv"), "--estimator", "friction-ekf"]
+    args += [
+        "--model",
+        str(tmp_path / "cogging.json"),
+        "-p",
+        f"R={NOISE**2}",
+        "--save-model",
+        str(tmp_path / "f.json"),
+    ]
+    assert main(args) == 2
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert lines[-1].endswith(
+        "the model's cogging torque depends on the position, and the record read has no "
+        "position column [rad or m] (an encoder's; motorid identify reads t, u and y only): the friction filter "
+        "needs it at every sample"
+    )
+    assert not (tmp_path / "f.json").exists()
