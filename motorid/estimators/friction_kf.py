@@ -687,7 +687,9 @@ class _FrictionFilter(Estimator):
 
     def simulate(self, u: ArrayLike) -> np.ndarray:
         """Free-run load speed [rad/s] of the model with the current friction estimates,
-        from rest, for the command record ``u`` [V] (sample timing as the rig's)."""
+        from rest, for the command record ``u`` [V] (sample timing as the rig's); a rigid drive
+        with a position torque from position 0, as :meth:`RigidDrive.simulate
+        <motorid.drive.rigid.RigidDrive.simulate>` starts."""
         u_arr = as_float_vector(u, "u")
         bad = first_bad_index(u_arr)
         if bad is not None:
