@@ -15,7 +15,17 @@ drives the inertia beyond the friction) gets it when the command is::
     D̃⁻¹(x) = x + d clip(x / x_b, -1, 1)                                        [u]
 
 so that ``g D(u) - F(ω) = g v`` wherever the drive moves faster than ω_b and
-|x| > x_b. The sign of the speed in every level term (Coulomb, Stribeck, asymmetry) is
+|x| > x_b.
+
+A drive whose torque depends on the position θ [v s] (its position torque T_p: ``cogging``, a
+ripple ``Σ_k A_s,k sin(k p θ) + A_c,k cos(k p θ)``; ``position_friction``, that sum as a level
+against the motion, times sgn ω) has it fed forward at the *measured* position θ_m::
+
+    u = D̃⁻¹(v + (F̃(ω_c) + T̃_p(θ_m, ω_c)) / g),    T̃_p = T_p(θ_m) (ripple) or T_p(θ_m) σ(ω_c)  [u]
+
+(cogging compensation: the ripple's amplitudes and period are the model's). The torque is the
+drive's own compiled law (:func:`~motorid.drive.kernels.position_torque`). Without a measured
+position (a DAQ that reads the speed alone) it is left out, and only then. The sign of the speed in every level term (Coulomb, Stribeck, asymmetry) is
 replaced by the ramp σ across the *speed band* ω_b [v], and the dead zone's jump by the
 ramp across the *input band* x_b [u]: around zero the compensation fades in linearly
 instead of switching between ±F_c and ±d, so that noise on a speed near zero, or a
@@ -52,7 +62,7 @@ import math
 
 import numpy as np
 
-from motorid.drive import kernels
+from motorid.drive import effects, kernels
 from motorid.drive.rigid import RigidDrive
 
 __all__ = ["SOURCES", "FrictionCompensation"]
@@ -87,6 +97,9 @@ class FrictionCompensation:
     ----------
     dead_zone : float
         d [u] of the model (0 without ``input_dead_zone``).
+    position_effect : str
+        The model's effect whose torque depends on the position (``cogging``,
+        ``position_friction``), fed forward at the measured position; empty for none.
     """
 
     def __init__(
@@ -119,17 +132,46 @@ class FrictionCompensation:
         self._rate = 1.0 / vs
         self._shape = kernels.STRIBECK_SHAPES.index(drive.stribeck_shape)
         self._gain = drive.input_gain
+        self.position_effect = drive.position_effects[0] if drive.position_effects else ""
+        self._ripple = effects.get(self.position_effect).ripple(drive.params) if self.position_effect else ()
 
-    def friction(self, speed: float) -> float:
-        """F̃(ω) [F]: the model's friction at ``speed`` [v] with the sign ramped across the band."""
+    def _ramp(self, speed: float) -> float:
+        """σ(ω) = clip(ω / ω_b, -1, 1): the sign of ``speed`` [v] ramped across the band."""
+        s = speed / self.speed_band
+        return 1.0 if s > 1.0 else (-1.0 if s < -1.0 else s)
+
+    def friction(self, speed: float, position: float | None = None) -> float:
+        """F̃(ω) [F]: the model's friction at ``speed`` [v] with the sign ramped across the band,
+        plus its position torque T̃_p at ``position`` [v s] where given (module notes).
+
+        Parameters
+        ----------
+        speed : float
+            ω_c [v].
+        position : float, optional
+            The measured position θ_m [v s] (rad or m); None leaves the position torque out.
+        """
         w = float(speed)
-        s = w / self.speed_band
-        s = 1.0 if s > 1.0 else (-1.0 if s < -1.0 else s)
-        return kernels.rigid_friction(self._terms, self._coefs, w, s, self._rate, self._shape)
+        s = self._ramp(w)
+        total = kernels.rigid_friction(self._terms, self._coefs, w, s, self._rate, self._shape)
+        if self._ripple and position is not None:
+            a_s, a_c, periods, directed, harmonic_sin, harmonic_cos = self._ripple
+            torque = kernels.position_torque(float(position), a_s, a_c, periods, harmonic_sin, harmonic_cos)
+            total += s * torque if directed else torque
+        return total
 
-    def feedforward(self, speed: float) -> float:
-        """F̃(ω)/g [u]: the input that balances the friction at ``speed`` [v]."""
-        return self.friction(speed) / self._gain
+    def feedforward(self, speed: float, position: float | None = None) -> float:
+        """F̃(ω)/g [u]: the input that balances the friction at ``speed`` [v] (and the position
+        torque at ``position`` [v s] where given).
+
+        Parameters
+        ----------
+        speed : float
+            ω_c [v].
+        position : float, optional
+            The measured position θ_m [v s].
+        """
+        return self.friction(speed, position) / self._gain
 
     def invert_input(self, x: float) -> float:
         """D̃⁻¹(x) [u]: the command whose dead zone passes ``x`` [u] (ramped across the input band)."""
@@ -139,10 +181,21 @@ class FrictionCompensation:
         r = 1.0 if r > 1.0 else (-1.0 if r < -1.0 else r)
         return float(x + self.dead_zone * r)
 
-    def command(self, v: float, reference: float, measured: float) -> float:
-        """u = D̃⁻¹(v + F̃(ω_c)/g) [u] for the effective input ``v`` [u], ω_c the ``source`` speed."""
+    def command(self, v: float, reference: float, measured: float, position: float | None = None) -> float:
+        """u = D̃⁻¹(v + (F̃(ω_c) + T̃_p(θ_m, ω_c))/g) [u] for the effective input ``v`` [u], ω_c the
+        ``source`` speed, θ_m the measured ``position`` [v s] (None: no position torque).
+
+        Parameters
+        ----------
+        v : float
+            The effective input the controller asks for [u].
+        reference, measured : float
+            The reference and measured speeds [v].
+        position : float, optional
+            The measured position [v s].
+        """
         speed = reference if self.source == "reference" else measured
-        return self.invert_input(v + self.feedforward(speed))
+        return self.invert_input(v + self.feedforward(speed, position))
 
     def __repr__(self) -> str:
         return (

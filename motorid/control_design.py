@@ -248,7 +248,8 @@ def nonlinear_system(drive: RigidDrive | TwoMassRig, name: str | None = None) ->
     later (see the module notes): friction with stick/slip, the input path (dead zone,
     saturation, delay, lag, backlash) and, on the rig, the shaft.
 
-    State: the rigid drive's ``[ω, the input path's memory...]`` (its delay ring, lag and
+    State: the rigid drive's ``[ω, (θ), the input path's memory...]`` (θ the position [v s] of a
+    drive whose torque depends on it, cogging or position friction; its delay ring, lag and
     dwell clock, :class:`~motorid.drive.input_path.InputPathState`), or the rig's 7 states
     ``[i_a, ω_m, ω_L, δ, θ_L, z_m, z_L]``. Input ``u`` [V]; output ``y``: the speed [rad/s]
     (the rig's true load speed, without the tachogenerator's noise and quantisation). Start
@@ -273,17 +274,22 @@ def nonlinear_system(drive: RigidDrive | TwoMassRig, name: str | None = None) ->
         fresh = drive.input_state()
         sizes = (fresh.ring.size, fresh.lag.size, fresh.clock.size)
         setup = drive._free_run_setup(None)
+        moved = bool(drive.position_effects)  # the position is a state where the speed depends on it
+        head = 2 if moved else 1
 
         def update(t: float, x: np.ndarray, u: np.ndarray, params: dict) -> np.ndarray:
-            n1, n2 = 1 + sizes[0], 1 + sizes[0] + sizes[1]
-            state = InputPathState(ring=x[1:n1].copy(), lag=x[n1:n2].copy(), clock=x[n2:].copy())
+            n1, n2 = head + sizes[0], head + sizes[0] + sizes[1]
+            state = InputPathState(ring=x[head:n1].copy(), lag=x[n1:n2].copy(), clock=x[n2:].copy())
             force = drive.input_force(np.array([float(u[0])]), state)
+            if moved:
+                w, q = drive._motion_force(setup, force, float(x[0]), float(x[1]))
+                return np.concatenate([w, q, state.ring, state.lag, state.clock])
             w = drive._free_run_force(setup, force, float(x[0]))[0]
             return np.concatenate([[w], state.ring, state.lag, state.clock])
 
-        n_states = 1 + sum(sizes)
-        names = ["omega", *(f"ring{i}" for i in range(sizes[0])), "lag", "lag_samples",
-                 "clock_sign", "clock_samples", "clock_reversed"]  # fmt: skip
+        n_states = head + sum(sizes)
+        names = ["omega", *(["position"] if moved else []), *(f"ring{i}" for i in range(sizes[0])), "lag",
+                 "lag_samples", "clock_sign", "clock_samples", "clock_reversed"]  # fmt: skip
     elif isinstance(drive, TwoMassRig):
         from motorid.drive import kernels
 
@@ -319,7 +325,8 @@ def rest_state(drive: RigidDrive | TwoMassRig) -> np.ndarray:
     """
     if isinstance(drive, RigidDrive):
         fresh = drive.input_state()
-        return np.concatenate([[0.0], fresh.ring, fresh.lag, fresh.clock])
+        start = [0.0, 0.0] if drive.position_effects else [0.0]  # speed (and position) 0
+        return np.concatenate([start, fresh.ring, fresh.lag, fresh.clock])
     if isinstance(drive, TwoMassRig):
         from motorid.drive import kernels
 

@@ -167,7 +167,8 @@ class SpeedController:
     Each :meth:`step` computes, with e = r - y [v]::
 
         v = K_p e + I                                            (PI)               [u]
-        u = D̃⁻¹(v + F̃(ω_c)/g)   (FrictionCompensation.command; u = v without)     [u]
+        u = D̃⁻¹(v + (F̃(ω_c) + T̃_p(θ_m))/g)   (FrictionCompensation.command, with the position
+                                 torque at the measured position θ_m; u = v without)  [u]
         u_sat = clip(u, -u_max, u_max)
         I ← I + dt (K_i e + (u_sat - u) / T_t)                  (anti-windup)
 
@@ -199,12 +200,21 @@ class SpeedController:
         """Zero the integral (a new run)."""
         self.integral = 0.0
 
-    def step(self, reference: float, measured: float) -> float:
-        """The command u [u] for this sample from the reference and measured speeds [v]."""
+    def step(self, reference: float, measured: float, position: float | None = None) -> float:
+        """The command u [u] for this sample from the reference and measured speeds [v] and, for a
+        compensation of a position torque (cogging), the measured position [v s].
+
+        Parameters
+        ----------
+        reference, measured : float
+            The reference and measured speeds [v].
+        position : float, optional
+            The measured position [v s] (rad or m); None: no position torque fed forward.
+        """
         e = reference - measured
         v = self._kp * e + self.integral
         comp = self.compensation
-        u = v if comp is None else comp.command(v, reference, measured)
+        u = v if comp is None else comp.command(v, reference, measured, position)
         limit = self._limit
         u_sat = limit if u > limit else (-limit if u < -limit else u)
         self.integral += self.dt * (self._ki * e + (u_sat - u) / self._tt)
@@ -428,6 +438,12 @@ def run_closed_loop(
     if keep is None and out is not None:
         keep = KEEP_WITH_FILE
     recorder = RunRecorder(out, overwrite=overwrite, keep=keep)
+    comp = controller.compensation
+    if comp is not None and comp.position_effect:
+        logger.warning(
+            "the model's %s is not compensated: a DAQ reads the speed, not the position it depends on",
+            comp.position_effect,
+        )
     controller.reset()
     warm_up(controller)
     y = 0.0  # the speed the controller acts on: read at the start of each sample

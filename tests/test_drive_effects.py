@@ -83,6 +83,7 @@ def test_each_parameter_is_spelled_once_with_its_unit_sign_and_term():
     assert filter_effects() == (
         "coulomb_friction", "stribeck_friction", "asymmetric_friction", "viscous_friction",
         "input_dead_zone", "input_saturation", "offset", "input_delay", "input_lag", "static_friction",
+        "cogging", "position_friction",
     )  # fmt: skip
 
 

@@ -453,7 +453,10 @@ def identify_record(
         # a physical model's output is at the end of the sample its input is held over
         u, y = u[:-1], y[1:]
         notes.append("the record's timing is sampled: u[k] is paired with y[k+1], the output it drives")
-    result = est.batch_filter(u, y)
+    position = measured_position(est, record, source)
+    if position is not None and len(position) > len(u):  # the sampled timing's pairing, as y's
+        position = position[1:]
+    result = est.batch_filter(u, y) if position is None else est.batch_filter(u, y, position=position)
     require_finite_estimate(options.estimator, result.x, u, y)
     predictions = {"one_step": result.y_hat}
     free_run = est.simulate(u)
@@ -485,6 +488,32 @@ def identify_record(
     if param_units:
         payload["units"] = {"params": dict(param_units)}
     return payload, tests, est
+
+
+def measured_position(estimator: Any, record: pd.DataFrame, source: str) -> np.ndarray | None:
+    """The record's ``position`` column for a friction filter whose drive has a torque that
+    depends on the position (``position_effect``: cogging, position friction); None for any
+    other estimator. DataError naming the effect and the record when the column is missing.
+
+    Parameters
+    ----------
+    estimator : Any
+        The estimator to run.
+    record : DataFrame
+        The record (a ``position`` column [rad or m] where its sensor is an encoder).
+    source : str
+        The record's name in messages.
+    """
+    effect = getattr(estimator, "position_effect", "")
+    if not effect:
+        return None
+    if "position" not in record.columns:
+        raise DataError(
+            f"{source}: the model's {effect} torque depends on the position, and the record read has no "
+            "position column [rad or m] (an encoder's; motorid identify reads t, u and y only): the "
+            "friction filter needs it at every sample"
+        )
+    return record["position"].to_numpy(dtype=float)
 
 
 def runs_in_blocks(estimator: Any) -> bool:

@@ -499,7 +499,13 @@ C_RIGID = 18  # 1: one rigid mass, x = [ω, friction...]
 C_GAIN = 19  # the rigid drive's input gain g [N m/V]
 C_I_SPEED = 20  # index of the measured speed in x
 C_BREAKAWAY = 21  # static friction's breakaway excess ΔF_s [N m] above the kinetic levels at rest
-N_FILTER_CONSTANTS = 22
+C_I_POSITION = 22  # index of the rigid drive's position θ in x, -1 without a position torque
+C_RIPPLE_DIRECTED = 23  # 1: the position torque is a level against the motion, F(θ) sgn ω
+C_RIPPLE_PERIODS = 24  # p [1/rad or 1/m] of the position torque's fundamental
+C_RIPPLE_HARMONICS = 25  # its harmonics K (1 to FILTER_HARMONICS)
+C_RIPPLE_AMPLITUDES = 26  # A_s,1, A_c,1, A_s,2, A_c,2, ... [N m]: 2 FILTER_HARMONICS entries from here
+FILTER_HARMONICS = 3
+N_FILTER_CONSTANTS = C_RIPPLE_AMPLITUDES + 2 * FILTER_HARMONICS
 
 
 @numba.njit(cache=True)
@@ -517,6 +523,25 @@ def _filter_drive_torque(x: np.ndarray, v: float, c: np.ndarray) -> float:
 
 
 @numba.njit(cache=True)
+def filter_position_torque(x: np.ndarray, c: np.ndarray) -> tuple[float, float]:
+    """The rigid drive's position torque at the filter's position state θ = ``x[c[C_I_POSITION]]``
+    and its slope d/dθ: ``Σ_k A_s,k sin(k p θ) + A_c,k cos(k p θ)`` [N m] (:func:`ripple_torque`
+    of each harmonic, as :func:`position_torque` sums them) and ``Σ_k k p (A_s,k cos(k p θ) -
+    A_c,k sin(k p θ))`` [N m/rad]. The amplitudes and p are known constants of ``c``."""
+    q = x[int(c[C_I_POSITION])]
+    p = c[C_RIPPLE_PERIODS]
+    torque = 0.0
+    slope = 0.0
+    for k in range(int(c[C_RIPPLE_HARMONICS])):
+        a_s = c[C_RIPPLE_AMPLITUDES + 2 * k]
+        a_c = c[C_RIPPLE_AMPLITUDES + 2 * k + 1]
+        kp = (k + 1) * p
+        torque += ripple_torque(q, a_s, a_c, kp)
+        slope += ripple_torque(q, -kp * a_c, kp * a_s, kp)
+    return torque, slope
+
+
+@numba.njit(cache=True)
 def filter_drift(
     x: np.ndarray, v: float, c: np.ndarray, s: float, stuck: bool, f: np.ndarray, A: np.ndarray
 ) -> None:
@@ -526,7 +551,9 @@ def filter_drift(
     ``v`` is the armature voltage [V] (the rigid drive's input after its dead zone,
     saturation, delay and lag: ``RigidDrive.input_signal``). Fills ``f`` (n,) and ``A`` (n, n). The friction torque is
     :func:`friction_law` with the forward level T_c, the backward level T_c- (T_c when
-    symmetric) and the Stribeck excess T_s both ways, plus B ω.
+    symmetric) and the Stribeck excess T_s both ways, plus B ω, plus on a rigid drive with a
+    position state θ its known position torque (:func:`filter_position_torque`, times s for a
+    level against the motion), with dθ/dt = ω.
     """
     n = x.shape[0]
     jm = c[C_JM]
@@ -539,9 +566,13 @@ def filter_drift(
         f[i] = 0.0
         for k in range(n):
             A[i, k] = 0.0
+    i_q = int(c[C_I_POSITION])
     if c[C_RIGID] != 0.0:
         J = jm
         f[0] = _filter_drive_torque(x, v, c) / jm
+        if i_q >= 0:  # dθ/dt = ω
+            f[i_q] = x[0]
+            A[i_q, 0] = 1.0
     else:
         jl = c[C_JL]
         J = jm if side == 0 else jl
@@ -598,6 +629,13 @@ def filter_drift(
     if i_s >= 0:
         dtf_dw += s * excess * stribeck_decay_slope(w, rate, shape, s)
         A[side, i_s] -= s * stribeck_decay(w, rate, shape) / J
+    if i_q >= 0:  # the position torque, known: a ripple, or a level against the motion
+        ripple, ripple_slope = filter_position_torque(x, c)
+        if c[C_RIPPLE_DIRECTED] != 0.0:
+            ripple *= s
+            ripple_slope *= s
+        t_f += ripple
+        A[side, i_q] -= ripple_slope / J
     f[side] -= t_f / J
     A[side, side] -= dtf_dw / J
 
@@ -608,7 +646,9 @@ def filter_direction(x: np.ndarray, v: float, c: np.ndarray) -> tuple[float, boo
     (:func:`stick_or_slip`) with the breakaway levels T_c + T_s + ΔF_s forwards and
     T_c- + T_s + ΔF_s backwards (ΔF_s the static friction's excess, ``c[C_BREAKAWAY]``, as
     in :func:`rigid_free_run`). A drive without static friction at rest (both levels 0)
-    moves the way the net torque pushes it (held still only by a net torque of exactly 0)."""
+    moves the way the net torque pushes it (held still only by a net torque of exactly 0). A
+    position torque acts at rest as in :func:`rigid_motion`: a ripple joins the net torque, a
+    level against the motion raises both breakaway levels."""
     w = x[int(c[C_SIDE])]
     i_c = int(c[C_I_COULOMB])
     i_n = int(c[C_I_COULOMB_NEG])
@@ -617,6 +657,13 @@ def filter_direction(x: np.ndarray, v: float, c: np.ndarray) -> tuple[float, boo
     b_pos = x[i_c] + excess + c[C_BREAKAWAY]
     b_neg = (x[i_n] if i_n >= 0 else x[i_c]) + excess + c[C_BREAKAWAY]
     t_net = _filter_drive_torque(x, v, c) if w == 0.0 else 0.0
+    if w == 0.0 and c[C_I_POSITION] >= 0.0:  # at rest: the position torque as in rigid_motion
+        ripple = filter_position_torque(x, c)[0]
+        if c[C_RIPPLE_DIRECTED] != 0.0:
+            b_pos += ripple
+            b_neg += ripple
+        else:
+            t_net -= ripple
     stuck, s = stick_or_slip(w, t_net, b_pos, b_neg)
     if stuck == 1:
         return 0.0, True
@@ -843,6 +890,23 @@ def ekf_update_step(
     return x_post, P_post, K, e, s, count, nis_mean, is_healthy(x_post, P_post)
 
 
+@numba.njit(cache=True)
+def hold_position(x: np.ndarray, P: np.ndarray, i: int, position: float, var: float) -> None:
+    """The measured ``position`` [rad or m] as the filter's position state ``x[i]``, in place: a
+    known input of the next sample's position torque, not a measurement of the speed (a speed
+    read from an encoder is that position's difference already). Its row and column of ``P`` are
+    zeroed and its variance set to ``var`` > 0, so P stays positive definite."""
+    x[i] = position
+    for k in range(x.shape[0]):
+        P[i, k] = 0.0
+        P[k, i] = 0.0
+    P[i, i] = var
+
+
+#: No measured positions (:func:`ekf_batch` on a drive without a position state).
+NO_POSITIONS = np.zeros(0)
+NO_MEASUREMENTS = np.zeros(0, dtype=np.bool_)
+
 #: codes of the batch kernel for what stopped or flagged it
 FLAG_OK, FLAG_NIS, FLAG_BREAKDOWN = 0, 1, 2
 
@@ -868,8 +932,14 @@ def ekf_batch(
     count: int,
     threshold: float,
     stop_on_nis: bool,
+    position: np.ndarray = NO_POSITIONS,
+    position_present: np.ndarray = NO_MEASUREMENTS,
+    position_var: float = 0.0,
 ):
     """The sample loop of :func:`ekf_predict` and :func:`joseph_update` over a record.
+
+    A drive with a position state (``c[C_I_POSITION]`` >= 0) takes ``position[t]``, where
+    ``position_present[t]``, as its state after each sample (:func:`hold_position`).
 
     Stops after the sample where the covariance breaks down, or where the windowed
     NIS passes ``threshold`` when ``stop_on_nis``. Returns the per-sample arrays
@@ -878,6 +948,7 @@ def ekf_batch(
     N = v.shape[0]
     n = x.shape[0]
     i_y = int(c[C_I_SPEED])
+    i_q = int(c[C_I_POSITION])
     X = np.empty((N, n))
     P_diag = np.empty((N, n))
     y_hat = np.empty(N)
@@ -914,6 +985,10 @@ def ekf_batch(
         if cur_present[t]:
             x, P, _, _, _ = joseph_update(x, P, h_cur, cur_gain * v[t], cur[t], r_cur, lower)
             healthy = is_healthy(x, P)
+        if i_q >= 0 and position_present[t]:
+            x = x.copy()  # x_prior stays the prior
+            P = P.copy()
+            hold_position(x, P, i_q, position[t], position_var)
         S[t] = s
         X[t] = x
         for i in range(n):

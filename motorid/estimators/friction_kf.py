@@ -292,8 +292,9 @@ class _FrictionFilter(Estimator):
         amplifier (gain, dead zone, saturation) and, unless ``R`` is given, the
         measurement variance of its tacho + A/D chain. A rigid drive (the doctor's
         model, e.g. ``load_model("improved.json")``) gives its inertia, input gain,
-        offset torque, dead zone, saturation and dt; it has no sensor model, so ``R``
-        must be given. The friction it describes (:func:`friction_prior`: Coulomb
+        offset torque, dead zone, saturation, its position torque (cogging, position
+        friction: then every record needs its measured position) and dt; it has no sensor
+        model, so ``R`` must be given. The friction it describes (:func:`friction_prior`: Coulomb
         levels each way, viscous coefficient, Stribeck excess, rate and shape) is the
         prior the filter starts from and goes on estimating.
 
@@ -321,6 +322,11 @@ class _FrictionFilter(Estimator):
         if self.stribeck_shape not in kernels.STRIBECK_SHAPES:
             raise ValueError(
                 f"stribeck_shape must be one of {', '.join(kernels.STRIBECK_SHAPES)}, got {self.stribeck_shape!r}"
+            )
+        if not rigid and (rig.cogging_sin != 0.0 or rig.cogging_cos != 0.0):
+            raise ValueError(
+                "rig: the two-mass rig's motor cogging is not in the friction filters' two-mass model "
+                "(the motor position is no state of it); filter its rigid_equivalent(), which holds it"
             )
         if rigid:
             check_rigid_drive(rig)
@@ -363,9 +369,15 @@ class _FrictionFilter(Estimator):
 
         dt = rig.dt
         shape = str(self.stribeck_shape)
+        ripple: tuple = ()
         if rigid:
             current = False
-            names, index = fm.state_layout(False, bool(self.asymmetric), bool(self.stribeck), rigid=True)
+            position = rig.position_effects
+            if position:  # its position torque, held at the drive's values (RigidDrive.position_torque)
+                ripple = effects.get(position[0]).ripple(rig.params)
+            names, index = fm.state_layout(
+                False, bool(self.asymmetric), bool(self.stribeck), rigid=True, position=bool(position)
+            )
             p = rig.params
             constants = {
                 "J_m": rig.inertia, "J_l": 0.0, "K_m": 0.0, "R_a": 1.0, "L_a": 0.0, "k_s": 0.0, "B_s": 0.0,
@@ -385,7 +397,7 @@ class _FrictionFilter(Estimator):
             amp = (float(rig.amplifier.gain), float(rig.amplifier.dead_zone), float(rig.amplifier.v_max))
         constants.update(
             stribeck_decay=float(self.stribeck_decay), stribeck_shape=shape, dt=dt,
-            friction_side=self.friction_side, index=index,
+            friction_side=self.friction_side, index=index, ripple=ripple,
         )  # fmt: skip
         n = len(names)
         speeds = [index[k] for k in ("omega_m", "omega_l") if index[k] >= 0]
@@ -422,6 +434,10 @@ class _FrictionFilter(Estimator):
             # the twist that a speed difference builds over a sample
             p0[index["twist"]] = (self.speed_std0 * dt) ** 2
             q[index["twist"]] = self.twist_noise**2
+        if index["position"] >= 0:
+            # the position a speed's random change moves the drive over a sample; a measured
+            # position is then held with this variance (kernels.hold_position)
+            p0[index["position"]] = q[index["position"]] = (self.speed_noise * dt) ** 2
         if current:
             p0[index["i_a"]] = (self.speed_std0 * rig.K_m / rig.R_a) ** 2 + self.current_noise**2
             q[index["i_a"]] = self.current_noise**2
@@ -452,6 +468,7 @@ class _FrictionFilter(Estimator):
             self._h_current[fm.I_OMEGA_M] = -rig.K_m / rig.R_a
             self._current_gain = 1.0 / rig.R_a
         self._amp = amp
+        self._position_var = float(q[index["position"]]) if index["position"] >= 0 else 0.0
 
     def reset(self) -> None:
         """Validate the parameters and return to the prior: drive at rest, friction at
@@ -670,7 +687,9 @@ class _FrictionFilter(Estimator):
 
     def simulate(self, u: ArrayLike) -> np.ndarray:
         """Free-run load speed [rad/s] of the model with the current friction estimates,
-        from rest, for the command record ``u`` [V] (sample timing as the rig's)."""
+        from rest, for the command record ``u`` [V] (sample timing as the rig's); a rigid drive
+        with a position torque from position 0, as :meth:`RigidDrive.simulate
+        <motorid.drive.rigid.RigidDrive.simulate>` starts."""
         u_arr = as_float_vector(u, "u")
         bad = first_bad_index(u_arr)
         if bad is not None:
@@ -729,6 +748,96 @@ class _FrictionFilter(Estimator):
                 stacklevel=3,
             )
         return np.where(nan, 0.0, values), ~nan
+
+    # ------------------------------------------------------------------ position
+    @property
+    def position_effect(self) -> str:
+        """The rigid drive's effect whose torque depends on the position (``cogging``,
+        ``position_friction``), whose position the filter needs; empty for none."""
+        rig = self._rig
+        return rig.position_effects[0] if isinstance(rig, RigidDrive) and rig.position_effects else ""
+
+    def hold_position(self, position: float | None) -> None:
+        """Take the measured ``position`` [rad or m] at the end of this sample as the model's
+        position state θ (:func:`~motorid.drive.kernels.hold_position`): the position torque of
+        the next sample starts from it, and between two measurements θ follows the speed
+        estimate. The position is a known input of the torque, not a measurement of the speed:
+        a speed from an encoder is the same position's difference already, and counting it
+        twice would make the speed estimate overconfident. None (or NaN, with a warning)
+        leaves θ to the model.
+
+        Parameters
+        ----------
+        position : float or None
+            The measured position [rad or m].
+
+        Raises
+        ------
+        ValueError
+            A position given to a filter whose drive has no position torque.
+        """
+        if position is None:
+            return
+        if not self.position_effect:
+            raise ValueError("position: this filter's drive has no torque that depends on the position")
+        value = self.check_measured_value("position", position)
+        if value is None:
+            return
+        x, P = self.x.copy(), self.P.copy()
+        kernels.hold_position(x, P, self._index["position"], value, self._position_var)
+        self.x, self.P = x, P
+
+    def _position_record(self, position: ArrayLike | None, n: int) -> tuple[np.ndarray, np.ndarray]:
+        """The measured positions of a record of ``n`` samples and where they are present (not
+        NaN); ValueError naming the position effect when the drive needs them and they are
+        missing, or naming the argument when it does not fit."""
+        effect = self.position_effect
+        if position is None:
+            if effect:
+                raise ValueError(
+                    f"position: the rigid drive's {effect} torque depends on the position, so the filter "
+                    "needs the record's measured position [rad or m] (an encoder's) at every sample; "
+                    "this record has none"
+                )
+            return kernels.NO_POSITIONS, kernels.NO_MEASUREMENTS
+        if not effect:
+            raise ValueError("position: this filter's drive has no torque that depends on the position")
+        values = as_float_vector(position, "position")
+        if values.shape != (n,):
+            raise ValueError(f"position must have the length of u ({n}), got shape {values.shape}")
+        if np.isinf(values).any():
+            k = int(np.flatnonzero(np.isinf(values))[0])
+            raise ValueError(f"position[{k}] = {values[k]} is not finite")
+        nan = np.isnan(values)
+        if nan.any():
+            warnings.warn(
+                f"position is NaN at {int(nan.sum())} sample(s): the model's position follows its speed there",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+        return np.where(nan, 0.0, values), ~nan
+
+    def _sample_loop(
+        self, u: ArrayLike, z: ArrayLike | Sequence[float | None], position: ArrayLike | None, saver: Any
+    ) -> BatchResult:
+        """:meth:`Estimator.batch_filter`'s loop of :meth:`predict` and :meth:`update`, with the
+        measured ``position`` of a drive with a position torque (checked whole first)."""
+        u_arr, z_arr, present = self.check_record(u, z)
+        held, held_present = self._position_record(position, len(u_arr))
+        if not held.size:
+            return super().batch_filter(u_arr, z, saver)
+        n_samples, n = len(u_arr), self.dim_x
+        x_hist, p_diag = np.empty((n_samples, n)), np.empty((n_samples, n))
+        y_hat, innovation, s_hist = np.empty(n_samples), np.full(n_samples, np.nan), np.empty(n_samples)
+        for t in range(n_samples):
+            y_hat[t] = self.predict(u_arr[t])
+            self.update(z_arr[t] if present[t] else None, position=held[t] if held_present[t] else None)
+            if present[t]:
+                innovation[t] = self.y
+            x_hist[t], p_diag[t], s_hist[t] = self.x, np.diag(self.P), self.S
+            if saver is not None:
+                saver.save()
+        return BatchResult(x_hist, p_diag, y_hat, innovation, s_hist, self.state_names)
 
     # ------------------------------------------------------------------ consistency
     def _record_nis(self, e: float, s: float) -> None:
@@ -794,7 +903,9 @@ class FrictionEKF(_FrictionFilter):
         Its friction laws and B_m, B_L are not used here: they are estimated
         (:meth:`from_rig` starts from them). A rigid drive (one mass, the doctor's
         model) gives its inertia, input gain, offset torque, dead zone, saturation
-        and dt; ``R`` is then required and no current can be measured.
+        and dt; ``R`` is then required and no current can be measured. Its torque that
+        depends on the position (cogging, position friction) is a known part of the model, at
+        the position given to :meth:`update` and ``batch_filter`` (required there).
     friction_side : {"motor", "load"}
         The mass the estimated friction acts on. With one speed sensor and a stiff
         shaft only the total friction of the drive is observable; the estimate is
@@ -892,9 +1003,11 @@ class FrictionEKF(_FrictionFilter):
         self._pending = True
         return float(x_prior[i])
 
-    def update(self, z: float | None, current: float | None = None) -> None:
+    def update(self, z: float | None, current: float | None = None, position: float | None = None) -> None:
         """Measurement update with the measured load speed ``z`` [rad/s] and, where
-        measured, the armature current ``current`` [A].
+        measured, the armature current ``current`` [A] and, on a rigid drive with a position
+        torque, the position ``position`` [rad or m] (held as the model's position: see
+        :meth:`hold_position`).
 
         ``None`` skips; NaN skips with a RuntimeWarning naming the sample.
 
@@ -938,6 +1051,7 @@ class FrictionEKF(_FrictionFilter):
             healthy = kernels.is_healthy(self.x, self.P)
         elif value is None:
             healthy = kernels.is_healthy(self.x, self.P)
+        self.hold_position(position)
         self.x_post, self.P_post = self.x, self.P
         if not healthy:
             self._breakdown(self.sample_index - 1)
@@ -950,9 +1064,12 @@ class FrictionEKF(_FrictionFilter):
         z: ArrayLike | Sequence[float | None],
         saver: Any = None,
         current: ArrayLike | None = None,
+        position: ArrayLike | None = None,
     ) -> BatchResult:
         """Run over a whole record (see :meth:`Estimator.batch_filter`); ``current``
-        [A] optionally adds the measured armature current (NaN: not measured).
+        [A] optionally adds the measured armature current (NaN: not measured); ``position``
+        [rad or m], the measured position at the end of each sample, is needed by a rigid drive
+        with a position torque (NaN: not measured; see :meth:`hold_position`).
 
         Without a ``saver`` this is one compiled loop over the same kernels as
         :meth:`predict` and :meth:`update` and gives the same numbers. The whole
@@ -965,11 +1082,12 @@ class FrictionEKF(_FrictionFilter):
             if not isinstance(z, np.ndarray):
                 z = list(z)
             self._warn_nan_record(z)
-            return super().batch_filter(u, z, saver)
+            return self._sample_loop(u, z, position, saver)
         if not isinstance(z, np.ndarray):
             z = list(z)
         u_arr, z_arr, present = self.check_record(u, z)
         cur, cur_present = self._current_record(current, len(u_arr))
+        held, held_present = self._position_record(position, len(u_arr))
         self._warn_nan_record(z)
         if self._pending:
             self.update(None)
@@ -984,7 +1102,7 @@ class FrictionEKF(_FrictionFilter):
             v, np.where(present, z_arr, 0.0), present, cur, cur_present, self.x.copy(), self.P.copy(),
             self._c, self.Q, self._r, float(self.R_current), self._h_speed, self._h_current,
             self._current_gain, self._lower, ring, self._nis_count, float(self.divergence_nis),
-            self.on_divergence == "raise",
+            self.on_divergence == "raise", held, held_present, self._position_var,
         )  # fmt: skip
         if done:
             last = done - 1
@@ -1119,10 +1237,11 @@ class FrictionUKF(_FrictionFilter):
         self._pending = True
         return float(self.x[i])
 
-    def update(self, z: float | None, current: float | None = None) -> None:
+    def update(self, z: float | None, current: float | None = None, position: float | None = None) -> None:
         """Measurement update with the load speed ``z`` [rad/s] and optionally the
-        armature current [A] (a joint two-dimensional update); None skips, NaN skips
-        with a RuntimeWarning."""
+        armature current [A] (a joint two-dimensional update) and, on a rigid drive with a
+        position torque, the position [rad or m] (held: :meth:`hold_position`); None skips, NaN
+        skips with a RuntimeWarning."""
         if not self._pending:
             raise RuntimeError("update() needs a predict(u) for this sample first")
         value = None if z is None else self.check_measurement(z)
@@ -1135,6 +1254,7 @@ class FrictionUKF(_FrictionFilter):
             self.y = 0.0
             self.K = np.zeros(self.dim_x)
             self.nis = math.nan
+            self.hold_position(position)
             self.x_post, self.P_post = self.x, self.P
             return
         if value is not None and i_meas is None:
@@ -1157,9 +1277,10 @@ class FrictionUKF(_FrictionFilter):
                 )
         x = np.maximum(ukf.x, self._lower)
         P = 0.5 * (ukf.P + ukf.P.T)
-        ukf.x, ukf.P = x, P
-        self.x = self.x_post = x.copy()
-        self.P = self.P_post = P.copy()
+        self.x, self.P = x.copy(), P.copy()
+        self.hold_position(position)
+        ukf.x, ukf.P = self.x.copy(), self.P.copy()
+        self.x_post, self.P_post = self.x, self.P
         if value is not None:
             self.z = value
             self.y = float(ukf.y[0])
@@ -1181,13 +1302,15 @@ class FrictionUKF(_FrictionFilter):
         u: ArrayLike,
         z: ArrayLike | Sequence[float | None],
         saver: Any = None,
+        position: ArrayLike | None = None,
     ) -> BatchResult:
         """Run over a whole record, one :meth:`predict` and :meth:`update` per sample;
-        NaN measurements are skipped with one warning."""
+        NaN measurements are skipped with one warning. ``position`` [rad or m]: as for
+        :meth:`FrictionEKF.batch_filter`."""
         if not isinstance(z, np.ndarray):
             z = list(z)
         self._warn_nan_record(z)
-        return super().batch_filter(u, z, saver)
+        return self._sample_loop(u, z, position, saver)
 
 
 __all__ = [

@@ -28,7 +28,13 @@ T_s       N m          Stribeck excess α1 (only with ``stribeck``)
 ========= ============ =====================================================
 
 A rigid drive (:class:`~motorid.drive.rigid.RigidDrive`) has one mass: the state is
-``x = [ω, T_c, B, (T_c-), (T_s)]`` and ω is what is measured.
+``x = [ω, (θ), T_c, B, (T_c-), (T_s)]`` and ω is what is measured. θ [rad or m], the position,
+is in the state of a drive with a torque that depends on it (cogging, position-dependent
+friction: :attr:`Effect.position <motorid.drive.effects.base.Effect.position>`); its torque
+``T_p(θ) = Σ_k A_s,k sin(k p θ) + A_c,k cos(k p θ)`` (times sgn ω for a level against the
+motion) is a known part of the model, its amplitudes and p held at the drive's values; a
+measured position is taken as θ (``kernels.hold_position``), between two measurements θ
+follows the speed.
 
 The friction parameters are random walks (zero drift in f; their process noise
 is the filter's business).
@@ -48,9 +54,9 @@ where s is the direction of motion of mass j, T_c,s the Coulomb level for that
 direction (T_c forwards, T_c- backwards when asymmetric, else T_c both ways) and d
 the Stribeck decay, exp(-α2 |ω_j|) (eq. 9) or exp(-(α2 ω_j)²) (``stribeck_shape``
 "gaussian"), with α2 (``stribeck_decay``, s/rad) a known constant. The rigid drive's
-one mass obeys ``J dω/dt = g v - T_0 - T_f(ω)`` with its inertia J, input gain g
-and offset torque T_0 known (its viscous term B holds the back-EMF and the bearings
-together), v its input after its dead zone and saturation.
+one mass obeys ``J dω/dt = g v - T_0 - T_f(ω) - T_p(θ)``, ``dθ/dt = ω``, with its
+inertia J, input gain g, offset torque T_0 and position torque T_p known (its viscous term B
+holds the back-EMF and the bearings together), v its input after its dead zone and saturation.
 
 Zero speed (sgn is not differentiable at 0)
 -------------------------------------------
@@ -107,7 +113,7 @@ I_TWIST = 2
 
 
 def state_layout(
-    current_state: bool, asymmetric: bool, stribeck: bool, rigid: bool = False
+    current_state: bool, asymmetric: bool, stribeck: bool, rigid: bool = False, position: bool = False
 ) -> tuple[tuple[str, ...], dict[str, int]]:
     """Names of the entries of x and the index of each entry (-1 when absent).
 
@@ -124,13 +130,19 @@ def state_layout(
         Whether the Stribeck level is a state.
     rigid : bool
         A rigid drive (no shaft twist, one speed).
+    position : bool
+        The rigid drive's position θ is a state (a drive with a position torque).
     """
+    index = {"position": -1}
     if rigid:
         names = ["omega"]
-        index = {"omega_m": 0, "omega_l": -1, "twist": -1, "speed": 0}
+        index.update(omega_m=0, omega_l=-1, twist=-1, speed=0)
+        if position:
+            index["position"] = len(names)
+            names.append("position")
     else:
         names = ["omega_m", "omega_l", "twist"]
-        index = {"omega_m": I_OMEGA_M, "omega_l": I_OMEGA_L, "twist": I_TWIST, "speed": I_OMEGA_L}
+        index.update(omega_m=I_OMEGA_M, omega_l=I_OMEGA_L, twist=I_TWIST, speed=I_OMEGA_L)
     index.update({"i_a": -1, "coulomb_neg": -1, "stribeck": -1})
     if current_state:
         index["i_a"] = len(names)
@@ -166,11 +178,13 @@ def pack_constants(
     index: dict[str, int],
     input_gain: float = 0.0,
     breakaway_excess: float = 0.0,
+    ripple: tuple = (),
 ) -> np.ndarray:
     """The constant vector ``c`` the compiled model reads (SI units; indices ``C_*`` of
     :mod:`motorid.drive.kernels`). A layout with ``index["twist"] == -1`` is the
     rigid drive: ``J_m`` its inertia, ``T_d`` its offset torque, ``input_gain`` its g,
-    ``breakaway_excess`` its static friction's ΔF_s [N m] (the stick rule's levels at rest).
+    ``breakaway_excess`` its static friction's ΔF_s [N m] (the stick rule's levels at rest),
+    ``ripple`` its position torque (with ``index["position"]`` its state).
 
     Parameters
     ----------
@@ -204,6 +218,10 @@ def pack_constants(
         The rigid drive's input gain g [N m/V].
     breakaway_excess : float
         The rigid drive's static friction ΔF_s [N m].
+    ripple : tuple
+        The rigid drive's position torque as :meth:`Effect.ripple
+        <motorid.drive.effects.base.Effect.ripple>` gives it, ``(A_s,1, A_c,1, p, directed,
+        A_s,2.., A_c,2..)`` [N m, 1/rad]; empty for a drive without one.
     """
     c = np.zeros(kernels.N_FILTER_CONSTANTS)
     c[kernels.C_JM], c[kernels.C_JL], c[kernels.C_KM], c[kernels.C_RA], c[kernels.C_LA] = (
@@ -227,6 +245,22 @@ def pack_constants(
     c[kernels.C_GAIN] = input_gain
     c[kernels.C_I_SPEED] = index["speed"]
     c[kernels.C_BREAKAWAY] = breakaway_excess
+    c[kernels.C_I_POSITION] = index["position"]
+    if ripple:
+        a_s, a_c, periods, directed, harmonic_sin, harmonic_cos = ripple
+        amplitudes = [a_s, a_c]
+        for h_s, h_c in zip(harmonic_sin, harmonic_cos, strict=True):
+            amplitudes += [h_s, h_c]
+        if len(amplitudes) > 2 * kernels.FILTER_HARMONICS:
+            raise ValueError(
+                f"ripple: the filters hold at most {kernels.FILTER_HARMONICS} harmonics of a position torque, "
+                f"got {len(amplitudes) // 2}"
+            )
+        c[kernels.C_RIPPLE_DIRECTED] = 1.0 if directed else 0.0
+        c[kernels.C_RIPPLE_PERIODS] = periods
+        c[kernels.C_RIPPLE_HARMONICS] = len(amplitudes) // 2
+        start = kernels.C_RIPPLE_AMPLITUDES
+        c[start : start + len(amplitudes)] = amplitudes
     return c
 
 

@@ -28,7 +28,9 @@ class Cogging(Effect):
     A free run follows the ripple as far as its position stays within a fraction of a period of
     the drive's: from the integral of a measured speed the true model's own free-run gap can stay
     several noise floors, so a final gap after cogging may still read as something missing. The
-    friction filters do not hold it.
+    friction filters hold it as a known part of their model, at the measured position (their
+    ``batch_filter(..., position=)``); the friction compensation feeds it forward at the measured
+    position.
 
     The doctor tries it with every other effect. It was named on none of 50 planted records that
     hide nothing, nor of 25 of an encoder's speed, and on none of the real motors' records of
@@ -44,6 +46,7 @@ class Cogging(Effect):
     )
     signature = "periodic in the position, the same at every pass of a position, in both directions"
     position = True
+    filter_known = True
     derived_units: ClassVar[dict[str, str]] = {"cogging_amplitude": "F", "cogging_phase": "rad"}
     #: Position bins per shortest period searched, the zero padding of the spectrum, and the most
     #: bins (beyond, a bin holds more than a quarter period and the shortest periods go unseen).

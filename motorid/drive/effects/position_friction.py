@@ -56,6 +56,7 @@ class PositionFriction(Effect):
     requires = ("coulomb_friction",)
     position = True
     measured_position = True
+    filter_known = True
 
     def columns(
         self,
