@@ -71,3 +71,40 @@ def test_the_doctor_names_an_asymmetry_the_held_out_halves_confirm_and_refits_in
     report = d.to_dict()["position_refit"]
     assert report["unit"] == "m" and report["position_error_refitted"] == d.position_error["refitted"]
     assert report["params"]["viscous_asymmetry"] == pytest.approx(-37.0, rel=0.05)
+
+
+def test_motorid_doctor_prints_and_reports_both_position_errors(tmp_path, capsys):
+    """``motorid doctor --output-kind position``: the position error of the final model as fitted
+    and refitted in position, in the JSON's ``position_refit`` and on stderr; not on a speed record."""
+    import json
+
+    from motorid.cli import main
+    from motorid.records import write_record
+
+    record = position_record(TRUE.without("input_delay"))
+    write_record(record, tmp_path / "position.csv")
+    args = [
+        "doctor",
+        str(tmp_path / "position.csv"),
+        "--input-gain",
+        "35.15",
+        "--base",
+        "viscous_friction,offset",
+    ]
+    assert main([*args, "--output-kind", "position", "--json"]) == 0
+    printed = capsys.readouterr()
+    refit = json.loads(printed.out)["position_refit"]
+    assert refit["unit"] == "m" and refit["position_error_refitted"] <= refit["position_error_fitted"]
+    assert (
+        f"free-run position error {refit['position_error_fitted']:.4g} m; the final model's parameters "
+        f"refitted in position: {refit['position_error_refitted']:.4g} m"
+    ) in printed.err
+    speed = record.assign(y=TRUE.without("input_delay").free_run(record["u"].to_numpy()))
+    speed.attrs.update(record.attrs, units={"t": "s", "u": "V", "y": "m/s"})
+    write_record(speed, tmp_path / "speed.csv")
+    assert (
+        main(["doctor", str(tmp_path / "speed.csv"), "--input-gain", "35.15", "--json", "--max-steps", "0"])
+        == 0
+    )
+    printed = capsys.readouterr()
+    assert "position_refit" not in json.loads(printed.out) and "position error" not in printed.err
