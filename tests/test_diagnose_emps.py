@@ -5,7 +5,9 @@ output, force = gtau * vir, 1 kHz, the controller reads the position and then ho
 its output: ``timing="sampled"``, which ``load_emps`` records), the workflow must name
 Coulomb friction first, land its level within 5 % of the published 20.39 N, bring
 the force error from about 17 % to the published 4-5 % or below, and hold up on the
-validation set ``DATA_EMPS_PULSES.mat`` without refitting.
+validation set ``DATA_EMPS_PULSES.mat`` without refitting. By the benchmark's own figure (the
+test set's simulated position), the doctor's final model refitted in position is below every
+black-box baseline but dynoNet.
 """
 
 from __future__ import annotations
@@ -19,7 +21,7 @@ import pytest
 from emps_fixtures import emps_folder, requires_emps
 
 from motorid.cli import main
-from motorid.datasets import EMPS_REFERENCE, emps_benchmark_rmse, load_emps
+from motorid.datasets import EMPS_BENCHMARK_RESULTS, EMPS_REFERENCE, emps_benchmark_rmse, load_emps
 from motorid.diagnose import diagnose
 from motorid.diagnose.position import refit_in_position
 from motorid.records import write_record
@@ -66,25 +68,30 @@ def test_parameters_agree_with_the_published_inverse_dynamics_model(diagnosis):
     assert params["offset"] == pytest.approx(EMPS_REFERENCE["offset"], abs=1.0)
 
 
-def test_asymmetric_friction_is_accepted_on_held_out_data_and_holds_on_validation(diagnosis):
-    """The second step: viscous friction larger in the negative direction, as the
-    published asymmetric model (Fv+ 166.7, Fv- 240.4 N s/m); accepted because the
-    held-out blocks improve, and the untouched validation set agrees."""
-    names = [step.effect for step in diagnosis.steps]
-    assert names[:2] == ["coulomb_friction", "asymmetric_friction"]
-    second = diagnosis.steps[1]
-    assert second.evidence["held_out_error_after"] < second.evidence["held_out_error_before"]
-    viscous, asymmetry = diagnosis.model.params["viscous"], diagnosis.model.params["viscous_asymmetry"]
-    forward, backward = viscous + asymmetry, viscous - asymmetry
-    assert forward == pytest.approx(166.7061, rel=0.1)
-    assert backward == pytest.approx(240.4236, rel=0.1)
-    assert diagnosis.stop_reason
+def test_asymmetric_friction_fits_the_balance_but_predicts_a_held_out_half_worse(diagnosis):
+    """The viscous asymmetry of the published asymmetric model (Fv+ 166.7, Fv- 240.4 N s/m) lowers
+    the torque balance's error on held-out blocks (measured 0.0220 -> 0.0143 m/s² at step 2), but
+    each half of the record's position predicted from a fit to the other half is worse with it
+    (6.45 -> 6.51 mm), as the benchmark's test set is (6.72 -> 9.06 mm): it is not named, at the
+    second step nor the third; the level along the travel is (6.45 -> 6.27 mm). Static friction,
+    shown by the rests, predicts the held-out halves worse too (6.27 -> 7.32 mm)."""
+    assert diagnosis.named == ["coulomb_friction", "position_friction"], diagnosis.stop_reason
+    asymmetric = [r for r in diagnosis.rejected if r["effect"] == "asymmetric_friction"]
+    assert [r["step"] for r in asymmetric] == [2, 3]
+    for r in asymmetric:
+        assert r["held_out_error_after"] < 0.8 * r["held_out_error_before"]  # the balance: better
+        assert r["held_out_position_error_after"] > r["held_out_position_error_before"]  # the position: worse
+        assert "held-out free-run position error" in r["reason"]
+    level = diagnosis.steps[1].evidence
+    assert level["held_out_position_error_after"] < 0.99 * level["held_out_position_error_before"]
+    static = [r for r in diagnosis.rejected if r["effect"] == "static_friction"]
+    assert static and static[0]["held_out_position_error_after"] > static[0]["held_out_position_error_before"]
 
 
 def test_validation_set_without_refitting(diagnosis):
     validation = load_emps(emps_folder(), which="validation")
     table = diagnosis.evaluate(validation)
-    assert list(table.index) == ["initial", "+coulomb_friction", "+asymmetric_friction", "+position_friction"]
+    assert list(table.index) == ["initial", "+coulomb_friction", "+position_friction"]
     error = table["force_error_percent"].to_numpy()
     assert 15.0 <= error[0] <= 19.0
     assert error[1] <= EMPS_REFERENCE["force_error_validation"]
@@ -103,8 +110,14 @@ def test_doctor_command_on_the_measurement(estimation, tmp_path, capsys):
         ]
     )  # fmt: skip
     assert code == 0
-    report = json.loads(capsys.readouterr().out)
+    printed = capsys.readouterr()
+    report = json.loads(printed.out)
     assert report["steps"][0]["effect"] == "coulomb_friction"
+    # the final model refitted in position: both position errors, in the JSON and on stderr
+    refit = report["position_refit"]
+    assert refit["unit"] == "m" and refit["position_error_refitted"] < refit["position_error_fitted"]
+    assert refit["effects"] == report["model"]["effects"]
+    assert f"free-run position error {refit['position_error_fitted']:.4g} m" in printed.err
     assert report["steps"][0]["params"]["coulomb"] == pytest.approx(EMPS_REFERENCE["coulomb"], rel=0.05)
     assert report["final_gap"]["force_error_percent"] < 5.0
     assert len(list((tmp_path / "out").glob("*.png"))) >= 2
@@ -128,32 +141,42 @@ def test_set():
 
 
 def test_the_doctors_models_by_the_benchmarks_protocol(diagnosis, estimation, test_set):
-    """Measured: 20.37 mm at the start, 6.72 with Coulomb friction, 9.06 with asymmetric friction
-    too, 7.35 with the level along the travel last; refitted in position on the train set 5.39, 7.02
-    and 6.81. The bounds leave 10 % for rounding across machines (a free-run position drifts with
-    the slow force balance); the black-box baselines (5.17-5.53 mm) are not yet reached. The level
-    along the travel brings the final model closer: both figures below the model before it."""
+    """Measured: 20.37 mm at the start, 6.72 with Coulomb friction, 6.38 with the level along the
+    travel; refitted in position on the train set 5.39 and 4.23. The bounds leave 10 % for
+    rounding across machines (a free-run position drifts with the slow force balance). Each
+    step brings the model closer, as fitted and refitted."""
     figures = {label: emps_benchmark_rmse(model, test_set) for label, model in diagnosis.models}
     assert figures["initial"] > 15.0
-    assert figures["+coulomb_friction"] < 7.4 and figures["+asymmetric_friction"] < 10.0
-    assert figures["+position_friction"] < min(8.1, figures["+asymmetric_friction"])
-    coulomb = refit_in_position(diagnosis.steps[0].model, estimation)
-    assert emps_benchmark_rmse(coulomb, test_set) < 5.9
-    refitted = emps_benchmark_rmse(refit_in_position(diagnosis.model, estimation), test_set)
-    assert refitted < min(
-        7.5, emps_benchmark_rmse(refit_in_position(diagnosis.steps[1].model, estimation), test_set)
-    )
+    assert figures["+coulomb_friction"] < 7.4
+    assert figures["+position_friction"] < min(7.0, figures["+coulomb_friction"])
+    coulomb = emps_benchmark_rmse(refit_in_position(diagnosis.steps[0].model, estimation), test_set)
+    assert coulomb < 5.9
+    assert emps_benchmark_rmse(refit_in_position(diagnosis.model, estimation), test_set) < min(4.7, coulomb)
 
 
-def test_the_final_effects_refitted_on_the_test_set_reach_a_millimetre(diagnosis, estimation, test_set):
-    """README's reading of the figures: the structure can follow the test set (0.66 mm when its
-    parameters are refitted there, below every published baseline but dynoNet's 0.452 mm), with a
-    Coulomb level 1.0 N below the train set's (18.9 against 19.9 N; the level along the travel
-    takes part of it)."""
+def test_the_doctors_final_model_refitted_in_position_is_below_the_black_box_baselines(diagnosis, test_set):
+    """The doctor's last stage on a position record: its final model's parameters fitted to the
+    train set's free-run position (the train set's position error 2.99 -> 2.26 mm). On the test
+    set: measured 3.98 mm, 1.19 mm below the polynomial NARX's 5.17 (the best black box but
+    dynoNet's 0.452); the bound 4.4 mm leaves 10 % for rounding across machines."""
+    assert diagnosis.position_model.effects == diagnosis.model.effects
+    error = diagnosis.position_error
+    assert error["unit"] == "m" and error["refitted"] < 0.8 * error["fitted"]
+    figure = emps_benchmark_rmse(diagnosis.position_model, test_set)
+    assert figure < 4.4
+    assert figure < min(v for k, v in EMPS_BENCHMARK_RESULTS.items() if k != "dynoNet")
+
+
+def test_the_final_effects_refitted_on_the_test_set_reach_a_millimetre_and_a_half(
+    diagnosis, estimation, test_set
+):
+    """README's reading of the figures: the structure can follow the test set better than the
+    train set lets it (1.57 mm when its parameters are refitted there), with a Coulomb level
+    1.13 N above the train set's (20.25 against 19.13 N)."""
     on_test = refit_in_position(diagnosis.model, test_set)
-    assert emps_benchmark_rmse(on_test, test_set) < 0.75
+    assert emps_benchmark_rmse(on_test, test_set) < 1.75
     on_train = refit_in_position(diagnosis.model, estimation)
-    assert on_test.params["coulomb"] - on_train.params["coulomb"] == pytest.approx(-1.01, abs=0.1)
+    assert on_test.params["coulomb"] - on_train.params["coulomb"] == pytest.approx(1.13, abs=0.1)
 
 
 def test_readme_shows_the_benchmark_table_of_the_script(

@@ -152,6 +152,12 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         for k, v in diagnosis.model.params.items()
     )
     say(f"  final model (± one standard error): {final}")
+    if diagnosis.position_error is not None:
+        pe = diagnosis.position_error
+        say(
+            f"  free-run position error {pe['fitted']:.4g} {pe['unit']}; the final model's parameters refitted "
+            f"in position: {pe['refitted']:.4g} {pe['unit']}"
+        )
     for name, why in diagnosis.undetermined.items():
         which = "these records" if diagnosis.records else "this record"
         say(f"  {name}: not determined by {which} ({why}); its fitted value is kept for the free run only")

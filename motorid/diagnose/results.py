@@ -253,6 +253,12 @@ class Diagnosis:
     rig : TwoMassRig or None
         The two-mass rig given (``diagnose(model=rig)``); :attr:`improved_model` puts the
         final model back on it.
+    position_model : RigidDrive or None
+        On position records, :attr:`model`'s parameters refitted to the records' free-run
+        position (:func:`~motorid.diagnose.position.refit_records_in_position`); None otherwise.
+    position_error : dict or None
+        With it, the RMS free-run position error on the records of :attr:`model` (``fitted``)
+        and of :attr:`position_model` (``refitted``), in the position ``unit``.
     records : list of dict
         Several records of one drive (:class:`Pool`): per record its ``record`` label,
         ``samples``, ``noise_floor`` [v], ``initial_gap`` and ``final_gap`` (as above, of that
@@ -284,6 +290,8 @@ class Diagnosis:
     quantisation_step: float | None = None
     rests: list[dict[str, Any]] = field(default_factory=list)
     rig: TwoMassRig | None = None
+    position_model: RigidDrive | None = None
+    position_error: dict[str, float] | None = None
     _pool: Pool | None = field(default=None, repr=False)
 
     @property
@@ -397,6 +405,19 @@ class Diagnosis:
             **({"lookalikes": [x.to_dict() for x in self.lookalikes]} if self.lookalikes else {}),
             **({"notes": self.notes} if self.notes else {}),
             **({"two_mass_rig": self._rig_dict()} if self.rig is not None else {}),
+            **({"position_refit": self._position_dict()} if self.position_model is not None else {}),
+        }
+
+    def _position_dict(self) -> dict[str, Any]:
+        """The final model refitted in position (:attr:`position_model`) and the RMS free-run
+        position errors of both models (:attr:`position_error`)."""
+        assert self.position_model is not None and self.position_error is not None
+        return {
+            "effects": list(self.position_model.effects),
+            "params": self.position_model.params,
+            "position_error_fitted": self.position_error["fitted"],
+            "position_error_refitted": self.position_error["refitted"],
+            "unit": self.position_error["unit"],
         }
 
     def _rig_dict(self) -> dict[str, Any]:

@@ -30,6 +30,7 @@ from motorid.diagnose.measures import (
     rms,
 )
 from motorid.diagnose.model import FitResult, fit_model
+from motorid.diagnose.position import held_out_position_error, position_unit
 from motorid.diagnose.prepare import HeldOut, Pool
 from motorid.diagnose.results import Lookalike, Step, Stop, Structure
 from motorid.drive.effects import effect_order
@@ -293,6 +294,9 @@ class StepStart:
     later : bool
         A second or later step (or a given model with friction of its own): a candidate's gap
         must shrink by more than ``noise_shrink`` noise floors.
+    held_position : float
+        On position records, its free-run position error on held-out halves [m or rad]
+        (:func:`~motorid.diagnose.position.held_out_position_error`); NaN otherwise.
     """
 
     fit: FitResult
@@ -301,6 +305,7 @@ class StepStart:
     gap: dict[str, float]
     held_error: float
     later: bool
+    held_position: float = math.nan
 
 
 @dataclass(eq=False)
@@ -324,6 +329,9 @@ class Decision:
         Where it acts: the gap before and after [v] and the noise floor there [v].
     reasons : list of str
         Each check it fails; none when it is accepted.
+    position : tuple of float or None
+        On position records, the held-out free-run position error without and with it
+        [m or rad] (:func:`~motorid.diagnose.position.held_out_position_error`).
     """
 
     candidate: Candidate
@@ -335,6 +343,7 @@ class Decision:
     acts: str
     acting: tuple[float, float, float] | None
     reasons: list[str] = field(default_factory=list)
+    position: tuple[float, float] | None = None
 
     @property
     def accepted(self) -> bool:
@@ -358,6 +367,8 @@ class Decision:
             before, after, floor = self.acting
             out.update({"judged": WHERE.get(self.acts, "").strip(), "acting_gap_before": before,
                         "acting_gap_after": after, "acting_noise_floor": floor})  # fmt: skip
+        if self.position is not None:
+            out["held_out_position_error_before"], out["held_out_position_error_after"] = self.position
         if self.reasons:
             out["reason"] = self.reason
         return out
@@ -682,9 +693,35 @@ class Search:
                 order.insert(0, pick)
         return order
 
+    @property
+    def position(self) -> bool:
+        """The records measure a position: a candidate must predict it on held-out halves."""
+        return self.pool.parts[0].kin.output_kind == "position"
+
+    def held_position(self, effects: tuple[str, ...], start: dict[str, float] | None) -> float:
+        """On position records, the free-run position error on held-out halves
+        (:func:`~motorid.diagnose.position.held_out_position_error`) [m or rad]; NaN otherwise.
+
+        Parameters
+        ----------
+        effects : tuple of str
+            The model's effects.
+        start : dict or None
+            Parameters the fits start from.
+        """
+        if not self.position:
+            return math.nan
+        return held_out_position_error(self.pool, effects, start, self.stribeck_shape, self.fixed)
+
     def judge(self, c: Candidate, at: StepStart) -> Decision:
         """Whether candidate ``c`` improves held-out data and shrinks the free-run gap beyond the
         noise, against the step's model.
+
+        On position records a candidate must also lower the free-run position
+        error on held-out halves (:meth:`held_position`) by ``min_holdout_gain``: a position free
+        run integrates the force error twice, and an effect that lowers the torque balance's
+        residual (even on held-out blocks) but predicts a held-out half's position worse has
+        fitted what the record's slow force balance does not repeat.
 
         Parameters
         ----------
@@ -746,8 +783,16 @@ class Search:
                 f"free-run gap{where} {after:.4g} vs {before:.4g} {v}, a shrink of {shrink:.2f} "
                 f"noise floors{where} ({floor:.3g} {v}), not above {self.noise_shrink:g}"
             )
+        position = None
+        if self.position:
+            position = (at.held_position, self.held_position((*at.effects, c.effect), c.fit.model.params))
+            if not position[1] < (1.0 - self.min_holdout_gain) * position[0]:
+                why.append(
+                    f"held-out free-run position error {position[1]:.4g} vs {position[0]:.4g} "
+                    f"{position_unit(v)}"
+                )
         acting = (before, after, floor) if acts else None
-        return Decision(c, base_held, cand_held, at.gap, gap1, shrink, acts, acting, why)
+        return Decision(c, base_held, cand_held, at.gap, gap1, shrink, acts, acting, why, position)
 
     def step(
         self, decision: Decision, lookalike: Lookalike | None, at: StepStart, ranking: list[Candidate],
@@ -779,6 +824,8 @@ class Search:
             "n_eff": c.evidence["n_eff"], "rss_ratio": c.evidence["rss_ratio"],
             "held_out_error_before": decision.held_before, "held_out_error_after": decision.held_after,
             "gap_shrink_noise_floors": decision.shrink, "noise_floor": pool.noise,
+            **({} if decision.position is None else {"held_out_position_error_before": decision.position[0],
+                                                     "held_out_position_error_after": decision.position[1]}),
             "chosen_by": "free-run gap among alike candidates" if c is not passing[0] else "evidence",
             "ranking": [r.row() for r in ranking],
         }  # fmt: skip
@@ -865,7 +912,10 @@ class Search:
                                             "threshold": self.threshold})  # fmt: skip
                 break
             order = self.judge_order(passing, fit, region)
-            at = StepStart(fit, effects, region, gap0, self.held_error(effects, fit.model.params), later)
+            at = StepStart(
+                fit, effects, region, gap0, self.held_error(effects, fit.model.params), later,
+                self.held_position(effects, fit.model.params),
+            )  # fmt: skip
             accepted = None
             reasons = []
             for c in order:

@@ -57,6 +57,14 @@ The workflow (:func:`diagnose`):
    balance of the moving drive measures (a Coulomb or Stribeck level, with a
    standard error) over one that only a dead zone's input path or the free run
    at rest sees.
+   **Position records**: a candidate must also lower, by ``min_holdout_gain``, the free-run
+   position error on held-out halves of the records (each half predicted in position by the
+   model fitted to the other halves: :func:`~motorid.diagnose.position.held_out_position_error`).
+   A position integrates the force error twice, and an effect that lowers the balance's
+   residual but predicts a held-out half's position worse is not named. The final model's
+   parameters are then fitted to the records' free-run position
+   (:func:`~motorid.diagnose.position.refit_records_in_position`) and reported beside it
+   (:attr:`Diagnosis.position_model`, both position errors).
 5. **Show**: the gaps before and after each step (:meth:`Diagnosis.table`) and
    figures (:meth:`Diagnosis.write_figures`).
 
@@ -117,6 +125,7 @@ import pandas as pd
 from motorid.diagnose.given_rig import GivenRig, rig_note
 from motorid.diagnose.locate import locate
 from motorid.diagnose.measures import fit_static_friction, free_run_error, gaps
+from motorid.diagnose.position import position_unit, refit_records_in_position
 from motorid.diagnose.prepare import (
     Pool,
     Prepared,
@@ -378,6 +387,10 @@ def diagnose(
         final_gap["overall"], pool.gaps(final_model, final_region)["region"], final_region, pool.noise,
         missing_factor, pool.units["v"],
     )  # fmt: skip
+    position_model, position_error = None, None
+    if output_kind == "position":
+        position_model, fitted, refitted = refit_records_in_position(pool, final_model)
+        position_error = {"fitted": fitted, "refitted": refitted, "unit": position_unit(pool.units["v"])}
     bar.update(1)
     bar.close()
     notes = [
@@ -396,7 +409,8 @@ def diagnose(
         structure=chosen, structure_model=structure_model,
         records=record_summaries(pool, initial_model, final_model, first_region), _pool=pool,
         noise_bands=pool.noise_bands(), quantisation_step=pool.quantisation,
-        rests=rest_summaries(pool, final_model), notes=notes, rig=rig,
+        rests=rest_summaries(pool, final_model), notes=notes, rig=rig, position_model=position_model,
+        position_error=position_error,
     )  # fmt: skip
 
 
