@@ -370,6 +370,44 @@ def inertia_shares(
     return out
 
 
+@dataclass
+class DelayTrades:
+    """Outcome over records of an encoder's speed (:func:`delay_trades`), one entry per record:
+    the inertia's error in the stated fit's standard errors (``z``) and in those with the input
+    delay set free in the balance (``z_free``, :class:`~motorid.diagnose.model.DelayTrade`), the
+    same for the viscous and Coulomb levels with the delay free (``z_free_viscous``,
+    ``z_free_coulomb``), the inertia's relative ``error`` [-] and whether the doctor flags it as
+    trading with the delay (``traded``)."""
+
+    seeds: list[int]
+    z: list[float]
+    z_free: list[float]
+    z_free_viscous: list[float]
+    z_free_coulomb: list[float]
+    error: list[float]
+    traded: list[bool]
+
+
+def delay_trades(seeds: range | list[int], effect: str | None = "input_delay") -> DelayTrades:
+    """Fit the base model (and structure) of :func:`~motorid.diagnose.synthetic.planted_record`
+    records of an encoder's speed with ``effect`` planted (default an input delay of 1.2-3.5
+    samples; None: no effect), one per seed, and measure the inertia's trade with the delay."""
+    out = DelayTrades([], [], [], [], [], [], [])
+    for seed in seeds:
+        p = planted_record(effect, seed, sensor="encoder")
+        d = diagnose(p.record, input_gain=p.input_gain, base=p.base, max_steps=0)
+        trade, truth = d.delay_trade, p.notes
+        out.seeds.append(seed)
+        out.z.append((d.model.params["inertia"] - truth["inertia"]) / d.param_std["inertia"])
+        out.error.append(d.model.params["inertia"] / truth["inertia"] - 1.0)
+        free = {k: (trade.free[k] - truth[k]) / trade.free_std[k] for k in ("inertia", "viscous", "coulomb")}
+        out.z_free.append(free["inertia"])
+        out.z_free_viscous.append(free["viscous"])
+        out.z_free_coulomb.append(free["coulomb"])
+        out.traded.append("inertia" in d.undetermined and trade.inertia_traded)
+    return out
+
+
 def _inertia_report(ish: InertiaShares) -> str:
     share, error, ok = np.array(ish.share), np.array(ish.error), ish.determined
     signals = np.array(ish.signals)
