@@ -154,7 +154,7 @@ def test_the_slow_sines_of_the_kit_motor_do_not_determine_its_inertia_and_the_re
         assert d.undetermined["inertia"].startswith("its term carries" if slow else "it trades with")
         assert d.model.params["inertia"] > 0.0  # kept for the free run
         assert d.to_dict()["model"]["params_undetermined"] == d.undetermined
-        # the kinetic friction is determined on every record: its error is 1-2 % of it
+        # the kinetic friction is determined on every record: its error is 1-3 % of it (measured 1.1-2.8 %)
         assert "coulomb" not in d.undetermined
         assert d.param_std["coulomb"] < 0.03 * d.model.params["coulomb"]
     assert list(joint.undetermined) == ["inertia"]
@@ -195,11 +195,11 @@ def test_the_kit_records_say_their_inertia_trades_with_the_input_delay_and_agree
 @needs_kit
 @pytest.mark.xfail(
     strict=True,
-    reason="measured: the second chirp's kinetic friction, 6.56 % against the joint run's 6.95 %, lies 3.8 of "
-    "its standard errors below it (2.2 of those with the input delay set free in the balance, 0.18 %), and "
-    "the two chirps differ by 0.41 % with errors of 0.1 % each, with or without the delay: the runs of one "
-    "signal disagree by more than a record's own errors show. The inertia no longer fails: every record "
-    "says it trades with the input delay (J + B τ_d agrees at 0.0066-0.0068)",
+    reason="measured: the second chirp's kinetic friction, 6.56 % against the joint run's 6.95 %, lies 3.7 of "
+    "its standard errors below it (0.11 %, the uncertainty of the 2 ms delay it took carried in), and the two "
+    "chirps differ by 0.39 % at any one delay from 0 to 2 ms with errors of 0.1 % each: two runs of one signal "
+    "disagree by more than a record's own errors show. The inertia no longer fails: every record says it "
+    "trades with the input delay (J + B τ_d agrees at 0.0066-0.0068)",
 )
 def test_each_kit_record_agrees_with_the_joint_run_within_two_standard_errors(kit_runs):
     """Each record's inertia and kinetic friction within 2 of its stated standard errors of the
@@ -214,16 +214,18 @@ def test_each_kit_record_agrees_with_the_joint_run_within_two_standard_errors(ki
 
 
 @needs_kit
-def test_in_a_10_hz_band_the_kit_records_agree_on_the_inertia_plus_viscous_times_delay():
-    """README: something in the kit's speed below the band's cut-off pulls a sine's inertia low in
-    the default band (the compensation for the noise measured above the band leaves it: the test
-    below), so in a useful band of 10 Hz instead of 40 the four sines agree (measured
-    0.00659-0.00672, 2.0 %); the chirps
-    choose a 2-3 ms input delay, and what a record determines, J + B τ_d, agrees over all six
-    (measured 0.00659-0.00681, 3.4 %)."""
+def test_in_a_10_hz_band_the_kit_records_agree_on_the_inertia_plus_viscous_times_delay(kit_runs):
+    """README: in a useful band of 10 Hz instead of 40 the four sines agree on the inertia (measured
+    0.00659-0.00672, 2.0 %), and each equals what the record determines in the default band,
+    J + B τ_d (within 1.1 %): a sine's inertia moves with the band because it trades with the
+    input delay, which a narrow band cannot tell from it at all (the fit takes no delay and gives
+    J + B τ_d) and the default band half tells (the balance, the delay set free, wants 14-16 ms).
+    The chirps choose a 2-3 ms input delay, and J + B τ_d agrees over all six (measured
+    0.00659-0.00681, 3.4 %), in either band."""
     from motorid.diagnose import diagnose
     from motorid.records import read_record
 
+    singles, _ = kit_runs
     fits = {p.stem: diagnose(read_record(p), band=10.0, max_steps=1).model.params for p in KIT}
     sines = [p["inertia"] for name, p in fits.items() if name.startswith("kit_sine")]
     assert max(sines) < 1.025 * min(sines), sines  # at the default 40 Hz band: 0.00572-0.00648
@@ -231,6 +233,9 @@ def test_in_a_10_hz_band_the_kit_records_agree_on_the_inertia_plus_viscous_times
     assert all(p["input_delay"] > 0.0015 for p in chirps)
     effective = [p["inertia"] + p["viscous"] * p.get("input_delay", 0.0) for p in fits.values()]
     assert max(effective) < 1.04 * min(effective), effective
+    for path, d, narrow in zip(KIT, singles, effective, strict=True):
+        # what the default band determines is what the narrow one fits (measured within 1.4 %)
+        assert narrow == pytest.approx(d.delay_trade.effective_inertia, rel=0.02), path.name
 
 
 @needs_kit

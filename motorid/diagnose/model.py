@@ -272,7 +272,15 @@ class FitResult:
     residual : ndarray
         The balance residual on the fitted rows [F].
     param_std : dict
-        Standard error of each linear parameter [its unit] (:func:`linear_param_std`).
+        Standard error of each linear parameter [its unit] (:func:`linear_param_std`). With an
+        input delay in the model, the delay was estimated too, and its uncertainty goes into
+        theirs (the delta method, :class:`DelayTrade`)::
+
+            σ_θ² = σ_θ,held² + (∂θ/∂τ_d)² σ_τ²
+
+        with σ_τ the delay's standard error set free in the balance: on records with a delay
+        planted these hold the truth within 2 on 93 %, the held ones the inertia on 57 %
+        (:mod:`.calibration`).
     param_share : dict
         Share of the input force each linear parameter's term carries (:func:`force_shares`).
     delay_trade : DelayTrade or None
@@ -649,6 +657,9 @@ class DelayTrade:
         The same parameters with the delay free, and their standard errors [their units].
     effective_inertia, effective_inertia_std : float
         ``J + B τ_d`` and its standard error with the delay free [F s²/v].
+    sensitivity : dict
+        ``∂θ/∂τ_d`` of each parameter of the fit as stated, the delay held [its unit / s]:
+        ``-(XᵀX - D)⁻¹ Xᵀ Ḟ``.
     """
 
     delay: float
@@ -659,6 +670,7 @@ class DelayTrade:
     free_std: dict[str, float]
     effective_inertia: float
     effective_inertia_std: float
+    sensitivity: dict[str, float]
 
     def moved(self, name: str) -> float:
         """How far setting the delay free moves parameter ``name``, in its standard errors with
@@ -744,6 +756,8 @@ def delay_trade(
     if cov is None:
         return None
     std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    # the held fit θ(τ_d) = C Xᵀ F(t - τ_d), and ∂F(t - τ_d)/∂τ_d = -Ḟ
+    slope = -solved.unit_cov() @ (solved.X[fitted].T @ rate[fitted])
     kept = [names[j] for j in keep]
     j_b = kept.index("viscous")
     delay = float(shape.get("input_delay", 0.0))
@@ -759,6 +773,7 @@ def delay_trade(
         free_std=dict(zip(kept, std[:-1].tolist(), strict=True)),
         effective_inertia=float(theta[0] + theta[j_b] * delay_free),
         effective_inertia_std=float(math.sqrt(max(grad @ cov @ grad, 0.0))),
+        sensitivity={name: float(slope[j]) for j, name in enumerate(names) if j in keep},
     )
 
 
@@ -911,6 +926,10 @@ def fit_model(
     param_std = linear_param_std(list(theta), solved.unit_cov(), residual, rows, k, solved.X)
     param_share = force_shares(list(theta), np.array(list(theta.values())), residual, rows, solved.X)
     trade = delay_trade(data, effects, shape, gain, rows, solved)
+    if trade is not None and "input_delay" in effects:
+        # the delay was estimated: its uncertainty goes into the rest (delta method)
+        for name, slope in trade.sensitivity.items():
+            param_std[name] = math.hypot(param_std[name], slope * trade.delay_free_std)
     inertia = theta.pop("inertia")
     params = {"inertia": inertia, "input_gain": gain, **theta, **shape}
     model = RigidDrive(effects, params, data.dt, stribeck_shape)
