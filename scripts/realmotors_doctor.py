@@ -5,7 +5,8 @@ and each of the four wheel motors (a train and a validation record), prints one 
 row per run: the base structure, the effects named (``~`` marks a lookalike the rule named, the
 other one in brackets), the kinetic friction level and the inertia with one standard error (the
 inertia with the share of the input force its term carries, ``n.d.`` where the record does not
-determine it: :attr:`~motorid.diagnose.results.Diagnosis.undetermined`), the final free-run gap, the noise floor, the gap in noise floors, and the wall time. The joint run
+determine it: :attr:`~motorid.diagnose.results.Diagnosis.undetermined`; where it trades with the
+input delay, ``J + B τ_d``, what the record determines), the final free-run gap, the noise floor, the gap in noise floors, and the wall time. The joint run
 fits one model to all records of the motor (``motorid doctor A.csv B.csv ...``).
 
 Usage::
@@ -72,7 +73,14 @@ def row(motor: str, run: str, d, seconds: float) -> str:
     floors = d.final_gap["overall"] / d.noise_floor
     inertia = f"{params['inertia']:.3g} ± {std.get('inertia', float('nan')):.2g}"
     share = f"{100 * d.param_share.get('inertia', float('nan')):.1f} %"
-    inertia = f"n.d. ({share}; fit {inertia})" if "inertia" in d.undetermined else f"{inertia} ({share})"
+    trade = d.delay_trade
+    if "inertia" in d.undetermined and trade is not None and trade.inertia_traded:
+        effective = f"{trade.effective_inertia:.3g} ± {trade.effective_inertia_std:.2g}"
+        inertia = f"n.d. ({share}; fit {inertia}; J + B τ_d = {effective})"
+    elif "inertia" in d.undetermined:
+        inertia = f"n.d. ({share}; fit {inertia})"
+    else:
+        inertia = f"{inertia} ({share})"
     return (
         f"| {motor} | {run} | {structure} | {named} | {kinetic:.3g} ± {k_std:.2g} | {inertia} | "
         f"{d.initial_gap['overall']:.3g} → {d.final_gap['overall']:.3g} | {d.noise_floor:.3g} | {floors:.1f} | "
@@ -123,6 +131,7 @@ def motor_rows(motor: str) -> list[str]:
 
 def table(motors: list[str]) -> str:
     """The markdown table: each record's run, then the motor's joint run."""
+    from motorid.diagnose.model import DELAY_TRADE_LIMIT, DELAY_TRADE_SHARE
     from motorid.diagnose.results import INERTIA_SHARE_LIMIT
 
     lines = [
@@ -136,7 +145,11 @@ def table(motors: list[str]) -> str:
         "",
         "Forces per input unit (% duty); ± one standard error (a block sandwich over 20 blocks of each run's "
         "fitted rows); inertia: with the share of the input force that goes into acceleration, `n.d.` (not "
-        f"determined) below {100 * INERTIA_SHARE_LIMIT:g} %, its fitted value kept for the free run; `~(...)`: a "
+        f"determined) below {100 * INERTIA_SHARE_LIMIT:g} % or where it trades with the input delay through the "
+        "viscous friction (set free in the balance, the delay moves it by more than "
+        f"{DELAY_TRADE_LIMIT:g} standard errors and {100 * DELAY_TRADE_SHARE:g} %: then `J + B τ_d`, what the run "
+        "determines), its fitted value kept "
+        "for the free run; `~(...)`: a "
         "lookalike the rule named "
         "(the other in brackets); rests: how many, and the force at breakaway above the final model's "
         "kinetic level at an input rising infinitely slowly (`lag?`: every breakaway came at one input rate, "

@@ -18,6 +18,7 @@ import pandas as pd
 
 from motorid.diagnose.locate import Region
 from motorid.diagnose.measures import breakaway, gaps
+from motorid.diagnose.model import DelayTrade
 from motorid.diagnose.prepare import Pool, prepare
 from motorid.drive.effects import param_unit
 from motorid.drive.rigid import RigidDrive
@@ -225,6 +226,10 @@ class Diagnosis:
     param_share : dict
         Share of the input force each linear parameter's term carries
         (:func:`motorid.diagnose.model.force_shares`) [-].
+    delay_trade : DelayTrade or None
+        The final fit with its input delay set free in the balance
+        (:func:`motorid.diagnose.model.delay_trade`): the parameters that depend on the delay
+        taken, and ``J + B τ_d``, what the record determines where the inertia is one of them.
     structure : Structure
         The input delay and lag chosen from the record before any other effect was judged.
     structure_model : RigidDrive or None
@@ -282,6 +287,7 @@ class Diagnosis:
     refitted_gap: dict[str, float] | None = None
     param_std: dict[str, float] = field(default_factory=dict)
     param_share: dict[str, float] = field(default_factory=dict)
+    delay_trade: DelayTrade | None = None
     structure: Structure = field(default_factory=Structure)
     structure_model: RigidDrive | None = None
     records: list[dict[str, Any]] = field(default_factory=list)
@@ -326,8 +332,14 @@ class Diagnosis:
         records of other signals disagree with it by more than its standard error). The fitted
         value stays in :attr:`model` for the free run; the report does not present it as a
         finding. A dropped column (value and standard error 0) is not listed.
+
+        An inertia that depends on the input delay taken (:attr:`delay_trade`: set free in the
+        balance, the delay moves it by more than :data:`~motorid.diagnose.model.DELAY_TRADE_LIMIT`
+        of its standard errors) is not determined either: it trades with the delay through the
+        viscous friction, and the reason gives ``J + B τ_d``, the figure the record determines.
         """
         out = {}
+        trade = self.delay_trade
         for name, std in self.param_std.items():
             value = self.model.params.get(name, math.nan)
             share = self.param_share.get(name, math.nan)
@@ -337,11 +349,24 @@ class Diagnosis:
                 out[name] = (
                     f"its term carries {100 * share:.1f} % of the input force, below {100 * INERTIA_SHARE_LIMIT:g} %"
                 )
+            elif name == "inertia" and trade is not None and trade.inertia_traded:
+                out[name] = self._traded_reason(trade)
             elif not std <= RELATIVE_STD_LIMIT * abs(value):
                 out[name] = (
                     f"standard error {std:.2g} is above {100 * RELATIVE_STD_LIMIT:.0f} % of {value:.3g}"
                 )
         return out
+
+    @staticmethod
+    def _traded_reason(trade: DelayTrade) -> str:
+        """Why the inertia depends on the delay taken, with the figures of :class:`DelayTrade`."""
+        return (
+            "it trades with the input delay through the viscous friction: with the delay set free in "
+            f"the balance ({1e3 * trade.delay_free:.3g} ± {1e3 * trade.delay_free_std:.2g} ms, against "
+            f"{1e3 * trade.delay:.3g} ms taken) it is {trade.free['inertia']:.4g} ± "
+            f"{trade.free_std['inertia']:.2g}, {trade.moved('inertia'):.1f} standard errors away; the "
+            f"record determines J + B τ_d = {trade.effective_inertia:.4g} ± {trade.effective_inertia_std:.2g}"
+        )
 
     @property
     def param_units(self) -> dict[str, str]:
@@ -381,6 +406,7 @@ class Diagnosis:
                 "params_std": self.param_std,
                 "params_share": self.param_share,
                 "params_undetermined": self.undetermined,
+                "delay_trade": None if self.delay_trade is None else self.delay_trade.to_dict(),
             },
             "rejected": self.rejected,
             "units": {

@@ -406,6 +406,7 @@ def diagnose(
         model=final_model, initial_model=initial_model, region=first_region, units=pool.units,
         settings=settings, rejected=outcome.rejected, refitted_model=None if model is None else refitted_model,
         refitted_gap=refitted_gap, param_std=outcome.fit.param_std, param_share=outcome.fit.param_share,
+        delay_trade=outcome.fit.delay_trade,
         structure=chosen, structure_model=structure_model,
         records=record_summaries(pool, initial_model, final_model, first_region), _pool=pool,
         noise_bands=pool.noise_bands(), quantisation_step=pool.quantisation,
