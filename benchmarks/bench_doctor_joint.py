@@ -52,7 +52,7 @@ def measure_joint(repeat: int = 3) -> list[Row]:
         walls: dict[str, list[float]] = {"joint": [], "singles": []}
         peaks = {"joint": 0.0, "singles": 0.0}
         for attempt in range(repeat + 1):
-            wall, peak, _ = doctor_large.measure(joint)
+            wall, peak, _, _ = doctor_large.measure(joint)
             runs = [doctor_large.measure(argv) for argv in singles]
             if attempt:  # the first run fills numba's caches and writes bytecode
                 walls["joint"].append(wall)
