@@ -118,6 +118,9 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     if diagnosis.records:
         say(f"  gaps per record [{units['v']}] (above: pooled over the records):")
         say(record_table(diagnosis).to_string())
+        say("  each record fitted alone with the joint model's structure (± one standard error):")
+        for agreement in diagnosis.agreement:
+            say(f"    {agreement.describe(param_units[agreement.unit_of])}")
     bands = ", ".join(
         f"{b['noise_floor']:.3g} "
         + (f"below {b['speed_to']:.3g}" if k == 0 else f"at {b['speed_from']:.3g}-{b['speed_to']:.3g}")

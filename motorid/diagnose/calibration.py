@@ -155,6 +155,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from motorid.diagnose.agreement import AGREEMENT_LEVEL
 from motorid.diagnose.results import INERTIA_SHARE_LIMIT, MISSING_FACTOR
 from motorid.diagnose.search import DEFAULT_THRESHOLD, NOISE_SHRINK
 from motorid.diagnose.synthetic import BASE_FOR, SENSORS, planted_record
@@ -432,6 +433,65 @@ def delay_trades(seeds: range | list[int], effect: str | None = "input_delay") -
     return out
 
 
+@dataclass
+class Agreements:
+    """Outcome over joint runs of three records of one drive (:func:`agreements`): per run, each
+    tested parameter's p-value (:class:`~motorid.diagnose.agreement.Agreement`)."""
+
+    seeds: list[int]
+    p_values: list[dict[str, float]]
+
+    @property
+    def tests(self) -> int:
+        """The parameters tested over every run."""
+        return sum(len(p) for p in self.p_values)
+
+    @property
+    def alarms(self) -> int:
+        """The tests that said the records disagree (each a false alarm: one drive, one truth)."""
+        return sum(not p >= AGREEMENT_LEVEL for run in self.p_values for p in run.values())
+
+    def flagged_runs(self) -> list[int]:
+        """The seeds of the runs with at least one false alarm."""
+        return [
+            s for s, run in zip(self.seeds, self.p_values, strict=True) if min(run.values()) < AGREEMENT_LEVEL
+        ]
+
+
+def agreements(seeds: range | list[int], records: int = 3) -> Agreements:
+    """Joint runs over ``records`` records of one drive with Coulomb friction (each its own
+    excitation and noise): whatever parameter the records are said to disagree on is a false
+    alarm of :func:`~motorid.diagnose.agreement.agreement`.
+
+    Parameters
+    ----------
+    seeds : range or list of int
+        One drive per seed.
+    records : int
+        Records per joint run.
+    """
+    out = []
+    seeds = list(seeds)
+    for seed in seeds:
+        planted = [
+            planted_record("coulomb_friction", seed, excitation_seed=1000 * seed + k) for k in range(records)
+        ]
+        d = diagnose([p.record for p in planted], input_gain=planted[0].input_gain, base=planted[0].base)
+        out.append({a.parameter: a.p_value for a in d.agreement})
+    return Agreements(seeds, out)
+
+
+def _agreement_report(ag: Agreements) -> str:
+    flagged = ag.flagged_runs()
+    return (
+        f"joint runs of 3 records of one drive: {len(ag.seeds)}; the records said to disagree in "
+        f"{ag.alarms} of {ag.tests} parameter tests ({100 * ag.alarms / max(ag.tests, 1):.1f} % at the "
+        f"level {AGREEMENT_LEVEL:g}), on {len(flagged)} runs"
+        + (f" (seeds {flagged})" if flagged else "")
+        + "\n"
+    )
+
+
 def _inertia_report(ish: InertiaShares) -> str:
     share, error, ok = np.array(ish.share), np.array(ish.error), ish.determined
     signals = np.array(ish.signals)
@@ -553,7 +613,15 @@ def main(argv: list[str] | None = None) -> int:
         help="the inertia's share of the input force against whether the record determines it "
         "(kit-like records of an encoder's speed, each signal, --seeds seeds)",
     )
+    parser.add_argument(
+        "--agreement",
+        action="store_true",
+        help="joint runs of three records of one drive: how often the records are said to disagree",
+    )
     args = parser.parse_args(argv)
+    if args.agreement:
+        sys.stdout.write(_agreement_report(agreements(range(args.first, args.first + args.seeds))))
+        return 0
     if args.inertia:
         sys.stdout.write(_inertia_report(inertia_shares(range(args.first, args.first + args.seeds))))
         return 0

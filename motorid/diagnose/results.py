@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from motorid.diagnose.agreement import Agreement
 from motorid.diagnose.locate import Region
 from motorid.diagnose.measures import breakaway, gaps
 from motorid.diagnose.model import DelayTrade
@@ -269,6 +270,11 @@ class Diagnosis:
         ``samples``, ``noise_floor`` [v], ``initial_gap`` and ``final_gap`` (as above, of that
         record alone) and ``final_gap_noise_floors``; the gaps above are the pooled ones.
         Empty for one record.
+    agreement : list of Agreement
+        Several records: how they agree on each linear parameter the joint run determines, each
+        record fitted alone with the joint model's structure (:mod:`.agreement`: Cochran's test
+        of one common value, the spread between the records beyond their errors, the records
+        that lie off). Empty for one record.
     """
 
     initial_gap: dict[str, float]
@@ -298,6 +304,7 @@ class Diagnosis:
     rig: TwoMassRig | None = None
     position_model: RigidDrive | None = None
     position_error: dict[str, float] | None = None
+    agreement: list[Agreement] = field(default_factory=list)
     _pool: Pool | None = field(default=None, repr=False)
 
     @property
@@ -428,6 +435,7 @@ class Diagnosis:
             "refitted_gap": self.refitted_gap,
             "structure": self.structure.to_dict(),
             **({"records": self.records} if self.records else {}),
+            **({"agreement": {a.parameter: a.to_dict() for a in self.agreement}} if self.agreement else {}),
             **({"lookalikes": [x.to_dict() for x in self.lookalikes]} if self.lookalikes else {}),
             **({"notes": self.notes} if self.notes else {}),
             **({"two_mass_rig": self._rig_dict()} if self.rig is not None else {}),

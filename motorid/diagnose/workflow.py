@@ -66,7 +66,9 @@ The workflow (:func:`diagnose`):
    (:func:`~motorid.diagnose.position.refit_records_in_position`) and reported beside it
    (:attr:`Diagnosis.position_model`, both position errors).
 5. **Show**: the gaps before and after each step (:meth:`Diagnosis.table`) and
-   figures (:meth:`Diagnosis.write_figures`).
+   figures (:meth:`Diagnosis.write_figures`). Several records: each record's gaps, and
+   whether the records agree on each parameter the joint run determines, each fitted alone
+   with the joint model's structure (:mod:`.agreement`, :attr:`Diagnosis.agreement`).
 
 The stages, in their modules: :mod:`.prepare` (the records made ready and pooled, the held-out
 blocks), :mod:`.measures` (gaps, the balance residual, the evidence, breakaway at the rests),
@@ -122,6 +124,7 @@ from typing import Literal
 import numpy as np
 import pandas as pd
 
+from motorid.diagnose.agreement import agreement
 from motorid.diagnose.given_rig import GivenRig, rig_note
 from motorid.diagnose.locate import locate
 from motorid.diagnose.measures import fit_static_friction, free_run_error, gaps
@@ -400,7 +403,7 @@ def diagnose(
     ]
     if rig is not None:
         notes.append(rig_note(rig, pool.parts[0].kin.band))
-    return Diagnosis(
+    diagnosis = Diagnosis(
         initial_gap=initial_gap, final_gap=final_gap, steps=outcome.steps, stop_reason=stop_reason,
         noise_floor=pool.noise, final_region=final_region,
         model=final_model, initial_model=initial_model, region=first_region, units=pool.units,
@@ -413,6 +416,10 @@ def diagnose(
         rests=rest_summaries(pool, final_model), notes=notes, rig=rig, position_model=position_model,
         position_error=position_error,
     )  # fmt: skip
+    diagnosis.agreement = agreement(
+        pool, final_model, diagnosis.param_std, set(diagnosis.undetermined), diagnosis.delay_trade
+    )
+    return diagnosis
 
 
 #: The doctor's names, importable from here as from their stages (:mod:`.prepare`,
