@@ -34,8 +34,10 @@ from motorid.diagnose.prepare import Pool
 from motorid.drive.effects.registry import get as get_effect
 from motorid.drive.rigid import RigidDrive
 
-#: Records whose test of one common value has a p-value below this disagree (one in a hundred
-#: joint runs of records that do share the value is flagged).
+#: Records whose test of one common value has a p-value below this disagree: on 100 joint runs of
+#: three simulated records of one drive with Coulomb friction, 1 of the 310 parameters tested was
+#: said to differ (0.3 %, on 1 run; ``python -m motorid.diagnose.calibration --agreement --seeds
+#: 100 --first 0``), so the block-sandwich errors hold what one drive's records scatter by.
 AGREEMENT_LEVEL = 0.01
 #: The name J + B τ_d is tested under where the inertia trades with the input delay.
 EFFECTIVE_INERTIA = "effective_inertia"
