@@ -118,7 +118,8 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     if diagnosis.records:
         say(f"  gaps per record [{units['v']}] (above: pooled over the records):")
         say(record_table(diagnosis).to_string())
-        say("  each record fitted alone with the joint model's structure (± one standard error):")
+        if diagnosis.agreement:
+            say("  each record fitted alone with the joint model's structure (± one standard error):")
         for agreement in diagnosis.agreement:
             say(f"    {agreement.describe(param_units[agreement.unit_of])}")
     bands = ", ".join(
