@@ -27,7 +27,7 @@ import numpy as np
 from _table import Row, best_of, best_times, print_rows
 from filterpy.kalman import ExtendedKalmanFilter, MerweScaledSigmaPoints, UnscentedKalmanFilter
 
-from motorid.drive import CoulombLaw, paper_rig
+from motorid.drive import Friction, paper_rig
 from motorid.estimators import FrictionEKF, FrictionUKF
 from motorid.signals import two_sine_signal
 
@@ -149,7 +149,8 @@ def check_same_estimate(peer: str, theta: np.ndarray, ours: np.ndarray, rtol: fl
 
 
 def measure() -> list[Row]:
-    rig = paper_rig(friction=(CoulombLaw(alpha=6e-3, side="motor"),), B_m=3e-5, B_l=0.0)
+    friction = (Friction(("coulomb_friction",), {"coulomb": 6e-3}, side="motor"),)
+    rig = paper_rig(friction=friction, B_m=3e-5, B_l=0.0)
     _, u = two_sine_signal(60.0, rig.dt, seed=0)
     y = rig.simulate(u, seed=0)["y"].to_numpy()
     n_ekf, n_ukf, n_peer_ekf, n_peer_ukf = len(u), 300, 300, 40

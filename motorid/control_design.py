@@ -154,7 +154,7 @@ def linearise(
 
     and the delay as a Padé approximant of ``pade_order`` in front. Two-mass rig: the
     linear part of eqs. (1)-(7) (:meth:`TwoMassRig.linear_system`, state
-    ``[i_a, ω_m, ω_L, δ]``, θ_L dropped) with the slope of each mass's static friction laws
+    ``[i_a, ω_m, ω_L, δ]``, θ_L dropped) with the slope of each mass's friction
     at the speed added to its viscous term, input ``G u`` (the amplifier's gain).
 
     What is linear here: the drive beyond its dead zone and inside its saturation (slope
@@ -225,18 +225,9 @@ def linearise(
 
 
 def _rig_static_slope(rig: TwoMassRig, side: str, speed: float, direction: float) -> float:
-    """d/dω of the static friction laws on ``side`` of the rig at ``speed`` [N m s/rad]."""
-    from motorid.drive import kernels
-    from motorid.drive.friction import MemorylessLaw
-
-    s = math.copysign(1.0, speed) if speed != 0.0 else math.copysign(1.0, direction)
-    slope = 0.0
-    for f in rig.friction:
-        if isinstance(f, MemorylessLaw) and side in f.sides():
-            a = f.coefficients()
-            level, rate = (a[1], a[2]) if s > 0 else (-a[4], a[5])
-            slope += level * kernels.stribeck_decay_slope(speed, rate, f.shape_code(), s)
-    return slope
+    """d/dω of the friction on ``side`` of the rig at ``speed`` [N m s/rad], its viscous terms
+    (in the linear part) excluded."""
+    return sum(f.slope(speed, direction) for f in rig.friction if side in f.sides())
 
 
 def nonlinear_system(drive: RigidDrive | TwoMassRig, name: str | None = None) -> control.NonlinearIOSystem:

@@ -41,7 +41,7 @@ import numpy as np
 import pandas as pd
 from IPython.display import display
 
-from motorid.drive import CoulombLaw, StribeckLaw, paper_rig
+from motorid.drive import Friction, paper_rig
 from motorid.estimators import FrictionEKF, FrictionUKF
 from motorid.signals import two_sine_signal
 
@@ -57,7 +57,8 @@ CHI2_1_BAND = (0.000982, 5.0239)  # two-sided 95 % band of chi-square with 1 deg
 
 # %%
 TRUE = {"coulomb": 6e-3, "viscous": 3e-5}
-rig = paper_rig(friction=(CoulombLaw(alpha=TRUE["coulomb"], side="motor"),), B_m=TRUE["viscous"], B_l=0.0)
+brushes = Friction(("coulomb_friction",), {"coulomb": TRUE["coulomb"]}, side="motor")
+rig = paper_rig(friction=(brushes,), B_m=TRUE["viscous"], B_l=0.0)
 t, u = two_sine_signal(60.0, rig.dt, seed=1)
 record = rig.simulate(u, seed=1)
 y = record["y"].to_numpy()
@@ -155,7 +156,13 @@ for name, (_, res) in results.items():
 
 # %%
 stribeck_rig = rig.replace(
-    friction=(StribeckLaw(alpha0=TRUE["coulomb"], alpha1=TRUE["coulomb"], alpha2=0.5, side="motor"),)
+    friction=(
+        Friction(
+            ("coulomb_friction", "stribeck_friction"),
+            {"coulomb": TRUE["coulomb"], "stribeck": TRUE["coulomb"], "stribeck_velocity": 2.0},
+            side="motor",
+        ),
+    )
 )
 y_stribeck = stribeck_rig.simulate(u, seed=1)["y"].to_numpy()
 mismatched = FrictionEKF.from_rig(

@@ -45,7 +45,7 @@ from motorid.datasets import EMPS_BENCHMARK_RESULTS, EMPS_REFERENCE, emps_benchm
 from motorid.diagnose import diagnose
 from motorid.diagnose.position import refit_in_position
 from motorid.diagnose.synthetic import planted_record
-from motorid.drive import CoulombLaw, RigidDrive, StribeckLaw, effects, paper_rig
+from motorid.drive import Friction, RigidDrive, effects, paper_rig
 from motorid.estimators import FrictionEKF
 from motorid.estimators.friction_kf import tacho_variance
 from motorid.io import ModbusDAQ, RigServer, run_online
@@ -112,8 +112,9 @@ for path in hidden.write_figures(WORK / "hidden"):
 drive = paper_rig(
     dt=0.01, substeps=20, k_s=20.0, B_s=0.02,
     friction=(
-        CoulombLaw(alpha=4e-3, side="motor"), CoulombLaw(alpha=2e-3, side="load"),
-        StribeckLaw(alpha0=0.0, alpha1=6e-3, alpha2=0.1, side="motor"),
+        Friction(("coulomb_friction",), {"coulomb": 4e-3}, side="motor"),
+        Friction(("coulomb_friction",), {"coulomb": 2e-3}, side="load"),
+        Friction(("stribeck_friction",), {"stribeck": 6e-3, "stribeck_velocity": 10.0}, side="motor"),
     ),
 )  # fmt: skip
 datasheet = RigidDrive(

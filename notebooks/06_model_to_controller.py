@@ -42,7 +42,7 @@ from IPython.display import Image, display
 from motorid.compensation import FrictionCompensation
 from motorid.control_design import linearise, nonlinear_system, rest_state
 from motorid.diagnose import diagnose
-from motorid.drive import Amplifier, CoulombLaw, RigidDrive, StribeckLaw, paper_rig
+from motorid.drive import Amplifier, Friction, RigidDrive, paper_rig
 from motorid.io import ModbusDAQ, RigServer, SimulatedDAQ
 from motorid.signals import two_sine_signal
 from motorid.speed_control import (
@@ -70,9 +70,9 @@ LOW_SPEED = float(rpm_to_rad_s(150.0))  # the paper's low-speed band, 15.7 rad/s
 
 # %%
 friction = (
-    CoulombLaw(alpha=6e-3, side="motor"),
-    CoulombLaw(alpha=2e-3, side="load"),
-    StribeckLaw(alpha0=0.0, alpha1=3e-3, alpha2=0.2, side="motor"),
+    Friction(("coulomb_friction",), {"coulomb": 6e-3}, side="motor"),
+    Friction(("coulomb_friction",), {"coulomb": 2e-3}, side="load"),
+    Friction(("stribeck_friction",), {"stribeck": 3e-3, "stribeck_velocity": 5.0}, side="motor"),
 )
 rig = paper_rig(k_s=20.0, B_s=0.02, dt=DT, substeps=20, friction=friction,
                 amplifier=Amplifier(dead_zone=0.8, v_max=12.0))  # fmt: skip

@@ -13,7 +13,7 @@ from cli_fixtures import interrupt_when_written, run
 from io_fixtures import free_port, start_rig_process
 
 from motorid.diagnose import diagnose
-from motorid.drive import Amplifier, CoulombLaw, paper_rig
+from motorid.drive import Amplifier, Friction, paper_rig
 from motorid.signals import two_sine_signal
 
 PLANT_SEED = "3"
@@ -24,8 +24,9 @@ def files(tmp_path_factory) -> Path:
     """plant.json: the paper's rig with a wider dead zone and more motor friction (at its 40 ms);
     drive.json: what the doctor makes of a 120 s record of it (no input gain: forces in V)."""
     root = tmp_path_factory.mktemp("control")
-    rig = paper_rig(friction=(CoulombLaw(alpha=6e-3, side="motor"), CoulombLaw(alpha=2e-3, side="load")),
-                    amplifier=Amplifier(dead_zone=0.8, v_max=12.0))  # fmt: skip
+    friction = (Friction(("coulomb_friction",), {"coulomb": 6e-3}, side="motor"),
+                Friction(("coulomb_friction",), {"coulomb": 2e-3}, side="load"))  # fmt: skip
+    rig = paper_rig(friction=friction, amplifier=Amplifier(dead_zone=0.8, v_max=12.0))
     rig.save(root / "plant.json")
     _, u = two_sine_signal(duration=120.0, dt=rig.dt, seed=0)
     diagnose(rig.simulate(u, seed=1)).model.save(root / "drive.json")

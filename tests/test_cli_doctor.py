@@ -115,11 +115,12 @@ def test_doctor_names_a_nan_sample(capsys, record_csv, tmp_path):
 # --------------------------------------------------------------------------- the user's own model
 def stribeck_rig():
     """The measured drive: the paper's rig (stiff shaft, 100 Hz) with Stribeck friction on the motor."""
-    from motorid.drive import CoulombLaw, StribeckLaw, paper_rig
+    from motorid.drive import Friction, paper_rig
 
     friction = (
-        CoulombLaw(alpha=4e-3, side="motor"), CoulombLaw(alpha=2e-3, side="load"),
-        StribeckLaw(alpha0=0.0, alpha1=6e-3, alpha2=0.1, side="motor"),
+        Friction(("coulomb_friction",), {"coulomb": 4e-3}, side="motor"),
+        Friction(("coulomb_friction",), {"coulomb": 2e-3}, side="load"),
+        Friction(("stribeck_friction",), {"stribeck": 6e-3, "stribeck_velocity": 10.0}, side="motor"),
     )  # fmt: skip
     return paper_rig(dt=0.01, substeps=20, k_s=20.0, B_s=0.02, friction=friction)
 

@@ -306,7 +306,9 @@ def test_friction_ekf_from_the_true_rig_file(capsys, files):
                          "--model", str(files / "true.json"), "--json")  # fmt: skip
     assert code == 0, err
     rig = paper_rig()
-    total = sum(f.alpha for f in rig.friction)  # the filter estimates the friction on both masses as one
+    total = sum(
+        f.params["coulomb"] for f in rig.friction
+    )  # the filter estimates the friction on both masses as one
     assert out["params"]["coulomb"] == pytest.approx(total, rel=0.2)
     assert out["notes"] == [] and "diverged" not in err
 

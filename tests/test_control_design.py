@@ -18,9 +18,8 @@ from motorid.control_design import (
 from motorid.drive import (
     ADConverter,
     Amplifier,
-    CoulombLaw,
+    Friction,
     RigidDrive,
-    StribeckLaw,
     Tachogenerator,
     paper_rig,
 )
@@ -174,8 +173,8 @@ def test_two_mass_rig_linearised_has_its_shaft_mode_and_predicts_the_load_speed(
 
 
 def test_rig_static_friction_slope_enters_the_linear_model():
-    rig = paper_rig(friction=(StribeckLaw(alpha0=4e-3, alpha1=3e-3, alpha2=0.1, side="motor"),
-                              CoulombLaw(alpha=2e-3, side="load")))  # fmt: skip
+    rig = paper_rig(friction=(Friction(("coulomb_friction", "stribeck_friction"), {"coulomb": 4e-3, "stribeck": 3e-3, "stribeck_velocity": 10.0}, side="motor"),
+                              Friction(("coulomb_friction",), {"coulomb": 2e-3}, side="load")))  # fmt: skip
     a_moving = linearise(rig, speed=100.0).A[1, 1]
     a_slow = linearise(rig, speed=1.0).A[1, 1]
     # d/dω of α1 exp(-α2 ω) is -α1 α2 exp(-α2 ω): larger (less damping) near rest

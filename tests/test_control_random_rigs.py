@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 
 from motorid.compensation import FrictionCompensation
 from motorid.diagnose import diagnose
-from motorid.drive import Amplifier, CoulombLaw, RigidDrive, StribeckLaw, paper_rig
+from motorid.drive import Amplifier, Friction, RigidDrive, paper_rig
 from motorid.io import SimulatedDAQ
 from motorid.signals import two_sine_signal
 from motorid.speed_control import (
@@ -46,9 +46,11 @@ def rigs(draw):
     stribeck_speed = draw(st.floats(3.0, 10.0))
     dead_zone = draw(st.floats(0.3, 1.0))
     friction = (
-        CoulombLaw(alpha=coulomb_m, side="motor"),
-        CoulombLaw(alpha=coulomb_l, side="load"),
-        StribeckLaw(alpha0=0.0, alpha1=stribeck, alpha2=1.0 / stribeck_speed, side="motor"),
+        Friction(("coulomb_friction",), {"coulomb": coulomb_m}, side="motor"),
+        Friction(("coulomb_friction",), {"coulomb": coulomb_l}, side="load"),
+        Friction(
+            ("stribeck_friction",), {"stribeck": stribeck, "stribeck_velocity": stribeck_speed}, side="motor"
+        ),
     )
     return paper_rig(
         J_m=J_m, J_l=J_l, K_m=K_m, R_a=R_a, k_s=20.0, B_s=0.02, dt=DT, substeps=20, friction=friction,
@@ -61,7 +63,7 @@ def datasheet_model(rig) -> RigidDrive:
     --input-gain): inertia, back-EMF and bearing damping, the rated friction torque; no dead zone
     (the amplifier's) and no Stribeck effect."""
     gain = rig.K_m / rig.R_a  # N m per V at rest
-    coulomb = sum(f.alpha for f in rig.friction if isinstance(f, CoulombLaw))
+    coulomb = sum(f.params.get("coulomb", 0.0) for f in rig.friction)
     return RigidDrive(
         ("viscous_friction", "coulomb_friction"),
         {"inertia": (rig.J_m + rig.J_l) / gain, "input_gain": 1.0,

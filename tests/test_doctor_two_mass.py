@@ -13,10 +13,10 @@ from cli_fixtures import run
 from io_fixtures import free_port, start_rig_process
 
 from motorid import load_model
-from motorid.drive import StribeckLaw, TwoMassRig, paper_rig
+from motorid.drive import Friction, TwoMassRig, paper_rig
 from motorid.records import read_record
 
-STRIBECK = StribeckLaw(alpha0=0.0, alpha1=6e-3, alpha2=0.1, side="motor")
+STRIBECK = Friction(("stribeck_friction",), {"stribeck": 6e-3, "stribeck_velocity": 10.0}, side="motor")
 
 
 def datasheet_rig() -> TwoMassRig:
@@ -69,12 +69,13 @@ def test_the_doctor_names_stribeck_on_the_datasheet_rig_and_writes_a_better_rig(
     assert out["two_mass_rig"]["given"] == sheet.to_dict()
     assert "wrote" in err and "the improved two-mass rig" in err
 
-    # the file is a two-mass rig, the same format; the effect found is the rig's own law on the motor
+    # the file is a two-mass rig, the same format; the effect found is on the motor, beside its Coulomb friction
     assert json.loads((folder / "better.json").read_text())["kind"] == "two-mass-rig"
     better = load_model(folder / "better.json")
     assert isinstance(better, TwoMassRig) and better.to_dict() == out["two_mass_rig"]["improved"]
-    assert better.friction[:2] != sheet.friction[:2] and isinstance(better.friction[2], StribeckLaw)
-    assert better.friction[2].side == "motor" and len(better.friction) == 3
+    motor, load = better.friction
+    assert motor.side == "motor" and motor.effects == ("coulomb_friction", "stribeck_friction")
+    assert load.effects == ("coulomb_friction",) and load.params != sheet.friction[1].params
     # what the record does not speak of stays the datasheet's: the shaft, the motor constants, the ratio
     # of the inertias, the sensors and the sampling
     for name in ("k_s", "B_s", "R_a", "L_a", "K_m", "dt", "substeps", "tacho", "adc", "encoder"):
@@ -195,32 +196,48 @@ def test_python_diagnose_refuses_a_rig_without_a_rigid_equivalent(doctored):
         diagnose(read_record(folder / "meas.csv"), model=datasheet_rig().replace(backlash=1e-3))
 
 
-def test_an_effect_found_that_the_rig_cannot_carry_refuses_the_save(capsys, tmp_path):
-    """A drive with quadratic drag (a rigid drive's, measured with 0.3 rad/s of noise): the doctor
-    from the datasheet rig names it, the JSON says the rig cannot carry it, and --save-model is
-    refused in one line, nothing written."""
+def measured_with(effect: str, parameter: str, value: float, tmp_path) -> list[str]:
+    """The datasheet rig saved, and a 60 s record of its rigid equivalent with ``effect`` added
+    (a rigid drive's, measured with 0.3 rad/s of noise): the doctor's arguments for one step on it."""
     from motorid.records import write_record
     from motorid.signals import two_sine_signal
 
     sheet = datasheet_rig()
     sheet.save(tmp_path / "sheet.json")
     equivalent = sheet.rigid_equivalent()
-    drag = equivalent.with_effects(
-        (*equivalent.effects, "quadratic_drag"), {**equivalent.params, "quadratic_drag": 3e-7}
-    )
+    drive = equivalent.with_effects((*equivalent.effects, effect), {**equivalent.params, parameter: value})
     _, u = two_sine_signal(duration=60.0, dt=sheet.dt, seed=1)
-    record = drag.simulate(u)[["t", "u", "y"]]
+    record = drive.simulate(u)[["t", "u", "y"]]
     record["y"] += np.random.default_rng(0).normal(0.0, 0.3, len(record))
-    write_record(record, tmp_path / "drag.csv")
-    argv = ["doctor", str(tmp_path / "drag.csv"), "--model", str(tmp_path / "sheet.json"),
-            "--candidates", "quadratic_drag", "--max-steps", "1"]  # fmt: skip
+    write_record(record, tmp_path / f"{effect}.csv")
+    return ["doctor", str(tmp_path / f"{effect}.csv"), "--model", str(tmp_path / "sheet.json"),
+            "--candidates", effect, "--max-steps", "1"]  # fmt: skip
+
+
+def test_quadratic_drag_found_goes_on_the_rigs_motor(capsys, tmp_path):
+    """The rig's masses take every friction effect of the rigid drive: drag found on the rigid
+    equivalent (3e-7 N m s²/rad² planted) is put on the motor beside its Coulomb friction, and saved."""
+    argv = measured_with("quadratic_drag", "quadratic_drag", 3e-7, tmp_path)
+    code, out, err = run(capsys, *argv, "--save-model", str(tmp_path / "better.json"), "--json")
+    assert code == 0, err
+    assert out["steps"][0]["effect"] == "quadratic_drag"
+    motor = load_model(tmp_path / "better.json").friction[0]
+    assert motor.side == "motor" and motor.effects == ("coulomb_friction", "quadratic_drag")
+    assert motor.params["quadratic_drag"] == pytest.approx(3e-7, rel=0.1)  # measured: 2.90e-7
+
+
+def test_an_effect_found_that_the_rig_cannot_carry_refuses_the_save(capsys, tmp_path):
+    """A drive with a 0.2 s backlash dwell after each reversal (the rigid drive's lost motion): the
+    doctor names it, the JSON says the rig cannot carry it (its backlash is a gap in the shaft), and
+    --save-model is refused in one line, nothing written."""
+    argv = measured_with("backlash", "backlash_time", 0.2, tmp_path)
     code, out, err = run(capsys, *argv, "--json")
     assert code == 0, err
-    assert out["steps"][0]["effect"] == "quadratic_drag" and out["two_mass_rig"]["improved"] is None
-    assert out["two_mass_rig"]["refused"].startswith("quadratic_drag: a two-mass rig cannot carry it")
+    assert out["steps"][0]["effect"] == "backlash" and out["two_mass_rig"]["improved"] is None
+    assert out["two_mass_rig"]["refused"].startswith("backlash: a two-mass rig cannot carry it")
     code, _, err = run(capsys, *argv, "--save-model", str(tmp_path / "better.json"))
     assert code == 2 and not (tmp_path / "better.json").exists()
     assert (
         f"--save-model {tmp_path / 'better.json'}: the two-mass rig cannot take the improved model: "
-        "quadratic_drag: a two-mass rig cannot carry it" in err
+        "backlash: a two-mass rig cannot carry it" in err
     )

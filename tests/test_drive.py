@@ -17,9 +17,8 @@ from motorid.drive import (
     PHYSICAL_DEFAULTS,
     ADConverter,
     Amplifier,
-    CoulombLaw,
     Encoder,
-    StribeckLaw,
+    Friction,
     Tachogenerator,
     TwoMassRig,
     paper_rig,
@@ -175,10 +174,10 @@ def test_non_finite_input_names_u_and_sample(bad):
 
 
 def test_friction_and_sensor_parameters_are_checked():
-    with pytest.raises(ValueError, match="alpha"):
-        CoulombLaw(alpha=-1.0)
+    with pytest.raises(ValueError, match="coulomb must be"):
+        Friction(("coulomb_friction",), {"coulomb": -1.0})
     with pytest.raises(ValueError, match="side"):
-        CoulombLaw(alpha=1.0, side="shaft")  # type: ignore[arg-type]
+        Friction(("coulomb_friction",), {"coulomb": 1.0}, side="shaft")  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="dead_zone"):
         Amplifier(dead_zone=-0.1)
     with pytest.raises(ValueError, match="gain"):
@@ -246,10 +245,10 @@ def test_torque_below_breakaway_never_moves_the_mass(levels, hold):
     """Motor Coulomb friction only, no dead zone: |K v/R| < breakaway keeps ω exactly 0.
 
     The armature current rises monotonically towards v/R with the rotor held, so
-    the motor torque stays below K |v|/R; with α = 5 mN m and K/R = 0.0214 N m/V
+    the motor torque stays below K |v|/R; with F_c = 5 mN m and K/R = 0.0214 N m/V
     that is below breakaway for |v| < 0.233 V. Levels are scaled into that band.
     """
-    rig = quiet(paper_rig(friction=(CoulombLaw(alpha=5e-3, side="motor"),),
+    rig = quiet(paper_rig(friction=(Friction(("coulomb_friction",), {"coulomb": 5e-3}, side="motor"),),
                           amplifier=Amplifier(gain=1.0)))  # fmt: skip
     limit = 5e-3 * rig.R_a / rig.K_m
     u = np.repeat(np.asarray(levels) * limit, hold)
@@ -265,7 +264,13 @@ def test_torque_below_breakaway_never_moves_the_mass(levels, hold):
 
 def test_stuck_load_under_disturbance_below_breakaway():
     """A load with Stribeck breakaway 3 mN m does not turn under a 2.9 mN m disturbance."""
-    fr = (StribeckLaw(alpha0=2e-3, alpha1=1e-3, alpha2=0.5, side="both"),)
+    fr = (
+        Friction(
+            ("coulomb_friction", "stribeck_friction"),
+            {"coulomb": 2e-3, "stribeck": 1e-3, "stribeck_velocity": 2.0},
+            side="both",
+        ),
+    )
     rig = quiet(paper_rig(friction=fr))
     df = rig.simulate(np.zeros(100), load_torque=np.full(100, 2.9e-3))
     assert (df["omega_l"] == 0.0).all() and (df["omega_m"] == 0.0).all()

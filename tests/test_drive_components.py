@@ -1,4 +1,4 @@
-"""Friction laws, amplifier and sensor chain against the paper's equations."""
+"""Friction on the rig's masses, amplifier and sensor chain against the paper's equations."""
 
 from __future__ import annotations
 
@@ -12,60 +12,68 @@ from hypothesis import strategies as st
 from motorid.drive import (
     ADConverter,
     Amplifier,
-    AsymmetricLaw,
-    CoulombLaw,
     Encoder,
-    LuGreLaw,
-    StribeckLaw,
+    Friction,
+    RigidDrive,
     Tachogenerator,
-    ViscousLaw,
     friction_from_dict,
     measure_speed,
     paper_rig,
     steady_state_speed,
 )
+from motorid.errors import ModelFileError
 
 speeds = st.floats(-300.0, 300.0, allow_nan=False)
 coef = st.floats(0.0, 0.05)
+velocity = st.floats(0.05, 50.0)
+STRIBECK = ("coulomb_friction", "stribeck_friction")
 
 
-@given(w=speeds, a0=coef, a1=coef, a2=st.floats(0.0, 5.0))
-def test_coulomb_and_stribeck_follow_eqs_8_and_9(w, a0, a1, a2):
+def stribeck(fc: float, fs: float, vs: float, shape: str = "exponential", side: str = "both") -> Friction:
+    """Coulomb friction F_c and a Stribeck excess F_s decaying at v_s [rad/s] on ``side``."""
+    return Friction(STRIBECK, {"coulomb": fc, "stribeck": fs, "stribeck_velocity": vs}, side, shape)
+
+
+@given(w=speeds, fc=coef, fs=coef, vs=velocity)
+def test_coulomb_and_stribeck_follow_eqs_8_and_9(w, fc, fs, vs):
     sgn = float(np.sign(w))  # eq. (10): sgn(0) = 0
-    assert CoulombLaw(alpha=a0).torque(w) == pytest.approx(a0 * sgn)
-    expected = a0 * sgn + a1 * math.exp(-a2 * abs(w)) * sgn
-    assert StribeckLaw(a0, a1, a2).torque(w) == pytest.approx(expected)
+    assert Friction(("coulomb_friction",), {"coulomb": fc}).torque(w) == pytest.approx(fc * sgn)
+    expected = fc * sgn + fs * math.exp(-abs(w) / vs) * sgn
+    assert stribeck(fc, fs, vs).torque(w) == pytest.approx(expected)
 
 
-@given(w=speeds, a0=coef, a1=coef, a2=st.floats(0.0, 5.0))
-def test_gaussian_stribeck_decays_with_the_square_of_the_speed(w, a0, a1, a2):
+@given(w=speeds, fc=coef, fs=coef, vs=velocity, share=st.floats(-1.0, 1.0), dv=st.floats(-1e-4, 1e-4))
+def test_gaussian_stribeck_and_the_asymmetry_on_a_mass(w, fc, fs, vs, share, dv):
     sgn = float(np.sign(w))
-    expected = (a0 + a1 * math.exp(-((a2 * w) ** 2))) * sgn
-    assert StribeckLaw(a0, a1, a2, stribeck_shape="gaussian").torque(w) == pytest.approx(expected)
-    decay = math.exp(-((a2 * w) ** 2))
-    asymmetric = AsymmetricLaw(a0, a1, a2, a1, a0, a2, stribeck_shape="gaussian").torque(w)
-    assert asymmetric == pytest.approx(
-        a0 + a1 * decay if w >= 0 else -(a1 + a0 * decay)
-    )  # eq. (11): sgn1(0) = 1
+    decay = math.exp(-((w / vs) ** 2))
+    assert stribeck(fc, fs, vs, "gaussian").torque(w) == pytest.approx((fc + fs * decay) * sgn)
+    # eq. (11)'s different levels each way: F_c ± ΔF_c, and B ± ΔF_v
+    asymmetric = Friction(
+        (*STRIBECK, "asymmetric_friction"),
+        {"coulomb": fc, "stribeck": fs, "stribeck_velocity": vs, "coulomb_asymmetry": share * fc,
+         "viscous_asymmetry": dv},
+        stribeck_shape="gaussian",
+    )  # fmt: skip
+    expected = (fc + fs * decay) * sgn + (share * fc + dv * abs(w)) * abs(sgn)
+    assert asymmetric.torque(w) == pytest.approx(expected, abs=1e-15)
 
 
 def test_a_gaussian_stribeck_rig_runs_at_its_own_steady_state():
-    """The integrators use the law's shape: the steady speed is the root of the balance
-    with exp(-(α2 ω)²), written here in NumPy, and differs from the exponential rig's."""
+    """The integrators use the friction's shape: the steady speed is the root of the balance
+    with exp(-(ω/v_s)²), written here in NumPy, and differs from the exponential rig's."""
     import scipy.optimize
 
-    a0, a1, a2 = 1e-3, 8e-3, 0.05
+    fc, fs, vs = 1e-3, 8e-3, 20.0
     rates = {}
     for shape in ("gaussian", "exponential"):
-        law = StribeckLaw(a0, a1, a2, stribeck_shape=shape, side="motor")
-        rig = paper_rig(friction=(law,), amplifier=Amplifier())
+        rig = paper_rig(friction=(stribeck(fc, fs, vs, shape, "motor"),), amplifier=Amplifier())
         decay = (
-            (lambda w: math.exp(-((a2 * w) ** 2))) if shape == "gaussian" else (lambda w: math.exp(-a2 * w))
+            (lambda w: math.exp(-((w / vs) ** 2))) if shape == "gaussian" else (lambda w: math.exp(-w / vs))
         )
         B = rig.B_m + rig.B_l
 
         def balance(w, decay=decay, rig=rig, B=B):
-            return rig.K_m * (2.0 - rig.K_m * w) / rig.R_a - B * w - a0 - a1 * decay(w) - rig.T_d
+            return rig.K_m * (2.0 - rig.K_m * w) / rig.R_a - B * w - fc - fs * decay(w) - rig.T_d
 
         truth = scipy.optimize.brentq(balance, 1e-9, 2.0 / rig.K_m)
         rates[shape] = rig.simulate(np.full(100, 2.0), seed=0)["omega_l"].iloc[-1]
@@ -73,44 +81,113 @@ def test_a_gaussian_stribeck_rig_runs_at_its_own_steady_state():
     assert abs(rates["gaussian"] - rates["exponential"]) > 0.01 * rates["exponential"]
 
 
-@given(w=speeds, a=st.tuples(coef, coef, st.floats(0, 5), coef, coef, st.floats(0, 5)))
-def test_asymmetric_follows_eq_11(w, a):
-    sgn1 = 1.0 if w >= 0 else 0.0
-    sgn2 = 0.0 if w >= 0 else -1.0
-    expected = (a[0] + a[1] * math.exp(-a[2] * abs(w))) * sgn1 + (
-        a[3] + a[4] * math.exp(-a[5] * abs(w))
-    ) * sgn2
-    assert AsymmetricLaw(*a).torque(w) == pytest.approx(expected)
+@given(w=speeds, fc=coef, excess=coef, rate=st.just(0.0) | st.floats(1e-3, 5.0), share=st.floats(-1.0, 1.0))
+def test_a_law_of_an_older_file_reads_as_its_effects_with_the_torque_of_eq_11(w, fc, excess, rate, share):
+    """A file written before the rig took the effects holds eq. (11)'s α-form laws; read, each is
+    the effects that give the same torque (a Stribeck rate α2 of 0, an excess that never decays, is
+    Coulomb friction)."""
+    a = (fc + share * fc, excess, rate, fc - share * fc, excess, rate)
+    law = {"kind": "asymmetric_friction", **{f"alpha{k}": v for k, v in enumerate(a)},
+           "stribeck_shape": "exponential", "side": "load"}  # fmt: skip
+    friction = friction_from_dict(law)
+    assert friction.side == "load"
+    decay = math.exp(-a[2] * abs(w))
+    expected = a[0] + a[1] * decay if w > 0 else (-(a[3] + a[4] * decay) if w < 0 else 0.0)
+    assert friction.torque(w) == pytest.approx(expected, rel=1e-12, abs=1e-15)
 
 
 def test_breakaway_and_direction_at_zero_speed():
-    f = AsymmetricLaw(1e-3, 2e-3, 1.0, 3e-3, 1e-3, 1.0)
-    assert f.breakaway_positive == pytest.approx(3e-3)
-    assert f.breakaway_negative == pytest.approx(4e-3)
-    assert StribeckLaw(1e-3, 2e-3, 1.0).torque(0.0, direction=-1) == pytest.approx(-3e-3)
-    assert CoulombLaw(alpha=2e-3).torque(0.0) == 0.0
+    f = Friction(
+        (*STRIBECK, "asymmetric_friction", "static_friction"),
+        {"coulomb": 2e-3, "stribeck": 1e-3, "stribeck_velocity": 1.0, "coulomb_asymmetry": 5e-4,
+         "viscous_asymmetry": 0.0, "breakaway_excess": 4e-4},
+    )  # fmt: skip
+    assert f.kinetic == pytest.approx((3.5e-3, 2.5e-3))
+    assert f.breakaway == pytest.approx((3.9e-3, 2.9e-3))  # the static friction's excess above them
+    assert f.torque(0.0, direction=-1) == pytest.approx(-2.5e-3)
+    assert Friction(("coulomb_friction",), {"coulomb": 2e-3}).torque(0.0) == 0.0
 
 
-def test_friction_dict_round_trip_and_sides():
-    laws = [
-        ViscousLaw(B=1e-5, side="motor"),
-        CoulombLaw(alpha=1e-3, side="load"),
-        StribeckLaw(1e-3, 1e-3, 2.0),
-        AsymmetricLaw(1e-3, 0.0, 0.0, 2e-3, 0.0, 0.0, side="motor"),
-        LuGreLaw(sigma0=2.0, sigma1=1e-3, sigma2=1e-5, Fc=1e-3, Fs=2e-3, omega_s=1.0),
+def test_friction_dict_round_trip_sides_and_the_laws_of_older_files():
+    frictions = [
+        Friction(("viscous_friction",), {"viscous": 1e-5}, side="motor"),
+        Friction(("coulomb_friction", "quadratic_drag"), {"coulomb": 1e-3, "quadratic_drag": 1e-8}, "load"),
+        stribeck(1e-3, 1e-3, 0.5, "gaussian"),
+        Friction(
+            ("coulomb_friction", "lugre_friction"),
+            {"coulomb": 1e-3, "bristle_stiffness": 2.0, "bristle_damping": 1e-3},
+        ),
     ]
-    for law in laws:
-        assert friction_from_dict(law.to_dict()) == law
-    assert StribeckLaw().sides() == ("motor", "load")
-    with pytest.raises(ValueError, match="kind"):
+    for f in frictions:
+        assert friction_from_dict(f.to_dict()) == f
+    assert frictions[2].sides() == ("motor", "load")
+    older = {
+        "viscous_friction": ({"B": 1e-5}, Friction(("viscous_friction",), {"viscous": 1e-5}, "motor")),
+        "coulomb_friction": ({"alpha": 1e-3}, Friction(("coulomb_friction",), {"coulomb": 1e-3}, "motor")),
+        "stribeck_friction": (
+            {"alpha0": 1e-3, "alpha1": 1e-3, "alpha2": 2.0, "stribeck_shape": "gaussian"},
+            stribeck(1e-3, 1e-3, 0.5, "gaussian", "motor"),
+        ),
+        "lugre_friction": (
+            {"sigma0": 2.0, "sigma1": 1e-3, "sigma2": 1e-5, "Fc": 1e-3, "Fs": 1e-3, "omega_s": 1.0},
+            Friction(
+                ("coulomb_friction", "viscous_friction", "lugre_friction"),
+                {"coulomb": 1e-3, "viscous": 1e-5, "bristle_stiffness": 2.0, "bristle_damping": 1e-3},
+                "motor",
+                "gaussian",
+            ),
+        ),
+    }
+    for kind, (law, friction) in older.items():
+        assert friction_from_dict({"kind": kind, **law, "side": "motor"}) == friction
+    with pytest.raises(ModelFileError, match="unknown friction law 'magic'"):
         friction_from_dict({"kind": "magic"})
-    with pytest.raises(ValueError, match="LuGre"):
-        paper_rig(friction=(laws[4], LuGreLaw(Fc=1e-3, Fs=1e-3, side="motor")))
+    per_direction = {"kind": "asymmetric_friction", "alpha0": 1e-3, "alpha1": 1e-3, "alpha2": 1.0,
+                     "alpha3": 1e-3, "alpha4": 2e-3, "alpha5": 1.0, "stribeck_shape": "exponential",
+                     "side": "both"}  # fmt: skip
+    with pytest.raises(
+        ModelFileError, match=r"model.friction\[0\]: .*Stribeck excess or rate differs forwards"
+    ):
+        friction_from_dict(per_direction, "model.friction[0]")
+    with pytest.raises(ValueError, match="more than one lugre_friction on the motor side"):
+        lugre = Friction(("coulomb_friction", "lugre_friction"),
+                         {"coulomb": 1e-3, "bristle_stiffness": 1.0, "bristle_damping": 0.0}, "motor")  # fmt: skip
+        paper_rig(friction=(frictions[3], lugre))
+
+
+def test_a_mass_refuses_what_it_cannot_hold_by_name():
+    with pytest.raises(ValueError, match="input_delay: a mass of the two-mass rig cannot hold it"):
+        Friction(("input_delay",), {"input_delay": 0.01})
+    with pytest.raises(ValueError, match="lugre_friction needs coulomb_friction"):
+        Friction(("lugre_friction",), {"bristle_stiffness": 1.0, "bristle_damping": 0.0})
+    with pytest.raises(ValueError, match=r"backwards would be -0\.001 N m < 0"):
+        Friction(("coulomb_friction", "asymmetric_friction"),
+                 {"coulomb": 1e-3, "coulomb_asymmetry": 2e-3, "viscous_asymmetry": 0.0})  # fmt: skip
+    with pytest.raises(ValueError, match="'stribeck_velocity' is missing"):
+        Friction(STRIBECK, {"coulomb": 1e-3, "stribeck": 1e-3})
+    with pytest.raises(ValueError, match="lugre_friction: a rigid drive cannot hold it"):
+        RigidDrive(("coulomb_friction", "lugre_friction"),
+                   {"inertia": 1.0, "input_gain": 1.0, "coulomb": 1.0, "bristle_stiffness": 1.0,
+                    "bristle_damping": 0.0}, 0.01)  # fmt: skip
+
+
+@given(w=speeds, fc=coef, fs=coef, vs=velocity, b=st.floats(0.0, 1e-4), c=st.floats(0.0, 1e-7))
+def test_a_mass_and_a_rigid_drive_with_the_same_effects_have_one_torque(w, fc, fs, vs, b, c):
+    """One vocabulary, one law: the friction on a mass is the rigid drive's friction for the same
+    effects and parameters (both evaluate the compiled terms, summed in another order: rounding)."""
+    effects = (*STRIBECK, "viscous_friction", "quadratic_drag")
+    params = {"coulomb": fc, "stribeck": fs, "stribeck_velocity": vs, "viscous": b, "quadratic_drag": c}
+    drive = RigidDrive(effects, {"inertia": 1.0, "input_gain": 1.0, **params}, 0.01)
+    expected = float(drive.friction(np.array([w]))[0])
+    assert Friction(effects, params).torque(w) == pytest.approx(expected, rel=1e-13, abs=1e-18)
 
 
 def test_asymmetric_friction_shows_in_the_rig():
     """Asymmetric friction: the same |u| gives different |speed| in the two directions."""
-    fr = (AsymmetricLaw(2e-3, 0.0, 0.0, 8e-3, 0.0, 0.0, side="both"),)
+    fr = (
+        Friction(("coulomb_friction", "asymmetric_friction"),
+                 {"coulomb": 5e-3, "coulomb_asymmetry": -3e-3, "viscous_asymmetry": 0.0}),
+    )  # fmt: skip
     rig = paper_rig(friction=fr)
     fwd = steady_state_speed(rig, 3.0)
     back = steady_state_speed(rig, -3.0)
@@ -122,13 +199,16 @@ def test_asymmetric_friction_shows_in_the_rig():
 
 
 def test_lugre_reaches_its_steady_state_curve():
-    lugre = LuGreLaw(sigma0=2.0, sigma1=3e-3, sigma2=0.0, Fc=3e-3, Fs=4e-3, omega_s=2.0)
+    lugre = Friction(
+        (*STRIBECK, "lugre_friction"),
+        {"coulomb": 3e-3, "stribeck": 1e-3, "stribeck_velocity": 2.0, "bristle_stiffness": 2.0,
+         "bristle_damping": 3e-3},
+        stribeck_shape="gaussian",
+    )  # fmt: skip
     rig = paper_rig(friction=(lugre,))
     for u in (2.0, 6.0, -4.0):
         w = rig.simulate(np.full(60, u), seed=0)["omega_l"].iloc[-1]
         assert w == pytest.approx(steady_state_speed(rig, u), rel=1e-4)
-    z = lugre.g(5.0) / lugre.sigma0
-    assert lugre.torque(z, 5.0) == pytest.approx(lugre.steady_state_torque(5.0))
 
 
 @pytest.mark.parametrize(
@@ -205,23 +285,3 @@ def test_tacho_and_adc_chain():
 def test_encoder_counts():
     enc = Encoder(counts_per_rev=4)
     np.testing.assert_allclose(enc.measure([0.0, 1.0, 1.6, -0.1]), [0.0, 0.0, math.pi / 2, -math.pi / 2])
-
-
-def test_friction_objects_evaluate_the_integrators_law_bit_for_bit():
-    """torque() and z_dot() are the compiled functions the integrators call (one statement
-    of each law), so they agree to the last bit with the packed rows the fast path uses."""
-    from motorid.drive.friction import pack_static_friction
-    from motorid.drive.kernels import lugre_rate, static_friction
-
-    law = AsymmetricLaw(1e-3, 5e-4, 0.2, 2e-3, 1e-4, 0.3, side="motor")
-    rows = pack_static_friction((law,))
-    for w in np.linspace(-3.0, 3.0, 61):
-        for d in (-1.0, 1.0):
-            assert float(law.torque(w, direction=d)) == static_friction(
-                rows, 0, w, d if w == 0 else np.sign(w)
-            )
-    lugre = LuGreLaw(sigma0=2.0, sigma1=1e-3, Fc=1e-3, Fs=2e-3, omega_s=1.0)
-    z, w = np.linspace(-1e-3, 1e-3, 7), np.linspace(-2.0, 2.0, 7)
-    assert lugre.z_dot(z, w).tolist() == [
-        lugre_rate(2.0, 1e-3, 2e-3, 1.0, a, b) for a, b in zip(z, w, strict=True)
-    ]

@@ -67,7 +67,7 @@ def test_each_parameter_is_spelled_once_with_its_unit_sign_and_term():
     # the physical signs a model file checks, and the compiled terms of the balance
     assert {n for n in seen if effects.parameter(n).sign == "> 0"} == {
         "inertia", "input_gain", "stribeck_velocity", "saturation", "cogging_periods",
-        "position_friction_periods",
+        "position_friction_periods", "bristle_stiffness",
     }  # fmt: skip
     assert {n for n in seen if effects.parameter(n).sign == "any"} == {
         "coulomb_asymmetry", "viscous_asymmetry", "offset", "cogging_sin", "cogging_cos",

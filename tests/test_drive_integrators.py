@@ -13,8 +13,7 @@ from numpy.polynomial import polynomial as npoly
 from motorid.drive import (
     ADConverter,
     Amplifier,
-    CoulombLaw,
-    LuGreLaw,
+    Friction,
     Tachogenerator,
     TwoMassRig,
     paper_rig,
@@ -155,7 +154,7 @@ def test_physics_converges_to_reference(bidirectional_pair):
 
 
 def test_both_integrators_hold_a_mass_below_breakaway_exactly():
-    rig = paper_rig(friction=(CoulombLaw(alpha=5e-3, side="motor"),),
+    rig = paper_rig(friction=(Friction(("coulomb_friction",), {"coulomb": 5e-3}, side="motor"),),
                     amplifier=Amplifier(), **IDEAL_SENSOR)  # fmt: skip
     limit = 5e-3 * rig.R_a / rig.K_m
     u = limit * np.array([0.9, -0.9, 0.5, 0.99, -0.99, 0.0, 0.7, -0.3])
@@ -170,7 +169,12 @@ def test_integrators_agree_with_backlash_and_lugre():
     (explicit bristle/contact switching within a step), converging with finer h."""
     t = np.arange(60) * 0.04
     u = 3 * np.sin(2 * np.pi * 0.3 * t) + np.sin(2 * np.pi * 1.1 * t)
-    lugre = LuGreLaw(sigma0=2.0, sigma1=0.003, Fc=3e-3, Fs=4e-3, omega_s=2.0)
+    lugre = Friction(
+        ("coulomb_friction", "stribeck_friction", "lugre_friction"),
+        {"coulomb": 3e-3, "stribeck": 1e-3, "stribeck_velocity": 2.0, "bristle_stiffness": 2.0,
+         "bristle_damping": 0.003},
+        stribeck_shape="gaussian",
+    )  # fmt: skip
     for rig, opts in (
         (paper_rig(backlash=0.05, **IDEAL_SENSOR), {}),
         (paper_rig(friction=(lugre,), **IDEAL_SENSOR), {"method": "LSODA"}),

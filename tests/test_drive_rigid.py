@@ -44,8 +44,10 @@ def test_the_drive_and_the_doctor_name_the_same_effects_and_parameters():
     assert effects.names() == (
         "coulomb_friction", "stribeck_friction", "asymmetric_friction", "viscous_friction", "quadratic_drag",
         "input_dead_zone", "input_saturation", "backlash", "offset", "input_delay", "input_lag", "static_friction",
-        "cogging", "position_friction",
+        "cogging", "position_friction", "lugre_friction",
     )  # fmt: skip
+    # LuGre's bristle state is the two-mass rig's alone
+    assert [n for n in effects.names() if effects.get(n).not_on_a_rigid_drive] == ["lugre_friction"]
     for name in effects.names():
         cls = effects.get(name)
         assert (*cls.linear, *cls.nonlinear) == tuple(p.name for p in cls.parameters)
@@ -62,11 +64,14 @@ def test_friction_terms_match_the_table(shape):
     assert np.allclose(cols, ref, rtol=1e-13, atol=1e-16)
 
 
-def test_lugre_level_is_the_gaussian_stribeck_decay():
+def test_lugre_level_is_the_stribeck_decay_of_its_shape():
     for w in (-2.0, -0.3, 0.0, 0.7, 5.0):
-        assert lugre_level(1.0, 1.5, 0.5, w) == 1.0 + 0.5 * stribeck_decay(w, 1.0 / 0.5, 1)
-        assert lugre_level(1.0, 1.5, 0.5, w) == pytest.approx(
+        assert lugre_level(1.0, 0.5, 2.0, 1, w) == 1.0 + 0.5 * stribeck_decay(w, 2.0, 1)
+        assert lugre_level(1.0, 0.5, 2.0, 1, w) == pytest.approx(
             1.0 + 0.5 * math.exp(-((w / 0.5) ** 2)), rel=1e-15
+        )
+        assert lugre_level(1.0, 0.5, 2.0, 0, w) == pytest.approx(
+            1.0 + 0.5 * math.exp(-abs(w) / 0.5), rel=1e-15
         )
 
 
@@ -299,7 +304,8 @@ PARAMETER_RANGES = {
 @st.composite
 def drives(draw) -> RigidDrive:
     """A rigid drive with a random set of effects, parameters, sample time and Stribeck shape."""
-    chosen = draw(st.lists(st.sampled_from(list(effects.names())), unique=True))
+    rigid = [n for n in effects.names() if not effects.get(n).not_on_a_rigid_drive]
+    chosen = draw(st.lists(st.sampled_from(rigid), unique=True))
     if "cogging" in chosen and "position_friction" in chosen:  # one torque that depends on the position
         chosen.remove(draw(st.sampled_from(["cogging", "position_friction"])))
     names = effects.parameter_names(chosen)

@@ -7,7 +7,6 @@ from datetime import datetime
 import numpy as np
 import pytest
 
-from motorid.drive import CoulombLaw
 from motorid.errors import DataError
 from motorid.fleet import FilenamePattern, find_records, identity
 from motorid.fleet.synthetic import FLEET_START, make_fleet, write_fleet
@@ -72,8 +71,8 @@ def test_a_wearing_drive_grows_its_friction_and_the_dead_zone_appears_on_its_day
     assert [d.healthy for d in drives] == [True, False, False, True, True]
     wearing = drives[1]
     day0, day10 = wearing.rig_on(0), wearing.rig_on(10)
-    coulomb0 = [f.alpha for f in day0.friction if isinstance(f, CoulombLaw)]
-    coulomb10 = [f.alpha for f in day10.friction if isinstance(f, CoulombLaw)]
+    coulomb0 = [f.params["coulomb"] for f in day0.friction]
+    coulomb10 = [f.params["coulomb"] for f in day10.friction]
     np.testing.assert_allclose(coulomb10, np.array(coulomb0) * 1.5, rtol=1e-15)  # 1 + 0.05 * 10, exactly
     assert day10.B_m == pytest.approx(day0.B_m * 1.5, rel=1e-15) and day10.amplifier.dead_zone == 0.0
     dz = drives[2]

@@ -26,7 +26,7 @@ from filterpy.kalman import ExtendedKalmanFilter
 from hypothesis import given
 from hypothesis import strategies as st
 
-from motorid.drive import CoulombLaw, kernels, measure_speed, paper_rig
+from motorid.drive import Friction, kernels, measure_speed, paper_rig
 from motorid.errors import FilterDivergenceError
 from motorid.estimators import FrictionEKF, FrictionUKF, available, create
 from motorid.signals import two_sine_signal
@@ -42,7 +42,8 @@ PRIOR = {"coulomb0": 5e-3, "viscous0": 5e-5}
 
 def matched_rig(coulomb: float = 6e-3, viscous: float = 3e-5, **overrides):
     """The paper's rig with its friction on the motor mass only, as the filter models it."""
-    return paper_rig(friction=(CoulombLaw(alpha=coulomb, side="motor"),), B_m=viscous, B_l=0.0, **overrides)
+    friction = (Friction(("coulomb_friction",), {"coulomb": coulomb}, side="motor"),)
+    return paper_rig(friction=friction, B_m=viscous, B_l=0.0, **overrides)
 
 
 def record(rig, seconds: float = 60.0, seed: int = 0):
@@ -417,11 +418,11 @@ def test_rigid_drive_filter_online_equals_batch_and_reloads_its_input_memory(cls
 
 def test_two_mass_friction_the_filter_cannot_hold_is_refused():
     """The filters hold one Stribeck term: two of different rates are refused by name."""
-    from motorid.drive import StribeckLaw
-
     rig = paper_rig(friction=(
-        StribeckLaw(alpha0=1e-3, alpha1=2e-3, alpha2=0.1, side="motor"),
-        StribeckLaw(alpha0=1e-3, alpha1=2e-3, alpha2=0.3, side="load"),
+        Friction(("coulomb_friction", "stribeck_friction"),
+                 {"coulomb": 1e-3, "stribeck": 2e-3, "stribeck_velocity": 10.0}, side="motor"),
+        Friction(("coulomb_friction", "stribeck_friction"),
+                 {"coulomb": 1e-3, "stribeck": 2e-3, "stribeck_velocity": 1 / 0.3}, side="load"),
     ))  # fmt: skip
     with pytest.raises(ValueError, match="different rates"):
         FrictionEKF.from_rig(rig)

@@ -223,7 +223,7 @@ def test_a_covariance_is_accepted_within_the_stated_tolerance_and_symmetrised():
 
 
 def test_each_parameter_is_refused_outside_its_physical_range():
-    from motorid.drive import Amplifier, CoulombLaw, Encoder, Tachogenerator
+    from motorid.drive import Amplifier, Encoder, Friction, Tachogenerator
     from motorid.drive.ranges import LARGEST, SMALLEST, check_parameter
 
     assert check_parameter("J", LARGEST, "kg m²", sign="> 0") == LARGEST
@@ -241,7 +241,7 @@ def test_each_parameter_is_refused_outside_its_physical_range():
         (lambda: paper_rig(dt=1e-10), "dt must be within"),
         (lambda: paper_rig(J_m=1e300), "J_m must be within"),
         (lambda: paper_rig(substeps=10**9), "substeps must be an integer in"),
-        (lambda: CoulombLaw(alpha=1e13), "alpha must be within"),
+        (lambda: Friction(("coulomb_friction",), {"coulomb": 1e13}), "coulomb must be within"),
         (lambda: Amplifier(gain=1e300), "gain must be within"),
         (lambda: Tachogenerator(noise_std=1e300), "noise_std must be within"),
         (lambda: Encoder(counts_per_rev=2**40), "counts_per_rev must be an integer in"),

@@ -26,7 +26,9 @@ LEVEL = {
 }  # fmt: skip
 CLEAN = {"inertia": 1e-4, "input_gain": 0.02, "viscous": 8e-4, "coulomb": 5e-3, "offset": 0.0}
 BASE = ("viscous_friction", "coulomb_friction", "offset")
-EVERY_CANDIDATE = tuple(n for n in effects.names() if not effects.get(n).structure)
+EVERY_CANDIDATE = tuple(
+    n for n in effects.names() if not effects.get(n).structure and not effects.get(n).not_on_a_rigid_drive
+)
 
 
 def level(q: np.ndarray) -> np.ndarray:

@@ -79,25 +79,31 @@ def rig_from_args(args: argparse.Namespace):
     An option not given keeps the default rig's value, so every default is the
     rig's own and written once, in :mod:`motorid.drive.two_mass`.
     """
-    from motorid.drive import CoulombLaw, StribeckLaw, ViscousLaw, paper_rig
+    from motorid.drive import Friction, paper_rig
+    from motorid.drive.effects import parameter_owner
 
     rig = paper_rig()
-    coulomb = {f.side: f.alpha for f in rig.friction if isinstance(f, CoulombLaw)}
+    side_params: dict[str, dict[str, float]] = {"motor": {}, "load": {}}
+    for f in rig.friction:  # the default rig's friction: one entry per mass
+        side_params[f.side].update(f.params)
     for side, given in (("motor", args.coulomb_motor), ("load", args.coulomb_load)):
         if given is not None:
-            coulomb[side] = given
-    friction: list = [CoulombLaw(alpha=a, side=side) for side, a in coulomb.items() if a > 0]
-    friction += [f for f in rig.friction if not isinstance(f, CoulombLaw)]
+            side_params[side]["coulomb"] = given
     if args.stribeck_shape is not None and args.stribeck is None:
-        raise DataError(
-            "--stribeck-shape needs --stribeck ALPHA1 ALPHA2: the shape of which Stribeck friction?"
-        )
+        raise DataError("--stribeck-shape needs --stribeck F_S V_S: the shape of which Stribeck friction?")
     if args.stribeck is not None:
-        a1, a2 = args.stribeck
-        shape = args.stribeck_shape or "exponential"
-        friction.append(StribeckLaw(alpha0=0.0, alpha1=a1, alpha2=a2, stribeck_shape=shape, side="motor"))
+        excess, velocity = args.stribeck
+        if not velocity > 0.0:
+            raise DataError(f"--stribeck: V_S, the Stribeck velocity [rad/s], must be > 0, got {velocity:g}")
+        side_params["motor"].update(stribeck=excess, stribeck_velocity=velocity)
     if args.viscous:
-        friction.append(ViscousLaw(B=args.viscous, side="motor"))
+        side_params["motor"]["viscous"] = args.viscous
+    friction = []
+    for side, params in side_params.items():
+        params = {n: v for n, v in params.items() if v or n == "stribeck"}  # a level of 0 is no friction
+        if params:
+            effects = tuple(dict.fromkeys(map(parameter_owner, params)))
+            friction.append(Friction(effects, params, side, args.stribeck_shape or "exponential"))
     amplifier = rig.amplifier
     changes = {k: v for k, v in (("dead_zone", args.dead_zone), ("v_max", args.u_max)) if v is not None}
     if changes:
@@ -175,10 +181,11 @@ def add_rig_options(group: argparse._ActionsContainer, model_help: str) -> None:
     group.add_argument("--model", type=Path, metavar="FILE", help=model_help)
     group.add_argument("--coulomb-motor", type=non_negative, help="Coulomb torque, motor side [N m]")
     group.add_argument("--coulomb-load", type=non_negative, help="Coulomb torque, load side [N m]")
-    group.add_argument("--stribeck", type=non_negative, nargs=2, metavar=("ALPHA1", "ALPHA2"),
-                       help="Stribeck excess [N m] and decay [s/rad], motor side")  # fmt: skip
+    group.add_argument("--stribeck", type=non_negative, nargs=2, metavar=("F_S", "V_S"),
+                       help="Stribeck friction, motor side: the excess F_s [N m] at rest over the Coulomb "
+                       "level and the Stribeck velocity v_s [rad/s] (stribeck, stribeck_velocity)")  # fmt: skip
     group.add_argument("--stribeck-shape", choices=("exponential", "gaussian"),
-                       help="the Stribeck decay: exp(-ALPHA2 |w|) (eq. 9, the default) or exp(-(ALPHA2 w)^2)")  # fmt: skip
+                       help="the Stribeck decay: exp(-|w|/V_S) (eq. 9, the default) or exp(-(w/V_S)^2)")  # fmt: skip
     group.add_argument("--viscous", type=non_negative, help="extra viscous friction, motor side [N m s/rad]")
     group.add_argument("--dead-zone", type=non_negative, help="amplifier dead zone half-width [V]")
     group.add_argument("--backlash", type=non_negative, help="shaft backlash, half-width of the gap [rad]")

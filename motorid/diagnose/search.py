@@ -189,6 +189,10 @@ def effect_names(value: Sequence[str] | str | None, what: str) -> tuple[str, ...
     for name in value:
         if name not in effect_library():
             raise DataError(f"{what}: unknown effect {name!r}; known effects: {', '.join(effect_library())}")
+        if get_effect(name).not_on_a_rigid_drive:
+            raise DataError(
+                f"{what}: {name}: the doctor's rigid drive cannot hold it ({get_effect(name).not_on_a_rigid_drive})"
+            )
         out.append(name)
     return tuple(dict.fromkeys(out))
 
@@ -215,6 +219,7 @@ def candidate_names(
             for n in effect_library()
             if n not in base
             and not get_effect(n).structure
+            and not get_effect(n).not_on_a_rigid_drive
             and (output_kind == "position" or not get_effect(n).measured_position)
         )
     return tuple(n for n in effect_names(candidates, "candidates") if n not in base)

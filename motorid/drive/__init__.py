@@ -7,16 +7,7 @@
 """
 
 from motorid.drive.components import ADConverter, Amplifier, Encoder, Tachogenerator, measure_speed
-from motorid.drive.friction import (
-    AsymmetricLaw,
-    CoulombLaw,
-    Friction,
-    LuGreLaw,
-    MemorylessLaw,
-    StribeckLaw,
-    ViscousLaw,
-    friction_from_dict,
-)
+from motorid.drive.friction import Friction, friction_from_dict
 from motorid.drive.rigid import RigidDrive
 from motorid.drive.two_mass import (
     PHYSICAL_DEFAULTS,
@@ -32,18 +23,12 @@ __all__ = [
     "RECORD_UNITS",
     "ADConverter",
     "Amplifier",
-    "AsymmetricLaw",
-    "CoulombLaw",
     "Encoder",
     "Friction",
-    "LuGreLaw",
-    "MemorylessLaw",
     "RigSimulation",
     "RigidDrive",
-    "StribeckLaw",
     "Tachogenerator",
     "TwoMassRig",
-    "ViscousLaw",
     "friction_from_dict",
     "measure_speed",
     "paper_rig",

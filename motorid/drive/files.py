@@ -4,16 +4,20 @@ A model file is one JSON object::
 
     {
       "format": "motorid-model",
-      "version": 1,
+      "version": 2,
       "kind": "two-mass-rig" | "rigid-drive" | "estimator",
       "model": {...}
     }
 
 - ``two-mass-rig``: ``model`` is :meth:`TwoMassRig.to_dict
   <motorid.drive.two_mass.TwoMassRig.to_dict>`, every parameter in SI units (the
-  table of :class:`~motorid.drive.two_mass.TwoMassRig`), its friction laws as
-  ``{"kind": ..., <parameters>}``, amplifier, tachogenerator, A/D converter and
-  encoder; ``null`` for an infinite amplifier saturation.
+  table of :class:`~motorid.drive.two_mass.TwoMassRig`), the friction on its masses as
+  ``{"effects": [...], "params": {...}, "side": ..., "stribeck_shape": ...}``
+  (:class:`~motorid.drive.friction.Friction`: the effects' names and parameters, as a
+  rigid drive's), amplifier, tachogenerator, A/D converter and encoder; ``null`` for an
+  infinite amplifier saturation. Version 1 wrote the friction as eq. (11)'s laws
+  ``{"kind": ..., <α parameters>}``; they are read as their effects
+  (:func:`~motorid.drive.friction.friction_from_dict`).
 - ``rigid-drive``: ``model`` is :meth:`RigidDrive.to_dict
   <motorid.drive.rigid.RigidDrive.to_dict>`: ``effects`` (names), ``params`` (inertia,
   input gain and each effect's parameters, SI units), ``dt`` and ``stribeck_shape``;
@@ -31,7 +35,7 @@ A model file is one JSON object::
 Every key is required and no other is allowed. :func:`load_model` checks the whole
 file before it builds anything, and a bad file (not JSON, another format, a newer or
 unknown version, a missing or unknown key, a wrong type, NaN, a value out of range
-such as a negative inertia, an unknown friction law) raises one
+such as a negative inertia, an unknown effect) raises one
 :class:`~motorid.errors.DataError` naming the file and the key, e.g.
 ``rig.json: model.J_m: J_m must be > 0, got -1.0``. Nothing a file says is trusted
 with memory or time: the file is at most :data:`LARGEST_FILE` bytes, its JSON at most
@@ -84,8 +88,8 @@ __all__ = [
 
 #: The ``format`` name of a model file.
 FORMAT = "motorid-model"
-#: The newest ``version`` this motorid writes and reads.
-VERSION = 1
+#: The newest ``version`` this motorid writes and reads (2: a rig's friction as effects).
+VERSION = 2
 #: The ``kind`` of a model file for each kind of model.
 KIND_RIG = "two-mass-rig"
 KIND_RIGID = "rigid-drive"

@@ -1,470 +1,425 @@
-"""Friction models for the two-mass drive, as composable objects.
+"""The friction on the masses of the two-mass rig, in the effects' vocabulary.
 
-Every friction object acts on one side of the drive: the motor mass
-(``side="motor"``), the load mass (``side="load"``) or both (``side="both"``,
-the same law applied to each mass). A rig takes any tuple of them and adds their
-torques, so the friction torque on a mass in eqs. (12)-(13) of the paper is
+A :class:`Friction` is a set of effects (:mod:`motorid.drive.effects`) with their parameters on
+one mass of the rig (``side="motor"``, ``"load"``, or ``"both"``: the same friction on each), the
+same effect objects, parameter names and compiled terms as a rigid drive's
+(:class:`~motorid.drive.rigid.RigidDrive`). The friction torque on a mass in eqs. (12)-(13) of the
+paper is the sum over the entries on it::
 
-    T_f(ω) = Σ_k T_f,k(ω)
+    T_f(ω) = Σ_k Σ_t θ_t T_t(ω)                                                          [N m]
 
-Static (memoryless) laws, all special cases of the asymmetric law, eq. (11):
+with ``T_t`` the rigid drive's terms (:func:`~motorid.drive.kernels.rigid_term`): Coulomb
+``F_c sgn ω`` (eq. 8), Stribeck ``F_s decay(ω) sgn ω`` (eq. 9, ``decay = exp(-|ω|/v_s)`` or the
+Gaussian ``exp(-(ω/v_s)²)``), the asymmetry ``ΔF_c + ΔF_v |ω|`` (eq. 11's different levels each
+way), viscous ``B ω`` (added to B_m or B_L of eqs. 4-5), quadratic drag ``c ω |ω|``. Zero speed is
+not smoothed: the integrators stop a mass at exactly zero speed and hold it there while the torque
+on it lies inside ``[-breakaway_backward, breakaway_forward]``, the kinetic levels at 0± raised by
+a ``static_friction`` excess ΔF_s (:func:`~motorid.drive.kernels.stick_or_slip`). With
+``lugre_friction`` the mass's Coulomb and Stribeck levels act through LuGre's bristle state
+instead (:class:`~motorid.drive.effects.lugre.LuGreFriction`), with no stick rule.
 
-- :class:`ViscousLaw`       T_f = B ω                                [N m]
-- :class:`CoulombLaw`       T_f = α sgn(ω)                            eq. (8)
-- :class:`StribeckLaw`      T_f = (α0 + α1 exp(-α2 |ω|)) sgn(ω)      eq. (9)
-- :class:`AsymmetricLaw`    T_f = (α0 + α1 e^{-α2|ω|}) sgn1(ω)
-                                     + (α3 + α4 e^{-α5|ω|}) sgn2(ω)        eq. (11)
-
-The Stribeck and asymmetric laws take ``stribeck_shape="gaussian"`` for the decay
-exp(-(α2 ω)²) instead of the paper's exp(-α2 |ω|): both shapes are common on real
-drives, and the doctor names either.
-
-and one dynamic law, :class:`LuGreLaw` (Canudas de Wit et al., 1995), with
-an internal bristle state z per mass.
-
-Zero speed is not smoothed: the integrators use the breakaway torques of the
-static laws for Karnopp-style stick/slip switching (a mass at exactly zero speed
-stays there while the torque applied to it lies inside
-``[-breakaway_negative, breakaway_positive]``). Each law is written once, as a
-compiled function in :mod:`~motorid.drive.kernels` (eq. 11:
-``friction_law``; LuGre: ``lugre_level`` and ``lugre_rate``; the stick/slip rule:
-``stick_or_slip``): the ``torque`` methods here, the fast integrator (from
-:func:`pack_static_friction` rows) and the reference integrator all call them.
-
-Each law's ``kind`` (its name in ``to_dict`` and in model files) is its effect name,
-the snake_case vocabulary the diagnose workflow names effects with:
-``viscous_friction``, ``coulomb_friction``, ``stribeck_friction``,
-``asymmetric_friction``, and ``lugre_friction``. A law is the per-side, α-form of an
-effect on one mass of the rig (``*Law``); the effect itself, on a rigid drive, is the class
-of that name in :mod:`motorid.drive.effects` (``CoulombFriction``, ...).
+Files written before the rig took the effects (eq. 11's laws ``coulomb_friction {"alpha"}``,
+``stribeck_friction {"alpha0", "alpha1", "alpha2"}``, ``asymmetric_friction {"alpha0".."alpha5"}``,
+``viscous_friction {"B"}``, ``lugre_friction {"sigma0", ...}``) are read as their effects
+(:func:`friction_from_dict`).
 """
 
 from __future__ import annotations
 
 import math
-import numbers
-from collections.abc import Iterable, Sequence
-from dataclasses import asdict, dataclass, field
-from typing import Any, ClassVar, Literal
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from motorid.drive.kernels import (
-    STRIBECK_EXPONENTIAL,
-    STRIBECK_SHAPES,
-    friction_torques,
-    lugre_levels,
-    lugre_rates,
-)
+from motorid.drive import effects as registry
+from motorid.drive import kernels
 from motorid.drive.ranges import check_parameter
 from motorid.errors import ModelFileError
-from motorid.json_input import key_path, scalars, text
+from motorid.json_input import build, key_path, number, object_keys, shown, text
 
-Side = Literal["motor", "load", "both"]
 SIDES: tuple[str, ...] = ("motor", "load", "both")
-
-StribeckShape = Literal["exponential", "gaussian"]
-
-#: Column layout of a packed static-friction row (see :func:`pack_static_friction`).
-STATIC_ROW_WIDTH = 8
-
-
-def _check_side(side: str) -> None:
-    if side not in SIDES:
-        raise ValueError(f"side must be one of {SIDES}, got {side!r}")
+#: The SI units of a rotary rig, for the parameters' units in messages.
+RIG_UNITS = {"F": "N m", "v": "rad/s", "u": "V", "q": "rad"}
+#: The compiled terms a LuGre law takes over from the static rows of its mass.
+_LUGRE_TERMS = (kernels.TERM_COULOMB, kernels.TERM_STRIBECK)
 
 
-def _check_shape(shape: str) -> None:
-    if shape not in STRIBECK_SHAPES:
-        raise ValueError(f"stribeck_shape must be one of {', '.join(STRIBECK_SHAPES)}, got {shape!r}")
+def side_index(side: str) -> int:
+    """0 for the motor mass, 1 for the load mass.
 
-
-def _check_nonnegative(**values: float) -> None:
-    for name, value in values.items():
-        if not (isinstance(value, numbers.Real) and math.isfinite(value) and value >= 0.0):
-            raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-        check_parameter(name, value, "(SI units)")
+    Parameters
+    ----------
+    side : {"motor", "load"}
+        The mass.
+    """
+    return {"motor": 0, "load": 1}[side]
 
 
 @dataclass(frozen=True)
 class Friction:
-    """Base class: a friction law acting on ``side`` of the drive (keyword-only).
+    """Friction effects with their parameters on one mass of the rig, or on both.
 
     Parameters
     ----------
+    effects : tuple of str
+        Effect names (:func:`motorid.drive.effects.names`) a mass can hold (those without
+        :attr:`~motorid.drive.effects.Effect.not_on_a_mass`): ``coulomb_friction``,
+        ``stribeck_friction``, ``asymmetric_friction``, ``viscous_friction``, ``quadratic_drag``,
+        ``static_friction``, ``lugre_friction`` and friction-type plugins; kept in the library's
+        order.
+    params : dict
+        Every parameter of the effects, in SI units (the rigid drive's names: ``coulomb`` [N m],
+        ``stribeck_velocity`` [rad/s], ``viscous`` [N m s/rad], ...), physical (non-negative
+        levels) and with kinetic levels that are not negative either way.
     side : {"motor", "load", "both"}
-        The mass the law acts on.
+        The mass it acts on (``both``: the same friction on each).
+    stribeck_shape : {"exponential", "gaussian"}
+        Shape of the Stribeck decay, exp(-|ω|/v_s) or exp(-(ω/v_s)²).
+
+    Examples
+    --------
+    >>> from motorid.drive import Friction
+    >>> brushes = Friction(("coulomb_friction",), {"coulomb": 4e-3}, side="motor")
+    >>> brushes.breakaway
+    (0.004, 0.004)
     """
 
-    kind: ClassVar[str] = "friction"
-    side: Side = field(default="both", kw_only=True)
+    effects: tuple[str, ...]
+    params: dict[str, float]
+    side: str = "both"
+    stribeck_shape: str = "exponential"
 
     def __post_init__(self) -> None:
-        _check_side(self.side)
+        if isinstance(self.effects, str):
+            raise ValueError(f"effects must be a sequence of effect names, got {self.effects!r}")
+        effects = registry.effect_order(tuple(self.effects))
+        for name in effects:
+            reason = registry.get(name).not_on_a_mass
+            if reason:
+                raise ValueError(f"{name}: a mass of the two-mass rig cannot hold it ({reason})")
+        object.__setattr__(self, "effects", effects)
+        if self.side not in SIDES:
+            raise ValueError(f"side must be one of {', '.join(SIDES)}, got {self.side!r}")
+        if self.stribeck_shape not in kernels.STRIBECK_SHAPES:
+            raise ValueError(
+                f"stribeck_shape must be one of {', '.join(kernels.STRIBECK_SHAPES)}, got {self.stribeck_shape!r}"
+            )
+        if not isinstance(self.params, dict):
+            raise ValueError(f"params must be a dict of parameter values, got {type(self.params).__name__}")
+        expected = [p.name for e in effects for p in registry.get(e).parameters]
+        for name in self.params:
+            if name not in expected:
+                raise ValueError(
+                    f"params: {name!r} belongs to no effect of this friction (it holds {', '.join(expected)})"
+                )
+        params = {}
+        for name in expected:
+            if name not in self.params:
+                raise ValueError(f"params: {name!r} is missing (this friction holds {', '.join(expected)})")
+            value = self.params[name]
+            if isinstance(value, bool):
+                raise ValueError(f"{name} must be a number, got {value!r}")
+            unit = registry.param_unit(name, RIG_UNITS)
+            params[name] = check_parameter(name, value, unit, sign=registry.parameter(name).sign)
+        object.__setattr__(self, "params", params)
+        if self.lugre:
+            if params.get("coulomb", 0.0) <= 0.0:
+                raise ValueError("lugre_friction needs coulomb_friction with coulomb > 0 on its mass")
+            for name in ("asymmetric_friction", "static_friction"):
+                if name in effects:
+                    raise ValueError(
+                        f"{name}: a mass with lugre_friction cannot hold it (LuGre's levels are the same "
+                        "both ways, and it has its own stiction)"
+                    )
+        for level, direction in zip(self.kinetic, ("forwards", "backwards"), strict=True):
+            if level < 0.0:
+                raise ValueError(
+                    f"coulomb_asymmetry: the kinetic friction {direction} would be {level:.4g} N m < 0"
+                )
 
+    def __hash__(self) -> int:  # a rig holding it is hashable (a cache key), as before its params were a dict
+        return hash((self.effects, tuple(self.params.items()), self.side, self.stribeck_shape))
+
+    # ------------------------------------------------------------------ parts
     def sides(self) -> tuple[str, ...]:
-        """The masses this law acts on: a subset of ``("motor", "load")``."""
+        """The masses this friction acts on: a subset of ``("motor", "load")``."""
         return ("motor", "load") if self.side == "both" else (self.side,)
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-able description, ``{"kind": ..., <parameters>}``."""
-        return {"kind": self.kind, **asdict(self)}
+    @property
+    def lugre(self) -> bool:
+        """Whether the mass's Coulomb and Stribeck levels act through LuGre's bristle state."""
+        return "lugre_friction" in self.effects
 
+    @property
+    def rate(self) -> float:
+        """1/v_s [s/rad], the Stribeck decay's rate (1 without Stribeck friction)."""
+        return 1.0 / self.params.get("stribeck_velocity", 1.0)
 
-@dataclass(frozen=True)
-class ViscousLaw(Friction):
-    """Viscous friction ``T_f = B ω`` [N m], added to B_m or B_L of eqs. (4)-(5).
-
-    Parameters
-    ----------
-    B : float
-        Viscous coefficient [N m s/rad], >= 0.
-    side : {"motor", "load", "both"}
-    """
-
-    kind: ClassVar[str] = "viscous_friction"
-    B: float = 0.0
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        _check_nonnegative(B=self.B)
-
-    def torque(self, omega: npt.ArrayLike, direction: float = 0.0) -> np.ndarray:
-        """Friction torque [N m] at speed ``omega`` [rad/s]."""
-        return self.B * np.asarray(omega, dtype=float)
-
-
-@dataclass(frozen=True)
-class MemorylessLaw(Friction):
-    """A memoryless friction law written in the asymmetric form of eq. (11).
-
-    Subclasses provide :meth:`coefficients`: ``(α0, α1, α2, α3, α4, α5)`` with
-    ``T_f = α0 + α1 exp(-α2 |ω|)`` for motion in the positive direction and
-    ``T_f = -(α3 + α4 exp(-α5 |ω|))`` for motion in the negative direction.
-
-    Parameters
-    ----------
-    side : {"motor", "load", "both"}
-        The mass the law acts on.
-    """
-
-    kind: ClassVar[str] = "static"
-
-    def coefficients(self) -> tuple[float, float, float, float, float, float]:
-        raise NotImplementedError
-
+    @property
     def shape_code(self) -> int:
-        """The compiled code of the Stribeck decay's shape (exponential unless the law has one)."""
-        return STRIBECK_EXPONENTIAL
+        """The compiled code of :attr:`stribeck_shape`."""
+        return kernels.STRIBECK_SHAPES.index(self.stribeck_shape)
+
+    def terms(self) -> list[tuple[int, float]]:
+        """``(term code, coefficient)`` of every linear parameter (``kernels.TERM_*``)."""
+        return [
+            (term, self.params[name]) for e in self.effects for name, term in registry.get(e).terms.items()
+        ]
 
     @property
-    def breakaway_positive(self) -> float:
-        """Torque [N m] needed to start a stuck mass moving forwards: α0 + α1."""
-        a = self.coefficients()
-        return a[0] + a[1]
+    def viscous(self) -> float:
+        """The viscous coefficient B [N m s/rad] it adds to its mass (each mass for ``both``)."""
+        return sum(c for t, c in self.terms() if t == kernels.TERM_VISCOUS)
+
+    def rows(self) -> list[list[float]]:
+        """Rows ``[mass, term, coefficient, rate, shape]`` of the terms the integrators evaluate
+        explicitly (:func:`~motorid.drive.kernels.static_friction`): all but the viscous term, which
+        is in the rig's linear part, and, with LuGre, the levels its bristle law holds."""
+        skip = (kernels.TERM_VISCOUS, *(_LUGRE_TERMS if self.lugre else ()))
+        return [
+            [float(side_index(s)), float(t), c, self.rate, float(self.shape_code)]
+            for s in self.sides()
+            for t, c in self.terms()
+            if t not in skip
+        ]
+
+    def lugre_row(self) -> list[float]:
+        """LuGre's compiled row ``[1, σ0, σ1, F_c, F_s, rate, shape]`` (:func:`~motorid.drive.kernels.lugre_zdot`)."""
+        p = self.params
+        return [1.0, p["bristle_stiffness"], p["bristle_damping"], p["coulomb"], p.get("stribeck", 0.0),
+                self.rate, float(self.shape_code)]  # fmt: skip
 
     @property
-    def breakaway_negative(self) -> float:
-        """Magnitude of the torque [N m] needed to start it backwards: α3 + α4."""
-        a = self.coefficients()
-        return a[3] + a[4]
+    def kinetic(self) -> tuple[float, float]:
+        """The kinetic friction at 0+ and the magnitude at 0- [N m] (LuGre's steady state for it)."""
+        levels = []
+        for direction in (1.0, -1.0):
+            total = sum(
+                c * kernels.rigid_term(t, 0.0, direction, self.rate, self.shape_code)
+                for t, c in self.terms()
+                if t >= kernels.N_SPEED_TERMS
+            )
+            levels.append(direction * total)
+        return levels[0], levels[1]
+
+    @property
+    def breakaway(self) -> tuple[float, float]:
+        """The torques [N m] that start a mass at rest forwards and backwards (magnitude): the
+        kinetic levels at 0± plus a static friction's excess; (0, 0) with LuGre, whose stiction is
+        its bristles'."""
+        if self.lugre:
+            return 0.0, 0.0
+        excess = self.params.get("breakaway_excess", 0.0)
+        forward, backward = self.kinetic
+        return forward + excess, backward + excess
 
     def torque(self, omega: npt.ArrayLike, direction: float = 0.0) -> np.ndarray:
-        """Friction torque [N m] opposing motion at speed ``omega`` [rad/s].
+        """The friction torque [N m] on a mass turning at ``omega`` [rad/s], viscous term included
+        (with LuGre, its steady state). Where ``omega == 0`` the torque for motion in the direction
+        ``sgn(direction)`` (the kinetic level at 0±); ``direction=0`` gives 0 there.
 
-        Where ``omega == 0`` the value for motion in the direction
-        ``sgn(direction)`` is returned (the kinetic level at 0±, what the
-        integrators use at breakaway); ``direction=0`` gives 0 there, as sgn(0) = 0
-        in eq. (10). Evaluated by the integrators' compiled law
-        (:func:`~motorid.drive.kernels.friction_law`).
+        Parameters
+        ----------
+        omega : array_like
+            Speeds [rad/s].
+        direction : float
+            The direction of impending motion at ``omega == 0``.
         """
         w = np.asarray(omega, dtype=float)
         flat = np.ascontiguousarray(w.reshape(-1))
-        out = friction_torques(
-            np.array(self.coefficients(), dtype=float), flat, float(direction), self.shape_code()
+        rows = np.array(
+            [[0.0, float(t), c, self.rate, float(self.shape_code)] for t, c in self.terms()] or [[0.0] * 5]
         )
-        return out.reshape(w.shape)
+        return kernels.friction_torques(rows, flat, float(direction)).reshape(w.shape)
 
+    def slope(self, omega: float, direction: float) -> float:
+        """d/dω of the torque of :meth:`rows` (the viscous term excluded) at ``omega`` [N m s/rad],
+        moving in ``direction`` where ``omega == 0``.
 
-@dataclass(frozen=True)
-class CoulombLaw(MemorylessLaw):
-    """Coulomb friction, eq. (8): ``T_f(ω) = α sgn(ω)`` [N m].
+        Parameters
+        ----------
+        omega : float
+            Speed [rad/s].
+        direction : float
+            The direction of motion (its sign) at ``omega == 0``.
+        """
+        s = math.copysign(1.0, omega) if omega != 0.0 else math.copysign(1.0, direction)
+        slope = 0.0
+        for t, c in self.terms():
+            if t == kernels.TERM_STRIBECK:
+                slope += c * s * kernels.stribeck_decay_slope(omega, self.rate, self.shape_code, s)
+            elif t == kernels.TERM_VISCOUS_ASYMMETRY:
+                slope += c * s
+            elif t == kernels.TERM_QUADRATIC_DRAG:
+                slope += 2.0 * c * abs(omega)
+        return slope
 
-    Parameters
-    ----------
-    alpha : float
-        Coulomb level α [N m], >= 0; also the breakaway torque.
-    side : {"motor", "load", "both"}
-    """
+    def replace(self, **changes: Any) -> Friction:
+        """A copy with some fields changed (validated again)."""
+        fields = {"effects": self.effects, "params": self.params, "side": self.side,
+                  "stribeck_shape": self.stribeck_shape}  # fmt: skip
+        return Friction(**{**fields, **changes})
 
-    kind: ClassVar[str] = "coulomb_friction"
-    alpha: float = 0.0
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        _check_nonnegative(alpha=self.alpha)
-
-    def coefficients(self) -> tuple[float, float, float, float, float, float]:
-        return (self.alpha, 0.0, 0.0, self.alpha, 0.0, 0.0)
-
-
-@dataclass(frozen=True)
-class StribeckLaw(MemorylessLaw):
-    """Coulomb plus Stribeck friction, eq. (9).
-
-    ``T_f(ω) = α0 sgn(ω) + α1 exp(-α2 |ω|) sgn(ω)`` [N m].
-
-    Parameters
-    ----------
-    alpha0 : float
-        Coulomb level α0 [N m], >= 0.
-    alpha1 : float
-        Static excess α1 [N m], >= 0; breakaway torque is α0 + α1.
-    alpha2 : float
-        Stribeck decay rate α2 [s/rad], >= 0 (1/ω_s, ω_s the Stribeck speed).
-    stribeck_shape : {"exponential", "gaussian"}
-        The decay: exp(-α2 |ω|) (eq. 9) or exp(-(α2 ω)²).
-    side : {"motor", "load", "both"}
-    """
-
-    kind: ClassVar[str] = "stribeck_friction"
-    alpha0: float = 0.0
-    alpha1: float = 0.0
-    alpha2: float = 0.0
-    stribeck_shape: StribeckShape = "exponential"
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        _check_nonnegative(alpha0=self.alpha0, alpha1=self.alpha1, alpha2=self.alpha2)
-        _check_shape(self.stribeck_shape)
-
-    def coefficients(self) -> tuple[float, float, float, float, float, float]:
-        return (self.alpha0, self.alpha1, self.alpha2, self.alpha0, self.alpha1, self.alpha2)
-
-    def shape_code(self) -> int:
-        return STRIBECK_SHAPES.index(self.stribeck_shape)
-
-
-@dataclass(frozen=True)
-class AsymmetricLaw(MemorylessLaw):
-    """Asymmetric Coulomb-Stribeck friction, eq. (11).
-
-    ``T_f(ω) = (α0 + α1 e^{-α2|ω|}) sgn1(ω) + (α3 + α4 e^{-α5|ω|}) sgn2(ω)`` [N m],
-    with sgn1 = 1 for ω >= 0 (else 0) and sgn2 = -1 for ω < 0 (else 0).
-
-    Parameters
-    ----------
-    alpha0, alpha1, alpha2 : float
-        Coulomb level [N m], static excess [N m] and decay rate [s/rad] for ω > 0.
-    alpha3, alpha4, alpha5 : float
-        The same for ω < 0 (magnitudes).
-    stribeck_shape : {"exponential", "gaussian"}
-        The decays: e^{-α|ω|} (eq. 11) or e^{-(α ω)²}.
-    side : {"motor", "load", "both"}
-    """
-
-    kind: ClassVar[str] = "asymmetric_friction"
-    alpha0: float = 0.0
-    alpha1: float = 0.0
-    alpha2: float = 0.0
-    alpha3: float = 0.0
-    alpha4: float = 0.0
-    alpha5: float = 0.0
-    stribeck_shape: StribeckShape = "exponential"
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        _check_nonnegative(
-            alpha0=self.alpha0, alpha1=self.alpha1, alpha2=self.alpha2,
-            alpha3=self.alpha3, alpha4=self.alpha4, alpha5=self.alpha5,
-        )  # fmt: skip
-        _check_shape(self.stribeck_shape)
-
-    def coefficients(self) -> tuple[float, float, float, float, float, float]:
-        return (self.alpha0, self.alpha1, self.alpha2, self.alpha3, self.alpha4, self.alpha5)
-
-    def shape_code(self) -> int:
-        return STRIBECK_SHAPES.index(self.stribeck_shape)
-
-    def torque(self, omega: npt.ArrayLike, direction: float = 1.0) -> np.ndarray:
-        """Eq. (11) literally; at ω == 0 sgn1 = 1, so the default direction is +1."""
-        return super().torque(omega, direction)
-
-
-@dataclass(frozen=True)
-class LuGreLaw(Friction):
-    """LuGre dynamic friction (Canudas de Wit, Olsson, Åström, Lischinsky 1995).
-
-    With bristle deflection z [rad] on a mass turning at ω [rad/s]::
-
-        g(ω)  = Fc + (Fs - Fc) exp(-(ω/ωs)^2)                       [N m]
-        dz/dt = ω - σ0 |ω| z / g(ω)                                 [rad/s]
-        T_f   = σ0 z + σ1 dz/dt + σ2 ω                              [N m]
-
-    At constant speed T_f tends to ``g(ω) sgn(ω) + σ2 ω``. Sticking is part of
-    the law (pre-sliding displacement of about Fc/σ0), so no Karnopp switching
-    is added for it. The fast integrator treats the bristle spring explicitly
-    within a sub-step: keep ``h sqrt(σ0/J) < 0.5`` (h the internal step).
-
-    Parameters
-    ----------
-    sigma0 : float
-        Bristle stiffness σ0 [N m/rad], > 0.
-    sigma1 : float
-        Bristle damping σ1 [N m s/rad], >= 0.
-    sigma2 : float
-        Viscous coefficient σ2 [N m s/rad], >= 0.
-    Fc, Fs : float
-        Coulomb and static levels [N m], Fs >= Fc > 0.
-    omega_s : float
-        Stribeck speed ωs [rad/s], > 0.
-    side : {"motor", "load", "both"}
-    """
-
-    kind: ClassVar[str] = "lugre_friction"
-    sigma0: float = 1.0
-    sigma1: float = 0.0
-    sigma2: float = 0.0
-    Fc: float = 0.0
-    Fs: float = 0.0
-    omega_s: float = 1.0
-
-    def __post_init__(self) -> None:
-        super().__post_init__()
-        _check_nonnegative(
-            sigma0=self.sigma0, sigma1=self.sigma1, sigma2=self.sigma2,
-            Fc=self.Fc, Fs=self.Fs, omega_s=self.omega_s,
-        )  # fmt: skip
-        for name in ("sigma0", "Fc", "omega_s"):
-            check_parameter(name, getattr(self, name), "(SI units)", sign="> 0")
-        if self.Fs < self.Fc:
-            raise ValueError(f"Fs must be >= Fc, got Fs={self.Fs!r} < Fc={self.Fc!r}")
-
-    def g(self, omega: npt.ArrayLike) -> np.ndarray:
-        """Stribeck curve g(ω) [N m] (:func:`~motorid.drive.kernels.lugre_level`)."""
-        w = np.asarray(omega, dtype=float)
-        flat = np.ascontiguousarray(w.reshape(-1))
-        return lugre_levels(self.Fc, self.Fs, self.omega_s, flat).reshape(w.shape)
-
-    def z_dot(self, z: npt.ArrayLike, omega: npt.ArrayLike) -> np.ndarray:
-        """Bristle rate dz/dt [rad/s] (:func:`~motorid.drive.kernels.lugre_rate`)."""
-        zb, wb = np.broadcast_arrays(np.asarray(z, dtype=float), np.asarray(omega, dtype=float))
-        flat_z = np.ascontiguousarray(zb.reshape(-1))
-        flat_w = np.ascontiguousarray(wb.reshape(-1))
-        return lugre_rates(self.sigma0, self.Fc, self.Fs, self.omega_s, flat_z, flat_w).reshape(wb.shape)
-
-    def torque(self, z: npt.ArrayLike, omega: npt.ArrayLike) -> np.ndarray:
-        """Friction torque [N m] for bristle state ``z`` [rad] at speed ``omega``."""
-        w = np.asarray(omega, dtype=float)
-        return self.sigma0 * np.asarray(z) + self.sigma1 * self.z_dot(z, w) + self.sigma2 * w
-
-    def steady_state_torque(self, omega: npt.ArrayLike) -> np.ndarray:
-        """Friction torque [N m] after a long run at constant ``omega``."""
-        w = np.asarray(omega, dtype=float)
-        return self.g(w) * np.sign(w) + self.sigma2 * w
-
-
-FRICTION_KINDS: dict[str, type[Friction]] = {
-    cls.kind: cls
-    for cls in (
-        ViscousLaw,
-        CoulombLaw,
-        StribeckLaw,
-        AsymmetricLaw,
-        LuGreLaw,
-    )
-}
+    # ------------------------------------------------------------- description
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-able description (inverse: :func:`friction_from_dict`)."""
+        return {
+            "effects": list(self.effects),
+            "params": dict(self.params),
+            "side": self.side,
+            "stribeck_shape": self.stribeck_shape,
+        }
 
 
 def friction_from_dict(data: dict[str, Any], where: str = "") -> Friction:
-    """Rebuild a friction law from :meth:`Friction.to_dict` output, every key checked
-    (the reader the rig and the model files use).
+    """Rebuild a rig's :class:`Friction` from :meth:`Friction.to_dict` output, or from a law of a
+    file written before the rig took the effects (see the module notes), every key checked.
 
     Parameters
     ----------
     data : dict
-        ``{"kind": ..., <parameters>}``, parameters in SI units.
+        ``{"effects", "params", "side", "stribeck_shape"}`` (or ``{"kind", <law parameters>}``).
     where : str
-        Where ``data`` sits in its file (``"model.friction[1]"``), put in front of the
-        key an error names.
+        Where ``data`` sits in its file (``"model.friction[1]"``), put in front of the key an
+        error names.
 
     Raises
     ------
     motorid.errors.ModelFileError
-        A DataError naming an unknown ``kind`` or a missing, mistyped or bad parameter.
+        A DataError naming the unknown effect or law, or the missing, mistyped or bad parameter.
     """
     if not isinstance(data, dict):
         raise ModelFileError(where, f"must be a JSON object, got {type(data).__name__}")
-    kind = text(data.get("kind"), key_path(where, "kind"))
-    if kind not in FRICTION_KINDS:
+    if "kind" in data:
+        return build(Friction, _law_fields(data, where), where)
+    object_keys(data, ("effects", "params", "side", "stribeck_shape"), where)
+    e_where = key_path(where, "effects")
+    if not isinstance(data["effects"], list):
+        raise ModelFileError(e_where, f"must be a list of effect names, got {shown(data['effects'])}")
+    known = registry.names()
+    for k, name in enumerate(data["effects"]):
+        if text(name, key_path(e_where, k)) not in known:
+            raise ModelFileError(key_path(e_where, k), f"unknown effect {name!r} (known: {', '.join(known)})")
+    p_where = key_path(where, "params")
+    effects = registry.effect_order(data["effects"])
+    for name in effects:
+        if registry.get(name).not_on_a_mass:
+            raise ModelFileError(e_where, f"{name}: a mass of the two-mass rig cannot hold it")
+    names = [p.name for e in effects for p in registry.get(e).parameters]
+    params = object_keys(data["params"], names, p_where)
+    values = {n: number(params[n], key_path(p_where, n)) for n in names}
+    fields = {
+        "effects": effects,
+        "params": values,
+        "side": text(data["side"], key_path(where, "side")),
+        "stribeck_shape": text(data["stribeck_shape"], key_path(where, "stribeck_shape")),
+    }
+    try:
+        return Friction(**fields)
+    except ValueError as exc:
+        name = str(exc).split(" ", 1)[0].rstrip(":")
+        raise ModelFileError(key_path(p_where, name) if name in values else where, str(exc)) from None
+
+
+#: The parameters of the laws of older files, by kind.
+_LAW_KEYS = {
+    "viscous_friction": ("B",),
+    "coulomb_friction": ("alpha",),
+    "stribeck_friction": ("alpha0", "alpha1", "alpha2", "stribeck_shape"),
+    "asymmetric_friction": ("alpha0", "alpha1", "alpha2", "alpha3", "alpha4", "alpha5", "stribeck_shape"),
+    "lugre_friction": ("sigma0", "sigma1", "sigma2", "Fc", "Fs", "omega_s"),
+}
+
+
+def _law_fields(data: dict[str, Any], where: str) -> dict[str, Any]:
+    """The :class:`Friction` fields of a law of an older file (eq. 11's α-form, SI units)."""
+    kind = text(data["kind"], key_path(where, "kind"))
+    if kind not in _LAW_KEYS:
         raise ModelFileError(
-            key_path(where, "kind"), f"unknown friction law {kind!r} (known: {', '.join(FRICTION_KINDS)})"
+            key_path(where, "kind"), f"unknown friction law {kind!r} (known: {', '.join(_LAW_KEYS)})"
         )
-    return scalars(FRICTION_KINDS[kind], {k: v for k, v in data.items() if k != "kind"}, where)
+    keys = _LAW_KEYS[kind]
+    object_keys(data, ("kind", *keys, "side"), where)
+    a = {k: number(data[k], key_path(where, k)) for k in keys if k != "stribeck_shape"}
+    shape = (
+        text(data["stribeck_shape"], key_path(where, "stribeck_shape")) if "stribeck_shape" in keys else None
+    )
+    params: dict[str, float] = {}
+    if kind == "viscous_friction":
+        params["viscous"] = a["B"]
+    elif kind == "coulomb_friction":
+        params["coulomb"] = a["alpha"]
+    elif kind == "lugre_friction":
+        shape = "gaussian"
+        params.update(coulomb=a["Fc"], bristle_stiffness=a["sigma0"], bristle_damping=a["sigma1"])
+        if a["Fs"] > a["Fc"]:
+            params.update(stribeck=a["Fs"] - a["Fc"], stribeck_velocity=a["omega_s"])
+        if a["sigma2"]:
+            params["viscous"] = a["sigma2"]
+    else:
+        if kind == "stribeck_friction":
+            a.update(alpha3=a["alpha0"], alpha4=a["alpha1"], alpha5=a["alpha2"])
+        if (a["alpha1"], a["alpha2"]) != (a["alpha4"], a["alpha5"]) and (a["alpha1"] or a["alpha4"]):
+            raise ModelFileError(
+                where,
+                "an asymmetric_friction law whose Stribeck excess or rate differs forwards and backwards "
+                "(alpha1, alpha2 vs alpha4, alpha5); a mass of the rig has one Stribeck term "
+                "(stribeck_friction) and its asymmetry in the Coulomb and viscous levels (asymmetric_friction)",
+            )
+        forward, backward = a["alpha0"], a["alpha3"]
+        if a["alpha1"] and not a["alpha2"]:  # an excess that never decays is Coulomb friction
+            forward, backward = forward + a["alpha1"], backward + a["alpha1"]
+        elif a["alpha1"]:
+            params.update(stribeck=a["alpha1"], stribeck_velocity=1.0 / a["alpha2"])
+        params["coulomb"] = 0.5 * (forward + backward)
+        if forward != backward:
+            params.update(coulomb_asymmetry=0.5 * (forward - backward), viscous_asymmetry=0.0)
+    effects = tuple(e for e in registry.names() if _holds(e, params))
+    fields: dict[str, Any] = {"effects": effects, "params": params, "side": data["side"]}
+    if shape is not None:
+        fields["stribeck_shape"] = shape
+    return fields
 
 
-def side_index(side: str) -> int:
-    """0 for the motor mass, 1 for the load mass."""
-    return {"motor": 0, "load": 1}[side]
+def _holds(effect: str, params: dict[str, float]) -> bool:
+    """Whether ``params`` hold every parameter of ``effect`` (and it has some)."""
+    names = [p.name for p in registry.get(effect).parameters]
+    return bool(names) and all(n in params for n in names)
 
 
-def pack_static_friction(frictions: Iterable[Friction]) -> np.ndarray:
-    """Rows ``[side, α0, α1, α2, α3, α4, α5, shape]`` for the compiled integrator.
+def pack_rows(frictions: tuple[Friction, ...]) -> np.ndarray:
+    """The rows of every entry's terms (:meth:`Friction.rows`), shape (n, 5), for the compiled
+    integrators; one inert all-zero row when there are none (the array is never empty).
 
-    ``side`` is 0 (motor) or 1 (load), ``shape`` the Stribeck shape's code; a
-    ``side="both"`` law gives two rows.
-    Viscous and LuGre laws are not packed here. Shape ``(n, 7)``, at least one
-    (all-zero, inert) row so the array is never empty.
+    Parameters
+    ----------
+    frictions : tuple of Friction
+        The rig's friction.
     """
-    rows: list[list[float]] = []
-    for f in frictions:
-        if isinstance(f, MemorylessLaw):
-            for s in f.sides():
-                rows.append([float(side_index(s)), *map(float, f.coefficients()), float(f.shape_code())])
-    if not rows:
-        rows.append([0.0] * STATIC_ROW_WIDTH)
-    return np.ascontiguousarray(rows, dtype=np.float64)
+    rows = [row for f in frictions for row in f.rows()]
+    return np.ascontiguousarray(rows or [[0.0] * 5], dtype=np.float64)
 
 
-def pack_lugre(frictions: Sequence[Friction]) -> np.ndarray:
-    """Per-mass LuGre rows ``[active, σ0, σ1, Fc, Fs, ωs]``, shape (2, 6).
+def pack_lugre(frictions: tuple[Friction, ...]) -> np.ndarray:
+    """Per-mass LuGre rows (:meth:`Friction.lugre_row`), shape (2, 7), inactive rows ``[0, 1, 0, 1,
+    0, 1, 0]``; ValueError for two LuGre laws on one mass.
 
-    σ2 is viscous and goes into the linear part. Raises ValueError if a mass
-    has more than one LuGre law.
+    Parameters
+    ----------
+    frictions : tuple of Friction
+        The rig's friction.
     """
-    out = np.zeros((2, 6))
-    out[:, 1] = 1.0
-    out[:, 3] = 1.0
-    out[:, 4] = 1.0
-    out[:, 5] = 1.0
+    out = np.array([[0.0, 1.0, 0.0, 1.0, 0.0, 1.0, 0.0]] * 2)
     for f in frictions:
-        if isinstance(f, LuGreLaw):
+        if f.lugre:
             for s in f.sides():
                 k = side_index(s)
                 if out[k, 0]:
-                    raise ValueError(f"friction: more than one LuGreLaw on the {s} side")
-                out[k] = [1.0, f.sigma0, f.sigma1, f.Fc, f.Fs, f.omega_s]
+                    raise ValueError(f"friction: more than one lugre_friction on the {s} side")
+                out[k] = f.lugre_row()
     return out
 
 
-def viscous_total(frictions: Iterable[Friction], side: str) -> float:
-    """Extra viscous coefficient [N m s/rad] on ``side`` (ViscousLaw B + LuGre σ2)."""
-    total = 0.0
-    for f in frictions:
-        if side in f.sides():
-            if isinstance(f, ViscousLaw):
-                total += f.B
-            elif isinstance(f, LuGreLaw):
-                total += f.sigma2
-    return total
-
-
-def breakaway(frictions: Iterable[Friction], side: str) -> tuple[float, float]:
-    """Breakaway torques ``(positive, negative magnitude)`` [N m] of the static laws on ``side``."""
-    pos = neg = 0.0
-    for f in frictions:
-        if isinstance(f, MemorylessLaw) and side in f.sides():
-            pos += f.breakaway_positive
-            neg += f.breakaway_negative
-    return pos, neg
+__all__ = ["SIDES", "Friction", "friction_from_dict", "pack_lugre", "pack_rows", "side_index"]

@@ -18,7 +18,7 @@ The linear part, eqs. (1)-(7), with state ``x = [i_a, ω_m, ω_L, δ, θ_L]``
 
 is advanced exactly over one internal step h by ``x+ = Φ x + Γ w`` with
 ``[Φ Γ] = expm([[A, B], [0, 0]] h)``. The extra torques τ collect what is not
-linear: the static friction laws (eqs. 8, 9, 11) evaluated at the start of the
+linear: the masses' friction terms (eqs. 8, 9, 11: :func:`static_friction`) evaluated at the start of the
 step, the LuGre torque, the load disturbance -T_d, the backlash offset and the motor's
 position ripple (cogging) at θ_m = θ_L + δ (:func:`ripple_torque`).
 
@@ -246,8 +246,8 @@ def friction_law(
     ``direction < 0`` and 0 for ``direction == 0`` (ω [rad/s]), with d the Stribeck decay
     of ``shape`` (:func:`stribeck_decay`; eq. 11 is the exponential shape,
     d = exp(-a2 |ω|)). Coulomb (eq. 8) and Stribeck (eq. 9) friction are its special
-    cases. The one implementation of the law: the friction objects, the fast and the
-    reference integrator and the friction filters' process model evaluate it.
+    cases. The friction filters' process model evaluates it on its states (the rig and the
+    rigid drive evaluate their effects' terms, :func:`rigid_term`).
     """
     if direction > 0.0:
         return a0 + a1 * stribeck_decay(omega, a2, shape)
@@ -257,68 +257,49 @@ def friction_law(
 
 
 @numba.njit(cache=True)
-def friction_torques(coefficients: np.ndarray, omega: np.ndarray, direction: float, shape: int) -> np.ndarray:
-    """:func:`friction_law` of ``shape`` at each speed of ``omega``, moving in the direction
-    sgn(ω), or sgn(``direction``) where ω == 0 (impending motion)."""
-    c = coefficients
+def friction_torques(rows: np.ndarray, omega: np.ndarray, direction: float) -> np.ndarray:
+    """:func:`static_friction` of the rows of mass 0 at each speed of ``omega``, moving in the
+    direction sgn(ω), or sgn(``direction``) where ω == 0 (impending motion)."""
     out = np.empty_like(omega)
     for k in range(omega.size):
         w = omega[k]
-        out[k] = friction_law(c[0], c[1], c[2], c[3], c[4], c[5], w, w if w != 0.0 else direction, shape)
+        d = w if w != 0.0 else direction
+        out[k] = static_friction(rows, 0, w, 1.0 if d > 0.0 else (-1.0 if d < 0.0 else 0.0))
     return out
 
 
 @numba.njit(cache=True)
 def static_friction(fric: np.ndarray, side: int, omega: float, direction: float) -> float:
-    """Sum of the static friction laws on ``side`` [N m] for motion in ``direction``.
-
-    Row layout ``[side, α0..α5, shape]`` (:func:`friction_law`).
+    """The friction torque on mass ``side`` of the rig [N m] for motion in ``direction``, from the
+    rows ``[side, term, coefficient, rate, shape]`` of its effects' terms
+    (:meth:`motorid.drive.friction.Friction.rows`): ``Σ coefficient T_term(ω)``, each term the
+    rigid drive's (:func:`rigid_term`), so a mass of the rig and a rigid drive evaluate one law.
     """
     total = 0.0
     for r in range(fric.shape[0]):
         if fric[r, 0] == side:
-            total += friction_law(
-                fric[r, 1], fric[r, 2], fric[r, 3], fric[r, 4], fric[r, 5], fric[r, 6], omega, direction,
-                int(fric[r, 7]),
-            )  # fmt: skip
+            total += fric[r, 2] * rigid_term(int(fric[r, 1]), omega, direction, fric[r, 3], int(fric[r, 4]))
     return total
 
 
 @numba.njit(cache=True)
-def lugre_level(fc: float, fs: float, omega_s: float, omega: float) -> float:
-    """LuGre's Stribeck curve g(ω) = Fc + (Fs - Fc) exp(-(ω/ωs)²) [N m] (the one implementation)."""
-    return fc + (fs - fc) * stribeck_decay(omega, 1.0 / omega_s, STRIBECK_GAUSSIAN)
+def lugre_level(fc: float, fs: float, rate: float, shape: int, omega: float) -> float:
+    """LuGre's Stribeck curve g(ω) = F_c + F_s decay(ω) [N m] (F_s the excess over F_c, decay of
+    ``rate`` [s/rad] and ``shape``, :func:`stribeck_decay`; the one implementation)."""
+    return fc + fs * stribeck_decay(omega, rate, shape)
 
 
 @numba.njit(cache=True)
-def lugre_rate(sigma0: float, fc: float, fs: float, omega_s: float, z: float, omega: float) -> float:
+def lugre_rate(sigma0: float, fc: float, fs: float, rate: float, shape: int, z: float, omega: float) -> float:
     """LuGre's bristle rate dz/dt = ω - σ0 |ω| z / g(ω) [rad/s] (the one implementation)."""
-    return omega - sigma0 * abs(omega) * z / lugre_level(fc, fs, omega_s, omega)
+    return omega - sigma0 * abs(omega) * z / lugre_level(fc, fs, rate, shape, omega)
 
 
 @numba.njit(cache=True)
-def lugre_levels(fc: float, fs: float, omega_s: float, omega: np.ndarray) -> np.ndarray:
-    """Vectorised :func:`lugre_level`."""
-    out = np.empty_like(omega)
-    for k in range(omega.size):
-        out[k] = lugre_level(fc, fs, omega_s, omega[k])
-    return out
-
-
-@numba.njit(cache=True)
-def lugre_rates(
-    sigma0: float, fc: float, fs: float, omega_s: float, z: np.ndarray, omega: np.ndarray
-) -> np.ndarray:
-    """Vectorised :func:`lugre_rate` (``z`` and ``omega`` of one shape)."""
-    out = np.empty_like(omega)
-    for k in range(omega.size):
-        out[k] = lugre_rate(sigma0, fc, fs, omega_s, z[k], omega[k])
-    return out
-
-
-@numba.njit(cache=True)
-def _lugre_zdot(lug: np.ndarray, k: int, z: float, omega: float) -> float:
-    return lugre_rate(lug[k, 1], lug[k, 3], lug[k, 4], lug[k, 5], z, omega)
+def lugre_zdot(lug: np.ndarray, k: int, z: float, omega: float) -> float:
+    """:func:`lugre_rate` of mass k's row ``[active, σ0, σ1, F_c, F_s, rate, shape]``
+    (:meth:`motorid.drive.friction.Friction.lugre_row`)."""
+    return lugre_rate(lug[k, 1], lug[k, 3], lug[k, 4], lug[k, 5], int(lug[k, 6]), z, omega)
 
 
 @numba.njit(cache=True)
@@ -326,7 +307,7 @@ def _lugre_advance(lug: np.ndarray, k: int, z: float, omega: float, h: float) ->
     """Exact bristle update over h for ω held constant: z relaxes to g(ω) sgn(ω)/σ0."""
     if omega == 0.0:
         return z
-    g = lugre_level(lug[k, 3], lug[k, 4], lug[k, 5], omega)
+    g = lugre_level(lug[k, 3], lug[k, 4], lug[k, 5], int(lug[k, 6]), omega)
     rate = lug[k, 1] * abs(omega) / g
     z_ss = omega / rate
     return z_ss + (z - z_ss) * math.exp(-rate * h)
@@ -368,9 +349,9 @@ def _substep(
     f_lug_m = 0.0
     f_lug_l = 0.0
     if lug[0, 0] != 0.0:
-        f_lug_m = lug[0, 1] * x[5] + lug[0, 2] * _lugre_zdot(lug, 0, x[5], wm)
+        f_lug_m = lug[0, 1] * x[5] + lug[0, 2] * lugre_zdot(lug, 0, x[5], wm)
     if lug[1, 0] != 0.0:
-        f_lug_l = lug[1, 1] * x[6] + lug[1, 2] * _lugre_zdot(lug, 1, x[6], wl)
+        f_lug_l = lug[1, 1] * x[6] + lug[1, 2] * lugre_zdot(lug, 1, x[6], wl)
 
     # the motor's position ripple at θ_m = θ_L + δ (nothing evaluated without it)
     cog = 0.0

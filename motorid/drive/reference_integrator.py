@@ -35,8 +35,8 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from motorid.drive.friction import LuGreLaw, pack_static_friction
-from motorid.drive.kernels import lugre_rate, ripple_torque, static_friction, stick_or_slip
+from motorid.drive.friction import pack_lugre, pack_rows
+from motorid.drive.kernels import lugre_zdot, ripple_torque, static_friction, stick_or_slip
 
 logger = logging.getLogger(__name__)
 
@@ -51,7 +51,7 @@ class ReferenceIntegrator:
     Parameters
     ----------
     rig : TwoMassRig
-        The rig to integrate (its amplifier, friction laws, shaft, backlash).
+        The rig to integrate (its amplifier, its masses' friction, shaft, backlash).
     rtol, atol : float
         Tolerances handed to ``solve_ivp``.
     max_step : float
@@ -77,12 +77,8 @@ class ReferenceIntegrator:
         self.atol = atol
         self.max_step = max_step
         self.method = method
-        self._static_rows = pack_static_friction(rig.friction)
-        self._lugre: list[LuGreLaw | None] = [None, None]
-        for f in rig.friction:
-            for side in f.sides():
-                if isinstance(f, LuGreLaw):
-                    self._lugre[0 if side == "motor" else 1] = f
+        self._static_rows = pack_rows(rig.friction)
+        self._lugre = pack_lugre(rig.friction)
         self._viscous = (rig.viscous("motor"), rig.viscous("load"))
         self._J = (rig.J_m, rig.J_l)
         self._break = (rig.breakaway("motor"), rig.breakaway("load"))
@@ -90,16 +86,17 @@ class ReferenceIntegrator:
 
     # ----------------------------------------------------------- model pieces
     def _static_torque(self, k: int, omega: float, direction: float) -> float:
-        """The static laws on mass k: the compiled law the fast path uses, on the same rows."""
+        """The friction terms on mass k: the compiled law the fast path uses, on the same rows."""
         return static_friction(self._static_rows, k, omega, float(direction))
 
     def _lugre_parts(self, k: int, z: float, omega: float) -> tuple[float, float]:
-        """(σ0 z + σ1 dz/dt, dz/dt); σ2 is counted with the viscous terms."""
-        f = self._lugre[k]
-        if f is None:
+        """(σ0 z + σ1 dz/dt, dz/dt) of the compiled row of mass k (the fast path's); the mass's
+        viscous friction is counted with the viscous terms."""
+        lug = self._lugre
+        if not lug[k, 0]:
             return 0.0, 0.0
-        zdot = lugre_rate(f.sigma0, f.Fc, f.Fs, f.omega_s, z, omega)
-        return f.sigma0 * z + f.sigma1 * zdot, zdot
+        zdot = lugre_zdot(lug, k, z, omega)
+        return lug[k, 1] * z + lug[k, 2] * zdot, zdot
 
     def _cogging(self, x: np.ndarray) -> float:
         """The motor's cogging ripple at θ_m = θ_L + δ [N m] (the fast path's compiled law)."""
@@ -113,7 +110,7 @@ class ReferenceIntegrator:
         return rig.k_s * (x[3] - rig.backlash * regime) + rig.B_s * (x[1] - x[2])
 
     def _net_torque(self, k: int, x: np.ndarray, regime: int, t_d: float) -> float:
-        """Torque on mass k at zero speed, friction of the static laws excluded [N m]."""
+        """Torque on mass k at zero speed, its friction terms excluded [N m]."""
         t_s = self._shaft_torque(x, regime)
         f_lug = self._lugre_parts(k, x[5 + k], x[1 + k])[0]
         if k == 0:

@@ -191,6 +191,10 @@ class RigidDrive:
         if isinstance(self.effects, str):
             raise ValueError(f"effects must be a sequence of effect names, got {self.effects!r}")
         effects = effect_order(tuple(self.effects))
+        for name in effects:
+            reason = registry.get(name).not_on_a_rigid_drive
+            if reason:
+                raise ValueError(f"{name}: a rigid drive cannot hold it ({reason})")
         object.__setattr__(self, "effects", effects)
         if not isinstance(self.params, dict):
             raise ValueError(f"params must be a dict of parameter values, got {type(self.params).__name__}")

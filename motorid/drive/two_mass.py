@@ -38,25 +38,12 @@ import numpy as np
 import numpy.typing as npt
 import pandas as pd
 
+from motorid.drive import effects as registry
 from motorid.drive import kernels
 from motorid.drive.components import ADConverter, Amplifier, Encoder, Tachogenerator, measure_speed
 from motorid.drive.effects.cogging import Cogging
 from motorid.drive.files import KIND_RIG, register_kind, save_model
-from motorid.drive.friction import (
-    AsymmetricLaw,
-    CoulombLaw,
-    Friction,
-    LuGreLaw,
-    MemorylessLaw,
-    StribeckLaw,
-    ViscousLaw,
-    breakaway,
-    friction_from_dict,
-    pack_lugre,
-    pack_static_friction,
-    viscous_total,
-)
-from motorid.drive.kernels import STRIBECK_SHAPES
+from motorid.drive.friction import RIG_UNITS, Friction, friction_from_dict, pack_lugre, pack_rows
 from motorid.drive.ranges import MOST_SUBSTEPS, check_count, check_parameter
 from motorid.drive.rigid import RigidDrive, check_input, check_sample_time
 from motorid.errors import ModelFileError
@@ -93,109 +80,9 @@ def _about(unit: str, meaning: str) -> dict[str, str]:
     return {"unit": unit, "meaning": meaning}
 
 
-#: The rigid drive's effects a two-mass rig has no place for, and why.
-NOT_ON_A_RIG: dict[str, str] = {
-    "quadratic_drag": "its friction laws have no drag growing with the square of the speed",
-    "backlash": "the rigid drive's backlash is a dwell time after reversals, the rig's a gap in the shaft "
-    "[rad]; one does not give the other",
-    "input_delay": "it has no transport delay between the command and the armature",
-    "input_lag": "its one input lag is the electrical time constant L_a/R_a, which its rigid equivalent "
-    "takes as short",
-    "static_friction": "its friction laws break away at their kinetic level at rest (α0 + α1), with no "
-    "excess above it",
-    "position_friction": "its friction laws have levels that do not depend on the position",
-}
-
-
-@dataclass(frozen=True)
-class FrictionLevels:
-    """A rig's friction laws summed over both masses, as its rigid equivalent sees them.
-
-    Attributes
-    ----------
-    forward, backward : float
-        C+ and C-: the summed Coulomb levels α0 and α3 [N m] (LuGre's Fc in both); a law on
-        ``side="both"`` counts once per mass.
-    stribeck : float
-        (S+ + S-)/2: the mean of the summed Stribeck excesses α1 and α4 [N m] (LuGre's Fs - Fc).
-    velocity : float
-        1/ᾱ [rad/s], ᾱ the excess-weighted mean decay rate [s/rad] (1 without an excess).
-    shape : {"exponential", "gaussian"}
-        The decay shape of the laws with an excess (LuGre's is Gaussian).
-    """
-
-    forward: float = 0.0
-    backward: float = 0.0
-    stribeck: float = 0.0
-    velocity: float = 1.0
-    shape: str = "exponential"
-
-    @property
-    def coulomb(self) -> float:
-        """F_c = (C+ + C-)/2 [N m]."""
-        return 0.5 * (self.forward + self.backward)
-
-    @property
-    def asymmetry(self) -> float:
-        """ΔF_c = (C+ - C-)/2 [N m]."""
-        return 0.5 * (self.forward - self.backward)
-
-    @classmethod
-    def of(cls, frictions: tuple[Friction, ...]) -> FrictionLevels:
-        """The summed levels of ``frictions``; ValueError for Stribeck laws of both shapes.
-
-        Parameters
-        ----------
-        frictions : tuple of Friction
-            The rig's friction laws.
-        """
-        forward = backward = s_pos = s_neg = 0.0
-        excesses: list[tuple[float, float, str]] = []  # (excess [N m], rate [s/rad], shape)
-        for f in frictions:
-            for _ in f.sides():
-                if isinstance(f, LuGreLaw):
-                    forward += f.Fc
-                    backward += f.Fc
-                    excess = f.Fs - f.Fc
-                    s_pos += excess
-                    s_neg += excess
-                    excesses += [(excess, 1.0 / f.omega_s, "gaussian")] * 2
-                elif isinstance(f, MemorylessLaw):
-                    a = f.coefficients()
-                    shape = STRIBECK_SHAPES[f.shape_code()]
-                    forward += a[0]
-                    backward += a[3]
-                    s_pos += a[1]
-                    s_neg += a[4]
-                    excesses += [(a[1], a[2], shape), (a[4], a[5], shape)]
-        excesses = [e for e in excesses if e[0] > 0.0]
-        shapes = sorted({shape for _, _, shape in excesses})
-        if len(shapes) > 1:
-            raise ValueError(
-                "stribeck_friction: the rig's Stribeck laws have both decay shapes (exponential and "
-                "gaussian); its rigid equivalent has one"
-            )
-        total = sum(e for e, _, _ in excesses)
-        rate = sum(e * r for e, r, _ in excesses) / total if total > 0.0 else 0.0
-        if rate == 0.0:  # an excess that never decays is Coulomb friction
-            return cls(forward + s_pos, backward + s_neg)
-        return cls(forward, backward, 0.5 * (s_pos + s_neg), 1.0 / rate, shapes[0])
-
-
-def _static_law(a: tuple[float, ...], like: MemorylessLaw, shape: str | None) -> MemorylessLaw:
-    """A static law on ``like``'s side with the eq. (11) coefficients ``a`` = (α0 ... α5): ``like``
-    itself when they and the ``shape`` (None: ``like``'s) are its own, else of ``like``'s class when
-    that class can hold them, else an :class:`~motorid.drive.friction.AsymmetricLaw`."""
-    own = STRIBECK_SHAPES[like.shape_code()]
-    shape = own if shape is None else shape
-    if tuple(a) == like.coefficients() and shape == own:
-        return like
-    symmetric = a[0] == a[3] and a[1] == a[4] and a[2] == a[5]
-    if isinstance(like, CoulombLaw) and symmetric and not a[1]:
-        return CoulombLaw(alpha=a[0], side=like.side)
-    if isinstance(like, CoulombLaw | StribeckLaw) and symmetric:
-        return StribeckLaw(alpha0=a[0], alpha1=a[1], alpha2=a[2], stribeck_shape=shape, side=like.side)  # type: ignore[arg-type]
-    return AsymmetricLaw(*a, stribeck_shape=shape, side=like.side)  # type: ignore[arg-type]
+#: The rigid drive's effects the rig holds outside its masses' friction: in its amplifier, its load
+#: torque and its motor's ripple.
+RIG_PARTS = ("input_dead_zone", "input_saturation", "offset", "cogging")
 
 
 @dataclass(frozen=True)
@@ -228,7 +115,9 @@ class TwoMassRig:
     substeps : int
         Internal steps per sample of the fast integrator (h = dt/substeps), >= 1.
     friction : tuple of Friction
-        Friction laws, each on the motor side, the load side or both.
+        The friction on the masses: effects with their parameters
+        (:class:`~motorid.drive.friction.Friction`), each on the motor side, the load side or
+        both.
     amplifier : Amplifier
         Gain, dead zone and saturation between command u and armature voltage.
     tacho : Tachogenerator
@@ -247,7 +136,7 @@ class TwoMassRig:
     -----
     The defaults of the thirteen physical parameters (R_a ... substeps) are the
     paper's rig, written here once (:data:`PHYSICAL_DEFAULTS` lists them with
-    units); without friction laws and with an ideal amplifier they make the linear
+    units); without friction and with an ideal amplifier they make the linear
     rig, and :func:`paper_rig` adds its friction and amplifier. A rig is a
     description: immutable (make variants with :meth:`replace`), comparable,
     saved and loaded as a model file (:meth:`save`, :func:`motorid.load_model`).
@@ -301,7 +190,7 @@ class TwoMassRig:
         friction = tuple(self.friction)
         for f in friction:
             if not isinstance(f, Friction):
-                raise ValueError(f"friction must hold Friction objects, got {f!r}")
+                raise ValueError(f"friction must hold Friction objects (motorid.drive.Friction), got {f!r}")
         object.__setattr__(self, "friction", friction)
         for name, cls in (
             ("amplifier", Amplifier),
@@ -313,7 +202,7 @@ class TwoMassRig:
         if self.encoder is not None and not isinstance(self.encoder, Encoder):
             raise ValueError(f"encoder must be an Encoder or None, got {self.encoder!r}")
 
-        lugre = pack_lugre(friction)  # raises on two LuGre laws per side
+        lugre = pack_lugre(friction)  # raises on two LuGre laws on one mass
         h = self.h
         for k, (side, J) in enumerate((("motor", self.J_m), ("load", self.J_l))):
             if lugre[k, 0] and h * math.sqrt(lugre[k, 1] / J) > 0.5:
@@ -328,7 +217,7 @@ class TwoMassRig:
         object.__setattr__(
             self,
             "_compiled",
-            (phi, gam, self._packed_parameters(), pack_static_friction(friction), lugre),
+            (phi, gam, self._packed_parameters(), pack_rows(friction), lugre),
         )
 
     @property
@@ -338,20 +227,23 @@ class TwoMassRig:
 
     @property
     def has_lugre(self) -> bool:
-        return any(isinstance(f, LuGreLaw) for f in self.friction)
+        """Whether a mass has ``lugre_friction`` (an internal bristle state)."""
+        return any(f.lugre for f in self.friction)
 
     def replace(self, **changes: Any) -> TwoMassRig:
         """A copy with some parameters changed (validated again)."""
         return dataclasses.replace(self, **changes)
 
     def viscous(self, side: str) -> float:
-        """Total viscous coefficient on ``side`` [N m s/rad]: B_m or B_L plus friction objects."""
+        """Total viscous coefficient on ``side`` [N m s/rad]: B_m or B_L plus its friction's."""
         base = self.B_m if side == "motor" else self.B_l
-        return base + viscous_total(self.friction, side)
+        return base + sum(f.viscous for f in self.friction if side in f.sides())
 
     def breakaway(self, side: str) -> tuple[float, float]:
-        """Breakaway torques (forwards, backwards magnitude) [N m] on ``side``."""
-        return breakaway(self.friction, side)
+        """Breakaway torques (forwards, backwards magnitude) [N m] on ``side``
+        (:attr:`Friction.breakaway <motorid.drive.friction.Friction.breakaway>`, summed)."""
+        pairs = [f.breakaway for f in self.friction if side in f.sides()]
+        return sum(p[0] for p in pairs), sum(p[1] for p in pairs)
 
     def linear_system(
         self, stuck_m: bool = False, stuck_l: bool = False, gap: bool = False
@@ -582,7 +474,7 @@ class TwoMassRig:
             value = data[f.name]
             if f.name == "friction":
                 if not isinstance(value, list):
-                    raise ModelFileError(key, f"must be a list of friction laws, got {shown(value)}")
+                    raise ModelFileError(key, f"must be a list of frictions, got {shown(value)}")
                 values[f.name] = tuple(
                     friction_from_dict(item, key_path(key, k)) for k, item in enumerate(value)
                 )
@@ -628,27 +520,25 @@ class TwoMassRig:
         ======================= ===============================================================
         inertia                 J_m + J_L [kg m²]                                        exact
         input_gain              g = G K_m/R_a [N m/V]                                     exact
-        viscous                 B_m + B_L + K_m²/R_a + the viscous laws and LuGre σ2      exact
+        viscous                 B_m + B_L + K_m²/R_a + the masses' ``viscous``            exact
         offset                  T_d [N m]                                                 exact
         dead_zone, saturation   d/G and V_max/G [V] (when the amplifier has them)        exact
-        coulomb                 F_c = (C+ + C-)/2, C± the summed levels α0 (α3) of the    exact
-                                static laws on both masses plus LuGre's Fc
-        coulomb_asymmetry       ΔF_c = (C+ - C-)/2 (asymmetric_friction, when C+ ≠ C-)    exact
-        stribeck                F_s = (S+ + S-)/2, S± the summed excesses α1 (α4) and     exact for one
-                                LuGre's Fs - Fc                                           decay rate
-        stribeck_velocity       1/ᾱ, ᾱ the excess-weighted mean of the laws' decay rates  approximate
-                                α2, α5 (1/ω_s for LuGre, whose shape is Gaussian)
+        every other parameter   the sum over the masses (``coulomb``,                     exact
+        of the masses' effects  ``coulomb_asymmetry``, ``stribeck``, ``quadratic_drag``,
+                                ``breakaway_excess``, ...)
+        stribeck_velocity       1/r̄, r̄ the excess-weighted mean of the masses' decay      approximate
+                                rates 1/v_s
         cogging_sin, _cos,      the motor's ripple A_s, A_c [N m] and p [1/rad]          exact
         cogging_periods         (θ_m = θ_L = θ on a stiff shaft)
         ======================= ===============================================================
 
-        A law on ``side="both"`` counts once per mass. The rig's Karnopp breakaway at rest
-        (α0 + α1 per mass) is the rigid drive's kinetic level at 0±, so no ``static_friction``
-        appears. Approximated: the electrical lag L_a/R_a, the shaft's compliance and damping
-        (k_s, B_s), LuGre's pre-sliding (its steady state g(ω) sgn ω + σ2 ω is kept) and, with
-        several Stribeck laws, their decay rates (one mean rate) and a Stribeck asymmetry S+ ≠ S-
-        (their mean). The tachogenerator, the A/D converter and an encoder are sensors, not
-        dynamics: left out.
+        A :class:`~motorid.drive.friction.Friction` on ``side="both"`` counts once per mass.
+        Approximated: the electrical lag L_a/R_a, the shaft's compliance and damping (k_s, B_s),
+        LuGre's pre-sliding (its steady state, the mass's Coulomb and Stribeck levels, is kept;
+        ``lugre_friction`` itself is left out) and, with Stribeck friction on both masses, their
+        decay rates (one mean rate). Both masses break away together on a stiff shaft, so their
+        breakaway excesses add. The tachogenerator, the A/D converter and an encoder are
+        sensors, not dynamics: left out.
 
         Parameters
         ----------
@@ -659,21 +549,20 @@ class TwoMassRig:
         -------
         RigidDrive
             Effects ``viscous_friction`` and ``offset`` always (the back-EMF is a viscous term,
-            T_d an offset), ``coulomb_friction``, ``asymmetric_friction``, ``stribeck_friction``,
-            ``input_dead_zone``, ``input_saturation`` and ``cogging`` when the rig has them.
+            T_d an offset), every effect of the masses' friction but LuGre, ``input_dead_zone``,
+            ``input_saturation`` and ``cogging`` when the rig has them.
 
         Raises
         ------
         ValueError
             For what has no rigid equivalent, named: a backlash gap in the shaft, or Stribeck
-            laws of both decay shapes.
+            friction of both decay shapes.
         """
         if self.backlash > 0.0:
             raise ValueError(
                 f"backlash: the rig's shaft has a gap of ±{self.backlash:g} rad; a rigid drive has no "
                 "shaft to carry it (its backlash is a dwell time), so the rig has no rigid equivalent"
             )
-        levels = FrictionLevels.of(self.friction)
         K, R, G = self.K_m, self.R_a, self.amplifier.gain
         effects = ["viscous_friction", "offset"]
         params = {
@@ -682,15 +571,30 @@ class TwoMassRig:
             "viscous": self.viscous("motor") + self.viscous("load") + K * K / R,
             "offset": float(self.T_d),
         }
-        if levels.forward or levels.backward or levels.stribeck:
-            effects.append("coulomb_friction")
-            params["coulomb"] = levels.coulomb
-        if levels.forward != levels.backward:
-            effects.append("asymmetric_friction")
-            params.update(coulomb_asymmetry=levels.asymmetry, viscous_asymmetry=0.0)
-        if levels.stribeck:
-            effects.append("stribeck_friction")
-            params.update(stribeck=levels.stribeck, stribeck_velocity=levels.velocity)
+        masses = [f for f in self.friction for _ in f.sides()]  # one entry per mass it acts on
+        for f in masses:
+            for name in f.effects:
+                if name in ("viscous_friction", "lugre_friction"):
+                    continue
+                effects.append(name)
+                for p in registry.get(name).parameters:
+                    if p.name != "stribeck_velocity":
+                        params[p.name] = params.get(p.name, 0.0) + f.params[p.name]
+        shape = "exponential"
+        stribeck = [f for f in masses if "stribeck_friction" in f.effects]
+        if stribeck:
+            shapes = sorted({f.stribeck_shape for f in stribeck if f.params["stribeck"] > 0.0})
+            if len(shapes) > 1:
+                raise ValueError(
+                    "stribeck_friction: the rig's masses have Stribeck friction of both decay shapes "
+                    "(exponential and gaussian); its rigid equivalent has one"
+                )
+            shape = shapes[0] if shapes else stribeck[0].stribeck_shape
+            excess = sum(f.params["stribeck"] for f in stribeck)
+            rate = (
+                sum(f.params["stribeck"] * f.rate for f in stribeck) / excess if excess else stribeck[0].rate
+            )
+            params["stribeck_velocity"] = 1.0 / rate
         if self.amplifier.dead_zone > 0.0:
             effects.append("input_dead_zone")
             params["dead_zone"] = self.amplifier.dead_zone / G
@@ -700,7 +604,7 @@ class TwoMassRig:
         if self.cogging_sin != 0.0 or self.cogging_cos != 0.0:
             effects.append("cogging")
             params.update({name: float(getattr(self, name)) for name in COGGING})
-        return RigidDrive(tuple(effects), params, self.dt if dt is None else dt, stribeck_shape=levels.shape)
+        return RigidDrive(tuple(effects), params, self.dt if dt is None else dt, stribeck_shape=shape)
 
     def with_rigid_equivalent(self, drive: RigidDrive) -> TwoMassRig:
         """This rig changed so that its :meth:`rigid_equivalent` is ``drive`` (e.g. the model the
@@ -715,26 +619,21 @@ class TwoMassRig:
           the shaft mode, kept);
         - input gain g: the amplifier gain G times g / (G K_m/R_a) (the motor constants K_m,
           R_a kept, and with them the back-EMF K_m²/R_a);
-        - viscous B: the mechanical part B - K_m²/R_a shared by B_m, B_L, the viscous laws and
-          LuGre σ2 in their proportions (all on B_m if they are all 0);
+        - viscous B: the mechanical part B - K_m²/R_a shared by B_m, B_L and the masses'
+          ``viscous`` in their proportions (all on B_m if they are all 0);
         - offset T_0: the load torque T_d = T_0;
         - dead zone and saturation [V of the command]: d = G dead_zone, V_max = G saturation
           (none when ``drive`` has no such effect);
-        - Coulomb F_c and asymmetry ΔF_c: the forward levels α0 of every static law scaled by
-          (F_c + ΔF_c)/C+, the backward α3 by (F_c - ΔF_c)/C- (a symmetric law becomes an
-          :class:`~motorid.drive.friction.AsymmetricLaw` when the two differ; LuGre's
-          Fc, symmetric, by their common ratio);
-        - Stribeck F_s: every excess α1, α4 (LuGre's Fs - Fc) scaled by F_s / S; a changed
-          ``stribeck_velocity`` v_s sets every decay rate to 1/v_s (ω_s = v_s for LuGre), a
-          changed shape every law's shape;
+        - every other parameter of the masses' effects (``coulomb``, ``coulomb_asymmetry``,
+          ``stribeck``, ``breakaway_excess``, ...): its value on each mass scaled so that their
+          sum is the drive's; one the rig's masses have none of (a sum of 0) goes to the motor,
+          with its effect; an effect the drive lacks leaves the masses (LuGre stays, on the
+          levels it holds);
+        - ``stribeck_velocity`` and the Stribeck shape: a changed one is every mass's;
         - cogging: the motor's ripple ``cogging_sin``, ``cogging_cos`` [N m] and
           ``cogging_periods`` [1/rad] are the drive's (none when ``drive`` has no cogging).
 
-        An effect the rig has none of (levels 0) is added as its own law on the motor side:
-        :class:`~motorid.drive.friction.CoulombLaw`,
-        :class:`~motorid.drive.friction.StribeckLaw` (with the Coulomb level if that is
-        new too) or :class:`~motorid.drive.friction.AsymmetricLaw`. ``drive.dt`` is not
-        taken: the rig keeps its own sample time and substeps.
+        ``drive.dt`` is not taken: the rig keeps its own sample time and substeps.
 
         Parameters
         ----------
@@ -749,22 +648,18 @@ class TwoMassRig:
         Raises
         ------
         ValueError
-            Naming the effect the rig cannot carry (``quadratic_drag``, ``backlash``,
-            ``input_delay``, ``input_lag``, ``static_friction``, a ``viscous_asymmetry``),
-            or a level the rig cannot hold (negative, a viscous coefficient below the
-            back-EMF's K_m²/R_a, an asymmetry on a rig whose Coulomb level is LuGre's).
+            Naming the effect the rig cannot carry (``backlash``, ``input_delay``, ``input_lag``,
+            ``position_friction``: :attr:`~motorid.drive.effects.Effect.not_on_a_mass`), or a
+            level it cannot hold (negative, a viscous coefficient below the back-EMF's K_m²/R_a,
+            an asymmetry where the Coulomb level is LuGre's).
         """
         if not isinstance(drive, RigidDrive):
             raise ValueError(f"drive must be a RigidDrive, got {type(drive).__name__}")
         for effect in drive.effects:
-            if effect in NOT_ON_A_RIG:
-                raise ValueError(f"{effect}: a two-mass rig cannot carry it ({NOT_ON_A_RIG[effect]})")
+            reason = registry.get(effect).not_on_a_mass
+            if reason and effect not in RIG_PARTS:
+                raise ValueError(f"{effect}: a two-mass rig cannot carry it ({reason})")
         p = dict(drive.params)
-        if p.get("viscous_asymmetry", 0.0) != 0.0:
-            raise ValueError(
-                f"asymmetric_friction: viscous_asymmetry = {p['viscous_asymmetry']:.4g} N m s/rad; a two-mass "
-                "rig cannot carry it (its friction laws have no viscous term that depends on the direction)"
-            )
         here = self.rigid_equivalent(drive.dt)
         q = here.params
         changes: dict[str, Any] = {}
@@ -818,87 +713,59 @@ class TwoMassRig:
     def _friction_for(
         self, drive: RigidDrive, here: RigidDrive, viscous_ratio: float
     ) -> tuple[Friction, ...]:
-        """The rig's friction laws carrying ``drive``'s friction levels (see
-        :meth:`with_rigid_equivalent`); ``here`` is the rig's own rigid equivalent."""
+        """The masses' friction carrying ``drive``'s levels (see :meth:`with_rigid_equivalent`);
+        ``here`` is the rig's own rigid equivalent."""
         p, q = drive.params, here.params
-        levels = FrictionLevels.of(self.friction)
-        coulomb, asymmetry = p.get("coulomb", 0.0), p.get("coulomb_asymmetry", 0.0)
-        forward, backward = coulomb + asymmetry, coulomb - asymmetry
-        stribeck = p.get("stribeck", 0.0)
-        for name, value in (("coulomb", backward), ("coulomb", forward), ("stribeck", stribeck)):
-            if value < 0.0:
-                effect = "stribeck_friction" if name == "stribeck" else "coulomb_friction"
+        for name, value in p.items():
+            effect = registry.parameter_owner(name) if name not in ("inertia", "input_gain") else ""
+            if effect and effect not in RIG_PARTS and registry.parameter(name).sign != "any" and value < 0.0:
+                unit = registry.param_unit(name, RIG_UNITS)
                 raise ValueError(
-                    f"{effect}: a level of {value:.4g} N m < 0 is not physical; the rig cannot carry it"
+                    f"{effect}: {name} = {value:.4g} {unit} < 0 is not physical; the rig cannot carry it"
                 )
-        same_coulomb = p.get("coulomb", 0.0) == q.get("coulomb", 0.0) and asymmetry == q.get(
-            "coulomb_asymmetry", 0.0
-        )
-        k_forward = k_backward = 1.0
-        if not same_coulomb and (levels.forward or levels.backward):
-            if not (levels.forward and levels.backward):
-                raise ValueError(
-                    "coulomb_friction: the rig's static friction acts in one direction only; its levels "
-                    "cannot be scaled to the ones fitted"
-                )
-            k_forward, k_backward = forward / levels.forward, backward / levels.backward
-        k_stribeck = 1.0
-        if stribeck != q.get("stribeck", 0.0) and levels.stribeck:
-            k_stribeck = stribeck / levels.stribeck
-        velocity = p.get("stribeck_velocity", q.get("stribeck_velocity", 1.0))
-        rate = None if velocity == q.get("stribeck_velocity") else 1.0 / velocity
-        shape = drive.stribeck_shape
+        kept = {*drive.effects, "viscous_friction", "lugre_friction"}
+        velocity = p.get("stribeck_velocity")
+        new_velocity = velocity is not None and velocity != q.get("stribeck_velocity")
+        new_shape = drive.stribeck_shape != here.stribeck_shape
 
-        laws: list[Friction] = []
+        def value(name: str, own: float) -> float:
+            if name == "viscous":
+                return own * viscous_ratio
+            if name == "stribeck_velocity":
+                return velocity if new_velocity else own
+            if name not in p or p[name] == q.get(name) or not q.get(name):
+                return own
+            return own * p[name] / q[name]
+
+        out = []
         for f in self.friction:
-            if isinstance(f, ViscousLaw):
-                laws.append(f if viscous_ratio == 1.0 else dataclasses.replace(f, B=f.B * viscous_ratio))
-            elif isinstance(f, LuGreLaw):
-                if k_forward != k_backward:
-                    raise ValueError(
-                        "asymmetric_friction: the rig's Coulomb level is a LuGre law's, which is the "
-                        "same both ways; the rig cannot carry an asymmetry"
-                    )
-                if f.Fs > f.Fc and shape != "gaussian":
-                    raise ValueError(
-                        "stribeck_friction: the rig's Stribeck decay is a LuGre law's, Gaussian; it "
-                        f"cannot take the {shape} shape"
-                    )
-                fc = f.Fc * k_forward
-                laws.append(dataclasses.replace(
-                    f, Fc=fc, Fs=fc + (f.Fs - f.Fc) * k_stribeck, sigma2=f.sigma2 * viscous_ratio,
-                    omega_s=f.omega_s if rate is None else velocity,
-                ))  # fmt: skip
-            elif isinstance(f, MemorylessLaw):
-                a = f.coefficients()
-                r_pos = a[2] if rate is None or not a[1] else rate
-                r_neg = a[5] if rate is None or not a[4] else rate
-                new = (
-                    a[0] * k_forward,
-                    a[1] * k_stribeck,
-                    r_pos,
-                    a[3] * k_backward,
-                    a[4] * k_stribeck,
-                    r_neg,
-                )
-                laws.append(_static_law(new, f, shape if (a[1] or a[4]) else None))
+            effects = tuple(e for e in f.effects if e in kept)
+            params = {n: value(n, v) for n, v in f.params.items() if registry.parameter_owner(n) in effects}
+            shape = drive.stribeck_shape if new_shape and "stribeck_friction" in effects else f.stribeck_shape
+            if effects:  # an entry left with no effect goes
+                out.append(f.replace(effects=effects, params=params, stribeck_shape=shape))
+        # what the masses have none of (a sum of 0): on the motor
+        added = {
+            n: p[n] for e in drive.effects if e not in RIG_PARTS and e != "viscous_friction"
+            for n in registry.get(e).linear + registry.get(e).nonlinear
+            if n != "stribeck_velocity" and not q.get(n) and p[n]
+        }  # fmt: skip
+        if added:
+            motor = next((k for k, f in enumerate(out) if f.side == "motor" and not f.lugre), None)
+            entry = out[motor] if motor is not None else Friction((), {}, "motor", drive.stribeck_shape)
+            effects = tuple(dict.fromkeys((*entry.effects, *map(registry.parameter_owner, added))))
+            params = dict(entry.params)
+            for e in effects:
+                for n in (*registry.get(e).linear, *registry.get(e).nonlinear):
+                    default = p.get(n, 0.0) if n == "stribeck_velocity" else 0.0
+                    params[n] = params.get(n, default) + added.get(n, 0.0)
+            shape = drive.stribeck_shape if "stribeck" in added else entry.stribeck_shape
+            entry = entry.replace(effects=effects, params=params, stribeck_shape=shape)
+            if motor is None:
+                out.append(entry)
             else:
-                laws.append(f)
-        # what the rig has none of: its own law on the motor side
-        new_coulomb = not (levels.forward or levels.backward) and (forward or backward)
-        new_stribeck = not levels.stribeck and stribeck > 0.0
-        if new_coulomb or new_stribeck:
-            c_pos, c_neg = (forward, backward) if new_coulomb else (0.0, 0.0)
-            s = stribeck if new_stribeck else 0.0
-            r = 1.0 / velocity if new_stribeck else 0.0
-            if c_pos != c_neg:
-                laws.append(AsymmetricLaw(alpha0=c_pos, alpha1=s, alpha2=r, alpha3=c_neg, alpha4=s,
-                                               alpha5=r, stribeck_shape=shape, side="motor"))  # fmt: skip
-            elif s:
-                laws.append(StribeckLaw(alpha0=c_pos, alpha1=s, alpha2=r, stribeck_shape=shape, side="motor"))
-            else:
-                laws.append(CoulombLaw(alpha=c_pos, side="motor"))
-        return tuple(laws)
+                out[motor] = entry
+        return tuple(out)
 
 
 register_kind(KIND_RIG, TwoMassRig, TwoMassRig.from_dict)
@@ -1042,8 +909,8 @@ class RigSimulation:
 #: What :func:`paper_rig` adds to the defaults of :class:`TwoMassRig`.
 PAPER_NONLINEARITIES: dict[str, Any] = {
     "friction": (
-        CoulombLaw(alpha=4.0e-3, side="motor"),
-        CoulombLaw(alpha=2.0e-3, side="load"),
+        Friction(("coulomb_friction",), {"coulomb": 4.0e-3}, side="motor"),
+        Friction(("coulomb_friction",), {"coulomb": 2.0e-3}, side="load"),
     ),
     "amplifier": Amplifier(gain=1.0, dead_zone=0.6, v_max=12.0),
 }
@@ -1130,7 +997,7 @@ def steady_state_speed(rig: TwoMassRig, u: float) -> float:
     """Steady load speed [rad/s] for a constant command ``u`` [V] (static balance).
 
     Solves K_m (v_a - K_m ω)/R_a = (B_m + B_L) ω + T_c(ω) + T_d with the
-    friction laws at speed ω (both masses turn at ω in steady state); 0 when the
+    masses' friction at speed ω (both masses turn at ω in steady state); 0 when the
     drive cannot break away.
 
     Parameters
@@ -1144,14 +1011,8 @@ def steady_state_speed(rig: TwoMassRig, u: float) -> float:
     K, R = rig.K_m, rig.R_a
     B = rig.viscous("motor") + rig.viscous("load")
 
-    def friction_at(w: float) -> float:
-        total = 0.0
-        for f in rig.friction:
-            if isinstance(f, LuGreLaw):
-                total += float(f.steady_state_torque(w)) * len(f.sides()) - f.sigma2 * w * len(f.sides())
-            elif hasattr(f, "coefficients"):
-                total += float(f.torque(w)) * len(f.sides())
-        return total
+    def friction_at(w: float) -> float:  # the terms beside the viscous ones (in B)
+        return sum((float(f.torque(w)) - f.viscous * w) * len(f.sides()) for f in rig.friction)
 
     def balance(w: float) -> float:
         return K * (v - K * w) / R - B * w - friction_at(w) - rig.T_d
@@ -1165,11 +1026,10 @@ def steady_state_speed(rig: TwoMassRig, u: float) -> float:
 
 
 __all__ = [
-    "NOT_ON_A_RIG",
     "PAPER_NONLINEARITIES",
     "PHYSICAL_DEFAULTS",
     "RECORD_UNITS",
-    "FrictionLevels",
+    "RIG_PARTS",
     "RigSimulation",
     "TwoMassRig",
     "paper_rig",

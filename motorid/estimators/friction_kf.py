@@ -51,7 +51,6 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from motorid.drive import effects, kernels
-from motorid.drive.friction import LuGreLaw, MemorylessLaw
 from motorid.drive.input_path import InputPathState
 from motorid.drive.kernels import armature_voltage, armature_voltages
 from motorid.drive.ranges import LARGEST, MOST_SUBSTEPS, check_count, check_parameter
@@ -138,9 +137,8 @@ def friction_prior(model: TwoMassRig | RigidDrive, stribeck: bool = True) -> dic
     A rigid drive's Coulomb level F_c and asymmetry ΔF_c give the forward and backward
     levels F_c ± ΔF_c, its Stribeck level, velocity v_s and shape the excess, the rate
     1/v_s and the shape; its viscous term is B. A two-mass rig's friction on both masses
-    is summed (the filter estimates the total, on one mass): the static laws' levels
-    α0 (forwards), α3 (backwards) and excess α1 = α4, a LuGre law's steady state (Coulomb
-    Fc, Gaussian excess Fs - Fc with rate 1/ωs, viscous σ2), and B_m + B_L. With
+    is summed the same way (the filter estimates the total, on one mass), with B_m + B_L and
+    a LuGre law by its steady state (the Coulomb and Stribeck levels of its mass). With
     ``stribeck=False`` the Stribeck terms are left out (a filter without them).
 
     Parameters
@@ -159,39 +157,35 @@ def friction_prior(model: TwoMassRig | RigidDrive, stribeck: bool = True) -> dic
     """
     if isinstance(model, RigidDrive):
         check_rigid_drive(model)
-        forward = backward = viscous = 0.0
-        parts = []
-        for name in model.effects:  # each effect's share (Effect.filter_prior)
-            share = effects.get(name).filter_prior(model.params, model.stribeck_shape)
-            forward += share.get("coulomb0", 0.0)
-            backward += share.get("coulomb_neg0", 0.0)
-            viscous += share.get("viscous0", 0.0)
-            if "stribeck0" in share:
-                excess = share["stribeck0"]
-                parts.append((excess, excess, share["stribeck_decay"], share["stribeck_shape"]))
-    else:
-        forward = backward = 0.0
-        viscous = model.viscous("motor") + model.viscous("load")
-        parts = []
-        for law in model.friction:
-            n = len(law.sides())
-            if isinstance(law, MemorylessLaw):
-                a = law.coefficients()
-                forward += n * a[0]
-                backward += n * a[3]
-                parts.append(
-                    (
-                        n * a[1],
-                        n * a[4],
-                        a[2] if a[1] > 0.0 else a[5],
-                        kernels.STRIBECK_SHAPES[law.shape_code()],
+        viscous = 0.0
+        sources = [(model.effects, model.params, model.stribeck_shape, 1)]
+    else:  # each mass's friction, LuGre's by its steady state (its levels)
+        viscous = model.B_m + model.B_l
+        sources = [
+            (tuple(e for e in f.effects if e != "lugre_friction"), f.params, f.stribeck_shape, len(f.sides()))
+            for f in model.friction
+        ]
+        for names, params, _, _ in sources:
+            for name in names:
+                if not effects.get(name).filter_states or any(
+                    params[p] for p in effects.get(name).filter_zero
+                ):
+                    raise ValueError(
+                        f"rig: a mass's {name} is not in the friction filters' model "
+                        "(on a two-mass rig it holds coulomb_friction, stribeck_friction, the Coulomb "
+                        "asymmetry of asymmetric_friction, viscous_friction and lugre_friction's levels)"
                     )
-                )
-            elif isinstance(law, LuGreLaw):
-                forward += n * law.Fc
-                backward += n * law.Fc
-                excess = n * (law.Fs - law.Fc)
-                parts.append((excess, excess, 1.0 / law.omega_s, "gaussian"))
+    forward = backward = 0.0
+    parts = []
+    for names, params, shape, n in sources:  # each effect's share (Effect.filter_prior)
+        for name in names:
+            share = effects.get(name).filter_prior(params, shape)
+            forward += n * share.get("coulomb0", 0.0)
+            backward += n * share.get("coulomb_neg0", 0.0)
+            viscous += n * share.get("viscous0", 0.0)
+            if "stribeck0" in share:
+                excess = n * share["stribeck0"]
+                parts.append((excess, excess, share["stribeck_decay"], share["stribeck_shape"]))
     parts = [part for part in parts if stribeck and (part[0] > 0.0 or part[1] > 0.0)]
     prior: dict[str, Any] = {
         "coulomb0": forward,

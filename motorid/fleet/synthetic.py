@@ -33,7 +33,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.drive.components import Amplifier
-from motorid.drive.friction import CoulombLaw
+from motorid.drive.friction import Friction
 from motorid.drive.two_mass import TwoMassRig, paper_rig
 from motorid.records import DRIVE_ATTR, TIME_ATTR, write_record
 from motorid.signals import two_sine_signal
@@ -42,6 +42,13 @@ logger = logging.getLogger(__name__)
 
 #: The first day of a generated fleet's records.
 FLEET_START = datetime(2026, 1, 5, 8, 0, 0)
+
+
+def _coulomb_times(friction: Friction, factor: float) -> Friction:
+    """``friction`` with its Coulomb level (if it has one) times ``factor``."""
+    if "coulomb" not in friction.params:
+        return friction
+    return friction.replace(params={**friction.params, "coulomb": friction.params["coulomb"] * factor})
 
 
 @dataclass(frozen=True)
@@ -77,10 +84,7 @@ class FleetDrive:
     def rig_on(self, day: int) -> TwoMassRig:
         """The drive as it is on ``day`` (0-based): friction grown, dead zone there or not."""
         scale = 1.0 + self.friction_growth * day
-        friction = tuple(
-            dataclasses.replace(f, alpha=f.alpha * scale) if isinstance(f, CoulombLaw) else f
-            for f in self.rig.friction
-        )
+        friction = tuple(_coulomb_times(f, scale) for f in self.rig.friction)
         amplifier = self.rig.amplifier
         if self.dead_zone_day is not None and day >= self.dead_zone_day:
             amplifier = dataclasses.replace(amplifier, dead_zone=self.dead_zone)
@@ -165,9 +169,7 @@ def make_fleet(
     drives = []
     for i in range(n_drives):
         factor = rng.uniform(1.0 - spread, 1.0 + spread, size=8)
-        friction = tuple(
-            dataclasses.replace(f, alpha=f.alpha * k) for f, k in zip(base.friction, factor[6:], strict=True)
-        )
+        friction = tuple(_coulomb_times(f, k) for f, k in zip(base.friction, factor[6:], strict=True))
         rig = dataclasses.replace(
             base, R_a=base.R_a * factor[0], K_m=base.K_m * factor[1], J_m=base.J_m * factor[2],
             J_l=base.J_l * factor[3], B_m=base.B_m * factor[4], B_l=base.B_l * factor[5], friction=friction,

@@ -21,6 +21,7 @@ from motorid.drive.effects.coulomb import CoulombFriction
 from motorid.drive.effects.dead_zone import InputDeadZone
 from motorid.drive.effects.delay import InputDelay
 from motorid.drive.effects.lag import InputLag
+from motorid.drive.effects.lugre import LuGreFriction
 from motorid.drive.effects.offset import Offset
 from motorid.drive.effects.position_friction import PositionFriction
 from motorid.drive.effects.quadratic_drag import QuadraticDrag
@@ -32,6 +33,7 @@ from motorid.drive.effects.registry import (
     param_unit,
     parameter,
     parameter_names,
+    parameter_owner,
     register,
     unregister,
 )
@@ -52,6 +54,7 @@ __all__ = [
     "InputDelay",
     "InputLag",
     "InputSaturation",
+    "LuGreFriction",
     "Offset",
     "Parameter",
     "PositionFriction",
@@ -65,6 +68,7 @@ __all__ = [
     "param_unit",
     "parameter",
     "parameter_names",
+    "parameter_owner",
     "register",
     "unregister",
 ]

@@ -24,6 +24,10 @@ class Backlash(Effect):
 
     name = "backlash"
     kind = "input"
+    not_on_a_mass = (
+        "the rigid drive's backlash is a dwell time after reversals, the rig's a gap in the shaft [rad] "
+        "(its backlash); one does not give the other"
+    )
     parameters = (Parameter("backlash_time", "s", ">= 0"),)
     signature = "right after each reversal of the drive force: the measured side lags, sign follows the force"
     order = 4

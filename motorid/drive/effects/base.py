@@ -170,6 +170,11 @@ class Effect:
         speed, which drifts.
     derived_units : dict
         Unit of each figure :meth:`derived` reports beside the parameters.
+    not_on_a_mass : str
+        Why a mass of the two-mass rig (:class:`~motorid.drive.friction.Friction`) cannot hold it;
+        empty for an effect it can (every torque of the speed, static friction, LuGre).
+    not_on_a_rigid_drive : str
+        Why a rigid drive (and so the doctor) cannot hold it; empty for one it can.
     """
 
     name: ClassVar[str] = ""
@@ -187,6 +192,8 @@ class Effect:
     position: ClassVar[bool] = False
     measured_position: ClassVar[bool] = False
     derived_units: ClassVar[dict[str, str]] = {}
+    not_on_a_mass: ClassVar[str] = ""
+    not_on_a_rigid_drive: ClassVar[str] = ""
 
     # derived from ``parameters`` when the class is made
     linear: ClassVar[tuple[str, ...]] = ()

@@ -39,6 +39,7 @@ class Cogging(Effect):
     """
 
     name = "cogging"
+    not_on_a_mass = "the rig's cogging is its motor's ripple (cogging_sin, cogging_cos, cogging_periods)"
     parameters = (
         Parameter("cogging_sin", "F", "any", in_position=True),
         Parameter("cogging_cos", "F", "any", in_position=True),

@@ -14,6 +14,7 @@ class InputDeadZone(Effect):
 
     name = "input_dead_zone"
     kind = "input"
+    not_on_a_mass = "the rig's input path is its amplifier, whose dead zone [V] it is"
     parameters = (Parameter("dead_zone", "u", ">= 0"),)
     signature = "at small |u| and wherever u drives: a force deficit whose sign follows sgn(u)"
     order = 1

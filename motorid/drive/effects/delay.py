@@ -16,6 +16,7 @@ class InputDelay(Effect):
 
     name = "input_delay"
     kind = "input"
+    not_on_a_mass = "the rig's input path has no transport delay between the command and the armature"
     parameters = (Parameter("input_delay", "s", ">= 0"),)
     signature = "after every change of u: the measured drive answers τ_d late, in both directions"
     order = 2

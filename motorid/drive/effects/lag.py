@@ -15,6 +15,7 @@ class InputLag(Effect):
 
     name = "input_lag"
     kind = "input"
+    not_on_a_mass = "the rig's one input lag is the electrical time constant L_a/R_a"
     parameters = (Parameter("lag_time_constant", "s", ">= 0"),)
     signature = "after every change of u: the force builds up over T_l, the acceleration is rounded"
     order = 3

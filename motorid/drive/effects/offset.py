@@ -12,6 +12,7 @@ class Offset(Effect):
     disturbance torque."""
 
     name = "offset"
+    not_on_a_mass = "the rig's constant torque is its load torque T_d"
     parameters = (Parameter("offset", "F", "any", term=kernels.TERM_OFFSET),)
     signature = "constant, the same sign in both directions of motion and at rest"
     filter_known = True

@@ -43,6 +43,7 @@ class PositionFriction(Effect):
     """
 
     name = "position_friction"
+    not_on_a_mass = "the rig's friction levels do not depend on the position"
     parameters = (
         Parameter("position_friction_sin", "F", "any", in_position=True),
         Parameter("position_friction_cos", "F", "any", in_position=True),

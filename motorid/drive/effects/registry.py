@@ -30,6 +30,7 @@ from motorid.drive.effects.coulomb import CoulombFriction
 from motorid.drive.effects.dead_zone import InputDeadZone
 from motorid.drive.effects.delay import InputDelay
 from motorid.drive.effects.lag import InputLag
+from motorid.drive.effects.lugre import LuGreFriction
 from motorid.drive.effects.offset import Offset
 from motorid.drive.effects.position_friction import PositionFriction
 from motorid.drive.effects.quadratic_drag import QuadraticDrag
@@ -60,6 +61,7 @@ _BUILT_IN: dict[str, type[Effect]] = {
         StaticFriction,
         Cogging,
         PositionFriction,
+        LuGreFriction,
     )
 }
 _REGISTERED: dict[str, type[Effect]] = {}
@@ -246,6 +248,20 @@ def parameter(name: str) -> Parameter:
     raise ValueError(f"unknown parameter {name!r}: neither a drive's nor any effect's")
 
 
+def parameter_owner(name: str) -> str:
+    """The name of the effect whose parameter ``name`` is; ValueError for none.
+
+    Parameters
+    ----------
+    name : str
+        An effect's parameter name (``coulomb``, ``stribeck_velocity``, ...).
+    """
+    for effect, cls in _effects().items():
+        if any(p.name == name for p in cls.parameters):
+            return effect
+    raise ValueError(f"unknown parameter {name!r}: no effect's")
+
+
 def parameter_unit(name: str) -> str:
     """The unit of parameter ``name`` or of a figure an effect derives from its parameters
     (:attr:`Effect.derived_units <motorid.drive.effects.base.Effect.derived_units>`), in the
@@ -304,6 +320,7 @@ __all__ = [
     "param_unit",
     "parameter",
     "parameter_names",
+    "parameter_owner",
     "parameter_unit",
     "register",
     "unregister",

@@ -14,6 +14,7 @@ class InputSaturation(Effect):
 
     name = "input_saturation"
     kind = "input"
+    not_on_a_mass = "the rig's input path is its amplifier, whose saturation [V] it is"
     parameters = (Parameter("saturation", "u", "> 0"),)
     signature = "at the largest |u| only, sign follows sgn(u): the drive gets less than commanded"
     order = 0
