@@ -262,6 +262,22 @@ def test_torque_below_breakaway_never_moves_the_mass(levels, hold):
     assert moving["omega_m"].iloc[-1] > 0.0
 
 
+def test_static_friction_on_a_mass_holds_it_above_the_kinetic_level_until_breakaway():
+    """Static friction on the motor (kinetic 5 mN m, breakaway excess 3 mN m): a motor torque
+    between the two leaves the drive at rest; above 8 mN m it breaks away, and once moving it keeps
+    moving under the torque that could not start it (the hysteresis of stiction)."""
+    stiction = Friction(
+        ("coulomb_friction", "static_friction"), {"coulomb": 5e-3, "breakaway_excess": 3e-3}, "motor"
+    )
+    rig = quiet(paper_rig(friction=(stiction,), amplifier=Amplifier(gain=1.0)))
+    assert rig.breakaway("motor") == (8e-3, 8e-3)
+    volts = rig.R_a / rig.K_m  # the armature voltage per N m of motor torque at rest
+    held = rig.simulate(np.full(30, 7e-3 * volts))
+    assert (held["omega_m"] == 0.0).all() and (held["omega_l"] == 0.0).all()
+    moving = rig.simulate(np.r_[np.full(10, 9e-3 * volts), np.full(30, 7e-3 * volts)])
+    assert moving["omega_m"].iloc[9] > 0.0 and (moving["omega_m"].iloc[10:] > 0.0).all()
+
+
 def test_stuck_load_under_disturbance_below_breakaway():
     """A load with Stribeck breakaway 3 mN m does not turn under a 2.9 mN m disturbance."""
     fr = (
