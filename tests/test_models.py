@@ -401,6 +401,49 @@ def test_simulate_saves_the_rig_its_options_describe_and_simulates_a_model_file(
     assert code == 2 and "--stribeck-shape needs --stribeck" in err and not (tmp_path / "no.json").exists()
 
 
+def test_simulate_friction_sets_each_mass_in_the_effects_parameters(capsys, tmp_path):
+    """--friction SIDE PARAM=VALUE ...: the effects are those whose parameters are given, on that mass,
+    in place of the default rig's friction (LuGre too, with its decay's shape)."""
+    path = tmp_path / "rig.json"
+    code, _, err = run(capsys, "simulate", "--save-model", str(path), "--dead-zone", "0.3",
+                       "--friction", "motor", "coulomb=0.004", "breakaway_excess=0.002",
+                       "--friction", "load", "coulomb=0.003", "stribeck=0.001", "stribeck_velocity=2",
+                       "stribeck_shape=gaussian", "bristle_stiffness=2", "bristle_damping=0.003")  # fmt: skip
+    assert code == 0, err
+    motor = Friction(
+        ("coulomb_friction", "static_friction"), {"coulomb": 4e-3, "breakaway_excess": 2e-3}, "motor"
+    )
+    load = Friction(
+        (*STRIBECK, "lugre_friction"),
+        {"coulomb": 3e-3, "stribeck": 1e-3, "stribeck_velocity": 2.0, "bristle_stiffness": 2.0,
+         "bristle_damping": 3e-3},
+        "load", "gaussian",
+    )  # fmt: skip
+    rig = load_model(path)
+    assert rig == paper_rig(friction=(motor, load), amplifier=Amplifier(gain=1.0, dead_zone=0.3, v_max=12.0))
+    assert rig.breakaway("motor") == (6e-3, 6e-3) and rig.has_lugre
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--friction", "motor", "colomb=0.004"], "--friction motor: unknown parameter 'colomb'; a mass's effects have coulomb, "),
+        (["--friction", "motor", "coulomb"], "--friction motor: 'coulomb' is not PARAM=VALUE"),
+        (["--friction", "motor", "coulomb=abc"], "--friction motor: coulomb must be a number, got 'abc'"),
+        (["--friction", "motor"], "--friction motor: give the parameters of its effects as PARAM=VALUE"),
+        (["--friction", "motor", "coulomb=0.004", "stribeck=0.001"], "--friction motor: params: 'stribeck_velocity' is missing"),
+        (["--friction", "shaft", "coulomb=0.004"], "--friction shaft: side must be one of motor, load, both"),
+        (["--friction", "motor", "coulomb=-1"], "--friction motor: coulomb must be >= 0, got -1.0"),
+        (["--friction", "motor", "input_delay=0.01"], "--friction motor: unknown parameter 'input_delay'"),
+        (["--friction", "load", "coulomb=0.004", "--coulomb-motor", "0.001"], "--coulomb-motor cannot be combined with --friction"),
+    ],
+)  # fmt: skip
+def test_simulate_friction_refuses_what_a_mass_cannot_be_by_name(capsys, tmp_path, argv, message):
+    code, _, err = run(capsys, "simulate", "--save-model", str(tmp_path / "rig.json"), *argv)
+    assert code == 2 and message in err, err
+    assert not (tmp_path / "rig.json").exists()
+
+
 @pytest.mark.parametrize(
     "argv, message",
     [

@@ -68,9 +68,45 @@ def cmd_demo(args: argparse.Namespace) -> int:
 
 #: The rig options of ``motorid simulate`` (dest names); none may be combined with --model.
 RIG_OPTIONS = (
-    "coulomb_motor", "coulomb_load", "stribeck", "stribeck_shape", "viscous", "dead_zone", "backlash", "cogging",
-    "u_max",
+    "coulomb_motor", "coulomb_load", "stribeck", "stribeck_shape", "viscous", "friction", "dead_zone", "backlash",
+    "cogging", "u_max",
 )  # fmt: skip
+#: The options that change the default rig's friction, which --friction sets whole.
+FRICTION_OPTIONS = ("coulomb_motor", "coulomb_load", "stribeck", "stribeck_shape", "viscous")
+
+
+def friction_from_option(items: list[str]):
+    """One ``--friction SIDE PARAM=VALUE ...``: a :class:`~motorid.drive.Friction` on SIDE with the
+    effects whose parameters are given (``stribeck_shape=gaussian`` sets the decay's shape)."""
+    from motorid.drive import Friction
+    from motorid.drive import effects as registry
+
+    side, *pairs = items
+    where = f"--friction {side}"
+    params: dict[str, float] = {}
+    shape = "exponential"
+    for pair in pairs:
+        name, sep, value = pair.partition("=")
+        if not sep:
+            raise DataError(f"{where}: {pair!r} is not PARAM=VALUE")
+        if name == "stribeck_shape":
+            shape = value
+            continue
+        on_a_mass = [e for e in registry.names() if not registry.get(e).not_on_a_mass]
+        known = [p.name for e in on_a_mass for p in registry.get(e).parameters]
+        if name not in known:
+            raise DataError(f"{where}: unknown parameter {name!r}; a mass's effects have {', '.join(known)}")
+        try:
+            params[name] = float(value)
+        except ValueError:
+            raise DataError(f"{where}: {name} must be a number, got {value!r}") from None
+    if not params:
+        raise DataError(f"{where}: give the parameters of its effects as PARAM=VALUE (coulomb=0.004 ...)")
+    effects = tuple(dict.fromkeys(map(registry.parameter_owner, params)))
+    try:
+        return Friction(effects, params, side, shape)
+    except ValueError as exc:
+        raise DataError(f"{where}: {exc}") from None
 
 
 def rig_from_args(args: argparse.Namespace):
@@ -83,6 +119,16 @@ def rig_from_args(args: argparse.Namespace):
     from motorid.drive.effects import parameter_owner
 
     rig = paper_rig()
+    if args.friction is not None:
+        given = [name for name in FRICTION_OPTIONS if getattr(args, name) is not None]
+        if given:
+            flag = "--" + given[0].replace("_", "-")
+            raise DataError(
+                f"{flag} cannot be combined with --friction, which sets the masses' friction whole"
+            )
+        return _rig_parts_from_args(
+            rig.replace(friction=tuple(map(friction_from_option, args.friction))), args
+        )
     side_params: dict[str, dict[str, float]] = {"motor": {}, "load": {}}
     for f in rig.friction:  # the default rig's friction: one entry per mass
         side_params[f.side].update(f.params)
@@ -104,6 +150,11 @@ def rig_from_args(args: argparse.Namespace):
         if params:
             effects = tuple(dict.fromkeys(map(parameter_owner, params)))
             friction.append(Friction(effects, params, side, args.stribeck_shape or "exponential"))
+    return _rig_parts_from_args(rig.replace(friction=tuple(friction)), args)
+
+
+def _rig_parts_from_args(rig, args: argparse.Namespace):
+    """``rig`` with the amplifier, backlash and cogging the rig options give."""
     amplifier = rig.amplifier
     changes = {k: v for k, v in (("dead_zone", args.dead_zone), ("v_max", args.u_max)) if v is not None}
     if changes:
@@ -117,7 +168,7 @@ def rig_from_args(args: argparse.Namespace):
                 f"--cogging: PERIODS must be > 0 [1/rad, periods per revolution], got {periods:g}"
             )
         ripple = {"cogging_sin": a_s, "cogging_cos": a_c, "cogging_periods": periods}
-    return rig.replace(friction=tuple(friction), amplifier=amplifier, backlash=backlash, **ripple)
+    return rig.replace(amplifier=amplifier, backlash=backlash, **ripple)
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
@@ -187,6 +238,11 @@ def add_rig_options(group: argparse._ActionsContainer, model_help: str) -> None:
     group.add_argument("--stribeck-shape", choices=("exponential", "gaussian"),
                        help="the Stribeck decay: exp(-|w|/V_S) (eq. 9, the default) or exp(-(w/V_S)^2)")  # fmt: skip
     group.add_argument("--viscous", type=non_negative, help="extra viscous friction, motor side [N m s/rad]")
+    group.add_argument("--friction", nargs="+", action="append", metavar=("SIDE", "PARAM=VALUE"),
+                       help="the friction on a mass (SIDE motor, load or both) in the effects' parameters, SI units, "
+                       "e.g. --friction motor coulomb=0.004 breakaway_excess=0.002 (stribeck_shape=gaussian sets "
+                       "the decay); repeat it per mass; it replaces the default rig's friction and the options "
+                       "above")  # fmt: skip
     group.add_argument("--dead-zone", type=non_negative, help="amplifier dead zone half-width [V]")
     group.add_argument("--backlash", type=non_negative, help="shaft backlash, half-width of the gap [rad]")
     group.add_argument("--cogging", type=number(float), nargs=3, metavar=("SIN", "COS", "PERIODS"),
