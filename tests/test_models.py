@@ -296,6 +296,10 @@ def _drop(data: dict, path: tuple) -> dict:
     return data
 
 
+#: A law of a version-1 file that no effect holds: eq. (11) with a Stribeck excess differing each way.
+PER_DIRECTION = {"kind": "asymmetric_friction", "alpha0": 1e-3, "alpha1": 1e-3, "alpha2": 1.0, "alpha3": 1e-3,
+                 "alpha4": 2e-3, "alpha5": 1.0, "stribeck_shape": "exponential", "side": "load"}  # fmt: skip
+
 BAD_FILES = [
     # (what, file content, the key or words the message must name)
     ("other format", lambda: _set(_rig_file(), ("format",), "other"), 'no "format": "motorid-model"'),
@@ -319,6 +323,7 @@ BAD_FILES = [
     ("negative friction", lambda: _set(_rig_file(), ("model", "friction", 0, "params", "coulomb"), -1.0), r"model.friction\[0\].params.coulomb: coulomb must be"),
     ("unknown effect on a mass", lambda: _set(_rig_file(), ("model", "friction", 2, "effects", 0), "stiction"), r"model.friction\[2\].effects\[0\]: unknown effect 'stiction'"),
     ("effect a mass cannot hold", lambda: _set(_rig_file(), ("model", "friction", 0, "effects", 0), "input_delay"), r"model.friction\[0\].effects: input_delay: a mass of the two-mass rig cannot hold it"),
+    ("per-direction Stribeck law of a version-1 file", lambda: _set(_rig_file(), ("model", "friction", 2), PER_DIRECTION), r"model.friction\[2\]: an asymmetric_friction law whose Stribeck excess or rate differs forwards"),
     ("unknown law of a version-1 file", lambda: _set(_rig_file(), ("model", "friction", 2), {"kind": "stiction", "side": "load"}), r"model.friction\[2\].kind: unknown friction law 'stiction'"),
     ("unknown side", lambda: _set(_rig_file(), ("model", "friction", 0, "side"), "shaft"), r"model.friction\[0\]: side must be one of"),
     ("drive: negative inertia", lambda: _set(_drive_file(), ("model", "params", "inertia"), -1.0), "model.params.inertia: inertia must be > 0, got -1.0"),
