@@ -428,6 +428,28 @@ def test_two_mass_friction_the_filter_cannot_hold_is_refused():
         FrictionEKF.from_rig(rig)
     ekf = FrictionEKF.from_rig(rig, stribeck=False)  # a user may drop it
     assert not ekf.stribeck
+    drag = Friction(
+        ("coulomb_friction", "quadratic_drag"), {"coulomb": 1e-3, "quadratic_drag": 1e-8}, side="motor"
+    )
+    with pytest.raises(
+        ValueError, match=r"^rig: a mass's quadratic_drag is not in the friction filters' model"
+    ):
+        FrictionEKF.from_rig(paper_rig(friction=(drag,)))
+    # LuGre by its steady state: its mass's Coulomb and Stribeck levels, Gaussian
+    lugre = Friction(
+        ("coulomb_friction", "stribeck_friction", "lugre_friction"),
+        {"coulomb": 3e-3, "stribeck": 1e-3, "stribeck_velocity": 2.0, "bristle_stiffness": 2.0,
+         "bristle_damping": 3e-3},
+        "load", "gaussian",
+    )  # fmt: skip
+    ekf = FrictionEKF.from_rig(paper_rig(friction=(lugre,)))
+    x = dict(zip(ekf.state_names, ekf.x, strict=True))
+    assert (x["coulomb"], x["stribeck"], ekf.stribeck_decay, ekf.stribeck_shape) == (
+        3e-3,
+        1e-3,
+        0.5,
+        "gaussian",
+    )
 
 
 @pytest.mark.parametrize("variant", [*VARIANTS, "current-state"])
