@@ -85,6 +85,8 @@ def friction_from_option(items: list[str]):
     where = f"--friction {side}"
     params: dict[str, float] = {}
     shape = "exponential"
+    on_a_mass = [e for e in registry.names() if not registry.get(e).not_on_a_mass]
+    known = [p.name for e in on_a_mass for p in registry.get(e).parameters]
     for pair in pairs:
         name, sep, value = pair.partition("=")
         if not sep:
@@ -92,8 +94,6 @@ def friction_from_option(items: list[str]):
         if name == "stribeck_shape":
             shape = value
             continue
-        on_a_mass = [e for e in registry.names() if not registry.get(e).not_on_a_mass]
-        known = [p.name for e in on_a_mass for p in registry.get(e).parameters]
         if name not in known:
             raise DataError(f"{where}: unknown parameter {name!r}; a mass's effects have {', '.join(known)}")
         try:

@@ -26,6 +26,7 @@ Files written before the rig took the effects (eq. 11's laws ``coulomb_friction 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import Any
@@ -37,7 +38,7 @@ from motorid.drive import effects as registry
 from motorid.drive import kernels
 from motorid.drive.ranges import check_parameter
 from motorid.errors import ModelFileError
-from motorid.json_input import build, key_path, number, object_keys, shown, text
+from motorid.json_input import build, key_path, number, object_keys, text
 
 SIDES: tuple[str, ...] = ("motor", "load", "both")
 #: The SI units of a rotary rig, for the parameters' units in messages.
@@ -178,9 +179,12 @@ class Friction:
         explicitly (:func:`~motorid.drive.kernels.static_friction`): all but the viscous term, which
         is in the rig's linear part, and, with LuGre, the levels its bristle law holds."""
         skip = (kernels.TERM_VISCOUS, *(_LUGRE_TERMS if self.lugre else ()))
+        return [row for s in self.sides() for row in self._rows(side_index(s), skip)]
+
+    def _rows(self, mass: int, skip: tuple[int, ...] = ()) -> list[list[float]]:
+        """The rows of its terms but those in ``skip``, on mass ``mass`` (0 or 1)."""
         return [
-            [float(side_index(s)), float(t), c, self.rate, float(self.shape_code)]
-            for s in self.sides()
+            [float(mass), float(t), c, self.rate, float(self.shape_code)]
             for t, c in self.terms()
             if t not in skip
         ]
@@ -229,9 +233,7 @@ class Friction:
         """
         w = np.asarray(omega, dtype=float)
         flat = np.ascontiguousarray(w.reshape(-1))
-        rows = np.array(
-            [[0.0, float(t), c, self.rate, float(self.shape_code)] for t, c in self.terms()] or [[0.0] * 5]
-        )
+        rows = np.array(self._rows(0) or [[0.0] * 5])
         return kernels.friction_torques(rows, flat, float(direction)).reshape(w.shape)
 
     def slope(self, omega: float, direction: float) -> float:
@@ -258,9 +260,7 @@ class Friction:
 
     def replace(self, **changes: Any) -> Friction:
         """A copy with some fields changed (validated again)."""
-        fields = {"effects": self.effects, "params": self.params, "side": self.side,
-                  "stribeck_shape": self.stribeck_shape}  # fmt: skip
-        return Friction(**{**fields, **changes})
+        return dataclasses.replace(self, **changes)
 
     # ------------------------------------------------------------- description
     def to_dict(self) -> dict[str, Any]:
@@ -296,14 +296,8 @@ def friction_from_dict(data: dict[str, Any], where: str = "") -> Friction:
         return build(Friction, _law_fields(data, where), where)
     object_keys(data, ("effects", "params", "side", "stribeck_shape"), where)
     e_where = key_path(where, "effects")
-    if not isinstance(data["effects"], list):
-        raise ModelFileError(e_where, f"must be a list of effect names, got {shown(data['effects'])}")
-    known = registry.names()
-    for k, name in enumerate(data["effects"]):
-        if text(name, key_path(e_where, k)) not in known:
-            raise ModelFileError(key_path(e_where, k), f"unknown effect {name!r} (known: {', '.join(known)})")
     p_where = key_path(where, "params")
-    effects = registry.effect_order(data["effects"])
+    effects = registry.effect_order(registry.effect_names_read(data["effects"], e_where))
     for name in effects:
         if registry.get(name).not_on_a_mass:
             raise ModelFileError(e_where, f"{name}: a mass of the two-mass rig cannot hold it")

@@ -88,7 +88,7 @@ from motorid.drive.files import KIND_RIGID, register_kind, save_model
 from motorid.drive.input_path import InputPathState, backlash_dwell, input_dynamics, input_path
 from motorid.drive.ranges import MOST_DELAY_SAMPLES, SAMPLE_TIME, check_parameter
 from motorid.errors import ModelFileError
-from motorid.json_input import build, key_path, number, object_keys, shown, text
+from motorid.json_input import build, key_path, number, object_keys, text
 
 
 def check_sample_time(dt: object) -> float:
@@ -523,17 +523,7 @@ class RigidDrive:
             A DataError naming the key, e.g. ``params.inertia: inertia must be > 0``.
         """
         object_keys(data, ("effects", "params", "dt", "stribeck_shape"), where)
-        e_where = key_path(where, "effects")
-        if not isinstance(data["effects"], list):
-            raise ModelFileError(e_where, f"must be a list of effect names, got {shown(data['effects'])}")
-        effects = []
-        for k, name in enumerate(data["effects"]):
-            known = registry.names()
-            if text(name, key_path(e_where, k)) not in known:
-                raise ModelFileError(
-                    key_path(e_where, k), f"unknown effect {name!r} (known: {', '.join(known)})"
-                )
-            effects.append(name)
+        effects = registry.effect_names_read(data["effects"], key_path(where, "effects"))
         p_where = key_path(where, "params")
         names = list(parameter_names(tuple(dict.fromkeys(effects))))
         params = object_keys(data["params"], names, p_where)

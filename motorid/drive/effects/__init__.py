@@ -27,6 +27,7 @@ from motorid.drive.effects.position_friction import PositionFriction
 from motorid.drive.effects.quadratic_drag import QuadraticDrag
 from motorid.drive.effects.registry import (
     ENTRY_POINT_GROUP,
+    effect_names_read,
     effect_order,
     get,
     names,
@@ -62,6 +63,7 @@ __all__ = [
     "StaticFriction",
     "StribeckFriction",
     "ViscousFriction",
+    "effect_names_read",
     "effect_order",
     "get",
     "names",

@@ -38,6 +38,8 @@ from motorid.drive.effects.saturation import InputSaturation
 from motorid.drive.effects.static_friction import StaticFriction
 from motorid.drive.effects.stribeck import StribeckFriction
 from motorid.drive.effects.viscous import ViscousFriction
+from motorid.errors import ModelFileError
+from motorid.json_input import key_path, shown, text
 
 logger = logging.getLogger(__name__)
 
@@ -198,6 +200,26 @@ def get(name: str) -> Effect:
     return effects[name]()
 
 
+def effect_names_read(value: object, where: str) -> tuple[str, ...]:
+    """The effect names of a model file's list ``value`` at ``where``, each a known effect's;
+    :class:`~motorid.errors.ModelFileError` naming the item otherwise.
+
+    Parameters
+    ----------
+    value : object
+        What the file holds there (a list of names).
+    where : str
+        Its place in the file (``"model.effects"``).
+    """
+    if not isinstance(value, list):
+        raise ModelFileError(where, f"must be a list of effect names, got {shown(value)}")
+    known = names()
+    for k, name in enumerate(value):
+        if text(name, key_path(where, k)) not in known:
+            raise ModelFileError(key_path(where, k), f"unknown effect {name!r} (known: {', '.join(known)})")
+    return tuple(value)
+
+
 def effect_order(effects: tuple[str, ...] | list[str]) -> tuple[str, ...]:
     """``effects`` without repeats in the library's order; ValueError naming an unknown one.
 
@@ -314,6 +336,7 @@ def param_unit(name: str, units: dict[str, str]) -> str:
 __all__ = [
     "ENTRY_POINT_GROUP",
     "check_effect",
+    "effect_names_read",
     "effect_order",
     "get",
     "names",
