@@ -55,6 +55,7 @@ def test_records_of_one_drive_agree_and_each_is_the_record_fitted_alone_with_the
     assert {"coulomb", "viscous"} <= set(found)
     for a in found.values():
         assert a.agree and a.p_value >= AGREEMENT_LEVEL, a
+        assert a.drive_std >= a.joint_std  # equal where the records spread by no more than their errors
         assert a.labels == tuple(LABELS) and a.joint == pytest.approx(
             d.model.params.get(a.parameter, a.joint)
         )
@@ -81,10 +82,18 @@ def test_a_record_of_another_drive_is_named_where_the_records_disagree(one_drive
     assert "c.csv" in coulomb.outliers and coulomb.z()[2] > 2.0
     assert 0.1 * COULOMB < coulomb.spread < 0.4 * COULOMB
     assert COULOMB < coulomb.joint < 1.3 * COULOMB
+    # the drive's level with the spread counted: the pooled fit's error, which takes the three records
+    # for one long record of one drive, widened as the spread widens a weighted mean's
+    w, w_spread = 1.0 / np.square(coulomb.std), 1.0 / (np.square(coulomb.std) + coulomb.spread**2)
+    widened = coulomb.joint_std * math.sqrt(w.sum() / w_spread.sum())
+    assert coulomb.drive_std == pytest.approx(widened, rel=1e-12)
+    assert coulomb.drive_std > 2.0 * coulomb.joint_std
     line = coulomb.describe("N m")
     assert line.startswith("coulomb: the records disagree beyond their errors (Q = ")
     assert "c.csv" in line and "standard errors above" in line
+    assert f"the drive's level ± {coulomb.drive_std:.2g}" in line
     assert d.to_dict()["agreement"]["coulomb"]["outliers"] == list(coulomb.outliers)
+    assert d.to_dict()["agreement"]["coulomb"]["drive_std"] == coulomb.drive_std
 
 
 def test_one_record_has_no_agreement(one_drive):
@@ -101,6 +110,11 @@ def test_motorid_doctor_on_several_records_prints_and_reports_the_agreement(tmp_
     assert code == 0, err
     assert out["agreement"]["coulomb"]["records"] == paths
     assert out["agreement"]["coulomb"]["dof"] == 2
+    # the keys README lists
+    assert list(out["agreement"]["coulomb"]) == [
+        "records", "values", "std", "joint", "joint_std", "q", "dof", "p_value", "spread", "drive_std",
+        "agree", "outliers",
+    ]  # fmt: skip
     assert "each record fitted alone with the joint model's structure" in err
     assert "    coulomb: the records agree within their errors (Q = " in err
 

@@ -14,7 +14,16 @@ and the records are tested for one common value (Cochran's test of homogeneity):
 
 τ is the spread between the records beyond their own errors, in the parameter's unit: what a
 next record of the drive is likely to differ by (temperature, wear, a signal that excites a part
-the model misses). Records whose p-value ``P(χ²(k-1) > Q)`` lies below :data:`AGREEMENT_LEVEL`
+the model misses). A record's value is then a measurement of the drive's level with the
+uncertainty ``sqrt(σ_i² + τ²)``, which a fit of the pooled records leaves out: its standard error
+σ_joint treats the records as one long record of one unchanging drive. The drive's level has the
+standard error (:attr:`Agreement.drive_std`) σ_joint widened by what the spread adds to the error
+of a weighted mean of the records::
+
+    σ_drive = σ_joint sqrt(Σ w_i / Σ w_i*),    w_i* = 1/(σ_i² + τ²)
+
+(σ_joint where τ = 0; it carries what σ_joint carries besides, such as an input delay's
+uncertainty). Records whose p-value ``P(χ²(k-1) > Q)`` lies below :data:`AGREEMENT_LEVEL`
 disagree, and each record more than :data:`OUTLIER_Z` of its own standard errors from the joint
 value is named (:attr:`Agreement.outliers`). Where the joint run's inertia trades with the input delay (it is not determined:
 :class:`~motorid.diagnose.model.DelayTrade`), the records are tested on what each determines
@@ -101,6 +110,14 @@ class Agreement:
         return tuple(label for label, z in zip(self.labels, self.z(), strict=True) if abs(z) > OUTLIER_Z)
 
     @property
+    def drive_std(self) -> float:
+        """σ_drive [its unit]: the standard error of the drive's level, the joint run's own and the
+        spread τ between records together (module notes); ``joint_std`` where τ = 0."""
+        fixed = sum(1.0 / (s * s) for s in self.std)
+        spread = sum(1.0 / (s * s + self.spread**2) for s in self.std)
+        return float(self.joint_std * math.sqrt(fixed / spread))
+
+    @property
     def unit_of(self) -> str:
         """The model parameter whose unit it has."""
         return "inertia" if self.parameter == EFFECTIVE_INERTIA else self.parameter
@@ -116,12 +133,18 @@ class Agreement:
             The parameter's unit.
         """
         test = f"Q = {self.q:.3g} on {self.dof} dof, p = {self.p_value:.2g}"
+        share = 100.0 * self.spread / abs(self.joint) if self.joint else math.inf
         if self.agree:
+            spread = (
+                f"; spread between records {self.spread:.2g} {unit} ({share:.2g} %): the drive's level "
+                f"± {self.drive_std:.2g}"
+                if self.spread > 0.0
+                else ""
+            )
             return (
                 f"{self.parameter}: the records agree within their errors ({test}); "
-                f"{min(self.values):.4g} to {max(self.values):.4g} {unit}"
+                f"{min(self.values):.4g} to {max(self.values):.4g} {unit}{spread}"
             )
-        share = 100.0 * self.spread / abs(self.joint) if self.joint else math.inf
         named = [
             f"{label} {v:.4g} ± {s:.2g}, {abs(z):.1f} standard errors {'above' if z > 0 else 'below'}"
             for label, v, s, z in zip(self.labels, self.values, self.std, self.z(), strict=True)
@@ -129,15 +152,15 @@ class Agreement:
         ]
         return (
             f"{self.parameter}: the records disagree beyond their errors ({test}); spread between "
-            f"records {self.spread:.2g} {unit} ({share:.2g} % of {self.joint:.4g})"
-            + ("; " + "; ".join(named) if named else "")
+            f"records {self.spread:.2g} {unit} ({share:.2g} % of {self.joint:.4g}): the drive's level "
+            f"± {self.drive_std:.2g}" + ("; " + "; ".join(named) if named else "")
         )
 
     def to_dict(self) -> dict[str, Any]:
         return {
             "records": list(self.labels), "values": list(self.values), "std": list(self.std),
             "joint": self.joint, "joint_std": self.joint_std, "q": self.q, "dof": self.dof,
-            "p_value": self.p_value, "spread": self.spread, "agree": self.agree,
+            "p_value": self.p_value, "spread": self.spread, "drive_std": self.drive_std, "agree": self.agree,
             "outliers": list(self.outliers),
         }  # fmt: skip
 
