@@ -7,7 +7,9 @@ other one in brackets), the kinetic friction level and the inertia with one stan
 inertia with the share of the input force its term carries, ``n.d.`` where the record does not
 determine it: :attr:`~motorid.diagnose.results.Diagnosis.undetermined`; where it trades with the
 input delay, ``J + B τ_d``, what the record determines), the final free-run gap, the noise floor, the gap in noise floors, and the wall time. The joint run
-fits one model to all records of the motor (``motorid doctor A.csv B.csv ...``).
+fits one model to all records of the motor (``motorid doctor A.csv B.csv ...``), and adds the
+spread τ between its records beyond their errors where there is one, with the error of the motor's
+level it gives (:attr:`~motorid.diagnose.agreement.Agreement.drive_std`).
 
 Usage::
 
@@ -70,19 +72,26 @@ def row(motor: str, run: str, d, seconds: float) -> str:
     params, std = d.model.params, d.param_std
     kinetic = params.get("coulomb", params.get("input_gain", 1.0) * params.get("dead_zone", float("nan")))
     k_std = std.get("coulomb", float("nan"))
+    kinetic_cell = f"{kinetic:.3g} ± {k_std:.2g}"
+    spread = {a.parameter: a for a in d.agreement}.get("coulomb")
+    if spread is not None and spread.spread > 0.0:  # the joint run: the spread between the runs
+        kinetic_cell += f" (runs spread {spread.spread:.2g}: ± {spread.drive_std:.2g})"
     floors = d.final_gap["overall"] / d.noise_floor
     inertia = f"{params['inertia']:.3g} ± {std.get('inertia', float('nan')):.2g}"
     share = f"{100 * d.param_share.get('inertia', float('nan')):.1f} %"
     trade = d.delay_trade
     if "inertia" in d.undetermined and trade is not None and trade.inertia_traded:
         effective = f"{trade.effective_inertia:.3g} ± {trade.effective_inertia_std:.2g}"
+        runs = {a.parameter: a for a in d.agreement}.get("effective_inertia")
+        if runs is not None and runs.spread > 0.0:
+            effective += f" (runs spread {runs.spread:.2g}: ± {runs.drive_std:.2g})"
         inertia = f"n.d. ({share}; fit {inertia}; J + B τ_d = {effective})"
     elif "inertia" in d.undetermined:
         inertia = f"n.d. ({share}; fit {inertia})"
     else:
         inertia = f"{inertia} ({share})"
     return (
-        f"| {motor} | {run} | {structure} | {named} | {kinetic:.3g} ± {k_std:.2g} | {inertia} | "
+        f"| {motor} | {run} | {structure} | {named} | {kinetic_cell} | {inertia} | "
         f"{d.initial_gap['overall']:.3g} → {d.final_gap['overall']:.3g} | {d.noise_floor:.3g} | {floors:.1f} | "
         f"{rests(d)} | {seconds:.1f} |"
     )
@@ -144,7 +153,9 @@ def table(motors: list[str]) -> str:
     lines += [
         "",
         "Forces per input unit (% duty); ± one standard error (a block sandwich over 20 blocks of each run's "
-        "fitted rows); inertia: with the share of the input force that goes into acceleration, `n.d.` (not "
+        "fitted rows); joint runs: where the records, each fitted alone with the joint structure, spread "
+        "beyond their errors, that spread τ and the error of the motor's level with it (`runs spread τ: ± "
+        "σ`); inertia: with the share of the input force that goes into acceleration, `n.d.` (not "
         f"determined) below {100 * INERTIA_SHARE_LIMIT:g} % or where it trades with the input delay through the "
         "viscous friction (set free in the balance, the delay moves it by more than "
         f"{DELAY_TRADE_LIMIT:g} standard errors and {100 * DELAY_TRADE_SHARE:g} %: then `J + B τ_d`, what the run "

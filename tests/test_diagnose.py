@@ -25,8 +25,9 @@ from motorid.diagnose import diagnose
 from motorid.diagnose.calibration import false_alarms
 from motorid.diagnose.kinematics import kinematics
 from motorid.diagnose.model import force_shares, linear_param_std
+from motorid.diagnose.search import explained
 from motorid.diagnose.synthetic import BASE_FOR, planted_record
-from motorid.diagnose.workflow import MISSING_FACTOR, NOISE_SHRINK
+from motorid.diagnose.workflow import MISSING_FACTOR, NOISE_EXPLAINED
 from motorid.drive import effects
 from motorid.drive.input_path import time_since_reversal
 from motorid.drive.rigid import RigidDrive
@@ -211,17 +212,30 @@ def test_two_hidden_effects_are_named_in_order_of_size():
     assert d.final_gap["overall"] < 0.5 * d.initial_gap["overall"]
 
 
+def test_the_part_of_a_gap_an_effect_accounts_for_adds_in_quadrature():
+    """``explained``: errors that add in quadrature, a 3-4-5 triangle. An effect of 3 floors beside
+    4 floors of something else missing: the gap falls 5 -> 4, a shrink of 1 floor, and the effect
+    accounts for 3; beside 40 floors the shrink is 0.11 floors and it still accounts for 3."""
+    assert explained(5.0, 4.0, 1.0) == pytest.approx(3.0, rel=1e-12)
+    assert explained(0.5, 0.4, 0.1) == pytest.approx(3.0, rel=1e-12)  # in floors of 0.1
+    assert explained(math.hypot(40.0, 3.0), 40.0, 1.0) == pytest.approx(3.0, rel=1e-12)
+    assert explained(4.0, 5.0, 1.0) == pytest.approx(-3.0, rel=1e-12)  # the gap grows
+    assert explained(5.0, 4.0, 0.0) == math.inf
+
+
 @pytest.mark.parametrize("seed", [3, 4])
 def test_one_planted_effect_names_one_effect_and_the_gap_ends_at_the_noise_floor(seed):
     """Stribeck friction planted alone: without the noise rule a second effect is named
     (seed 3: backlash moves the gap by 0.08 noise floors; seed 4: the dead zone by 0.04
-    after Stribeck leaves it at 1.47 floors); with it the doctor names Stribeck only."""
+    after Stribeck leaves it at 1.47 floors: each accounts for less of the gap than the noise
+    floor the rule asks for); with it the doctor names Stribeck only."""
     planted = planted_record("stribeck_friction", seed)
     kwargs = {"input_gain": planted.input_gain, "base": planted.base, "max_steps": 3}
-    loose = diagnose(planted.record, noise_shrink=0.0, **kwargs)
+    loose = diagnose(planted.record, noise_explained=0.0, **kwargs)
     assert loose.named[0] == "stribeck_friction" and len(loose.named) >= 2  # the rule is what stops it
-    shrink = (loose.steps[1].gap_before["overall"] - loose.steps[1].gap_after["overall"]) / loose.noise_floor
-    assert shrink < NOISE_SHRINK
+    second = loose.steps[1]
+    part = explained(second.gap_before["overall"], second.gap_after["overall"], loose.noise_floor)
+    assert part == second.evidence["explained_noise_floors"] and part < NOISE_EXPLAINED
     d = diagnose(planted.record, **kwargs)
     assert d.named == ["stribeck_friction"], d.stop_reason
     assert "noise floor" in d.stop_reason and d.stop_reason.endswith(
@@ -471,7 +485,7 @@ def test_time_since_reversal():
         ({"input_gain": 0.0}, ["input_gain"]),
         ({"holdout": 1.5}, ["holdout"]),
         ({"max_steps": -1}, ["max_steps"]),
-        ({"noise_shrink": -0.5}, ["noise_shrink"]),
+        ({"noise_explained": -0.5}, ["noise_explained"]),
         ({"missing_factor": 0.0}, ["missing_factor"]),
         ({"missing_factor": math.nan}, ["missing_factor"]),
     ],

@@ -6,8 +6,10 @@ validation without refitting (``motorid doctor TRAIN --validate VAL``), closes m
 from __future__ import annotations
 
 import importlib.util
+import itertools
 from pathlib import Path
 
+import numpy as np
 import pytest
 from cli_fixtures import run
 from emps_fixtures import real_motor_file
@@ -107,15 +109,16 @@ def kit_runs():
 @needs_kit
 def test_the_kit_motor_gets_one_verdict_from_its_six_records(kit_runs):
     """The teaching-kit motor: two runs each of a 0.5 Hz sine, a 1 Hz sine and a chirp. Each record
-    alone names Coulomb friction first (its lookalike, a dead zone, named by the rule where they fit
-    alike); the joint run names it too, and every effect a record names alone is one the joint run
-    names (the sines add a direction asymmetry; on a chirp it shrinks the gap by less than half a
-    noise floor)."""
+    alone names what the joint run names: Coulomb friction (its lookalike, a dead zone, named by the
+    rule where they fit alike), then the viscous asymmetry between the directions, which accounts
+    for 2.8-3.9 noise floors of the gap on every record (measured; the chirps, with more missing
+    besides, see their gaps shrink by 0.4 floors only)."""
     singles, joint = kit_runs
-    assert joint.named[0] == "coulomb_friction"
+    assert joint.named == ["coulomb_friction", "asymmetric_friction"]
     for path, d in zip(KIT, singles, strict=True):
-        assert d.named[0] == "coulomb_friction", (path.name, d.named)
-        assert set(d.named) <= set(joint.named), (path.name, d.named, joint.named)
+        assert d.named == joint.named, (path.name, d.named)
+        asymmetry = d.steps[1].evidence
+        assert 2.0 < asymmetry["explained_noise_floors"] < 5.0, (path.name, asymmetry)
         # the kinetic friction level of one motor: the records' levels (6.6-7.1 % duty) lie within
         # 6 % of the joint one (6.95 %)
         assert d.model.params["coulomb"] == pytest.approx(joint.model.params["coulomb"], rel=0.06)
@@ -193,24 +196,55 @@ def test_the_kit_records_say_their_inertia_trades_with_the_input_delay_and_agree
 
 
 @needs_kit
-@pytest.mark.xfail(
-    strict=True,
-    reason="measured: the second chirp's kinetic friction, 6.56 % against the joint run's 6.95 %, lies 3.7 of "
-    "its standard errors below it (0.11 %, the uncertainty of the 2 ms delay it took carried in), and the two "
-    "chirps differ by 0.39 % at any one delay from 0 to 2 ms with errors of 0.1 % each: two runs of one signal "
-    "disagree by more than a record's own errors show. The inertia no longer fails: every record says it "
-    "trades with the input delay (J + B τ_d agrees at 0.0066-0.0068)",
-)
-def test_each_kit_record_agrees_with_the_joint_run_within_two_standard_errors(kit_runs):
-    """Each record's inertia and kinetic friction within 2 of its stated standard errors of the
-    joint run's, or flagged as not determined by that record."""
+def test_each_kit_record_agrees_with_the_joint_run_within_its_errors_and_the_spread_between_runs(kit_runs):
+    """Each record's own run (its own delay and effects) measures the motor's kinetic friction and
+    J + B τ_d (what each determines of the inertia) within its stated uncertainty: its standard error
+    and the spread between the records, τ, that the joint run states. Cochran's test of the six
+    own-run values with errors sqrt(σ_i² + τ²) finds one value (measured p = 0.17 and 0.49). With σ_i
+    alone it does not (p = 0.011 and 0.0003): the second chirp's kinetic friction lies 3.2 of its
+    errors below the joint run's, 2.3 with τ. The first chirp's lies above the second's in each
+    third of the sweep (0 to 4.5 Hz over 45 s), each third fitted alone with the joint model's
+    structure (measured by 0.40, 0.48 and 0.20 % duty; 2.4, 2.2 and 0.6 combined errors): the
+    motor's friction changed between the runs, which no fit of one run can state and the joint run
+    states as τ."""
+    from motorid.diagnose.agreement import AGREEMENT_LEVEL, homogeneity
+    from motorid.diagnose.model import fit_model
+    from motorid.diagnose.prepare import prepare
+    from motorid.drive.effects import get as get_effect
+    from motorid.records import read_record
+
     singles, joint = kit_runs
-    for path, d in zip(KIT, singles, strict=True):
-        for name in ("inertia", "coulomb"):
-            if name in d.undetermined:
-                continue
-            off = abs(d.model.params[name] - joint.model.params[name]) / d.param_std[name]
-            assert off < 2.0, (path.name, name, off)
+    spread = {a.parameter: a.spread for a in joint.agreement}
+    own = {
+        "coulomb": [(d.model.params["coulomb"], d.param_std["coulomb"]) for d in singles],
+        "effective_inertia": [
+            (d.delay_trade.effective_inertia, d.delay_trade.effective_inertia_std) for d in singles
+        ],
+    }
+    for name, found in own.items():
+        values, std = (np.array(x) for x in zip(*found, strict=True))
+        assert spread[name] > 0.0
+        _, p, _ = homogeneity(values, np.hypot(std, spread[name]))
+        assert p >= AGREEMENT_LEVEL, (name, p)
+        # without the spread between runs, the same values disagree beyond their errors
+        assert homogeneity(values, std)[1] < 2 * AGREEMENT_LEVEL, name
+    # every record says its inertia is not determined and gives J + B τ_d instead
+    assert all("inertia" in d.undetermined for d in singles)
+    # the chirps' thirds, each fitted alone with the joint structure
+    model = joint.model
+    shape = {p: model.params[p] for n in model.effects for p in get_effect(n).nonlinear}
+    levels = []
+    for path in KIT[4:]:
+        record = read_record(path)
+        t = record["t"].to_numpy()
+        edges = np.linspace(t[0], t[-1] + 1e-9, 4)
+        fits = [
+            fit_model(prepare(record[(t >= a) & (t < b)]).data, model.effects, fixed=shape)
+            for a, b in itertools.pairwise(edges)
+        ]
+        levels.append([(f.model.params["coulomb"], f.param_std["coulomb"]) for f in fits])
+    z = [(a - b) / np.hypot(sa, sb) for (a, sa), (b, sb) in zip(*levels, strict=True)]
+    assert all(x > 0.0 for x in z) and sum(x > 2.0 for x in z) >= 2, z
 
 
 @needs_kit
@@ -236,6 +270,13 @@ def test_the_kit_joint_run_says_on_which_parameters_its_records_agree(kit_runs):
     assert 0.05 < found["viscous_asymmetry"].spread / found["viscous_asymmetry"].joint < 0.2
     assert 0.005 < found["effective_inertia"].spread / found["effective_inertia"].joint < 0.02
     assert found["effective_inertia"].joint == joint.delay_trade.effective_inertia
+    # the spread between the runs (1.5 % of the kinetic friction), and the motor's level with it,
+    # wider than the pooled fit's error: README quotes the line
+    coulomb = found["coulomb"]
+    assert 0.005 < coulomb.spread / coulomb.joint < 0.03
+    assert coulomb.drive_std > 1.2 * coulomb.joint_std
+    readme = " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())
+    assert f"`{coulomb.describe('%')}`" in readme
 
 
 @needs_kit

@@ -103,7 +103,8 @@ class Lookalike:
     levels : dict
         Effect -> the size of the physics in that model [F] (:meth:`Effect.level <motorid.drive.effects.base.Effect.level>`).
     tolerance : float
-        Two gaps closer than this [v] fit alike: ``noise_shrink`` noise floors.
+        Two gaps closer than this [v] fit alike: :data:`~motorid.diagnose.search.ALIKE_GAP`
+        noise floors.
     """
 
     physics: str
@@ -616,7 +617,7 @@ STOP_SENTENCES: dict[str, str] = {
     "all_in_model": "every candidate effect is already in the model (or needs one that is not)",
     "at_noise_floor": (
         "the free-run gap {gap:.4g} {v} is {ratio:.2f} x the noise floor {floor:.4g} {v}: no further effect "
-        "can shrink it by more than {noise_shrink:g} x the noise (and none acts where the noise is lower)"
+        "can account for more than {noise_explained:g} x the noise of it (and none acts where the noise is lower)"
     ),
     "no_evidence": (
         "no candidate passes the evidence threshold: the best, {effect}, has ΔBIC = {delta_bic:.1f} <= {threshold:g}"

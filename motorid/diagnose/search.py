@@ -47,9 +47,43 @@ DEFAULT_THRESHOLD = 10.0
 #: Share of the best candidate's RSS reduction above which two candidates are "alike".
 ALIKE = 0.8
 DEFAULT_BASE = ("viscous_friction", "offset")
-#: Smallest free-run gap shrink of a second or later step, in noise floors σ_w: a second effect
-#: was named on 1 of 900 one-effect records with it, on 14 without (:mod:`.calibration`).
-NOISE_SHRINK = 0.5
+#: Smallest free-run error a second or later effect accounts for (:func:`explained`), in noise
+#: floors σ_w: its own error must exceed the noise (:mod:`.calibration` measures the false
+#: alarms with it and without it). A gap of at most ``sqrt(1 + NOISE_EXPLAINED²)`` floors ends
+#: the search: no model's gap falls below the noise, so no effect can account for more.
+NOISE_EXPLAINED = 1.0
+#: Two candidates of one physics whose free-run gaps lie within this many noise floors of each
+#: other fit alike (the lookalike rule).
+ALIKE_GAP = 0.5
+
+
+def explained(before: float, after: float, floor: float) -> float:
+    """The free-run error an effect accounts for, in noise floors: ``sqrt(g0² - g1²) / σ``.
+
+    An RMS gap ``g0`` [v] holds the effect's own error and everything else the model still
+    misses, which add in quadrature where they are uncorrelated; the effect accounts for the
+    part ``sqrt(g0² - g1²)`` of it, ``g1`` the gap with it. Unlike the shrink ``g0 - g1``, this
+    does not fall as the rest of the gap grows: one effect gets one figure on records of one
+    drive that miss more or less besides (an effect of 1 σ on a gap of 10 σ shrinks it by
+    0.05 σ only).
+
+    Parameters
+    ----------
+    before, after : float
+        The RMS free-run gap [v] without and with the effect.
+    floor : float
+        The noise floor σ [v] it is judged against (0: infinitely many floors).
+
+    Returns
+    -------
+    float
+        The part accounted for in noise floors; negative, ``-sqrt(g1² - g0²) / σ``, where the
+        gap grows.
+    """
+    power = before * before - after * after
+    if floor <= 0:
+        return math.copysign(math.inf, power)
+    return math.copysign(math.sqrt(abs(power)), power) / floor
 
 
 #: The structures tried, each single effect first; the pair only when a single one passes.
@@ -63,7 +97,7 @@ def choose_structure(
     stribeck_shape: str,
     threshold: float,
     min_gap_shrink: float,
-    noise_shrink: float,
+    noise_explained: float,
 ) -> Structure:
     """Choose the input delay and lag of the drive from its records, before friction is judged.
 
@@ -72,7 +106,8 @@ def choose_structure(
     by the bounded search of :func:`~motorid.diagnose.model.fit_model`). A structure is taken
     when its ΔBIC against the probe (for the pair: against the best single effect) exceeds
     ``threshold`` and its free-run output gap shrinks by more than ``min_gap_shrink`` of the
-    probe's and by more than ``noise_shrink`` noise floors: the same rules as a step.
+    probe's and it accounts for more than ``noise_explained`` noise floors of the probe's gap
+    (:func:`explained`): the same rules as a step.
 
     Parameters
     ----------
@@ -88,8 +123,8 @@ def choose_structure(
         ΔBIC a structure needs.
     min_gap_shrink : float
         Smallest relative shrink of the probe's free-run gap.
-    noise_shrink : float
-        Smallest shrink of it in noise floors.
+    noise_explained : float
+        Smallest part of it accounted for, in noise floors (:func:`explained`).
 
     Returns
     -------
@@ -147,15 +182,15 @@ def choose_structure(
     for row in passing:
         names = tuple(row["effects"])
         row["gap"] = gap1 = pool.gaps(fits[names].model, None)["overall"]
-        shrink = (gap_p - gap1) / floor if floor > 0 else math.inf
-        if gap1 < (1.0 - min_gap_shrink) * gap_p and shrink > noise_shrink:
+        part = explained(gap_p, gap1, floor)
+        if gap1 < (1.0 - min_gap_shrink) * gap_p and part > noise_explained:
             reason = (
                 f"chosen from the moving samples: ΔBIC {row['delta_bic']:.1f} > {threshold:g}, free-run gap of "
-                f"{' + '.join(probe)} {gap_p:.4g} -> {gap1:.4g} ({shrink:.1f} noise floors)"
+                f"{' + '.join(probe)} {gap_p:.4g} -> {gap1:.4g} (it accounts for {part:.1f} noise floors)"
             )
             return Structure(names, row["params"], probe, gap_p, gap1, tried, reason)
         reasons.append(
-            f"{'+'.join(names)} (free-run gap {gap_p:.4g} -> {gap1:.4g}, {shrink:.2f} noise floors)"
+            f"{'+'.join(names)} (free-run gap {gap_p:.4g} -> {gap1:.4g}, it accounts for {part:.2f} noise floors)"
         )
     if reasons:
         reason = (
@@ -297,8 +332,8 @@ class StepStart:
     held_error : float
         Its held-out torque-balance error [v/s] (:meth:`Search.held_error`).
     later : bool
-        A second or later step (or a given model with friction of its own): a candidate's gap
-        must shrink by more than ``noise_shrink`` noise floors.
+        A second or later step (or a given model with friction of its own): a candidate must
+        account for more than ``noise_explained`` noise floors of the gap (:func:`explained`).
     held_position : float
         On position records, its free-run position error on held-out halves [m or rad]
         (:func:`~motorid.diagnose.position.held_out_position_error`); NaN otherwise.
@@ -328,6 +363,8 @@ class Decision:
         The step model's and the candidate's gaps in the step's region.
     shrink : float
         The free-run gap's shrink where it is judged, in noise floors of that band.
+    explained : float
+        The part of that gap it accounts for, in the same noise floors (:func:`explained`).
     acts : str
         Where it was judged (empty: everywhere).
     acting : tuple of float or None
@@ -345,6 +382,7 @@ class Decision:
     gap_before: dict[str, float]
     gap_after: dict[str, float]
     shrink: float
+    explained: float
     acts: str
     acting: tuple[float, float, float] | None
     reasons: list[str] = field(default_factory=list)
@@ -366,7 +404,7 @@ class Decision:
             "effect": self.candidate.effect, "delta_bic": self.candidate.delta_bic,
             "held_out_error_before": self.held_before, "held_out_error_after": self.held_after,
             "gap_before": self.gap_before["overall"], "gap_after": self.gap_after["overall"],
-            "gap_shrink_noise_floors": self.shrink,
+            "gap_shrink_noise_floors": self.shrink, "explained_noise_floors": self.explained,
         }  # fmt: skip
         if self.acting is not None:
             before, after, floor = self.acting
@@ -485,8 +523,8 @@ class Search:
         ΔBIC a candidate needs to pass.
     min_holdout_gain, min_gap_shrink : float
         Smallest relative improvement of the held-out error and of the free-run gap.
-    noise_shrink : float
-        Smallest free-run gap shrink of a later step, in noise floors.
+    noise_explained : float
+        Smallest free-run error a later step accounts for, in noise floors (:func:`explained`).
     given : bool
         The model given holds friction of its own (:func:`friction_given`).
     progress : bool
@@ -501,7 +539,7 @@ class Search:
     threshold: float
     min_holdout_gain: float
     min_gap_shrink: float
-    noise_shrink: float
+    noise_explained: float
     given: bool
     progress: bool = False
     fixed: dict[str, float] = field(default_factory=dict)
@@ -559,7 +597,7 @@ class Search:
         bar.set_postfix_str("base structure")
         chosen = choose_structure(
             self.pool, effects, fit.model.params, self.stribeck_shape, self.threshold, self.min_gap_shrink,
-            self.noise_shrink,
+            self.noise_explained,
         )  # fmt: skip
         logger.info("structure: %s", chosen.reason)
         if not chosen.effects:
@@ -776,7 +814,8 @@ class Search:
             ok_gap = after < (1.0 - self.min_gap_shrink) * before
         floor = pool.band_floor(acts)
         shrink = (before - after) / floor if floor > 0 else math.inf
-        ok_noise = not at.later or shrink > self.noise_shrink
+        part = explained(before, after, floor)
+        ok_noise = not at.later or part > self.noise_explained
         why = []
         if not ok_held:
             unit = v + "/s" if not effect.rest_only else pool.units["F"] if acts else v
@@ -785,8 +824,8 @@ class Search:
             why.append(f"free-run gap{where} {after:.4g} vs {before:.4g} {v}")
         elif not ok_noise:
             why.append(
-                f"free-run gap{where} {after:.4g} vs {before:.4g} {v}, a shrink of {shrink:.2f} "
-                f"noise floors{where} ({floor:.3g} {v}), not above {self.noise_shrink:g}"
+                f"free-run gap{where} {after:.4g} vs {before:.4g} {v}: it accounts for {part:.2f} "
+                f"noise floors{where} ({floor:.3g} {v}) of it, not above {self.noise_explained:g}"
             )
         position = None
         if self.position:
@@ -797,7 +836,7 @@ class Search:
                     f"{position_unit(v)}"
                 )
         acting = (before, after, floor) if acts else None
-        return Decision(c, base_held, cand_held, at.gap, gap1, shrink, acts, acting, why, position)
+        return Decision(c, base_held, cand_held, at.gap, gap1, shrink, part, acts, acting, why, position)
 
     def step(
         self, decision: Decision, lookalike: Lookalike | None, at: StepStart, ranking: list[Candidate],
@@ -828,7 +867,8 @@ class Search:
             "delta_bic": c.delta_bic, "threshold": self.threshold, "n": c.evidence["n"],
             "n_eff": c.evidence["n_eff"], "rss_ratio": c.evidence["rss_ratio"],
             "held_out_error_before": decision.held_before, "held_out_error_after": decision.held_after,
-            "gap_shrink_noise_floors": decision.shrink, "noise_floor": pool.noise,
+            "gap_shrink_noise_floors": decision.shrink, "explained_noise_floors": decision.explained,
+            "noise_floor": pool.noise,
             **({} if decision.position is None else {"held_out_position_error_before": decision.position[0],
                                                      "held_out_position_error_after": decision.position[1]}),
             "chosen_by": "free-run gap among alike candidates" if c is not passing[0] else "evidence",
@@ -898,7 +938,7 @@ class Search:
             region = first_region if not steps and not relocate else locate(r_cur, pool.feats_dec, pool.units)
             gap0 = pool.gaps(fit.model, region)
             later = bool(steps) or self.given
-            at_floor = later and gap0["overall"] <= (1.0 + self.noise_shrink) * floor
+            at_floor = later and gap0["overall"] <= math.hypot(1.0, self.noise_explained) * floor
             if at_floor:
                 # at the record-wide floor: only an effect judged where it acts, against the floor
                 # there (near rest, where an encoder's noise is least), can still show
@@ -906,7 +946,7 @@ class Search:
             if at_floor and not remaining:
                 stop = Stop("at_noise_floor", {
                     "gap": gap0["overall"], "ratio": gap0["overall"] / floor, "floor": floor,
-                    "v": pool.units["v"], "noise_shrink": self.noise_shrink,
+                    "v": pool.units["v"], "noise_explained": self.noise_explained,
                 })  # fmt: skip
                 break
             ranking = self.rank(fit, effects, remaining)
@@ -934,7 +974,7 @@ class Search:
                 stop = Stop("no_improvement", {"rejected": ", ".join(reasons)})
                 break
             accepted, lookalike = lookalike_rule(
-                accepted, passing, lambda c, at=at: self.judge(c, at), pool, region, self.noise_shrink * floor,
+                accepted, passing, lambda c, at=at: self.judge(c, at), pool, region, ALIKE_GAP * floor,
                 effects,
             )  # fmt: skip
             steps.append(self.step(accepted, lookalike, at, ranking, passing))
@@ -947,9 +987,10 @@ class Search:
 
 __all__ = [
     "ALIKE",
+    "ALIKE_GAP",
     "DEFAULT_BASE",
     "DEFAULT_THRESHOLD",
-    "NOISE_SHRINK",
+    "NOISE_EXPLAINED",
     "STRUCTURES",
     "Candidate",
     "Decision",
@@ -959,6 +1000,7 @@ __all__ = [
     "candidate_names",
     "choose_structure",
     "effect_names",
+    "explained",
     "friction_given",
     "lookalike_rule",
 ]
