@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 from cli_fixtures import run
+from drive_fixtures import COULOMB, one_drive_records
 
 from motorid.diagnose import diagnose
 from motorid.diagnose.agreement import AGREEMENT_LEVEL, homogeneity
@@ -16,7 +17,6 @@ from motorid.diagnose.model import fit_model
 from motorid.diagnose.synthetic import planted_record
 from motorid.records import write_record
 
-COULOMB = 8e-3  # N m, planted
 LABELS = ["a.csv", "b.csv", "c.csv"]
 
 
@@ -41,10 +41,7 @@ def test_homogeneity_equals_its_closed_forms():
 @pytest.fixture(scope="module")
 def one_drive():
     """Three records of one drive with Coulomb friction: three excitations and noise draws."""
-    return [
-        planted_record("coulomb_friction", 3, sizes={"coulomb": COULOMB}, excitation_seed=k)
-        for k in (1, 2, 3)
-    ]
+    return one_drive_records()
 
 
 def test_records_of_one_drive_agree_and_each_is_the_record_fitted_alone_with_the_joint_structure(one_drive):

@@ -10,24 +10,19 @@ import numpy as np
 import pandas as pd
 import pytest
 from cli_fixtures import run
+from drive_fixtures import COULOMB, one_drive_records
 
 from motorid.diagnose import diagnose
 from motorid.diagnose.model import PooledBalance, fit_model
-from motorid.diagnose.synthetic import planted_record
 from motorid.diagnose.workflow import free_run_error, prepare
 from motorid.drive.effects import get as get_effect
 from motorid.records import write_record
-
-COULOMB = 8e-3  # N m, planted
 
 
 @pytest.fixture(scope="module")
 def drive():
     """Three records of one drive with Coulomb friction: three excitations and noise draws."""
-    return [
-        planted_record("coulomb_friction", 3, sizes={"coulomb": COULOMB}, excitation_seed=k)
-        for k in (1, 2, 3)
-    ]
+    return one_drive_records()
 
 
 def test_a_pooled_fit_is_the_compensated_least_squares_of_the_stacked_rows(drive):
