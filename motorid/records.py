@@ -46,7 +46,7 @@ import pandas as pd
 
 from motorid.errors import DataError
 from motorid.json_input import parse_json
-from motorid.units import TIME_UNITS
+from motorid.units import INPUT_UNITS, OUTPUT_UNITS, TIME_UNITS
 
 logger = logging.getLogger(__name__)
 
@@ -1373,14 +1373,53 @@ def steps_off_grid(
     return deviation, jittered, gaps, odd
 
 
+#: The units a named column's header may end with, in brackets, by canonical column.
+HEADER_UNITS: dict[str, tuple[str, ...]] = {
+    "t": tuple(TIME_UNITS),
+    "u": tuple(INPUT_UNITS),
+    "y": tuple(OUTPUT_UNITS),
+}
+#: How headers also write some of them: ``µs``, and revolutions per minute as ``1/min`` or ``U/min``.
+HEADER_ALIASES: dict[str, str] = {"µs": "us", "μs": "us", "1/min": "rpm", "U/min": "rpm"}
+
+
+def header_unit(column: str, canonical: str) -> str | None:
+    """The unit a column's header ends with, ``Zeit [ms]`` or ``speed (rpm)``, when it is one of
+    :data:`HEADER_UNITS` for the ``canonical`` column (or a :data:`HEADER_ALIASES` of one); None
+    otherwise.
+
+    Parameters
+    ----------
+    column : str
+        The column's name in the file.
+    canonical : {"t", "u", "y"}
+        What it is read as.
+    """
+    found = re.search(r"[\[(]\s*([^\[\]()]+?)\s*[\])]\s*$", column)
+    if found is None:
+        return None
+    unit = HEADER_ALIASES.get(found.group(1), found.group(1))
+    return unit if unit in HEADER_UNITS.get(canonical, ()) else None
+
+
 def named_attrs(name: str, attrs: dict[str, Any], options: RecordOptions, names: dict[str, str]) -> None:
     """``attrs`` with the units of the named columns under their canonical names (``names``:
-    ``t``, ``u``, ``y`` -> the name in the file); a ``dt`` asked for that the file contradicts is refused."""
+    ``t``, ``u``, ``y`` -> the name in the file), a unit the file does not give taken from the
+    column's header where it ends with one (:func:`header_unit`); a ``dt`` asked for that the file
+    contradicts is refused. The options (``time_unit`` ...) override either."""
     units = attrs.get("units")
     if isinstance(units, dict):  # the units of the named columns follow them to their new names
         renamed = {v: k for k, v in names.items()}
         attrs["units"] = {k: v for k, v in units.items() if k not in renamed}
         attrs["units"].update({renamed[k]: v for k, v in units.items() if k in renamed})
+    from_headers = {
+        canonical: unit
+        for canonical, column in names.items()
+        if (unit := header_unit(column, canonical)) is not None
+        and canonical not in (attrs.get("units") or {})
+    }
+    if from_headers:
+        attrs["units"] = {**(attrs.get("units") or {}), **from_headers}
     dt, file_dt = options.dt, attrs.get("dt")
     if dt is not None and file_dt is not None and not math.isclose(dt, file_dt, rel_tol=options.dt_rtol):
         raise DataError(f"dt = {dt!r} was asked for but {name} says dt = {file_dt!r}")

@@ -426,3 +426,50 @@ def test_the_records_own_attrs_name_the_time_unit(tmp_path):
     np.testing.assert_array_equal(rec["t"], np.arange(n) * 10 * 1e-3)
     with pytest.raises(DataError, match="--time-unit"):  # the option overrides the attrs
         read_record(tmp_path / "ms.csv", time_unit="s")
+
+
+def test_a_unit_in_brackets_at_the_end_of_a_named_columns_header_is_read_as_its_unit(
+    tmp_path, planted, capsys
+):
+    """``Zeit [ms]``, ``PWM (%)``, ``Drehzahl [rpm]``: with the columns named and no unit option, the
+    headers say the units; an option overrides its header; a bracket that names no unit motorid
+    knows for that column (``[sec]``, ``[counts/s]``) says nothing."""
+    rec = planted.record
+    path = tmp_path / "headers.csv"
+    pd.DataFrame({
+        "Zeit [ms]": 5_000 + 10 * np.arange(len(rec)), "PWM (%)": rec["u"] / SUPPLY * 100,
+        "Drehzahl [rpm]": rec["y"] * RPM, "Strom [A]": 0.0,
+    }).to_csv(path, sep=";", decimal=",", index=False)  # fmt: skip
+    names = {"time": "Zeit [ms]", "input": "PWM (%)", "output": "Drehzahl [rpm]"}
+    got = read_record(path, **names, supply_voltage=SUPPLY)
+    assert got.attrs["dt"] == DT and got.attrs["time_origin"] == pytest.approx(5.0)
+    assert got.attrs["units"] == {"t": "s", "u": "V", "y": "rad/s"}
+    assert got.attrs["converted_from"] == {"t": "ms", "u": "%", "y": "rpm"}
+    # against the simulated record: rpm -> rad/s and duty -> volts, independently of the reader
+    np.testing.assert_allclose(got["y"], rec["y"], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(got["u"], rec["u"], rtol=1e-9, atol=1e-12)
+    # the option wins over the header: the speed read as it stands, in rad/s
+    as_given = read_record(path, **names, supply_voltage=SUPPLY, output_unit="rad/s")
+    np.testing.assert_allclose(as_given["y"], rec["y"] * RPM, rtol=1e-9)
+    # the command line alike: the doctor's forces in volts, its speed in rad/s, with no unit option
+    code, out, err = run(capsys, "doctor", str(path), "--time", "Zeit [ms]", "--input", "PWM (%)", "--output",
+                         "Drehzahl [rpm]", "--supply-voltage", str(SUPPLY), "--max-steps", "0", "--json")  # fmt: skip
+    assert code == 0, err
+    assert out["settings"]["dt"] == pytest.approx(DT)
+    assert out["units"]["velocity"] == "rad/s" and out["units"]["input"] == "V"
+    # revolutions per minute as a spreadsheet writes them, and µs
+    for header in ("n [1/min]", "n [U/min]"):
+        pd.DataFrame(
+            {"t [µs]": 10_000 * np.arange(len(rec)), "u [V]": rec["u"], header: rec["y"] * RPM}
+        ).to_csv(tmp_path / "alias.csv", index=False)
+        alias = read_record(tmp_path / "alias.csv", time="t [µs]", input="u [V]", output=header)
+        assert alias.attrs["dt"] == DT and alias.attrs["converted_from"] == {"t": "us", "y": "rpm"}
+        np.testing.assert_allclose(alias["y"], rec["y"], rtol=1e-9, atol=1e-12)
+    # brackets that name no unit of that column leave it unnamed
+    other = tmp_path / "other.csv"
+    pd.DataFrame({"t [sec]": rec["t"], "u [V]": rec["u"], "n [counts/s]": rec["y"]}).to_csv(
+        other, index=False
+    )
+    plain = read_record(other, time="t [sec]", input="u [V]", output="n [counts/s]")
+    assert plain.attrs["units"] == {"t": "s", "u": "V"}  # t in s by default, y unnamed
+    np.testing.assert_allclose(plain["y"], rec["y"], rtol=1e-12)
