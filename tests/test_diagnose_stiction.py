@@ -205,3 +205,27 @@ def test_the_stiction_calibration_prints_what_it_measured(capsys):
     assert abs(st.level_ratio[1] - 1.0) <= 0.15
     assert main(["--seeds", "1", "--first", "5000", "--sensor", "encoder"]) == 0
     assert "no-effect records: 1, named something on 0" in capsys.readouterr().out
+
+
+WHEEL = real_motor_file("wheel_free_validation_motor2.csv")
+
+
+@pytest.mark.skipif(not WHEEL.exists(), reason=f"real motor data not found at {WHEEL.parent}")
+def test_breakaways_at_one_held_input_level_are_as_uncertain_as_the_inputs_step():
+    """A wheel motor's duty is an integer %, held 30 samples: its typical rests break away at one
+    held level, so their fitted breakaway passes through them exactly (a residual of rounding
+    only, which differs from CPU to CPU). Its standard error is the duty's rounding instead,
+    1 % / sqrt(12 n); the kit motor's input, not quantised, adds nothing."""
+    from motorid.diagnose.measures import _breakaway_fit, _typical, breakaway
+    from motorid.records import read_record
+
+    d = diagnose(read_record(WHEEL), input_unit="%", output_unit="rev/s")
+    pool = d._pool
+    assert pool.input_quantisation == pytest.approx(1.0, rel=1e-9)
+    found = breakaway(pool, d.model)
+    _, cov, rss = _breakaway_fit(*_typical(*pool.breakaway_excess(d.model)))
+    assert math.sqrt(cov[0, 0]) < 1e-9 and rss < 1e-20  # exact up to rounding
+    assert found.standard_error == pytest.approx(d.model.params["input_gain"] / math.sqrt(12.0 * found.rests))
+    assert d.rests[0]["breakaway_excess_std"] == found.standard_error
+    kit = diagnose(read_record(KIT_CHIRP), input_unit="%", max_steps=1)
+    assert kit._pool.input_quantisation == 0.0

@@ -142,7 +142,11 @@ class Breakaway:
     excess : float
         ΔF_s [F] (NaN for fewer than 3 rests, or rates that do not spread).
     standard_error : float
-        Standard error of ΔF_s [F] from the fit's residual.
+        Standard error of ΔF_s [F] from the fit's residual, and at least ``g q / sqrt(12 n)``
+        where the input is quantised in steps ``q`` [u] (an integer PWM duty; ``g`` the input
+        gain [F/u], n the rests): each breakaway's input is known only to within a step
+        (rounding's standard deviation ``q / sqrt(12)``), so rests that break away at one held
+        level, which agree exactly, do not make ΔF_s exact.
     lag : float
         τ [s].
     shown : bool
@@ -219,6 +223,7 @@ def breakaway(pool: Pool, model: RigidDrive, samples: list[np.ndarray] | None = 
     se = math.sqrt(cov[0, 0])
     if not math.isfinite(se):  # the rates cannot tell a level from a lag
         return Breakaway(n, math.nan, math.inf, math.nan, False)
+    se = max(se, model.params.get("input_gain", 1.0) * pool.input_quantisation / math.sqrt(12.0 * n))
     level = float(coef[0])
     return Breakaway(n, level, se, float(coef[1]), n >= MIN_RESTS and level > 2.0 * se)
 

@@ -68,6 +68,8 @@ class Prepared:
         One line per logging artefact left out (:mod:`.artefacts`).
     quantisation : float or None
         The output's quantisation step [its unit], when it shows.
+    input_quantisation : float or None
+        The input's quantisation step [its unit] (an integer PWM duty), when it shows.
     rests : Rests or None
         The record's rests (:func:`rests_of`).
     """
@@ -79,6 +81,7 @@ class Prepared:
     units: dict[str, str]
     notes: list[str] = field(default_factory=list)
     quantisation: float | None = None
+    input_quantisation: float | None = None
     rests: Rests | None = None
     _masks: dict[Region, np.ndarray] = field(default_factory=dict, repr=False)
     _gaps: dict[tuple, tuple[dict[str, float], dict[str, float]]] = field(default_factory=dict, repr=False)
@@ -231,7 +234,7 @@ def prepare(
     data = BalanceData(kin, float(input_gain))
     feats = features(kin.w, kin.a, kin.u, dt, data.w_threshold, at=data.idx)
     step = quantisation_step(y)
-    return Prepared(kin, data, feats, timing, units, notes, step, rests_of(kin, step))
+    return Prepared(kin, data, feats, timing, units, notes, step, quantisation_step(u), rests_of(kin, step))
 
 
 def rests_of(kin: Kinematics, step: float | None) -> Rests:
@@ -424,6 +427,11 @@ class Pool:
             out.append(np.where(r.direction > 0, force - (t_pos + ripple), force + (t_neg + ripple)))
             rates.append(r.direction * np.gradient(f_in, p.kin.dt)[r.stop])
         return stacked(out), stacked(rates)
+
+    @property
+    def input_quantisation(self) -> float:
+        """The largest quantisation step of the records' inputs [input unit], 0 where none shows."""
+        return max((p.input_quantisation or 0.0 for p in self.parts), default=0.0)
 
     @property
     def quantisation(self) -> float | None:
