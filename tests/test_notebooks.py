@@ -72,9 +72,11 @@ def kernel_env(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     )
     monkeypatch.setenv("JUPYTER_PATH", str(tmp_path / "jupyter"))
     monkeypatch.setenv("MPLBACKEND", "Agg")
-    data = emps_folder()  # notebook 03 reads EMPS from MOTORID_DATA and skips that part without it
+    # notebook 03 reads EMPS and the kit motor's records from MOTORID_DATA (the folder holding
+    # emps/ and realmotors/) and skips each part without them
+    data = emps_folder()
     if data is not None:
-        monkeypatch.setenv(DATA_ENV_VAR, str(data))
+        monkeypatch.setenv(DATA_ENV_VAR, str(data.parent if data.name == "emps" else data))
     work = tmp_path / "work"
     work.mkdir()
     return work
