@@ -73,7 +73,8 @@ def row(motor: str, run: str, d, seconds: float) -> str:
     kinetic = params.get("coulomb", params.get("input_gain", 1.0) * params.get("dead_zone", float("nan")))
     k_std = std.get("coulomb", float("nan"))
     kinetic_cell = f"{kinetic:.3g} ± {k_std:.2g}"
-    spread = {a.parameter: a for a in d.agreement}.get("coulomb")
+    runs_of = {a.parameter: a for a in d.agreement}  # the joint run: how its records spread
+    spread = runs_of.get("coulomb")
     if spread is not None and spread.spread > 0.0:  # the joint run: the spread between the runs
         kinetic_cell += f" (runs spread {spread.spread:.2g}: ± {spread.drive_std:.2g})"
     floors = d.final_gap["overall"] / d.noise_floor
@@ -82,7 +83,7 @@ def row(motor: str, run: str, d, seconds: float) -> str:
     trade = d.delay_trade
     if "inertia" in d.undetermined and trade is not None and trade.inertia_traded:
         effective = f"{trade.effective_inertia:.3g} ± {trade.effective_inertia_std:.2g}"
-        runs = {a.parameter: a for a in d.agreement}.get("effective_inertia")
+        runs = runs_of.get("effective_inertia")
         if runs is not None and runs.spread > 0.0:
             effective += f" (runs spread {runs.spread:.2g}: ± {runs.drive_std:.2g})"
         inertia = f"n.d. ({share}; fit {inertia}; J + B τ_d = {effective})"
