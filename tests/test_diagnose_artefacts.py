@@ -11,7 +11,7 @@ from cli_fixtures import run
 from emps_fixtures import real_motor_file
 
 from motorid.diagnose import diagnose
-from motorid.diagnose.artefacts import clean_output, dropout_spikes, held_start
+from motorid.diagnose.artefacts import clean_output, dropout_spikes, held_start, stale_start
 from motorid.diagnose.synthetic import planted_record
 from motorid.records import write_record
 
@@ -46,6 +46,40 @@ def test_a_held_start_is_left_out_with_a_note_and_the_verdict_is_the_clean_recor
     # the samples left are the clean record's: the same figures, bit for bit
     assert d.named == clean.named and d.final_gap == clean.final_gap and d.model.params == clean.model.params
     assert d.to_dict()["notes"] == d.notes and "notes" not in clean.to_dict()
+
+
+@pytest.mark.parametrize("samples", [3, 8, 84])
+def test_a_stale_start_is_left_out_with_a_note_and_the_verdict_is_the_clean_records(planted, samples):
+    """The previous run's last speed, -205 rad/s, read for the first samples while the input is 0
+    (the start of the planted record is at rest under 0 V)."""
+    rec = planted.record
+    dt = rec.attrs["dt"]
+    head = pd.DataFrame({"t": np.arange(samples) * dt, "u": 0.0, "y": -205.0})
+    start = rec.iloc[:1].assign(u=0.0, y=0.0)  # the drive at rest: the value the link reads next
+    tail = rec.assign(t=rec["t"] + (samples + 1) * dt)
+    bad = pd.concat([head, start.assign(t=samples * dt), tail], ignore_index=True)
+    bad.attrs = dict(rec.attrs)
+    u, y = bad["u"].to_numpy(), bad["y"].to_numpy()
+    assert stale_start(u, y) == samples
+    d = diagnose(bad, input_gain=planted.input_gain)
+    assert d.notes == [
+        f"the output reads -205 rad/s over the first {samples} samples ({samples * dt:.3g} s) under a constant "
+        "input (0 V) and then leaves it at once: a stale value of an earlier run, left out"
+    ]
+    clean = pd.concat([start, rec.assign(t=rec["t"] + dt)], ignore_index=True)
+    clean.attrs = dict(rec.attrs)
+    clean = diagnose(clean, input_gain=planted.input_gain)
+    assert d.named == clean.named and d.model.params == clean.model.params
+
+
+def test_a_drive_turning_steadily_at_the_start_is_not_a_stale_start():
+    """A quantised speed held over many samples under a constant input, then one count away, is a
+    drive at speed; a drive slowing under 0 V from its first sample is too."""
+    u = np.full(200, 3.0)
+    y = np.concatenate([np.full(50, 120.0), np.full(150, 120.767)])
+    assert stale_start(u, y) == 0
+    y_slow = 100.0 * np.exp(-np.arange(200) * 0.05)
+    assert stale_start(np.zeros(200), y_slow) == 0
 
 
 def test_a_resting_start_under_a_small_input_is_kept():

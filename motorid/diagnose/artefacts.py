@@ -9,6 +9,13 @@
   which the drive rests later in the record (the output reads zero for at least
   :data:`MIN_HELD` samples in a row; a drive at rest under an input below its breakaway level is
   physics and is kept).
+- **A stale start**: a serial link that keeps the last value of the previous run reports it for
+  the first samples of the next (the kit's logger: -205 rad/s at u = 0 for 8-84 ms). The first
+  k0 >= :data:`MIN_STALE` samples hold one output value, not zero, while the input stays
+  constant, and the output then leaves it by more than :data:`STALE_JUMP` of it within
+  :data:`STALE_SAMPLES` samples, faster than the drive slows down: a drive turning at y_0 under a
+  constant input does not read y_0 exactly k0 times and then lose half of it. Those samples
+  are left out.
 - **Drop-out spikes**: a serial link that loses a sample reports one value far from both its
   neighbours, which agree with each other. Sample k is one when
 
@@ -36,6 +43,12 @@ INPUT_MOVES = 0.05
 #: A held zero start is an artefact when the input reaches beyond this many times the largest
 #: input under which the drive rests later (a breakaway a little higher than elsewhere is kept).
 REST_MARGIN = 1.2
+#: Fewest samples of a stale start.
+MIN_STALE = 3
+#: A stale start's value is left by more than this share of it ...
+STALE_JUMP = 0.5
+#: ... within this many samples after it.
+STALE_SAMPLES = 3
 #: A spike deviates from its neighbours' mean by more than this many robust deviations: for
 #: Gaussian noise a false alarm once in about 10^23 samples.
 SPIKE_FACTOR = 10.0
@@ -69,6 +82,27 @@ def held_start(u: np.ndarray, y: np.ndarray) -> int:
     runs = [(a, b) for a, b in zip(edges[::2], edges[1::2], strict=True) if b - a >= MIN_HELD]
     rest_input = max((float(np.max(np.abs(u[k0 + a : k0 + b]))) for a, b in runs), default=0.0)
     return k0 if float(np.max(np.abs(u[:k0]))) > REST_MARGIN * rest_input else 0
+
+
+def stale_start(u: np.ndarray, y: np.ndarray) -> int:
+    """Number of samples at the start of a record whose output is the previous run's last value
+    (see the module notes); 0 for none.
+
+    Parameters
+    ----------
+    u, y : ndarray
+        The record's input and output.
+    """
+    if y.size <= MIN_STALE + STALE_SAMPLES or y[0] == 0.0:
+        return 0
+    changes = np.flatnonzero(y != y[0])
+    if changes.size == 0 or changes[0] < MIN_STALE:
+        return 0
+    k0 = int(changes[0])
+    if np.ptp(u[:k0]) > 0.0:
+        return 0
+    after = y[k0 : k0 + STALE_SAMPLES]
+    return k0 if float(np.max(np.abs(after - y[0]))) > STALE_JUMP * abs(float(y[0])) else 0
 
 
 def dropout_spikes(y: np.ndarray) -> np.ndarray:
@@ -119,6 +153,14 @@ def clean_output(
             f"input moves (to {np.max(np.abs(u[:k0])):.3g}{u_unit}): a logging artefact, left out"
         )
         u, y = u[k0:], y[k0:]
+    stale = stale_start(u, y) if start else 0
+    if stale:
+        notes.append(
+            f"the output reads {y[0]:.4g}{y_unit} over the first {stale} samples ({stale * dt:.3g} s) under a "
+            f"constant input ({u[0]:.3g}{u_unit}) and then leaves it at once: a stale value of an earlier run, "
+            "left out"
+        )
+        u, y, k0 = u[stale:], y[stale:], k0 + stale
     spikes = dropout_spikes(y)
     if spikes.size:
         y = y.copy()
@@ -132,4 +174,4 @@ def clean_output(
     return u, y, notes
 
 
-__all__ = ["clean_output", "dropout_spikes", "held_start"]
+__all__ = ["clean_output", "dropout_spikes", "held_start", "stale_start"]
