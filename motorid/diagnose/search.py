@@ -86,6 +86,12 @@ def explained(before: float, after: float, floor: float) -> float:
     return math.copysign(math.sqrt(abs(power)), power) / floor
 
 
+def figure(value: float) -> str:
+    """A gap or an error for a sentence: four significant digits, or ``diverges`` where the free
+    run that measures it did not stay finite (a report never says ``nan``)."""
+    return f"{value:.4g}" if math.isfinite(value) else "diverges"
+
+
 #: The structures tried, each single effect first; the pair only when a single one passes.
 STRUCTURES: tuple[tuple[str, ...], ...] = (("input_delay",), ("input_lag",), ("input_delay", "input_lag"))
 
@@ -819,12 +825,12 @@ class Search:
         why = []
         if not ok_held:
             unit = v + "/s" if not effect.rest_only else pool.units["F"] if acts else v
-            why.append(f"held-out error {cand_held:.4g} vs {base_held:.4g} {unit}")
+            why.append(f"held-out error {figure(cand_held)} vs {figure(base_held)} {unit}")
         if not ok_gap:
-            why.append(f"free-run gap{where} {after:.4g} vs {before:.4g} {v}")
+            why.append(f"free-run gap{where} {figure(after)} vs {figure(before)} {v}")
         elif not ok_noise:
             why.append(
-                f"free-run gap{where} {after:.4g} vs {before:.4g} {v}: it accounts for {part:.2f} "
+                f"free-run gap{where} {figure(after)} vs {figure(before)} {v}: it accounts for {part:.2f} "
                 f"noise floors{where} ({floor:.3g} {v}) of it, not above {self.noise_explained:g}"
             )
         position = None

@@ -397,6 +397,7 @@ def diagnose(
         final_gap = pool.gaps(final_model, first_region)
     else:
         final_gap = dict(initial_gap if refitted_gap is None else refitted_gap)
+    refuse_unphysical(final_model, final_gap["overall"], pool.units)
     final_region = locate(pool.balance_residual(final_model)[0], pool.feats_dec, pool.units)
     stop_reason = outcome.stop.sentence() + "; " + final_gap_sentence(
         final_gap["overall"], pool.gaps(final_model, final_region)["region"], final_region, pool.noise,
@@ -432,6 +433,37 @@ def diagnose(
         pool, final_model, diagnosis.param_std, set(diagnosis.undetermined), diagnosis.delay_trade
     )
     return diagnosis
+
+
+def refuse_unphysical(model: RigidDrive, gap: float, units: dict[str, str]) -> None:
+    """Refuse a record that no drive model describes: the fit's inertia is not positive, or the
+    final model's free run does not stay finite. A report then holds no ``nan`` and a model file
+    no negative inertia; the :class:`~motorid.errors.DataError` says what the record shows and
+    what to do.
+
+    Parameters
+    ----------
+    model : RigidDrive
+        The final model.
+    gap : float
+        Its free-run gap [v].
+    units : dict
+        The pool's units (``v``, ``F``, ``u``).
+    """
+    inertia = float(model.params["inertia"])
+    if inertia > 0.0 and math.isfinite(gap):
+        return
+    shown = (
+        f"the fitted inertia is {inertia:.3g} {units['F']} s²/{units['v']}, not physical"
+        if not inertia > 0.0
+        else "the final model's free run does not stay finite"
+    )
+    raise DataError(
+        f"no drive model describes this record: {shown}. The output does not follow the input as a "
+        "driven mass does: check that the output is the speed (or with output_kind the position) of "
+        "the drive the input drives, with the sign the input turns it, and that the input is the "
+        "command averaged over whole PWM periods"
+    )
 
 
 #: The doctor's names, importable from here as from their stages (:mod:`.prepare`,
