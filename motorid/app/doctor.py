@@ -52,6 +52,9 @@ class DoctorOptions:
     structure : bool
         Choose the input delay and lag from the record first; False is ``--no-structure``
         (the base as given).
+    align : bool
+        Where a record's input delay drifts along it (a logger's time base), put its output back
+        on the input's time and diagnose again (:func:`motorid.diagnose.diagnose`'s ``align``).
     model : Path, optional
         A drive model file to start from, a rigid drive (``motorid doctor --save-model`` writes
         one) or a two-mass rig (``motorid simulate --save-model``); its effects are the base, so
@@ -66,6 +69,7 @@ class DoctorOptions:
     max_steps: int = 3
     timing: Literal["hold", "sampled", "auto"] | None = None
     structure: bool = True
+    align: bool = False
     model: Path | None = None
 
     #: The command whose work this is (a fleet's rows say it).
@@ -112,7 +116,7 @@ class DoctorOptions:
             base=None if self.base is None else list(self.base),
             candidates=None if not self.candidates else list(self.candidates), holdout=self.holdout,
             max_steps=self.max_steps, progress=progress, timing=self.timing, model=self.start_model(),
-            structure=self.structure, labels=labels,
+            structure=self.structure, labels=labels, align=self.align,
         )  # fmt: skip
 
     def start_model(self) -> Any:

@@ -54,7 +54,7 @@ def doctor_options_from_args(args: argparse.Namespace) -> DoctorOptions:
     return DoctorOptions(
         output_kind=args.output_kind, input_gain=args.input_gain, base=base, candidates=candidates,
         holdout=args.holdout, max_steps=args.max_steps, timing=args.timing, structure=not args.no_structure,
-        model=model,
+        align=args.align, model=model,
     )  # fmt: skip
 
 
@@ -243,6 +243,10 @@ def add_doctor_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-structure", action="store_true",
                         help="keep the base as given: do not choose an input delay and lag from the record "
                              "before judging friction")  # fmt: skip
+    parser.add_argument("--align", action="store_true",
+                        help="where a record's input delay drifts along it (a logger's time base: the "
+                             "report says so either way), put its output back on the input's time and "
+                             "diagnose again")  # fmt: skip
     parser.add_argument("--model", type=Path, metavar="FILE",
                         help="start from your own drive model file, a rigid drive or a two-mass rig (searched "
                              "on its rigid equivalent): the first gap is it as given")  # fmt: skip

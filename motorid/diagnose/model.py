@@ -66,6 +66,23 @@ logger = logging.getLogger(__name__)
 CACHE_BYTES = 256e6
 
 
+#: The longest input delay searched: this share of the record's settled span ...
+DELAY_SHARE = 0.01
+#: ... and at least this many samples (a driver's or a controller's latency), ...
+DELAY_SAMPLES = 20
+#: ... and at most this long [s] (a logger's delay on a small motor's bench reaches 200 ms).
+DELAY_LONGEST = 0.5
+
+
+def delay_reach(dt: float, samples: int) -> float:
+    """Upper end of the input delay's search [s]: :data:`DELAY_SHARE` of the record's ``samples``
+    settled samples of ``dt`` [s], at least :data:`DELAY_SAMPLES` samples and at most
+    :data:`DELAY_LONGEST` (and never below the 20 samples), so a logger's delay of 100-200 ms at
+    1 kHz is inside it; a delay found at its upper end is said
+    (:attr:`~motorid.diagnose.results.Structure.at_reach`)."""
+    return max(DELAY_SAMPLES * dt, min(DELAY_SHARE * samples * dt, DELAY_LONGEST))
+
+
 @dataclass
 class BalanceData:
     """The inverse-dynamics data of one record: decimated acceleration, velocity and masks.
@@ -118,6 +135,7 @@ class BalanceData:
             "w_noise": kin.noise,
             "u_max": float(np.max(np.abs(u))) if u.size else 1.0,
             "dt": kin.dt,
+            "delay_reach": delay_reach(kin.dt, int(kin.valid.sum())),
             "dt_band": kin.dt * kin.factor,
             "band": kin.band,
             "q_span": float(np.ptp(q)) if q.size else 0.0,
@@ -193,6 +211,7 @@ class PooledBalance:
             "w_max": max(p.scale["w_max"] for p in self.parts),
             "u_max": max(p.scale["u_max"] for p in self.parts),
             "q_span": max(p.scale["q_span"] for p in self.parts),
+            "delay_reach": max(p.scale["delay_reach"] for p in self.parts),
             "w_noise": self.noise,
         }
 

@@ -21,6 +21,7 @@ from motorid.diagnose.locate import Region
 from motorid.diagnose.measures import breakaway, gaps
 from motorid.diagnose.model import DelayTrade
 from motorid.diagnose.prepare import Pool, prepare
+from motorid.diagnose.timing import DelayDrift
 from motorid.drive.effects import param_unit
 from motorid.drive.rigid import RigidDrive
 from motorid.drive.two_mass import TwoMassRig
@@ -63,6 +64,9 @@ class Structure:
         probe, or against the best single effect for the pair) and ``gap`` [v].
     reason : str
         Why this structure.
+    reach : float
+        The upper end of the input delay's search [s]
+        (:func:`~motorid.diagnose.model.delay_reach`; NaN where not searched).
     """
 
     effects: tuple[str, ...] = ()
@@ -72,18 +76,32 @@ class Structure:
     gap_after: float = float("nan")
     candidates: list[dict[str, Any]] = field(default_factory=list)
     reason: str = "not searched"
+    reach: float = float("nan")
+
+    @property
+    def at_reach(self) -> bool:
+        """Whether the delay taken lies at the upper end of its search (within 2 %): the record's
+        delay may be longer than the search let it be."""
+        return self.params.get("input_delay", 0.0) >= 0.98 * self.reach
 
     def describe(self, dt: float) -> str:
         """One line for the report, e.g. ``input_delay = 0.012 s (1.20 samples)``."""
         if not self.effects:
             return "no input delay or lag"
-        return ", ".join(f"{p} = {v:.4g} s ({v / dt:.2f} samples)" for p, v in self.params.items())
+        line = ", ".join(f"{p} = {v:.4g} s ({v / dt:.2f} samples)" for p, v in self.params.items())
+        if self.at_reach:
+            line += (
+                f"; the delay sits at the end of its search, {self.reach:.4g} s: the record's may be longer "
+                "(a logger's delay: correct the record's timing)"
+            )
+        return line
 
     def to_dict(self) -> dict[str, Any]:
         return {
             "effects": list(self.effects), "params": self.params, "probe": list(self.probe),
             "gap_before": self.gap_before, "gap_after": self.gap_after,
-            "candidates": self.candidates, "reason": self.reason,
+            "candidates": self.candidates, "reason": self.reason, "delay_reach": self.reach,
+            "delay_at_reach": self.at_reach,
         }  # fmt: skip
 
 
@@ -276,6 +294,10 @@ class Diagnosis:
         record fitted alone with the joint model's structure (:mod:`.agreement`: Cochran's test
         of one common value, the spread between the records beyond their errors, the records
         that lie off). Empty for one record.
+    delay_drift : list of DelayDrift
+        The records whose input delay drifts along them (:func:`~motorid.diagnose.timing.delay_drift`:
+        a logger's time base); each is said in :attr:`notes`. Empty where none drifts. With
+        ``align``, the drifts taken out before the records were diagnosed again.
     """
 
     initial_gap: dict[str, float]
@@ -306,6 +328,7 @@ class Diagnosis:
     position_model: RigidDrive | None = None
     position_error: dict[str, float] | None = None
     agreement: list[Agreement] = field(default_factory=list)
+    delay_drift: list[DelayDrift] = field(default_factory=list)
     _pool: Pool | None = field(default=None, repr=False)
 
     @property
@@ -439,6 +462,7 @@ class Diagnosis:
             **({"agreement": {a.parameter: a.to_dict() for a in self.agreement}} if self.agreement else {}),
             **({"lookalikes": [x.to_dict() for x in self.lookalikes]} if self.lookalikes else {}),
             **({"notes": self.notes} if self.notes else {}),
+            **({"delay_drift": [x.to_dict() for x in self.delay_drift]} if self.delay_drift else {}),
             **({"two_mass_rig": self._rig_dict()} if self.rig is not None else {}),
             **({"position_refit": self._position_dict()} if self.position_model is not None else {}),
         }

@@ -194,7 +194,9 @@ def choose_structure(
                 f"chosen from the moving samples: ΔBIC {row['delta_bic']:.1f} > {threshold:g}, free-run gap of "
                 f"{' + '.join(probe)} {gap_p:.4g} -> {gap1:.4g} (it accounts for {part:.1f} noise floors)"
             )
-            return Structure(names, row["params"], probe, gap_p, gap1, tried, reason)
+            return Structure(
+                names, row["params"], probe, gap_p, gap1, tried, reason, data.scale["delay_reach"]
+            )
         reasons.append(
             f"{'+'.join(names)} (free-run gap {gap_p:.4g} -> {gap1:.4g}, it accounts for {part:.2f} noise floors)"
         )
@@ -209,7 +211,7 @@ def choose_structure(
             f"no delay or lag: the best, {'+'.join(best['effects'])}, has ΔBIC {best['delta_bic']:.1f} "
             f"<= {threshold:g}"
         )
-    return Structure((), {}, probe, gap_p, gap_p, tried, reason)
+    return Structure((), {}, probe, gap_p, gap_p, tried, reason, data.scale["delay_reach"])
 
 
 def effect_names(value: Sequence[str] | str | None, what: str) -> tuple[str, ...]:

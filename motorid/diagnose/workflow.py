@@ -167,6 +167,7 @@ from motorid.diagnose.search import (
     effect_names,
     friction_given,
 )
+from motorid.diagnose.timing import DelayDrift, delay_drift
 from motorid.drive.rigid import RigidDrive
 from motorid.drive.two_mass import TwoMassRig
 from motorid.errors import DataError
@@ -204,6 +205,7 @@ def diagnose(
     input_full_scale: float | None = None,
     resample: bool = False,
     labels: Sequence[str] | None = None,
+    align: bool = False,
 ) -> Diagnosis:
     """Find the effects missing from a rigid drive model of ``record`` (see the module notes).
 
@@ -288,6 +290,13 @@ def diagnose(
         ``diagnose(df, input="pwm", output="rpm", input_unit="%", output_unit="rpm")``.
     labels : sequence of str, optional
         A name for each record in the report (e.g. its file); default ``record 1``, ``record 2``...
+    align : bool
+        Where a record's input delay drifts along it (a logger's time base:
+        :func:`~motorid.diagnose.timing.delay_drift`, said in :attr:`Diagnosis.notes` either way),
+        put its output back on the input's time and diagnose again: the output at ``t`` is read
+        at ``t + d(t) - d(t_0)``, ``d`` the line through the segments' delays, so the drift goes
+        and the delay at the record's start stays for the structure search to take (the samples
+        the shift runs past the end are left out). The report says what was moved.
 
     Returns
     -------
@@ -342,6 +351,9 @@ def diagnose(
         raise DataError(f"timing must be 'auto', 'hold' or 'sampled', got {timing!r}")
     if not isinstance(structure, bool):
         raise DataError(f"structure must be True or False, got {structure!r}")
+    if not isinstance(align, bool):
+        raise DataError(f"align must be True or False, got {align!r}")
+    normalised = list(records) if align else []  # the records as read, for a second run on their time
     if not math.isfinite(threshold):
         raise DataError(f"threshold must be finite, got {threshold!r}")
     if not (
@@ -398,6 +410,7 @@ def diagnose(
     else:
         final_gap = dict(initial_gap if refitted_gap is None else refitted_gap)
     refuse_unphysical(final_model, final_gap["overall"], pool.units)
+    drifts = [d for d in delay_drift(pool, final_model) if d.drifts]
     final_region = locate(pool.balance_residual(final_model)[0], pool.feats_dec, pool.units)
     stop_reason = outcome.stop.sentence() + "; " + final_gap_sentence(
         final_gap["overall"], pool.gaps(final_model, final_region)["region"], final_region, pool.noise,
@@ -414,6 +427,7 @@ def diagnose(
         for label, prep in zip(labels, pool.parts, strict=True)
         for note in prep.notes
     ]
+    notes += [f"{d.label}: {d.sentence()}" if len(labels) > 1 else d.sentence() for d in drifts]
     if rig is not None:
         notes.append(rig_note(rig, pool.parts[0].kin.band))
     diagnosis = Diagnosis(
@@ -432,7 +446,56 @@ def diagnose(
     diagnosis.agreement = agreement(
         pool, final_model, diagnosis.param_std, set(diagnosis.undetermined), diagnosis.delay_trade
     )
-    return diagnosis
+    diagnosis.delay_drift = drifts
+    if not (align and drifts):
+        return diagnosis
+    # the drift found: each drifting record's output put back on its input's time, then again
+    moved = {d.label: d for d in drifts}
+    aligned = [
+        aligned_record(r, moved[label], first.kin.dt) if label in moved else r
+        for r, label in zip(normalised, labels, strict=True)
+    ]
+    again = diagnose(
+        aligned, dt=first.kin.dt, output_kind=output_kind, input_gain=input_gain,
+        base=None if model is not None else base_names, candidates=candidates, holdout=holdout,
+        max_steps=max_steps, progress=progress, threshold=threshold, min_holdout_gain=min_holdout_gain,
+        min_gap_shrink=min_gap_shrink, noise_explained=noise_explained, missing_factor=missing_factor,
+        timing=first.timing, band=band, model=rig if rig is not None else model, structure=structure, labels=labels,
+    )  # fmt: skip
+    said = [
+        f"{d.label + ': ' if len(labels) > 1 else ''}the output put back on the input's time (align): its delay's "
+        f"drift from {1e3 * d.first:.3g} to {1e3 * d.last:.3g} ms taken out, {1e3 * d.first:.3g} ms left for the "
+        "structure search"
+        for d in drifts
+    ]
+    again.notes = [*diagnosis.notes, *said, *again.notes]
+    again.delay_drift = drifts  # what was taken out
+    return again
+
+
+def aligned_record(record: pd.DataFrame, drift: DelayDrift, dt: float) -> pd.DataFrame:
+    """``record`` (columns ``t``, ``u``, ``y``, ``attrs["dt"]``) with its output read at
+    ``t + d(t) - d(t_0)``: the drift of its delay (:class:`~motorid.diagnose.timing.DelayDrift`, a
+    line from ``first`` at the start to ``last`` at the end) taken out by linear interpolation, the
+    delay at the start kept; the samples whose shifted time runs past the end are left out.
+
+    Parameters
+    ----------
+    record : DataFrame
+        A normalised record.
+    drift : DelayDrift
+        Its delay along it [s].
+    dt : float
+        Its sample time [s].
+    """
+    n = len(record)
+    t = np.arange(n) * dt
+    shift = (drift.last - drift.first) * t / max(t[-1], dt)
+    keep = t + shift <= t[-1]
+    y = np.interp((t + shift)[keep], t, record["y"].to_numpy(dtype=float))
+    out = pd.DataFrame({"t": t[keep], "u": record["u"].to_numpy(dtype=float)[keep], "y": y})
+    out.attrs = dict(record.attrs)
+    return out
 
 
 def refuse_unphysical(model: RigidDrive, gap: float, units: dict[str, str]) -> None:

@@ -28,8 +28,9 @@ class InputDelay(Effect):
         return input_dynamics(x, dt, shape["input_delay"], shape.get("lag_time_constant", 0.0))
 
     def bounds(self, scale: dict[str, float]) -> dict[str, tuple[float, float]]:
-        # from a twentieth of a sample (below it the balance cannot tell) to 20 samples
-        return {"input_delay": (0.05 * scale["dt"], 20.0 * scale["dt"])}
+        # from a twentieth of a sample (below it the balance cannot tell) to the record's reach
+        # (the doctor's: a share of the record), 20 samples where none is given
+        return {"input_delay": (0.05 * scale["dt"], scale.get("delay_reach", 20.0 * scale["dt"]))}
 
 
 __all__ = ["InputDelay"]

@@ -1,0 +1,126 @@
+"""A logger's time base: the input delay measured along a record, and whether it drifts.
+
+A logger that stamps the speed late by a delay that grows through the record (a serial link's
+buffer filling, a clock that runs slow) gives a record whose input delay is no constant: the
+speed answers a step 16 ms late at 5 s and 114 ms late at 50 s. One delay for the whole record
+then fits neither end. :func:`delay_drift` fits the final model's input delay on each of
+:data:`SEGMENTS` consecutive segments of each record (every other shape held, the linear
+parameters refitted on the segment) and a line through them,
+
+    d(t) = d_0 + r t,
+
+and says that the time base drifts where the line moves by more than :data:`DRIFT_SAMPLES`
+samples and :data:`DRIFT_SHARE` of the mean delay over the record, in the same direction on
+every segment (the segments' delays ordered as their times).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from motorid.diagnose.model import fit_model
+from motorid.drive.effects import get as get_effect
+from motorid.drive.rigid import RigidDrive
+
+#: Segments a record is cut into for its delays.
+SEGMENTS = 5
+#: A drift moves the delay by more than this many samples over the record ...
+DRIFT_SAMPLES = 3.0
+#: ... and by more than this share of its mean.
+DRIFT_SHARE = 0.5
+
+
+@dataclass(frozen=True)
+class DelayDrift:
+    """The input delay along one record.
+
+    Attributes
+    ----------
+    label : str
+        The record.
+    times : ndarray
+        Middle of each segment from the record's start [s].
+    delays : ndarray
+        The input delay fitted on each segment [s].
+    first, last : float
+        The line's delay at the record's first and last settled sample [s].
+    drifts : bool
+        Whether the time base drifts (see the module notes).
+    """
+
+    label: str
+    times: np.ndarray
+    delays: np.ndarray
+    first: float
+    last: float
+    drifts: bool
+
+    def sentence(self) -> str:
+        """One line for the report."""
+        grows = "grows" if self.last > self.first else "shrinks"
+        return (
+            f"the input delay {grows} from {1e3 * self.first:.3g} to {1e3 * self.last:.3g} ms over the record "
+            f"({', '.join(f'{1e3 * d:.3g}' for d in self.delays)} ms on its {self.delays.size} segments): "
+            "the logger's time base drifts, and one delay fits neither end"
+        )
+
+    def to_dict(self) -> dict[str, object]:
+        return {
+            "label": self.label, "times": self.times.tolist(), "delays": self.delays.tolist(),
+            "first": self.first, "last": self.last, "drifts": self.drifts,
+        }  # fmt: skip
+
+
+def delay_drift(pool, model: RigidDrive) -> list[DelayDrift]:
+    """The input delay of ``model`` refitted on each segment of each record of ``pool`` (a
+    :class:`~motorid.diagnose.prepare.Pool`), with every other shape parameter of ``model`` held.
+
+    Parameters
+    ----------
+    pool : Pool
+        The records.
+    model : RigidDrive
+        The final model; an input delay is added to it for the segments' fits where it has none.
+    """
+    effects = model.effects if "input_delay" in model.effects else (*model.effects, "input_delay")
+    held = {
+        p: float(model.params[p])
+        for n in effects
+        for p in get_effect(n).nonlinear
+        if p != "input_delay" and p in model.params
+    }
+    sizes = [part.n for part in pool.data.parts]
+    offsets = np.concatenate(([0], np.cumsum(sizes)))
+    out = []
+    for k, (label, prep) in enumerate(zip(pool.labels, pool.parts, strict=True)):
+        idx = prep.data.idx
+        times, delays = [], []
+        for segment in np.array_split(np.arange(sizes[k]), SEGMENTS):
+            rows = np.zeros(int(offsets[-1]), dtype=bool)
+            rows[offsets[k] + segment] = True
+            if np.count_nonzero(rows & pool.data.moving) < 30:
+                continue
+            fit = fit_model(pool.data, effects, start=model.params, stribeck_shape=model.stribeck_shape,
+                            fixed=held, rows=rows)  # fmt: skip
+            times.append(0.5 * (idx[segment[0]] + idx[segment[-1]]) * prep.kin.dt)
+            delays.append(float(fit.model.params["input_delay"]))
+        if len(delays) < 3:
+            continue
+        t, d = np.asarray(times), np.asarray(delays)
+        slope, intercept = np.polyfit(t, d, 1)
+        span = (idx[0] * prep.kin.dt, idx[-1] * prep.kin.dt)
+        first, last = float(intercept + slope * span[0]), float(intercept + slope * span[1])
+        move = abs(last - first)
+        monotone = bool(np.all(np.diff(d) * np.sign(slope) >= 0))
+        drifts = (
+            monotone
+            and move > DRIFT_SAMPLES * prep.kin.dt
+            and move > DRIFT_SHARE * max(float(np.mean(d)), 0.0)
+        )
+        out.append(DelayDrift(label, t, d, float(max(first, 0.0)), float(max(last, 0.0)), drifts))
+    return out
+
+
+__all__ = ["DRIFT_SAMPLES", "DRIFT_SHARE", "SEGMENTS", "DelayDrift", "delay_drift"]
