@@ -608,6 +608,158 @@ def _second_report(ss: SecondSteps) -> str:
     return "\n".join(lines) + "\n"
 
 
+#: The main parameter of each effect a bench plants, compared with the truth.
+BANK_PARAMETER = {
+    None: "coulomb",
+    "stribeck_friction": "stribeck",
+    "input_dead_zone": "dead_zone",
+    "static_friction": "breakaway_excess",
+    "quadratic_drag": "quadratic_drag",
+}
+#: A parameter found within this share of the truth counts as found.
+BANK_TOLERANCE = 0.15
+#: The imperfections whose benches carry a logging delay.
+DELAYED = ("constant_delay", "drifting_delay")
+
+
+@dataclass
+class BankRow:
+    """One bench of the bank (:func:`bank`) and what the doctor made of it.
+
+    Attributes
+    ----------
+    imperfection, effect, seed, signal : str, str or None, int, str
+        The bench (:func:`~motorid.diagnose.bench.bench`).
+    named : list of str
+        The effects named (empty where refused).
+    refused : str or None
+        The refusal's text, where the doctor refused the record.
+    first_right : bool
+        The planted effect named first (a bench without one: nothing named).
+    parameter_error : float
+        Relative error of the planted effect's main parameter (:data:`BANK_PARAMETER`; the
+        Coulomb level for a bench without one) [-]; NaN where not in the model.
+    delay_error : float
+        Distance of the model's input delay from the logger's (its mean; the start's where
+        ``align`` took a drift out) [samples]; NaN for a bench without a logging delay.
+    drift_said : bool
+        Whether a drifting delay was said.
+    final_floors : float
+        The final free-run gap in noise floors (NaN where refused).
+    """
+
+    imperfection: str
+    effect: str | None
+    seed: int
+    signal: str
+    named: list[str]
+    refused: str | None
+    first_right: bool
+    parameter_error: float
+    delay_error: float
+    drift_said: bool
+    final_floors: float
+
+
+def bank(
+    seeds: Sequence[int],
+    imperfections: Sequence[str] | None = None,
+    effects: Sequence[str | None] | None = None,
+    progress: bool = False,
+) -> list[BankRow]:
+    """The doctor on the bank of benches (:mod:`motorid.diagnose.bench`): each imperfection,
+    each effect, each seed. The doctor is run as a user would on a record of a drive whose
+    torque constant is known: from the base viscous friction, Coulomb friction and offset
+    (every bench has Coulomb friction), with the true input gain (so the parameters come out in
+    N m, against the truth), ``align`` on.
+
+    Parameters
+    ----------
+    seeds : sequence of int
+        The seeds of each imperfection and effect.
+    imperfections : sequence of str, optional
+        Default :data:`~motorid.diagnose.bench.IMPERFECTIONS`.
+    effects : sequence of str or None, optional
+        Default :data:`~motorid.diagnose.bench.BENCH_EFFECTS`.
+    progress : bool
+        Show a progress bar on stderr.
+    """
+    from motorid.diagnose.bench import BENCH_EFFECTS, IMPERFECTIONS, bench, delay_error_samples
+    from motorid.errors import DataError
+    from motorid.progress import progress_bar
+
+    imperfections = IMPERFECTIONS if imperfections is None else tuple(imperfections)
+    effects = BENCH_EFFECTS if effects is None else tuple(effects)
+    cases = [(i, e, s) for i in imperfections for e in effects for s in seeds]
+    rows = []
+    bar = progress_bar(show=progress, total=len(cases), desc="bank", unit="bench")
+    for imperfection, effect, seed in cases:
+        b = bench(imperfection, effect, seed)
+        gain = b.params["input_gain"] * (12.0 / 100.0 if imperfection == "pulsed_pwm" else 1.0)
+        try:
+            d = diagnose(b.record, input_gain=gain, base=BASE_FOR["input_lag"], align=True)
+        except DataError as exc:
+            rows.append(BankRow(imperfection, effect, seed, b.signal, [], str(exc), effect is None,
+                                math.nan, math.nan, False, math.nan))  # fmt: skip
+            bar.update(1)
+            continue
+        name = BANK_PARAMETER[effect]
+        truth = b.params[name]
+        found = d.model.params.get(name, math.nan)
+        if imperfection in DELAYED:
+            drifted = bool(d.delay_drift)
+            found_delay = d.model.params.get("input_delay", 0.0)
+            delay = (
+                abs(found_delay - b.logging_delay[0]) / b.record.attrs["dt"]
+                if drifted
+                else delay_error_samples(found_delay, b)
+            )
+        else:
+            delay = math.nan
+        rows.append(BankRow(
+            imperfection, effect, seed, b.signal, list(d.named), None,
+            d.named[:1] == [effect] if effect is not None else not d.named,
+            abs(found - truth) / abs(truth), delay, bool(d.delay_drift),
+            d.final_gap["overall"] / d.noise_floor,
+        ))  # fmt: skip
+        bar.update(1)
+    bar.close()
+    return rows
+
+
+def _bank_report(rows: list[BankRow]) -> str:
+    """The bank's table in Markdown: per imperfection, the planted effect named first, false
+    names on benches that hide nothing, parameters within :data:`BANK_TOLERANCE`, the delay
+    within one sample and the refusals."""
+
+    def share(hits: list[bool]) -> str:
+        return f"{sum(hits)}/{len(hits)}" if hits else "-"
+
+    lines = [
+        "| imperfection | benches | planted effect named first | false names (nothing hidden) | "
+        f"parameter within {BANK_TOLERANCE:.0%} | delay within 1 sample | drift said | refused | "
+        "final gap, median [noise floors] |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+    ]
+    for imperfection in dict.fromkeys(r.imperfection for r in rows):
+        mine = [r for r in rows if r.imperfection == imperfection]
+        planted = [r for r in mine if r.effect is not None]
+        clean = [r for r in mine if r.effect is None]
+        floors = [r.final_floors for r in mine if math.isfinite(r.final_floors)]
+        lines.append(
+            f"| {imperfection} | {len(mine)} | {share([r.first_right for r in planted])} | "
+            f"{share([bool(r.named) for r in clean if r.refused is None])} | "
+            f"{share([r.parameter_error <= BANK_TOLERANCE for r in mine if r.refused is None])} | "
+            f"{share([r.delay_error <= 1.0 for r in mine if math.isfinite(r.delay_error)])} | "
+            f"{share([r.drift_said for r in mine]) if imperfection in DELAYED else '-'} | "
+            f"{share([r.refused is not None for r in mine])} | "
+            f"{np.median(floors):.2f} |"
+            if floors
+            else "- |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=100, help="number of records (seeds 0..N-1)")
@@ -640,7 +792,16 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="joint runs of three records of one drive: how often the records are said to disagree",
     )
+    parser.add_argument(
+        "--bank",
+        action="store_true",
+        help="the bank of benches (motorid.diagnose.bench): each imperfection and effect, --seeds seeds each",
+    )
     args = parser.parse_args(argv)
+    if args.bank:
+        rows = bank(range(args.first, args.first + args.seeds), progress=sys.stderr.isatty())
+        sys.stdout.write(_bank_report(rows))
+        return 0
     if args.agreement:
         sys.stdout.write(_agreement_report(agreements(range(args.first, args.first + args.seeds))))
         return 0

@@ -330,7 +330,10 @@ def evidence(rss0: float, rss1: float, n: int, dk: int, residual: np.ndarray) ->
     rho = min(max(_lag1(residual), 0.0), 0.95)
     n_eff = max(n * (1.0 - rho) / (1.0 + rho), 2.0)
     ratio = rss0 / rss1 if rss1 > 0 else np.inf
-    dbic = n_eff * math.log(ratio) - max(dk, 0) * math.log(n_eff) if np.isfinite(ratio) else np.inf
+    if 0.0 < ratio < np.inf:
+        dbic = n_eff * math.log(ratio) - max(dk, 0) * math.log(n_eff)
+    else:  # a candidate that leaves nothing of a residual, or one of a fit that has none (or none finite)
+        dbic = np.inf if ratio == np.inf and rss0 > 0 else -np.inf
     return {
         "delta_bic": float(dbic),
         "n": int(n),

@@ -5,17 +5,22 @@ buffer filling, a clock that runs slow) gives a record whose input delay is no c
 speed answers a step 16 ms late at 5 s and 114 ms late at 50 s. One delay for the whole record
 then fits neither end. :func:`delay_drift` fits the final model's input delay on each of
 :data:`SEGMENTS` consecutive segments of each record (every other shape held, the linear
-parameters refitted on the segment) and a line through them,
+parameters refitted on the segment), each with its standard error σ_i (the delay set free in
+the segment's balance: :class:`~motorid.diagnose.model.DelayTrade`), and a line through them
+by weighted least squares (weights 1/σ_i²),
 
     d(t) = d_0 + r t,
 
-and says that the time base drifts where the line moves by more than :data:`DRIFT_SAMPLES`
-samples and :data:`DRIFT_SHARE` of the mean delay over the record, in the same direction on
-every segment (the segments' delays ordered as their times).
+and says that the time base drifts where the line moves over the record's span T by more than
+:data:`DRIFT_SAMPLES` samples, more than :data:`DRIFT_SHARE` of the mean delay and more than
+:data:`DRIFT_ERRORS` of its own standard errors (|r| T > 3 σ_r T). A segment whose input
+barely shows a delay (a chirp's slow start, where the phase ωτ is small) has a large σ_i and
+little say.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,8 +33,10 @@ from motorid.drive.rigid import RigidDrive
 SEGMENTS = 5
 #: A drift moves the delay by more than this many samples over the record ...
 DRIFT_SAMPLES = 3.0
-#: ... and by more than this share of its mean.
+#: ... and by more than this share of its mean ...
 DRIFT_SHARE = 0.5
+#: ... and by more than this many of its standard errors.
+DRIFT_ERRORS = 3.0
 
 
 @dataclass(frozen=True)
@@ -44,6 +51,8 @@ class DelayDrift:
         Middle of each segment from the record's start [s].
     delays : ndarray
         The input delay fitted on each segment [s].
+    delay_std : ndarray
+        Its standard error on each segment [s].
     first, last : float
         The line's delay at the record's first and last settled sample [s].
     drifts : bool
@@ -53,6 +62,7 @@ class DelayDrift:
     label: str
     times: np.ndarray
     delays: np.ndarray
+    delay_std: np.ndarray
     first: float
     last: float
     drifts: bool
@@ -69,6 +79,7 @@ class DelayDrift:
     def to_dict(self) -> dict[str, object]:
         return {
             "label": self.label, "times": self.times.tolist(), "delays": self.delays.tolist(),
+            "delay_std": self.delay_std.tolist(),
             "first": self.first, "last": self.last, "drifts": self.drifts,
         }  # fmt: skip
 
@@ -96,7 +107,7 @@ def delay_drift(pool, model: RigidDrive) -> list[DelayDrift]:
     out = []
     for k, (label, prep) in enumerate(zip(pool.labels, pool.parts, strict=True)):
         idx = prep.data.idx
-        times, delays = [], []
+        times, delays, stds = [], [], []
         for segment in np.array_split(np.arange(sizes[k]), SEGMENTS):
             rows = np.zeros(int(offsets[-1]), dtype=bool)
             rows[offsets[k] + segment] = True
@@ -106,21 +117,31 @@ def delay_drift(pool, model: RigidDrive) -> list[DelayDrift]:
                             fixed=held, rows=rows)  # fmt: skip
             times.append(0.5 * (idx[segment[0]] + idx[segment[-1]]) * prep.kin.dt)
             delays.append(float(fit.model.params["input_delay"]))
+            trade = fit.delay_trade
+            std = trade.delay_free_std if trade is not None else math.nan
+            stds.append(std if math.isfinite(std) and std > 0 else math.inf)
         if len(delays) < 3:
             continue
-        t, d = np.asarray(times), np.asarray(delays)
-        slope, intercept = np.polyfit(t, d, 1)
+        t, d, sd = np.asarray(times), np.asarray(delays), np.asarray(stds)
+        weight = 1.0 / sd**2
+        if np.count_nonzero(weight > 0) < 3:
+            continue
+        # the weighted line d = d0 + r t and the standard error of r
+        X = np.column_stack([np.ones_like(t), t])
+        normal = X.T @ (weight[:, None] * X)
+        intercept, slope = np.linalg.solve(normal, X.T @ (weight * d))
+        slope_std = math.sqrt(float(np.linalg.inv(normal)[1, 1]))
         span = (idx[0] * prep.kin.dt, idx[-1] * prep.kin.dt)
         first, last = float(intercept + slope * span[0]), float(intercept + slope * span[1])
         move = abs(last - first)
-        monotone = bool(np.all(np.diff(d) * np.sign(slope) >= 0))
-        drifts = (
-            monotone
-            and move > DRIFT_SAMPLES * prep.kin.dt
-            and move > DRIFT_SHARE * max(float(np.mean(d)), 0.0)
+        mean = float(np.average(d, weights=weight))
+        drifts = bool(
+            move > DRIFT_SAMPLES * prep.kin.dt
+            and move > DRIFT_SHARE * max(mean, 0.0)
+            and abs(slope) > DRIFT_ERRORS * slope_std
         )
-        out.append(DelayDrift(label, t, d, float(max(first, 0.0)), float(max(last, 0.0)), drifts))
+        out.append(DelayDrift(label, t, d, sd, max(first, 0.0), max(last, 0.0), drifts))
     return out
 
 
-__all__ = ["DRIFT_SAMPLES", "DRIFT_SHARE", "SEGMENTS", "DelayDrift", "delay_drift"]
+__all__ = ["DRIFT_ERRORS", "DRIFT_SAMPLES", "DRIFT_SHARE", "SEGMENTS", "DelayDrift", "delay_drift"]
