@@ -138,8 +138,8 @@ measurement = drive.simulate(u_meas, seed=1)
 doctor = diagnose(measurement, model=load_model(WORK / "datasheet.json"))
 display(doctor.table())
 print(
-    f"gap of the datasheet model {doctor.initial_gap['overall']:.3f} rad/s, refitted "
-    f"{doctor.refitted_gap['overall']:.3f}, improved {doctor.final_gap['overall']:.3f} rad/s"
+    f"gap of the datasheet model {doctor.initial_gap.overall:.3f} rad/s, refitted "
+    f"{doctor.refitted_gap.overall:.3f}, improved {doctor.final_gap.overall:.3f} rad/s"
 )
 # 3. save
 doctor.model.save(WORK / "improved.json")
@@ -256,7 +256,7 @@ if estimation is not None:
     emps.model.save(WORK / "emps.json")
     check = diagnose(validation, output_kind="position", model=load_model(WORK / "emps.json"), max_steps=0)
     print(
-        f"saved model on the validation set: force error {check.initial_gap['force_error_percent']:.2f} % "
+        f"saved model on the validation set: force error {check.initial_gap.force_error_percent:.2f} % "
         f"(published reference model: {EMPS_REFERENCE['force_error_validation']} %)"
     )
 
@@ -352,7 +352,7 @@ if kit_joint is not None:
             "effects named": ", ".join(d.named),
             "kinetic friction [%]": d.model.params["coulomb"],
             "± [%]": d.param_std["coulomb"],
-            "final gap [noise floors]": d.final_gap["overall"] / d.noise_floor,
+            "final gap [noise floors]": d.final_gap.overall / d.noise_floor,
         }
         for name, d in zip([*kit_names, "joint, 6 records"], [*kit_single, kit_joint], strict=True)
     }

@@ -75,7 +75,7 @@ def motor_rows(motor: str) -> list[str]:
     rows, before, after = [], {"inertia": [], "kinetic": []}, {"inertia": [], "kinetic": []}
     for k, (name, d) in enumerate(runs):
         fitted = refit(d)
-        g0, g1 = d._pool.gaps(d.model, None)["overall"], d._pool.gaps(fitted, None)["overall"]
+        g0, g1 = d._pool.gaps(d.model, None).overall, d._pool.gaps(fitted, None).overall
         p0, p1 = d.model.params, fitted.params
         rows.append(
             f"| {motor} | {name} | {g0:.3f} → {g1:.3f} ({100 * (g1 / g0 - 1):+.1f} %) | "

@@ -77,7 +77,7 @@ def row(motor: str, run: str, d, seconds: float) -> str:
     spread = runs_of.get("coulomb")
     if spread is not None and spread.spread > 0.0:  # the joint run: the spread between the runs
         kinetic_cell += f" (runs spread {spread.spread:.2g}: ± {spread.drive_std:.2g})"
-    floors = d.final_gap["overall"] / d.noise_floor
+    floors = d.final_gap.overall / d.noise_floor
     inertia = f"{params['inertia']:.3g} ± {std.get('inertia', float('nan')):.2g}"
     share = f"{100 * d.param_share.get('inertia', float('nan')):.1f} %"
     trade = d.delay_trade
@@ -93,7 +93,7 @@ def row(motor: str, run: str, d, seconds: float) -> str:
         inertia = f"{inertia} ({share})"
     return (
         f"| {motor} | {run} | {structure} | {named} | {kinetic_cell} | {inertia} | "
-        f"{d.initial_gap['overall']:.3g} → {d.final_gap['overall']:.3g} | {d.noise_floor:.3g} | {floors:.1f} | "
+        f"{d.initial_gap.overall:.3g} → {d.final_gap.overall:.3g} | {d.noise_floor:.3g} | {floors:.1f} | "
         f"{rests(d)} | {seconds:.1f} |"
     )
 
@@ -102,15 +102,15 @@ def rests(d) -> str:
     """The rests of a run: how many, and the breakaway above the final model's kinetic level (with
     one standard error; ``lag?`` where the input rose alike at every breakaway, so that a level
     cannot be told from a lag between input and force)."""
-    count = sum(r["count"] for r in d.rests)
-    excess = [r["breakaway_excess"] for r in d.rests]
+    count = sum(r.count for r in d.rests)
+    excess = [r.breakaway_excess for r in d.rests]
     if len(d.rests) > 1:  # the joint run: the pooled rests, as the doctor judged them
         from motorid.diagnose.measures import breakaway
 
         found = breakaway(d._pool, d.model)
         excess, std = [found.excess], [found.standard_error]
     else:
-        std = [d.rests[0]["breakaway_excess_std"]]
+        std = [d.rests[0].breakaway_excess_std]
     if not count:
         return "0"
     if not all(map(math.isfinite, excess)):

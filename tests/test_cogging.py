@@ -245,8 +245,8 @@ def test_the_doctor_names_cogging_with_its_amplitude_and_period(seed):
     d = diagnose(cogging_record(seed), input_gain=0.02, base=BASE, candidates=EVERY_CANDIDATE)
     assert d.named == ["cogging"], d.stop_reason
     truth = gaps(RigidDrive((*BASE, "cogging"), {**CLEAN, **COGGED}, 0.005), d._pool.parts[0], None)
-    assert d.final_gap["overall"] < 1.6 * truth["overall"]
-    assert d.final_gap["overall"] < 0.9 * d.initial_gap["overall"]
+    assert d.final_gap.overall < 1.6 * truth.overall
+    assert d.final_gap.overall < 0.9 * d.initial_gap.overall
     params = d.steps[0].params
     assert params["cogging_amplitude"] == pytest.approx(4e-3, rel=0.1)
     assert params["cogging_periods"] == pytest.approx(6.0, rel=2e-3)

@@ -89,8 +89,8 @@ def test_the_hidden_effect_is_named_first_and_the_gap_halves_in_its_region(effec
         step = d.steps[0]
         # about halves: the weakest planted backlash (0.06 s, seed 0) leaves 0.50 of it with the
         # balance fitted by least squares and 0.52 compensated for the acceleration's noise
-        assert step.gap_after["region"] <= 0.55 * step.gap_before["region"], (step.region, sizes, seed)
-        assert step.gap_after["overall"] < step.gap_before["overall"]
+        assert step.gap_after.region <= 0.55 * step.gap_before.region, (step.region, sizes, seed)
+        assert step.gap_after.overall < step.gap_before.overall
         assert step.evidence["delta_bic"] > step.evidence["threshold"]
         assert step.evidence["held_out_error_after"] < step.evidence["held_out_error_before"]
 
@@ -209,7 +209,7 @@ def test_two_hidden_effects_are_named_in_order_of_size():
     small = planted_record(["coulomb_friction", "offset"], 5, sizes={"coulomb": 3e-3, "offset": 9e-3})
     d = diagnose(small.record, input_gain=small.input_gain, base=("viscous_friction",), max_steps=3)
     assert d.named[:2] == ["offset", "coulomb_friction"], d.stop_reason
-    assert d.final_gap["overall"] < 0.5 * d.initial_gap["overall"]
+    assert d.final_gap.overall < 0.5 * d.initial_gap.overall
 
 
 def test_the_part_of_a_gap_an_effect_accounts_for_adds_in_quadrature():
@@ -234,14 +234,14 @@ def test_one_planted_effect_names_one_effect_and_the_gap_ends_at_the_noise_floor
     loose = diagnose(planted.record, noise_explained=0.0, **kwargs)
     assert loose.named[0] == "stribeck_friction" and len(loose.named) >= 2  # the rule is what stops it
     second = loose.steps[1]
-    part = explained(second.gap_before["overall"], second.gap_after["overall"], loose.noise_floor)
+    part = explained(second.gap_before.overall, second.gap_after.overall, loose.noise_floor)
     assert part == second.evidence["explained_noise_floors"] and part < NOISE_EXPLAINED
     d = diagnose(planted.record, **kwargs)
     assert d.named == ["stribeck_friction"], d.stop_reason
     assert "noise floor" in d.stop_reason and d.stop_reason.endswith(
         "at the noise floor, nothing more to explain"
     )
-    assert d.final_gap["overall"] < MISSING_FACTOR * d.noise_floor
+    assert d.final_gap.overall < MISSING_FACTOR * d.noise_floor
 
 
 def test_the_noise_floor_is_the_noise_left_on_the_compared_velocity():
@@ -268,7 +268,7 @@ def test_the_noise_floor_is_the_noise_left_on_the_compared_velocity():
     # the true model's effects found: its free run cannot beat the noise on the measured velocity,
     # and stays within a few noise floors of it (measured: 2.1; the free run of a fitted Coulomb
     # level drifts from the truth's around the stops, see the calibration of MISSING_FACTOR)
-    assert reference < d.final_gap["overall"] < MISSING_FACTOR * d.noise_floor
+    assert reference < d.final_gap.overall < MISSING_FACTOR * d.noise_floor
     assert "at the noise floor" in d.stop_reason
 
 
@@ -280,7 +280,7 @@ def test_a_gap_far_above_the_noise_floor_says_something_is_missing_and_where():
         planted.record, input_gain=planted.input_gain, base=planted.base, candidates=["quadratic_drag"]
     )
     assert d.named == []
-    assert d.final_gap["overall"] > MISSING_FACTOR * d.noise_floor
+    assert d.final_gap.overall > MISSING_FACTOR * d.noise_floor
     assert "something is still missing" in d.stop_reason and d.final_region.description in d.stop_reason
     region = d.final_region
     # concentrated: half again as large a share of the residual energy as of the samples (measured 1.75 x)
@@ -312,8 +312,11 @@ def test_diagnosis_api_table_json_figures_and_evaluate(tmp_path):
     step = out["steps"][0]
     assert {"effect", "params", "region", "gap_before", "gap_after", "evidence"} <= set(step)
     assert {"description", "bounds"} <= set(step["region"])
-    assert set(d.initial_gap) == {"overall", "region", "force_error_percent"}
-    assert d.final_gap["force_error_percent"] < d.initial_gap["force_error_percent"]
+    assert (
+        set(out["initial_gap"]) == {"overall", "region", "force_error_percent"}
+        and out["initial_gap"] == d.initial_gap.to_dict()
+    )
+    assert d.final_gap.force_error_percent < d.initial_gap.force_error_percent
     table = d.table()
     assert list(table["effect"]) == ["coulomb_friction"] and (table["gap_after"] < table["gap_before"]).all()
     paths = d.write_figures(tmp_path)
@@ -516,16 +519,16 @@ def test_a_given_model_is_the_first_gap_as_given_then_refitted():
     # the region is located on this model's own residual, so only the overall figures are the same)
     again = diagnose(planted.record, model=found.model)
     for key in ("overall", "force_error_percent"):
-        assert again.initial_gap[key] == found.final_gap[key]
+        assert getattr(again.initial_gap, key) == getattr(found.final_gap, key)
     assert again.initial_model == found.model and again.named == []
     assert again.settings["base"] == list(found.model.effects) and again.settings["model"] == "given"
     # a wrong Coulomb level: the first gap is that model's; refitting its effects brings it back
     wrong = found.model.with_params(coulomb=3.0 * found.model.params["coulomb"])
     start = diagnose(planted.record, model=wrong)
     assert start.initial_model.params["coulomb"] == wrong.params["coulomb"]
-    assert start.initial_gap["overall"] > 2.0 * start.refitted_gap["overall"]
+    assert start.initial_gap.overall > 2.0 * start.refitted_gap.overall
     # the refit is the fit of the same effects: within 1 % of the gap found before (same data, shape search)
-    assert start.refitted_gap["overall"] == pytest.approx(found.final_gap["overall"], rel=0.01)
+    assert start.refitted_gap.overall == pytest.approx(found.final_gap.overall, rel=0.01)
     with pytest.raises(ValueError, match="base: give either base effects or a model"):
         diagnose(planted.record, model=wrong, base=("viscous_friction",))
     with pytest.raises(ValueError, match="model must be a RigidDrive"):

@@ -112,7 +112,7 @@ def test_drop_out_spikes_are_replaced_and_named(planted):
     clean = diagnose(planted.record, input_gain=planted.input_gain)
     assert d.notes == notes and d.named == clean.named
     # two samples of 3000 replaced by their neighbours' mean: the gap moves by well under 1 %
-    assert d.final_gap["overall"] == pytest.approx(clean.final_gap["overall"], rel=0.01)
+    assert d.final_gap.overall == pytest.approx(clean.final_gap.overall, rel=0.01)
 
 
 def test_records_without_artefacts_get_no_note(planted):
@@ -135,7 +135,7 @@ def test_start_and_stop_trim_the_record(capsys, planted, tmp_path):
     assert "notes" not in out and "(2431 samples)" in err
     trimmed = planted.record[planted.record["t"] <= 24.3 + 1e-9].reset_index(drop=True)
     trimmed.attrs = dict(planted.record.attrs)
-    assert out["final_gap"] == pytest.approx(diagnose(trimmed).final_gap, rel=1e-12)
+    assert out["final_gap"] == pytest.approx(diagnose(trimmed).final_gap.to_dict(), rel=1e-12)
     code, out, err = run(capsys, "doctor", str(path), "--json")
     assert code == 0 and out["notes"][0].startswith("the output holds 0 rad/s over the first 70 samples")
     assert "note: the output holds 0 rad/s" in err

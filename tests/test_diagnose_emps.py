@@ -49,16 +49,16 @@ def test_coulomb_friction_is_named_first_near_the_published_level(diagnosis):
     assert diagnosis.model.params["coulomb"] == pytest.approx(EMPS_REFERENCE["coulomb"], rel=0.05)
     # the gap concentrates at low speed and follows the sign of the speed, as Coulomb friction does
     assert first.region.feature == "speed" and first.region.sign_follows == "sgn(w)"
-    assert first.gap_after["region"] <= 0.5 * first.gap_before["region"]
+    assert first.gap_after.region <= 0.5 * first.gap_before.region
 
 
 def test_force_error_falls_from_about_17_to_the_published_4_to_5_percent(diagnosis):
     first = diagnosis.steps[0]
-    assert 15.0 <= diagnosis.initial_gap["force_error_percent"] <= 19.0
-    assert first.gap_before["force_error_percent"] == diagnosis.initial_gap["force_error_percent"]
-    assert first.gap_after["force_error_percent"] <= 5.0
-    assert diagnosis.final_gap["force_error_percent"] <= first.gap_after["force_error_percent"]
-    assert diagnosis.final_gap["overall"] < 0.35 * diagnosis.initial_gap["overall"]
+    assert 15.0 <= diagnosis.initial_gap.force_error_percent <= 19.0
+    assert first.gap_before.force_error_percent == diagnosis.initial_gap.force_error_percent
+    assert first.gap_after.force_error_percent <= 5.0
+    assert diagnosis.final_gap.force_error_percent <= first.gap_after.force_error_percent
+    assert diagnosis.final_gap.overall < 0.35 * diagnosis.initial_gap.overall
 
 
 def test_parameters_agree_with_the_published_inverse_dynamics_model(diagnosis):
@@ -161,7 +161,7 @@ def test_the_doctors_final_model_refitted_in_position_is_below_the_black_box_bas
     dynoNet's 0.452); the bound 4.4 mm leaves 10 % for rounding across machines."""
     assert diagnosis.position_model.effects == diagnosis.model.effects
     error = diagnosis.position_error
-    assert error["unit"] == "m" and error["refitted"] < 0.8 * error["fitted"]
+    assert error.unit == "m" and error.refitted < 0.8 * error.fitted
     figure = emps_benchmark_rmse(diagnosis.position_model, test_set)
     assert figure < 4.4
     assert figure < min(v for k, v in EMPS_BENCHMARK_RESULTS.items() if k != "dynoNet")

@@ -4,6 +4,8 @@ balance, gaps) returned for the model asked about and no other."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -125,11 +127,12 @@ def test_each_model_gets_its_own_balance_and_gaps_not_another_ones(prep):
         np.testing.assert_array_equal(f_in, kin.decimate(data.balance_force(model.input_force(kin.u))))
         np.testing.assert_array_equal(f_model, model.inertia * data.a + kin.decimate(model.friction(kin.w)))
     first = gaps(one, prep, None)
-    first["overall"] = -1.0  # the caller's copy: what is kept does not change
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        first.overall = -1.0  # a gap kept for the next caller cannot be changed by this one
     again, far = gaps(one, prep, None), gaps(other, prep, None)
-    assert again["overall"] > 0.0 and again["overall"] != far["overall"]
+    assert again is first and again.overall > 0.0 and again.overall != far.overall
     err = kin.w - prep.simulate(one)
     ok = kin.valid & np.isfinite(err)
-    assert again["overall"] == pytest.approx(
+    assert again.overall == pytest.approx(
         np.sqrt(np.mean(err[ok] ** 2)), rel=1e-12
     )  # the RMS; rel 1e-12 allows another summation order

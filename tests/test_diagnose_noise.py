@@ -41,13 +41,13 @@ def test_the_noise_floor_per_speed_band_follows_noise_that_grows_with_speed():
     bands = noise_bands(speed[valid], kin.hf[valid], edges, kin.band, dt)
     cutoff = 2.5 * kin.band
     for band in bands:
-        inside = valid & (speed >= band["speed_from"]) & (speed <= band["speed_to"])
+        inside = valid & (speed >= band.speed_from) & (speed <= band.speed_to)
         expected = math.sqrt(np.mean(sigma[inside] ** 2)) * math.sqrt(2 * cutoff * dt)
         # the band's σ varies by up to 3x across it and the filter smears across band edges: 10 %
-        assert band["noise_floor"] == pytest.approx(expected, rel=0.1), band
-    floors = [b["noise_floor"] for b in bands]
+        assert band.noise_floor == pytest.approx(expected, rel=0.1), band
+    floors = [b.noise_floor for b in bands]
     assert floors == sorted(floors) and floors[-1] > 5 * floors[0]  # grows with speed
-    assert sum(b["samples"] for b in bands) == int(valid.sum())
+    assert sum(b.samples for b in bands) == int(valid.sum())
 
 
 def test_the_doctor_reports_the_floor_per_speed_band_and_the_step(capsys, tmp_path):

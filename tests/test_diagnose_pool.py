@@ -64,21 +64,21 @@ def test_records_of_one_drive_are_diagnosed_as_one_model(drive):
     assert d.named == ["coulomb_friction"]
     # three records of 30 s each know the level to about 2 %; 5 % leaves room
     assert d.model.params["coulomb"] == pytest.approx(COULOMB, rel=0.05)
-    assert [r["record"] for r in d.records] == ["a.csv", "b.csv", "c.csv"]
+    assert [r.record for r in d.records] == ["a.csv", "b.csv", "c.csv"]
     assert d.settings["records"] == ["a.csv", "b.csv", "c.csv"]
     # each record's final gap is that record's, computed anew (evaluate prepares the record again)
     for rec, summary in zip(records, d.records, strict=True):
         again = d.evaluate(rec)
-        assert summary["final_gap"]["overall"] == pytest.approx(
+        assert summary.final_gap.overall == pytest.approx(
             again.loc["+coulomb_friction", "overall"], rel=1e-12
         )
-        assert summary["initial_gap"]["overall"] == pytest.approx(again.loc["initial", "overall"], rel=1e-12)
-        assert summary["samples"] == len(rec)
+        assert summary.initial_gap.overall == pytest.approx(again.loc["initial", "overall"], rel=1e-12)
+        assert summary.samples == len(rec)
     # the pooled gap is the RMS over every record's settled samples, each record's free run from its own start
     errors = np.concatenate([free_run_error(prepare(rec, input_gain=gain), d.model) for rec in records])
     pooled = math.sqrt(np.nanmean(errors**2))
-    assert d.final_gap["overall"] == pytest.approx(pooled, rel=1e-12)
-    assert d.steps[0].gap_after["overall"] == pytest.approx(pooled, rel=1e-12)
+    assert d.final_gap.overall == pytest.approx(pooled, rel=1e-12)
+    assert d.steps[0].gap_after.overall == pytest.approx(pooled, rel=1e-12)
     assert [g["record"] for g in d.steps[0].record_gaps] == ["a.csv", "b.csv", "c.csv"]
     assert all(g["gap_after"] < 0.6 * g["gap_before"] for g in d.steps[0].record_gaps)
     # one record alone: its own standard error is larger than the pooled one by about sqrt(3)

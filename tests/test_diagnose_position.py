@@ -67,9 +67,9 @@ def test_the_doctor_names_an_asymmetry_the_held_out_halves_confirm_and_refits_in
     evidence = d.steps[1].evidence
     assert evidence["held_out_position_error_after"] < 0.2 * evidence["held_out_position_error_before"]
     assert d.position_model is not None and d.position_model.effects == d.model.effects
-    assert d.position_error["refitted"] < 0.5 * d.position_error["fitted"]
+    assert d.position_error.refitted < 0.5 * d.position_error.fitted
     report = d.to_dict()["position_refit"]
-    assert report["unit"] == "m" and report["position_error_refitted"] == d.position_error["refitted"]
+    assert report["unit"] == "m" and report["position_error_refitted"] == d.position_error.refitted
     assert report["params"]["viscous_asymmetry"] == pytest.approx(-37.0, rel=0.05)
 
 

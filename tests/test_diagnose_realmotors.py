@@ -124,9 +124,9 @@ def test_the_kit_motor_gets_one_verdict_from_its_six_records(kit_runs):
         assert d.model.params["coulomb"] == pytest.approx(joint.model.params["coulomb"], rel=0.06)
     # each record's gaps, in the joint run: the joint model leaves every record below its own
     # initial gap, and the pooled gap between the records' own
-    finals = [r["final_gap"]["overall"] for r in joint.records]
-    assert all(r["final_gap"]["overall"] < 0.6 * r["initial_gap"]["overall"] for r in joint.records)
-    assert min(finals) < joint.final_gap["overall"] < max(finals)
+    finals = [r.final_gap.overall for r in joint.records]
+    assert all(r.final_gap.overall < 0.6 * r.initial_gap.overall for r in joint.records)
+    assert min(finals) < joint.final_gap.overall < max(finals)
     # README's table holds these very figures (all but the wall time)
     script = realmotors_script()
     shown = script.readme_rows((ROOT / "README.md").read_text(encoding="utf-8"))

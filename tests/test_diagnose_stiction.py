@@ -70,7 +70,7 @@ def test_an_encoders_speed_is_quantised_and_noisier_at_speed():
     bands = noise_bands(speed, kin.hf[kin.valid], np.array([0.0, 10.0, 60.0, 100.0]), kin.band, dt)
     # σ grows from 0.1 (at rest) to 1.1 rad/s (at 100 rad/s): the top band's floor is several
     # times the one near rest
-    assert bands[-1]["noise_floor"] > 3 * bands[0]["noise_floor"]
+    assert bands[-1].noise_floor > 3 * bands[0].noise_floor
 
 
 @pytest.mark.parametrize("seed", [0, 1])
@@ -87,7 +87,7 @@ def test_planted_static_friction_on_an_encoder_is_named_at_the_breakaway_the_res
     assert ranked["measure"] == "rests" and ranked["breakaway"]["shown"]
     assert step.evidence["held_out_error_after"] < step.evidence["held_out_error_before"]
     rest = d.rests[0]
-    assert rest["count"] >= 5 and rest["breakaway_excess"] > 2 * rest["breakaway_excess_std"]
+    assert rest.count >= 5 and rest.breakaway_excess > 2 * rest.breakaway_excess_std
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -99,8 +99,8 @@ def test_no_static_friction_is_named_where_the_rests_break_away_at_the_kinetic_l
     # sticks a little behind its motor side, measured 0.19-0.35 of the kinetic level on these
     # seeds, against 2-4 times it where static friction is planted
     rest = d.rests[0]
-    assert rest["count"] >= 5
-    assert rest["breakaway_excess"] < 0.5 * rest["kinetic_level"]
+    assert rest.count >= 5
+    assert rest.breakaway_excess < 0.5 * rest.kinetic_level
 
 
 def test_the_names_do_not_depend_on_the_model_the_search_starts_from(capsys, tmp_path):
@@ -226,6 +226,6 @@ def test_breakaways_at_one_held_input_level_are_as_uncertain_as_the_inputs_step(
     _, cov, rss = _breakaway_fit(*_typical(*pool.breakaway_excess(d.model)))
     assert math.sqrt(cov[0, 0]) < 1e-9 and rss < 1e-20  # exact up to rounding
     assert found.standard_error == pytest.approx(d.model.params["input_gain"] / math.sqrt(12.0 * found.rests))
-    assert d.rests[0]["breakaway_excess_std"] == found.standard_error
+    assert d.rests[0].breakaway_excess_std == found.standard_error
     kit = diagnose(read_record(KIT_CHIRP), input_unit="%", max_steps=1)
     assert kit._pool.input_quantisation == 0.0

@@ -35,8 +35,8 @@ def test_a_planted_delay_or_lag_is_chosen_as_the_structure_with_its_value(effect
     assert d.structure.params[name] == pytest.approx(value, rel=0.05)
     assert d.model.params[name] == d.structure.params[name]  # held in the later fits
     assert d.named == []  # the base holds every other effect of the drive
-    assert d.final_gap["overall"] < 0.5 * d.initial_gap["overall"]
-    assert d.final_gap["overall"] <= MISSING_FACTOR * d.noise_floor
+    assert d.final_gap.overall < 0.5 * d.initial_gap.overall
+    assert d.final_gap.overall <= MISSING_FACTOR * d.noise_floor
     out = d.to_dict()["structure"]
     assert out["effects"] == [effect] and out["params"] == {name: d.structure.params[name]}
     assert out["reason"].startswith("chosen from the moving samples")
@@ -82,8 +82,8 @@ def test_a_users_model_keeps_its_static_friction_through_the_refit():
         ("viscous_friction", "coulomb_friction", "offset"), {k: v for k, v in params.items() if k != "breakaway_excess"}
     ), max_steps=0)  # fmt: skip
     # the free run with the stiction follows the record closer than the same fit without it
-    assert d.final_gap["overall"] < without.final_gap["overall"]
-    assert np.isfinite(d.final_gap["overall"])
+    assert d.final_gap.overall < without.final_gap.overall
+    assert np.isfinite(d.final_gap.overall)
 
 
 @pytest.mark.parametrize("seed", range(6))
@@ -101,7 +101,7 @@ def test_planted_static_friction_is_named_from_its_rests_with_its_level(seed):
     assert step.evidence["held_out_error_after"] < step.evidence["held_out_error_before"]
     # the gap shrinks to 0.20-0.56 of the base model's (the level measured at the rests, not
     # fitted to the free run: on seed 3 the final gap stays at 4.9 noise floors)
-    assert d.final_gap["overall"] < 0.6 * d.initial_gap["overall"]
+    assert d.final_gap.overall < 0.6 * d.initial_gap.overall
     assert d.structure.effects == ()
 
 

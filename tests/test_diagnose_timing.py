@@ -68,8 +68,8 @@ def test_align_puts_the_output_back_on_the_inputs_time(drifting):
     plain = diagnose(drifting.record)
     aligned = diagnose(drifting.record, align=True)
     # one delay for the whole record leaves 18 noise floors; aligned, the gap is near the floor
-    assert plain.final_gap["overall"] > 10 * plain.noise_floor
-    assert aligned.final_gap["overall"] < 4 * aligned.noise_floor
+    assert plain.final_gap.overall > 10 * plain.noise_floor
+    assert aligned.final_gap.overall < 4 * aligned.noise_floor
     assert aligned.named == ["coulomb_friction"]
     # the delay at the start is left for the structure search: within a sample of the truth
     assert delay_error_samples(aligned.model.params["input_delay"], drifting) > 1.0  # the mean delay...

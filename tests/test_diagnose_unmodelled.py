@@ -27,7 +27,9 @@ def pulsed() -> pd.DataFrame:
     duty = 80.0 * np.sin(2 * np.pi * 0.25 * t)
     applied = np.where((t * 10.0) % 1.0 < np.abs(duty) / 100.0, np.sign(duty) * 12.0, 0.0)
     params = {"inertia": 1.5e-6, "input_gain": 0.002, "viscous": 1e-4, "coulomb": 0.003, "offset": 0.0}
-    w = RigidDrive(("viscous_friction", "coulomb_friction", "offset"), params, dt).free_run(applied, substeps=5)
+    w = RigidDrive(("viscous_friction", "coulomb_friction", "offset"), params, dt).free_run(
+        applied, substeps=5
+    )
     y = 0.767 * np.round((w + 0.5 * np.random.default_rng(1).standard_normal(w.size)) / 0.767)
     record = pd.DataFrame({"t": t, "u": duty, "y": y})
     record.attrs["dt"] = dt
@@ -35,7 +37,9 @@ def pulsed() -> pd.DataFrame:
 
 
 def test_a_pulsed_drive_is_refused_naming_what_the_record_shows(pulsed):
-    with pytest.raises(DataError, match=r"no drive model describes this record: the fitted inertia is -") as info:
+    with pytest.raises(
+        DataError, match=r"no drive model describes this record: the fitted inertia is -"
+    ) as info:
         diagnose(pulsed)
     assert "averaged over whole PWM periods" in str(info.value) and "nan" not in str(info.value)
 
@@ -50,6 +54,8 @@ def test_the_command_line_exits_2_in_one_line_and_writes_no_model(capsys, pulsed
     assert not model.exists()
 
 
-@pytest.mark.parametrize(("value", "text"), [(1.23456, "1.235"), (math.nan, "diverges"), (math.inf, "diverges")])
+@pytest.mark.parametrize(
+    ("value", "text"), [(1.23456, "1.235"), (math.nan, "diverges"), (math.inf, "diverges")]
+)
 def test_a_gap_that_is_not_finite_is_said_to_diverge(value, text):
     assert figure(value) == text

@@ -111,7 +111,7 @@ def test_the_first_gap_is_the_rig_as_given(doctored):
     noise = float(np.std(meas["y"].to_numpy() - meas["omega_l"].to_numpy()))  # the tacho and A/D error
     # measured: raw 1.62, noise 0.42, initial gap 1.60 rad/s: between the raw RMS less the noise
     # (1.56) and the raw RMS, within the 10 % the doctor's filter edges and band change it by
-    assert 0.9 * np.sqrt(raw**2 - noise**2) < d.initial_gap["overall"] < raw
+    assert 0.9 * np.sqrt(raw**2 - noise**2) < d.initial_gap.overall < raw
     assert isinstance(d.improved_model, TwoMassRig) and d.named == ["stribeck_friction"]
 
 

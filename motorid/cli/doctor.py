@@ -93,8 +93,8 @@ def cmd_doctor(args: argparse.Namespace) -> int:
             say(f"  a segment: {path} is longer than --max-samples; the doctor works on its first "
                 f"{len(record)} samples ({len(record) * record.attrs['dt']:g} s) and holds no more")  # fmt: skip
     if diagnosis.refitted_gap is not None:
-        say(f"  gap of the given model {diagnosis.initial_gap['overall']:.4g} {units['v']}, "
-            f"refitted {diagnosis.refitted_gap['overall']:.4g} {units['v']}")  # fmt: skip
+        say(f"  gap of the given model {diagnosis.initial_gap.overall:.4g} {units['v']}, "
+            f"refitted {diagnosis.refitted_gap.overall:.4g} {units['v']}")  # fmt: skip
     if args.input_gain is None and args.model is None:
         say(f"  no --input-gain: forces are per input unit, in {units['F']}")
     structure = diagnosis.structure
@@ -111,9 +111,9 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         if step.lookalike is not None:
             say(f"    {step.lookalike.describe(units)}")
     say(
-        f"  gap {diagnosis.initial_gap['overall']:.4g} -> {diagnosis.final_gap['overall']:.4g} {units['v']}, "
-        f"force error {diagnosis.initial_gap['force_error_percent']:.2f} % -> "
-        f"{diagnosis.final_gap['force_error_percent']:.2f} %"
+        f"  gap {diagnosis.initial_gap.overall:.4g} -> {diagnosis.final_gap.overall:.4g} {units['v']}, "
+        f"force error {diagnosis.initial_gap.force_error_percent:.2f} % -> "
+        f"{diagnosis.final_gap.force_error_percent:.2f} %"
     )
     if diagnosis.records:
         say(f"  gaps per record [{units['v']}] (above: pooled over the records):")
@@ -123,8 +123,8 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         for agreement in diagnosis.agreement:
             say(f"    {agreement.describe(param_units[agreement.unit_of])}")
     bands = ", ".join(
-        f"{b['noise_floor']:.3g} "
-        + (f"below {b['speed_to']:.3g}" if k == 0 else f"at {b['speed_from']:.3g}-{b['speed_to']:.3g}")
+        f"{b.noise_floor:.3g} "
+        + (f"below {b.speed_to:.3g}" if k == 0 else f"at {b.speed_from:.3g}-{b.speed_to:.3g}")
         for k, b in enumerate(diagnosis.noise_bands)
     )
     step = diagnosis.quantisation_step
@@ -133,20 +133,20 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         + (f"; the output steps by {step:.4g}" if step else "")
     )
     for rest in diagnosis.rests:
-        label = f"{rest['record']}: " if len(diagnosis.rests) > 1 else ""
-        if not rest["count"]:
+        label = f"{rest.record}: " if len(diagnosis.rests) > 1 else ""
+        if not rest.count:
             say(f"  rests: {label}none (the speed never stays at zero between motions)")
             continue
-        excess = rest["breakaway_excess"]
+        excess = rest.breakaway_excess
         above = (
-            f"{excess:.3g} ± {rest['breakaway_excess_std']:.2g} {units['F']} above the kinetic level "
-            f"{rest['kinetic_level']:.3g} {units['F']}"
+            f"{excess:.3g} ± {rest.breakaway_excess_std:.2g} {units['F']} above the kinetic level "
+            f"{rest.kinetic_level:.3g} {units['F']}"
             if math.isfinite(excess)
             else "its level above the kinetic one not told from a lag (the input rises alike at each)"
         )
         say(
-            f"  rests: {label}{rest['count']}, median {1000 * rest['median_length']:.0f} ms, breaking away at a "
-            f"median {rest['median_breakaway_input']:.3g} {units['u']}; at breakaway {above}"
+            f"  rests: {label}{rest.count}, median {1000 * rest.median_length:.0f} ms, breaking away at a "
+            f"median {rest.median_breakaway_input:.3g} {units['u']}; at breakaway {above}"
         )
     say(f"  stopped: {diagnosis.stop_reason}")
     final = ", ".join(
@@ -159,8 +159,8 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     if diagnosis.position_error is not None:
         pe = diagnosis.position_error
         say(
-            f"  free-run position error {pe['fitted']:.4g} {pe['unit']}; the final model's parameters refitted "
-            f"in position: {pe['refitted']:.4g} {pe['unit']}"
+            f"  free-run position error {pe.fitted:.4g} {pe.unit}; the final model's parameters refitted "
+            f"in position: {pe.refitted:.4g} {pe.unit}"
         )
     for name, why in diagnosis.undetermined.items():
         which = "these records" if diagnosis.records else "this record"
@@ -201,13 +201,13 @@ def cmd_doctor(args: argparse.Namespace) -> int:
 def record_table(diagnosis: Diagnosis) -> pd.DataFrame:
     """Each record's noise floor and gaps [v], initial and final model, and the final gap in noise floors."""
     rows = {
-        r["record"]: {
-            "samples": r["samples"],
-            "noise_floor": round(r["noise_floor"], 4),
-            "gap_initial": round(r["initial_gap"]["overall"], 4),
-            "gap_final": round(r["final_gap"]["overall"], 4),
-            "floors": round(r["final_gap_noise_floors"], 2),
-            "force_error_final_percent": round(r["final_gap"]["force_error_percent"], 3),
+        r.record: {
+            "samples": r.samples,
+            "noise_floor": round(r.noise_floor, 4),
+            "gap_initial": round(r.initial_gap.overall, 4),
+            "gap_final": round(r.final_gap.overall, 4),
+            "floors": round(r.final_gap_noise_floors, 2),
+            "force_error_final_percent": round(r.final_gap.force_error_percent, 3),
         }
         for r in diagnosis.records
     }

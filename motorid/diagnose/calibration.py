@@ -260,8 +260,8 @@ def second_steps(
             out.first_right.append(d.named[:1] == [effect])
             out.second.append(d.named[1] if len(d.named) > 1 else None)
             out.second_without_rule.append(runs[1].named[1] if len(runs[1].named) > 1 else None)
-            out.initial_floors.append(d.initial_gap["overall"] / d.noise_floor)
-            out.final_floors.append(d.final_gap["overall"] / d.noise_floor)
+            out.initial_floors.append(d.initial_gap.overall / d.noise_floor)
+            out.final_floors.append(d.final_gap.overall / d.noise_floor)
     return out
 
 
@@ -301,7 +301,7 @@ def stiction(seeds: range | list[int], duration: float = 60.0, **kwargs) -> Stic
             out.planted.append(planted)
             out.named.append(d.named)
             out.level_ratio.append(ratio)
-            out.final_floors.append(d.final_gap["overall"] / d.noise_floor)
+            out.final_floors.append(d.final_gap.overall / d.noise_floor)
     return out
 
 
@@ -720,7 +720,7 @@ def bank(
             imperfection, effect, seed, b.signal, list(d.named), None,
             d.named[:1] == [effect] if effect is not None else not d.named,
             abs(found - truth) / abs(truth), delay, bool(d.delay_drift),
-            d.final_gap["overall"] / d.noise_floor,
+            d.final_gap.overall / d.noise_floor,
         ))  # fmt: skip
         bar.update(1)
     bar.close()

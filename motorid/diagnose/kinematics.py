@@ -367,14 +367,37 @@ def acceleration_noise(kin: Kinematics, samples: np.ndarray) -> float:
     return white_noise_variance(kin, samples) * acceleration_noise_gain(kin.dt, kin.band)
 
 
+@dataclass(frozen=True)
+class NoiseBand:
+    """The noise floor of one speed band.
+
+    Attributes
+    ----------
+    speed_from, speed_to : float
+        The band's edges of |velocity| [v].
+    samples : int
+        Settled samples in it.
+    noise_floor : float
+        Its noise floor [v] (NaN for a band of fewer than 10 samples).
+    """
+
+    speed_from: float
+    speed_to: float
+    samples: int
+    noise_floor: float
+
+    def to_dict(self) -> dict[str, float]:
+        return {"speed_from": self.speed_from, "speed_to": self.speed_to, "samples": self.samples,
+                "noise_floor": self.noise_floor}  # fmt: skip
+
+
 def noise_bands(
     speed: np.ndarray, hf: np.ndarray, edges: np.ndarray, band: float, dt: float
-) -> list[dict[str, float]]:
+) -> list[NoiseBand]:
     """The noise floor per speed band ``edges[i] <= speed < edges[i+1]`` [v] (the top band holds
     its upper edge), :func:`filtered_noise` of the ``hf`` of the samples in it (velocity filtered
     for the useful ``band`` [Hz]): an encoder's speed noise grows with speed, so one record-wide
-    figure is too high near rest and too low at speed. Each band: ``speed_from``, ``speed_to``
-    [v], ``samples`` and ``noise_floor`` [v] (NaN for a band of fewer than 10 samples).
+    figure is too high near rest and too low at speed (a :class:`NoiseBand` each).
 
     Parameters
     ----------
@@ -395,7 +418,7 @@ def noise_bands(
         inside = (speed >= lo) & ((speed <= hi) if last else (speed < hi))
         count = int(inside.sum())
         floor = filtered_noise(hf[inside], 2.5 * band, dt) if count >= 10 else math.nan
-        out.append({"speed_from": float(lo), "speed_to": float(hi), "samples": count, "noise_floor": floor})
+        out.append(NoiseBand(float(lo), float(hi), count, floor))
     return out
 
 
@@ -428,6 +451,7 @@ def quantisation_step(y: np.ndarray) -> float | None:
 
 __all__ = [
     "Kinematics",
+    "NoiseBand",
     "acceleration_noise",
     "acceleration_noise_gain",
     "anti_alias",

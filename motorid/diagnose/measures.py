@@ -56,7 +56,34 @@ def rms(x: np.ndarray) -> float:
     return float(np.sqrt(np.mean(x**2))) if x.size else float("nan")
 
 
-def gaps(model: RigidDrive, prep: Prepared, region: Region | None) -> dict[str, float]:
+@dataclass(frozen=True)
+class Gap:
+    """How far a model's free run lies from a record, and its force error.
+
+    Attributes
+    ----------
+    overall : float
+        RMS of measured minus free-run velocity over the settled samples [v].
+    region : float
+        The same over a located region's samples [v] (NaN where none was asked).
+    force_error_percent : float
+        ``100 ||F_in - F_model|| / ||F_in||`` over the decimated moving samples of the torque
+        balance [%] (the EMPS figure of merit).
+    """
+
+    overall: float
+    region: float
+    force_error_percent: float
+
+    def to_dict(self) -> dict[str, float]:
+        return {
+            "overall": self.overall,
+            "region": self.region,
+            "force_error_percent": self.force_error_percent,
+        }
+
+
+def gaps(model: RigidDrive, prep: Prepared, region: Region | None) -> Gap:
     """Output gap overall and in ``region`` [v] (free run) and force error [%].
 
     Parameters
@@ -70,15 +97,14 @@ def gaps(model: RigidDrive, prep: Prepared, region: Region | None) -> dict[str, 
 
     Returns
     -------
-    dict
-        ``overall`` and ``region`` [v], ``force_error_percent`` [%].
+    Gap
     """
-    return dict(gaps_and_weights(model, prep, region)[0])
+    return gaps_and_weights(model, prep, region)[0]
 
 
 def gaps_and_weights(
     model: RigidDrive, prep: Prepared, region: Region | None
-) -> tuple[dict[str, float], dict[str, float]]:
+) -> tuple[Gap, dict[str, float]]:
     """:func:`gaps` and what a pool weighs them by: the samples each RMS is over (``overall``,
     ``region``) and the norm of the commanded force (``force_error_percent``)."""
     key = (model_key(model), region)
@@ -90,11 +116,11 @@ def gaps_and_weights(
         r, f_in = balance_residual(model, prep.data)
         f_norm = float(np.linalg.norm(f_in))
         prep._gaps[key] = (
-            {
-                "overall": rms(err[valid]),
-                "region": rms(err[in_region]) if region is not None else float("nan"),
-                "force_error_percent": 100.0 * float(np.linalg.norm(r) / max(f_norm, 1e-300)),
-            },
+            Gap(
+                overall=rms(err[valid]),
+                region=rms(err[in_region]) if region is not None else float("nan"),
+                force_error_percent=100.0 * float(np.linalg.norm(r) / max(f_norm, 1e-300)),
+            ),
             {"overall": int(valid.sum()), "region": int(in_region.sum()), "force_error_percent": f_norm},
         )
     return prep._gaps[key]
@@ -351,4 +377,4 @@ def holdout_rows(n: int, fraction: float, blocks: int = 10) -> np.ndarray:
     return np.isin(block, chosen)
 
 
-__all__ = ["MIN_RESTS", "Breakaway", "fit_static_friction", "free_run_error"]
+__all__ = ["MIN_RESTS", "Breakaway", "Gap", "fit_static_friction", "free_run_error"]

@@ -18,9 +18,10 @@ import numpy as np
 import pandas as pd
 
 from motorid.diagnose.artefacts import clean_output
-from motorid.diagnose.kinematics import Kinematics, kinematics, noise_bands, quantisation_step
+from motorid.diagnose.kinematics import Kinematics, NoiseBand, kinematics, noise_bands, quantisation_step
 from motorid.diagnose.locate import Region, feature, features
 from motorid.diagnose.measures import (
+    Gap,
     balance_residual,
     free_run_error,
     gaps,
@@ -253,7 +254,7 @@ def rests_of(kin: Kinematics, step: float | None) -> Rests:
     floor = 0.0
     if speed.size:
         near = noise_bands(speed, kin.hf[kin.valid], np.asarray(SPEED_BANDS[:2]) * float(np.max(speed)),
-                           kin.band, kin.dt)[0]["noise_floor"]  # fmt: skip
+                           kin.band, kin.dt)[0].noise_floor  # fmt: skip
         floor = near if math.isfinite(near) else kin.noise
     w_rest = max(step or 0.0, 3.0 * floor, 1e-12)
     return rests(kin.u, kin.w, kin.dt, w_rest, kin.valid)
@@ -321,7 +322,7 @@ class Pool:
     def dt(self) -> float:
         return self.parts[0].kin.dt
 
-    def gaps(self, model: RigidDrive, region: Region | None) -> dict[str, float]:
+    def gaps(self, model: RigidDrive, region: Region | None) -> Gap:
         """The pooled :func:`~motorid.diagnose.measures.gaps` (see the class notes)."""
         if len(self.parts) == 1:
             return gaps(model, self.parts[0], region)
@@ -330,13 +331,13 @@ class Pool:
         for key in ("overall", "region", "force_error_percent"):
             # a gap is an RMS over n samples, the force error a norm ratio: pool the squares
             power = 2 if key == "force_error_percent" else 1
-            terms = [(g[key], w[key] ** power) for g, w in pairs]
+            terms = [(getattr(g, key), w[key] ** power) for g, w in pairs]
             terms = [(g, wt) for g, wt in terms if wt > 0 and math.isfinite(g)]
             total = sum(wt for _, wt in terms)
             out[key] = math.sqrt(sum(g * g * wt for g, wt in terms) / total) if total > 0 else float("nan")
-        return out
+        return Gap(**out)
 
-    def record_gaps(self, model: RigidDrive, region: Region | None) -> list[dict[str, float]]:
+    def record_gaps(self, model: RigidDrive, region: Region | None) -> list[Gap]:
         """:func:`~motorid.diagnose.measures.gaps` of each record."""
         return [gaps(model, p, region) for p in self.parts]
 
@@ -356,7 +357,7 @@ class Pool:
             errors = [e[m] for e, m in zip(errors, samples, strict=True)]
         return stacked(errors)
 
-    def noise_bands(self) -> list[dict[str, float]]:
+    def noise_bands(self) -> list[NoiseBand]:
         """The noise floor per speed band (:func:`~motorid.diagnose.kinematics.noise_bands`) over
         the settled samples of every record, the bands :data:`SPEED_BANDS` of the largest |w|."""
         speed = stacked([np.abs(p.kin.w[p.kin.valid]) for p in self.parts])
@@ -377,7 +378,7 @@ class Pool:
         bands = self.noise_bands()
         if not bands:
             return self.noise
-        floor = bands[-1 if acts == "speed" else 0]["noise_floor"]
+        floor = bands[-1 if acts == "speed" else 0].noise_floor
         return floor if math.isfinite(floor) and floor > 0 else self.noise
 
     def acting_samples(self, acts: str) -> list[np.ndarray] | None:

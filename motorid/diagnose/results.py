@@ -8,6 +8,7 @@ in one place (:class:`Stop`, :data:`STOP_SENTENCES`, :func:`final_gap_sentence`)
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -17,8 +18,9 @@ import numpy as np
 import pandas as pd
 
 from motorid.diagnose.agreement import Agreement
+from motorid.diagnose.kinematics import NoiseBand
 from motorid.diagnose.locate import Region
-from motorid.diagnose.measures import breakaway, gaps
+from motorid.diagnose.measures import Gap, breakaway, gaps
 from motorid.diagnose.model import DelayTrade
 from motorid.diagnose.prepare import Pool, prepare
 from motorid.diagnose.timing import DelayDrift
@@ -162,8 +164,8 @@ class Step:
         Its parameters (SI units) in the refitted model.
     region : Region
         Where the disagreement concentrated before it was added.
-    gap_before, gap_after : dict
-        ``overall`` and ``region`` output gap [v], ``force_error_percent`` [%].
+    gap_before, gap_after : Gap
+        The output gaps overall and in ``region`` [v] and the force error [%].
     evidence : dict
         ΔBIC and its threshold, held-out errors [F], the candidate ranking.
     model : RigidDrive
@@ -178,8 +180,8 @@ class Step:
     effect: str
     params: dict[str, float]
     region: Region
-    gap_before: dict[str, float]
-    gap_after: dict[str, float]
+    gap_before: Gap
+    gap_after: Gap
     evidence: dict[str, Any]
     model: RigidDrive
     record_gaps: list[dict[str, Any]] = field(default_factory=list)
@@ -190,8 +192,8 @@ class Step:
             "effect": self.effect,
             "params": self.params,
             "region": self.region.to_dict(),
-            "gap_before": self.gap_before,
-            "gap_after": self.gap_after,
+            "gap_before": self.gap_before.to_dict(),
+            "gap_after": self.gap_after.to_dict(),
             "evidence": self.evidence,
             "model_params": self.model.params,
         }
@@ -208,10 +210,9 @@ class Diagnosis:
 
     Attributes
     ----------
-    initial_gap, final_gap : dict
-        ``overall`` output gap [v] (RMS of measured minus free-run velocity),
-        ``region`` (the same in the first located region) and
-        ``force_error_percent`` [%] (torque-balance error on the decimated samples).
+    initial_gap, final_gap : Gap
+        The output gap [v] (RMS of measured minus free-run velocity) overall and in the first
+        located region, and the torque-balance error on the decimated samples [%].
     steps : list of Step
     stop_reason : str
         Why the search stopped, then the final gap against the noise floor: at it, or
@@ -236,7 +237,7 @@ class Diagnosis:
         Options used (for :meth:`evaluate` on another record).
     rejected : list of dict
         Candidates that passed the evidence threshold but were not accepted, and why.
-    refitted_model, refitted_gap : RigidDrive and dict, or None
+    refitted_model, refitted_gap : RigidDrive and Gap, or None
         With a given model: its effects refitted to the record, and their gaps (the
         start of the first step).
     param_std : dict
@@ -254,22 +255,15 @@ class Diagnosis:
         The input delay and lag chosen from the record before any other effect was judged.
     structure_model : RigidDrive or None
         The base refitted with that structure, when one was taken.
-    noise_bands : list of dict
-        The noise floor per speed band (:meth:`Pool.noise_bands`): ``speed_from``, ``speed_to``
-        [v], ``samples``, ``noise_floor`` [v]. An encoder's noise often grows with speed, where
-        :attr:`noise_floor` is one figure over every speed.
+    noise_bands : list of NoiseBand
+        The noise floor per speed band (:meth:`Pool.noise_bands`). An encoder's noise often
+        grows with speed, where :attr:`noise_floor` is one figure over every speed.
     quantisation_step : float or None
         The step the output is quantised in [its unit] (an encoder's count per sample), when it
         shows (:func:`~motorid.diagnose.kinematics.quantisation_step`).
-    rests : list of dict
-        Per record (:func:`rest_summaries`): its ``record`` label, the ``count`` of its rests,
-        their ``median_length`` [s], ``median_breakaway_input`` [u] (the input it breaks away
-        at, in the direction it then moves: :mod:`.rests`) and ``median_input_rate`` [u/s] (how
-        fast that input rises there), ``w_rest`` [v] (the speed below which
-        it counts as at rest), the final model's ``kinetic_level`` at 0 [F] (mean of the two
-        directions), ``breakaway_excess`` [F] (the force at breakaway above it at an input that
-        rises infinitely slowly, and its ``breakaway_excess_std``) and ``breakaway_lag`` [s] (how
-        much later the force follows the input: :class:`~motorid.diagnose.measures.Breakaway`).
+    rests : list of RestSummary
+        Per record (:func:`rest_summaries`): its rests and the breakaway they show above the
+        final model's kinetic level.
     notes : list of str
         One line per logging artefact left out of a record (a held start, drop-out spikes:
         :mod:`.artefacts`); with several records each begins with the record's label. With a
@@ -281,14 +275,11 @@ class Diagnosis:
     position_model : RigidDrive or None
         On position records, :attr:`model`'s parameters refitted to the records' free-run
         position (:func:`~motorid.diagnose.position.refit_records_in_position`); None otherwise.
-    position_error : dict or None
-        With it, the RMS free-run position error on the records of :attr:`model` (``fitted``)
-        and of :attr:`position_model` (``refitted``), in the position ``unit``.
-    records : list of dict
-        Several records of one drive (:class:`Pool`): per record its ``record`` label,
-        ``samples``, ``noise_floor`` [v], ``initial_gap`` and ``final_gap`` (as above, of that
-        record alone) and ``final_gap_noise_floors``; the gaps above are the pooled ones.
-        Empty for one record.
+    position_error : PositionError or None
+        With it, the RMS free-run position errors of :attr:`model` and of :attr:`position_model`.
+    records : list of RecordSummary
+        Several records of one drive (:class:`Pool`): each record's gaps alone; the gaps above
+        are the pooled ones. Empty for one record.
     agreement : list of Agreement
         Several records: how they agree on each linear parameter the joint run determines, each
         record fitted alone with the joint model's structure (:mod:`.agreement`: Cochran's test
@@ -300,8 +291,8 @@ class Diagnosis:
         ``align``, the drifts taken out before the records were diagnosed again.
     """
 
-    initial_gap: dict[str, float]
-    final_gap: dict[str, float]
+    initial_gap: Gap
+    final_gap: Gap
     steps: list[Step]
     stop_reason: str
     noise_floor: float
@@ -313,20 +304,20 @@ class Diagnosis:
     settings: dict[str, Any]
     rejected: list[dict[str, Any]] = field(default_factory=list)
     refitted_model: RigidDrive | None = None
-    refitted_gap: dict[str, float] | None = None
+    refitted_gap: Gap | None = None
     param_std: dict[str, float] = field(default_factory=dict)
     param_share: dict[str, float] = field(default_factory=dict)
     delay_trade: DelayTrade | None = None
     structure: Structure = field(default_factory=Structure)
     structure_model: RigidDrive | None = None
-    records: list[dict[str, Any]] = field(default_factory=list)
+    records: list[RecordSummary] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
-    noise_bands: list[dict[str, float]] = field(default_factory=list)
+    noise_bands: list[NoiseBand] = field(default_factory=list)
     quantisation_step: float | None = None
-    rests: list[dict[str, Any]] = field(default_factory=list)
+    rests: list[RestSummary] = field(default_factory=list)
     rig: TwoMassRig | None = None
     position_model: RigidDrive | None = None
-    position_error: dict[str, float] | None = None
+    position_error: PositionError | None = None
     agreement: list[Agreement] = field(default_factory=list)
     delay_drift: list[DelayDrift] = field(default_factory=list)
     _pool: Pool | None = field(default=None, repr=False)
@@ -420,15 +411,15 @@ class Diagnosis:
     def to_dict(self) -> dict[str, Any]:
         """The JSON shape of ``motorid doctor --json``."""
         return {
-            "initial_gap": self.initial_gap,
-            "final_gap": self.final_gap,
+            "initial_gap": self.initial_gap.to_dict(),
+            "final_gap": self.final_gap.to_dict(),
             "steps": [s.to_dict() for s in self.steps],
             "stop_reason": self.stop_reason,
             "noise_floor": self.noise_floor,
-            "noise_bands": self.noise_bands,
+            "noise_bands": [b.to_dict() for b in self.noise_bands],
             "quantisation_step": self.quantisation_step,
             "at_noise_floor_factor": self.settings["missing_factor"],
-            "rests": self.rests,
+            "rests": [r.to_dict() for r in self.rests],
             "region": self.region.to_dict(),
             "final_region": self.final_region.to_dict(),
             "model": {
@@ -456,9 +447,9 @@ class Diagnosis:
                 "effects": list(self.initial_model.effects),
                 "params": self.initial_model.params,
             },
-            "refitted_gap": self.refitted_gap,
+            "refitted_gap": None if self.refitted_gap is None else self.refitted_gap.to_dict(),
             "structure": self.structure.to_dict(),
-            **({"records": self.records} if self.records else {}),
+            **({"records": [r.to_dict() for r in self.records]} if self.records else {}),
             **({"agreement": {a.parameter: a.to_dict() for a in self.agreement}} if self.agreement else {}),
             **({"lookalikes": [x.to_dict() for x in self.lookalikes]} if self.lookalikes else {}),
             **({"notes": self.notes} if self.notes else {}),
@@ -474,9 +465,9 @@ class Diagnosis:
         return {
             "effects": list(self.position_model.effects),
             "params": self.position_model.params,
-            "position_error_fitted": self.position_error["fitted"],
-            "position_error_refitted": self.position_error["refitted"],
-            "unit": self.position_error["unit"],
+            "position_error_fitted": self.position_error.fitted,
+            "position_error_refitted": self.position_error.refitted,
+            "unit": self.position_error.unit,
         }
 
     def _rig_dict(self) -> dict[str, Any]:
@@ -501,12 +492,12 @@ class Diagnosis:
                 {
                     "effect": s.effect,
                     "region": s.region.description,
-                    "gap_before": s.gap_before["overall"],
-                    "gap_after": s.gap_after["overall"],
-                    "region_gap_before": s.gap_before["region"],
-                    "region_gap_after": s.gap_after["region"],
-                    "force_error_before_percent": s.gap_before["force_error_percent"],
-                    "force_error_after_percent": s.gap_after["force_error_percent"],
+                    "gap_before": s.gap_before.overall,
+                    "gap_after": s.gap_after.overall,
+                    "region_gap_before": s.gap_before.region,
+                    "region_gap_after": s.gap_after.region,
+                    "force_error_before_percent": s.gap_before.force_error_percent,
+                    "force_error_after_percent": s.gap_after.force_error_percent,
                     "delta_bic": s.evidence["delta_bic"],
                 }
             )
@@ -573,9 +564,105 @@ class Diagnosis:
         ]
 
 
+@dataclass(frozen=True)
+class PositionError:
+    """The RMS free-run position error on a position record's samples of the doctor's final model
+    and of the same model refitted in position
+    (:func:`~motorid.diagnose.position.refit_records_in_position`).
+
+    Attributes
+    ----------
+    fitted, refitted : float
+        The two errors [unit].
+    unit : str
+        The position's unit (``m`` or ``rad``; ``position_unit`` of the velocity's).
+    """
+
+    fitted: float
+    refitted: float
+    unit: str
+
+
+@dataclass(frozen=True)
+class RecordSummary:
+    """One record of a joint run: its gaps of the initial and final models, alone.
+
+    Attributes
+    ----------
+    record : str
+        Its label.
+    samples : int
+        Its samples.
+    noise_floor : float
+        Its noise floor [v].
+    initial_gap, final_gap : Gap
+        Its gaps of the initial and the final model.
+    """
+
+    record: str
+    samples: int
+    noise_floor: float
+    initial_gap: Gap
+    final_gap: Gap
+
+    @property
+    def final_gap_noise_floors(self) -> float:
+        """The final gap in its noise floors [-]."""
+        return self.final_gap.overall / self.noise_floor if self.noise_floor > 0 else math.inf
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "record": self.record, "samples": self.samples, "noise_floor": self.noise_floor,
+            "initial_gap": self.initial_gap.to_dict(), "final_gap": self.final_gap.to_dict(),
+            "final_gap_noise_floors": self.final_gap_noise_floors,
+        }  # fmt: skip
+
+
+@dataclass(frozen=True)
+class RestSummary:
+    """The rests of one record and the breakaway they show above a model's kinetic level.
+
+    Attributes
+    ----------
+    record : str
+        Its label.
+    count : int
+        Its rests (:mod:`.rests`).
+    median_length : float
+        Their median length [s] (NaN for none).
+    median_breakaway_input : float
+        The median input the drive breaks away at, in the direction it then moves [u].
+    median_input_rate : float
+        The median rate of the input there [u/s].
+    w_rest : float
+        The speed at or below which the drive counts as at rest [v].
+    kinetic_level : float
+        The model's kinetic friction level at 0± (the mean of both directions) [F].
+    breakaway_excess, breakaway_excess_std : float
+        The force at breakaway above it, at an input rising infinitely slowly, and its
+        standard error [F] (:class:`~motorid.diagnose.measures.Breakaway`).
+    breakaway_lag : float
+        The lag between input and force the rests show [s].
+    """
+
+    record: str
+    count: int
+    median_length: float
+    median_breakaway_input: float
+    median_input_rate: float
+    w_rest: float
+    kinetic_level: float
+    breakaway_excess: float
+    breakaway_excess_std: float
+    breakaway_lag: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
 def record_summaries(
     pool: Pool, initial: RigidDrive, final: RigidDrive, region: Region
-) -> list[dict[str, Any]]:
+) -> list[RecordSummary]:
     """Each record's gaps of the ``initial`` and ``final`` models and its noise floor
     (:attr:`Diagnosis.records`); none for a pool of one record.
 
@@ -598,15 +685,11 @@ def record_summaries(
         pool.record_gaps(final, region),
         strict=True,
     ):
-        floor = prep.kin.noise
-        out.append({
-            "record": label, "samples": prep.kin.n, "noise_floor": floor, "initial_gap": before,
-            "final_gap": after, "final_gap_noise_floors": after["overall"] / floor if floor > 0 else math.inf,
-        })  # fmt: skip
+        out.append(RecordSummary(label, prep.kin.n, prep.kin.noise, before, after))
     return out
 
 
-def rest_summaries(pool: Pool, model: RigidDrive) -> list[dict[str, Any]]:
+def rest_summaries(pool: Pool, model: RigidDrive) -> list[RestSummary]:
     """Each record's rests (:meth:`Rests.summary <motorid.diagnose.rests.Rests.summary>`) and the
     breakaway they show above ``model``'s kinetic level (:func:`~motorid.diagnose.measures.breakaway`)
     (:attr:`Diagnosis.rests`).
@@ -626,11 +709,10 @@ def rest_summaries(pool: Pool, model: RigidDrive) -> list[dict[str, Any]]:
     for k, (label, prep) in enumerate(zip(pool.labels, pool.parts, strict=True)):
         only = [np.full(p.kin.n, j == k) for j, p in enumerate(pool.parts)]
         found = breakaway(pool, model, only)
-        out.append({
-            "record": label, **prep.rests.summary(), "kinetic_level": 0.5 * float(t_pos - t_neg),
-            "breakaway_excess": found.excess, "breakaway_excess_std": found.standard_error,
-            "breakaway_lag": found.lag,
-        })  # fmt: skip
+        out.append(RestSummary(
+            label, **prep.rests.summary(), kinetic_level=0.5 * float(t_pos - t_neg),
+            breakaway_excess=found.excess, breakaway_excess_std=found.standard_error, breakaway_lag=found.lag,
+        ))  # fmt: skip
     return out
 
 
@@ -717,7 +799,12 @@ __all__ = [
     "RELATIVE_STD_LIMIT",
     "STOP_SENTENCES",
     "Diagnosis",
+    "Gap",
     "Lookalike",
+    "NoiseBand",
+    "PositionError",
+    "RecordSummary",
+    "RestSummary",
     "Step",
     "Stop",
     "Structure",

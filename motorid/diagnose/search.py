@@ -21,6 +21,7 @@ import numpy as np
 from motorid.diagnose.locate import Region, locate
 from motorid.diagnose.measures import (
     MIN_RESTS,
+    Gap,
     breakaway,
     breakaway_evidence,
     breakaway_holdout,
@@ -140,7 +141,7 @@ def choose_structure(
     floor = pool.noise
     probe = effect_order((*base, "coulomb_friction"))
     fit_p = fit_model(data, probe, start=start, stribeck_shape=stribeck_shape)
-    gap_p = pool.gaps(fit_p.model, None)["overall"]
+    gap_p = pool.gaps(fit_p.model, None).overall
     tried: list[dict[str, Any]] = []
     fits: dict[tuple[str, ...], FitResult] = {}
 
@@ -187,7 +188,7 @@ def choose_structure(
     reasons = []
     for row in passing:
         names = tuple(row["effects"])
-        row["gap"] = gap1 = pool.gaps(fits[names].model, None)["overall"]
+        row["gap"] = gap1 = pool.gaps(fits[names].model, None).overall
         part = explained(gap_p, gap1, floor)
         if gap1 < (1.0 - min_gap_shrink) * gap_p and part > noise_explained:
             reason = (
@@ -335,7 +336,7 @@ class StepStart:
         Its effects.
     region : Region
         Where its disagreement concentrates.
-    gap : dict
+    gap : Gap
         Its gaps (:meth:`Pool.gaps <motorid.diagnose.prepare.Pool.gaps>`) in ``region``.
     held_error : float
         Its held-out torque-balance error [v/s] (:meth:`Search.held_error`).
@@ -350,7 +351,7 @@ class StepStart:
     fit: FitResult
     effects: tuple[str, ...]
     region: Region
-    gap: dict[str, float]
+    gap: Gap
     held_error: float
     later: bool
     held_position: float = math.nan
@@ -367,7 +368,7 @@ class Decision:
     held_before, held_after : float
         Held-out error without and with it ([v/s] on the balance, [F] on the rests, [v] on the
         free run).
-    gap_before, gap_after : dict
+    gap_before, gap_after : Gap
         The step model's and the candidate's gaps in the step's region.
     shrink : float
         The free-run gap's shrink where it is judged, in noise floors of that band.
@@ -387,8 +388,8 @@ class Decision:
     candidate: Candidate
     held_before: float
     held_after: float
-    gap_before: dict[str, float]
-    gap_after: dict[str, float]
+    gap_before: Gap
+    gap_after: Gap
     shrink: float
     explained: float
     acts: str
@@ -411,7 +412,7 @@ class Decision:
         out = {
             "effect": self.candidate.effect, "delta_bic": self.candidate.delta_bic,
             "held_out_error_before": self.held_before, "held_out_error_after": self.held_after,
-            "gap_before": self.gap_before["overall"], "gap_after": self.gap_after["overall"],
+            "gap_before": self.gap_before.overall, "gap_after": self.gap_after.overall,
             "gap_shrink_noise_floors": self.shrink, "explained_noise_floors": self.explained,
         }  # fmt: skip
         if self.acting is not None:
@@ -470,7 +471,7 @@ def lookalike_rule(
     for m in passing:
         if m is not c and get_effect(m.effect).physics(model) == physics:
             gap_m = pool.gaps(m.fit.model, region)
-            if abs(gap_m["overall"] - gap1["overall"]) <= tolerance:
+            if abs(gap_m.overall - gap1.overall) <= tolerance:
                 alike.append((m, gap_m))
     if len(alike) == 1:
         return accepted, None
@@ -485,7 +486,7 @@ def lookalike_rule(
     lookalike = Lookalike(
         physics=physics,
         named=named.effect,
-        gaps={m.effect: g["overall"] for m, g in alike},
+        gaps={m.effect: g.overall for m, g in alike},
         levels={m.effect: get_effect(m.effect).level(m.fit.model.params) for m, _ in alike},
         tolerance=tolerance,
     )
@@ -735,7 +736,7 @@ class Search:
         drop_best = fit.rss - best.fit.rss
         alike = [c for c in passing if fit.rss - c.fit.rss >= ALIKE * drop_best]
         for c in alike:
-            c.free_run_gap = self.pool.gaps(c.fit.model, region)["overall"]
+            c.free_run_gap = self.pool.gaps(c.fit.model, region).overall
         order = list(passing)
         if len(alike) > 1:
             pick = min(alike, key=lambda c: np.nan_to_num(c.free_run_gap, nan=np.inf))
@@ -816,9 +817,9 @@ class Search:
         where = WHERE.get(acts, "")
         if acts:
             before, after = pool.acting_gap(model0, acts), pool.acting_gap(c.fit.model, acts)
-            ok_gap = after < (1.0 - self.min_gap_shrink) * before and gap1["overall"] <= at.gap["overall"]
+            ok_gap = after < (1.0 - self.min_gap_shrink) * before and gap1.overall <= at.gap.overall
         else:
-            before, after = at.gap["overall"], gap1["overall"]
+            before, after = at.gap.overall, gap1.overall
             ok_gap = after < (1.0 - self.min_gap_shrink) * before
         floor = pool.band_floor(acts)
         shrink = (before - after) / floor if floor > 0 else math.inf
@@ -886,7 +887,7 @@ class Search:
             ev["chosen_by"] = "the lookalike rule"
         before, after = pool.record_gaps(at.fit.model, at.region), pool.record_gaps(fit1.model, at.region)
         per_record = [
-            {"record": label, "gap_before": g0["overall"], "gap_after": g1["overall"]}
+            {"record": label, "gap_before": g0.overall, "gap_after": g1.overall}
             for label, g0, g1 in zip(pool.labels, before, after, strict=True)
         ]
         step = Step(
@@ -946,14 +947,14 @@ class Search:
             region = first_region if not steps and not relocate else locate(r_cur, pool.feats_dec, pool.units)
             gap0 = pool.gaps(fit.model, region)
             later = bool(steps) or self.given
-            at_floor = later and gap0["overall"] <= math.hypot(1.0, self.noise_explained) * floor
+            at_floor = later and gap0.overall <= math.hypot(1.0, self.noise_explained) * floor
             if at_floor:
                 # at the record-wide floor: only an effect judged where it acts, against the floor
                 # there (near rest, where an encoder's noise is least), can still show
                 remaining = [c for c in remaining if get_effect(c).acts]
             if at_floor and not remaining:
                 stop = Stop("at_noise_floor", {
-                    "gap": gap0["overall"], "ratio": gap0["overall"] / floor, "floor": floor,
+                    "gap": gap0.overall, "ratio": gap0.overall / floor, "floor": floor,
                     "v": pool.units["v"], "noise_explained": self.noise_explained,
                 })  # fmt: skip
                 break

@@ -150,6 +150,7 @@ from motorid.diagnose.results import (
     MISSING_FACTOR,
     Diagnosis,
     Lookalike,
+    PositionError,
     Step,
     Structure,
     final_gap_sentence,
@@ -408,18 +409,18 @@ def diagnose(
     if outcome.steps or chosen.effects:
         final_gap = pool.gaps(final_model, first_region)
     else:
-        final_gap = dict(initial_gap if refitted_gap is None else refitted_gap)
-    refuse_unphysical(final_model, final_gap["overall"], pool.units)
+        final_gap = initial_gap if refitted_gap is None else refitted_gap
+    refuse_unphysical(final_model, final_gap.overall, pool.units)
     drifts = [d for d in delay_drift(pool, final_model) if d.drifts]
     final_region = locate(pool.balance_residual(final_model)[0], pool.feats_dec, pool.units)
     stop_reason = outcome.stop.sentence() + "; " + final_gap_sentence(
-        final_gap["overall"], pool.gaps(final_model, final_region)["region"], final_region, pool.noise,
+        final_gap.overall, pool.gaps(final_model, final_region).region, final_region, pool.noise,
         missing_factor, pool.units["v"],
     )  # fmt: skip
     position_model, position_error = None, None
     if output_kind == "position":
         position_model, fitted, refitted = refit_records_in_position(pool, final_model)
-        position_error = {"fitted": fitted, "refitted": refitted, "unit": position_unit(pool.units["v"])}
+        position_error = PositionError(fitted, refitted, position_unit(pool.units["v"]))
     bar.update(1)
     bar.close()
     notes = [
