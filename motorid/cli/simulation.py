@@ -272,6 +272,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     add_rig_options(rig, "the drive from a model file, instead of the options below: a two-mass rig, "
                          "or a rigid drive (motorid doctor --save-model; its record is noise free)")  # fmt: skip
     rig.add_argument("--u-max", type=positive, help="amplifier saturation [V]")
-    rig.add_argument("--integrator", choices=("fast", "reference"), default="fast")
+    rig.add_argument("--integrator", choices=("fast", "reference"), default="fast",
+                     help="fast: the compiled fixed-step stick/slip integrator; reference: SciPy's solve_ivp "
+                          "(slow, for checking)")  # fmt: skip
     add_json(p)
     p.set_defaults(func=cmd_simulate)
