@@ -179,7 +179,7 @@ def test_the_final_effects_refitted_on_the_test_set_reach_a_millimetre_and_a_hal
     assert on_test.params["coulomb"] - on_train.params["coulomb"] == pytest.approx(1.13, abs=0.1)
 
 
-def test_readme_shows_the_benchmark_table_of_the_script(
+def test_the_emps_page_shows_the_benchmark_table_of_the_script(
     emps_benchmark_script, diagnosis, estimation, test_set
 ):
     text = EMPS_PAGE.read_text(encoding="utf-8")

@@ -126,3 +126,16 @@ def test_the_fleet_example_runs_as_a_script_file(tmp_path):
     )
     assert done.returncode == 0, done.stderr[-3000:]
     assert (tmp_path / "small-results" / "results.csv").exists()
+
+
+@pytest.mark.parametrize("page", [README, *guide_pages()], ids=lambda p: p.name)
+def test_every_block_is_of_a_kind_the_tests_run_or_shown_only(page):
+    """The tests run ``python`` blocks and the ``motorid`` lines of ``sh`` blocks; ``text`` blocks
+    (output, other programs' commands) and ``toml`` blocks (a plugin's entry point) are shown
+    only, and ``{toctree}`` is the site's table of contents. A block of any other kind would be
+    skipped without a word: it fails here."""
+    kinds = re.findall(r"^```(\{?[\w-]*\}?)$", page.read_text(encoding="utf-8"), flags=re.M)
+    opened = kinds[0::2]  # fences alternate: an opening with its kind, a closing without
+    allowed = {"python", "sh", "text", "toml", "{toctree}"}
+    assert set(opened) <= allowed, f"{page.name}: blocks of kind {set(opened) - allowed}"
+    assert all(kind == "" for kind in kinds[1::2]), f"{page.name}: a fence closes with a kind"
