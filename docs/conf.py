@@ -50,5 +50,17 @@ def escape_absolute_values(app, what, name, obj, options, lines: list[str]) -> N
     lines[:] = [ABSOLUTE_VALUE.sub("\u2223\\1\u2223", line) for line in lines]
 
 
+def class_attributes_as_attributes(app, what, name, obj, options, lines: list[str]) -> None:
+    """autodoc-process-docstring: a "Class attributes" section, which numpydoc does not know and
+    would leave out, becomes its "Attributes" section (where the docstring has none of its own)."""
+    if "Attributes" in lines:
+        return
+    for i in range(len(lines) - 1):
+        if lines[i].strip() == "Class attributes" and set(lines[i + 1].strip()) == {"-"}:
+            lines[i], lines[i + 1] = "Attributes", "----------"
+
+
 def setup(app) -> None:
     app.connect("autodoc-process-docstring", escape_absolute_values)
+    # before numpydoc reads the sections (its handler runs at the default priority, 500)
+    app.connect("autodoc-process-docstring", class_attributes_as_attributes, priority=400)
