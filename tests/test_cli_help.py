@@ -112,3 +112,10 @@ def test_a_warning_is_said_once_in_the_command_line_form(tmp_path):
     lines = done.stderr.splitlines()
     assert len(lines) == 1, done.stderr
     assert lines[0].startswith("motorid: warning: logger.csv: time stamps jitter by up to")
+
+
+def test_simulate_friction_lists_the_parameters_a_mass_takes(capsys):
+    text = help_of(capsys, "simulate")
+    for name in ("coulomb", "stribeck_velocity", "viscous_asymmetry", "breakaway_excess", "bristle_damping"):
+        assert name in text.split("PARAM is one of:")[1], name
+    assert "input_delay" not in text.split("PARAM is one of:")[1]  # not an effect a mass holds
