@@ -10,14 +10,14 @@ balance) and with its parameters refitted to the train set's position
 final model refitted to the train set's free-run position by the doctor
 (:attr:`Diagnosis.position_model <motorid.diagnose.results.Diagnosis.position_model>`, on the
 settled span of the low-passed position it prepared). The test set is never fitted. Prints
-the markdown table README.md shows between the markers ``<!-- emps:begin -->`` and
+the markdown table docs/guide/emps.md shows between the markers ``<!-- emps:begin -->`` and
 ``<!-- emps:end -->``.
 
 Usage::
 
     python scripts/emps_benchmark.py [FOLDER]   # FOLDER holds the .mat files; default $MOTORID_DATA
 
-``tests/test_diagnose_emps.py`` holds README's table to this script's output.
+``tests/test_diagnose_emps.py`` holds that page's table to this script's output.
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ BASE = ("viscous_friction", "offset")
 
 
 def run_doctor(train: pd.DataFrame):
-    """``motorid doctor`` on the train set, as README's command runs it."""
+    """``motorid doctor`` on the train set, as the EMPS page's command runs it."""
     from motorid.diagnose import diagnose
 
     return diagnose(train, output_kind="position", input_gain=train.attrs["input_gain"], base=BASE)

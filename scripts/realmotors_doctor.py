@@ -15,7 +15,7 @@ Usage::
 
     python scripts/realmotors_doctor.py                 # every motor
     python scripts/realmotors_doctor.py --motors kit    # the kit motor only
-    python scripts/realmotors_doctor.py --write         # and replace the table in README.md
+    python scripts/realmotors_doctor.py --write         # and replace the table in docs/guide/realmotors.md
 
 The data folder is ``$MOTORID_DATA`` (holding ``realmotors/``), else ``../shared/data`` beside
 the checkout. Units as ``motorid doctor`` reads them: the kit's input in % duty, its speed in
@@ -32,7 +32,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-README = ROOT / "README.md"
+PAGE = ROOT / "docs" / "guide" / "realmotors.md"  # the user guide's page on real motors
 BEGIN, END = "<!-- realmotors:begin -->", "<!-- realmotors:end -->"
 
 #: Motor -> (record names, output unit as read by ``--output-unit``).
@@ -171,7 +171,7 @@ def table(motors: list[str]) -> str:
     return "\n".join(lines)
 
 
-def readme_rows(text: str) -> dict[tuple[str, str], str]:
+def page_rows(text: str) -> dict[tuple[str, str], str]:
     """The table rows between the markers of ``text``, by (motor, run), without the time column
     (the one figure that changes from run to run)."""
     block = text.split(BEGIN, 1)[1].split(END, 1)[0]
@@ -195,7 +195,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--motors", nargs="+", choices=[*MOTORS, "wheel"], default=None,
                         help="motors to run (default: all; 'wheel' for the four wheel motors)")  # fmt: skip
-    parser.add_argument("--write", action="store_true", help="replace the table in README.md")
+    parser.add_argument("--write", action="store_true", help="replace the table in docs/guide/realmotors.md")
     args = parser.parse_args(argv)
     if not data_folder().is_dir():
         print(f"no real motor data at {data_folder()} (set MOTORID_DATA)", file=sys.stderr)
@@ -205,7 +205,7 @@ def main(argv: list[str] | None = None) -> int:
     block = table(motors)
     print(block)
     if args.write:
-        README.write_text(replace_block(README.read_text(encoding="utf-8"), block), encoding="utf-8")
+        PAGE.write_text(replace_block(PAGE.read_text(encoding="utf-8"), block), encoding="utf-8")
     return 0
 
 

@@ -29,7 +29,7 @@ from motorid.records import write_record
 pytestmark = requires_emps
 
 BASE = ("viscous_friction", "offset")
-README = Path(__file__).resolve().parents[1] / "README.md"
+EMPS_PAGE = Path(__file__).resolve().parents[1] / "docs" / "guide" / "emps.md"
 
 
 @pytest.fixture(scope="module")
@@ -170,7 +170,7 @@ def test_the_doctors_final_model_refitted_in_position_is_below_the_black_box_bas
 def test_the_final_effects_refitted_on_the_test_set_reach_a_millimetre_and_a_half(
     diagnosis, estimation, test_set
 ):
-    """README's reading of the figures: the structure can follow the test set better than the
+    """The EMPS page's reading of the figures: the structure can follow the test set better than the
     train set lets it (1.57 mm when its parameters are refitted there), with a Coulomb level
     1.13 N above the train set's (20.25 against 19.13 N)."""
     on_test = refit_in_position(diagnosis.model, test_set)
@@ -179,13 +179,13 @@ def test_the_final_effects_refitted_on_the_test_set_reach_a_millimetre_and_a_hal
     assert on_test.params["coulomb"] - on_train.params["coulomb"] == pytest.approx(1.13, abs=0.1)
 
 
-def test_readme_shows_the_benchmark_table_of_the_script(
+def test_the_emps_page_shows_the_benchmark_table_of_the_script(
     emps_benchmark_script, diagnosis, estimation, test_set
 ):
-    text = README.read_text(encoding="utf-8")
+    text = EMPS_PAGE.read_text(encoding="utf-8")
     begin, end = emps_benchmark_script.BEGIN, emps_benchmark_script.END
     shown = text[text.index(begin) + len(begin) : text.index(end)].strip()
     assert shown == emps_benchmark_script.benchmark_table(diagnosis, estimation, test_set), (
-        "README.md's EMPS benchmark table is stale: run python scripts/emps_benchmark.py and paste its table"
+        "docs/guide/emps.md's EMPS benchmark table is stale: run python scripts/emps_benchmark.py and paste its table"
     )
     assert emps_benchmark_script.BASE == BASE  # the script runs the doctor as these tests do

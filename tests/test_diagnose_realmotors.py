@@ -127,14 +127,14 @@ def test_the_kit_motor_gets_one_verdict_from_its_six_records(kit_runs):
     finals = [r.final_gap.overall for r in joint.records]
     assert all(r.final_gap.overall < 0.6 * r.initial_gap.overall for r in joint.records)
     assert min(finals) < joint.final_gap.overall < max(finals)
-    # README's table holds these very figures (all but the wall time)
+    # the real motors' page holds these very figures in its table (all but the wall time)
     script = realmotors_script()
-    shown = script.readme_rows((ROOT / "README.md").read_text(encoding="utf-8"))
+    shown = script.page_rows(script.PAGE.read_text(encoding="utf-8"))
     runs = [*(p.stem for p in KIT), script.joint_label(len(KIT))]
     for run_name, d in zip(runs, [*singles, joint], strict=True):
         fresh = script.without_time(script.row("kit", run_name, d, 0.0))
         assert shown[("kit", run_name)] == fresh, (
-            "README's real-motor table is stale: run scripts/realmotors_doctor.py"
+            "docs/guide/realmotors.md's table is stale: run scripts/realmotors_doctor.py --write"
         )
 
 
@@ -271,17 +271,17 @@ def test_the_kit_joint_run_says_on_which_parameters_its_records_agree(kit_runs):
     assert 0.005 < found["effective_inertia"].spread / found["effective_inertia"].joint < 0.02
     assert found["effective_inertia"].joint == joint.delay_trade.effective_inertia
     # the spread between the runs (1.5 % of the kinetic friction), and the motor's level with it,
-    # wider than the pooled fit's error: README quotes the line
+    # wider than the pooled fit's error: the real motors' page quotes the line
     coulomb = found["coulomb"]
     assert 0.005 < coulomb.spread / coulomb.joint < 0.03
     assert coulomb.drive_std > 1.2 * coulomb.joint_std
-    readme = " ".join((ROOT / "README.md").read_text(encoding="utf-8").split())
-    assert f"`{coulomb.describe('%')}`" in readme
+    page = " ".join((ROOT / "docs" / "guide" / "realmotors.md").read_text(encoding="utf-8").split())
+    assert f"`{coulomb.describe('%')}`" in page
 
 
 @needs_kit
 def test_in_a_10_hz_band_the_kit_records_agree_on_the_inertia_plus_viscous_times_delay(kit_runs):
-    """README: in a useful band of 10 Hz instead of 40 the four sines agree on the inertia (measured
+    """The real motors' page: in a useful band of 10 Hz instead of 40 the four sines agree on the inertia (measured
     0.00659-0.00672, 2.0 %), and each equals what the record determines in the default band,
     J + B τ_d (within 1.1 %): a sine's inertia moves with the band because it trades with the
     input delay, which a narrow band cannot tell from it at all (the fit takes no delay and gives
@@ -306,7 +306,7 @@ def test_in_a_10_hz_band_the_kit_records_agree_on_the_inertia_plus_viscous_times
 
 @needs_kit
 def test_the_compensation_for_the_speed_noise_moves_the_kit_sines_inertia_by_a_percent_at_most():
-    """README: the kit's speed noise, measured above the band, is small against its sines'
+    """The real motors' page: the kit's speed noise, measured above the band, is small against its sines'
     acceleration: the compensated fit of the base model raises their inertia over least squares
     by 0.6 % (0.5 Hz) and 0.2 % (1 Hz) (measured), far from the 11-14 % and 3-4 % by which it lies
     below their fit in a 10 Hz band."""
@@ -327,10 +327,10 @@ def test_the_compensation_for_the_speed_noise_moves_the_kit_sines_inertia_by_a_p
 
 def test_the_readme_table_of_the_wheel_motors_equals_a_fresh_run():
     script = realmotors_script()
-    shown = script.readme_rows((ROOT / "README.md").read_text(encoding="utf-8"))
+    shown = script.page_rows(script.PAGE.read_text(encoding="utf-8"))
     for motor in (f"wheel {m}" for m in (1, 2, 3, 4)):
         for line in script.motor_rows(motor):
             key = tuple(cell.strip() for cell in line.split("|")[1:3])
             assert shown[key] == script.without_time(line), (
-                "README's table is stale: run scripts/realmotors_doctor.py"
+                "docs/guide/realmotors.md's table is stale: run scripts/realmotors_doctor.py --write"
             )

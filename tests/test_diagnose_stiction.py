@@ -144,7 +144,7 @@ def test_the_kit_motors_rests_break_away_at_its_kinetic_level_once_the_lag_is_ta
     """The kit motor's chirp breaks away at a median 9.1 % duty against a kinetic level of 7 %,
     but the faster the input rises at a breakaway, the higher it is: fitted against the input's
     rate, the breakaway at a slowly rising input lies at the kinetic level (within its standard
-    error), so static friction is not named. README shows the line."""
+    error), so static friction is not named. The doctor's page shows the line."""
     code, out, err = run(capsys, "doctor", str(KIT_CHIRP), "--input-unit", "%", "--json")
     assert code == 0, err
     assert "static_friction" not in [s["effect"] for s in out["steps"]]
@@ -158,8 +158,8 @@ def test_the_kit_motors_rests_break_away_at_its_kinetic_level_once_the_lag_is_ta
         f"{rest['median_breakaway_input']:.3g} %; at breakaway {rest['breakaway_excess']:.3g} ± "
         f"{rest['breakaway_excess_std']:.2g} % above the kinetic level {rest['kinetic_level']:.3g} %"
     )
-    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text(encoding="utf-8")
-    assert f"`{line}`" in " ".join(readme.split())
+    page = (Path(__file__).resolve().parents[1] / "docs" / "guide" / "doctor.md").read_text(encoding="utf-8")
+    assert f"`{line}`" in " ".join(page.split())
 
 
 KIT_SINE = real_motor_file("kit_sine_1hz_run1.csv")
@@ -191,7 +191,7 @@ def test_the_kit_motor_gets_the_same_model_from_a_saved_coulomb_model(capsys, tm
 
 
 def test_the_stiction_calibration_prints_what_it_measured(capsys):
-    """``python -m motorid.diagnose.calibration --stiction`` (the README's command) on one seed:
+    """``python -m motorid.diagnose.calibration --stiction`` (the doctor page's command) on one seed:
     the no-effect record and the planted one, each line from the records it ran."""
     from motorid.diagnose.calibration import main, stiction
 

@@ -523,13 +523,13 @@ def test_rig_serve_hosts_the_model_file(capsys, tmp_path, monkeypatch):
     assert code == 2 and "missing.json: cannot read" in err
 
 
-def test_readme_model_file_example_runs(tmp_path, monkeypatch):
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
+def test_the_model_files_page_example_runs(tmp_path, monkeypatch):
+    text = (ROOT / "docs" / "guide" / "models.md").read_text(encoding="utf-8")
     blocks = re.findall(r"```python\n(.*?)```", text, flags=re.S)
     example = next(b for b in blocks if "load_model(" in b)
     monkeypatch.chdir(tmp_path)
     namespace: dict[str, object] = {}
-    exec(compile(example, "README.md", "exec"), namespace)
+    exec(compile(example, "models.md", "exec"), namespace)
     assert namespace["same"] == namespace["rig"]
     assert (tmp_path / "rig.json").exists() and (tmp_path / "ekf.json").exists()
 

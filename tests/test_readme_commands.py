@@ -1,10 +1,15 @@
-"""Every ``motorid`` line of README.md's shell blocks runs, in order, as printed, in an empty folder.
+"""Every ``motorid`` line of the documentation's shell blocks runs, in order, as printed, in an empty folder.
 
+The user guide's pages (docs/guide, in docs/index.md's order) run in one folder, one page after the
+other, as a reader who follows the guide runs them; README.md's "Model your motor" runs in a folder of
+its own that holds the two wheel-motor records it reads (from ``$MOTORID_DATA/realmotors``; skipped
+without them), its Python block in its place between the lines, and each line's comment quotes
+(in backticks) what the line prints.
 The lines run as a user runs them: the installed ``motorid`` console script in a
 subprocess. ``motorid rig serve`` is started in the background and stopped after
-the lines that follow it; its port (5020 in the README) is swapped for a free one
+the lines that follow it; its port (5020 in the pages) is swapped for a free one
 in every line, since a test machine may have 5020 taken. The loggers' files the lines on
-loggers' records read are first written by the README's own Python block that writes them.
+loggers' records read are first written by the guide's own Python block that writes them.
 Nothing else is changed.
 The notebooks hold no shell lines (checked here too, so a new one is not missed).
 """
@@ -22,11 +27,13 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
+from doc_pages import README, blocks, guide_text
+from emps_fixtures import real_motor_file
 from io_fixtures import wait_for
 
 ROOT = Path(__file__).resolve().parent.parent
 MOTORID = Path(sys.executable).with_name("motorid")
-README_PORT = "5020"
+PAGE_PORT = "5020"
 
 
 def shell_lines(text: str) -> list[str]:
@@ -54,8 +61,8 @@ def listening(server: subprocess.Popen, port: int) -> bool:
         return s.connect_ex(("127.0.0.1", port)) == 0
 
 
-def test_readme_shows_each_subcommand():
-    lines = shell_lines((ROOT / "README.md").read_text(encoding="utf-8"))
+def test_the_guide_shows_each_subcommand():
+    lines = shell_lines(guide_text())
     used = {shlex.split(line)[1] for line in lines}
     assert {"demo", "simulate", "identify", "sweep", "doctor", "compare", "rig", "run", "control"} <= used
 
@@ -67,34 +74,33 @@ def test_notebooks_hold_no_shell_lines():
 
 
 def write_logger_files(folder: Path) -> dict[str, object]:
-    """Run README.md's Python block that writes the loggers' files (``logger.csv`` ...) in ``folder``."""
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
-    block = next(b for b in re.findall(r"```python\n(.*?)```", text, flags=re.S) if '"logger.csv"' in b)
+    """Run the guide's Python block that writes the loggers' files (``logger.csv`` ...) in ``folder``."""
+    block = next(b for b in blocks(guide_text(), "python") if '"logger.csv"' in b)
     namespace: dict[str, object] = {}
     cwd = os.getcwd()
     os.chdir(folder)
     try:
-        exec(compile(block, "README.md", "exec"), namespace)
+        exec(compile(block, "records.md", "exec"), namespace)
     finally:
         os.chdir(cwd)
     return namespace
 
 
-def test_the_readme_logger_block_reads_its_files_and_finds_the_friction(tmp_path):
+def test_the_guide_logger_block_reads_its_files_and_finds_the_friction(tmp_path):
     namespace = write_logger_files(tmp_path)
     assert namespace["record"].attrs["dt"] == 0.01  # type: ignore[attr-defined]
     assert namespace["d"].named == ["coulomb_friction"]  # type: ignore[attr-defined]
 
 
-def test_every_readme_command_runs_as_printed(tmp_path):
-    lines = shell_lines((ROOT / "README.md").read_text(encoding="utf-8"))
+def test_every_guide_command_runs_as_printed(tmp_path):
+    lines = shell_lines(guide_text())
     write_logger_files(tmp_path)  # the files a logger wrote, which the lines on loggers' records read
     port = str(free_port())
     env = {**os.environ, "PYTHONUNBUFFERED": "1"}
     servers: list[subprocess.Popen] = []
     try:
         for line in lines:
-            argv = [str(MOTORID), *shlex.split(line.replace(README_PORT, port))[1:]]
+            argv = [str(MOTORID), *shlex.split(line.replace(PAGE_PORT, port))[1:]]
             if argv[1:3] == ["rig", "serve"]:
                 servers.append(
                     subprocess.Popen(argv, cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True)
@@ -103,7 +109,7 @@ def test_every_readme_command_runs_as_printed(tmp_path):
                 continue
             done = subprocess.run(argv, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
             assert done.returncode == 0, f"{line!r} exited with {done.returncode}:\n{done.stderr[-3000:]}"
-            if "--quiet" in argv:  # as the README says: nothing on stderr for a command that succeeds
+            if "--quiet" in argv:  # as the guide says: nothing on stderr for a command that succeeds
                 assert done.stderr == "", f"{line!r} printed on stderr: {done.stderr[-3000:]}"
     finally:
         for server in servers:
@@ -119,14 +125,13 @@ def test_every_readme_command_runs_as_printed(tmp_path):
     assert len(pd.read_csv(tmp_path / "control.csv")) == 300  # motorid control over Modbus: 12 s at 40 ms
 
 
-def test_the_readme_two_mass_doctor_block_names_stribeck_and_improves_the_rig(tmp_path):
-    """The README's block on the doctor from a two-mass rig, its lines run as printed: the doctor
+def test_the_guide_two_mass_doctor_block_names_stribeck_and_improves_the_rig(tmp_path):
+    """The doctor page's block on the doctor from a two-mass rig, its lines run as printed: the doctor
     names Stribeck friction, writes a two-mass rig that simulate runs, and compare shows the
-    low-speed RMSE the README quotes."""
+    low-speed RMSE the page quotes."""
     import json
 
-    text = (ROOT / "README.md").read_text(encoding="utf-8")
-    block = next(b for b in re.findall(r"```sh\n(.*?)```", text, flags=re.S) if "--model sheet.json" in b)
+    block = next(b for b in blocks(guide_text(), "sh") if "--model sheet.json" in b)
     lines = shell_lines(f"```sh\n{block}```")
     assert [shlex.split(line)[1] for line in lines] == [
         "simulate", "simulate", "doctor", "simulate", "simulate", "compare",
@@ -144,3 +149,68 @@ def test_the_readme_two_mass_doctor_block_names_stribeck_and_improves_the_rig(tm
            for m in ("sheet.json", "better.json")}  # fmt: skip
     quoted = re.search(r"low-speed RMSE (\S+) \(sheet.json\) -> (\S+) rad/s", block)
     assert (f"{low['sheet.json']:.2f}", f"{low['better.json']:.2f}") == quoted.groups()
+
+
+WHEEL_RECORDS = ("wheel_free_train_motor1.csv", "wheel_free_validation_motor1.csv")
+
+
+@pytest.mark.skipif(
+    not all(real_motor_file(name).is_file() for name in WHEEL_RECORDS),
+    reason=f"real motor data not found at {real_motor_file(WHEEL_RECORDS[0]).parent} (set MOTORID_DATA)",
+)
+def test_readme_model_your_motor_runs_as_printed_and_prints_what_it_says(tmp_path, capsys):
+    """README.md's blocks, shell and Python, in their order, in a folder holding the wheel motor's two
+    records: each line exits 0 and prints every fragment its comment quotes in backticks, the Python
+    block prints what its ``# shown`` comment shows."""
+    text = README.read_text(encoding="utf-8")
+    for name in WHEEL_RECORDS:
+        (tmp_path / name).write_bytes(real_motor_file(name).read_bytes())
+    port = str(free_port())
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    servers: list[subprocess.Popen] = []
+    steps = re.findall(r"```(sh|python)\n(.*?)```", text, flags=re.S)
+    ran = []
+    try:
+        for language, block in steps:
+            if language == "python":
+                cwd = os.getcwd()
+                os.chdir(tmp_path)
+                try:
+                    exec(compile(block, "README.md", "exec"), {"__name__": "__main__"})
+                finally:
+                    os.chdir(cwd)
+                shown = [
+                    line.split("#", 1)[1].strip() for line in block.splitlines() if line.startswith("print(")
+                ]
+                assert capsys.readouterr().out.splitlines()[-len(shown) :] == shown
+                continue
+            for raw in block.splitlines():
+                line, _, comment = raw.partition(" # ")
+                if not line.startswith("motorid "):
+                    continue
+                ran.append(shlex.split(line)[1])
+                argv = [str(MOTORID), *shlex.split(line.strip().replace(PAGE_PORT, port))[1:]]
+                if argv[1:3] == ["rig", "serve"]:
+                    servers.append(
+                        subprocess.Popen(argv, cwd=tmp_path, env=env, stderr=subprocess.PIPE, text=True)
+                    )
+                    wait_for(
+                        lambda: listening(servers[-1], int(port)), timeout=60, what=f"{line!r} to listen"
+                    )
+                    continue
+                done = subprocess.run(
+                    argv, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600
+                )
+                assert done.returncode == 0, f"{line!r} exited with {done.returncode}:\n{done.stderr[-3000:]}"
+                for fragment in re.findall(r"`([^`]+)`", comment):
+                    assert fragment in done.stdout + done.stderr, f"{line!r} did not print {fragment!r}"
+    finally:
+        for server in servers:
+            server.send_signal(signal.SIGINT)
+            try:
+                server.wait(timeout=30)
+            except subprocess.TimeoutExpired:
+                server.kill()
+                server.wait()
+    assert ran == ["doctor", "compare", "control", "control", "rig", "control"]
+    assert len(pd.read_csv(tmp_path / "loop.csv")) == 1200  # the loop over Modbus: 12 s at 10 ms

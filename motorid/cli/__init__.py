@@ -40,6 +40,19 @@ __all__ = ["build_parser", "main"]
 logger = logging.getLogger("motorid")
 
 
+#: The warnings said so far by the running command, as their one-line text: each is said once, whether
+#: it comes through :mod:`warnings` or :mod:`logging` (a record read four times warns once).
+_said: set[str] = set()
+
+
+def first_time(text: str) -> bool:
+    """True the first time the running command says the warning ``text``."""
+    if text in _said:
+        return False
+    _said.add(text)
+    return True
+
+
 def show_warning(
     message: Warning | str,
     category: type[Warning],
@@ -48,18 +61,54 @@ def show_warning(
     file: TextIO | None = None,
     line: str | None = None,
 ) -> None:
-    """A warning as one line on stderr, ``motorid: warning: <message>``: no source line, no file
-    name (what a user of the command can act on is the message; ``-v`` logs say where)."""
+    """A warning as one line on stderr, ``motorid: warning: <message>``, once per cause: no source
+    line, no file name (what a user of the command can act on is the message; ``-v`` logs say where)."""
     text = " ".join(str(message).split())
-    (file or sys.stderr).write(f"motorid: warning: {text}\n")
+    if first_time(text):
+        (file or sys.stderr).write(f"motorid: warning: {text}\n")
     logger.debug("the warning above is a %s from %s:%s", category.__name__, filename, lineno)
 
 
+class LogFormatter(logging.Formatter):
+    """The library's log records on the command line: a warning or an error as the warnings are,
+    ``motorid: warning: <message>`` on one line; the details of ``-v`` with their level and logger."""
+
+    def __init__(self) -> None:
+        super().__init__("%(levelname)s %(name)s: %(message)s")
+
+    def format(self, record: logging.LogRecord) -> str:
+        if record.levelno >= logging.WARNING:
+            return f"motorid: {record.levelname.lower()}: {' '.join(record.getMessage().split())}"
+        return super().format(record)
+
+
+class OncePerCause(logging.Filter):
+    """Lets a warning through the first time the running command says it (:func:`first_time`)."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return record.levelno < logging.WARNING or first_time(" ".join(record.getMessage().split()))
+
+
+class _HelpFormatter(argparse.HelpFormatter):
+    """argparse's help with each option's default shown where its help text does not say it."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        default = action.default
+        shown = "default" in text or "%(default)" in text
+        meaningful = default is not None and default is not argparse.SUPPRESS and default != []
+        flag = isinstance(action, (argparse._StoreTrueAction, argparse._StoreFalseAction))
+        if shown or not meaningful or flag or not action.option_strings:
+            return text
+        return f"{text} (default: %(default)s)"
+
+
 class _Parser(argparse.ArgumentParser):
-    """argparse with a one-line error that names the option and where to find help, and
-    ``--quiet`` on every command, before or after the subcommand's name."""
+    """argparse with a one-line error that names the option and where to find help, each option's
+    default in ``--help``, and ``--quiet`` on every command, before or after the subcommand's name."""
 
     def __init__(self, *args, **kwargs) -> None:
+        kwargs.setdefault("formatter_class", _HelpFormatter)
         super().__init__(*args, **kwargs)
         # SUPPRESS: a subcommand's parser leaves the value the main parser set alone
         self.add_argument("-q", "--quiet", action="store_true", default=argparse.SUPPRESS,
@@ -97,7 +146,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(exc.code or 0)
     configure(quiet=getattr(args, "quiet", False), json=getattr(args, "json", False))
     level = logging.WARNING - 10 * min(args.verbose, 2)
-    logging.basicConfig(level=level, format="%(levelname)s %(name)s: %(message)s", stream=sys.stderr)
+    _said.clear()
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(LogFormatter())
+    handler.addFilter(OncePerCause())
+    logging.basicConfig(level=level, handlers=[handler])  # a handler the caller set up is kept
     # the cluster's own log (a worker lost and its tasks rerun) only with -v: the run reports what matters
     logging.getLogger("distributed").setLevel(logging.WARNING if args.verbose else logging.CRITICAL)
     subcommand = getattr(args, "rig_command", None) or getattr(args, "fleet_command", None)

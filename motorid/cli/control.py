@@ -14,7 +14,6 @@ from .options import (
     add_json,
     add_out_file,
     add_plant_seed,
-    add_u_max,
     check_out_file,
     positive,
 )
@@ -189,13 +188,17 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     group.add_argument("--period", type=positive, default=4.0, help="its period [s] (default: 4)")
     group.add_argument("--duration", type=positive,
                        help="[s] (default: 12, or the whole --reference file)")  # fmt: skip
-    add_out_file(p, "CSV of t, reference, u, y written row by row", required=False)
+    add_out_file(p, "CSV of t [s], reference [rad/s], u (the command held over the sample, in the model's "
+                 "input unit), y [rad/s] (measured at t) and clamped (1 where the rig clamped the command "
+                 "to its rating), written row by row", required=False)  # fmt: skip
     p.add_argument(
         "--dt", type=positive, help="sample time [s] (default: the simulated plant's; Modbus: 0.04)"
     )
     add_register_map(p)
     p.add_argument("--timeout", type=positive, help="Modbus timeout [s]")
-    add_u_max(p, "voltage limit of the command")
+    p.add_argument("--u-max", type=positive, default=12.0,
+                   help="limit of the command in the --design model's input unit: [V], or [%%] for a model "
+                        "fitted on PWM duty (then give 100) (default: 12)")  # fmt: skip
     p.add_argument("--low-speed-rpm", type=positive, default=LOW_SPEED_RPM,
                    help=f"low-speed band of the metrics, |r| < this [rpm] (default: {LOW_SPEED_RPM:g})")  # fmt: skip
     add_json(p)

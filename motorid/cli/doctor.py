@@ -223,13 +223,15 @@ def add_doctor_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--input-gain", type=positive,
                         help="force or torque per input unit [N/V, N m/V] (default: unknown; the "
                              "model's forces are then per input unit, e.g. in V)")  # fmt: skip
+    from motorid.drive.effects import names as effect_names
+
+    known = ", ".join(effect_names())
     parser.add_argument("--base", metavar="EFFECT,...",
-                        help="effects already in the model (default: viscous_friction,offset)")  # fmt: skip
-    parser.add_argument(
-        "--candidates",
-        metavar="EFFECT,...",
-        help="effects to try (default: all others)",
-    )
+                        help=f"effects already in the model, comma-separated, of: {known} "
+                             "(default: viscous_friction,offset)")  # fmt: skip
+    parser.add_argument("--candidates", metavar="EFFECT,...",
+                        help="effects to try, comma-separated, of the same names (default: the others; "
+                             "position_friction only on a position record)")  # fmt: skip
     parser.add_argument("--holdout", type=number(float, low=0.0, high=0.9, low_open=True), default=0.3,
                         help="share of the record held out, in (0, 0.9] (default: 0.3)")  # fmt: skip
     parser.add_argument(

@@ -223,7 +223,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--degree", type=number(int, low=1), default=3,
                    help="polynomial degree of Table 1 (default: 3)")  # fmt: skip
     add_lam(p, default=1.0)
-    p.add_argument("--prediction", choices=("one_step", "free_run"), default="one_step")
+    p.add_argument("--prediction", choices=("one_step", "free_run"), default="one_step",
+                   help="score each model by its one-step prediction (the paper's tables) or its free run")  # fmt: skip
     add_low_speed_band(p)
     add_skip(p)
     add_json(p)

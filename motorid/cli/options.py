@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import sys
 from collections.abc import Callable, Iterator
 from dataclasses import fields
 from pathlib import Path
@@ -194,26 +195,88 @@ def add_trim_options(parser: argparse.ArgumentParser) -> None:
 def add_estimator_options(parser: argparse.ArgumentParser, repeatable: bool = False) -> None:
     """--estimator and its arguments; an argument is passed only to estimators that take it."""
     group = parser.add_argument_group("estimator")
+    from motorid.estimators import available
+
+    names = ", ".join(available())
     if repeatable:
         group.add_argument("--estimator", action="append", required=True, metavar="NAME",
-                           help="registered estimator name (repeatable)")  # fmt: skip
+                           help=f"registered estimator name, one of {names} (repeatable)")  # fmt: skip
     else:
         group.add_argument("--estimator", default="hammerstein-rls", metavar="NAME",
-                           help="registered estimator name (default: hammerstein-rls)")  # fmt: skip
-    group.add_argument("--na", type=number(int, low=0), help=f"order of A(q^-1) (default: {PAPER_ORDER})")
-    group.add_argument("--nb", type=number(int, low=0), help=f"order of B(q^-1) (default: {PAPER_ORDER})")
-    group.add_argument("--degree", type=number(int, low=1), help="polynomial degree of the static block")
-    group.add_argument("--basis", help="static block basis, e.g. 'u,sign' or 'dead_zone:0.8'")
+                           help=f"registered estimator name, one of {names} (default: hammerstein-rls)")  # fmt: skip
+    group.add_argument("--help-params", action=EstimatorParamsHelp,
+                       help="print the arguments (-p KEY=VALUE) the estimator named by --estimator takes, "
+                            "with their defaults, and exit; give it after --estimator")  # fmt: skip
+    group.add_argument("--na", type=number(int, low=0),
+                       help=f"order of A(q^-1), arx-rls and hammerstein-rls (default: {PAPER_ORDER})")  # fmt: skip
+    group.add_argument("--nb", type=number(int, low=0),
+                       help=f"order of B(q^-1), arx-rls and hammerstein-rls (default: {PAPER_ORDER})")  # fmt: skip
+    group.add_argument("--degree", type=number(int, low=1),
+                       help="polynomial degree of hammerstein-rls's static block (default: 3, the paper's "
+                            "cubic, unless --basis names the basis)")  # fmt: skip
+    group.add_argument("--basis",
+                       help="hammerstein-rls's static block basis, e.g. 'u,sign' or 'dead_zone:0.8' "
+                            "(default: the polynomial of --degree)")  # fmt: skip
     add_lam(group, default=None)
-    group.add_argument("--delta", type=positive, help="initial covariance P0 = delta I")
-    group.add_argument("--gamma-method", choices=("paper", "svd"), help="Hammerstein step 2")
+    group.add_argument("--delta", type=positive,
+                       help="initial covariance P0 = delta I of the RLS estimators (default: 1000)")  # fmt: skip
+    group.add_argument("--gamma-method", choices=("paper", "svd"),
+                       help="Hammerstein step 2: gamma by the paper's formula or the rank-1 SVD (default: paper)")  # fmt: skip
     group.add_argument("-p", "--param", action="append", default=[], metavar="KEY=VALUE",
-                       help="any other estimator argument")  # fmt: skip
+                       help="any other argument of the estimator, repeatable, e.g. -p R=0.18 for friction-ekf "
+                            "(the speed sensor's variance [(rad/s)^2]); --help-params lists them")  # fmt: skip
 
 
 def add_lam(group: argparse._ActionsContainer, default: float | None) -> None:
+    shown = "1, the estimators' own: no forgetting" if default is None else f"{default:g}"
     group.add_argument("--lam", type=forgetting_factor, default=default,
-                       help="forgetting factor, 0 < lam <= 1" + ("" if default is None else f" (default: {default:g})"))  # fmt: skip
+                       help=f"forgetting factor of the RLS estimators, 0 < lam <= 1 (default: {shown})")  # fmt: skip
+
+
+class EstimatorParamsHelp(argparse.Action):
+    """``--help-params``: print the keyword arguments of the estimator ``--estimator`` names (its
+    constructor's, through the classes it passes ``**kwargs`` on to), each with its default and the
+    first line of its description in the docstrings, and exit."""
+
+    def __init__(self, option_strings: list[str], dest: str, help: str | None = None) -> None:
+        super().__init__(option_strings, dest, nargs=0, default=argparse.SUPPRESS, help=help)
+
+    def __call__(self, parser, namespace, values, option_string=None) -> None:
+        import inspect
+        import re
+
+        from motorid.estimators import available, factory
+
+        name = getattr(namespace, "estimator", None) or "hammerstein-rls"
+        name = name[-1] if isinstance(name, list) else name
+        if name not in available():
+            parser.error(f"--estimator: unknown estimator {name!r}; known: {', '.join(available())}")
+        make = factory(name)
+        classes = make.__mro__ if isinstance(make, type) else (make,)
+        docs = "\n".join(inspect.getdoc(c) or "" for c in classes)
+        lines = [f"{name}: -p KEY=VALUE sets any of these arguments [default]:"]
+        for owner in classes:
+            try:
+                parameters = inspect.signature(owner).parameters.values()
+            except (TypeError, ValueError):
+                break
+            for parameter in parameters:
+                if parameter.name == "rig" or parameter.kind in (
+                    parameter.VAR_KEYWORD,
+                    parameter.VAR_POSITIONAL,
+                ):
+                    continue
+                default = "required" if parameter.default is parameter.empty else repr(parameter.default)
+                found = re.search(rf"^{re.escape(parameter.name)} : [^\n]*\n\s+([^\n]+)", docs, flags=re.M)
+                meaning = f": {found.group(1).strip()}" if found else ""
+                lines.append(f"  {parameter.name} [{default}]{meaning}")
+            if not any(p.kind is p.VAR_KEYWORD for p in parameters):
+                break
+        if hasattr(make, "from_rig"):
+            lines.append("With --model FILE the filter starts from that drive model (its constants and friction);"
+                         " the doctor's rigid drive needs R, the speed sensor's variance [(rad/s)^2].")  # fmt: skip
+        parser._print_message("\n".join(lines) + "\n", sys.stdout)  # on stdout, as --help is
+        parser.exit(0)
 
 
 def add_signal_options(parser: argparse.ArgumentParser, duration: float | None) -> None:

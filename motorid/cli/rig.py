@@ -136,10 +136,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
-def add_register_map(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--map", help="register map TOML file (default: the built-in map; motorid rig map prints it)"
+def add_register_map(parser: argparse.ArgumentParser, printed: bool = False) -> None:
+    text = (
+        "register map TOML file to print, e.g. one edited from this command's output (default: the built-in map)"
+        if printed
+        else "register map TOML file (default: the built-in map; motorid rig map prints it)"
     )
+    parser.add_argument("--map", help=text)
 
 
 def add_commands(sub: argparse._SubParsersAction) -> None:
@@ -151,7 +154,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
         ("map", "print the register map in use as TOML", cmd_rig_map),
     ):
         p = rig.add_parser(name, help=helptext)
-        add_register_map(p)
+        add_register_map(p, printed=name == "map")
         p.add_argument("--word-order", choices=("ABCD", "CDAB"), default="ABCD", help="float32 word order")
         p.set_defaults(func=func)
     serve = rig.choices["serve"]
@@ -161,7 +164,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     serve.add_argument("--port", type=number(int, low=1, high=65535), default=5020,
                        help="TCP port (default: 5020)")  # fmt: skip
     serve.add_argument("--serial", metavar="DEVICE", help="serve Modbus RTU on this serial device instead")
-    serve.add_argument("--baudrate", type=number(int, low=1), default=115200)
+    serve.add_argument("--baudrate", type=number(int, low=1), default=115200,
+                       help="the serial line's speed with --serial [bit/s]")  # fmt: skip
     serve.add_argument("--realtime", action="store_true", help="advance with the clock, not lock-step")
     add_plant_seed(serve, default=None)
     serve.add_argument("--watchdog-periods", type=non_negative, default=3.0,

@@ -75,6 +75,14 @@ RIG_OPTIONS = (
 FRICTION_OPTIONS = ("coulomb_motor", "coulomb_load", "stribeck", "stribeck_shape", "viscous")
 
 
+def mass_parameters() -> list[str]:
+    """The parameters of the effects a mass of the two-mass rig can hold (what ``--friction`` sets)."""
+    from motorid.drive import effects as registry
+
+    on_a_mass = [e for e in registry.names() if not registry.get(e).not_on_a_mass]
+    return [p.name for e in on_a_mass for p in registry.get(e).parameters]
+
+
 def friction_from_option(items: list[str]):
     """One ``--friction SIDE PARAM=VALUE ...``: a :class:`~motorid.drive.Friction` on SIDE with the
     effects whose parameters are given (``stribeck_shape=gaussian`` sets the decay's shape)."""
@@ -85,8 +93,7 @@ def friction_from_option(items: list[str]):
     where = f"--friction {side}"
     params: dict[str, float] = {}
     shape = "exponential"
-    on_a_mass = [e for e in registry.names() if not registry.get(e).not_on_a_mass]
-    known = [p.name for e in on_a_mass for p in registry.get(e).parameters]
+    known = mass_parameters()
     for pair in pairs:
         name, sep, value = pair.partition("=")
         if not sep:
@@ -242,7 +249,7 @@ def add_rig_options(group: argparse._ActionsContainer, model_help: str) -> None:
                        help="the friction on a mass (SIDE motor, load or both) in the effects' parameters, SI units, "
                        "e.g. --friction motor coulomb=0.004 breakaway_excess=0.002 (stribeck_shape=gaussian sets "
                        "the decay); repeat it per mass; it replaces the default rig's friction and the options "
-                       "above")  # fmt: skip
+                       f"above. PARAM is one of: {', '.join(mass_parameters())}")  # fmt: skip
     group.add_argument("--dead-zone", type=non_negative, help="amplifier dead zone half-width [V]")
     group.add_argument("--backlash", type=non_negative, help="shaft backlash, half-width of the gap [rad]")
     group.add_argument("--cogging", type=number(float), nargs=3, metavar=("SIN", "COS", "PERIODS"),
@@ -272,6 +279,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     add_rig_options(rig, "the drive from a model file, instead of the options below: a two-mass rig, "
                          "or a rigid drive (motorid doctor --save-model; its record is noise free)")  # fmt: skip
     rig.add_argument("--u-max", type=positive, help="amplifier saturation [V]")
-    rig.add_argument("--integrator", choices=("fast", "reference"), default="fast")
+    rig.add_argument("--integrator", choices=("fast", "reference"), default="fast",
+                     help="fast: the compiled fixed-step stick/slip integrator; reference: SciPy's solve_ivp "
+                          "(slow, for checking)")  # fmt: skip
     add_json(p)
     p.set_defaults(func=cmd_simulate)

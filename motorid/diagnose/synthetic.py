@@ -159,9 +159,10 @@ ENCODER_SPEED_NOISE = 0.01
 
 
 def encoder_speed(w: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """The speed an encoder reports for the speed ``w``: noise of standard deviation
-    ``σ(w) = (ENCODER_REST_NOISE max|w| + ENCODER_SPEED_NOISE |w|)`` added, then rounded to
-    counts of ``q = ENCODER_STEP max|w|``::
+    """The speed an encoder reports for the speed ``w``.
+
+    Noise of standard deviation ``σ(w) = (ENCODER_REST_NOISE max|w| + ENCODER_SPEED_NOISE |w|)``
+    is added, then the speed is rounded to counts of ``q = ENCODER_STEP max|w|``::
 
         y = q round((w + σ(w) ε) / q),    ε ~ N(0, 1)
 

@@ -75,7 +75,7 @@ The stages, in their modules: :mod:`.prepare` (the records made ready and pooled
 blocks), :mod:`.measures` (gaps, the balance residual, the evidence, breakaway at the rests),
 :mod:`.search` (the structure, then the effects: each one tried a
 :class:`~motorid.diagnose.search.Candidate`, each check a
-:class:`~motorid.diagnose.search.Decision`) and :mod:`.results` (:class:`Diagnosis`, and every
+:class:`~motorid.diagnose.search.Decision`) and :mod:`motorid.diagnose.results` (:class:`Diagnosis`, and every
 sentence of a stop reason: :data:`~motorid.diagnose.results.STOP_SENTENCES`). :func:`diagnose`
 calls them in that order.
 

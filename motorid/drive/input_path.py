@@ -45,8 +45,9 @@ def time_since_reversal(x: np.ndarray, dt: float, before_first: float | None = N
 
 
 def input_path(u: npt.ArrayLike, dead_zone: float = 0.0, saturation: float = math.inf) -> np.ndarray:
-    """``D(S(u))`` [u]: saturation at ±``saturation``, then the dead zone of half-width ``dead_zone``
-    (the amplifier's compiled map at unit gain)::
+    """``D(S(u))`` [u]: saturation at ±``saturation``, then the dead zone of half-width ``dead_zone``.
+
+    The amplifier's compiled map at unit gain::
 
         S(u) = clip(u, -u_s, u_s),    D(x) = 0 for |x| <= d, x - d sgn(x) beyond
 

@@ -1,7 +1,7 @@
 """Recursive least squares with a forgetting factor, for models linear in their parameters.
 
 The model is a lagged regression on past outputs and on basis functions of present
-and past inputs (paper eqs. 14 and 20-22):
+and past inputs (paper eqs. 14 and 20-22)::
 
     y(t) = phi(t)^T theta + e(t),
     phi(t) = (-y(t-1), ..., -y(t-na), g_1(u(t-k0)), ..., g_1(u(t-nb)), ...,
@@ -12,7 +12,7 @@ case of one basis function g_1(u) = u; the paper's Hammerstein regression is the
 polynomial basis.
 
 RLS with forgetting factor lambda is the Kalman filter with F = I, Q = 0,
-H = phi(t)^T and measurement variance R (R = 1 in the paper):
+H = phi(t)^T and measurement variance R (R = 1 in the paper)::
 
     predict:  P_prior = P / lambda,                         y_hat = phi^T theta
     update:   S = phi^T P_prior phi + R,   K = P_prior phi / S,
@@ -20,7 +20,7 @@ H = phi(t)^T and measurement variance R (R = 1 in the paper):
               P = P_prior - K S K^T.
 
 Covariance windup. With lambda < 1 and no excitation P grows as lambda^-t. The
-safeguard bounds the trace of P: the forgetting actually applied is
+safeguard bounds the trace of P: the forgetting actually applied is::
 
     lambda_eff = min(1, max(lambda, tr(P) / max_trace)),
 
