@@ -25,10 +25,12 @@ import pandas as pd
 from motorid.errors import DataError
 
 __all__ = [
+    "ENCODER_COUNTS",
     "INPUT_UNITS",
     "MOTORID_RECORD_UNITS",
     "OTHER_UNITS",
     "OUTPUT_UNITS",
+    "OUTPUT_UNIT_NAMES",
     "RECORD_UNITS",
     "SHOWN_AS",
     "TIME_UNITS",
@@ -62,6 +64,13 @@ OUTPUT_UNITS: dict[str, tuple[float, str]] = {
     "m": (1.0, "m"),
     "mm": (1e-3, "m"),
 }
+
+#: An encoder's position in counts: ``rad = 2 pi counts / N`` with ``N`` counts per revolution,
+#: a factor known only with ``N`` (``counts_per_rev``).
+ENCODER_COUNTS = "counts"
+
+#: Every unit an output column may be in: :data:`OUTPUT_UNITS` and :data:`ENCODER_COUNTS`.
+OUTPUT_UNIT_NAMES: tuple[str, ...] = (*OUTPUT_UNITS, ENCODER_COUNTS)
 
 #: Input units: name -> factor to volts; ``%`` (PWM duty) converts only with a supply voltage, and
 #: ``counts`` (a PWM compare value, e.g. 0..255 for 8 bits) becomes duty with the full-scale count.
@@ -203,25 +212,39 @@ def per(numerator: str, denominator: str) -> str:
     return f"{numerator} per {'input unit' if denominator == UNNAMED_INPUT else denominator}"
 
 
-def output_factor(unit: str, option: str = "--output-unit") -> tuple[float, str]:
+def output_factor(
+    unit: str, option: str = "--output-unit", counts_per_rev: float | None = None
+) -> tuple[float, str]:
     """The factor from ``unit`` to its SI unit, and that SI unit.
+
+    An encoder's counts (:data:`ENCODER_COUNTS`) are a position: with ``N`` counts
+    per revolution, ``theta = 2 pi n / N`` [rad].
 
     Parameters
     ----------
     unit : str
-        An output unit (a key of :data:`OUTPUT_UNITS`: ``rpm``, ``deg/s``, ...).
+        An output unit (:data:`OUTPUT_UNIT_NAMES`: ``rpm``, ``deg/s``, ``counts`` ...).
     option : str
         The option or argument that gave it, for the message.
+    counts_per_rev : float, optional
+        Counts per revolution ``N`` of an encoder, for ``counts``.
 
     Raises
     ------
     DataError
-        ``unit`` is not one of :data:`OUTPUT_UNITS` (the message lists them).
+        ``unit`` is not one of :data:`OUTPUT_UNIT_NAMES` (the message lists them), or
+        ``counts`` without ``counts_per_rev``.
     """
+    if unit == ENCODER_COUNTS:
+        if counts_per_rev is None:
+            raise DataError(f"{option} counts needs the encoder's counts per revolution: counts_per_rev=...")
+        return 2.0 * math.pi / counts_per_rev, "rad"
     try:
         return OUTPUT_UNITS[unit]
     except KeyError:
-        raise DataError(f"{option}: unknown unit {unit!r}; known: {', '.join(OUTPUT_UNITS)}") from None
+        raise DataError(
+            f"{option}: unknown unit {unit!r:.80}; known: {', '.join(OUTPUT_UNIT_NAMES)}"
+        ) from None
 
 
 def input_factor(
@@ -329,6 +352,7 @@ def convert_record(
     supply_voltage: float | None = None,
     *,
     input_full_scale: float | None = None,
+    counts_per_rev: float | None = None,
     where: Callable[[int], str] | None = None,
     column: str = "u",
 ) -> pd.DataFrame:
@@ -350,6 +374,8 @@ def convert_record(
         Supply voltage [V] of a PWM drive, for ``input_unit="%"`` or ``"counts"``.
     input_full_scale : float, optional
         Count of full duty for ``input_unit="counts"``.
+    counts_per_rev : float, optional
+        Counts per revolution of an encoder, for ``output_unit="counts"`` (a position in rad).
     where : callable, optional
         Row index -> its place in the file, for the message of a duty beyond
         100 % (:func:`check_input_range`).
@@ -384,7 +410,7 @@ def convert_record(
             unit is None or name not in record.columns
         ):  # nothing says: the column is taken as it is and its unit stays unnamed
             continue
-        table = INPUT_UNITS if name == "u" else OUTPUT_UNITS
+        table = INPUT_UNITS if name == "u" else OUTPUT_UNIT_NAMES
         if given is None and unit not in table:  # a unit the file declares without a factor here
             continue
         if name == "u":
@@ -392,7 +418,7 @@ def convert_record(
         factor, si = (
             input_factor(unit, supply_voltage, full_scale=input_full_scale)
             if name == "u"
-            else output_factor(unit)
+            else output_factor(unit, counts_per_rev=counts_per_rev)
         )
         if factor != 1.0:
             out[name] = record[name] * factor
