@@ -47,12 +47,12 @@ import zipfile
 import zlib
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 import pandas as pd
 
-from motorid.errors import DataError
+from motorid.errors import DataError, UniformGridError
 from motorid.json_input import parse_json
 from motorid.units import ENCODER_COUNTS, INPUT_UNITS, OUTPUT_UNIT_NAMES, TIME_UNITS
 
@@ -420,7 +420,7 @@ def _dialect(
     cells = [cell for line in lines for cell in _fields(line, sep)]
     if thousands is None:
         for (mark, point), pattern in _GROUPED.items():
-            if mark != sep and decimal in (None, point) and any(pattern.match(cell) for cell in cells):
+            if decimal in (None, point) and any(pattern.match(cell) for cell in cells):
                 thousands, decimal = mark, point
                 break
     if decimal is None:
@@ -447,10 +447,9 @@ def check_dialect(sep: str | None, decimal: str | None, thousands: str | None = 
             raise DataError(
                 f"thousands=... must be one of {', '.join(map(repr, THOUSANDS))}, got {quoted(thousands)}"
             )
-        if thousands in (sep, decimal):
+        if thousands == decimal:
             raise DataError(
-                f"thousands={thousands!r} is also the {'separator' if thousands == sep else 'decimal mark'}: a "
-                "CSV cannot use one mark for both"
+                f"thousands={thousands!r} is also the decimal mark: a CSV cannot use one mark for both"
             )
 
 
@@ -510,6 +509,9 @@ def _parse_columns(
             break
         except (ValueError, OverflowError):
             pass  # an integer column holds a fraction, or a cell is not a number: found and named below
+    marked = thousands_past_the_head(path, layout, numbers)
+    if marked is not None:  # a number with a thousands separator past the first lines: read again with it
+        return _parse_columns(path, marked, names, chunk_rows)
     raise_bad_cell(path, layout, numbers, chunk_rows)
 
 
@@ -569,52 +571,77 @@ def csv_data_options(layout: CsvLayout, names: list[str]) -> dict[str, Any]:
             "thousands": layout.thousands, "encoding": "utf-8-sig", **_EXACT_FLOATS}  # fmt: skip
 
 
-def raise_bad_cell(path: str, layout: CsvLayout, names: list[str], chunk_rows: int = 1_000_000) -> None:
+def raise_bad_cell(path: str, layout: CsvLayout, names: list[str], chunk_rows: int = 1_000_000) -> NoReturn:
     """Raise a DataError naming the first non-numeric, NaN or infinite cell of the columns ``names``
-    of a CSV record, read as text from the start in chunks of ``chunk_rows`` rows (bounded memory)."""
+    of a CSV record, read as text from the start in chunks of ``chunk_rows`` rows (bounded memory).
+
+    A number written with a thousands separator (``-1,035.7``) past the first lines the marks
+    were detected from, when no thousands separator is known, is a :class:`UniformGridError`:
+    the whole-record read reads the record again with the marks it shows (:func:`thousands_past_the_head`).
+    """
+    bad = _first_bad_cell(path, layout, names, chunk_rows)
+    if bad is None:
+        raise DataError(f"{path}: the columns {quoted_names(names)} do not parse as numbers")  # a quirk
+    name, row, raw, value = bad
+    place = f"row {row} (line {layout.data_line + 1 + row} of {path})"
+    marks = _grouped(raw, layout)
+    if marks is not None:
+        raise UniformGridError(
+            f"column {quoted(name)} has the number {quoted(raw)} at {place}, written with a thousands separator: "
+            f"the record is read whole, with thousands={marks[0]!r} and decimal={marks[1]!r}"
+        )
+    if raw.lower() in ("", "nan", "na", "null", "none"):
+        kind = "a NaN"
+    elif np.isinf(value):
+        kind = "an infinite"
+    else:
+        kind = "a non-numeric"
+    hint = ""
+    if layout.decimal == "." and _DECIMAL_COMMA.match(raw):
+        hint = "; is it a decimal comma? (decimal=',')"
+    elif TIME_TEXTS["iso"].match(raw) or TIME_TEXTS["clock"].match(raw):
+        hint = "; time stamps as text are read in the time column only (time=...)"
+    raise DataError(f"column {quoted(name)} has {kind} value {quoted(raw)} at {place}" + hint)
+
+
+def thousands_past_the_head(path: str, layout: CsvLayout, names: list[str]) -> CsvLayout | None:
+    """The layout with the thousands separator and decimal mark that the first bad cell of a CSV
+    record shows (a number written with one, past the first lines they were detected from), or
+    None when it shows none or one is known."""
+    bad = _first_bad_cell(path, layout, names)
+    marks = _grouped(bad[2], layout) if bad is not None else None
+    if marks is None:
+        return None
+    logger.info("%s: thousands separator %r, decimal mark %r (detected at row %d)", path, *marks, bad[1])
+    return replace(layout, thousands=marks[0], decimal=marks[1])
+
+
+def _grouped(raw: str, layout: CsvLayout) -> tuple[str, str] | None:
+    """The (thousands, decimal) marks of a number written with a thousands separator, when the
+    layout knows none; else None."""
+    if layout.thousands is not None:
+        return None
+    return next((marks for marks, pattern in _GROUPED.items() if pattern.match(raw)), None)
+
+
+def _first_bad_cell(
+    path: str, layout: CsvLayout, names: list[str], chunk_rows: int = 1_000_000
+) -> tuple[str, int, str, float] | None:
+    """The first non-numeric, NaN or infinite cell of the columns ``names`` of a CSV record (its
+    column, row, text and value as parsed), read as text in chunks (bounded memory); None if none."""
     options = {key: value for key, value in csv_data_options(layout, names).items()
                if key not in _EXACT_FLOATS and key != "thousands"}  # fmt: skip
-    with pd.read_csv(
-        path, dtype=str, keep_default_na=False, chunksize=chunk_rows, **options
-    ) as reader:  # closed when a bad cell is raised
-        _name_bad_cell(path, reader, names, layout)
-    raise DataError(
-        f"{path}: the columns {quoted_names(names)} do not parse as numbers"
-    )  # a quirk of the fast path
-
-
-def _name_bad_cell(path: str, reader: Any, names: list[str], layout: CsvLayout) -> None:
-    """Raise a DataError naming the first non-numeric, NaN or infinite cell of the chunks of ``reader``."""
-    decimal, thousands = layout.decimal, layout.thousands
-    for chunk in reader:
-        for name in names:
-            text = chunk[name].str.strip()
-            numbers = text.str.replace(thousands, "", regex=False) if thousands else text
-            numbers = numbers.str.replace(",", ".", regex=False) if decimal == "," else numbers
-            values = pd.to_numeric(numbers, errors="coerce").to_numpy(dtype=float)
-            bad = np.flatnonzero(~np.isfinite(values))
-            if bad.size:
-                row = int(chunk.index[bad[0]])
-                raw = text.iloc[bad[0]]
-                if raw.lower() in ("", "nan", "na", "null", "none"):
-                    kind = "a NaN"
-                elif np.isinf(values[bad[0]]):
-                    kind = "an infinite"
-                else:
-                    kind = "a non-numeric"
-                hint = ""
-                grouped = [key for key, pattern in _GROUPED.items() if pattern.match(raw)]
-                if thousands is None and grouped:
-                    mark, point = grouped[0]
-                    hint = f"; is it a thousands separator? (thousands={mark!r}, decimal={point!r})"
-                elif decimal == "." and _DECIMAL_COMMA.match(raw):
-                    hint = "; is it a decimal comma? (decimal=',')"
-                elif TIME_TEXTS["iso"].match(raw) or TIME_TEXTS["clock"].match(raw):
-                    hint = "; time stamps as text are read in the time column only (time=...)"
-                raise DataError(
-                    f"column {quoted(name)} has {kind} value {quoted(raw)} at row {row} "
-                    f"(line {layout.data_line + 1 + row} of {path})" + hint
-                )
+    with pd.read_csv(path, dtype=str, keep_default_na=False, chunksize=chunk_rows, **options) as reader:
+        for chunk in reader:
+            for name in names:
+                text = chunk[name].str.strip()
+                numbers = text.str.replace(layout.thousands, "", regex=False) if layout.thousands else text
+                numbers = numbers.str.replace(",", ".", regex=False) if layout.decimal == "," else numbers
+                values = pd.to_numeric(numbers, errors="coerce").to_numpy(dtype=float)
+                bad = np.flatnonzero(~np.isfinite(values))
+                if bad.size:
+                    return name, int(chunk.index[bad[0]]), str(text.iloc[bad[0]]), float(values[bad[0]])
+    return None
 
 
 #: Formats :func:`read_record` reads besides CSV, by file-name extension (any other extension is CSV).
@@ -875,31 +902,35 @@ def _hdf5_file(name: str) -> tuple[Any, dict[str, tuple[int, ...]], dict[str, An
     except OSError as exc:
         raise DataError(f"{name} is not a readable HDF5 file: {_reason(exc)}") from None
     shapes: dict[str, tuple[int, ...]] = {}
+    elsewhere: list[
+        str
+    ] = []  # what keeps data in other files (raised after the visit: h5py's callbacks must return)
 
     def visit(key: str, item: Any) -> None:
         if isinstance(item, h5py.Dataset) and not key.startswith("#"):  # '#refs#': MATLAB's own
             if item.external or item.is_virtual:
-                raise DataError(
-                    f"{name}: the dataset {quoted(key)} keeps its data in other files "
-                    f"({'virtual' if item.is_virtual else 'external storage'}): a record is read from its own "
-                    "file only; copy the data into it"
+                elsewhere.append(
+                    f"the dataset {quoted(key)} keeps its data in other files "
+                    f"({'virtual' if item.is_virtual else 'external storage'})"
                 )
             shapes[key] = tuple(item.shape)
 
     def visit_link(key: str, link: Any) -> None:
         if isinstance(link, h5py.ExternalLink):
-            raise DataError(
-                f"{name}: {quoted(key)} is a link to {quoted(link.filename)}: a record is read from its own file "
-                "only; copy the data into it"
-            )
+            elsewhere.append(f"{quoted(key)} is a link to {quoted(link.filename)}")
 
     try:
         try:
             handle.visititems_links(visit_link)
-            handle.visititems(visit)
+            if not elsewhere:  # an external link is not followed
+                handle.visititems(visit)
             text = handle.attrs.get(ATTRS_KEY)
         except HDF5_ERRORS as exc:  # a damaged file
             raise DataError(f"{name}: its HDF5 structure cannot be read (corrupt?): {_reason(exc)}") from None
+        if elsewhere:
+            raise DataError(
+                f"{name}: {elsewhere[0]}: a record is read from its own file only; copy the data into it"
+            )
         attrs = _attrs_from_json(text, name, f"the root attribute {ATTRS_KEY!r}")
     except BaseException:
         handle.close()
@@ -1173,9 +1204,9 @@ def binary_column(name: str, key: str, values: np.ndarray, time: bool, first_row
         if np.isnat(values).any():
             raise DataError(f"column {quoted(key)} has a missing time at row {first_row + int(np.isnat(values).argmax())} "
                             f"of {name}")  # fmt: skip
-        return values.astype(
-            f"{values.dtype.kind.replace('M', 'datetime64').replace('m', 'timedelta64')}[ns]"
-        ).astype(np.int64)
+        return values.astype("datetime64[ns]" if values.dtype.kind == "M" else "timedelta64[ns]").astype(
+            np.int64
+        )
     if values.dtype.kind not in "fiub":
         raise DataError(f"column {quoted(key)} of {name} is not numeric (its values are {values.dtype})")
     if time and values.dtype.kind in "iu":
@@ -1785,11 +1816,11 @@ def csv_layout(
                 del mapping[canonical]
                 continue
             hint = ""
-            if len(present) == 1:
+            if not notes and header_text[:1] in "#;/%!*" and header_text[:1] != sep:
+                hint = "; is the header a comment line? name the comment lines' prefix with comment=..."
+            elif len(present) == 1:
                 hint = (f"; the header splits into one column with the separator {sep!r}: "
                         "name the file's separator with sep=...")  # fmt: skip
-            elif not notes and header_text[:1] in "#;/%!*" and header_text[:1] != sep:
-                hint = "; is the header a comment line? name the comment lines' prefix with comment=..."
             raise DataError(
                 f"column {quoted(column)} is missing from {name}"
                 + (f" (needed as {canonical!r})" if column != canonical else "")
@@ -1906,6 +1937,8 @@ def _normalised(
         input_full_scale=options.input_full_scale, counts_per_rev=options.counts_per_rev, where=where,
         column=names.get("u", "u"),
     )  # fmt: skip
+    if (rec.attrs.get("converted_from") or {}).get("y") == ENCODER_COUNTS:
+        rec.attrs["counts_per_rev"] = options.counts_per_rev
     if "u" in rec.columns and "y" in rec.columns:
         check = InputSignCheck(name, options, names)
         check.update(rec["u"].to_numpy(), rec["y"].to_numpy(), (rec.attrs.get("units") or {}).get("y"))
@@ -1936,7 +1969,7 @@ def without_repeated_stamps(
         raise DataError(
             f"column {quoted(column)} repeats the time stamp {quoted(t[row].item())} at {where(row)} with another "
             f"value of column {quoted(which)} ({rec[which].iloc[row - 1]!r} then {rec[which].iloc[row]!r}): say how "
-            "to merge the rows of one stamp with duplicates='first', 'last' or 'mean'"
+            "to merge the rows of one stamp with duplicates=first|last|mean"
         )
     group = np.cumsum(np.concatenate(([True], t[1:] != t[:-1])))
     kept = np.flatnonzero(np.concatenate(([True], t[1:] != t[:-1])))
@@ -2257,6 +2290,63 @@ def _on_uniform_time(
     return out
 
 
+def speed_from_position(record: pd.DataFrame, source: str | os.PathLike[str] = "the record") -> pd.DataFrame:
+    """The speed of a record whose output is a position (an encoder's, read in counts): backward
+    differences over one sample,
+
+        omega[k] = (theta[k] - theta[k-1]) / dt    [rad/s from rad, m/s from m],
+
+    the mean speed over the sample before ``t[k]``. The first sample, which has no difference,
+    is left out; the position is kept as the column ``position``, and ``t`` starts at 0 again
+    (``attrs["time_origin"]`` moves on by ``dt``). A position in counts is quantised, so the
+    speed is too, in steps of ``2 pi / (N dt)``: a warning says the step.
+
+    Parameters
+    ----------
+    record : pandas.DataFrame
+        A record (as :func:`read_record` gives it) whose ``attrs["units"]["y"]`` is ``rad`` or ``m``.
+    source : str or path-like
+        The record's name in the messages.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The record with ``y`` the speed, ``attrs["units"]["y"]`` its unit and
+        ``attrs["speed_step"]`` [rad/s] the step a speed from counts is quantised in.
+
+    Raises
+    ------
+    DataError
+        The output is no position, or the record has fewer than 2 samples.
+    """
+    units = dict(record.attrs.get("units") or {})
+    unit = units.get("y")
+    if unit not in ("rad", "m"):
+        raise DataError(f"{source}: the output is in {unit or 'no named unit'}, not a position (rad or m)")
+    if len(record) < 2:
+        raise DataError(f"{source}: a speed from positions needs at least 2 samples, got {len(record)}")
+    dt = float(record.attrs["dt"])
+    theta = record["y"].to_numpy(dtype=np.float64)
+    out = record.iloc[1:].reset_index(drop=True)
+    out["y"] = np.diff(theta) / dt
+    out["position"] = theta[1:]
+    if "t" in out.columns:
+        out["t"] = record["t"].to_numpy()[:-1]  # the same grid from 0: k dt
+    out.attrs = dict(record.attrs)
+    out.attrs["time_origin"] = float(record.attrs.get("time_origin", 0.0)) + dt
+    out.attrs["units"] = {**units, "y": f"{unit}/s", "position": unit}
+    counts = (record.attrs.get("converted_from") or {}).get("y") == ENCODER_COUNTS
+    if counts and record.attrs.get("counts_per_rev"):
+        step = 2.0 * math.pi / float(record.attrs["counts_per_rev"]) / dt
+        out.attrs["speed_step"] = step
+        logger.warning(
+            "%s: the speed is differentiated from the encoder's position (%g counts/rev, dt %s): it is "
+            "quantised in steps of %.4g rad/s (%.4g rpm)", source, record.attrs["counts_per_rev"], _seconds(dt),
+            step, step * 60.0 / (2.0 * math.pi),
+        )  # fmt: skip
+    return out
+
+
 def trim_record(
     record: pd.DataFrame,
     start: float | None = None,
@@ -2321,23 +2411,31 @@ def trim_record(
 __all__ = [
     "ATTRS_KEY",
     "ATTRS_MARKER",
+    "COMMENT",
+    "COMPRESSIONS",
     "DRIVE_ATTR",
+    "DUPLICATES",
+    "FORMATS_READ",
     "JITTER_LIMIT",
     "MAT_ATTRS_VARIABLE",
     "RECORD_FORMATS",
     "REQUIRED_COLUMNS",
     "SEPARATORS",
+    "THOUSANDS",
     "TIME_ATTR",
     "TIME_UNITS",
     "TIMINGS",
+    "UNREAD_FORMATS",
     "RecordOptions",
     "check_attrs",
+    "compression",
     "count_data_lines",
     "csv_layout",
     "normalise_record",
     "read_record",
     "record_format",
     "record_timing",
+    "speed_from_position",
     "trim_record",
     "write_record",
 ]
