@@ -437,7 +437,7 @@ def _hdf5_blocks(
     """An HDF5 record by slices of ``chunk_rows`` samples of its datasets."""
     if _regular_file(name) == 0:
         raise DataError(f"{name} is empty")
-    handle, shapes, attrs = _hdf5_file(name)
+    handle, shapes, attrs, paths = _hdf5_file(name)
     with handle:
         found: dict[str, str] = {}
         chosen = _column_chooser(name, mapping, False, None, found, optional)(shapes)
@@ -453,7 +453,7 @@ def _hdf5_blocks(
                     slice(first_row, first_row + chunk_rows) if i == axis else 0 for i in range(len(shape))
                 )
                 try:
-                    values = np.asarray(handle[key][where]).reshape(-1)
+                    values = np.asarray(handle[paths[key]][where]).reshape(-1)
                 except HDF5_ERRORS as exc:
                     raise DataError(
                         f"{name}: its HDF5 data cannot be read (corrupt?): {_reason(exc)}"

@@ -436,3 +436,67 @@ def test_library_errors_name_fields_and_the_command_line_flags(folder):
     with pytest.raises(DataError) as refused:
         read_record(folder / "encoder.csv", output="enc", output_unit="counts")
     assert "counts_per_rev=" in str(refused.value) and "--" not in str(refused.value)
+
+
+# --------------------------------------------------------------------------- MATLAB v7.3 as Simulink logs it
+def _mat73(path, write) -> None:
+    """A MATLAB v7.3 MAT-file as MATLAB writes it: HDF5 behind a 512-byte header of version 2.0."""
+    with h5py.File(path, "w", userblock_size=512) as f:
+        write(f)
+    header = (
+        b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Sat Nov 28 10:00:00 2026 HDF5 schema 1.00 ."
+    )
+    with open(path, "r+b") as fh:
+        fh.write(header.ljust(116) + bytes(8) + b"\x00\x02IM")
+
+
+def _char(text: str) -> np.ndarray:
+    return np.array([[ord(c)] for c in text], dtype=np.uint16)  # MATLAB char: UTF-16 codes, one column
+
+
+def _structure_with_time(f, name: str, time: np.ndarray, values: np.ndarray, label: str) -> None:
+    """A To Workspace block's 'Structure With Time': name.time, name.signals.values, .label, .blockName."""
+    group = f.create_group(name)
+    group.attrs["MATLAB_class"] = np.bytes_("struct")
+    group["time"] = time.reshape(1, -1)
+    group["time"].attrs["MATLAB_class"] = np.bytes_("double")
+    signals = group.create_group("signals")
+    signals.attrs["MATLAB_class"] = np.bytes_("struct")
+    signals["values"] = values.reshape(1, -1)
+    signals["values"].attrs["MATLAB_class"] = np.bytes_("double")
+    signals["dimensions"] = np.ones((1, 1))
+    signals["label"] = _char(label)
+    signals["label"].attrs["MATLAB_class"] = np.bytes_("char")
+    group["blockName"] = _char(f"rig/{name}")
+    group["blockName"].attrs["MATLAB_class"] = np.bytes_("char")
+
+
+def test_a_simulink_structure_with_time_reads_by_signal_name(original, folder, reference):
+    path = folder / "sim.mat"
+    time = original["t"].to_numpy()
+
+    def write(f):
+        _structure_with_time(f, "u_log", time, original["u"].to_numpy(), "voltage")
+        _structure_with_time(f, "y_log", time, original["y"].to_numpy(), "speed")
+
+    _mat73(path, write)
+    _same(read_record(path, input="u_log", output="y_log", output_unit="rpm"), reference)
+    _same(read_record(path, input="voltage", output="speed", output_unit="rpm"), reference)  # by label
+    blocks = pd.concat(
+        list(iter_record(path, input="voltage", output="speed", output_unit="rpm", chunk_rows=999))
+    )
+    _same(blocks.reset_index(drop=True), reference)
+
+
+def test_a_simulink_dataset_object_is_refused_saying_how_to_save_its_signals(folder):
+    path = folder / "logsout.mat"
+
+    def write(f):
+        f["logsout"] = np.array([[3707764736, 2, 1, 1, 1, 1]], dtype=np.uint32)
+        f["logsout"].attrs["MATLAB_class"] = np.bytes_("Simulink.SimulationData.Dataset")
+        f["logsout"].attrs["MATLAB_object_decode"] = 3
+
+    _mat73(path, write)
+    with pytest.raises(DataError, match=r"holds 'logsout', a Simulink Simulink\.SimulationData\.Dataset object.*"
+                                        r"'Structure With Time'"):  # fmt: skip
+        read_record(path, input="u_log", output="y_log")
