@@ -64,6 +64,10 @@ ATTRS_MARKER = "# motorid-record "
 COMMENT = "#"
 #: Columns a record must have, in its canonical names.
 REQUIRED_COLUMNS: tuple[str, ...] = ("t", "u", "y")
+#: The canonical name a direction column is read under (:class:`RecordOptions` ``direction``).
+DIRECTION = "direction"
+#: How rows that repeat a time stamp with other values are treated (:class:`RecordOptions`).
+DUPLICATES: tuple[str, ...] = ("refuse", "first", "last", "mean")
 
 #: The keys of ``attrs`` naming the drive a record comes from and when it was taken (ISO 8601 text):
 #: written by :mod:`motorid.fleet.synthetic`, read by ``motorid fleet``.
@@ -1104,7 +1108,7 @@ def _column_chooser(
                 raise DataError(
                     f"column {quoted(column)} is missing from {name}"
                     + (f" (needed as {canonical!r})" if column != canonical else "")
-                    + f"; columns are {quoted_names(present)}"
+                    + f"; columns are {quoted_names(present)}{_name_it(canonical)}"
                 )
             if _samples(shapes[key]) is None:
                 raise DataError(
@@ -1274,6 +1278,16 @@ def binary_column(name: str, key: str, values: np.ndarray, time: bool, first_row
     return values
 
 
+#: The option that names each column a record is read with.
+_COLUMN_OPTIONS = {"t": "time", "u": "input", "y": "output", DIRECTION: "direction"}
+
+
+def _name_it(canonical: str) -> str:
+    """The end of a missing column's message: the option that names the column (none for others)."""
+    option = _COLUMN_OPTIONS.get(canonical)
+    return f"; name the {option} column with {option}=..." if option else ""
+
+
 def _short_name(key: str, keys: list[str]) -> str:
     """``group/name`` as ``name`` when no other of ``keys`` ends in that name."""
     last = key.rsplit("/", 1)[-1]
@@ -1290,12 +1304,6 @@ JITTER_LIMIT = 0.4
 SAMPLE_TIMES = (1e-6, 1.0)
 #: How far the mean step of a jittered record may be from a ``dt`` given for it (relative).
 JITTER_DT_RTOL = 0.02
-
-
-#: How rows that repeat a time stamp with other values are treated (:class:`RecordOptions`).
-DUPLICATES: tuple[str, ...] = ("refuse", "first", "last", "mean")
-#: The canonical name a direction column is read under (:class:`RecordOptions` ``direction``).
-DIRECTION = "direction"
 
 
 @dataclass(frozen=True)
@@ -1666,7 +1674,7 @@ def normalise_record(
             raise DataError(
                 f"column {quoted(column)} is missing from the record"
                 + (f" (needed as {canonical!r})" if column != canonical else "")
-                + f"; columns are {quoted_names(present)}"
+                + f"; columns are {quoted_names(present)}{_name_it(canonical)}"
             )
     mapping = {k: v for k, v in mapping.items() if v in present}
     renamed = {v: k for k, v in mapping.items()}
@@ -1877,7 +1885,7 @@ def csv_layout(
             raise DataError(
                 f"column {quoted(column)} is missing from {name}"
                 + (f" (needed as {canonical!r})" if column != canonical else "")
-                + f"; columns are {quoted_names(present)}{hint}"
+                + f"; columns are {quoted_names(present)}{hint or _name_it(canonical)}"
             )
     units = _units_row(name, sample[0], present, sep, mapping) if sample else None
     if units is not None:
