@@ -90,7 +90,7 @@ def check_row_limit(name: str, rows: int, max_samples: int | None) -> None:
     if max_samples is not None and rows > max_samples:
         raise DataError(
             f"{name} has {rows} rows, more than the limit of {max_samples} samples (max_samples, "
-            f"--max-samples on the command line) that keeps memory bounded (about 8 bytes per sample "
+            f"max_samples=...) that keeps memory bounded (about 8 bytes per sample "
             f"and column); decimate the record (low-pass filter it, then keep one row in "
             f"{math.ceil(rows / max_samples)}) or raise the limit"
         )
@@ -439,13 +439,11 @@ def check_dialect(sep: str | None, decimal: str | None, thousands: str | None = 
     """Refuse a CSV separator, decimal mark or thousands separator the reader cannot use (one
     character each, none the same as another)."""
     if sep is not None and (not isinstance(sep, str) or len(sep) != 1 or sep in '\r\n".'):
-        raise DataError(f"sep (--sep) must be one character such as ',', ';' or a tab, got {sep!r}")
+        raise DataError(f"sep=... must be one character such as ',', ';' or a tab, got {sep!r}")
     if decimal is not None and decimal not in (".", ","):
-        raise DataError(f"decimal (--decimal) must be '.' or ',', got {decimal!r}")
+        raise DataError(f"decimal=... must be '.' or ',', got {decimal!r}")
     if sep is not None and sep == decimal:
-        raise DataError(
-            f"sep (--sep) and decimal (--decimal) are both {sep!r}: a CSV cannot use one for both"
-        )
+        raise DataError(f"sep=... and decimal=... are both {sep!r}: a CSV cannot use one for both")
     if thousands is not None:
         if thousands not in THOUSANDS:
             raise DataError(
@@ -1385,16 +1383,14 @@ class RecordOptions:
             for other, first in named[:position]:
                 if first == column:
                     raise DataError(
-                        f"{key} (--{key}) {column!r} is the same column as {other} (--{other}): "
+                        f"{key}=... {column!r} is the same column as {other}=... {first!r}: "
                         "each must name its own column"
                     )
         if self.dt is not None and (isinstance(self.dt, bool) or not isinstance(self.dt, int | float)
                                     or not math.isfinite(self.dt) or self.dt <= 0.0):  # fmt: skip
             raise DataError(f"dt must be finite and > 0, got {self.dt!r}")
         if self.time_unit is not None and self.time_unit not in TIME_UNITS:
-            raise DataError(
-                f"time_unit (--time-unit) must be one of {', '.join(TIME_UNITS)}, got {self.time_unit!r}"
-            )
+            raise DataError(f"time_unit=... must be one of {', '.join(TIME_UNITS)}, got {self.time_unit!r}")
         if not isinstance(self.resample, bool):
             raise DataError(f"resample must be True or False, got {self.resample!r}")
         if self.duplicates not in DUPLICATES:
@@ -1849,6 +1845,9 @@ def csv_layout(
     thousands : str, optional
         The thousands separator; None: detected from the first lines with the decimal mark.
     """
+    if comment is not None and (not isinstance(comment, str) or "\n" in comment or "\r" in comment):
+        raise DataError(f"comment=... must be the text comment lines begin with, got {quoted(comment)}")
+    comment = comment or None  # an empty prefix: no comment lines
     first = _open_checked(name)
     attrs: dict[str, Any] = {}
     skip = 0
@@ -2183,7 +2182,7 @@ def time_base(
         raise DataError(
             f"column {quoted(column)} of {name} steps by {median_raw:g} per sample: read in {unit or 's'} that is a "
             f"sample time of {median_raw * scale:g} s; loggers stamp in s, ms, us or ns: say which with "
-            "--time-unit (time_unit=...), or give the sample time with --dt"
+            "time_unit=..., or give the sample time with dt=..."
         )
     t = (raw - raw[0]).astype(np.float64) * scale  # the origin off first, in the file's numbers: exact
     if raw[0] != 0:
@@ -2195,13 +2194,13 @@ def time_base(
         mean = float(np.mean(steps[within])) if within.any() else median
         if not math.isclose(dt, mean, rel_tol=JITTER_DT_RTOL):
             raise DataError(
-                f"dt = {_seconds(dt)} (--dt) contradicts the time column {quoted(column)} of {name}, which steps "
-                f"by {_seconds(median)}; leave --dt out or correct it"
-                + ("" if options.time_unit else " (or give the time column's unit with --time-unit)")
+                f"dt = {_seconds(dt)} (dt=...) contradicts the time column {quoted(column)} of {name}, which steps "
+                f"by {_seconds(median)}; leave it out or correct it"
+                + ("" if options.time_unit else " (or give the time column's unit with time_unit=...)")
             )
     expected = dt if dt is not None else file_dt if file_dt is not None else median
     if expected is None:  # one sample and no dt
-        raise DataError(f"{name}: one sample and no dt given: the sample time is unknown (--dt)")
+        raise DataError(f"{name}: one sample and no dt given: the sample time is unknown (dt=...)")
     expected = float(expected)
     attrs["dt"] = expected
     units = attrs.setdefault("units", {})
@@ -2235,7 +2234,7 @@ def steps_off_grid(
             missing = int(np.rint(ratio[row - 1])) - 1
             raise DataError(
                 f"column {quoted(column)} has a gap of {missing} sample{'s' if missing > 1 else ''} before {where(row)}: "
-                f"step {steps[row - 1]:.6g} s, expected dt = {expected:.6g} s (--resample puts the record on a "
+                f"step {steps[row - 1]:.6g} s, expected dt = {expected:.6g} s (resample=True puts the record on a "
                 "uniform grid across it)"
             )
         if odd.size:
@@ -2243,7 +2242,7 @@ def steps_off_grid(
             raise DataError(
                 f"column {quoted(column)} is not uniformly sampled at {where(row)}: step {steps[row - 1]:.6g} s, "
                 f"expected dt = {expected:.6g} s (jitter up to {JITTER_LIMIT:.0%} of it is resampled; "
-                "--resample resamples any)"
+                "resample=True resamples any)"
             )
     return deviation, jittered, gaps, odd
 
@@ -2307,8 +2306,8 @@ def untimed_dt(name: str, attrs: dict[str, Any], options: RecordOptions, names: 
         attrs["dt"] = float(options.dt)
     if "dt" not in attrs:
         raise DataError(
-            f"{name}: no time column {names.get('t', 't')!r} and no dt given: name the time column with --time "
-            "(time=...) or give the sample time with --dt"
+            f"{name}: no time column {names.get('t', 't')!r} and no dt given: name the time column with time=... "
+            "or give the sample time with dt=..."
         )
     return float(attrs["dt"])
 
@@ -2346,7 +2345,7 @@ def _on_uniform_time(
         message += (f", across {odd.size} step{'s' if odd.size > 1 else ''} beyond the jitter limit (the first "
                     f"before {where(int(odd[0]) + 1)})")  # fmt: skip
     if gaps.size or odd.size:
-        message += " as --resample asks"
+        message += " as resample=True asks"
     logger.warning(message + f": input held, output interpolated ({len(rec)} -> {len(out)} samples)")
     return out
 
@@ -2445,7 +2444,7 @@ def trim_record(
     if start is None and stop is None:
         return record
     if start is not None and stop is not None and stop <= start:
-        raise DataError(f"--stop {stop:g} must be after --start {start:g} [s]")
+        raise DataError(f"stop={stop:g} must be after start={start:g} [s]")
     if "t" in record.columns:
         t = pd.to_numeric(record["t"], errors="coerce").to_numpy(dtype=float)
     else:
@@ -2458,8 +2457,8 @@ def trim_record(
     kept = int(keep.sum())
     if kept < max(min_samples, 1):
         span = " and ".join(
-            f"{option} {value:g} s"
-            for option, value in (("--start", start), ("--stop", stop))
+            f"{option}={value:g} s"
+            for option, value in (("start", start), ("stop", stop))
             if value is not None
         )
         what = "no sample" if kept == 0 else f"only {kept} samples (at least {min_samples} needed)"

@@ -213,7 +213,7 @@ def per(numerator: str, denominator: str) -> str:
 
 
 def output_factor(
-    unit: str, option: str = "--output-unit", counts_per_rev: float | None = None
+    unit: str, option: str = "output_unit=...", counts_per_rev: float | None = None
 ) -> tuple[float, str]:
     """The factor from ``unit`` to its SI unit, and that SI unit.
 
@@ -237,7 +237,9 @@ def output_factor(
     """
     if unit == ENCODER_COUNTS:
         if counts_per_rev is None:
-            raise DataError(f"{option} counts needs the encoder's counts per revolution: counts_per_rev=...")
+            raise DataError(
+                "output_unit='counts' needs the encoder's counts per revolution: counts_per_rev=..."
+            )
         return 2.0 * math.pi / counts_per_rev, "rad"
     try:
         return OUTPUT_UNITS[unit]
@@ -248,7 +250,7 @@ def output_factor(
 
 
 def input_factor(
-    unit: str, supply_voltage: float | None = None, option: str = "--input-unit",
+    unit: str, supply_voltage: float | None = None, option: str = "input_unit=...",
     full_scale: float | None = None,
 ) -> tuple[float, str]:  # fmt: skip
     """The factor from the input ``unit`` to volts, and the unit the converted input is in.
@@ -279,11 +281,11 @@ def input_factor(
     if unit not in INPUT_UNITS:
         raise DataError(f"{option}: unknown unit {unit!r}; known: {', '.join(INPUT_UNITS)}")
     if supply_voltage is not None and not (math.isfinite(supply_voltage) and supply_voltage > 0):
-        raise DataError(f"--supply-voltage must be a positive voltage [V], got {supply_voltage!r}")
+        raise DataError(f"supply_voltage=... must be a positive voltage [V], got {supply_voltage!r:.80}")
     if full_scale is not None and (unit != "counts" or not (math.isfinite(full_scale) and full_scale > 0)):
         raise DataError(
-            f"--input-full-scale (input_full_scale) must be a positive count and goes with --input-unit counts, "
-            f"got {full_scale!r} with {option} {unit}"
+            f"input_full_scale=... must be a positive count and goes with input_unit='counts', "
+            f"got {full_scale!r:.80} with input_unit={unit!r}"
         )
     factor = INPUT_UNITS[unit]
     if factor is not None:
@@ -292,7 +294,7 @@ def input_factor(
     if unit == "counts":
         if full_scale is None:
             raise DataError(
-                f"{option} counts needs the count of full duty: --input-full-scale (input_full_scale), "
+                "input_unit='counts' needs the count of full duty: input_full_scale=..., "
                 "e.g. 255 for an 8-bit PWM"
             )
         duty = 100.0 / full_scale
@@ -334,14 +336,11 @@ def check_input_range(
         row = int(beyond[0])
         place = where(row) if where is not None else f"row {row}"
         hint = (
-            "; if it holds PWM counts, say --input-unit counts --input-full-scale N (input_unit='counts', "
-            "input_full_scale=N)"
-            if unit == "%"
-            else ""
+            "; if it holds PWM counts, say input_unit='counts' and input_full_scale=N" if unit == "%" else ""
         )
         raise DataError(
             f"input column {column!r} is {values[row]:g} at {place}, beyond ±{limit:g} {unit} "
-            f"(--input-unit {unit}){hint}"
+            f"(input_unit={unit!r}){hint}"
         )
 
 
@@ -398,9 +397,11 @@ def convert_record(
     """
     units = dict(record.attrs.get("units") or {})
     if supply_voltage is not None and (input_unit or units.get("u")) not in ("%", "counts"):
-        raise DataError("--supply-voltage converts PWM duty to volts: it needs --input-unit % (or counts)")
+        raise DataError(
+            "supply_voltage=... converts PWM duty to volts: it needs input_unit='%' (or 'counts')"
+        )
     if input_full_scale is not None and (input_unit or units.get("u")) != "counts":
-        raise DataError("--input-full-scale (input_full_scale) goes with --input-unit counts")
+        raise DataError("input_full_scale=... goes with input_unit='counts'")
     out = record.copy()
     out.attrs = dict(record.attrs)
     converted = dict(out.attrs.get("converted_from") or {})

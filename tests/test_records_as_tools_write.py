@@ -16,6 +16,7 @@ import gzip
 import logging
 import math
 import zipfile
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -82,6 +83,9 @@ def test_comment_lines_before_the_header_are_the_records_notes(original, folder,
         DataError, match=r"is the header a comment line\? name the comment lines' prefix with comment="
     ):
         read_record(other, output_unit="rpm")
+    hashed = folder / "hashed.csv"  # a header whose first name begins with '#', read with no comment prefix
+    hashed.write_text(original.rename(columns={"t": "#t"}).to_csv(index=False))
+    _same(read_record(hashed, time="#t", output_unit="rpm", comment=""), reference)
 
 
 def test_a_units_row_under_the_header_gives_the_columns_units(original, folder, reference):
@@ -500,3 +504,66 @@ def test_a_simulink_dataset_object_is_refused_saying_how_to_save_its_signals(fol
     with pytest.raises(DataError, match=r"holds 'logsout', a Simulink Simulink\.SimulationData\.Dataset object.*"
                                         r"'Structure With Time'"):  # fmt: skip
         read_record(path, input="u_log", output="y_log")
+
+
+# --------------------------------------------------------------------------- fields in the library, flags on the command line
+RECORD_MODULES = [
+    "motorid/records.py",
+    "motorid/record_chunks.py",
+    "motorid/units.py",
+    "motorid/app/reading.py",
+]
+
+
+@pytest.mark.parametrize("module", RECORD_MODULES)
+def test_the_record_modules_messages_name_fields_not_flags(module):
+    """No text in the records' code but its docstrings names a command-line flag (``--time-unit``):
+    its messages name the field (``time_unit=...``), which the command line says as the flag."""
+    import ast
+    import re
+
+    flag = re.compile(r"(?<![\w-])--[a-z][a-z-]+")
+    tree = ast.parse((Path(__file__).resolve().parent.parent / module).read_text(encoding="utf-8"))
+    docstrings = {
+        id(node.body[0].value)
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef)
+        and node.body and isinstance(node.body[0], ast.Expr) and isinstance(node.body[0].value, ast.Constant)
+    }  # fmt: skip
+    named = [
+        (node.lineno, node.value[:80])
+        for node in ast.walk(tree)
+        if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docstrings
+        and flag.search(node.value)
+    ]  # fmt: skip
+    assert not named, named
+
+
+def test_the_command_line_says_each_field_as_its_flag():
+    from motorid.cli.options import with_flags
+
+    message = (
+        "dt = 20 ms (dt=...) contradicts the time column; leave it out (or give its unit with time_unit=...); "
+        "name it with direction=... and merge with duplicates=first|last|mean (resample=True resamples)"
+    )
+    assert with_flags(message) == (
+        "dt = 20 ms (--dt) contradicts the time column; leave it out (or give its unit with --time-unit); "
+        "name it with --direction and merge with --duplicates first|last|mean (--resample resamples)"
+    )
+    assert with_flags("stop=5 must be after start=6 [s]") == "--stop 5 must be after --start 6 [s]"
+
+
+def test_an_excel_sheet_with_a_units_row_reads_in_those_units(original, folder, reference):
+    import openpyxl
+
+    workbook = openpyxl.Workbook()
+    sheet = workbook.active
+    sheet.title = "Messung"
+    sheet.append(["Zeit", "Spannung", "Drehzahl"])
+    sheet.append(["s", "V", "1/min"])  # the units row under the header
+    for row in original.itertuples(index=False):
+        sheet.append([float(row.t), float(row.u), float(row.y)])
+    workbook.save(folder / "units.xlsx")
+    record = read_record(folder / "units.xlsx", time="Zeit", input="Spannung", output="Drehzahl")
+    _same(record, reference)
+    assert record.attrs["converted_from"] == {"y": "rpm"}

@@ -100,9 +100,9 @@ class ReadOptions:
         for key in ("start", "stop"):
             value = getattr(self, key)
             if value is not None and not (isinstance(value, int | float) and 0.0 <= value < float("inf")):
-                raise DataError(f"--{key} must be a time >= 0 [s], got {value!r}")
+                raise DataError(f"{key}=... must be a time >= 0 [s], got {value!r:.80}")
         if self.start is not None and self.stop is not None and self.stop <= self.start:
-            raise DataError(f"--stop {self.stop:g} must be after --start {self.start:g} [s]")
+            raise DataError(f"stop={self.stop:g} must be after start={self.start:g} [s]")
 
     @property
     def spanned(self) -> bool:

@@ -155,7 +155,7 @@ def add_record_columns(parser: argparse.ArgumentParser, max_samples_help: str = 
                        help="CSV thousands separator: , . ' or a space (default: detected with the decimal mark)")  # fmt: skip
     group.add_argument("--comment", default=COMMENT, metavar="PREFIX",
                        help="prefix of the comment lines before a CSV's header, kept as the record's notes "
-                            "(default: #)")  # fmt: skip
+                            "(default: #; '' for none)")  # fmt: skip
     group.add_argument("--sheet", metavar="NAME", help="the sheet of an Excel record (default: its first)")
     group.add_argument("--supply-voltage", type=positive, metavar="V",
                        help="supply voltage of a PWM drive [V]: --input-unit %% or counts becomes volts")  # fmt: skip
@@ -171,7 +171,7 @@ RECORD_FLAGS: dict[str, str] = {
     field: "--" + field.replace("_", "-")
     for field in ("time", "input", "output", "time_unit", "dt", "resample", "sep", "decimal", "thousands",
                   "comment", "sheet", "input_unit", "input_full_scale", "output_unit", "counts_per_rev",
-                  "supply_voltage", "direction", "direction_forward", "duplicates", "max_samples")
+                  "supply_voltage", "direction", "direction_forward", "duplicates", "max_samples", "start", "stop")
 }  # fmt: skip
 _ASIDE = re.compile(r" \(([a-z_]+=[^()]*)\)")
 _FIELD = re.compile(
@@ -191,13 +191,14 @@ def with_flags(message: str) -> str:
 
     def flag(found: re.Match[str]) -> str:
         value = found.group(2)
-        if value in (None, "..."):
+        if value in (None, "...", "True"):  # True: a flag that takes no value
             return RECORD_FLAGS[found.group(1)]
         return f"{RECORD_FLAGS[found.group(1)]} {value.strip(chr(39))}"
 
     def aside(found: re.Match[str]) -> str:  # "--time-unit (time_unit=...)": the flag is said already
-        fields = _FIELD.findall(found.group(1))
-        return "" if fields and all(RECORD_FLAGS[f] in message for f, _ in fields) else found.group(0)
+        fields = [field for field, _ in _FIELD.findall(found.group(1))]
+        said = all(RECORD_FLAGS[f] in message or message.count(f"{f}=") > 1 for f in fields)
+        return "" if fields and said else found.group(0)
 
     return _FIELD.sub(flag, _ASIDE.sub(aside, message))
 
