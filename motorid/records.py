@@ -1997,8 +1997,6 @@ def _normalised(
         input_full_scale=options.input_full_scale, counts_per_rev=options.counts_per_rev, where=where,
         column=names.get("u", "u"),
     )  # fmt: skip
-    if (rec.attrs.get("converted_from") or {}).get("y") == ENCODER_COUNTS:
-        rec.attrs["counts_per_rev"] = options.counts_per_rev
     if "u" in rec.columns and "y" in rec.columns:
         check = InputSignCheck(name, options, names)
         check.update(rec["u"].to_numpy(), rec["y"].to_numpy(), (rec.attrs.get("units") or {}).get("y"))

@@ -386,7 +386,7 @@ def convert_record(
     DataFrame
         The converted record, ``attrs`` kept, ``attrs["units"]`` updated and
         ``attrs["converted_from"]`` naming the file's units where they were
-        converted.
+        converted (``attrs["counts_per_rev"]`` with an encoder's counts).
 
     Raises
     ------
@@ -430,4 +430,6 @@ def convert_record(
         out.attrs["units"] = units
     if converted:
         out.attrs["converted_from"] = converted
+    if converted.get("y") == ENCODER_COUNTS:  # what the speed derived from it is quantised by
+        out.attrs["counts_per_rev"] = counts_per_rev
     return out

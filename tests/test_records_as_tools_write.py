@@ -302,6 +302,12 @@ def test_an_encoders_counts_read_as_a_position_and_give_the_speed(
         capsys, "identify", str(folder / "encoder.csv"), "--output", "enc", "--output-unit", "counts"
     )
     assert code == 2 and "--counts-per-rev" in err and "counts_per_rev" not in err, err
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="motorid.records"):  # the doctor reads a segment, in blocks
+        code, out, err = run(capsys, "doctor", str(folder / "encoder.csv"), "--output", "enc", "--output-unit",
+                             "counts", "--counts-per-rev", str(N), "--max-steps", "0", "--json")  # fmt: skip
+    assert code == 0, err
+    assert [r.getMessage() for r in caplog.records if "quantised" in r.getMessage()] == said
 
 
 # --------------------------------------------------------------------------- sign and magnitude
