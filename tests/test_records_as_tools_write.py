@@ -23,6 +23,8 @@ import numpy as np
 import pandas as pd
 import pytest
 from cli_fixtures import run
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from motorid.diagnose.synthetic import planted_record
 from motorid.errors import DataError
@@ -573,3 +575,25 @@ def test_an_excel_sheet_with_a_units_row_reads_in_those_units(original, folder, 
     record = read_record(folder / "units.xlsx", time="Zeit", input="Spannung", output="Drehzahl")
     _same(record, reference)
     assert record.attrs["converted_from"] == {"y": "rpm"}
+
+
+@settings(max_examples=30, deadline=None)
+@given(
+    values=st.lists(st.floats(-5e6, 5e6, allow_nan=False), min_size=3, max_size=40),
+    marks=st.sampled_from([(",", ".", ","), (".", ",", ";"), ("'", ".", ",")]),
+)
+def test_numbers_with_thousands_separators_read_as_written_without(tmp_path_factory, values, marks):
+    """Any number written with a thousands separator (and the decimal mark it goes with) reads as the
+    same number written plainly: the same decimal digits, so the same float."""
+    thousands, decimal, sep = marks
+    plain = [f"{v:.3f}" for v in values]
+    grouped = [f"{v:,.3f}".replace(",", "\0").replace(".", decimal).replace("\0", thousands) for v in values]
+    folder = tmp_path_factory.mktemp("grouped")
+    quote = '"' if sep in thousands + decimal else ""
+    lines = [
+        f"{k * 0.01:.2f}".replace(".", decimal) + f"{sep}{quote}{g}{quote}{sep}{(-1) ** k}"  # a bipolar input
+        for k, g in enumerate(grouped)
+    ]
+    (folder / "grouped.csv").write_text(f"t{sep}y{sep}u\n" + "\n".join(lines) + "\n")
+    record = read_record(folder / "grouped.csv", thousands=thousands, decimal=decimal, sep=sep)
+    np.testing.assert_array_equal(record["y"].to_numpy(), np.array([float(p) for p in plain]))
