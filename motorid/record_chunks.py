@@ -40,9 +40,12 @@ import pandas as pd
 
 from motorid.errors import DataError, UniformGridError
 from motorid.records import (
+    COMMENT,
+    DIRECTION,
     HDF5_ERRORS,
     REQUIRED_COLUMNS,
     CsvLayout,
+    InputSignCheck,
     RecordOptions,
     _column_chooser,
     _hdf5_file,
@@ -57,9 +60,12 @@ from motorid.records import (
     csv_data_options,
     csv_layout,
     named_attrs,
+    quoted,
     raise_bad_cell,
     record_format,
     row_place,
+    signed_by_direction,
+    stamped_in_ns,
     steps_off_grid,
     time_base,
     untimed_dt,
@@ -92,8 +98,15 @@ def iter_record(
     supply_voltage: float | None = None,
     input_full_scale: float | None = None,
     resample: bool = False,
+    counts_per_rev: float | None = None,
+    direction: str | None = None,
+    direction_forward: float = 1.0,
+    duplicates: str = "refuse",
     sep: str | None = None,
     decimal: str | None = None,
+    thousands: str | None = None,
+    comment: str | None = COMMENT,
+    sheet: str | None = None,
     chunk_rows: int = CHUNK_ROWS,
 ) -> Iterator[pd.DataFrame]:
     """The record of :func:`motorid.records.read_record`, as consecutive blocks of rows.
@@ -136,6 +149,9 @@ def iter_record(
         Separator of a CSV (one character); default: detected from its first lines.
     decimal : {".", ","}, optional
         Decimal mark of a CSV; default: detected from its first lines.
+    counts_per_rev, direction, direction_forward, duplicates, thousands, comment, sheet : optional
+        As for ``read_record``. Rows that repeat a time stamp, and a CSV's time stamps written
+        as text, are read whole (a :class:`UniformGridError`).
     chunk_rows : int
         Rows per block (the last one may be shorter), >= ``max(2, min_samples)``.
 
@@ -163,24 +179,28 @@ def iter_record(
     options = RecordOptions(
         time=time, input=input, output=output, dt=dt, time_unit=time_unit, input_unit=input_unit,
         output_unit=output_unit, supply_voltage=supply_voltage, input_full_scale=input_full_scale,
-        resample=resample, dt_rtol=dt_rtol,
+        resample=resample, dt_rtol=dt_rtol, counts_per_rev=counts_per_rev, direction=direction,
+        direction_forward=direction_forward, duplicates=duplicates,
     )  # fmt: skip
-    check_dialect(sep, decimal)
+    check_dialect(sep, decimal, thousands)
     name = os.fspath(path)
     mapping = options.column_map(columns)
     optional = {"t"} if options.time_optional(columns) else set()
     kind = record_format(name)
     if kind == "CSV":
-        source = _csv_blocks(name, mapping, optional, chunk_rows, sep, decimal)
-    else:
+        source = _csv_blocks(name, mapping, optional, chunk_rows, sep, decimal, thousands, comment)
+    elif kind in ("Parquet", "HDF5"):
         readers = {"Parquet": _parquet_blocks, "HDF5": _hdf5_blocks}
-        source = readers.get(kind, _whole_blocks)(name, kind, mapping, optional, chunk_rows)
+        source = readers[kind](name, kind, mapping, optional, chunk_rows)
+    else:
+        source = _whole_blocks(name, kind, mapping, optional, chunk_rows, sheet)
     with contextlib.closing(source) as blocks:
         attrs = dict(next(blocks))
         where = row_place(name, next(blocks))
         names = {canonical: mapping[canonical] for canonical in REQUIRED_COLUMNS if canonical in mapping}
         named_attrs(name, attrs, options, names)
         clock = _BlockClock(name, attrs, where, options, names)
+        signs = InputSignCheck(name, options, names)
         first_row = 0
         for block in _exact_blocks(blocks, chunk_rows):
             rows = len(next(iter(block.values())))
@@ -191,10 +211,18 @@ def iter_record(
             block = {**block, "t": times} if "t" in block else {"t": times, **block}  # the whole read's order
             chunk = pd.DataFrame(block, index=pd.RangeIndex(first_row, first_row + rows))
             chunk.attrs = dict(attrs)
-            yield _converted(
-                chunk, options, lambda row, start=first_row: where(start + row), names.get("u", "u")
-            )
+            at = lambda row, start=first_row: where(start + row)  # noqa: E731
+            if DIRECTION in chunk.columns:
+                chunk["u"] = signed_by_direction(chunk, at, options, names.get("u", "u"))[:, 0]
+                chunk = chunk.drop(columns=DIRECTION)
+            chunk = _converted(chunk, options, at, names.get("u", "u"))
+            if "u" in chunk.columns and "y" in chunk.columns:
+                signs.update(
+                    chunk["u"].to_numpy(), chunk["y"].to_numpy(), (chunk.attrs.get("units") or {}).get("y")
+                )
+            yield chunk
             first_row += rows
+        signs.finish()
 
 
 class _BlockClock:
@@ -222,6 +250,15 @@ class _BlockClock:
                 self.dt = untimed_dt(self.name, self.attrs, self.options, self.names)
                 self.attrs.setdefault("units", {})["t"] = "s"
             return np.arange(first_row, first_row + rows) * self.dt  # as the whole read: same bits
+        repeats = np.flatnonzero(raw[1:] == raw[:-1])
+        if self.last_raw is not None and raw.size and raw[0] == self.last_raw:
+            repeats = np.concatenate(([-1], repeats))
+        if repeats.size:
+            row = first_row + int(repeats[0]) + 1
+            raise UniformGridError(
+                f"{self.name}: column {quoted(self.column)} repeats a time stamp at {self.where(row)}: rows that "
+                "repeat a stamp are dropped or merged when the record is read whole (read_record), not in blocks"
+            )
         if self.origin is None:
             t, self.dt, self.scale = time_base(
                 self.name, raw, self.attrs, self.where, self.options, self.column
@@ -253,7 +290,8 @@ def _converted(
 
     return convert_record(
         chunk, options.input_unit, options.output_unit, options.supply_voltage,
-        input_full_scale=options.input_full_scale, where=where, column=column,
+        input_full_scale=options.input_full_scale, counts_per_rev=options.counts_per_rev, where=where,
+        column=column,
     )  # fmt: skip
 
 
@@ -296,6 +334,8 @@ def _csv_blocks(
     chunk_rows: int,
     sep: str | None,
     decimal: str | None,
+    thousands: str | None = None,
+    comment: str | None = COMMENT,
 ) -> Blocks:
     """A CSV record by pandas' C parser in chunks, with the whole-record read's layout and options; a
     chunk that does not parse as finite numbers is named by :func:`~motorid.records.raise_bad_cell`.
@@ -304,9 +344,14 @@ def _csv_blocks(
     reads it; should a later chunk hold a fraction there, the rest is read as float64 (the whole
     read then reads the column as float64: the same numbers below 2**53).
     """
-    layout = csv_layout(name, mapping, optional, sep, decimal)
+    layout = csv_layout(name, mapping, optional, sep, decimal, comment=comment, thousands=thousands)
+    if layout.time_text:
+        raise UniformGridError(
+            f"{name}: the time column {quoted(layout.time_column)} holds {layout.time_text} stamps as text, which "
+            "are read when the record is read whole (read_record), not in blocks"
+        )
     yield layout.attrs
-    yield layout.skip + 1
+    yield layout.data_line
     names = [column for column in layout.present if column in mapping.values()]
     canonical = {column: key for key, column in mapping.items()}
     integers = list(layout.integers)
@@ -320,14 +365,14 @@ def _csv_blocks(
                 return
             except (ValueError, OverflowError):  # a cell that is not a number, or a fraction in an int column
                 if not integers:
-                    raise_bad_cell(name, layout.skip, names, layout.sep, layout.decimal)
+                    raise_bad_cell(name, layout, names)
                 integers = []  # this chunk again, as floats: a bad cell is then named above
                 reader.close()
                 reader = _csv_reader(name, layout, names, integers, chunk_rows, rows_read)
                 continue
             arrays = {canonical[c]: data[c].to_numpy() for c in names}
             if not all(np.isfinite(values).all() for values in arrays.values()):
-                raise_bad_cell(name, layout.skip, names, layout.sep, layout.decimal)
+                raise_bad_cell(name, layout, names)
             rows_read += len(data)
             yield arrays
     finally:
@@ -338,9 +383,9 @@ def _csv_reader(
     name: str, layout: CsvLayout, names: list[str], integers: list[str], chunk_rows: int, start: int
 ) -> Any:
     """pandas' chunked reader of the columns ``names`` of a CSV record from data row ``start`` on."""
-    options = csv_data_options(layout.skip, names, layout.sep, layout.decimal)
-    if start:  # the header is skipped with the rows read before: the columns are named
-        options.update(skiprows=layout.skip + 1 + start, header=None, names=layout.present)
+    options = csv_data_options(layout, names)
+    if start:  # the header (and a units row) is skipped with the rows read before: the columns are named
+        options.update(skiprows=layout.data_line + start, header=None, names=layout.present)
     dtypes = {column: np.int64 if column in integers else np.float64 for column in names}
     return pd.read_csv(name, dtype=dtypes, chunksize=chunk_rows, **options)
 
@@ -360,6 +405,10 @@ def _parquet_blocks(
         chosen = _column_chooser(name, mapping, False, None, found, optional)(
             {column: (rows,) for column in parquet.schema_arrow.names}
         )
+        for key in chosen:
+            if found[key] == "t" and (pa.types.is_timestamp(parquet.schema_arrow.field(key).type)
+                                      or pa.types.is_duration(parquet.schema_arrow.field(key).type)):  # fmt: skip
+                attrs = stamped_in_ns(name, attrs, mapping["t"], "date and time")
         yield attrs
         yield None
         first_row = 0
@@ -388,7 +437,7 @@ def _hdf5_blocks(
     """An HDF5 record by slices of ``chunk_rows`` samples of its datasets."""
     if _regular_file(name) == 0:
         raise DataError(f"{name} is empty")
-    handle, shapes, attrs = _hdf5_file(name)
+    handle, shapes, attrs, paths = _hdf5_file(name)
     with handle:
         found: dict[str, str] = {}
         chosen = _column_chooser(name, mapping, False, None, found, optional)(shapes)
@@ -404,7 +453,7 @@ def _hdf5_blocks(
                     slice(first_row, first_row + chunk_rows) if i == axis else 0 for i in range(len(shape))
                 )
                 try:
-                    values = np.asarray(handle[key][where]).reshape(-1)
+                    values = np.asarray(handle[paths[key]][where]).reshape(-1)
                 except HDF5_ERRORS as exc:
                     raise DataError(
                         f"{name}: its HDF5 data cannot be read (corrupt?): {_reason(exc)}"
@@ -414,10 +463,15 @@ def _hdf5_blocks(
 
 
 def _whole_blocks(
-    name: str, kind: str, mapping: dict[str, str], optional: set[str], chunk_rows: int
+    name: str,
+    kind: str,
+    mapping: dict[str, str],
+    optional: set[str],
+    chunk_rows: int,
+    sheet: str | None = None,
 ) -> Blocks:
-    """A MATLAB or TDMS record read whole (its format holds a column in one piece), in blocks."""
-    record, attrs = _read_binary(name, kind, mapping, False, None, optional)
+    """A MATLAB, TDMS or Excel record read whole (its format holds a column in one piece), in blocks."""
+    record, attrs = _read_binary(name, kind, mapping, False, None, optional, sheet)
     yield attrs
     yield None
     arrays = {column: record[column].to_numpy() for column in record.columns}

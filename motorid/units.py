@@ -25,10 +25,12 @@ import pandas as pd
 from motorid.errors import DataError
 
 __all__ = [
+    "ENCODER_COUNTS",
     "INPUT_UNITS",
     "MOTORID_RECORD_UNITS",
     "OTHER_UNITS",
     "OUTPUT_UNITS",
+    "OUTPUT_UNIT_NAMES",
     "RECORD_UNITS",
     "SHOWN_AS",
     "TIME_UNITS",
@@ -62,6 +64,13 @@ OUTPUT_UNITS: dict[str, tuple[float, str]] = {
     "m": (1.0, "m"),
     "mm": (1e-3, "m"),
 }
+
+#: An encoder's position in counts: ``rad = 2 pi counts / N`` with ``N`` counts per revolution,
+#: a factor known only with ``N`` (``counts_per_rev``).
+ENCODER_COUNTS = "counts"
+
+#: Every unit an output column may be in: :data:`OUTPUT_UNITS` and :data:`ENCODER_COUNTS`.
+OUTPUT_UNIT_NAMES: tuple[str, ...] = (*OUTPUT_UNITS, ENCODER_COUNTS)
 
 #: Input units: name -> factor to volts; ``%`` (PWM duty) converts only with a supply voltage, and
 #: ``counts`` (a PWM compare value, e.g. 0..255 for 8 bits) becomes duty with the full-scale count.
@@ -203,29 +212,45 @@ def per(numerator: str, denominator: str) -> str:
     return f"{numerator} per {'input unit' if denominator == UNNAMED_INPUT else denominator}"
 
 
-def output_factor(unit: str, option: str = "--output-unit") -> tuple[float, str]:
+def output_factor(
+    unit: str, option: str = "output_unit=...", counts_per_rev: float | None = None
+) -> tuple[float, str]:
     """The factor from ``unit`` to its SI unit, and that SI unit.
+
+    An encoder's counts (:data:`ENCODER_COUNTS`) are a position: with ``N`` counts
+    per revolution, ``theta = 2 pi n / N`` [rad].
 
     Parameters
     ----------
     unit : str
-        An output unit (a key of :data:`OUTPUT_UNITS`: ``rpm``, ``deg/s``, ...).
+        An output unit (:data:`OUTPUT_UNIT_NAMES`: ``rpm``, ``deg/s``, ``counts`` ...).
     option : str
         The option or argument that gave it, for the message.
+    counts_per_rev : float, optional
+        Counts per revolution ``N`` of an encoder, for ``counts``.
 
     Raises
     ------
     DataError
-        ``unit`` is not one of :data:`OUTPUT_UNITS` (the message lists them).
+        ``unit`` is not one of :data:`OUTPUT_UNIT_NAMES` (the message lists them), or
+        ``counts`` without ``counts_per_rev``.
     """
+    if unit == ENCODER_COUNTS:
+        if counts_per_rev is None:
+            raise DataError(
+                "output_unit='counts' needs the encoder's counts per revolution: counts_per_rev=..."
+            )
+        return 2.0 * math.pi / counts_per_rev, "rad"
     try:
         return OUTPUT_UNITS[unit]
     except KeyError:
-        raise DataError(f"{option}: unknown unit {unit!r}; known: {', '.join(OUTPUT_UNITS)}") from None
+        raise DataError(
+            f"{option}: unknown unit {unit!r:.80}; known: {', '.join(OUTPUT_UNIT_NAMES)}"
+        ) from None
 
 
 def input_factor(
-    unit: str, supply_voltage: float | None = None, option: str = "--input-unit",
+    unit: str, supply_voltage: float | None = None, option: str = "input_unit=...",
     full_scale: float | None = None,
 ) -> tuple[float, str]:  # fmt: skip
     """The factor from the input ``unit`` to volts, and the unit the converted input is in.
@@ -256,11 +281,11 @@ def input_factor(
     if unit not in INPUT_UNITS:
         raise DataError(f"{option}: unknown unit {unit!r}; known: {', '.join(INPUT_UNITS)}")
     if supply_voltage is not None and not (math.isfinite(supply_voltage) and supply_voltage > 0):
-        raise DataError(f"--supply-voltage must be a positive voltage [V], got {supply_voltage!r}")
+        raise DataError(f"supply_voltage=... must be a positive voltage [V], got {supply_voltage!r:.80}")
     if full_scale is not None and (unit != "counts" or not (math.isfinite(full_scale) and full_scale > 0)):
         raise DataError(
-            f"--input-full-scale (input_full_scale) must be a positive count and goes with --input-unit counts, "
-            f"got {full_scale!r} with {option} {unit}"
+            f"input_full_scale=... must be a positive count and goes with input_unit='counts', "
+            f"got {full_scale!r:.80} with input_unit={unit!r}"
         )
     factor = INPUT_UNITS[unit]
     if factor is not None:
@@ -269,7 +294,7 @@ def input_factor(
     if unit == "counts":
         if full_scale is None:
             raise DataError(
-                f"{option} counts needs the count of full duty: --input-full-scale (input_full_scale), "
+                "input_unit='counts' needs the count of full duty: input_full_scale=..., "
                 "e.g. 255 for an 8-bit PWM"
             )
         duty = 100.0 / full_scale
@@ -311,14 +336,11 @@ def check_input_range(
         row = int(beyond[0])
         place = where(row) if where is not None else f"row {row}"
         hint = (
-            "; if it holds PWM counts, say --input-unit counts --input-full-scale N (input_unit='counts', "
-            "input_full_scale=N)"
-            if unit == "%"
-            else ""
+            "; if it holds PWM counts, say input_unit='counts' and input_full_scale=N" if unit == "%" else ""
         )
         raise DataError(
             f"input column {column!r} is {values[row]:g} at {place}, beyond ±{limit:g} {unit} "
-            f"(--input-unit {unit}){hint}"
+            f"(input_unit={unit!r}){hint}"
         )
 
 
@@ -329,6 +351,7 @@ def convert_record(
     supply_voltage: float | None = None,
     *,
     input_full_scale: float | None = None,
+    counts_per_rev: float | None = None,
     where: Callable[[int], str] | None = None,
     column: str = "u",
 ) -> pd.DataFrame:
@@ -350,6 +373,8 @@ def convert_record(
         Supply voltage [V] of a PWM drive, for ``input_unit="%"`` or ``"counts"``.
     input_full_scale : float, optional
         Count of full duty for ``input_unit="counts"``.
+    counts_per_rev : float, optional
+        Counts per revolution of an encoder, for ``output_unit="counts"`` (a position in rad).
     where : callable, optional
         Row index -> its place in the file, for the message of a duty beyond
         100 % (:func:`check_input_range`).
@@ -361,7 +386,7 @@ def convert_record(
     DataFrame
         The converted record, ``attrs`` kept, ``attrs["units"]`` updated and
         ``attrs["converted_from"]`` naming the file's units where they were
-        converted.
+        converted (``attrs["counts_per_rev"]`` with an encoder's counts).
 
     Raises
     ------
@@ -372,9 +397,11 @@ def convert_record(
     """
     units = dict(record.attrs.get("units") or {})
     if supply_voltage is not None and (input_unit or units.get("u")) not in ("%", "counts"):
-        raise DataError("--supply-voltage converts PWM duty to volts: it needs --input-unit % (or counts)")
+        raise DataError(
+            "supply_voltage=... converts PWM duty to volts: it needs input_unit='%' (or 'counts')"
+        )
     if input_full_scale is not None and (input_unit or units.get("u")) != "counts":
-        raise DataError("--input-full-scale (input_full_scale) goes with --input-unit counts")
+        raise DataError("input_full_scale=... goes with input_unit='counts'")
     out = record.copy()
     out.attrs = dict(record.attrs)
     converted = dict(out.attrs.get("converted_from") or {})
@@ -384,7 +411,7 @@ def convert_record(
             unit is None or name not in record.columns
         ):  # nothing says: the column is taken as it is and its unit stays unnamed
             continue
-        table = INPUT_UNITS if name == "u" else OUTPUT_UNITS
+        table = INPUT_UNITS if name == "u" else OUTPUT_UNIT_NAMES
         if given is None and unit not in table:  # a unit the file declares without a factor here
             continue
         if name == "u":
@@ -392,7 +419,7 @@ def convert_record(
         factor, si = (
             input_factor(unit, supply_voltage, full_scale=input_full_scale)
             if name == "u"
-            else output_factor(unit)
+            else output_factor(unit, counts_per_rev=counts_per_rev)
         )
         if factor != 1.0:
             out[name] = record[name] * factor
@@ -403,4 +430,6 @@ def convert_record(
         out.attrs["units"] = units
     if converted:
         out.attrs["converted_from"] = converted
+    if converted.get("y") == ENCODER_COUNTS:  # what the speed derived from it is quantised by
+        out.attrs["counts_per_rev"] = counts_per_rev
     return out

@@ -94,8 +94,8 @@ def test_bad_value_names_column_and_row(tmp_path, cell, kind):
 
 
 def test_time_not_increasing_names_row(tmp_path):
-    path = write_lines(tmp_path, ["t,u,y", "0,1,0", "0.04,1,0", "0.04,1,0", "0.12,1,0"])
-    with pytest.raises(ValueError, match=r"column 't' is not increasing at row 2"):
+    path = write_lines(tmp_path, ["t,u,y", "0,1,0", "0.04,1,0", "0.04,2,0", "0.12,1,0"])  # a stamp repeated
+    with pytest.raises(ValueError, match=r"column 't' repeats the time stamp 0.04 at row 2 .*duplicates="):
         read_record(path)
     path = write_lines(tmp_path, ["t,u,y", "0,1,0", "0.04,1,0", "0.02,1,0"])
     with pytest.raises(ValueError, match=r"not increasing at row 2"):

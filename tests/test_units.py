@@ -72,9 +72,9 @@ def test_the_files_own_units_are_used_and_an_option_overrides_them():
 
 
 def test_bad_units_are_named():
-    with pytest.raises(DataError, match=r"--output-unit: unknown unit 'furlong/s'.*rpm"):
+    with pytest.raises(DataError, match=r"output_unit=\.\.\.: unknown unit 'furlong/s'.*rpm"):
         convert_record(_record([1.0], [1.0]), output_unit="furlong/s")
-    with pytest.raises(DataError, match="--supply-voltage"):
+    with pytest.raises(DataError, match="supply_voltage="):
         convert_record(_record([1.0], [1.0]), input_unit="%", supply_voltage=-5.0)
 
 
@@ -98,7 +98,7 @@ def test_a_record_that_names_no_units_is_used_as_it_is():
     out = convert_record(record)
     pd.testing.assert_frame_equal(out, record)
     assert "units" not in out.attrs  # nothing invents V and rad/s for it
-    with pytest.raises(DataError, match=r"--supply-voltage.*--input-unit %"):
+    with pytest.raises(DataError, match=r"supply_voltage=\.\.\..*input_unit='%'"):
         convert_record(record, supply_voltage=12.0)
 
 

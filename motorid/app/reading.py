@@ -48,6 +48,23 @@ class ReadOptions:
         The count of full duty, for ``input_unit="counts"`` (255 for an 8-bit PWM).
     supply_voltage : float, optional
         Supply voltage [V] of a PWM drive: a duty in % (or counts) becomes volts.
+    counts_per_rev : float, optional
+        Counts per revolution of an encoder whose position is the output
+        (``output_unit="counts"``): the commands get its speed, differentiated
+        (:func:`motorid.records.speed_from_position`), and a warning says the speed's
+        quantisation step.
+    direction : str, optional
+        A direction column that gives the unsigned input its sign (sign and magnitude).
+    direction_forward : float
+        The direction column's value for forward (default 1).
+    duplicates : {"refuse", "first", "last", "mean"}
+        How rows that repeat a time stamp with other values are merged (default: refused).
+    thousands : str, optional
+        Thousands separator of a CSV record; default: detected from its first lines.
+    comment : str, optional
+        Prefix of the comment lines before a CSV record's header (default ``#``).
+    sheet : str, optional
+        The sheet of an Excel record (default: its first).
     max_samples : int
         Most rows read: :meth:`read` refuses a longer record, :meth:`read_segment` takes its
         first ``max_samples`` rows.
@@ -68,6 +85,13 @@ class ReadOptions:
     input_full_scale: float | None = None
     output_unit: str | None = None
     supply_voltage: float | None = None
+    counts_per_rev: float | None = None
+    direction: str | None = None
+    direction_forward: float = 1.0
+    duplicates: str = "refuse"
+    thousands: str | None = None
+    comment: str | None = "#"
+    sheet: str | None = None
     max_samples: int = 2_000_000
     start: float | None = None
     stop: float | None = None
@@ -76,9 +100,9 @@ class ReadOptions:
         for key in ("start", "stop"):
             value = getattr(self, key)
             if value is not None and not (isinstance(value, int | float) and 0.0 <= value < float("inf")):
-                raise DataError(f"--{key} must be a time >= 0 [s], got {value!r}")
+                raise DataError(f"{key}=... must be a time >= 0 [s], got {value!r:.80}")
         if self.start is not None and self.stop is not None and self.stop <= self.start:
-            raise DataError(f"--stop {self.stop:g} must be after --start {self.start:g} [s]")
+            raise DataError(f"stop={self.stop:g} must be after start={self.start:g} [s]")
 
     @property
     def spanned(self) -> bool:
@@ -108,7 +132,16 @@ class ReadOptions:
             other_columns=False,
             **self._options(),
         )
-        return trim_record(record, self.start, self.stop, path, min_samples=min_samples)
+        return trim_record(self._speed(record, path), self.start, self.stop, path, min_samples=min_samples)
+
+    def _speed(self, record: pd.DataFrame, path: str | os.PathLike[str]) -> pd.DataFrame:
+        """``record``, its output differentiated to a speed when it is an encoder's position in counts."""
+        from motorid.records import speed_from_position
+        from motorid.units import ENCODER_COUNTS
+
+        if (record.attrs.get("converted_from") or {}).get("y") != ENCODER_COUNTS:
+            return record
+        return speed_from_position(record, os.fspath(path))
 
     def read_segment(self, path: str | os.PathLike[str], min_samples: int = 20) -> tuple[pd.DataFrame, bool]:
         """As :meth:`read`, but a record longer than ``max_samples`` gives its first ``max_samples``
@@ -126,7 +159,9 @@ class ReadOptions:
         from motorid.records import trim_record
 
         record, segment = read_head(path, self.max_samples, min_samples, **self._options())
-        return trim_record(record, self.start, self.stop, path, min_samples=min_samples), segment
+        return trim_record(
+            self._speed(record, path), self.start, self.stop, path, min_samples=min_samples
+        ), segment
 
     def iter_blocks(
         self, path: str | os.PathLike[str], min_samples: int = 20, chunk_rows: int | None = None
@@ -134,7 +169,8 @@ class ReadOptions:
         """The record ``path`` in consecutive blocks of ``chunk_rows`` rows, each read, checked and
         converted as the whole record is (:func:`motorid.record_chunks.iter_record`); neither
         ``max_samples`` nor the span applies. A record whose time stamps jitter raises
-        :class:`motorid.errors.UniformGridError` (it is resampled whole: :meth:`read`).
+        :class:`motorid.errors.UniformGridError` (it is resampled whole: :meth:`read`), and so does
+        one whose output is in encoder counts (differentiated whole).
 
         Parameters
         ----------
@@ -145,8 +181,14 @@ class ReadOptions:
         chunk_rows : int, optional
             Rows per block; default :data:`motorid.record_chunks.CHUNK_ROWS`.
         """
+        from motorid.errors import UniformGridError
         from motorid.record_chunks import CHUNK_ROWS, iter_record
+        from motorid.units import ENCODER_COUNTS
 
+        if self.output_unit == ENCODER_COUNTS:
+            raise UniformGridError(
+                f"{os.fspath(path)}: an encoder's counts are differentiated to a speed when the record is read whole"
+            )
         return iter_record(
             path, min_samples=min_samples, chunk_rows=chunk_rows or CHUNK_ROWS, **self._options()
         )

@@ -33,6 +33,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 from motorid.errors import DataError
 
 from . import comparison, control, doctor, fleet, identification, rig, simulation
+from .options import with_flags
 from .report import configure, say_error
 
 __all__ = ["build_parser", "main"]
@@ -160,7 +161,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             warnings.showwarning = show_warning
             return args.func(args)
     except DataError as exc:
-        say_error(f"motorid {command}: error: {exc}")
+        say_error(f"motorid {command}: error: {with_flags(str(exc))}")
         return 2
     except KeyboardInterrupt:
         say_error(f"motorid {command}: interrupted")

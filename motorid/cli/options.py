@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
 import sys
 from collections.abc import Callable, Iterator
 from dataclasses import fields
@@ -21,7 +22,7 @@ import pandas as pd
 from motorid.app.identify import PAPER_ORDER
 from motorid.app.reading import ReadOptions
 from motorid.errors import DataError
-from motorid.units import INPUT_UNITS, OUTPUT_UNITS
+from motorid.units import INPUT_UNITS, OUTPUT_UNIT_NAMES
 
 #: The paper's low-speed band, |y| < 150 rpm (its Figs. 9-11).
 LOW_SPEED_RPM = 150.0
@@ -89,7 +90,8 @@ def add_json(parser: argparse.ArgumentParser) -> None:
 
 #: What a record file may be, in --help.
 RECORD_FILES = (
-    "CSV, Parquet, MATLAB .mat, NI .tdms or HDF5 .h5 by extension; columns t [s], u [V], y [rad/s] by default"
+    "CSV (also .gz, .bz2, .xz, a .zip of one), Parquet, MATLAB .mat, NI .tdms, HDF5 .h5 or Excel .xlsx by "
+    "extension; columns t [s], u [V], y [rad/s] by default"
 )
 
 
@@ -108,6 +110,7 @@ def add_record_columns(parser: argparse.ArgumentParser, max_samples_help: str = 
     """How a record is read: columns, time, separator, units, size limit (:class:`motorid.records.RecordOptions`;
     what the limit does in this command: ``max_samples_help``), and the span used (--start, --stop:
     :func:`add_trim_options`)."""
+    from motorid.records import COMMENT, DUPLICATES, THOUSANDS
     from motorid.units import TIME_UNITS
 
     group = parser.add_argument_group("record")
@@ -135,15 +138,70 @@ def add_record_columns(parser: argparse.ArgumentParser, max_samples_help: str = 
                        "is 100 %%")  # fmt: skip
     group.add_argument("--input-full-scale", type=positive, metavar="N",
                        help="the count of full duty for --input-unit counts (255 for an 8-bit PWM)")  # fmt: skip
-    group.add_argument("--output-unit", metavar="UNIT", choices=OUTPUT_UNITS,
+    group.add_argument("--output-unit", metavar="UNIT", choices=OUTPUT_UNIT_NAMES,
                        help=f"unit of the output column, converted to rad/s, rad, m/s or m as it is read: "
-                       f"{', '.join(OUTPUT_UNITS)} {as_read}")  # fmt: skip
+                       f"{', '.join(OUTPUT_UNIT_NAMES)} {as_read}; counts is an encoder's position, "
+                       "with --counts-per-rev: the commands differentiate it to a speed")  # fmt: skip
+    group.add_argument("--counts-per-rev", type=positive, metavar="N",
+                       help="counts per revolution of the encoder for --output-unit counts (four times the "
+                            "lines of a quadrature encoder)")  # fmt: skip
+    group.add_argument("--direction", metavar="COL",
+                       help="direction column of a sign-and-magnitude drive: gives the unsigned input its sign")  # fmt: skip
+    group.add_argument("--direction-forward", type=number(float), default=1.0, metavar="VALUE",
+                       help="the --direction column's value for forward (default: 1); it may hold one other")  # fmt: skip
+    group.add_argument("--duplicates", choices=DUPLICATES, default="refuse",
+                       help="rows that repeat a time stamp with other values: refuse (default), or merge into "
+                            "the first, the last or the mean (repeated equal rows are always dropped)")  # fmt: skip
+    group.add_argument("--thousands", choices=THOUSANDS, metavar="CHAR",
+                       help="CSV thousands separator: , . ' or a space (default: detected with the decimal mark)")  # fmt: skip
+    group.add_argument("--comment", default=COMMENT, metavar="PREFIX",
+                       help="prefix of the comment lines before a CSV's header, kept as the record's notes "
+                            "(default: #; '' for none)")  # fmt: skip
+    group.add_argument("--sheet", metavar="NAME", help="the sheet of an Excel record (default: its first)")
     group.add_argument("--supply-voltage", type=positive, metavar="V",
                        help="supply voltage of a PWM drive [V]: --input-unit %% or counts becomes volts")  # fmt: skip
     group.add_argument(
         "--max-samples", type=number(int, low=1), default=2_000_000, help=max_samples_help,
     )  # fmt: skip
     add_trim_options(parser)
+
+
+#: The record options' fields (:class:`motorid.app.ReadOptions`) and their flags: the library's messages
+#: name a field as ``field=...`` (or ``field=VALUE``); the command line says the flag instead.
+RECORD_FLAGS: dict[str, str] = {
+    field: "--" + field.replace("_", "-")
+    for field in ("time", "input", "output", "time_unit", "dt", "resample", "sep", "decimal", "thousands",
+                  "comment", "sheet", "input_unit", "input_full_scale", "output_unit", "counts_per_rev",
+                  "supply_voltage", "direction", "direction_forward", "duplicates", "max_samples", "start", "stop")
+}  # fmt: skip
+_ASIDE = re.compile(r" \(([a-z_]+=[^()]*)\)")
+_FIELD = re.compile(
+    r"\b(" + "|".join(sorted(RECORD_FLAGS, key=len, reverse=True)) + r")=(\.\.\.|'[^']*'|\S+)?"
+)
+
+
+def with_flags(message: str) -> str:
+    """A library message as the command line says it: each record field named as ``field=...``
+    (``time_unit=...``, ``direction='dir'``) becomes its flag (``--time-unit``, ``--direction dir``).
+
+    Parameters
+    ----------
+    message : str
+        The message of a :class:`motorid.errors.DataError`.
+    """
+
+    def flag(found: re.Match[str]) -> str:
+        value = found.group(2)
+        if value in (None, "...", "True"):  # True: a flag that takes no value
+            return RECORD_FLAGS[found.group(1)]
+        return f"{RECORD_FLAGS[found.group(1)]} {value.strip(chr(39))}"
+
+    def aside(found: re.Match[str]) -> str:  # "--time-unit (time_unit=...)": the flag is said already
+        fields = [field for field, _ in _FIELD.findall(found.group(1))]
+        said = all(RECORD_FLAGS[f] in message or message.count(f"{f}=") > 1 for f in fields)
+        return "" if fields and said else found.group(0)
+
+    return _FIELD.sub(flag, _ASIDE.sub(aside, message))
 
 
 def separator(text: str) -> str:
