@@ -7,12 +7,15 @@ Run: ``.venv/bin/python benchmarks/bench_doctor_startup.py [--repeat 5]`` (or wi
 Each run is a fresh ``python -c`` process that times itself (:data:`CHILD`) and then runs the
 command line's ``main(["doctor", REC, "--json"])``, the entry point ``motorid`` calls:
 
-- *imports*: the wall time of every import statement reached from the top (the nested ones
-  counted once, in their outermost import; ``import`` statements inside functions included,
-  ``importlib.import_module`` calls not), numba's cache loads inside them left out;
-- *numba cache*: the wall time of numba's ``Cache.load_overload``, the loading (and linking) of
-  each compiled kernel's machine code from numba's cache at its first call in the process;
-  compilations (none after the warm-up run) are counted apart;
+- *imports*: the time spent loading modules (importlib's ``_find_and_load``, which every
+  ``import`` statement and ``importlib.import_module`` call of a module not yet loaded goes
+  through: those inside functions and SciPy's and pandas' lazy ones included; nested imports
+  counted once, in their outermost), numba's first calls inside them left out;
+- *numba first calls*: each kernel's first call in the process (numba's
+  ``Dispatcher._compile_for_args``: its typing set-up, the first of them installing numba's
+  typing registries, and the loading of the kernel's machine code from numba's cache), and *of
+  which cache loads*, ``Cache.load_overload`` alone; compilations (none after the warm-up run)
+  are counted apart;
 - *work*: what is left of the child's own wall time;
 - *interpreter start*: the parent's wall time of the process less the child's own (Python's
   start-up and ``site``).
@@ -22,6 +25,10 @@ than the wall time on a loaded machine, where the wall time of a phase includes 
 core). Each figure is the median over ``--repeat`` runs after one warm-up run (which fills numba's
 cache and writes the bytecode of every module), with the load average read before each run. Not
 a test: it prints figures.
+
+``--blas-threads 1`` runs the same processes with OpenBLAS (and OpenMP, MKL) on one thread: the
+doctor's least-squares problems are small (16,000 rows of a few columns), and on a machine whose
+cores are busy the BLAS threads wait for cores and for each other; compare the two runs' *work*.
 """
 
 from __future__ import annotations
@@ -46,27 +53,27 @@ from _table import Row, print_rows  # noqa: E402
 
 #: The timed child: argv[1] is the record, argv[2] the file its figures go to (JSON).
 CHILD = r"""
-import builtins, contextlib, io, json, sys, time
+import _frozen_importlib, contextlib, io, json, sys, time
 clocks = {"wall": time.perf_counter, "cpu": time.process_time}
 start = {c: f() for c, f in clocks.items()}
-spent = {f"{what}_{c}": 0.0 for what in ("imports", "cache", "cache_in_imports") for c in clocks}
+spent = {f"{what}_{c}": 0.0 for what in ("imports", "cache", "dispatch", "dispatch_in_imports") for c in clocks}
 spent.update(compile=0.0, loads=0)
 depth = [0]
-real_import = builtins.__import__
+real_find_and_load = _frozen_importlib._find_and_load
 
-def timed_import(*args, **kwargs):
+def timed_find_and_load(*args, **kwargs):
     if depth[0]:
-        return real_import(*args, **kwargs)
+        return real_find_and_load(*args, **kwargs)
     depth[0] = 1
     t0 = {c: f() for c, f in clocks.items()}
     try:
-        return real_import(*args, **kwargs)
+        return real_find_and_load(*args, **kwargs)
     finally:
         for c, f in clocks.items():
             spent[f"imports_{c}"] += f() - t0[c]
         depth[0] = 0
 
-builtins.__import__ = timed_import
+_frozen_importlib._find_and_load = timed_find_and_load
 import numba.core.caching
 from numba.core import event
 real_load = numba.core.caching.Cache.load_overload
@@ -79,10 +86,22 @@ def timed_load(self, *args, **kwargs):
         spent["loads"] += 1
         for c, f in clocks.items():
             spent[f"cache_{c}"] += f() - t0[c]
-            if depth[0]:
-                spent[f"cache_in_imports_{c}"] += f() - t0[c]
 
 numba.core.caching.Cache.load_overload = timed_load
+import numba.core.dispatcher
+real_dispatch = numba.core.dispatcher.Dispatcher._compile_for_args
+
+def timed_dispatch(self, *args, **kwargs):
+    t0 = {c: f() for c, f in clocks.items()}
+    try:
+        return real_dispatch(self, *args, **kwargs)
+    finally:
+        for c, f in clocks.items():
+            spent[f"dispatch_{c}"] += f() - t0[c]
+            if depth[0]:
+                spent[f"dispatch_in_imports_{c}"] += f() - t0[c]
+
+numba.core.dispatcher.Dispatcher._compile_for_args = timed_dispatch
 
 from motorid.cli import main
 with event.install_timer("numba:compile", lambda s: spent.__setitem__("compile", spent["compile"] + s)):
@@ -112,9 +131,16 @@ def run_child(record: Path, figures: Path, env: dict[str, str]) -> dict[str, flo
     return out
 
 
-def measure_startup(repeat: int = 5) -> list[Row]:
-    """The median split of the doctor's wall time over ``repeat`` fresh processes."""
+#: The environment variables that set the BLAS libraries' thread count (OpenBLAS, OpenMP, MKL).
+BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+def measure_startup(repeat: int = 5, blas_threads: int | None = None) -> list[Row]:
+    """The median split of the doctor's wall time over ``repeat`` fresh processes, with the BLAS
+    libraries' threads limited to ``blas_threads`` (None: as this environment leaves them)."""
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    if blas_threads is not None:
+        env.update(dict.fromkeys(BLAS_THREADS, str(blas_threads)))
     runs: list[dict[str, float]] = []
     loads: list[float] = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -128,6 +154,8 @@ def measure_startup(repeat: int = 5) -> list[Row]:
                 loads.append(load)
 
     label = "motorid doctor --json, 80 s at 200 Hz (16,000 samples)"
+    if blas_threads is not None:
+        label += f", {blas_threads} BLAS thread{'s' if blas_threads > 1 else ''}"
     rows = [Row(f"{label}, wall", statistics.median(r["wall"] for r in runs), None, "s", "", False)]
     rows.append(Row(f"{label}, CPU", statistics.median(r["cpu"] for r in runs), None, "s", "", False))
     for clock in ("wall", "cpu"):
@@ -136,9 +164,10 @@ def measure_startup(repeat: int = 5) -> list[Row]:
             return r[f"{what}_{clock}"]
 
         splits = {
-            "imports": [own(r, "imports") - own(r, "cache_in_imports") for r in runs],
-            "numba cache loads": [own(r, "cache") for r in runs],
-            "work": [own(r, "total") - own(r, "imports") + own(r, "cache_in_imports") - own(r, "cache")
+            "imports": [own(r, "imports") - own(r, "dispatch_in_imports") for r in runs],
+            "numba first calls": [own(r, "dispatch") for r in runs],
+            "of which cache loads": [own(r, "cache") for r in runs],
+            "work": [own(r, "total") - own(r, "imports") + own(r, "dispatch_in_imports") - own(r, "dispatch")
                      for r in runs],
         }  # fmt: skip
         if clock == "wall":
@@ -162,4 +191,7 @@ def measure() -> list[Row]:
 if __name__ == "__main__":
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=5, help="measured runs")
-    print_rows(measure_startup(parser.parse_args().repeat), "motorid doctor: start-up and work")
+    parser.add_argument("--blas-threads", type=int, default=None,
+                        help="limit the BLAS libraries' threads in the measured processes (default: as set here)")  # fmt: skip
+    args = parser.parse_args()
+    print_rows(measure_startup(args.repeat, args.blas_threads), "motorid doctor: start-up and work")
