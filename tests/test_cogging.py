@@ -64,11 +64,11 @@ def test_the_ripple_is_the_table_in_amplitude_and_phase():
 
 
 def test_the_rigid_drive_with_cogging_follows_solve_ivp():
-    """Semi-implicit Euler at h = dt/50 = 0.1 ms against RK45 at rtol 1e-10 over 6 s of a slow sine
-    that turns the drive through ten ripple periods each way, at up to 8 rad/s (a ripple of 48 rad/s,
-    so 0.005 rad of ripple phase per step). The step is first order: measured 9.0e-3 rad/s on the
-    speed and 1.3e-3 rad on the position at h = 0.1 ms, 2.2e-3 and 3.3e-4 at h/4. Tolerances 0.02
-    rad/s and 3e-3 rad, twice the measured; the same drive without its ripple misses by 2.4 rad/s
+    """The free run (exponential Euler, the ripple held over a step) at h = dt/50 = 0.1 ms against
+    RK45 at rtol 1e-10 over 6 s of a slow sine that turns the drive through ten ripple periods each
+    way, at up to 8 rad/s (a ripple of 48 rad/s, so 0.005 rad of ripple phase per step). Holding the
+    ripple is first order: measured 5.6e-3 rad/s on the speed and 9.5e-4 rad on the position at
+    h = 0.1 ms, 1.4e-3 and 2.4e-4 at h/4. Tolerances 0.012 rad/s and 2e-3 rad, twice the measured; the same drive without its ripple misses by 2.4 rad/s
     (it sticks in the ripple's detents at low speed), so a ripple left out or misplaced fails."""
     drive = cogging_drive(viscous=0.02)
     u = 1.5 * np.sin(2 * math.pi * 0.2 * np.arange(1200) * drive.dt)
@@ -79,8 +79,8 @@ def test_the_rigid_drive_with_cogging_follows_solve_ivp():
         speed, position = drive.motion(u, w0=0.3, q0=0.1, substeps=substeps)
         errors.append(np.max(np.abs(speed - ref_speed)))
         if substeps == 50:
-            assert errors[0] < 0.02
-            assert np.max(np.abs(position - ref_position)) < 3e-3
+            assert errors[0] < 0.012
+            assert np.max(np.abs(position - ref_position)) < 2e-3
             # the speed-only free run is the motion's speed to the last bit, from the same position
             assert np.array_equal(drive.free_run(u, w0=0.3, q0=0.1, substeps=50), speed)
     assert errors[1] < errors[0] / 3  # first order: a quarter of the step, about a quarter of the error
@@ -239,14 +239,16 @@ def test_the_doctor_names_cogging_with_its_amplitude_and_period(seed):
 
     The free run of a drive with a ripple follows the position it starts from (here the integral
     of the measured speed, a few hundredths of a radian off the truth): the true model's own
-    free-run gap is 5-12 noise floors. The named model's gap is measured 0.73-1.25 times the
-    truth's and 0.37-0.83 of the model without cogging's (seeds 1-6; the inertia fitted without the
-    noise bias, within 0.25 % of the truth); asserted below 1.6 and 0.9."""
+    free-run gap is 5-12 noise floors. The named model's gap is measured 0.63-1.94 times the
+    truth's and 0.29-0.96 of the model without cogging's (seeds 1-6; the inertia fitted without the
+    noise bias, within 0.25 % of the truth); asserted below 2.4 and 1.0. (With the rigid free run's
+    exact integrator the truth's own gap fell by 4-25 % on these seeds, while the named model's
+    moved either way: its fit, not its integration, sets it.)"""
     d = diagnose(cogging_record(seed), input_gain=0.02, base=BASE, candidates=EVERY_CANDIDATE)
     assert d.named == ["cogging"], d.stop_reason
     truth = gaps(RigidDrive((*BASE, "cogging"), {**CLEAN, **COGGED}, 0.005), d._pool.parts[0], None)
-    assert d.final_gap.overall < 1.6 * truth.overall
-    assert d.final_gap.overall < 0.9 * d.initial_gap.overall
+    assert d.final_gap.overall < 2.4 * truth.overall
+    assert d.final_gap.overall < d.initial_gap.overall
     params = d.steps[0].params
     assert params["cogging_amplitude"] == pytest.approx(4e-3, rel=0.1)
     assert params["cogging_periods"] == pytest.approx(6.0, rel=2e-3)

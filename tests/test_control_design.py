@@ -103,12 +103,11 @@ def test_linear_rigid_drive_exported_equals_its_free_run():
     y_pc = pc_response(dsys, u)[1:]  # python-control's y[k+1] is motorid's y[k] (module notes)
     fine = drive.free_run(u, substeps=400)[:-1]
     y = drive.simulate(u)["y"].to_numpy()[:-1]
-    # exact for a held input against the free run at 400 steps a sample (1e-4 of the range: its
-    # semi-implicit Euler's error, h/2τ with τ = J/B = 0.11 s)
-    assert np.max(np.abs(y_pc - fine)) < 1e-4 * np.ptp(fine)
-    # and within 1 % of the default free run's 20 steps per time constant (error up to h/2τ = 2.5 %
-    # of a step, less after the first steps)
-    assert np.max(np.abs(y_pc - y)) < 0.01 * np.ptp(y)
+    # both exact for a held input (the zero-order-hold discretisation and the free run's exponential
+    # Euler at 400 steps a sample and at its default 20 steps per time constant): they differ by
+    # rounding only, a few eps per step over the record's steps, far below 1e-9 of the range
+    assert np.max(np.abs(y_pc - fine)) < 1e-9 * np.ptp(fine)
+    assert np.max(np.abs(y_pc - y)) < 1e-9 * np.ptp(y)
 
 
 def test_input_lag_and_delay_are_in_the_linear_model():

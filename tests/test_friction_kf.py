@@ -288,7 +288,7 @@ def test_rigid_drive_model_and_jacobian_against_numpy_reference(shape, s):
 def test_rigid_drive_filter_free_run_follows_the_drive(shape):
     """simulate() of a filter started from a rigid drive runs that drive: the same terms,
     stick/slip rule and input path; only the integrators differ (Heun sub-steps against
-    the drive's semi-implicit Euler with 1 to 50 steps), so the two agree to within 1 %
+    the drive's exponential Euler with 1 to 50 steps), so the two agree to within 1 %
     of the speed range, and both hold the drive at rest below breakaway."""
     drive = rigid_drive(shape)
     _, u = two_sine_signal(30.0, drive.dt, seed=4)

@@ -65,10 +65,10 @@ def test_the_friction_is_the_coulomb_level_plus_the_level_along_the_travel_again
 
 def test_the_rigid_drive_with_position_friction_follows_solve_ivp():
     """A drive pushed one way over 66 rad, seven fundamental periods (it never reverses, so sgn ω = 1
-    and J dω/dt = g u - B ω - F_c - F(θ) is smooth), at up to 15 rad/s: semi-implicit Euler at
-    h = dt/50 = 0.1 ms against RK45 at rtol 1e-10. The step is first order: measured 2.4e-3 rad/s
-    and 1.0e-3 rad at h = 0.1 ms, 6.0e-4 and 2.6e-4 at h/4; tolerances 5e-3 rad/s and 2e-3 rad,
-    twice the measured. The drive without its level along the travel misses by 2.2 rad/s, so a
+    and J dω/dt = g u - B ω - F_c - F(θ) is smooth), at up to 15 rad/s: the free run (exponential
+    Euler, the level held over a step) at h = dt/50 = 0.1 ms against RK45 at rtol 1e-10. Holding the
+    level is first order: measured 8.8e-4 rad/s and 6.4e-4 rad at h = 0.1 ms, 2.2e-4 and 1.6e-4 at
+    h/4; tolerances 2e-3 rad/s and 1.3e-3 rad, about twice the measured. The drive without its level along the travel misses by 2.2 rad/s, so a
     level left out, misplaced or of the wrong sign fails."""
     drive = friction_drive()
     p = drive.params
@@ -86,8 +86,8 @@ def test_the_rigid_drive_with_position_friction_follows_solve_ivp():
     assert ref[:, 0].min() > 0.0  # never reverses
     assert np.ptp(ref[:, 1]) > 7 * 2 * math.pi / 0.7
     speed, position = drive.motion(u, w0=1.0, q0=0.3, substeps=50)
-    assert np.max(np.abs(speed - ref[:, 0])) < 5e-3
-    assert np.max(np.abs(position - ref[:, 1])) < 2e-3
+    assert np.max(np.abs(speed - ref[:, 0])) < 2e-3
+    assert np.max(np.abs(position - ref[:, 1])) < 1.3e-3
     assert np.array_equal(drive.free_run(u, w0=1.0, q0=0.3, substeps=50), speed)
     finer = drive.motion(u, w0=1.0, q0=0.3, substeps=200)[0]
     assert np.max(np.abs(finer - ref[:, 0])) < np.max(np.abs(speed - ref[:, 0])) / 3  # first order
@@ -159,8 +159,8 @@ def position_record(seed: int, with_level: bool = True) -> tuple[pd.DataFrame, R
 def test_the_doctor_names_position_friction_and_recovers_its_level(seed):
     """First step from viscous and Coulomb friction and an offset, every effect a candidate: the
     level F(θ) along the positions the record visits is found within 30 % RMS of its own RMS
-    (measured 15-21 % on seeds 1-4: the level's overtones trade against the fundamental's period
-    over a travel of one period), the Coulomb level within 5 % (measured 3-4 % high)."""
+    (measured 1-15 % on seeds 1-4: the level's overtones trade against the fundamental's period
+    over a travel of one period), the Coulomb level within 8 % (measured 0.8-5.1 % low)."""
     record, drive = position_record(seed)
     d = diagnose(
         record, input_gain=0.02, base=BASE, output_kind="position", candidates=EVERY_CANDIDATE, max_steps=1
@@ -170,7 +170,7 @@ def test_the_doctor_names_position_friction_and_recovers_its_level(seed):
     truth = drive.position_torque(q)
     error = d.model.position_torque(q) - truth
     assert np.sqrt(np.mean(error**2)) < 0.3 * np.sqrt(np.mean(truth**2))
-    assert d.model.params["coulomb"] == pytest.approx(5e-3, rel=0.05)
+    assert d.model.params["coulomb"] == pytest.approx(5e-3, rel=0.08)
     assert d.param_units["position_friction_sin"] == "N m"
 
 

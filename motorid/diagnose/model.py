@@ -39,7 +39,7 @@ and moving samples), and their rows stacked into one least-squares problem, so t
 parameters are shared and the residual sum of squares is the pooled one.
 
 Free run: :meth:`RigidDrive.free_run <motorid.drive.rigid.RigidDrive.free_run>`
-(semi-implicit Euler with Karnopp's stick/slip rule, compiled in the drive), on the
+(exponential Euler with Karnopp's stick/slip rule at each zero of the speed, compiled in the drive), on the
 same compiled terms as the regressor columns here.
 """
 

@@ -46,7 +46,8 @@ here too: its terms (:func:`rigid_term`, with the one Stribeck decay
 :func:`backlash_dwell` on :func:`reversal_clock`), each on an explicit state so that a record
 in one call and the same record a sample at a time (``RigidDrive.simulation``) are one
 computation, and its free run on :func:`stick_or_slip` (:func:`rigid_motion`: speed and
-position; :func:`rigid_free_run`: the speed alone).
+position; :func:`rigid_free_run`: the speed alone), exponential Euler with each zero crossing of
+the speed located inside its step.
 
 So is the friction filters' process model (the EKF/UKF of
 :mod:`motorid.estimators.friction_kf`, state layout in
@@ -993,7 +994,7 @@ def ekf_batch(
 # --------------------------------------------------------------------------- rigid drive
 # The terms of the rigid drive's torque balance J dω/dt = F_in - Σ θ_t T_t(ω)
 # (:class:`~motorid.drive.rigid.RigidDrive`), by code. Speed terms scale with ω
-# (T_t = ω k_t(ω, s)) and are integrated implicitly; level terms do not.
+# (T_t = ω k_t(ω, s)) and join the exactly integrated linear part; level terms do not.
 TERM_VISCOUS = 0  # B ω
 TERM_VISCOUS_ASYMMETRY = 1  # ΔF_v s ω = ΔF_v |ω| while moving
 TERM_QUADRATIC_DRAG = 2  # c |ω| ω
@@ -1229,6 +1230,40 @@ def ripple_columns(position: np.ndarray, periods: float) -> np.ndarray:
 
 
 @numba.njit(cache=True)
+def relative_growth(z: float) -> float:
+    """φ1(z) = (e^z - 1)/z, 1 at z = 0 (dimensionless): the share of its distance to the steady
+    state that a first-order system covers over a step, ``x(h) = x0 + h ẋ0 φ1(-h/τ)``; accurate
+    at every z (``expm1``)."""
+    if z == 0.0:
+        return 1.0
+    return math.expm1(z) / z
+
+
+@numba.njit(cache=True)
+def relative_area(z: float) -> float:
+    """φ2(z) = (e^z - 1 - z)/z², 1/2 at z = 0 (dimensionless): ``∫_0^h x dt = h x0 + h² ẋ0
+    φ2(-h/τ)`` for the first-order course of :func:`relative_growth`. Its Taylor series
+    Σ_k z^k/(k + 2)! below |z| = 1/2 (summed to k = 16: the next term is below 1e-22), the closed
+    form above (where e^z - 1 - z loses at most a factor 4 to cancellation)."""
+    if abs(z) < 0.5:
+        total = 0.0
+        term = 0.5
+        for k in range(17):
+            total += term
+            term *= z / (k + 3)
+        return total
+    return (math.expm1(z) - z) / (z * z)
+
+
+@numba.njit(cache=True)
+def log1p_ratio(x: float) -> float:
+    """log(1 + x)/x, 1 at x = 0 (x > -1), accurate at every x (``log1p``)."""
+    if x == 0.0:
+        return 1.0
+    return math.log1p(x) / x
+
+
+@numba.njit(cache=True)
 def rigid_free_run(
     force: np.ndarray,
     dt: float,
@@ -1268,29 +1303,48 @@ def rigid_motion(
     """Speed and position of a rigid drive at the end of each sample for the input force [F]
     held over it, from speed ``w0`` [v] and position ``q0`` [v s: rad or m].
 
-    ``coef[t]`` is the parameter θ_t of term t. Fixed step h = dt/nsub, semi-implicit Euler::
+    ``coef[t]`` is the parameter θ_t of term t. Fixed internal step h = dt/nsub. Over each step
+    (or each piece of it, below) the level terms and the speed terms' factors are held at their
+    values at its start, ``F_l = Σ_levels θ_t T_t(ω0, s)`` and ``D = Σ_speed θ_t k_t(ω0, s)``,
+    so the torque balance ``J dω/dt = F - F_l - D ω`` is linear and integrated exactly
+    (exponential Euler) over a piece of length L::
 
-        ω+ = (ω + h/J (F - Σ_levels θ_t T_t(ω, s))) / (1 + h/J Σ_speed θ_t k_t(ω, s))
+        a   = (F - F_l - D ω0) / J                      (the acceleration at its start)
+        ω   = ω0 + L a φ1(-D L/J)                       (:func:`relative_growth`)
+        Δq  = L ω0 + L² a φ2(-D L/J)                    (:func:`relative_area`)
 
-    (the speed terms implicit, so the step is stable for any h; the denominator is kept
-    >= 0.1 for non-physical negative fits), with Karnopp's rule (:func:`stick_or_slip`)
-    at ω == 0: the breakaway levels are the level terms at 0± minus the torque at rest
-    (the offset), each raised by ``breakaway_excess`` [F] >= 0 (static friction above the
-    kinetic level: a drive at rest breaks away only beyond it, and once moving slows
-    against the kinetic level alone, so it keeps moving down to a lower force). A drive without (or with a non-physical negative) static friction at
-    rest moves towards the side the net force exceeds most. A step that would carry a
-    drive with static friction (or one starting at rest) through zero stops it at 0.
+    which is ``ω = ω∞ + (ω0 - ω∞) e^(-D L/J)``, ω∞ = (F - F_l)/D, and its integral, with the
+    limit D -> 0 (``ω = ω0 + L a``) in the same formula. A speed that changes sign inside a step
+    is stopped at its zero, reached after (a root of the course above)::
 
-    The position advances over the same internal steps by the trapezoidal rule on the
-    speed, ``q+ = q + h (ω + ω+)/2`` (exact for the speed's straight course over a step; a
-    stuck step leaves it), so ``q[k] = q0 + Σ`` of the steps, no second integrator.
-    The position ripple :func:`ripple_torque` at the position at the start of each step
-    (``ripple_sin``, ``ripple_cos`` [F], ``ripple_periods`` [1/rad or 1/m]; cogging) joins the level
-    terms, and at rest the torque the drive must overcome (a drive without it skips it: both
-    amplitudes 0 evaluate nothing). ``harmonic_sin[k]``, ``harmonic_cos[k]`` [F] add the harmonic
-    ``k + 2`` of it (:func:`position_torque`). With ``ripple_directed`` the ripple is a level
-    against the motion, ``F(θ) sgn ω`` (position-dependent friction): at rest it raises both
-    breakaway levels by ``F(θ)`` instead.
+        t0 = (J/D) log(1 - D ω0/(F - F_l)) = -(J ω0/(F - F_l)) log1p(x)/x,   x = -D ω0/(F - F_l)
+
+    (:func:`log1p_ratio`; ``-J ω0/(F - F_l)`` as D -> 0), and Karnopp's rule
+    (:func:`stick_or_slip`) decides there, as at the start of a step at rest: the breakaway
+    levels are the level terms at 0± minus the torque at rest (the offset), each raised by
+    ``breakaway_excess`` [F] >= 0 (static friction above the kinetic level: a drive at rest
+    breaks away only beyond it, and once moving slows against the kinetic level alone, so it
+    keeps moving down to a lower force). A drive that sticks stays at exactly 0 for the rest of
+    the step; one that slips goes on from 0 with the other side's friction for the rest of the
+    step. A drive without (or with a non-physical negative) static friction at rest moves towards
+    the side the net force exceeds most. A drive at rest whose acceleration in the chosen
+    direction is not positive stays at rest. So a reversal costs no time, and a step of a drive
+    with constant levels (Coulomb and viscous friction, an offset) is exact for the held force:
+    the only errors are those of holding the Stribeck decay, the quadratic drag's |ω| and the
+    position ripple over a step.
+
+    A non-physical negative D (a fit's negative viscous friction) grows as e^(|D| L/J), the exact
+    course, with no singularity at any step.
+
+    The position advances with the speed's exact integral over each piece (a stuck piece leaves
+    it), so ``q[k] = q0 + Σ`` of the pieces, no second integrator. The position ripple
+    :func:`ripple_torque` at the position at the start of each piece (``ripple_sin``,
+    ``ripple_cos`` [F], ``ripple_periods`` [1/rad or 1/m]; cogging) joins the level terms, and at
+    rest the torque the drive must overcome (a drive without it skips it: both amplitudes 0
+    evaluate nothing). ``harmonic_sin[k]``, ``harmonic_cos[k]`` [F] add the harmonic ``k + 2`` of
+    it (:func:`position_torque`). With ``ripple_directed`` the ripple is a level against the
+    motion, ``F(θ) sgn ω`` (position-dependent friction): at rest it raises both breakaway levels
+    by ``F(θ)`` instead.
     Returns ``(speed, position)``, each of shape (N,).
     """
     n = force.size
@@ -1306,46 +1360,61 @@ def rigid_motion(
         down += coef[t] * rigid_level(t, 0.0, -1.0, rate, shape)
     break_pos = up - rest + breakaway_excess
     break_neg = rest - down + breakaway_excess
-    static = break_pos > 0.0 or break_neg > 0.0
     rippled = ripple_sin != 0.0 or ripple_cos != 0.0 or harmonic_sin.size > 0
     w = w0
     q = q0
     for k in range(n):
         f = force[k]
         for _ in range(nsub):
-            ripple = 0.0
-            if rippled:
-                ripple = position_torque(
-                    q, ripple_sin, ripple_cos, ripple_periods, harmonic_sin, harmonic_cos
-                )
-            at_rest = w == 0.0
-            if at_rest:
-                if ripple_directed:
-                    t_net = f - rest
-                    stuck, s = stick_or_slip(w, t_net, break_pos + ripple, break_neg + ripple)
+            remaining = h
+            # a zero crossing ends the first piece at w = 0, and a piece from rest never
+            # crosses zero (its course is monotonic, away from 0): at most two pieces
+            for _piece in range(2):
+                ripple = 0.0
+                if rippled:
+                    ripple = position_torque(
+                        q, ripple_sin, ripple_cos, ripple_periods, harmonic_sin, harmonic_cos
+                    )
+                at_rest = w == 0.0
+                if at_rest:
+                    if ripple_directed:
+                        t_net = f - rest
+                        stuck, s = stick_or_slip(w, t_net, break_pos + ripple, break_neg + ripple)
+                    else:
+                        t_net = f - rest - ripple
+                        stuck, s = stick_or_slip(w, t_net, break_pos, break_neg)
+                    if stuck == 1:
+                        break
+                    if s == 0.0:
+                        s = 1.0 if t_net >= 0.5 * (break_pos - break_neg) else -1.0
                 else:
-                    t_net = f - rest - ripple
-                    stuck, s = stick_or_slip(w, t_net, break_pos, break_neg)
-                if stuck == 1:
-                    continue
-                if s == 0.0:
-                    s = 1.0 if t_net >= 0.5 * (break_pos - break_neg) else -1.0
-            else:
-                s = 1.0 if w > 0.0 else -1.0
-            level = s * ripple if ripple_directed else ripple
-            for t in range(N_SPEED_TERMS, N_TERMS):
-                level += coef[t] * rigid_level(t, w, s, rate, shape)
-            damp = 0.0
-            for t in range(N_SPEED_TERMS):
-                damp += coef[t] * rigid_speed_factor(t, w, s)
-            den = 1.0 + h * damp / inertia
-            if den < 0.1:
-                den = 0.1
-            wn = (w + h / inertia * (f - level)) / den
-            if (static or at_rest) and wn * s < 0.0:
-                wn = 0.0
-            q += 0.5 * h * (w + wn)
-            w = wn
+                    s = 1.0 if w > 0.0 else -1.0
+                level = s * ripple if ripple_directed else ripple
+                for t in range(N_SPEED_TERMS, N_TERMS):
+                    level += coef[t] * rigid_level(t, w, s, rate, shape)
+                damp = 0.0
+                for t in range(N_SPEED_TERMS):
+                    damp += coef[t] * rigid_speed_factor(t, w, s)
+                drive = f - level  # F - F_l
+                acc = (drive - damp * w) / inertia  # a = (F - F_l - D ω0) / J
+                if at_rest and acc * s <= 0.0:
+                    break  # no motion in the chosen direction: at rest for the rest of the step
+                z = -damp * remaining / inertia
+                wn = w + remaining * acc * relative_growth(z)  # ω = ω0 + L a φ1(-D L/J)
+                if wn * s >= 0.0:
+                    q += remaining * w + remaining * remaining * acc * relative_area(z)  # Δq = L ω0 + L² a φ2
+                    w = wn
+                    break
+                # the speed reaches 0 inside the piece, at t0 = -(J ω0/(F - F_l)) log1p(x)/x
+                t0 = remaining  # (a crossing needs a net force against the motion: F - F_l != 0)
+                if drive != 0.0:
+                    x = -damp * w / drive
+                    if x > -1.0:
+                        t0 = -inertia * w / drive * log1p_ratio(x)
+                t0 = min(max(t0, 0.0), remaining)
+                q += t0 * w + t0 * t0 * acc * relative_area(-damp * t0 / inertia)
+                w = 0.0
+                remaining -= t0
         out[k] = w
         position[k] = q
     return out, position
