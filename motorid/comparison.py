@@ -60,7 +60,7 @@ from motorid.drive.two_mass import TwoMassRig
 from motorid.errors import DataError
 from motorid.estimators.base import Estimator, first_bad_index
 from motorid.records import record_timing
-from motorid.validation import low_speed_mask, score
+from motorid.validation import MIN_SCORED_SAMPLES, low_speed_mask, score
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -83,9 +83,6 @@ __all__ = [
     "runs_in_blocks",
     "simulate_model",
 ]
-
-#: Fewest samples left to score after ``skip``.
-MIN_SCORED_SAMPLES = 20
 
 
 def model_kind(model: Any) -> str:

@@ -38,6 +38,42 @@ def rpm_to_rad_s(value: ArrayLike) -> np.ndarray | float:
     return np.asarray(value, dtype=float) / RPM_PER_RAD_S
 
 
+#: Fewest samples a score is computed on, after the skipped start.
+MIN_SCORED_SAMPLES = 20
+
+
+def check_scored_samples(samples: int, skip: int, source: str = "the record") -> None:
+    """Refuse a record too short to score after its skipped start: DataError naming ``source``, the
+    samples it holds, ``--skip`` and the largest skip it allows.
+
+    Parameters
+    ----------
+    samples : int
+        Samples in the record.
+    skip : int
+        Leading samples left out of the scores (the start from rest) [samples].
+    source : str
+        The record's name in the message (its file).
+
+    Raises
+    ------
+    DataError
+        When fewer than :data:`MIN_SCORED_SAMPLES` samples are left after ``skip``.
+    """
+    left = samples - skip
+    if left < MIN_SCORED_SAMPLES:
+        largest = samples - MIN_SCORED_SAMPLES
+        how = (
+            f"give --skip {largest} or less, or a longer record"
+            if largest >= 0
+            else f"give a record of at least {MIN_SCORED_SAMPLES} samples"
+        )
+        raise DataError(
+            f"{source}: {samples} samples; --skip {skip} leaves {max(left, 0)} to score, at least "
+            f"{MIN_SCORED_SAMPLES} are needed: {how}"
+        )
+
+
 #: A sample further from the median than this many times the signal's spread is an outlier.
 OUTLIER_SPREADS = 1e6
 
@@ -499,6 +535,32 @@ def _normalised_correlation(a: np.ndarray, b: np.ndarray, lags: np.ndarray) -> n
         else:
             out[i] = np.dot(a[-tau:], b[: N + tau])
     return out / scale if scale > 0 else np.zeros(len(lags))
+
+
+def residual_max_lag(max_lag: int, samples: int) -> int | None:
+    """The largest lag the residual tests take on ``samples`` residuals, at most ``max_lag``.
+
+    A correlation at lag tau averages N - tau products; :func:`residual_tests` takes lags
+    below N/4, so each averages at least three quarters of the record. A shorter record gets
+    the largest lag it allows, ``N // 4 - 1`` [samples], and one of fewer than 8 residuals
+    none (None: too short to judge whiteness at any lag).
+
+    Parameters
+    ----------
+    max_lag : int
+        The largest lag asked for [samples], >= 1.
+    samples : int
+        Number of residuals N.
+
+    Returns
+    -------
+    int or None
+        ``min(max_lag, N // 4 - 1)``, or None when that is below 1.
+    """
+    if isinstance(max_lag, bool) or not isinstance(max_lag, int | np.integer) or max_lag < 1:
+        raise ValueError(f"max_lag must be an integer >= 1, got {max_lag!r}")
+    largest = int(samples) // 4 - 1
+    return min(int(max_lag), largest) if largest >= 1 else None
 
 
 def residual_tests(

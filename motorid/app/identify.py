@@ -109,7 +109,7 @@ class IdentifyOptions:
         (record,) = records
         payload, tests, _ = identify_record(record, self, source=labels[0])
         written = [write_identify_figure(tests, figures, self.estimator)] if figures is not None else []
-        return {**payload, "figures": [str(f) for f in written]}
+        return {**payload, "figures": [str(f) for f in written if f is not None]}
 
 
 def identify(
@@ -431,8 +431,8 @@ def identify_record(
     from motorid.records import record_timing
     from motorid.validation import (
         RPM_PER_RAD_S,
+        check_scored_samples,
         check_signals,
-        residual_tests,
         score_predictions,
     )
 
@@ -445,9 +445,10 @@ def identify_record(
                 (u_all[k : k + CHUNK_ROWS], y_all[k : k + CHUNK_ROWS])
                 for k in range(0, len(record), CHUNK_ROWS)
             ),
-            options, est, notes, unit, threshold, (input, output),
+            options, est, notes, unit, threshold, (input, output), source,
         )  # fmt: skip
     u, y = record["u"].to_numpy(), record["y"].to_numpy()
+    check_scored_samples(len(u), options.skip, source)
     check_signals({input: u, output: y})
     if holds_input(est) and record_timing(record.attrs) == "sampled":
         # a physical model's output is at the end of the sample its input is held over
@@ -466,7 +467,9 @@ def identify_record(
     unit, threshold, _ = low_speed_band(record, options.low_speed_rpm)
     scores = score_predictions(y, predictions, threshold, options.skip)
     in_rpm = unit == "rad/s"
-    tests = residual_tests(u[options.skip :], (y - result.y_hat)[options.skip :], max_lag=options.max_lag)
+    tests = record_residual_tests(
+        u[options.skip :], (y - result.y_hat)[options.skip :], options.max_lag, notes
+    )
     payload = {
         "estimator": options.estimator,
         "samples": len(record),
@@ -488,6 +491,27 @@ def identify_record(
     if param_units:
         payload["units"] = {"params": dict(param_units)}
     return payload, tests, est
+
+
+def record_residual_tests(u: np.ndarray, residual: np.ndarray, max_lag: int, notes: list[str]) -> list:
+    """:func:`motorid.validation.residual_tests` of a record's one-step residuals, up to the largest lag
+    the record allows (:func:`motorid.validation.residual_max_lag`): a shorter lag than ``max_lag``
+    [samples], or no test on a record too short for any, is said in ``notes`` (appended)."""
+    from motorid.validation import residual_max_lag, residual_tests
+
+    lag = residual_max_lag(max_lag, len(residual))
+    if lag is None:
+        notes.append(
+            f"no residual tests: {len(residual)} residuals are too few for a correlation at any lag "
+            "(at least 8 are needed)"
+        )
+        return []
+    if lag < max_lag:
+        notes.append(
+            f"residual tests up to lag {lag}, not {max_lag}: the largest below a quarter of the "
+            f"{len(residual)} residuals"
+        )
+    return residual_tests(u, residual, max_lag=lag)
 
 
 def measured_position(estimator: Any, record: pd.DataFrame, source: str) -> np.ndarray | None:
@@ -534,6 +558,7 @@ def identify_blocks(
     unit: str | None,
     threshold: float,
     names: tuple[str, str] = ("u", "y"),
+    source: str = "the record",
 ) -> tuple[dict[str, Any], list, Any]:
     """:func:`identify_record` over a record given in consecutive blocks, in memory that does not
     grow with the record.
@@ -554,6 +579,8 @@ def identify_blocks(
         The low-speed threshold [output unit] (:func:`low_speed_band`).
     names : (str, str)
         The input and output columns' names, for the messages about bad samples.
+    source : str
+        What the record is called in messages (its file).
 
     Notes
     -----
@@ -589,10 +616,10 @@ def identify_blocks(
         RunningScore,
         StridedSample,
         check_outliers,
+        check_scored_samples,
         check_signal_block,
         outlier_reference,
         raise_constant,
-        residual_tests,
     )
 
     one_step, window = RunningScore(threshold), ResidualWindow(RESIDUAL_WINDOW)
@@ -615,8 +642,7 @@ def identify_blocks(
         one_step.add(y[scored], result.y_hat[scored])
         window.add(u[scored], (y - result.y_hat)[scored])
         samples += len(u)
-    if not 0 <= options.skip < samples:
-        raise ValueError(f"skip must be in [0, {samples}), got {options.skip}")
+    check_scored_samples(samples, options.skip, source)
     for name, changes, value in zip(names, varies, first or (0.0, 0.0), strict=True):
         if not changes:
             raise_constant(name, value, samples)
@@ -643,7 +669,7 @@ def identify_blocks(
         "one_step": one_step.result(),
         **({} if diverged is not None else {"free_run": free_run.result()}),
     }
-    tests = residual_tests(*window.arrays(), max_lag=options.max_lag)
+    tests = record_residual_tests(*window.arrays(), options.max_lag, notes)
     in_rpm = unit == "rad/s"
     payload = {
         "estimator": options.estimator,
@@ -724,7 +750,7 @@ def identify_file(
             for block in source:
                 yield block["u"].to_numpy(), block["y"].to_numpy()
 
-        return identify_blocks(blocks, options, est, notes, unit, threshold, names)
+        return identify_blocks(blocks, options, est, notes, unit, threshold, names, str(path))
     except UniformGridError as exc:
         logger.info("%s: identify reads it whole (--max-samples %d)", exc, read.max_samples)
         record = read.read(path)
@@ -765,10 +791,13 @@ def validate_on_record(
     }
 
 
-def write_identify_figure(tests: list, folder: Path, estimator: str) -> Path:
-    """The residual-test figure of :func:`identify_record` as ``folder/residual_tests.png``."""
+def write_identify_figure(tests: list, folder: Path, estimator: str) -> Path | None:
+    """The residual-test figure of :func:`identify_record` as ``folder/residual_tests.png``; None (no
+    figure) when the record was too short for any test (the payload's notes say so)."""
     from motorid.validation import plot_residual_tests
 
+    if not tests:
+        return None
     figure = folder / "residual_tests.png"
     plot_residual_tests(tests, str(figure), f"Residuals of {estimator} (one-step)")
     return figure

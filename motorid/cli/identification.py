@@ -119,7 +119,8 @@ def cmd_identify(args: argparse.Namespace) -> int:
     figure = None
     if args.out:
         figure = write_identify_figure(tests, args.out, args.estimator)
-        say(f"  wrote {figure}")
+        if figure is not None:
+            say(f"  wrote {figure}")
     if args.json:
         extra = {} if validation is None else {"validation": validation}
         emit_json({**payload, "figure": figure, "model": args.save_model, **extra})
@@ -151,9 +152,10 @@ def say_validation(validation: dict[str, Any]) -> None:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     """The paper's Tables 1 and 2 on a record."""
-    from motorid.validation import check_signals, order_sweep
+    from motorid.validation import check_scored_samples, check_signals, order_sweep
 
     record = read_record_from_args(args)
+    check_scored_samples(len(record), args.skip, str(args.data))
     check_signals({args.input: record["u"], args.output: record["y"]})
     unit, threshold, band = low_speed_band(record, args.low_speed_rpm)
     tables = order_sweep(
