@@ -60,7 +60,7 @@ from motorid.drive.two_mass import TwoMassRig
 from motorid.errors import DataError
 from motorid.estimators.base import Estimator, first_bad_index
 from motorid.records import record_timing
-from motorid.validation import MIN_SCORED_SAMPLES, low_speed_mask, score
+from motorid.validation import MIN_SCORED_SAMPLES, free_run_divergence, low_speed_mask, score
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -315,11 +315,12 @@ class ModelOnRecord:
         Free-run output on the scored record's samples (see :class:`Comparison`).
     fit_percent, rmse, low_speed_rmse, mse, low_speed_mse : float
         Scores after ``skip`` [%, output unit, output unit, unit², unit²]; NaN when the free
-        run diverges (``low_speed_*`` also when no sample is that slow).
+        run stops being finite (``low_speed_*`` also when no sample is that slow).
     n_low_speed : int
         Samples in the low-speed band after ``skip``.
     diverges_from : int or None
-        First sample where the free run is not finite (the model is unstable on this input).
+        First sample where the free run diverges: not finite, or beyond ten times the largest
+        measured ``|y|`` (:func:`motorid.validation.free_run_divergence`).
     notes : tuple of str
         What was assumed (a sample time, an input unit).
     """
@@ -571,14 +572,15 @@ def compare_models(
     band = y if speed is None else speed
     low_speed_mask(band, low_speed_threshold)  # a bad threshold is refused before any simulation
     comparison = Comparison(t, u, y, dt, timing, skip, float(low_speed_threshold), unit, speed=speed)
+    largest = float(np.max(np.abs(y)))
     for name, model in models.items():
         notes = [note for note in (notes_of[name],) if note]
         own_dt = getattr(model, "dt", None)
         if isinstance(model, TwoMassRig | RigidDrive) and not math.isclose(own_dt, dt, rel_tol=1e-6):
             notes.append(f"{name}: simulated at the record's dt = {dt:g} s (its file says {own_dt:g} s)")
         y_sim = free_run_on_record(model, u, dt, timing, name, float(y[0]) if positions else None)
-        diverges = first_bad_index(y_sim)
-        if diverges is not None:
+        diverges = free_run_divergence(y_sim, largest)
+        if first_bad_index(y_sim) is not None:  # a bounded run is scored, also one beyond the bound
             nan = math.nan
             scores = {
                 "fit_percent": nan,
@@ -825,6 +827,7 @@ def compare_blocks(
     models: Mapping[str, Any],
     low_speed_threshold: float,
     skip: int = 0,
+    largest_output: float | None = None,
 ) -> Comparison:
     """:func:`compare_models` on a record given in consecutive blocks, in memory that does not grow
     with its length.
@@ -851,6 +854,11 @@ def compare_blocks(
         |y| below this is low speed [output unit].
     skip : int
         Leading samples left out of the scores: the models start from rest.
+    largest_output : float, optional
+        The record's largest ``|y|`` [output unit], the bound beyond which a free run has
+        diverged (:func:`motorid.validation.free_run_divergence`), as :func:`compare_models`
+        judges it; None: the largest ``|y|`` of the blocks read so far (known before the record
+        ends, so a run may be said to diverge earlier than on the whole record).
 
     Returns
     -------
@@ -873,6 +881,8 @@ def compare_blocks(
     runs: list[BlockFreeRun] = []
     scores = [RunningScore(low_speed_threshold) for _ in names]
     diverged: list[int | None] = [None] * len(names)
+    finite = [True] * len(names)
+    seen = 0.0  # the largest |y| so far, the bound without largest_output
     n_low = 0
     view: _View | None = None
     start = 0
@@ -898,15 +908,18 @@ def compare_blocks(
         scored = slice(max(0, skip - start), None)
         n_low += int(np.count_nonzero(np.abs(y[scored]) < low_speed_threshold))
         simulated = []
+        if y.size:
+            seen = max(seen, float(np.max(np.abs(y))))
+        bound = seen if largest_output is None else float(largest_output)
         for i, run in enumerate(runs):
-            if diverged[i] is not None:
+            if not finite[i]:
                 simulated.append(np.full(y.size, np.nan))
                 continue
             y_sim = run(u)
-            bad = first_bad_index(y_sim)
-            if bad is not None:
-                diverged[i] = start + bad
-            else:
+            if diverged[i] is None:
+                diverged[i] = free_run_divergence(y_sim, bound, start)
+            finite[i] = first_bad_index(y_sim) is None
+            if finite[i]:  # a bounded run is scored, also one beyond the bound
                 scores[i].add(y[scored], y_sim[scored])
             simulated.append(y_sim)
         view.add(np.vstack([block["t"].to_numpy(dtype=float), u, y, *simulated]))
@@ -937,7 +950,7 @@ def compare_blocks(
             notes.append(f"{name}: simulated at the record's dt = {dt:g} s (its file says {own_dt:g} s)")
         for note in notes:
             logger.info(note)
-        if diverged[i] is not None:
+        if not finite[i]:
             nan = math.nan
             values = {
                 "fit_percent": nan,

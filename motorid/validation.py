@@ -74,6 +74,62 @@ def check_scored_samples(samples: int, skip: int, source: str = "the record") ->
         )
 
 
+#: A free run whose output leaves ``DIVERGENCE_FACTOR`` times the largest measured magnitude has
+#: diverged (:func:`free_run_divergence`).
+DIVERGENCE_FACTOR = 10.0
+
+
+def free_run_divergence(y_sim: ArrayLike, largest_output: float, first: int = 0) -> int | None:
+    """The first sample where a free run has diverged, or None.
+
+    A free run has diverged at sample k when ``y_sim[k]`` is not finite, or when
+    ``|y_sim[k]| > DIVERGENCE_FACTOR * largest_output``: ten times the largest magnitude the
+    drive was measured at is no model of the record, whether the run grows without bound (an
+    unstable model) or settles far off (a static block whose cubic term scales a duty of 100 %
+    by 10**6).
+
+    Parameters
+    ----------
+    y_sim : array_like
+        The free run's output [output unit].
+    largest_output : float
+        The largest measured ``|y|`` of the record [output unit], >= 0.
+    first : int
+        The record's sample of ``y_sim[0]`` (a block of it), added to the index returned.
+
+    Returns
+    -------
+    int or None
+        The record's sample where the free run diverges; None when it stays within the bound.
+    """
+    run = np.asarray(y_sim, dtype=float)
+    with np.errstate(invalid="ignore"):
+        out = ~(np.abs(run) <= DIVERGENCE_FACTOR * float(largest_output))  # NaN and inf are out
+    if not out.any():
+        return None
+    return first + int(np.argmax(out))
+
+
+def divergence_words(name: str, sample: int, scored: bool) -> str:
+    """One line on a free run that diverges (:func:`free_run_divergence`) for the user: where and what
+    it means.
+
+    Parameters
+    ----------
+    name : str
+        The model's name (its estimator or its file).
+    sample : int
+        The first sample where it diverges.
+    scored : bool
+        Whether the run stayed finite, so its scores stand (far off); else it has none.
+    """
+    scores = "its free-run scores measure how far off it is" if scored else "it has no free-run score"
+    return (
+        f"{name}: the free run diverges from sample {sample} on (beyond {DIVERGENCE_FACTOR:g} x the largest "
+        f"measured |y|, or not finite): the model does not hold on this input and {scores}"
+    )
+
+
 #: A sample further from the median than this many times the signal's spread is an outlier.
 OUTLIER_SPREADS = 1e6
 

@@ -131,9 +131,10 @@ def compare_in_blocks(
 ) -> tuple[Comparison, str, dict[str, str]] | None:
     """:func:`motorid.comparison.compare_blocks` on the record ``path`` read in blocks
     (:meth:`ReadOptions.iter_blocks`), in memory that does not grow with the record:
-    the comparison, the low-speed band in words and the record's units. An output in another
-    unit than rad/s takes one more pass, for its largest magnitude (the low-speed band,
-    :func:`motorid.app.identify.output_band`).
+    the comparison, the low-speed band in words and the record's units. A first pass finds the
+    output's largest magnitude: the bound of a diverging free run
+    (:func:`motorid.validation.free_run_divergence`) and, for an output in another unit than
+    rad/s, the low-speed band (:func:`motorid.app.identify.output_band`).
 
     None when the record is compared whole instead (:func:`read_whole`): a span (``start``,
     ``stop``), a model whose free run takes the record whole (a friction filter), a record
@@ -165,12 +166,10 @@ def compare_in_blocks(
                 "%s: a record of positions, compared whole (--max-samples %d)", path, read.max_samples
             )
             return None
-        largest = None
-        if unit != "rad/s":
-            largest = max(float(np.max(np.abs(b["y"].to_numpy()))) for b in read.iter_blocks(path))
+        largest = max(float(np.max(np.abs(b["y"].to_numpy()))) for b in read.iter_blocks(path))
         _, threshold, band = output_band(unit, options.low_speed_rpm, largest)
         blocks = read.iter_blocks(path, min_samples=options.min_samples)
-        return compare_blocks(blocks, models, threshold, options.skip), band, units
+        return compare_blocks(blocks, models, threshold, options.skip, largest), band, units
     except UniformGridError as exc:
         logger.info("%s: compare reads it whole (--max-samples %d)", exc, read.max_samples)
         return None

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 import pandas as pd
 
 from motorid.app.compare import CompareOptions, compare_file, load_models
+from motorid.validation import divergence_words
 
 from .options import (
     add_json,
@@ -43,8 +45,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     say(f"  low speed: {band}")
     for model in comparison.models:
         if model.diverges_from is not None:
-            say(f"  {model.name}: its free run diverges from sample {model.diverges_from} on (unstable on this "
-                "input), so it has no score")  # fmt: skip
+            say(f"warning: {divergence_words(model.name, model.diverges_from, math.isfinite(model.mse))}")
     figure = None
     if args.out:
         input_unit = units.get("u") or "input units"

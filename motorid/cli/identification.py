@@ -51,7 +51,7 @@ def identify_options_from_args(args: argparse.Namespace) -> IdentifyOptions:
 
 def cmd_identify(args: argparse.Namespace) -> int:
     """Identify one estimator on a record; report params, MSE, FIT and residual tests."""
-    from motorid.validation import RPM_PER_RAD_S
+    from motorid.validation import RPM_PER_RAD_S, divergence_words
 
     options = identify_options_from_args(args)
     # a span (--start/--stop) is cut from the record read whole; an RLS otherwise streams the file
@@ -99,8 +99,8 @@ def cmd_identify(args: argparse.Namespace) -> int:
     if unit != "rad/s":
         say(f"  low speed: {band}")
     if diverged is not None:
-        say(f"  free_run  diverges from sample {diverged} on: the identified model is unstable on this input, "
-            "so it has no free-run score")  # fmt: skip
+        say(f"warning: {divergence_words(args.estimator, diverged, 'free_run' in payload['scores'])}; try "
+            "--basis u,sign or --estimator arx-rls")  # fmt: skip
     if payload["residual_tests_samples"] < payload["samples"] - args.skip:
         say(f"  residual tests on the last {payload['residual_tests_samples']} samples of the record "
             "(a bounded window: a record read in blocks is not held whole)")  # fmt: skip
@@ -129,16 +129,18 @@ def cmd_identify(args: argparse.Namespace) -> int:
 
 def say_validation(validation: dict[str, Any]) -> None:
     """The human text of :func:`validate_on_record`."""
-    from motorid.validation import RPM_PER_RAD_S
+    from motorid.validation import RPM_PER_RAD_S, divergence_words
 
     say(
         f"  on {validation['record']} ({validation['samples']} samples), the identified model without refitting:"
     )
     for note in validation["notes"]:
         say(f"  note: {note}")
+    diverged = validation["free_run_diverges_from_sample"]
     row = validation["scores"].get("free_run")
+    if diverged is not None:
+        say(f"warning: on {validation['record']}, {divergence_words('the model', diverged, row is not None)}")
     if row is None:
-        say(f"  free_run  diverges from sample {validation['free_run_diverges_from_sample']} on: no score")
         return
     unit = validation["output_unit"]
     if unit == "rad/s":

@@ -202,8 +202,10 @@ def add_estimator_options(parser: argparse.ArgumentParser, repeatable: bool = Fa
                            help="registered estimator name (default: hammerstein-rls)")  # fmt: skip
     group.add_argument("--na", type=number(int, low=0), help=f"order of A(q^-1) (default: {PAPER_ORDER})")
     group.add_argument("--nb", type=number(int, low=0), help=f"order of B(q^-1) (default: {PAPER_ORDER})")
-    group.add_argument("--degree", type=number(int, low=1), help="polynomial degree of the static block")
-    group.add_argument("--basis", help="static block basis, e.g. 'u,sign' or 'dead_zone:0.8'")
+    group.add_argument("--degree", type=number(int, low=1),
+                       help="polynomial degree of the static block (3: the paper's cubic)")  # fmt: skip
+    group.add_argument("--basis", help="static block basis, e.g. 'u,sign' or 'dead_zone:0.8' (hammerstein-rls "
+                       "without --degree: u,sign)")  # fmt: skip
     add_lam(group, default=None)
     group.add_argument("--delta", type=positive, help="initial covariance P0 = delta I")
     group.add_argument("--gamma-method", choices=("paper", "svd"), help="Hammerstein step 2")
