@@ -648,8 +648,8 @@ def identify_blocks(
         StridedSample,
         check_outliers,
         check_scored_samples,
-        free_run_divergence,
         check_signal_block,
+        free_run_divergence,
         outlier_reference,
         raise_constant,
     )
