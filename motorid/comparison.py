@@ -524,6 +524,7 @@ def compare_models(
     models: Mapping[str, Any],
     low_speed_threshold: float,
     skip: int = 0,
+    input_scales: Mapping[str, tuple[float, str | None]] | None = None,
 ) -> Comparison:
     """Simulate each model free on the record's input and score it against the measured output.
 
@@ -538,6 +539,11 @@ def compare_models(
         |y| below this is low speed [output unit].
     skip : int
         Leading samples left out of the scores: the models start from rest.
+    input_scales : mapping of str to (float, str or None), optional
+        Label -> the factor that puts the record's input in the unit the model's card says it
+        was fitted on, and a note when it converts (:func:`motorid.app.model_cards.input_scale`:
+        % duty <-> V). A label in it was checked against its card, so the assumptions of
+        :func:`input_unit_note` are not made; one not in it runs on the input as read.
 
     Returns
     -------
@@ -566,7 +572,7 @@ def compare_models(
     kinds = {name: model_kind(model) for name, model in models.items()}
     for name, model in models.items():
         check_output_unit(model, units, name, position_run=True)
-    notes_of = {name: input_unit_note(model, units, name) for name, model in models.items()}
+    notes_of = card_checked_notes(models, units, input_scales)
     positions = units.get("y") in POSITION_UNITS
     speed = np.gradient(y, dt) if positions else None
     band = y if speed is None else speed
@@ -578,7 +584,8 @@ def compare_models(
         own_dt = getattr(model, "dt", None)
         if isinstance(model, TwoMassRig | RigidDrive) and not math.isclose(own_dt, dt, rel_tol=1e-6):
             notes.append(f"{name}: simulated at the record's dt = {dt:g} s (its file says {own_dt:g} s)")
-        y_sim = free_run_on_record(model, u, dt, timing, name, float(y[0]) if positions else None)
+        scale = (input_scales or {}).get(name, (1.0, None))[0]
+        y_sim = free_run_on_record(model, u * scale, dt, timing, name, float(y[0]) if positions else None)
         diverges = free_run_divergence(y_sim, largest)
         if first_bad_index(y_sim) is not None:  # a bounded run is scored, also one beyond the bound
             nan = math.nan
@@ -609,6 +616,20 @@ def compare_models(
             )
         )
     return comparison
+
+
+def card_checked_notes(
+    models: Mapping[str, Any],
+    units: Mapping[str, str] | None,
+    input_scales: Mapping[str, tuple[float, str | None]] | None,
+) -> dict[str, str | None]:
+    """Each model's note on its input: the conversion its card asked for (``input_scales``), or
+    for a model without a checked card what :func:`input_unit_note` assumes."""
+    checked = input_scales or {}
+    return {
+        name: checked[name][1] if name in checked else input_unit_note(model, units, name)
+        for name, model in models.items()
+    }
 
 
 def runs_in_blocks(model: Any) -> bool:
@@ -828,6 +849,7 @@ def compare_blocks(
     low_speed_threshold: float,
     skip: int = 0,
     largest_output: float | None = None,
+    input_scales: Mapping[str, tuple[float, str | None]] | None = None,
 ) -> Comparison:
     """:func:`compare_models` on a record given in consecutive blocks, in memory that does not grow
     with its length.
@@ -859,6 +881,8 @@ def compare_blocks(
         diverged (:func:`motorid.validation.free_run_divergence`), as :func:`compare_models`
         judges it; None: the largest ``|y|`` of the blocks read so far (known before the record
         ends, so a run may be said to diverge earlier than on the whole record).
+    input_scales : mapping of str to float, optional
+        As :func:`compare_models`'s.
 
     Returns
     -------
@@ -882,6 +906,7 @@ def compare_blocks(
     scores = [RunningScore(low_speed_threshold) for _ in names]
     diverged: list[int | None] = [None] * len(names)
     finite = [True] * len(names)
+    scales = [(input_scales or {}).get(name, (1.0, None))[0] for name in names]
     seen = 0.0  # the largest |y| so far, the bound without largest_output
     n_low = 0
     view: _View | None = None
@@ -901,7 +926,7 @@ def compare_blocks(
             for name, model in models.items():
                 model_kind(model)
                 check_output_unit(model, units, name)
-            notes_of = {name: input_unit_note(model, units, name) for name, model in models.items()}
+            notes_of = card_checked_notes(models, units, input_scales)
             runs = [BlockFreeRun(model, dt, timing, name) for name, model in models.items()]
             view = _View(max(round(5.0 / dt), 10), float(low_speed_threshold), skip)
         u, y = block["u"].to_numpy(dtype=float), block["y"].to_numpy(dtype=float)
@@ -915,7 +940,7 @@ def compare_blocks(
             if not finite[i]:
                 simulated.append(np.full(y.size, np.nan))
                 continue
-            y_sim = run(u)
+            y_sim = run(u * scales[i])
             if diverged[i] is None:
                 diverged[i] = free_run_divergence(y_sim, bound, start)
             finite[i] = first_bad_index(y_sim) is None
