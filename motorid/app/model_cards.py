@@ -98,7 +98,11 @@ def with_parameters(
 
 
 def input_scale(
-    card: ModelCard | None, units: Mapping[str, str] | None, name: str, supply_voltage: float | None = None
+    card: ModelCard | None,
+    units: Mapping[str, str] | None,
+    name: str,
+    supply_voltage: float | None = None,
+    given_as: str = "this record is",
 ) -> tuple[float, str | None]:
     """The factor ``k`` such that ``k u`` is the record's input in the unit the model was fitted on,
     and a note when it is not 1.
@@ -116,6 +120,8 @@ def input_scale(
         The model file's name in the messages.
     supply_voltage : float, optional
         The supply voltage [V] that made the record's duty volts.
+    given_as : str
+        What gives the input, in the messages (``this record is``; a controller's commands).
 
     Raises
     ------
@@ -132,11 +138,16 @@ def input_scale(
     given_words = "% duty" if given == "%" else given
     if supply is None:
         raise DataError(
-            f"{name} was fitted on {fitted_words}; this record is in {given_words}: give --supply-voltage or "
+            f"{name} was fitted on {fitted_words}; {given_as} in {given_words}: give --supply-voltage or "
             f"use a model fitted in {given_words}"
         )
     factor = 100.0 / supply if fitted == "%" else supply / 100.0
-    note = f"{name}: the record's input in {given_words} converted to the model's {fitted_words} ({supply:g} V supply)"
+    whose = (
+        "the record's input"
+        if given_as == "this record is"
+        else given_as.removesuffix(" commands") + "'s commands"
+    )
+    note = f"{name}: {whose} in {given_words} converted to the model's {fitted_words} ({supply:g} V supply)"
     logger.info(note)
     return factor, note
 

@@ -23,6 +23,7 @@ from motorid.app.identify import (
     validate_on_record,
     write_identify_figure,
 )
+from motorid.drive.files import save_model
 from motorid.errors import DataError
 
 from .options import (
@@ -112,10 +113,13 @@ def cmd_identify(args: argparse.Namespace) -> int:
         say_validation(validation)
     if args.save_model:
         try:
-            est.save(args.save_model, overwrite=args.overwrite)
+            save_model(
+                est, args.save_model, overwrite=args.overwrite, card=identified_card(args, record, payload)
+            )
         except ValueError as exc:
             raise DataError(f"--save-model {args.save_model}: {exc}") from None
-        say(f"  wrote {args.save_model}: the identified model (motorid.load_model reads it)")
+        say(f"  wrote {args.save_model}: the identified model, with its units, timing and record "
+            "(motorid.load_model reads it)")  # fmt: skip
     figure = None
     if args.out:
         figure = write_identify_figure(tests, args.out, args.estimator)
@@ -125,6 +129,29 @@ def cmd_identify(args: argparse.Namespace) -> int:
         extra = {} if validation is None else {"validation": validation}
         emit_json({**payload, "figure": figure, "model": args.save_model, **extra})
     return 0
+
+
+def identified_card(args: argparse.Namespace, record: pd.DataFrame | None, payload: dict[str, Any]) -> Any:
+    """The card of the model ``motorid identify`` fitted (:func:`motorid.app.model_cards.record_card`):
+    the record held whole, or, read in blocks, its first block with the span of the ``samples``
+    the payload counts."""
+    import dataclasses
+
+    from motorid.app.model_cards import record_card
+
+    read = read_options_from_args(args)
+    if record is None:
+        first = next(read.iter_blocks(args.data))
+        card = record_card([first], [args.data], supply_voltage=read.supply_voltage,
+                           input_full_scale=read.input_full_scale)  # fmt: skip
+        samples = payload["samples"]
+        records = tuple(
+            {**entry, "samples": samples, "stop": entry["start"] + (samples - 1) * card.dt}
+            for entry in card.records
+        )
+        return dataclasses.replace(card, records=records)
+    return record_card([record], [args.data], supply_voltage=read.supply_voltage,
+                       input_full_scale=read.input_full_scale)  # fmt: skip
 
 
 def say_validation(validation: dict[str, Any]) -> None:
