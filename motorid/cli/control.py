@@ -145,6 +145,16 @@ def cmd_control(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise DataError(f"--design {args.design}: {exc}") from None
     controller = SpeedController(pi, dt, compensation)
+    exported: list[Path] = []
+    if args.export_c is not None:
+        from motorid.controller_c import export_controller_c
+
+        speed_unit = card.output_unit if card is not None and card.output_unit else "rad/s"
+        exported = list(export_controller_c(controller, args.export_c, input_unit=unit, model=args.design.name,
+                                            speed_unit=speed_unit))  # fmt: skip
+        say(
+            f"wrote {exported[0]} and {exported[1]}: the controller in C99 (motorid_speed_step once every {dt:g} s)"
+        )
     say(f"motorid control: PI K_p = {pi.kp:.4g}, K_i = {pi.ki:.4g} for a bandwidth of {pi.bandwidth:.3g} rad/s, "
         + ("no friction compensation" if compensation is None else f"friction compensation from the {source} "
            f"speed") + f"; {reference.size} samples at dt = {dt:g} s on {args.daq}")  # fmt: skip
@@ -174,7 +184,7 @@ def cmd_control(args: argparse.Namespace) -> int:
             "out": args.out, "samples": record.attrs["samples"], "dt": dt,
             "compensation": None if compensation is None else source,
             "pi": {"kp": pi.kp, "ki": pi.ki, "tracking_time": pi.tracking_time, "u_max": pi.u_max,
-                   "bandwidth": pi.bandwidth}, "input_unit": unit,
+                   "bandwidth": pi.bandwidth}, "input_unit": unit, "export_c": exported,
             "low_speed_band": band, **metrics,
         })  # fmt: skip
     return 0
@@ -206,6 +216,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                        help="half-width of the compensation's ramp through zero speed [rad/s] (default: 1)")  # fmt: skip
     group.add_argument("--bandwidth", type=positive,
                        help="the PI's crossover [rad/s] (default: 0.2 / (dt + the model's delay and lag))")  # fmt: skip
+    group.add_argument("--export-c", type=Path, metavar="DIR",
+                       help="write the controller (PI with anti-windup and friction compensation) as C99 "
+                            "motorid_speed.h and motorid_speed.c in DIR, for a microcontroller")  # fmt: skip
     group = p.add_argument_group("reference (default: a reversing triangle)")
     group.add_argument("--reference", type=Path, metavar="FILE", help="CSV with columns t [s] and r [rad/s]")
     group.add_argument("--shape", choices=("triangle", "sine"), default="triangle",
