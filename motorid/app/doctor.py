@@ -250,6 +250,11 @@ def best_model(diagnosis: Diagnosis) -> tuple[RigidDrive | TwoMassRig, str]:
     position (:attr:`~motorid.diagnose.results.Diagnosis.position_model`): where that refit's RMS
     position error is the smaller, it is the model saved (the balance fit is named, with its error,
     in the words); else the improved model (:attr:`~motorid.diagnose.results.Diagnosis.improved_model`).
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+        What the doctor found.
     """
     error = diagnosis.position_error
     if diagnosis.rig is None and diagnosis.position_model is not None and error is not None:

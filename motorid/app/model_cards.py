@@ -89,7 +89,19 @@ def with_parameters(
     card: ModelCard, standard_errors: Mapping[str, float], params: Sequence[str], undetermined: Sequence[str]
 ) -> ModelCard:
     """``card`` with each parameter of ``params``: its standard error (None where none is known)
-    and whether the records determined it (not in ``undetermined``)."""
+    and whether the records determined it (not in ``undetermined``).
+
+    Parameters
+    ----------
+    card : ModelCard
+        The card to complete.
+    standard_errors : mapping of str to float
+        Parameter name -> its standard error [the parameter's unit].
+    params : sequence of str
+        The model's parameters.
+    undetermined : sequence of str
+        The parameters the records did not determine.
+    """
     table = {
         name: {"standard_error": standard_errors.get(name), "determined": name not in undetermined}
         for name in params

@@ -331,7 +331,13 @@ def _items(value: Any, key: str) -> list[tuple[str, Any]]:
 
 def file_sha256(path: str | os.PathLike[str]) -> str:
     """The SHA-256 of the bytes of the file ``path``, as 64 hexadecimal digits (a record's
-    fingerprint in a :class:`ModelCard`)."""
+    fingerprint in a :class:`ModelCard`).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    """
     digest = hashlib.sha256()
     with open(path, "rb") as fh:
         for chunk in iter(lambda: fh.read(1 << 20), b""):
