@@ -85,6 +85,10 @@ __all__ = [
 ]
 
 
+#: The low-speed panel of ``compare.png`` spans ± this many times the low-speed band.
+LOW_SPEED_AXIS = 2.0
+
+
 def model_kind(model: Any) -> str:
     """What ``model`` is, in words: ``two-mass rig``, ``rigid drive`` or ``estimator NAME``.
 
@@ -429,8 +433,10 @@ class Comparison:
         reversal of the measured output with the longest stay inside half the band
         (where stiction and Stribeck friction show), or a note when it never reverses.
         Each panel's output axis spans the measurement's range in it, widened by half that
-        range on either side: a model far off leaves the panel rather than squash the
-        measurement; a diverged model is drawn until it diverges. A comparison made in blocks
+        range on either side (the low-speed panel of a speed record: ±:data:`LOW_SPEED_AXIS`
+        times the band, its edges dotted, so a drive stuck near rest shows): a model far off
+        leaves the panel rather than squash the measurement; a diverged model is drawn until it
+        diverges. A comparison made in blocks
         draws its bounded view (``windows``, :func:`compare_blocks`).
 
         Parameters
@@ -466,8 +472,14 @@ class Comparison:
                     y_sim = np.where(np.isfinite(m.y_sim[window]), m.y_sim[window], np.nan)
                     ax.plot(self.t[window], y_sim, "--", lw=1.1, label=f"{m.name} ({score})")
                 ax.axhline(0.0, color="k", lw=0.5)
-                pad = 0.5 * max(float(np.ptp(y)), 1e-12)
-                ax.set_ylim(float(y.min()) - pad, float(y.max()) + pad)
+                if title.startswith("low speed") and self.speed is None:  # the band's own axis
+                    limit = LOW_SPEED_AXIS * self.low_speed_threshold
+                    for level in (-self.low_speed_threshold, self.low_speed_threshold):
+                        ax.axhline(level, color="0.5", lw=0.6, ls=":")
+                    ax.set_ylim(-limit, limit)
+                else:
+                    pad = 0.5 * max(float(np.ptp(y)), 1e-12)
+                    ax.set_ylim(float(y.min()) - pad, float(y.max()) + pad)
                 ax.legend(loc="upper right", fontsize=7)
             ax.set_title(title, fontsize=10)
             ax.set_xlabel("time t [s]")

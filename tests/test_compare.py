@@ -120,6 +120,8 @@ def test_compare_figure_has_units_on_every_axis_and_a_legend(files):
     low, reversal = (ax.get_lines()[0].get_ydata() for ax in axes[1:])
     assert np.mean(np.abs(low) < BAND) > 0.8 and low.size == 125
     assert reversal.max() > 0.5 * BAND and reversal.min() < -0.5 * BAND
+    # the low-speed panel on the band's axis, whatever faster samples its window holds
+    assert axes[1].get_ylim() == pytest.approx((-2.0 * BAND, 2.0 * BAND))
 
 
 def test_compare_json_structure(capsys, files):

@@ -263,3 +263,27 @@ def test_control_converts_a_design_in_duty_for_a_plant_in_volts_or_refuses(capsy
     code, out, err = run(capsys, "control", "--design", str(duty), "--model", str(unknown), "--supply-voltage",
                          "15", "--noise-free", "--json")  # fmt: skip
     assert code == 0, err
+
+
+@needs_wheel
+def test_identify_and_simulate_follow_the_models_card(capsys, wheel_models, tmp_path):
+    duty, volts = wheel_models
+    # a friction filter started from the model fitted in volts, on the record in duty: converted at 15 V
+    code, out, err = run(capsys, "identify", str(WHEEL_VALIDATION), *WHEEL_UNITS, "--estimator", "friction-ekf",
+                         "--model", str(volts), "--param", "R=0.05", "--json")  # fmt: skip
+    assert code == 0, err
+    assert any("converted to the model's V (15 V supply)" in note for note in out["notes"])
+    data = json.loads(volts.read_text())
+    data["card"]["input"]["supply_voltage"] = None
+    unknown = tmp_path / "volts.json"
+    unknown.write_text(json.dumps(data))
+    code, _, err = run(capsys, "identify", str(WHEEL_VALIDATION), *WHEEL_UNITS, "--estimator", "friction-ekf",
+                       "--model", str(unknown), "--param", "R=0.05")  # fmt: skip
+    assert code == 2 and len(err.strip().splitlines()) == 1 and "was fitted on V" in err
+    # simulate writes the record in the units the model was fitted on
+    code, _, err = run(capsys, "simulate", "--model", str(duty), "--out", str(tmp_path / "sim.csv"),
+                       "--duration", "2", "--amplitude", "30")  # fmt: skip
+    assert code == 0, err
+    from motorid.records import read_record
+
+    assert read_record(tmp_path / "sim.csv").attrs["units"]["u"] == "%" and "in %" in err

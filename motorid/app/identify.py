@@ -376,6 +376,22 @@ def start_model(options: IdentifyOptions) -> Any:
     return model
 
 
+def model_input_scale(options: IdentifyOptions, record: pd.DataFrame) -> tuple[float, str | None]:
+    """The factor that puts the record's input in the unit ``options.model``'s card says the model
+    was fitted on, and a note where it converts (:func:`motorid.app.model_cards.input_scale`:
+    % duty <-> V with the card's supply voltage); ``(1.0, None)`` without a model or a card.
+    DataError in one line where no supply voltage is known to convert."""
+    if options.model is None:
+        return 1.0, None
+    from motorid.app.model_cards import check_output, input_scale
+    from motorid.drive.files import read_model_file
+
+    card = read_model_file(options.model).card
+    units = record.attrs.get("units")
+    check_output(card, units, options.model.name)
+    return input_scale(card, units, options.model.name)
+
+
 def estimator_for_record(
     record: pd.DataFrame, options: IdentifyOptions, source: str = "the record"
 ) -> tuple[Any, list[str]]:
@@ -482,6 +498,10 @@ def identify_record(
     u, y = record["u"].to_numpy(), record["y"].to_numpy()
     check_scored_samples(len(u), options.skip, source)
     check_signals({input: u, output: y})
+    scale, note = model_input_scale(options, record)
+    if note:
+        u = u * scale
+        notes.append(note)
     if holds_input(est) and record_timing(record.attrs) == "sampled":
         # a physical model's output is at the end of the sample its input is held over
         u, y = u[:-1], y[1:]
