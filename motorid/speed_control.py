@@ -7,8 +7,13 @@
 - :func:`run_closed_loop`: the loop on a DAQ (the simulated rig, or Modbus: a PLC or
   ``motorid rig serve``), with ``motorid run``'s safety: 0 V on every way out, the
   watchdog fed by every command, Ctrl-C stopping between two samples.
-- :func:`tracking_metrics`: RMS tracking error overall and at low speed, and the
-  largest interval the drive stays stuck after a reversal of the reference.
+- :func:`tracking_metrics`: RMS tracking error overall and at low speed, the
+  largest interval the drive stays stuck after a reversal of the reference, and the
+  samples whose command was clamped.
+- :func:`default_u_max`: the command limit a model's input unit implies (±100 for % duty).
+- :class:`SensedPlant`: a drive model's simulation measured by the sensor of its model file's
+  card (quantisation, noise per speed band), fed in the controller's input unit: the plant of
+  ``motorid control --daq sim --model`` and ``motorid rig serve --model``.
 
 The loop's timing is ``"sampled"`` (:data:`motorid.records.TIMINGS`): at sample k the
 controller reads y[k], measured at t[k], and holds u[k] over [t[k], t[k] + dt).
