@@ -287,3 +287,19 @@ def test_identify_and_simulate_follow_the_models_card(capsys, wheel_models, tmp_
     from motorid.records import read_record
 
     assert read_record(tmp_path / "sim.csv").attrs["units"]["u"] == "%" and "in %" in err
+
+
+@pytest.mark.parametrize("name", ["rigid-drive.v2", "two-mass-rig.v2"])
+def test_a_drive_model_file_of_version_2_reads_bit_for_bit(name):
+    """Files written by motorid's model files of version 2 (tests/data/model_files/*.v2.json): the model
+    read back writes the same description, every float to the last bit, with the version 3 and no card."""
+    from pathlib import Path
+
+    from motorid.drive.files import model_to_dict
+
+    path = Path(__file__).parent / "data" / "model_files" / f"{name}.json"
+    saved = json.loads(path.read_text())
+    assert saved["version"] == 2
+    read = read_model_file(path)
+    assert read.card is None and read.version == 2
+    assert model_to_dict(read.model) == {**saved, "version": 3, "card": None}
