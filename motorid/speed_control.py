@@ -267,7 +267,8 @@ class SensedPlant:
 
     with σ and q from the card (:attr:`~motorid.drive.files.ModelCard.noise_bands`,
     :attr:`~motorid.drive.files.ModelCard.quantisation_step`; a speed beyond the last band takes
-    its σ); none of them without a card or with ``noise_free``.
+    its σ); none of them without a card, with ``noise_free``, or for a two-mass rig, which
+    measures with its own sensors.
 
     Parameters
     ----------
@@ -291,7 +292,8 @@ class SensedPlant:
         self._plant = plant_to_step(model)
         self.dt = float(self._plant.dt)
         self.input_scale = float(input_scale)
-        sensed = card is not None and not noise_free
+        # a two-mass rig measures with its own tachogenerator, A/D converter and encoder
+        sensed = card is not None and not noise_free and isinstance(model, RigidDrive)
         self.quantisation_step = card.quantisation_step if sensed else None  # type: ignore[union-attr]
         bands = card.noise_bands if sensed else ()  # type: ignore[union-attr]
         self._edges = np.array([band["speed_to"] for band in bands[:-1]], dtype=float)

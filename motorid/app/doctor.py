@@ -309,29 +309,28 @@ def save_doctor_model(
     from motorid.app.model_cards import record_card, with_parameters
     from motorid.drive.files import save_model
 
-    model, words = best_model(diagnosis)
-    card = record_card(records, paths, supply_voltage=supply_voltage, input_full_scale=input_full_scale)
-    bands = tuple(
-        {
-            "speed_from": float(b["speed_from"]),
-            "speed_to": float(b["speed_to"]),
-            "std": float(b["noise_floor"]),
-        }
-        for b in diagnosis.noise_bands
-        if all(math.isfinite(float(b[k])) for k in ("speed_from", "speed_to", "noise_floor"))
+    what = (
+        "the two-mass rig cannot take the improved model"
+        if diagnosis.rig is not None
+        else "the improved model is not physical"
     )
-    card = dataclasses.replace(card, quantisation_step=diagnosis.quantisation_step, noise_bands=bands)
-    std = diagnosis.param_std if model is diagnosis.model or model is diagnosis.improved_model else {}
-    params = list(getattr(model, "params", {}))
-    card = with_parameters(card, std, params, list(diagnosis.undetermined))
     try:
+        model, words = best_model(diagnosis)  # a rig that cannot carry the improved effects: ValueError
+        card = record_card(records, paths, supply_voltage=supply_voltage, input_full_scale=input_full_scale)
+        bands = tuple(
+            {
+                "speed_from": float(b["speed_from"]),
+                "speed_to": float(b["speed_to"]),
+                "std": float(b["noise_floor"]),
+            }
+            for b in diagnosis.noise_bands
+            if all(math.isfinite(float(b[k])) for k in ("speed_from", "speed_to", "noise_floor"))
+        )
+        card = dataclasses.replace(card, quantisation_step=diagnosis.quantisation_step, noise_bands=bands)
+        std = diagnosis.param_std if model is diagnosis.model else {}  # the position refit has none
+        card = with_parameters(card, std, list(getattr(model, "params", {})), list(diagnosis.undetermined))
         save_model(model, path, card=card)
     except ValueError as exc:
-        what = (
-            "the two-mass rig cannot take the improved model"
-            if diagnosis.rig is not None
-            else ("the improved model is not physical")
-        )
         raise DataError(f"--save-model {path}: {what}: {exc}") from None
     return words
 
