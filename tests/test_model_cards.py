@@ -303,3 +303,18 @@ def test_a_drive_model_file_of_version_2_reads_bit_for_bit(name):
     read = read_model_file(path)
     assert read.card is None and read.version == 2
     assert model_to_dict(read.model) == {**saved, "version": 3, "card": None}
+
+
+@needs_wheel
+def test_a_duty_model_without_u_max_is_clamped_no_more_than_the_same_model_in_volts(capsys, wheel_models):
+    """The limit follows the model's unit: ±100 % for the model fitted on duty, its supply's ±15 V for
+    the one fitted in volts on the same record: the same limit, so the same share of clamped samples
+    up to the two fits' differences (a sample or so in 1,200)."""
+    duty, volts = wheel_models
+    on_duty, _ = control(capsys, duty, "--noise-free", "--amplitude", "400")
+    in_volts, _ = control(capsys, volts, "--noise-free", "--amplitude", "400")
+    assert (on_duty["pi"]["u_max"], in_volts["pi"]["u_max"]) == (100.0, 15.0)
+    assert (
+        on_duty["clamped_samples"] > 0
+    )  # 400 rad/s asks for more than the limit near the peaks: measured 282 of 1,200 samples, both
+    assert on_duty["clamped_share"] <= in_volts["clamped_share"] + 2 / 1200
