@@ -206,7 +206,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     group.add_argument("--noise-free", action="store_true",
                        help="the --model plant without the sensor its card describes (quantisation, noise)")  # fmt: skip
     group.add_argument("--supply-voltage", type=positive, metavar="V",
-                       help="the drive's supply [V], to convert commands between % duty and volts where the "
+                       help="the drive's supply [V], to convert commands between %% duty and volts where the "
                             "design and the plant models were fitted in different units")  # fmt: skip
     group = p.add_argument_group("controller")
     group.add_argument("--no-compensation", action="store_true", help="the PI alone (the baseline)")
