@@ -17,7 +17,7 @@ was fitted at, the sensor the records were measured with (quantisation step, noi
 band), the records it was fitted on (file name, SHA-256, span) and each parameter's standard
 error and whether the records determined it. ``null``: nobody said (a file of version 1 or 2,
 or a model made in Python and saved without one). Every command that reads a model checks the
-card against what it is given (:mod:`motorid.comparison`), converting % duty and volts with
+card against what it is given (:mod:`motorid.app.model_cards`), converting % duty and volts with
 a supply voltage, refusing in one line otherwise.
 
 - ``two-mass-rig``: ``model`` is :meth:`TwoMassRig.to_dict
