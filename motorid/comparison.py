@@ -60,7 +60,7 @@ from motorid.drive.two_mass import TwoMassRig
 from motorid.errors import DataError
 from motorid.estimators.base import Estimator, first_bad_index
 from motorid.records import record_timing
-from motorid.validation import low_speed_mask, score
+from motorid.validation import MIN_SCORED_SAMPLES, free_run_divergence, low_speed_mask, score
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -84,8 +84,9 @@ __all__ = [
     "simulate_model",
 ]
 
-#: Fewest samples left to score after ``skip``.
-MIN_SCORED_SAMPLES = 20
+
+#: The low-speed panel of ``compare.png`` spans ± this many times the low-speed band.
+LOW_SPEED_AXIS = 2.0
 
 
 def model_kind(model: Any) -> str:
@@ -318,11 +319,12 @@ class ModelOnRecord:
         Free-run output on the scored record's samples (see :class:`Comparison`).
     fit_percent, rmse, low_speed_rmse, mse, low_speed_mse : float
         Scores after ``skip`` [%, output unit, output unit, unit², unit²]; NaN when the free
-        run diverges (``low_speed_*`` also when no sample is that slow).
+        run stops being finite (``low_speed_*`` also when no sample is that slow).
     n_low_speed : int
         Samples in the low-speed band after ``skip``.
     diverges_from : int or None
-        First sample where the free run is not finite (the model is unstable on this input).
+        First sample where the free run diverges: not finite, or beyond ten times the largest
+        measured ``|y|`` (:func:`motorid.validation.free_run_divergence`).
     notes : tuple of str
         What was assumed (a sample time, an input unit).
     """
@@ -431,8 +433,10 @@ class Comparison:
         reversal of the measured output with the longest stay inside half the band
         (where stiction and Stribeck friction show), or a note when it never reverses.
         Each panel's output axis spans the measurement's range in it, widened by half that
-        range on either side: a model far off leaves the panel rather than squash the
-        measurement; a diverged model is drawn until it diverges. A comparison made in blocks
+        range on either side (the low-speed panel of a speed record: ±:data:`LOW_SPEED_AXIS`
+        times the band, its edges dotted, so a drive stuck near rest shows): a model far off
+        leaves the panel rather than squash the measurement; a diverged model is drawn until it
+        diverges. A comparison made in blocks
         draws its bounded view (``windows``, :func:`compare_blocks`).
 
         Parameters
@@ -468,8 +472,14 @@ class Comparison:
                     y_sim = np.where(np.isfinite(m.y_sim[window]), m.y_sim[window], np.nan)
                     ax.plot(self.t[window], y_sim, "--", lw=1.1, label=f"{m.name} ({score})")
                 ax.axhline(0.0, color="k", lw=0.5)
-                pad = 0.5 * max(float(np.ptp(y)), 1e-12)
-                ax.set_ylim(float(y.min()) - pad, float(y.max()) + pad)
+                if title.startswith("low speed") and self.speed is None:  # the band's own axis
+                    limit = LOW_SPEED_AXIS * self.low_speed_threshold
+                    for level in (-self.low_speed_threshold, self.low_speed_threshold):
+                        ax.axhline(level, color="0.5", lw=0.6, ls=":")
+                    ax.set_ylim(-limit, limit)
+                else:
+                    pad = 0.5 * max(float(np.ptp(y)), 1e-12)
+                    ax.set_ylim(float(y.min()) - pad, float(y.max()) + pad)
                 ax.legend(loc="upper right", fontsize=7)
             ax.set_title(title, fontsize=10)
             ax.set_xlabel("time t [s]")
@@ -526,6 +536,7 @@ def compare_models(
     models: Mapping[str, Any],
     low_speed_threshold: float,
     skip: int = 0,
+    input_scales: Mapping[str, tuple[float, str | None]] | None = None,
 ) -> Comparison:
     """Simulate each model free on the record's input and score it against the measured output.
 
@@ -540,6 +551,11 @@ def compare_models(
         |y| below this is low speed [output unit].
     skip : int
         Leading samples left out of the scores: the models start from rest.
+    input_scales : mapping of str to (float, str or None), optional
+        Label -> the factor that puts the record's input in the unit the model's card says it
+        was fitted on, and a note when it converts (:func:`motorid.app.model_cards.input_scale`:
+        % duty <-> V). A label in it was checked against its card, so the assumptions of
+        :func:`input_unit_note` are not made; one not in it runs on the input as read.
 
     Returns
     -------
@@ -568,20 +584,22 @@ def compare_models(
     kinds = {name: model_kind(model) for name, model in models.items()}
     for name, model in models.items():
         check_output_unit(model, units, name, position_run=True)
-    notes_of = {name: input_unit_note(model, units, name) for name, model in models.items()}
+    notes_of = card_checked_notes(models, units, input_scales)
     positions = units.get("y") in POSITION_UNITS
     speed = np.gradient(y, dt) if positions else None
     band = y if speed is None else speed
     low_speed_mask(band, low_speed_threshold)  # a bad threshold is refused before any simulation
     comparison = Comparison(t, u, y, dt, timing, skip, float(low_speed_threshold), unit, speed=speed)
+    largest = float(np.max(np.abs(y)))
     for name, model in models.items():
         notes = [note for note in (notes_of[name],) if note]
         own_dt = getattr(model, "dt", None)
         if isinstance(model, TwoMassRig | RigidDrive) and not math.isclose(own_dt, dt, rel_tol=1e-6):
             notes.append(f"{name}: simulated at the record's dt = {dt:g} s (its file says {own_dt:g} s)")
-        y_sim = free_run_on_record(model, u, dt, timing, name, float(y[0]) if positions else None)
-        diverges = first_bad_index(y_sim)
-        if diverges is not None:
+        scale = (input_scales or {}).get(name, (1.0, None))[0]
+        y_sim = free_run_on_record(model, u * scale, dt, timing, name, float(y[0]) if positions else None)
+        diverges = free_run_divergence(y_sim, largest)
+        if first_bad_index(y_sim) is not None:  # a bounded run is scored, also one beyond the bound
             nan = math.nan
             scores = {
                 "fit_percent": nan,
@@ -610,6 +628,20 @@ def compare_models(
             )
         )
     return comparison
+
+
+def card_checked_notes(
+    models: Mapping[str, Any],
+    units: Mapping[str, str] | None,
+    input_scales: Mapping[str, tuple[float, str | None]] | None,
+) -> dict[str, str | None]:
+    """Each model's note on its input: the conversion its card asked for (``input_scales``), or
+    for a model without a checked card what :func:`input_unit_note` assumes."""
+    checked = input_scales or {}
+    return {
+        name: checked[name][1] if name in checked else input_unit_note(model, units, name)
+        for name, model in models.items()
+    }
 
 
 def runs_in_blocks(model: Any) -> bool:
@@ -828,6 +860,8 @@ def compare_blocks(
     models: Mapping[str, Any],
     low_speed_threshold: float,
     skip: int = 0,
+    largest_output: float | None = None,
+    input_scales: Mapping[str, tuple[float, str | None]] | None = None,
 ) -> Comparison:
     """:func:`compare_models` on a record given in consecutive blocks, in memory that does not grow
     with its length.
@@ -854,6 +888,13 @@ def compare_blocks(
         |y| below this is low speed [output unit].
     skip : int
         Leading samples left out of the scores: the models start from rest.
+    largest_output : float, optional
+        The record's largest ``|y|`` [output unit], the bound beyond which a free run has
+        diverged (:func:`motorid.validation.free_run_divergence`), as :func:`compare_models`
+        judges it; None: the largest ``|y|`` of the blocks read so far (known before the record
+        ends, so a run may be said to diverge earlier than on the whole record).
+    input_scales : mapping of str to float, optional
+        As :func:`compare_models`'s.
 
     Returns
     -------
@@ -876,6 +917,9 @@ def compare_blocks(
     runs: list[BlockFreeRun] = []
     scores = [RunningScore(low_speed_threshold) for _ in names]
     diverged: list[int | None] = [None] * len(names)
+    finite = [True] * len(names)
+    scales = [(input_scales or {}).get(name, (1.0, None))[0] for name in names]
+    seen = 0.0  # the largest |y| so far, the bound without largest_output
     n_low = 0
     view: _View | None = None
     start = 0
@@ -894,22 +938,25 @@ def compare_blocks(
             for name, model in models.items():
                 model_kind(model)
                 check_output_unit(model, units, name)
-            notes_of = {name: input_unit_note(model, units, name) for name, model in models.items()}
+            notes_of = card_checked_notes(models, units, input_scales)
             runs = [BlockFreeRun(model, dt, timing, name) for name, model in models.items()]
             view = _View(max(round(5.0 / dt), 10), float(low_speed_threshold), skip)
         u, y = block["u"].to_numpy(dtype=float), block["y"].to_numpy(dtype=float)
         scored = slice(max(0, skip - start), None)
         n_low += int(np.count_nonzero(np.abs(y[scored]) < low_speed_threshold))
         simulated = []
+        if y.size:
+            seen = max(seen, float(np.max(np.abs(y))))
+        bound = seen if largest_output is None else float(largest_output)
         for i, run in enumerate(runs):
-            if diverged[i] is not None:
+            if not finite[i]:
                 simulated.append(np.full(y.size, np.nan))
                 continue
-            y_sim = run(u)
-            bad = first_bad_index(y_sim)
-            if bad is not None:
-                diverged[i] = start + bad
-            else:
+            y_sim = run(u * scales[i])
+            if diverged[i] is None:
+                diverged[i] = free_run_divergence(y_sim, bound, start)
+            finite[i] = first_bad_index(y_sim) is None
+            if finite[i]:  # a bounded run is scored, also one beyond the bound
                 scores[i].add(y[scored], y_sim[scored])
             simulated.append(y_sim)
         view.add(np.vstack([block["t"].to_numpy(dtype=float), u, y, *simulated]))
@@ -940,7 +987,7 @@ def compare_blocks(
             notes.append(f"{name}: simulated at the record's dt = {dt:g} s (its file says {own_dt:g} s)")
         for note in notes:
             logger.info(note)
-        if diverged[i] is not None:
+        if not finite[i]:
             nan = math.nan
             values = {
                 "fit_percent": nan,

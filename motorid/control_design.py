@@ -39,7 +39,13 @@ if TYPE_CHECKING:
 logger = logging.getLogger(__name__)
 
 __all__ = [
-    "friction_slope", "linearise", "nonlinear_system", "rest_state", "state_space", "transfer_function",
+    "friction_slope",
+    "linearise",
+    "nonlinear_system",
+    "rest_state",
+    "signal_names",
+    "state_space",
+    "transfer_function",
 ]  # fmt: skip
 
 
@@ -65,7 +71,26 @@ def _polynomials(estimator: Any) -> tuple[np.ndarray, np.ndarray]:
     return num, den
 
 
-def transfer_function(estimator: Any, dt: float) -> control.TransferFunction:
+def signal_names(units: tuple[str, str] | None) -> tuple[str, str]:
+    """The input's and the output's names of a system: ``u`` and ``y``, with their units where known
+    (``units`` = (input unit, output unit), e.g. ``("%", "rad/s")`` gives ``"u [%]"`` and
+    ``"y [rad/s]"``: a model file's card, ``read_model_file(path).card``, says them).
+
+    Parameters
+    ----------
+    units : (str, str) or None
+        The input's and the output's units; None: the names alone.
+    """
+    if units is None:
+        return "u", "y"
+    if len(units) != 2 or not all(isinstance(unit, str) and unit for unit in units):
+        raise ValueError(f"units must be (input unit, output unit), two non-empty texts, got {units!r}")
+    return f"u [{units[0]}]", f"y [{units[1]}]"
+
+
+def transfer_function(
+    estimator: Any, dt: float, units: tuple[str, str] | None = None
+) -> control.TransferFunction:
     """The identified linear part ``B(q^-1)/A(q^-1)`` as a discrete transfer function.
 
     ``A(q^-1) = 1 + a_1 q^-1 + ... + a_na q^-na`` and ``B(q^-1) = b_0 + ... + b_nb q^-nb``
@@ -83,20 +108,23 @@ def transfer_function(estimator: Any, dt: float) -> control.TransferFunction:
         An identified estimator (its current ``params``).
     dt : float
         Sample time of the record it was identified on [s].
+    units : (str, str), optional
+        The input's and the output's units, in the signals' names (:func:`signal_names`).
 
     Returns
     -------
     control.TransferFunction
-        Discrete, sample time ``dt``; input ``u`` [V] (or x), output ``y`` [rad/s].
+        Discrete, sample time ``dt``; input ``u`` (or x), output ``y``, named with ``units``.
     """
     import control
 
     dt = check_sample_time(dt)
     num, den = _polynomials(estimator)
-    return control.tf(num, den, dt, inputs="u", outputs="y")
+    u, y = signal_names(units)
+    return control.tf(num, den, dt, inputs=u, outputs=y)
 
 
-def state_space(estimator: Any, dt: float) -> control.StateSpace:
+def state_space(estimator: Any, dt: float, units: tuple[str, str] | None = None) -> control.StateSpace:
     """:func:`transfer_function` as a discrete state-space system (a minimal realisation of it;
     ``D`` holds the direct term b_0).
 
@@ -106,10 +134,12 @@ def state_space(estimator: Any, dt: float) -> control.StateSpace:
         An identified ARX or Hammerstein model (:func:`transfer_function`).
     dt : float
         Sample time [s].
+    units : (str, str), optional
+        The input's and the output's units, in the signals' names (:func:`signal_names`).
     """
     import control
 
-    return control.ss(transfer_function(estimator, dt))
+    return control.ss(transfer_function(estimator, dt, units))
 
 
 def friction_slope(drive: RigidDrive, speed: float, direction: float = 1.0) -> float:
@@ -143,7 +173,11 @@ def friction_slope(drive: RigidDrive, speed: float, direction: float = 1.0) -> f
 
 
 def linearise(
-    drive: RigidDrive | TwoMassRig, speed: float = 0.0, direction: float = 1.0, pade_order: int = 1
+    drive: RigidDrive | TwoMassRig,
+    speed: float = 0.0,
+    direction: float = 1.0,
+    pade_order: int = 1,
+    units: tuple[str, str] | None = None,
 ) -> control.StateSpace:
     """A drive model linearised about the constant ``speed`` [rad/s], as a continuous system.
 
@@ -174,14 +208,21 @@ def linearise(
         Side of zero speed to take the slopes on when ``speed == 0``: +1 or -1.
     pade_order : int
         Order of the Padé approximant of the rigid drive's input delay (>= 1).
+    units : (str, str), optional
+        The input's and the output's units, in the signals' names (:func:`signal_names`; a
+        two-mass rig's are V and rad/s).
 
     Returns
     -------
     control.StateSpace
-        Continuous; input ``u`` [V], output ``y`` [rad/s] (the speed deviation from ω_0 for a
-        deviation of u from its value there).
+        Continuous; input ``u``, output ``y`` (the speed deviation from ω_0 for a deviation of u
+        from its value there), named with ``units``.
     """
     import control
+
+    u_name, y_name = signal_names(
+        ("V", "rad/s") if units is None and isinstance(drive, TwoMassRig) else units
+    )
 
     speed = float(speed)
     if not math.isfinite(speed):
@@ -199,14 +240,14 @@ def linearise(
             states = ["omega", "lag"]
         else:
             A, B, C, states = np.array([[-beta / J]]), np.array([[g / J]]), np.array([[1.0]]), ["omega"]
-        sys = control.ss(A, B, C, np.zeros((1, 1)), inputs="u", outputs="y", states=states)
+        sys = control.ss(A, B, C, np.zeros((1, 1)), inputs=u_name, outputs=y_name, states=states)
         delay = drive.params.get("input_delay", 0.0)
         if delay > 0.0:
             if isinstance(pade_order, bool) or not isinstance(pade_order, int) or pade_order < 1:
                 raise ValueError(f"pade_order must be an integer >= 1, got {pade_order!r}")
             num, den = control.pade(delay, pade_order)
             sys = control.series(control.ss(control.tf(num, den)), sys)
-            sys = control.ss(sys.A, sys.B, sys.C, sys.D, inputs="u", outputs="y")
+            sys = control.ss(sys.A, sys.B, sys.C, sys.D, inputs=u_name, outputs=y_name)
         if "backlash" in drive.effects:
             logger.info("linearise: the rigid drive's backlash dwell is not in the linear model")
         return sys
@@ -219,7 +260,7 @@ def linearise(
             A[k, k] -= _rig_static_slope(drive, side, speed, direction) / J
         B = B5[:4, :1] * drive.amplifier.gain
         C = np.array([[0.0, 0.0, 1.0, 0.0]])
-        return control.ss(A, B, C, np.zeros((1, 1)), inputs="u", outputs="y",
+        return control.ss(A, B, C, np.zeros((1, 1)), inputs=u_name, outputs=y_name,
                           states=["i_a", "omega_m", "omega_l", "twist"])  # fmt: skip
     raise ValueError(f"drive must be a RigidDrive or a TwoMassRig, got {type(drive).__name__}")
 

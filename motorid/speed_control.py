@@ -7,8 +7,13 @@
 - :func:`run_closed_loop`: the loop on a DAQ (the simulated rig, or Modbus: a PLC or
   ``motorid rig serve``), with ``motorid run``'s safety: 0 V on every way out, the
   watchdog fed by every command, Ctrl-C stopping between two samples.
-- :func:`tracking_metrics`: RMS tracking error overall and at low speed, and the
-  largest interval the drive stays stuck after a reversal of the reference.
+- :func:`tracking_metrics`: RMS tracking error overall and at low speed, the
+  largest interval the drive stays stuck after a reversal of the reference, and the
+  samples whose command was clamped.
+- :func:`default_u_max`: the command limit a model's input unit implies (±100 for % duty).
+- :class:`SensedPlant`: a drive model's simulation measured by the sensor of its model file's
+  card (quantisation, noise per speed band), fed in the controller's input unit: the plant of
+  ``motorid control --daq sim --model`` and ``motorid rig serve --model``.
 
 The loop's timing is ``"sampled"`` (:data:`motorid.records.TIMINGS`): at sample k the
 controller reads y[k], measured at t[k], and holds u[k] over [t[k], t[k] + dt).
@@ -28,6 +33,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.compensation import FrictionCompensation
+from motorid.drive.files import ModelCard
 from motorid.drive.rigid import RigidDrive, check_sample_time
 from motorid.io.base import DAQ
 from motorid.io.online import KEEP_WITH_FILE, RunRecorder, sample_loop, samples_for
@@ -35,11 +41,14 @@ from motorid.io.online import KEEP_WITH_FILE, RunRecorder, sample_loop, samples_
 logger = logging.getLogger(__name__)
 
 __all__ = [
+    "DEFAULT_VOLTS",
     "REFERENCES",
+    "SensedPlant",
     "SpeedController",
     "SpeedPI",
     "TrackingMetrics",
     "default_bandwidth",
+    "default_u_max",
     "design_speed_pi",
     "reversing_reference",
     "run_closed_loop",
@@ -172,7 +181,8 @@ class SpeedController:
         u_sat = clip(u, -u_max, u_max)
         I ← I + dt (K_i e + (u_sat - u) / T_t)                  (anti-windup)
 
-    and returns u_sat. The state is the integral I [u] alone (:meth:`reset` zeroes it).
+    and returns u_sat; ``clamped`` says whether this step's command was clipped (u_sat != u).
+    The state is the integral I [u] alone (:meth:`reset` zeroes it).
     A step is a few microseconds with compensation, half a microsecond without
     (``benchmarks/bench_control.py``).
 
@@ -195,10 +205,12 @@ class SpeedController:
         self.compensation = compensation
         self._kp, self._ki, self._tt, self._limit = pi.kp, pi.ki, pi.tracking_time, pi.u_max
         self.integral = 0.0
+        self.clamped = False
 
     def reset(self) -> None:
         """Zero the integral (a new run)."""
         self.integral = 0.0
+        self.clamped = False
 
     def step(self, reference: float, measured: float, position: float | None = None) -> float:
         """The command u [u] for this sample from the reference and measured speeds [v] and, for a
@@ -217,8 +229,93 @@ class SpeedController:
         u = v if comp is None else comp.command(v, reference, measured, position)
         limit = self._limit
         u_sat = limit if u > limit else (-limit if u < -limit else u)
+        self.clamped = u_sat != u
         self.integral += self.dt * (self._ki * e + (u_sat - u) / self._tt)
         return u_sat
+
+
+#: The command limit of a model in volts when none is given [V] (a 12 V drive).
+DEFAULT_VOLTS = 12.0
+
+
+def default_u_max(card: ModelCard | None) -> float:
+    """The command limit [the model's input unit] when none is given: ±100 for a model fitted on
+    % duty, the supply voltage for one in volts that knows it, else :data:`DEFAULT_VOLTS`.
+
+    Parameters
+    ----------
+    card : ModelCard or None
+        The design model's card (None: unknown, volts assumed).
+    """
+    if card is not None and card.input_unit == "%":
+        return 100.0
+    if card is not None and card.input_unit == "V" and card.supply_voltage is not None:
+        return float(card.supply_voltage)
+    return DEFAULT_VOLTS
+
+
+class SensedPlant:
+    """A drive model's simulation, fed in the controller's input unit and measured by the sensor
+    its model card describes (the simulated plant of ``motorid control --daq sim --model``).
+
+    Each :meth:`step` holds the command ``u`` [the controller's unit] for one sample and returns
+    the measured speed::
+
+        ω = plant.step(k u)                          (k: the controller's unit -> the plant's)
+        ỹ = ω + n,   n ~ N(0, σ(|ω|)²)                (σ: the noise of the speed band |ω| is in)
+        y = q round(ỹ / q)                            (q: the quantisation step)
+
+    with σ and q from the card (:attr:`~motorid.drive.files.ModelCard.noise_bands`,
+    :attr:`~motorid.drive.files.ModelCard.quantisation_step`; a speed beyond the last band takes
+    its σ); none of them without a card, with ``noise_free``, or for a two-mass rig, which
+    measures with its own sensors.
+
+    Parameters
+    ----------
+    model : drive model
+        The plant (a rigid drive or a two-mass rig), run in a simulation of its own.
+    card : ModelCard, optional
+        Its card: the sensor it was measured with.
+    input_scale : float
+        k, the factor from the controller's input unit to the plant's (``V_s / 100`` from % duty
+        to volts), > 0.
+    noise_free : bool
+        Leave the sensor out.
+    """
+
+    def __init__(self, model: Any, card: ModelCard | None = None, input_scale: float = 1.0,
+                 noise_free: bool = False) -> None:  # fmt: skip
+        from motorid.io.simulated import plant_to_step
+
+        if not (math.isfinite(input_scale) and input_scale > 0):
+            raise ValueError(f"input_scale must be a finite number > 0, got {input_scale!r}")
+        self._plant = plant_to_step(model)
+        self.dt = float(self._plant.dt)
+        self.input_scale = float(input_scale)
+        # a two-mass rig measures with its own tachogenerator, A/D converter and encoder
+        sensed = card is not None and not noise_free and isinstance(model, RigidDrive)
+        self.quantisation_step = card.quantisation_step if sensed else None  # type: ignore[union-attr]
+        bands = card.noise_bands if sensed else ()  # type: ignore[union-attr]
+        self._edges = np.array([band["speed_to"] for band in bands[:-1]], dtype=float)
+        self._std = np.array([band["std"] for band in bands], dtype=float)
+        self._rng = np.random.default_rng(0)
+
+    def reset(self, seed: int | None = None) -> None:
+        """Back to rest; the sensor's noise drawn from ``seed``."""
+        self._plant.reset(seed=seed)
+        self._rng = np.random.default_rng(seed)
+
+    def step(self, u: float) -> float:
+        """The measured speed at the end of a sample with ``u`` [the controller's unit] held over it."""
+        omega = float(self._plant.step(self.input_scale * u))
+        y = omega
+        if self._std.size:
+            y += (
+                self._std[int(np.searchsorted(self._edges, abs(omega), side="right"))]
+                * self._rng.standard_normal()
+            )
+        q = self.quantisation_step
+        return q * round(y / q) if q else y
 
 
 # --------------------------------------------------------------------------- references
@@ -286,7 +383,7 @@ class TrackingMetrics:
                 raise ValueError(f"{name} must be a finite speed > 0 [rad/s], got {value!r}")
         self.low_speed = float(low_speed)
         self.moving = float(moving)
-        self._n = self._n_low = self._reversals = 0
+        self._n = self._n_low = self._reversals = self._clamped = 0
         self._sum = self._sum_low = 0.0
         self._sign = 0.0  # the reference's last non-zero sign
         self._since: float | None = None  # time of a reversal the drive has not followed yet
@@ -298,10 +395,12 @@ class TrackingMetrics:
         self._largest = stuck if not self._largest >= stuck else self._largest
         self._since = None
 
-    def add(self, t: float, reference: float, measured: float) -> None:
-        """One sample: the reference and the measured speed [rad/s] at the time ``t`` [s]."""
+    def add(self, t: float, reference: float, measured: float, clamped: bool = False) -> None:
+        """One sample: the reference and the measured speed [rad/s] at the time ``t`` [s], and
+        whether its command was clamped at the limit."""
         e = reference - measured
         self._n += 1
+        self._clamped += bool(clamped)
         self._sum += e * e
         if abs(reference) < self.low_speed:
             self._n_low += 1
@@ -324,7 +423,8 @@ class TrackingMetrics:
         ``largest_stuck_after_reversal`` [s]: after each change of sign of the reference, the
         time until the measured speed moves beyond ``moving`` in the new direction (or until
         the next reversal, or the last sample, when it does not), the largest (NaN without a
-        reversal), and ``reversals``."""
+        reversal), ``reversals``, and ``clamped_samples`` (commands clamped at the limit) with
+        their ``clamped_share`` of the samples [-]."""
         largest = self._largest
         if self._since is not None:
             largest = max(self._t - self._since, 0.0 if math.isnan(largest) else largest)
@@ -334,6 +434,8 @@ class TrackingMetrics:
             "low_speed_samples": self._n_low,
             "largest_stuck_after_reversal": largest,
             "reversals": self._reversals,
+            "clamped_samples": self._clamped,
+            "clamped_share": self._clamped / self._n if self._n else math.nan,
         }
 
 
@@ -375,6 +477,7 @@ def run_closed_loop(
     overwrite: bool = False,
     metrics: TrackingMetrics | None = None,
     keep: int | None = None,
+    input_unit: str = "V",
 ) -> pd.DataFrame:
     """Close the speed loop on a DAQ: read the speed, step the controller, command, record.
 
@@ -405,12 +508,15 @@ def run_closed_loop(
     keep : int, optional
         Rows kept in memory and returned. None: every row without ``out``, the last
         :data:`~motorid.io.online.KEEP_WITH_FILE` with it (the file holds them all).
+    input_unit : str
+        The unit of the commands, the design model's input (``V``, ``%``), in the record's units.
 
     Returns
     -------
     DataFrame
-        Columns ``t`` [s], ``reference`` [rad/s], ``u`` [V] (the command held over
-        [t, t + dt), after the DAQ's clamp), ``y`` [rad/s] (measured at t), ``clamped``;
+        Columns ``t`` [s], ``reference`` [rad/s], ``u`` [the model's input unit: V or %] (the
+        command held over [t, t + dt), after the DAQ's clamp), ``y`` [rad/s] (measured at t),
+        ``clamped`` (1 where the command was clipped, by the controller's limit or the DAQ's);
         ``attrs``: ``dt``, ``units``, ``timing`` (``"sampled"``), ``samples``.
 
     Raises
@@ -456,9 +562,10 @@ def run_closed_loop(
         u = controller.step(r[k], y)
         daq.write(u)
         taken = daq.read()
+        clamped = controller.clamped or taken.clamped  # at the controller's limit, or the rig's
         if metrics is not None:
-            metrics.add(k * dt, float(r[k]), y)
-        row = {"t": k * dt, "reference": float(r[k]), "u": taken.u, "y": y, "clamped": int(taken.clamped)}
+            metrics.add(k * dt, float(r[k]), y, clamped)
+        row = {"t": k * dt, "reference": float(r[k]), "u": taken.u, "y": y, "clamped": int(clamped)}
         y = taken.y
         return row
 
@@ -466,6 +573,6 @@ def run_closed_loop(
     return recorder.frame(
         dt,
         columns=("t", "reference", "u", "y", "clamped"),
-        units={"t": "s", "reference": "rad/s", "u": "V", "y": "rad/s"},
+        units={"t": "s", "reference": "rad/s", "u": input_unit, "y": "rad/s"},
         timing="sampled",
     )

@@ -38,6 +38,98 @@ def rpm_to_rad_s(value: ArrayLike) -> np.ndarray | float:
     return np.asarray(value, dtype=float) / RPM_PER_RAD_S
 
 
+#: Fewest samples a score is computed on, after the skipped start.
+MIN_SCORED_SAMPLES = 20
+
+
+def check_scored_samples(samples: int, skip: int, source: str = "the record") -> None:
+    """Refuse a record too short to score after its skipped start: DataError naming ``source``, the
+    samples it holds, ``--skip`` and the largest skip it allows.
+
+    Parameters
+    ----------
+    samples : int
+        Samples in the record.
+    skip : int
+        Leading samples left out of the scores (the start from rest) [samples].
+    source : str
+        The record's name in the message (its file).
+
+    Raises
+    ------
+    DataError
+        When fewer than :data:`MIN_SCORED_SAMPLES` samples are left after ``skip``.
+    """
+    left = samples - skip
+    if left < MIN_SCORED_SAMPLES:
+        largest = samples - MIN_SCORED_SAMPLES
+        how = (
+            f"give --skip {largest} or less, or a longer record"
+            if largest >= 0
+            else f"give a record of at least {MIN_SCORED_SAMPLES} samples"
+        )
+        raise DataError(
+            f"{source}: {samples} samples; --skip {skip} leaves {max(left, 0)} to score, at least "
+            f"{MIN_SCORED_SAMPLES} are needed: {how}"
+        )
+
+
+#: A free run whose output leaves ``DIVERGENCE_FACTOR`` times the largest measured magnitude has
+#: diverged (:func:`free_run_divergence`).
+DIVERGENCE_FACTOR = 10.0
+
+
+def free_run_divergence(y_sim: ArrayLike, largest_output: float, first: int = 0) -> int | None:
+    """The first sample where a free run has diverged, or None.
+
+    A free run has diverged at sample k when ``y_sim[k]`` is not finite, or when
+    ``|y_sim[k]| > DIVERGENCE_FACTOR * largest_output``: ten times the largest magnitude the
+    drive was measured at is no model of the record, whether the run grows without bound (an
+    unstable model) or settles far off (a static block whose cubic term scales a duty of 100 %
+    by 10**6).
+
+    Parameters
+    ----------
+    y_sim : array_like
+        The free run's output [output unit].
+    largest_output : float
+        The largest measured ``|y|`` of the record [output unit], >= 0.
+    first : int
+        The record's sample of ``y_sim[0]`` (a block of it), added to the index returned.
+
+    Returns
+    -------
+    int or None
+        The record's sample where the free run diverges; None when it stays within the bound.
+    """
+    run = np.asarray(y_sim, dtype=float)
+    with np.errstate(invalid="ignore"):
+        out = ~(np.abs(run) <= DIVERGENCE_FACTOR * float(largest_output))  # NaN and inf are out
+    if not out.any():
+        return None
+    return first + int(np.argmax(out))
+
+
+def divergence_words(name: str, sample: int, scored: bool) -> str:
+    """One line on a free run that diverges (:func:`free_run_divergence`) for the user: where and what
+    it means.
+
+    Parameters
+    ----------
+    name : str
+        The model's name (its estimator or its file).
+    sample : int
+        The first sample where it diverges.
+    scored : bool
+        Whether the run stayed finite, so its scores stand (far off); else it has none.
+    """
+    scores = "its free-run scores measure how far off it is" if scored else "it has no free-run score"
+    return (
+        f"{name}: the free run diverges from sample {sample} on (beyond {DIVERGENCE_FACTOR:g} x the largest "
+        f"measured |y|, or not finite): the model does not hold on this input and {scores}"
+    )
+
+
 #: A sample further from the median than this many times the signal's spread is an outlier.
 OUTLIER_SPREADS = 1e6
 
@@ -499,6 +591,32 @@ def _normalised_correlation(a: np.ndarray, b: np.ndarray, lags: np.ndarray) -> n
         else:
             out[i] = np.dot(a[-tau:], b[: N + tau])
     return out / scale if scale > 0 else np.zeros(len(lags))
+
+
+def residual_max_lag(max_lag: int, samples: int) -> int | None:
+    """The largest lag the residual tests take on ``samples`` residuals, at most ``max_lag``.
+
+    A correlation at lag tau averages N - tau products; :func:`residual_tests` takes lags
+    below N/4, so each averages at least three quarters of the record. A shorter record gets
+    the largest lag it allows, ``N // 4 - 1`` [samples], and one of fewer than 8 residuals
+    none (None: too short to judge whiteness at any lag).
+
+    Parameters
+    ----------
+    max_lag : int
+        The largest lag asked for [samples], >= 1.
+    samples : int
+        Number of residuals N.
+
+    Returns
+    -------
+    int or None
+        ``min(max_lag, N // 4 - 1)``, or None when that is below 1.
+    """
+    if isinstance(max_lag, bool) or not isinstance(max_lag, int | np.integer) or max_lag < 1:
+        raise ValueError(f"max_lag must be an integer >= 1, got {max_lag!r}")
+    largest = int(samples) // 4 - 1
+    return min(int(max_lag), largest) if largest >= 1 else None
 
 
 def residual_tests(

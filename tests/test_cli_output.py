@@ -307,8 +307,8 @@ def test_fleet_identify_with_quiet_prints_nothing_but_the_records_that_failed(tm
     assert code == 0 and err == "" and out == ""
     rows = pd.read_csv(tmp_path / "done" / "results.csv")
     assert len(rows) == 2 and (rows["status"] == "ok").all()
-    # 5 s at 40 ms is too short for the default 25 lags of the residual tests: both records fail
-    code, out, err = run(capsys, *fleet, "--out", str(tmp_path / "failed"))
+    # 5 s at 40 ms is 125 samples: --skip 110 leaves fewer than 20 to score, both records fail
+    code, out, err = run(capsys, *fleet, "--skip", "110", "--out", str(tmp_path / "failed"))
     assert code == 0 and out == ""
     assert err.count("\n") == 1
     assert err.startswith("motorid fleet identify: 2 records failed: their errors are in the 'error' column")

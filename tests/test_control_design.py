@@ -215,3 +215,23 @@ def test_nonlinear_drive_closes_a_loop_in_python_control():
     # integral action: the speed settles on the set point despite friction and the dead zone (0.5 %:
     # the loop's remaining transient after 4 s)
     assert resp.outputs[-1] == pytest.approx(20.0, rel=0.005)
+
+
+def test_systems_name_their_input_and_output_with_units():
+    """A model's units travel into python-control's signal names (a card's, or a two-mass rig's own)."""
+    from motorid.control_design import signal_names
+    from motorid.drive import paper_rig
+    from motorid.estimators import ARXRLS
+
+    drive = linear_drive()
+    sys = linearise(drive, units=("%", "rad/s"))
+    assert (sys.input_labels, sys.output_labels) == (["u [%]"], ["y [rad/s]"])
+    rig = linearise(paper_rig())
+    assert (rig.input_labels, rig.output_labels) == (["u [V]"], ["y [rad/s]"])
+    assert linearise(drive).input_labels == ["u"]  # nothing said, nothing invented
+    arx = ARXRLS(na=2, nb=2)
+    arx.batch_filter(np.sin(np.arange(200) * 0.1), np.cos(np.arange(200) * 0.1))
+    H = state_space(arx, DT, units=("V", "m/s"))
+    assert (H.input_labels, H.output_labels) == (["u [V]"], ["y [m/s]"])
+    with pytest.raises(ValueError, match="units must be"):
+        signal_names(("V",))

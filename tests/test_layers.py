@@ -58,6 +58,7 @@ LAYERS: dict[str, int] = {
     "motorid.compensation": 6,
     "motorid.control_design": 6,
     "motorid.speed_control": 6,
+    "motorid.controller_c": 6,
     "motorid.testing": 6,
     # 7: the per-record work of the commands, with typed options (the design's app)
     "motorid.app": 7,

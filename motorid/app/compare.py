@@ -6,7 +6,8 @@
   line: the ``--json`` payload of ``motorid compare``;
 - :func:`compare_file`: on a record file, read in blocks when every model's free run carries
   from block to block (memory that does not grow with the record), else whole;
-- :func:`load_models`: the models to compare, from model files or as given.
+- :func:`load_models`: the models to compare, from model files or as given;
+  :func:`load_model_files` with their cards, which are checked against the record.
 
 The comparison itself, each model run free on the record's input and scored, is
 :mod:`motorid.comparison`'s.
@@ -24,7 +25,9 @@ import numpy as np
 import pandas as pd
 
 from motorid.app.identify import low_speed_band, output_band
+from motorid.app.model_cards import check_record
 from motorid.app.reading import ReadOptions
+from motorid.drive.files import ModelCard, ModelFile
 from motorid.errors import DataError
 
 if TYPE_CHECKING:
@@ -72,10 +75,23 @@ def load_models(models: Mapping[str, Any] | Sequence[str | os.PathLike[str]]) ->
     Parameters
     ----------
     models : mapping or sequence
+        As :func:`load_model_files`.
+    """
+    return {name: file.model for name, file in load_model_files(models).items()}
+
+
+def load_model_files(models: Mapping[str, Any] | Sequence[str | os.PathLike[str]]) -> dict[str, ModelFile]:
+    """The models to compare, by name, with their cards: each model file read
+    (:func:`motorid.drive.files.read_model_file`); a model given as an object has no card.
+
+    Parameters
+    ----------
+    models : mapping or sequence
         Model files, each named by its path as the command names it; or a mapping of names to
         models (a drive model or an identified estimator) or to model files.
     """
-    from motorid.estimators import load_model
+    import motorid.estimators  # noqa: F401  (registers the estimator kind of model file)
+    from motorid.drive.files import VERSION, read_model_file
 
     if isinstance(models, str | os.PathLike):
         raise DataError(
@@ -90,13 +106,19 @@ def load_models(models: Mapping[str, Any] | Sequence[str | os.PathLike[str]]) ->
                 )
     named = dict(models) if isinstance(models, Mapping) else {str(path): path for path in models}
     return {
-        name: load_model(model) if isinstance(model, str | os.PathLike) else model
+        name: read_model_file(model)
+        if isinstance(model, str | os.PathLike)
+        else ModelFile(model, None, VERSION, name)
         for name, model in named.items()
     }
 
 
 def compare_file(
-    path: str | os.PathLike[str], models: Mapping[str, Any], options: CompareOptions, read: ReadOptions
+    path: str | os.PathLike[str],
+    models: Mapping[str, Any],
+    options: CompareOptions,
+    read: ReadOptions,
+    cards: Mapping[str, ModelCard | None] | None = None,
 ) -> tuple[Comparison, str, dict[str, str]]:
     """``motorid compare`` on the record file ``path``: the comparison, the low-speed band in
     words and the record's units.
@@ -114,26 +136,36 @@ def compare_file(
         The low-speed band and the samples skipped.
     read : ReadOptions
         How the record is read.
+    cards : mapping of str to ModelCard or None, optional
+        Each model's card (:func:`load_model_files`), checked against the record: its input
+        converted (% duty <-> V with a supply voltage) or refused in one line
+        (:func:`motorid.app.model_cards.check_record`).
     """
     from motorid.comparison import compare_models
 
-    streamed = compare_in_blocks(path, models, options, read)
+    streamed = compare_in_blocks(path, models, options, read, cards)
     if streamed is not None:
         return streamed
     record = read_whole(path, models, options, read)
     units = record.attrs.get("units") or {}
+    scales = check_record(cards or {}, units, read.supply_voltage)
     _, threshold, band = low_speed_band(record, options.low_speed_rpm)
-    return compare_models(record, models, threshold, options.skip), band, units
+    return compare_models(record, models, threshold, options.skip, scales), band, units
 
 
 def compare_in_blocks(
-    path: str | os.PathLike[str], models: Mapping[str, Any], options: CompareOptions, read: ReadOptions
+    path: str | os.PathLike[str],
+    models: Mapping[str, Any],
+    options: CompareOptions,
+    read: ReadOptions,
+    cards: Mapping[str, ModelCard | None] | None = None,
 ) -> tuple[Comparison, str, dict[str, str]] | None:
     """:func:`motorid.comparison.compare_blocks` on the record ``path`` read in blocks
     (:meth:`ReadOptions.iter_blocks`), in memory that does not grow with the record:
-    the comparison, the low-speed band in words and the record's units. An output in another
-    unit than rad/s takes one more pass, for its largest magnitude (the low-speed band,
-    :func:`motorid.app.identify.output_band`).
+    the comparison, the low-speed band in words and the record's units. A first pass finds the
+    output's largest magnitude: the bound of a diverging free run
+    (:func:`motorid.validation.free_run_divergence`) and, for an output in another unit than
+    rad/s, the low-speed band (:func:`motorid.app.identify.output_band`).
 
     None when the record is compared whole instead (:func:`read_whole`): a span (``start``,
     ``stop``), a model whose free run takes the record whole (a friction filter), a record
@@ -150,6 +182,8 @@ def compare_in_blocks(
         The low-speed band and the samples skipped.
     read : ReadOptions
         How the record is read.
+    cards : mapping of str to ModelCard or None, optional
+        Each model's card, checked against the record (:func:`compare_file`).
     """
     from motorid.comparison import POSITION_UNITS, compare_blocks, runs_in_blocks
     from motorid.errors import UniformGridError
@@ -159,18 +193,17 @@ def compare_in_blocks(
     try:
         first = next(read.iter_blocks(path, min_samples=options.min_samples))
         units = dict(first.attrs.get("units") or {})
+        scales = check_record(cards or {}, units, read.supply_voltage)
         unit = units.get("y")
         if unit in POSITION_UNITS:
             logger.info(
                 "%s: a record of positions, compared whole (--max-samples %d)", path, read.max_samples
             )
             return None
-        largest = None
-        if unit != "rad/s":
-            largest = max(float(np.max(np.abs(b["y"].to_numpy()))) for b in read.iter_blocks(path))
+        largest = max(float(np.max(np.abs(b["y"].to_numpy()))) for b in read.iter_blocks(path))
         _, threshold, band = output_band(unit, options.low_speed_rpm, largest)
         blocks = read.iter_blocks(path, min_samples=options.min_samples)
-        return compare_blocks(blocks, models, threshold, options.skip), band, units
+        return compare_blocks(blocks, models, threshold, options.skip, largest, scales), band, units
     except UniformGridError as exc:
         logger.info("%s: compare reads it whole (--max-samples %d)", exc, read.max_samples)
         return None
@@ -287,14 +320,25 @@ def compare(
     if unknown:
         raise DataError(f"compare: unknown option {unknown[0]!r}")
     settings = CompareOptions(**options)
-    loaded = load_models(models)
+    files = load_model_files(models)
+    loaded = {name: file.model for name, file in files.items()}
     normalised = normalise_record(
         record, time=time, input=input, output=output, time_unit=time_unit, dt=dt, resample=resample,
         input_unit=input_unit, input_full_scale=input_full_scale, output_unit=output_unit,
         supply_voltage=supply_voltage, min_samples=settings.min_samples,
     )  # fmt: skip
+    scales = check_record({name: file.card for name, file in files.items()}, normalised.attrs.get("units"),
+                          supply_voltage)  # fmt: skip
     _, threshold, _ = low_speed_band(normalised, settings.low_speed_rpm)
-    return compare_models(normalised, loaded, threshold, settings.skip).to_dict()
+    return compare_models(normalised, loaded, threshold, settings.skip, scales).to_dict()
 
 
-__all__ = ["CompareOptions", "compare", "compare_file", "compare_in_blocks", "load_models", "read_whole"]
+__all__ = [
+    "CompareOptions",
+    "compare",
+    "compare_file",
+    "compare_in_blocks",
+    "load_model_files",
+    "load_models",
+    "read_whole",
+]

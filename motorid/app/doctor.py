@@ -13,6 +13,9 @@ the command line and the fleet call it.
 
 from __future__ import annotations
 
+import dataclasses
+import math
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -244,6 +247,98 @@ def doctor(
     return diagnosis.to_dict()
 
 
+def best_model(diagnosis: Diagnosis) -> tuple[RigidDrive | TwoMassRig, str]:
+    """The model ``motorid doctor --save-model`` writes, and words saying which it is.
+
+    On position records the doctor refits its final model's parameters to the records' free-run
+    position (:attr:`~motorid.diagnose.results.Diagnosis.position_model`): where that refit's RMS
+    position error is the smaller, it is the model saved (the balance fit is named, with its error,
+    in the words); else the improved model (:attr:`~motorid.diagnose.results.Diagnosis.improved_model`).
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+        What the doctor found.
+    """
+    error = diagnosis.position_error
+    if diagnosis.rig is None and diagnosis.position_model is not None and error is not None:
+        if error["refitted"] < error["fitted"]:
+            unit = diagnosis.units.get("v", "").removesuffix("/s")
+            return diagnosis.position_model, (
+                f"the model refitted in position (RMS free-run position error {error['refitted']:.4g} {unit}; "
+                f"the balance fit's {error['fitted']:.4g} {unit})"
+            )
+    kind = "the improved two-mass rig" if diagnosis.rig is not None else "the improved model"
+    return diagnosis.improved_model, kind
+
+
+def save_doctor_model(
+    diagnosis: Diagnosis,
+    path: str | os.PathLike[str],
+    records: Sequence[pd.DataFrame],
+    paths: Sequence[str | os.PathLike[str] | None],
+    *,
+    supply_voltage: float | None = None,
+    input_full_scale: float | None = None,
+) -> str:
+    """Write the doctor's best model (:func:`best_model`) at ``path``, with its card: the records'
+    units, sample time and timing, files and SHA-256 (:func:`motorid.app.model_cards.record_card`),
+    the sensor the doctor measured (quantisation step, noise floor per speed band) and each
+    parameter's standard error [its unit] and whether the records determined it.
+
+    Parameters
+    ----------
+    diagnosis : Diagnosis
+        What the doctor found on ``records``.
+    path : str or os.PathLike
+        The model file to write (replaced).
+    records : sequence of DataFrame
+        The records the doctor ran on, as read.
+    paths : sequence of path or None
+        Their files (None: not a file).
+    supply_voltage, input_full_scale : float, optional
+        The reading's ``--supply-voltage`` [V] and ``--input-full-scale`` [counts].
+
+    Returns
+    -------
+    str
+        Which model was written, in words.
+
+    Raises
+    ------
+    DataError
+        A model the file cannot hold (a two-mass rig that cannot take the improved effects, a
+        model that is not physical), naming ``path``.
+    """
+    from motorid.app.model_cards import record_card, with_parameters
+    from motorid.drive.files import save_model
+
+    what = (
+        "the two-mass rig cannot take the improved model"
+        if diagnosis.rig is not None
+        else "the improved model is not physical"
+    )
+    try:
+        model, words = best_model(diagnosis)  # a rig that cannot carry the improved effects: ValueError
+        card = record_card(records, paths, supply_voltage=supply_voltage, input_full_scale=input_full_scale)
+        bands = tuple(
+            {
+                "speed_from": float(b["speed_from"]),
+                "speed_to": float(b["speed_to"]),
+                "std": float(b["noise_floor"]),
+            }
+            for b in diagnosis.noise_bands
+            if all(math.isfinite(float(b[k])) for k in ("speed_from", "speed_to", "noise_floor"))
+        )
+        card = dataclasses.replace(card, quantisation_step=diagnosis.quantisation_step, noise_bands=bands)
+        std = diagnosis.param_std if model is diagnosis.model else {}  # the position refit has none
+        card = with_parameters(card, std, list(getattr(model, "params", {})), list(diagnosis.undetermined))
+        save_model(model, path, card=card)
+    except ValueError as exc:
+        raise DataError(f"--save-model {path}: {what}: {exc}") from None
+    return words
+
+
 def start_model_from_file(path: Path) -> RigidDrive | TwoMassRig:
     """The drive model of the model file ``path`` (``--model``): a rigid drive or a two-mass rig;
     DataError for another model.
@@ -256,4 +351,4 @@ def start_model_from_file(path: Path) -> RigidDrive | TwoMassRig:
     return DoctorOptions(model=path).start_model()
 
 
-__all__ = ["DoctorOptions", "doctor", "start_model_from_file"]
+__all__ = ["DoctorOptions", "best_model", "doctor", "save_doctor_model", "start_model_from_file"]

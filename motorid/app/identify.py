@@ -33,6 +33,14 @@ logger = logging.getLogger(__name__)
 #: The paper's model order (Table 1's best): the default of ``na`` and ``nb`` where an estimator needs them.
 PAPER_ORDER = 4
 
+#: The static block ``motorid identify`` gives ``hammerstein-rls`` when neither ``degree`` nor ``basis``
+#: is given: u and sign(u), the shape Coulomb friction gives a drive's steady speed. The paper's cubic
+#: (``degree=3``, the estimator's own default) fits sign(u) poorly, and on a duty of ±100 % its u^3
+#: column reaches 10**6: identified on the 15 records of ``realmotors/`` its free-run FIT was
+#: -160,000 % to 70 % (the models stable, their gain far off), against 78-92 % with u, sign(u)
+#: (``tests/test_identify_defaults.py``).
+IDENTIFY_BASIS = "u,sign"
+
 #: The key of a record's attrs that holds the simulated rig (:meth:`motorid.drive.TwoMassRig.simulate`
 #: writes it): a record that has it is motorid's own simulation.
 SIMULATED_RIG_ATTR = "rig"
@@ -53,9 +61,11 @@ class IdentifyOptions:
         Orders of A(q^-1) and B(q^-1); None: the estimator's default (the paper's 4 where
         it needs them).
     degree : int, optional
-        Polynomial degree of the static block.
+        Polynomial degree of the static block (3: the paper's cubic).
     basis : str, optional
-        Basis of the static block, e.g. ``"u,sign"`` or ``"dead_zone:0.8"``.
+        Basis of the static block, e.g. ``"u,sign"`` or ``"dead_zone:0.8"``. Without ``degree``
+        and ``basis``, ``hammerstein-rls`` takes :data:`IDENTIFY_BASIS` (u, sign(u)): the paper's
+        cubic gives models far off on measured records (see there), and a note says so.
     lam : float, optional
         Forgetting factor, 0 < lam <= 1.
     delta : float, optional
@@ -109,7 +119,7 @@ class IdentifyOptions:
         (record,) = records
         payload, tests, _ = identify_record(record, self, source=labels[0])
         written = [write_identify_figure(tests, figures, self.estimator)] if figures is not None else []
-        return {**payload, "figures": [str(f) for f in written]}
+        return {**payload, "figures": [str(f) for f in written if f is not None]}
 
 
 def identify(
@@ -261,6 +271,19 @@ def _parse_value(text: str) -> Any:
     return text
 
 
+def takes_identify_basis(name: str, arguments: Any) -> bool:
+    """Whether estimator ``name`` with these ``arguments`` (a mapping, or options with ``degree``,
+    ``basis`` and ``param``) gets :data:`IDENTIFY_BASIS`: ``hammerstein-rls`` given no static block."""
+    if name != "hammerstein-rls":
+        return False
+    if isinstance(arguments, dict):
+        given = {key for key, value in arguments.items() if value is not None}
+    else:
+        given = {key for key in ("degree", "basis") if getattr(arguments, key, None) is not None}
+        given |= {item.partition("=")[0].replace("-", "_") for item in arguments.param}
+    return not given & {"degree", "basis"}
+
+
 def create_estimator(name: str, options: Any, rig: Any = None) -> Any:
     """Build estimator ``name`` from the options; the paper's order 4 where it needs ``na``/``nb``.
 
@@ -271,7 +294,8 @@ def create_estimator(name: str, options: Any, rig: Any = None) -> Any:
     options : IdentifyOptions or argparse.Namespace
         Anything with the attributes ``na``, ``nb``, ``degree``, ``basis``, ``lam``, ``delta``,
         ``gamma_method`` (None: not given) and ``param`` (``KEY=VALUE`` texts); an argument is
-        passed only when given, and one the estimator does not take is refused.
+        passed only when given, and one the estimator does not take is refused;
+        ``hammerstein-rls`` without ``degree`` and ``basis`` gets :data:`IDENTIFY_BASIS`.
     rig : TwoMassRig or RigidDrive, optional
         A drive model: an estimator that has ``from_rig`` (the friction filters) starts from its
         constants and friction; the options override its friction prior.
@@ -308,6 +332,8 @@ def create_estimator(name: str, options: Any, rig: Any = None) -> Any:
         if not sep or not key:
             raise DataError(f"--param expects KEY=VALUE, got {item!r}")
         kwargs[key.replace("-", "_")] = _parse_value(value)
+    if takes_identify_basis(name, kwargs):
+        kwargs["basis"] = IDENTIFY_BASIS
     try:
         return make(**kwargs) if rig is None else make.from_rig(rig, **kwargs)
     except (TypeError, ValueError) as exc:  # the estimator's own check of the arguments the user gave
@@ -350,6 +376,22 @@ def start_model(options: IdentifyOptions) -> Any:
     return model
 
 
+def model_input_scale(options: IdentifyOptions, record: pd.DataFrame) -> tuple[float, str | None]:
+    """The factor that puts the record's input in the unit ``options.model``'s card says the model
+    was fitted on, and a note where it converts (:func:`motorid.app.model_cards.input_scale`:
+    % duty <-> V with the card's supply voltage); ``(1.0, None)`` without a model or a card.
+    DataError in one line where no supply voltage is known to convert."""
+    if options.model is None:
+        return 1.0, None
+    from motorid.app.model_cards import check_output, input_scale
+    from motorid.drive.files import read_model_file
+
+    card = read_model_file(options.model).card
+    units = record.attrs.get("units")
+    check_output(card, units, options.model.name)
+    return input_scale(card, units, options.model.name)
+
+
 def estimator_for_record(
     record: pd.DataFrame, options: IdentifyOptions, source: str = "the record"
 ) -> tuple[Any, list[str]]:
@@ -376,7 +418,13 @@ def estimator_for_record(
         note = input_unit_note(model, units, f"--model {options.model}")
         return create_estimator(name, options, rig=model), [note] if note else []
     if name not in available() or not hasattr(factory(name), "from_rig"):
-        return create_estimator(name, options), []
+        notes = []
+        if takes_identify_basis(name, options):
+            notes.append(
+                f"static block {IDENTIFY_BASIS} (u and sign(u), identify's default: the paper's cubic "
+                "goes far off on measured records; --degree 3 for it)"
+            )
+        return create_estimator(name, options), notes
     if SIMULATED_RIG_ATTR not in record.attrs:
         raise DataError(
             f"{source}: the {name} needs the drive's model, and this record (not motorid's own "
@@ -426,13 +474,13 @@ def identify_record(
         the identified estimator (for ``--save-model``).
     """
     from motorid.comparison import holds_input
-    from motorid.estimators.base import first_bad_index
     from motorid.record_chunks import CHUNK_ROWS
     from motorid.records import record_timing
     from motorid.validation import (
         RPM_PER_RAD_S,
+        check_scored_samples,
         check_signals,
-        residual_tests,
+        free_run_divergence,
         score_predictions,
     )
 
@@ -445,10 +493,15 @@ def identify_record(
                 (u_all[k : k + CHUNK_ROWS], y_all[k : k + CHUNK_ROWS])
                 for k in range(0, len(record), CHUNK_ROWS)
             ),
-            options, est, notes, unit, threshold, (input, output),
+            options, est, notes, unit, threshold, (input, output), source,
         )  # fmt: skip
     u, y = record["u"].to_numpy(), record["y"].to_numpy()
+    check_scored_samples(len(u), options.skip, source)
     check_signals({input: u, output: y})
+    scale, note = model_input_scale(options, record)
+    if note:
+        u = u * scale
+        notes.append(note)
     if holds_input(est) and record_timing(record.attrs) == "sampled":
         # a physical model's output is at the end of the sample its input is held over
         u, y = u[:-1], y[1:]
@@ -460,13 +513,15 @@ def identify_record(
     require_finite_estimate(options.estimator, result.x, u, y)
     predictions = {"one_step": result.y_hat}
     free_run = est.simulate(u)
-    diverged = first_bad_index(free_run)
-    if diverged is None:
+    diverged = free_run_divergence(free_run, float(np.max(np.abs(y))))
+    if np.isfinite(free_run).all():  # a bounded run is scored, also one beyond the divergence bound
         predictions["free_run"] = free_run
     unit, threshold, _ = low_speed_band(record, options.low_speed_rpm)
     scores = score_predictions(y, predictions, threshold, options.skip)
     in_rpm = unit == "rad/s"
-    tests = residual_tests(u[options.skip :], (y - result.y_hat)[options.skip :], max_lag=options.max_lag)
+    tests = record_residual_tests(
+        u[options.skip :], (y - result.y_hat)[options.skip :], options.max_lag, notes
+    )
     payload = {
         "estimator": options.estimator,
         "samples": len(record),
@@ -488,6 +543,27 @@ def identify_record(
     if param_units:
         payload["units"] = {"params": dict(param_units)}
     return payload, tests, est
+
+
+def record_residual_tests(u: np.ndarray, residual: np.ndarray, max_lag: int, notes: list[str]) -> list:
+    """:func:`motorid.validation.residual_tests` of a record's one-step residuals, up to the largest lag
+    the record allows (:func:`motorid.validation.residual_max_lag`): a shorter lag than ``max_lag``
+    [samples], or no test on a record too short for any, is said in ``notes`` (appended)."""
+    from motorid.validation import residual_max_lag, residual_tests
+
+    lag = residual_max_lag(max_lag, len(residual))
+    if lag is None:
+        notes.append(
+            f"no residual tests: {len(residual)} residuals are too few for a correlation at any lag "
+            "(at least 8 are needed)"
+        )
+        return []
+    if lag < max_lag:
+        notes.append(
+            f"residual tests up to lag {lag}, not {max_lag}: the largest below a quarter of the "
+            f"{len(residual)} residuals"
+        )
+    return residual_tests(u, residual, max_lag=lag)
 
 
 def measured_position(estimator: Any, record: pd.DataFrame, source: str) -> np.ndarray | None:
@@ -534,6 +610,7 @@ def identify_blocks(
     unit: str | None,
     threshold: float,
     names: tuple[str, str] = ("u", "y"),
+    source: str = "the record",
 ) -> tuple[dict[str, Any], list, Any]:
     """:func:`identify_record` over a record given in consecutive blocks, in memory that does not
     grow with the record.
@@ -554,6 +631,8 @@ def identify_blocks(
         The low-speed threshold [output unit] (:func:`low_speed_band`).
     names : (str, str)
         The input and output columns' names, for the messages about bad samples.
+    source : str
+        What the record is called in messages (its file).
 
     Notes
     -----
@@ -579,7 +658,6 @@ def identify_blocks(
     tuple
         What :func:`identify_record` returns.
     """
-    from motorid.estimators.base import first_bad_index
     from motorid.estimators.rls import FreeRun
     from motorid.validation import (
         REFERENCE_SAMPLES,
@@ -589,10 +667,11 @@ def identify_blocks(
         RunningScore,
         StridedSample,
         check_outliers,
+        check_scored_samples,
         check_signal_block,
+        free_run_divergence,
         outlier_reference,
         raise_constant,
-        residual_tests,
     )
 
     one_step, window = RunningScore(threshold), ResidualWindow(RESIDUAL_WINDOW)
@@ -600,6 +679,7 @@ def identify_blocks(
     first: tuple[float, float] | None = None  # the first sample, to tell a constant column
     varies = [False, False]
     samples = 0
+    largest = 0.0  # the largest measured |y|, the free run's bound (free_run_divergence)
     for u, y in blocks():
         for name, values, sample in zip(names, (u, y), strided, strict=True):
             check_signal_block(name, values, samples)
@@ -608,6 +688,8 @@ def identify_blocks(
             first = (float(u[0]), float(y[0]))
         if first is not None:
             varies = [v or bool(np.any(x != x0)) for v, x, x0 in zip(varies, (u, y), first, strict=True)]
+        if len(y):
+            largest = max(largest, float(np.max(np.abs(y))))
         result = est.batch_filter(u, y)
         if len(u) and not np.isfinite(result.x[-1]).all():  # a non-finite estimate stays so: the last tells
             require_finite_estimate(options.estimator, result.x, u, y, samples)
@@ -615,14 +697,14 @@ def identify_blocks(
         one_step.add(y[scored], result.y_hat[scored])
         window.add(u[scored], (y - result.y_hat)[scored])
         samples += len(u)
-    if not 0 <= options.skip < samples:
-        raise ValueError(f"skip must be in [0, {samples}), got {options.skip}")
+    check_scored_samples(samples, options.skip, source)
     for name, changes, value in zip(names, varies, first or (0.0, 0.0), strict=True):
         if not changes:
             raise_constant(name, value, samples)
     references = [outlier_reference(sample.values) for sample in strided]
     free_run, simulate = RunningScore(threshold), FreeRun(est)
     diverged = None
+    finite = True  # a bounded run is scored, also one beyond the divergence bound
     start = 0
     for u, y in blocks():
         if start >= samples:  # a file still being written has grown since the first pass
@@ -630,20 +712,20 @@ def identify_blocks(
         u, y = u[: samples - start], y[: samples - start]
         for name, values, reference in zip(names, (u, y), references, strict=True):
             check_outliers(name, values, start, reference)
-        if diverged is None:
+        if finite:
             y_sim = simulate(u)
-            bad = first_bad_index(y_sim)
-            if bad is not None:
-                diverged = start + bad
-            else:
+            if diverged is None:
+                diverged = free_run_divergence(y_sim, largest, start)
+            finite = bool(np.isfinite(y_sim).all())
+            if finite:
                 scored = slice(max(0, options.skip - start), None)
                 free_run.add(y[scored], y_sim[scored])
         start += len(u)
     scores = {
         "one_step": one_step.result(),
-        **({} if diverged is not None else {"free_run": free_run.result()}),
+        **({"free_run": free_run.result()} if finite else {}),
     }
-    tests = residual_tests(*window.arrays(), max_lag=options.max_lag)
+    tests = record_residual_tests(*window.arrays(), options.max_lag, notes)
     in_rpm = unit == "rad/s"
     payload = {
         "estimator": options.estimator,
@@ -724,7 +806,7 @@ def identify_file(
             for block in source:
                 yield block["u"].to_numpy(), block["y"].to_numpy()
 
-        return identify_blocks(blocks, options, est, notes, unit, threshold, names)
+        return identify_blocks(blocks, options, est, notes, unit, threshold, names, str(path))
     except UniformGridError as exc:
         logger.info("%s: identify reads it whole (--max-samples %d)", exc, read.max_samples)
         record = read.read(path)
@@ -748,7 +830,7 @@ def validate_on_record(
     run = compare_models(record, {options.estimator: est}, threshold, options.skip)
     model = run.models[0]
     scores = {}
-    if model.diverges_from is None:
+    if math.isfinite(model.mse):  # a bounded run is scored, also one beyond the divergence bound
         row = {"mse": model.mse, "rmse": model.rmse, "fit_percent": model.fit_percent,
                "low_speed_mse": model.low_speed_mse, "n_low_speed": model.n_low_speed}  # fmt: skip
         scores["free_run"] = {
@@ -765,16 +847,20 @@ def validate_on_record(
     }
 
 
-def write_identify_figure(tests: list, folder: Path, estimator: str) -> Path:
-    """The residual-test figure of :func:`identify_record` as ``folder/residual_tests.png``."""
+def write_identify_figure(tests: list, folder: Path, estimator: str) -> Path | None:
+    """The residual-test figure of :func:`identify_record` as ``folder/residual_tests.png``; None (no
+    figure) when the record was too short for any test (the payload's notes say so)."""
     from motorid.validation import plot_residual_tests
 
+    if not tests:
+        return None
     figure = folder / "residual_tests.png"
     plot_residual_tests(tests, str(figure), f"Residuals of {estimator} (one-step)")
     return figure
 
 
 __all__ = [
+    "IDENTIFY_BASIS",
     "PAPER_ORDER",
     "IdentifyOptions",
     "create_estimator",

@@ -3,11 +3,13 @@
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
 
 import pandas as pd
 
-from motorid.app.compare import CompareOptions, compare_file, load_models
+from motorid.app.compare import CompareOptions, compare_file, load_model_files
+from motorid.validation import divergence_words
 
 from .options import (
     add_json,
@@ -22,9 +24,11 @@ from .report import emit_json, say
 
 def cmd_compare(args: argparse.Namespace) -> int:
     """Each model simulated free on the record's input: FIT, RMSE and low-speed RMSE, and a figure."""
-    models = load_models(args.model)  # a bad file stops before the record is read
+    files = load_model_files(args.model)  # a bad file stops before the record is read
+    models = {name: file.model for name, file in files.items()}
     options = CompareOptions(low_speed_rpm=args.low_speed_rpm, skip=args.skip)
-    comparison, band, units = compare_file(args.data, models, options, read_options_from_args(args))
+    comparison, band, units = compare_file(args.data, models, options, read_options_from_args(args),
+                                          {name: file.card for name, file in files.items()})  # fmt: skip
     if args.out:
         check_out_folder(args.out)
     unit = comparison.output_unit
@@ -43,8 +47,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     say(f"  low speed: {band}")
     for model in comparison.models:
         if model.diverges_from is not None:
-            say(f"  {model.name}: its free run diverges from sample {model.diverges_from} on (unstable on this "
-                "input), so it has no score")  # fmt: skip
+            say(f"warning: {divergence_words(model.name, model.diverges_from, math.isfinite(model.mse))}")
     figure = None
     if args.out:
         input_unit = units.get("u") or "input units"

@@ -21,6 +21,9 @@ from .report import emit_json, say, show_progress
 from .rig import add_register_map
 from .simulation import add_rig_options
 
+#: Share of the samples whose command may be clamped before ``motorid control`` warns [-].
+CLAMP_WARNING_SHARE = 0.05
+
 
 def reference_from_file(path: Path, dt: float, duration: float | None) -> np.ndarray:
     """The reference speed [rad/s] of the CSV ``path`` (columns ``t`` [s] and ``r`` [rad/s]) at the
@@ -64,13 +67,17 @@ def reference_from_file(path: Path, dt: float, duration: float | None) -> np.nda
 def cmd_control(args: argparse.Namespace) -> int:
     """Close the speed loop: PI designed on the model, friction compensation from it (or not)."""
     from motorid.app.identify import drive_model_from_file
+    from motorid.app.model_cards import input_scale
     from motorid.compensation import FrictionCompensation
     from motorid.drive import RigidDrive
+    from motorid.drive.files import read_model_file
     from motorid.errors import DAQError
     from motorid.io import daq_from_url
     from motorid.speed_control import (
+        SensedPlant,
         SpeedController,
         TrackingMetrics,
+        default_u_max,
         design_speed_pi,
         reversing_reference,
         run_closed_loop,
@@ -97,18 +104,29 @@ def cmd_control(args: argparse.Namespace) -> int:
         raise DataError(f"{rig_given[0]} cannot be combined with --model: the model file describes the rig")
     if args.no_compensation and (args.source is not None or args.speed_band is not None):
         raise DataError("--source and --speed-band set the compensation, which --no-compensation leaves out")
-    design = drive_model_from_file(args.design, option="--design")
+    if args.noise_free and args.model is None:
+        raise DataError("--noise-free leaves out the sensor of a --model plant's card: give --model FILE")
+    design_file = read_model_file(args.design)
+    design, card = design_file.model, design_file.card
     if not isinstance(design, RigidDrive):
         raise DataError(f"--design {args.design}: holds a {type(design).__name__}; the controller is designed "
                         "on a rigid-drive model (a file motorid doctor --save-model wrote)")  # fmt: skip
+    unit = card.input_unit if card is not None and card.input_unit is not None else "V"
+    u_max = args.u_max if args.u_max is not None else default_u_max(card)
     if args.model is not None:
-        plant = drive_model_from_file(args.model)
+        plant_file = read_model_file(args.model)
+        drive_model_from_file(args.model)  # a drive model, or one line saying what it holds
+        scale, note = input_scale(plant_file.card, {"u": unit}, args.model.name, args.supply_voltage,
+                                  given_as=f"the controller designed on {args.design.name} commands")  # fmt: skip
+        if note:
+            say(f"  note: {note}")
+        plant = SensedPlant(plant_file.model, plant_file.card, scale, noise_free=args.noise_free)
     else:  # the default rig, changed by the rig options given (u_max: the rating)
         plant = rig_from_args(args) if rig_given else None
     try:
         daq = daq_from_url(
             args.daq, plant=plant, seed=(args.plant_seed or 0) if simulated else None, dt=args.dt,
-            register_map=args.map, u_max=args.u_max, timeout=args.timeout,
+            register_map=args.map, u_max=u_max, timeout=args.timeout,
         )  # fmt: skip
     except ValueError as exc:
         raise DataError(str(exc)) from None
@@ -119,7 +137,7 @@ def cmd_control(args: argparse.Namespace) -> int:
         _, reference = reversing_reference(args.shape, args.amplitude, args.period, args.duration or 12.0, dt)
     source = args.source or "reference"
     try:
-        pi = design_speed_pi(design, dt, bandwidth=args.bandwidth, u_max=args.u_max,
+        pi = design_speed_pi(design, dt, bandwidth=args.bandwidth, u_max=u_max,
                              damping=0.0 if source == "measured" else None)  # fmt: skip
         compensation = None if args.no_compensation else FrictionCompensation(
             design, speed_band=args.speed_band or 1.0, source=source
@@ -127,6 +145,16 @@ def cmd_control(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise DataError(f"--design {args.design}: {exc}") from None
     controller = SpeedController(pi, dt, compensation)
+    exported: list[Path] = []
+    if args.export_c is not None:
+        from motorid.controller_c import export_controller_c
+
+        speed_unit = card.output_unit if card is not None and card.output_unit else "rad/s"
+        exported = list(export_controller_c(controller, args.export_c, input_unit=unit, model=args.design.name,
+                                            speed_unit=speed_unit))  # fmt: skip
+        say(
+            f"wrote {exported[0]} and {exported[1]}: the controller in C99 (motorid_speed_step once every {dt:g} s)"
+        )
     say(f"motorid control: PI K_p = {pi.kp:.4g}, K_i = {pi.ki:.4g} for a bandwidth of {pi.bandwidth:.3g} rad/s, "
         + ("no friction compensation" if compensation is None else f"friction compensation from the {source} "
            f"speed") + f"; {reference.size} samples at dt = {dt:g} s on {args.daq}")  # fmt: skip
@@ -134,7 +162,7 @@ def cmd_control(args: argparse.Namespace) -> int:
     tracking = TrackingMetrics(low_speed=band)
     try:
         record = run_closed_loop(daq, controller, reference, out=args.out, progress=show_progress(), overwrite=args.overwrite,
-                                 metrics=tracking)  # fmt: skip
+                                 metrics=tracking, input_unit=unit)  # fmt: skip
     except DAQError as exc:
         notes = " ".join(getattr(exc, "__notes__", []))
         raise DataError(f"control stopped: {exc}. {notes}".strip()) from None
@@ -147,12 +175,16 @@ def cmd_control(args: argparse.Namespace) -> int:
     say(f"RMS tracking error {metrics['rms_error']:.3g} rad/s; at low speed (|r| < {args.low_speed_rpm:g} rpm) "
         f"{metrics['low_speed_rms_error']:.3g} rad/s; largest stuck interval after a reversal "
         f"{metrics['largest_stuck_after_reversal']:.3g} s")  # fmt: skip
+    if metrics["clamped_share"] > CLAMP_WARNING_SHARE:
+        say(f"warning: the command was clamped at ±{pi.u_max:g} {unit} on {metrics['clamped_share']:.0%} of the "
+            f"samples ({metrics['clamped_samples']} of {record.attrs['samples']}): raise --u-max if the drive "
+            "takes more, or lower the reference")  # fmt: skip
     if args.json:
         emit_json({
             "out": args.out, "samples": record.attrs["samples"], "dt": dt,
             "compensation": None if compensation is None else source,
             "pi": {"kp": pi.kp, "ki": pi.ki, "tracking_time": pi.tracking_time, "u_max": pi.u_max,
-                   "bandwidth": pi.bandwidth},
+                   "bandwidth": pi.bandwidth}, "input_unit": unit, "export_c": exported,
             "low_speed_band": band, **metrics,
         })  # fmt: skip
     return 0
@@ -171,6 +203,11 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
         group, "the plant's model file, a two-mass rig or a rigid drive, instead of the options below"
     )
     add_plant_seed(group, default=None)
+    group.add_argument("--noise-free", action="store_true",
+                       help="the --model plant without the sensor its card describes (quantisation, noise)")  # fmt: skip
+    group.add_argument("--supply-voltage", type=positive, metavar="V",
+                       help="the drive's supply [V], to convert commands between %% duty and volts where the "
+                            "design and the plant models were fitted in different units")  # fmt: skip
     group = p.add_argument_group("controller")
     group.add_argument("--no-compensation", action="store_true", help="the PI alone (the baseline)")
     group.add_argument("--source", choices=("reference", "measured"),
@@ -179,6 +216,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                        help="half-width of the compensation's ramp through zero speed [rad/s] (default: 1)")  # fmt: skip
     group.add_argument("--bandwidth", type=positive,
                        help="the PI's crossover [rad/s] (default: 0.2 / (dt + the model's delay and lag))")  # fmt: skip
+    group.add_argument("--export-c", type=Path, metavar="DIR",
+                       help="write the controller (PI with anti-windup and friction compensation) as C99 "
+                            "motorid_speed.h and motorid_speed.c in DIR, for a microcontroller")  # fmt: skip
     group = p.add_argument_group("reference (default: a reversing triangle)")
     group.add_argument("--reference", type=Path, metavar="FILE", help="CSV with columns t [s] and r [rad/s]")
     group.add_argument("--shape", choices=("triangle", "sine"), default="triangle",
@@ -196,9 +236,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     )
     add_register_map(p)
     p.add_argument("--timeout", type=positive, help="Modbus timeout [s]")
-    p.add_argument("--u-max", type=positive, default=12.0,
-                   help="limit of the command in the --design model's input unit: [V], or [%%] for a model "
-                        "fitted on PWM duty (then give 100) (default: 12)")  # fmt: skip
+    p.add_argument("--u-max", type=positive,
+                   help="limit of the command, in the design model's input unit (default: 100 for a model "
+                        "fitted on %% duty; for one in volts its supply voltage where known, else 12)")  # fmt: skip
     p.add_argument("--low-speed-rpm", type=positive, default=LOW_SPEED_RPM,
                    help=f"low-speed band of the metrics, |r| < this [rpm] (default: {LOW_SPEED_RPM:g})")  # fmt: skip
     add_json(p)

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import pandas as pd
 
-from motorid.app.doctor import DoctorOptions, start_model_from_file
+from motorid.app.doctor import DoctorOptions, save_doctor_model, start_model_from_file
 from motorid.errors import DataError
 from motorid.outputs import write_file
 
@@ -172,18 +172,10 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         with pd.option_context("display.width", 160):
             say(scores.round(4).to_string())
     if args.save_model is not None:
-        rig = diagnosis.rig is not None
-        try:
-            diagnosis.improved_model.save(args.save_model)
-        except ValueError as exc:
-            what = (
-                "the two-mass rig cannot take the improved model"
-                if rig
-                else "the improved model is not physical"
-            )
-            raise DataError(f"--save-model {args.save_model}: {what}: {exc}") from None
-        kind = "the improved two-mass rig" if rig else "the improved model"
-        say(f"  wrote {args.save_model}: {kind} (motorid simulate --model reads it)")
+        kind = save_doctor_model(diagnosis, args.save_model, records, args.data,
+                                 supply_voltage=reading.supply_voltage, input_full_scale=reading.input_full_scale)  # fmt: skip
+        say(f"  wrote {args.save_model}: {kind}, with its units, timing, sensor and records "
+            "(motorid simulate --model reads it)")  # fmt: skip
     figures = []
     if args.out:
         say(f"  writing figures in {args.out}/")

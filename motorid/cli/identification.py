@@ -23,6 +23,7 @@ from motorid.app.identify import (
     validate_on_record,
     write_identify_figure,
 )
+from motorid.drive.files import save_model
 from motorid.errors import DataError
 
 from .options import (
@@ -51,7 +52,7 @@ def identify_options_from_args(args: argparse.Namespace) -> IdentifyOptions:
 
 def cmd_identify(args: argparse.Namespace) -> int:
     """Identify one estimator on a record; report params, MSE, FIT and residual tests."""
-    from motorid.validation import RPM_PER_RAD_S
+    from motorid.validation import RPM_PER_RAD_S, divergence_words
 
     options = identify_options_from_args(args)
     # a span (--start/--stop) is cut from the record read whole; an RLS otherwise streams the file
@@ -99,8 +100,8 @@ def cmd_identify(args: argparse.Namespace) -> int:
     if unit != "rad/s":
         say(f"  low speed: {band}")
     if diverged is not None:
-        say(f"  free_run  diverges from sample {diverged} on: the identified model is unstable on this input, "
-            "so it has no free-run score")  # fmt: skip
+        say(f"warning: {divergence_words(args.estimator, diverged, 'free_run' in payload['scores'])}; try "
+            "--basis u,sign or --estimator arx-rls")  # fmt: skip
     if payload["residual_tests_samples"] < payload["samples"] - args.skip:
         say(f"  residual tests on the last {payload['residual_tests_samples']} samples of the record "
             "(a bounded window: a record read in blocks is not held whole)")  # fmt: skip
@@ -112,32 +113,61 @@ def cmd_identify(args: argparse.Namespace) -> int:
         say_validation(validation)
     if args.save_model:
         try:
-            est.save(args.save_model, overwrite=args.overwrite)
+            save_model(
+                est, args.save_model, overwrite=args.overwrite, card=identified_card(args, record, payload)
+            )
         except ValueError as exc:
             raise DataError(f"--save-model {args.save_model}: {exc}") from None
-        say(f"  wrote {args.save_model}: the identified model (motorid.load_model reads it)")
+        say(f"  wrote {args.save_model}: the identified model, with its units, timing and record "
+            "(motorid.load_model reads it)")  # fmt: skip
     figure = None
     if args.out:
         figure = write_identify_figure(tests, args.out, args.estimator)
-        say(f"  wrote {figure}")
+        if figure is not None:
+            say(f"  wrote {figure}")
     if args.json:
         extra = {} if validation is None else {"validation": validation}
         emit_json({**payload, "figure": figure, "model": args.save_model, **extra})
     return 0
 
 
+def identified_card(args: argparse.Namespace, record: pd.DataFrame | None, payload: dict[str, Any]) -> Any:
+    """The card of the model ``motorid identify`` fitted (:func:`motorid.app.model_cards.record_card`):
+    the record held whole, or, read in blocks, its first block with the span of the ``samples``
+    the payload counts."""
+    import dataclasses
+
+    from motorid.app.model_cards import record_card
+
+    read = read_options_from_args(args)
+    if record is None:
+        first = next(read.iter_blocks(args.data))
+        card = record_card([first], [args.data], supply_voltage=read.supply_voltage,
+                           input_full_scale=read.input_full_scale)  # fmt: skip
+        samples = payload["samples"]
+        records = tuple(
+            {**entry, "samples": samples, "stop": entry["start"] + (samples - 1) * card.dt}
+            for entry in card.records
+        )
+        return dataclasses.replace(card, records=records)
+    return record_card([record], [args.data], supply_voltage=read.supply_voltage,
+                       input_full_scale=read.input_full_scale)  # fmt: skip
+
+
 def say_validation(validation: dict[str, Any]) -> None:
     """The human text of :func:`validate_on_record`."""
-    from motorid.validation import RPM_PER_RAD_S
+    from motorid.validation import RPM_PER_RAD_S, divergence_words
 
     say(
         f"  on {validation['record']} ({validation['samples']} samples), the identified model without refitting:"
     )
     for note in validation["notes"]:
         say(f"  note: {note}")
+    diverged = validation["free_run_diverges_from_sample"]
     row = validation["scores"].get("free_run")
+    if diverged is not None:
+        say(f"warning: on {validation['record']}, {divergence_words('the model', diverged, row is not None)}")
     if row is None:
-        say(f"  free_run  diverges from sample {validation['free_run_diverges_from_sample']} on: no score")
         return
     unit = validation["output_unit"]
     if unit == "rad/s":
@@ -151,9 +181,10 @@ def say_validation(validation: dict[str, Any]) -> None:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     """The paper's Tables 1 and 2 on a record."""
-    from motorid.validation import check_signals, order_sweep
+    from motorid.validation import check_scored_samples, check_signals, order_sweep
 
     record = read_record_from_args(args)
+    check_scored_samples(len(record), args.skip, str(args.data))
     check_signals({args.input: record["u"], args.output: record["y"]})
     unit, threshold, band = low_speed_band(record, args.low_speed_rpm)
     tables = order_sweep(

@@ -270,11 +270,11 @@ def add_estimator_options(parser: argparse.ArgumentParser, repeatable: bool = Fa
     group.add_argument("--nb", type=number(int, low=0),
                        help=f"order of B(q^-1), arx-rls and hammerstein-rls (default: {PAPER_ORDER})")  # fmt: skip
     group.add_argument("--degree", type=number(int, low=1),
-                       help="polynomial degree of hammerstein-rls's static block (default: 3, the paper's "
-                            "cubic, unless --basis names the basis)")  # fmt: skip
+                       help="polynomial degree of hammerstein-rls's static block, e.g. 3 for the paper's cubic "
+                            "(default: none; the static block is then --basis's)")  # fmt: skip
     group.add_argument("--basis",
                        help="hammerstein-rls's static block basis, e.g. 'u,sign' or 'dead_zone:0.8' "
-                            "(default: the polynomial of --degree)")  # fmt: skip
+                            "(default: u,sign where no --degree is given)")  # fmt: skip
     add_lam(group, default=None)
     group.add_argument("--delta", type=positive,
                        help="initial covariance P0 = delta I of the RLS estimators (default: 1000)")  # fmt: skip

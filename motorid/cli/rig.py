@@ -30,9 +30,12 @@ def cmd_rig_serve(args: argparse.Namespace) -> int:
     drive) over Modbus until Ctrl-C."""
     from motorid.app.identify import drive_model_from_file
     from motorid.drive import RigidDrive, paper_rig
+    from motorid.drive.files import read_model_file
     from motorid.io import RigServer
+    from motorid.speed_control import SensedPlant
 
     rig = paper_rig() if args.model is None else drive_model_from_file(args.model)
+    card = None if args.model is None else read_model_file(args.model).card
     if isinstance(rig, RigidDrive):
         served, rating, lacking = (
             "rigid drive",
@@ -41,11 +44,18 @@ def cmd_rig_serve(args: argparse.Namespace) -> int:
         )
     else:
         served, rating, lacking = "rig", rig.amplifier.v_max, "its amplifier has no saturation"
+    if not math.isfinite(rating) and card is not None and card.input_unit == "%":
+        rating = 100.0  # a duty ends at 100 %
     u_max = rating if args.u_max is None else args.u_max
     if not math.isfinite(u_max):
         raise DataError(f"--model {args.model}: {lacking}; give the rating with --u-max")
+    # a model file's card: the plant measured by its sensor (SensedPlant), the command register in its unit
+    plant = rig.simulation() if card is None else SensedPlant(rig, card)
+    if card is not None and card.input_unit not in (None, "V"):
+        say(f"  note: {args.model.name} was fitted on {card.input_words()}: the command register is in "
+            f"{card.input_unit}")  # fmt: skip
     server = RigServer(
-        rig.simulation(), host=args.host, port=args.port, serial_port=args.serial, baudrate=args.baudrate,
+        plant, host=args.host, port=args.port, serial_port=args.serial, baudrate=args.baudrate,
         register_map=args.map, word_order=args.word_order, lockstep=not args.realtime, seed=args.plant_seed,
         watchdog_periods=args.watchdog_periods or None, u_max=u_max,
     )  # fmt: skip

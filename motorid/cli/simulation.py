@@ -182,6 +182,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     """Simulate the rig on an excitation signal and write the record and/or the rig's model file."""
     from motorid.app.identify import drive_model_from_file
     from motorid.drive import RigidDrive
+    from motorid.drive.files import read_model_file
     from motorid.records import write_record
 
     if args.out is None and args.save_model is None:
@@ -195,8 +196,9 @@ def cmd_simulate(args: argparse.Namespace) -> int:
             flag = "--" + given[0].replace("_", "-")
             raise DataError(f"{flag} cannot be combined with --model: the model file describes the rig")
         rig = drive_model_from_file(args.model)
+        card = read_model_file(args.model).card
     else:
-        rig = rig_from_args(args)
+        rig, card = rig_from_args(args), None
     if args.out is None:
         rig.save(args.save_model, overwrite=args.overwrite)
         say(f"wrote {args.save_model}: the rig's model file")
@@ -208,6 +210,13 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         record = rig.simulate(u)
     else:
         record = rig.simulate(u, seed=args.plant_seed, integrator=args.integrator)
+    if card is not None:  # the record in the units the model was fitted on, as its card says
+        units = {**record.attrs.get("units", {}), **({"u": card.input_unit} if card.input_unit else {}),
+                 **({"y": card.output_unit} if card.output_unit else {})}  # fmt: skip
+        record.attrs["units"] = units
+        if card.input_unit and card.input_unit != "V":
+            say(f"  note: {args.model.name} was fitted on {card.input_words()}: the excitation (--amplitude) is "
+                f"in {card.input_unit}")  # fmt: skip
     if args.save_model is not None:
         rig.save(args.save_model, overwrite=args.overwrite)
     try:
