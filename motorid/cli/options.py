@@ -7,6 +7,7 @@ command with one line naming the option (exit status 2) before any work is done.
 from __future__ import annotations
 
 import argparse
+import errno
 import math
 import os
 from collections.abc import Callable, Iterator
@@ -315,7 +316,9 @@ def hold_out_folder(args: argparse.Namespace, path: Path, option: str = "--out")
     try:
         lock.acquire()
     except OutputError as exc:
-        raise DataError(f"{option} {exc}; pass --wait to wait for it, or choose another folder") from None
+        if getattr(exc, "errno", None) == errno.EWOULDBLOCK:
+            raise DataError(f"{option} {exc}; pass --wait to wait for it, or choose another folder") from None
+        raise DataError(f"{option} {exc}; remove it, or choose another folder") from None
     args.out_lock = lock
 
 

@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.errors import OutputError
-from motorid.outputs import disk_full
+from motorid.outputs import create_in_place, disk_full
 from motorid.progress import progress_bar
 
 from .base import DAQ, Sample
@@ -205,28 +205,10 @@ class RunRecorder:
                 self.flush()
 
     def _open_alone(self) -> int:
-        """Open the file for this recorder alone: created exclusively, or with ``overwrite`` locked
-        (:func:`fcntl.flock`, held until :meth:`close`) before it is emptied, so no two runs write one file."""
-        import fcntl
-
-        exclusive = 0 if self.overwrite else os.O_EXCL
-        try:
-            fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | exclusive, 0o666)
-        except FileExistsError:
-            raise OutputError(
-                f"{self.path}: the file exists (another writer created it meanwhile); nothing was written"
-            ) from None
-        except OSError as exc:
-            raise OutputError(f"{self.path}: cannot create the file: {exc.strerror or exc}") from None
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            os.close(fd)
-            raise OutputError(
-                f"{self.path}: another run is writing this file; it was left as it was"
-            ) from None
-        os.ftruncate(fd, 0)
-        return fd
+        """Create the file for this recorder alone (:func:`motorid.outputs.create_in_place`): a new file
+        takes the name, replacing what is there with ``overwrite`` (a link is replaced, never written
+        through), and stays locked until :meth:`close`, so no two runs write one file."""
+        return create_in_place(self.path, overwrite=self.overwrite)
 
     def flush(self) -> None:
         """Write the rows not yet written; on an error, cut the file back to its last whole row."""
