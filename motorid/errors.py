@@ -28,6 +28,7 @@ __all__ = [
     "FilterDivergenceError",
     "ModelFileError",
     "OutputError",
+    "RigBusyError",
     "RigFaultError",
     "UniformGridError",
 ]
@@ -139,3 +140,12 @@ class RigFaultError(DAQError):
     def __init__(self, message: str, status: int) -> None:
         super().__init__(message)
         self.status = status
+
+
+class RigBusyError(DAQError):
+    """The rig refused a write because another client owns it (Modbus exception 6, device busy).
+
+    A rig has one owner at a time: the first client that writes to it, until its
+    heartbeat stalls for the watchdog's time or it disconnects
+    (:class:`motorid.io.RigServer`). A run that gets this error has lost the rig.
+    """

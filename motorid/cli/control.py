@@ -78,6 +78,7 @@ def cmd_control(args: argparse.Namespace) -> int:
     )
     from motorid.validation import rpm_to_rad_s
 
+    from .rig import rig_stopped
     from .simulation import RIG_OPTIONS, rig_from_args
 
     if args.out is not None:
@@ -137,8 +138,7 @@ def cmd_control(args: argparse.Namespace) -> int:
         record = run_closed_loop(daq, controller, reference, out=args.out, progress=show_progress(), overwrite=args.overwrite,
                                  metrics=tracking)  # fmt: skip
     except DAQError as exc:
-        notes = " ".join(getattr(exc, "__notes__", []))
-        raise DataError(f"control stopped: {exc}. {notes}".strip()) from None
+        raise rig_stopped("control", args.daq, exc) from None
     except KeyboardInterrupt as exc:  # exit 130 (main), after saying what is on disk
         say(f"motorid control: {exc or 'interrupted'}; " + " ".join(getattr(exc, "__notes__", [])))
         raise

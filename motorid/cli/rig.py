@@ -90,12 +90,42 @@ def cmd_rig_map(args: argparse.Namespace) -> int:
     return 0
 
 
+def rig_stopped(command: str, url: str, exc: Exception) -> DataError:
+    """The one line that says why ``motorid COMMAND`` (run, control) stopped on the rig at ``url``.
+
+    The library's errors advise Python calls; here the advice is a command and its options: a
+    fault is acknowledged by starting the command again, a rig another client owns is freed by
+    stopping that client. The notes on ``exc`` (what is on disk) follow.
+    """
+    from motorid.errors import RigBusyError, RigFaultError
+    from motorid.io import STATUS_BITS
+    from motorid.io.modbus import describe_status
+
+    notes = " ".join(getattr(exc, "__notes__", []))
+    if isinstance(exc, RigFaultError):
+        why = ""
+        if exc.status & STATUS_BITS["watchdog"]:
+            why = " (its watchdog tripped: no heartbeat came for its watchdog periods)"
+        text = (
+            f"{command} stopped: the rig at {url} reports fault {describe_status(exc.status)}{why} and holds 0 V. "
+            f"Once the cause is fixed, start motorid {command} again (with another --out, or --overwrite): "
+            "it acknowledges the fault as it connects."
+        )
+    elif isinstance(exc, RigBusyError):
+        text = (
+            f"{command} stopped: the rig at {url} is owned by another client and refused this one's commands. "
+            f"Stop the other client (or wait until the rig's watchdog frees it), then start motorid {command} again."
+        )
+    else:
+        text = f"{command} stopped: {exc}."
+    return DataError(f"{text} {notes}".strip())
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     """Online identification on a DAQ (simulated rig or Modbus)."""
     from motorid.app.identify import create_estimator
-    from motorid.errors import DAQError, RigFaultError
-    from motorid.io import STATUS_BITS, daq_from_url, run_online
-    from motorid.io.modbus import describe_status
+    from motorid.errors import DAQError
+    from motorid.io import daq_from_url, run_online
 
     check_out_file(args.out, args.overwrite)
     estimators = {name: create_estimator(name, args) for name in args.estimator}
@@ -111,19 +141,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     try:
         record = run_online(daq, estimators, excitation, args.duration, out=args.out, progress=show_progress(),
                             overwrite=args.overwrite)  # fmt: skip
-    except RigFaultError as exc:  # the library's advice is a Python call: say what to type instead
-        notes = " ".join(getattr(exc, "__notes__", []))
-        why = ""
-        if exc.status & STATUS_BITS["watchdog"]:
-            why = " (its watchdog tripped: no command or heartbeat came for its watchdog periods)"
-        raise DataError(
-            f"run stopped: the rig at {args.daq} reports fault {describe_status(exc.status)}{why} and holds 0 V. "
-            "Once the cause is fixed, start motorid run again (with another --out, or --overwrite): "
-            f"it acknowledges the fault as it connects. {notes}".strip()
-        ) from None
     except DAQError as exc:
-        notes = " ".join(getattr(exc, "__notes__", []))
-        raise DataError(f"run stopped: {exc}. {notes}".strip()) from None
+        raise rig_stopped("run", args.daq, exc) from None
     except KeyboardInterrupt as exc:  # exit 130 (main), after saying what is on disk
         say_error(f"motorid run: {exc or 'interrupted'}; " + " ".join(getattr(exc, "__notes__", [])))
         raise
