@@ -78,7 +78,7 @@ def cmd_control(args: argparse.Namespace) -> int:
     )
     from motorid.validation import rpm_to_rad_s
 
-    from .rig import rig_stopped
+    from .rig import loop_timing, rig_stopped
     from .simulation import RIG_OPTIONS, rig_from_args
 
     if args.out is not None:
@@ -145,6 +145,7 @@ def cmd_control(args: argparse.Namespace) -> int:
     metrics = tracking.result()
     if args.out is not None:
         say(f"wrote {args.out}: {record.attrs['samples']} samples (t, reference, u, y)")
+    say(f"motorid control: {loop_timing(record)}")
     say(f"RMS tracking error {metrics['rms_error']:.3g} rad/s; at low speed (|r| < {args.low_speed_rpm:g} rpm) "
         f"{metrics['low_speed_rms_error']:.3g} rad/s; largest stuck interval after a reversal "
         f"{metrics['largest_stuck_after_reversal']:.3g} s")  # fmt: skip
@@ -154,7 +155,7 @@ def cmd_control(args: argparse.Namespace) -> int:
             "compensation": None if compensation is None else source,
             "pi": {"kp": pi.kp, "ki": pi.ki, "tracking_time": pi.tracking_time, "u_max": pi.u_max,
                    "bandwidth": pi.bandwidth},
-            "low_speed_band": band, **metrics,
+            "low_speed_band": band, "largest_interval": record.attrs["largest_interval"], **metrics,
         })  # fmt: skip
     return 0
 

@@ -7,6 +7,8 @@ import math
 import sys
 from pathlib import Path
 
+import pandas as pd
+
 from motorid.errors import DataError
 
 from .options import (
@@ -121,6 +123,14 @@ def rig_stopped(command: str, url: str, exc: Exception) -> DataError:
     return DataError(f"{text} {notes}".strip())
 
 
+def loop_timing(record: pd.DataFrame) -> str:
+    """What a run's loop kept of its time: ``largest time between two samples 41.2 ms (dt 40 ms)``."""
+    largest, dt = record.attrs["largest_interval"], record.attrs["dt"]
+    if not math.isfinite(largest):
+        return "fewer than two samples taken"
+    return f"largest time between two samples {largest * 1e3:.3g} ms (dt {dt * 1e3:.3g} ms)"
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     """Online identification on a DAQ (simulated rig or Modbus)."""
     from motorid.app.identify import create_estimator
@@ -146,11 +156,12 @@ def cmd_run(args: argparse.Namespace) -> int:
     except KeyboardInterrupt as exc:  # exit 130 (main), after saying what is on disk
         say_error(f"motorid run: {exc or 'interrupted'}; " + " ".join(getattr(exc, "__notes__", [])))
         raise
-    say(f"wrote {args.out}: {record.attrs['samples']} samples")
+    say(f"wrote {args.out}: {record.attrs['samples']} samples; {loop_timing(record)}")
     for name, est in estimators.items():
         say_params(f"{name}.", est.params)
     if args.json:
         emit_json({"out": args.out, "samples": record.attrs["samples"],
+                   "largest_interval": record.attrs["largest_interval"],
                    "params": {n: e.params for n, e in estimators.items()}})  # fmt: skip
     return 0
 
