@@ -16,20 +16,31 @@ from .options import (
     add_plant_seed,
     add_u_max,
     check_out_file,
+    planned_samples,
     positive,
 )
 from .report import emit_json, say, show_progress
 from .rig import add_register_map
 from .simulation import add_rig_options
 
+#: Memory the planned reference takes [B per sample]: its time and speed arrays, and the loop's copy.
+REFERENCE_BYTES_PER_SAMPLE = 24
+#: The largest --reference file read [bytes]: a day at 1 ms in two columns of text.
+MAX_REFERENCE_BYTES = 256 << 20
+
 
 def reference_from_file(path: Path, dt: float, duration: float | None) -> np.ndarray:
     """The reference speed [rad/s] of the CSV ``path`` (columns ``t`` [s] and ``r`` [rad/s]) at the
     loop's samples k dt, linearly interpolated; DataError naming the file and what is wrong."""
+    import io
+
     import pandas as pd
 
+    from motorid.inputs import read_small_file
+
+    raw = read_small_file(path, "--reference", MAX_REFERENCE_BYTES)
     try:
-        table = pd.read_csv(path)
+        table = pd.read_csv(io.BytesIO(raw))
     except (OSError, ValueError) as exc:
         raise DataError(f"--reference {path}: cannot read it as CSV: {exc}") from None
     for column in ("t", "r"):
@@ -115,6 +126,8 @@ def cmd_control(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise DataError(str(exc)) from None
     dt = daq.dt
+    if args.duration is not None:
+        planned_samples(args.duration, dt, REFERENCE_BYTES_PER_SAMPLE, "the reference")
     if args.reference is not None:
         reference = reference_from_file(args.reference, dt, args.duration)
     else:

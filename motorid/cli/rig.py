@@ -12,6 +12,7 @@ import pandas as pd
 from motorid.errors import DataError
 
 from .options import (
+    EXCITATION_BLOCK,
     add_estimator_options,
     add_json,
     add_out_file,
@@ -22,6 +23,7 @@ from .options import (
     excitation_from_args,
     non_negative,
     number,
+    planned_samples,
     positive,
 )
 from .report import emit_json, say, say_error, say_params, show_progress
@@ -147,7 +149,14 @@ def cmd_run(args: argparse.Namespace) -> int:
         args.daq, seed=(args.plant_seed or 0) if simulated else None, dt=args.dt, register_map=args.map,
         u_max=args.u_max, timeout=args.timeout,
     )  # fmt: skip
-    excitation = excitation_from_args(args, daq.dt)
+    dt = daq.dt
+    n = planned_samples(args.duration, dt, 0, "the run")  # the rows go to --out as they come
+    block = excitation_from_args(args, dt, longest=EXCITATION_BLOCK * dt)
+
+    def repeated(t: float) -> float:  # a run longer than the block repeats it
+        return float(block[round(t / dt) % block.size])
+
+    excitation = block if block.size >= n else repeated
     try:
         record = run_online(daq, estimators, excitation, args.duration, out=args.out, progress=show_progress(),
                             overwrite=args.overwrite)  # fmt: skip

@@ -49,6 +49,8 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
 
+from motorid.inputs import read_small_file
+
 __all__ = [
     "OPTIONAL_REGISTER_NAMES",
     "REGISTER_NAMES",
@@ -76,6 +78,9 @@ STATUS_BITS: dict[str, int] = {
 STATUS_FAULTS = STATUS_BITS["watchdog"] | STATUS_BITS["plant"] | STATUS_BITS["command"]
 #: Value a client writes to the status register to acknowledge latched faults.
 STATUS_CLEAR = 0
+
+#: The largest register map file read [bytes] (the built-in map's TOML is about 1 kB).
+MAX_MAP_BYTES = 1 << 20
 
 RegisterType = Literal["float32", "int16", "uint16"]
 WordOrder = Literal["ABCD", "CDAB"]
@@ -304,11 +309,24 @@ class RegisterMap:
 
     @classmethod
     def from_toml(cls, path: str | Path) -> RegisterMap:
-        """Read a map from a TOML file (see the module docstring for the format)."""
+        """Read a map from a TOML file (see the module docstring for the format).
+
+        The file must be a regular file of at most :data:`MAX_MAP_BYTES` (a FIFO or a device such
+        as ``/dev/zero`` is refused at once: :func:`motorid.inputs.read_small_file`).
+
+        Raises
+        ------
+        motorid.errors.DataError
+            The file cannot be read, is not a regular file or is too large.
+        ValueError
+            The file is not valid TOML, or not a valid map; the message names the file.
+        """
         path = Path(path)
+        raw = read_small_file(path, "register map", MAX_MAP_BYTES)
         try:
-            with path.open("rb") as fh:
-                data = tomllib.load(fh)
+            data = tomllib.loads(raw.decode("utf-8"))
+        except UnicodeDecodeError as exc:
+            raise ValueError(f"{path}: not UTF-8 text at byte {exc.start}") from None
         except tomllib.TOMLDecodeError as exc:
             raise ValueError(f"{path}: not valid TOML: {exc}") from None
         return cls.from_dict(data, source=str(path))
