@@ -20,6 +20,9 @@ from __future__ import annotations
 
 import math
 
+#: Characters of an offending value a message quotes (:func:`quoted`).
+QUOTE_LIMIT = 80
+
 __all__ = [
     "DAQConnectionError",
     "DAQError",
@@ -31,7 +34,27 @@ __all__ = [
     "RigBusyError",
     "RigFaultError",
     "UniformGridError",
+    "quoted",
 ]
+
+
+def quoted(value: object, limit: int = QUOTE_LIMIT) -> str:
+    """``repr(value)`` for a message, cut to about ``limit`` characters (a field may hold 200 MB).
+
+    A longer text ends in ``...`` and its full length: ``'xxxx...' (200,000,000 characters)``.
+
+    Parameters
+    ----------
+    value : object
+        The offending value (a string is cut before its ``repr`` is made).
+    limit : int
+        Characters kept.
+    """
+    length = len(value) if isinstance(value, str | bytes) else None
+    if length is not None and length > limit:
+        return f"{value[:limit]!r}... ({length:,} characters)"
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text):,} characters)"
 
 
 class DataError(ValueError):

@@ -18,6 +18,8 @@ file.
 - :func:`safe_file_name` turns a name that comes from data (a drive id in a
   record's attrs, a file's stem) into one file name that stays in its folder.
 - :func:`jsonable`: numpy and pandas values as plain JSON, as ``--json`` and a fleet's rows write them.
+- :func:`spreadsheet_safe`: a table's text cells as a spreadsheet shows them and never executes them,
+  for the CSV tables motorid writes.
 """
 
 from __future__ import annotations
@@ -33,9 +35,12 @@ import stat
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, TYPE_CHECKING, Any
 
-from motorid.errors import OutputError
+from motorid.errors import QUOTE_LIMIT, OutputError
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 logger = logging.getLogger(__name__)
 
@@ -46,6 +51,7 @@ __all__ = [
     "disk_full",
     "jsonable",
     "safe_file_name",
+    "spreadsheet_safe",
     "write_file",
 ]
 
@@ -55,6 +61,10 @@ LOCK_NAME = ".motorid.lock"
 MAX_NAME_BYTES = 120
 #: Characters besides letters and digits a name from data keeps.
 _NAME_CHARACTERS = frozenset("-_.+=@ ")
+#: First characters that make a spreadsheet read a cell as a formula (and tab, carriage return).
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
+#: Longest text cell a CSV table keeps whole [characters]; a longer one is cut (:func:`spreadsheet_safe`).
+MAX_TEXT_CELL = 1000
 #: errno of a file system that has no hard links (then the name is claimed with O_EXCL first).
 _NO_LINKS = {errno.EPERM, errno.EOPNOTSUPP, errno.ENOTSUP, errno.EXDEV, errno.EMLINK, errno.ENOSYS}
 
@@ -428,3 +438,41 @@ def jsonable(value: Any) -> Any:
     if isinstance(value, Path):
         return str(value)
     return value
+
+
+def _safe_cell(value: Any) -> Any:
+    if not isinstance(value, str):
+        return value
+    if len(value) > MAX_TEXT_CELL:
+        value = f"{value[:QUOTE_LIMIT]}... ({len(value):,} characters)"
+    if value.startswith(FORMULA_STARTS):
+        try:
+            float(value)
+        except ValueError:
+            return "'" + value
+    return value
+
+
+def spreadsheet_safe(table: pd.DataFrame) -> pd.DataFrame:
+    """A copy of ``table`` whose text cells a spreadsheet shows as text and never evaluates.
+
+    A text cell that begins with ``=``, ``+``, ``-``, ``@``, a tab or a carriage return
+    (a drive id ``=HYPERLINK(...)`` from a record) gets a leading ``'``, which spreadsheets
+    take as "text follows" (OWASP's advice for CSV injection). Numbers are left as they
+    are, a negative number included, and so is a text cell that reads as a number
+    (``"-1.5"``). A text cell longer than :data:`MAX_TEXT_CELL` characters keeps its first
+    :data:`~motorid.errors.QUOTE_LIMIT` and says how long it was.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        The table to write as CSV (not changed).
+    """
+    import pandas as pd
+
+    safe = table.copy()
+    for column in safe.columns:
+        if safe[column].dtype == object or pd.api.types.is_string_dtype(safe[column]):
+            safe[column] = safe[column].map(_safe_cell)
+    safe.columns = [_safe_cell(str(c)) for c in safe.columns]
+    return safe

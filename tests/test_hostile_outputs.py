@@ -132,3 +132,35 @@ def test_control_with_overwrite_replaces_a_link_at_out(tmp_path, victim, capsys)
     assert code == 0, err
     assert victim.read_text() == "precious\n"
     assert not out.is_symlink() and out.read_text().startswith("t,")
+
+
+# -- tables a spreadsheet opens ------------------------------------------------------------------------
+def test_results_csv_escapes_formulas_from_data_and_keeps_negative_numbers(tmp_path):
+    import pandas as pd
+
+    from motorid.fleet.results import ResultsStore
+
+    store = ResultsStore(tmp_path)
+    store.append([
+        {"record": "a.csv", "drive": '=HYPERLINK("http://x","y")', "status": "ok", "params.coulomb": -1.5,
+         "note": "-1.25"},
+        {"record": "b.csv", "drive": "@SUM(A1:A9)", "status": "failed", "params.coulomb": 2.0,
+         "note": "+cmd|' /C calc'!A0", "error": "x" * 20_000_000},
+        {"record": "c.csv", "drive": "drive-01", "status": "ok", "params.coulomb": -0.0, "note": "\t=1+1"},
+    ])  # fmt: skip
+    path = store.write_csv()
+    assert path.stat().st_size < 10_000  # the 20 MB error is cut
+    table = pd.read_csv(path)
+    assert table["drive"].tolist() == ['\'=HYPERLINK("http://x","y")', "'@SUM(A1:A9)", "drive-01"]
+    assert table["params.coulomb"].tolist() == [-1.5, 2.0, -0.0]
+    assert table["note"].tolist() == ["-1.25", "'+cmd|' /C calc'!A0", "'\t=1+1"]
+    assert table["error"][1] == "x" * 80 + "... (20,000,000 characters)"
+    assert store.rows()["drive"][0] == '=HYPERLINK("http://x","y")'  # the Parquet parts keep the value
+
+
+def test_quoted_cuts_a_long_value_and_says_how_long_it_was():
+    from motorid.errors import quoted
+
+    assert quoted("abc") == "'abc'"
+    assert quoted("y" * 10**8) == repr("y" * 80) + "... (100,000,000 characters)"
+    assert quoted(list(range(1000))).endswith("... (4,890 characters)")

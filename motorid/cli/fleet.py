@@ -96,7 +96,7 @@ def cmd_fleet_trend(args: argparse.Namespace) -> int:
 
     from motorid.fleet.results import load_results
     from motorid.fleet.trend import flag_drives, friction_trends, plot_trends
-    from motorid.outputs import write_file
+    from motorid.outputs import spreadsheet_safe, write_file
 
     hold_out_folder(args, args.results, "results")  # no run writes its rows while they are read
     results = load_results(args.results)
@@ -117,7 +117,8 @@ def cmd_fleet_trend(args: argparse.Namespace) -> int:
     out = args.out or args.results / "trend"
     check_out_folder(out)
     figures = plot_trends(trends, flags, out)
-    write_file(out / "flags.csv", lambda fh: flags.to_csv(fh, index=False), overwrite=True)
+    flags_csv = spreadsheet_safe(flags)
+    write_file(out / "flags.csv", lambda fh: flags_csv.to_csv(fh, index=False), overwrite=True)
     say(f"  wrote flags.csv and {len(figures)} figures in {out}/")
     if args.json:
         emit_json({"flagged": frame_records(flagged.set_index("drive")), "drives": len(flags),

@@ -49,6 +49,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
 
+from motorid.errors import quoted
 from motorid.inputs import read_small_file
 
 __all__ = [
@@ -123,15 +124,15 @@ class Register:
     def __post_init__(self) -> None:
         where = f"register {self.name!r}"
         if not isinstance(self.address, int) or not 0 <= self.address <= 65535:
-            raise ValueError(f"{where}: address must be an integer in 0..65535, got {self.address!r}")
+            raise ValueError(f"{where}: address must be an integer in 0..65535, got {quoted(self.address)}")
         if self.type not in _TYPES:
-            raise ValueError(f"{where}: type must be one of {_TYPES}, got {self.type!r}")
+            raise ValueError(f"{where}: type must be one of {_TYPES}, got {quoted(self.type)}")
         if self.word_order not in _ORDERS:
-            raise ValueError(f"{where}: word_order must be one of {_ORDERS}, got {self.word_order!r}")
+            raise ValueError(f"{where}: word_order must be one of {_ORDERS}, got {quoted(self.word_order)}")
         if not (math.isfinite(self.scale) and self.scale != 0):
-            raise ValueError(f"{where}: scale must be finite and non-zero, got {self.scale!r}")
+            raise ValueError(f"{where}: scale must be finite and non-zero, got {quoted(self.scale)}")
         if not self.min <= self.max:
-            raise ValueError(f"{where}: min {self.min!r} must not exceed max {self.max!r}")
+            raise ValueError(f"{where}: min {quoted(self.min)} must not exceed max {quoted(self.max)}")
         if self.address + self.count - 1 > 65535:
             raise ValueError(f"{where}: address {self.address} + size runs past 65535")
         if self.type != "float32":  # one word: the order is meaningless, keep maps comparable
@@ -160,7 +161,7 @@ class Register:
         if not lo_raw <= raw <= hi_raw:
             raise ValueError(
                 f"register {self.name!r}: {value!r} {self.unit} does not fit {self.type} "
-                f"at scale {self.scale!r} (raw {raw} outside {lo_raw}..{hi_raw})"
+                f"at scale {quoted(self.scale)} (raw {raw} outside {lo_raw}..{hi_raw})"
             )
         return [raw & 0xFFFF]
 
@@ -183,7 +184,7 @@ class Register:
             raise ValueError(
                 f"{where}register {self.name!r} at address {self.address}: "
                 f"value {value!r} {self.unit} is not a valid reading "
-                f"(valid range {self.min!r}..{self.max!r})"
+                f"(valid range {quoted(self.min)}..{quoted(self.max)})"
             )
         return value
 
@@ -227,7 +228,7 @@ class RegisterMap:
         if unknown:
             raise ValueError(f"register map: unknown register(s) {unknown}; known: {_KNOWN_NAMES}")
         if not isinstance(self.device_id, int) or not 0 <= self.device_id <= 247:
-            raise ValueError(f"register map: device_id must be 0..247, got {self.device_id!r}")
+            raise ValueError(f"register map: device_id must be 0..247, got {quoted(self.device_id)}")
         for name in ("heartbeat", "status", "sequence", *OPTIONAL_REGISTER_NAMES):
             reg = self.registers.get(name)
             if reg is not None and (reg.type != "uint16" or reg.scale != 1):
@@ -246,7 +247,7 @@ class RegisterMap:
     def default(cls, word_order: WordOrder = "ABCD", device_id: int = 1) -> RegisterMap:
         """The built-in map: voltage 0-1, heartbeat 2, status 3, sequence 4, speed 5-6, refused writes 7."""
         if word_order not in _ORDERS:
-            raise ValueError(f"word_order must be one of {_ORDERS}, got {word_order!r}")
+            raise ValueError(f"word_order must be one of {_ORDERS}, got {quoted(word_order)}")
         return cls(_default_registers(word_order), device_id)
 
     @property
@@ -272,10 +273,12 @@ class RegisterMap:
         known_top = {"device_id", "word_order", "registers"}
         unknown = set(data) - known_top
         if unknown:
-            raise ValueError(f"{source}: unknown key(s) {sorted(unknown)}; known: {sorted(known_top)}")
+            raise ValueError(
+                f"{source}: unknown key(s) {quoted(', '.join(sorted(unknown)))}; known: {sorted(known_top)}"
+            )
         word_order = data.get("word_order", "ABCD")
         if word_order not in _ORDERS:
-            raise ValueError(f"{source}: word_order must be one of {_ORDERS}, got {word_order!r}")
+            raise ValueError(f"{source}: word_order must be one of {_ORDERS}, got {quoted(word_order)}")
         regs = dict(_default_registers(word_order))
         table = data.get("registers", {})
         if not isinstance(table, Mapping):
@@ -286,7 +289,7 @@ class RegisterMap:
         fields = {"address", "type", "scale", "word_order", "unit", "min", "max"}
         for name, spec in table.items():
             if name not in _KNOWN_NAMES:
-                raise ValueError(f"{source}: unknown register {name!r}; known: {_KNOWN_NAMES}")
+                raise ValueError(f"{source}: unknown register {quoted(name)}; known: {_KNOWN_NAMES}")
             if not isinstance(spec, Mapping):
                 raise ValueError(f"{source}: [registers.{name}] must be a table")
             bad = set(spec) - fields
