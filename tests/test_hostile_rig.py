@@ -208,7 +208,9 @@ def test_a_rig_freed_by_its_owner_disconnecting_goes_to_0_V_and_takes_the_next_c
         wait_for(lambda: applied_volts(other) == pytest.approx(3.0), what="the owner's 3 V")
         owner.stop(disconnect=True)
         wait_for(lambda: applied_volts(other) == 0.0, what="0 V once the owner left")
-        assert command(other, 1.0, heartbeat=register(other, "heartbeat") + 1)  # the rig is free
+        wait_for(lambda: register(other, "status") & STATUS_BITS["watchdog"], what="the watchdog's fault")
+        assert other.write_single_register(MAP["status"].address, 0)  # the rig is free: acknowledged
+        assert command(other, 1.0, heartbeat=register(other, "heartbeat") + 1)
         assert applied_volts(other) == pytest.approx(1.0)
     finally:
         other.close()

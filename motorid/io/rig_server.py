@@ -22,8 +22,9 @@ heartbeat: when the owner's heartbeat has not changed for more than
 to 0 V, latches the ``watchdog`` bit of the status word and lets the owner go.
 Re-writing the command is not a heartbeat, and no other client's heartbeat
 counts: a command holds only while its own client heart-beats. When the owner
-disconnects, the voltage goes to 0 V at once. A client acknowledges latched
-faults by writing 0 to ``status``.
+disconnects, the voltage goes to 0 V at once and the rig is free; the watchdog
+still trips once the periods have passed and latches its fault (the next client
+acknowledges it). A client acknowledges latched faults by writing 0 to ``status``.
 
 The register image is fixed: the server answers function codes 3, 6, 16 and
 23 (read, write one, write many, read/write holding registers) on the map's
@@ -292,11 +293,11 @@ class RigServer:
         return None
 
     def _client_left(self, client: object) -> None:
-        """A connection closed: if it owned the rig, 0 V at once and the rig is free."""
+        """A connection closed: if it owned the rig, 0 V at once and the rig is free (the watchdog,
+        armed, still trips and latches its fault: the owner's heartbeat has stopped)."""
         if client is not self._owner:
             return
         self._owner = None
-        self._armed = False
         if self.voltage:
             logger.info(
                 "rig: the owning client %s disconnected at %.4g V: voltage set to 0 V",
