@@ -10,6 +10,8 @@ from __future__ import annotations
 import logging
 import socket
 import struct
+import subprocess
+import sys
 import threading
 import time
 
@@ -339,3 +341,38 @@ def test_a_run_starts_whatever_heartbeat_the_rig_last_saw(tmp_path, last):
         record = run_online(daq, None, [1.0] * 20, None, out=tmp_path / "run.csv")
     assert record.attrs["samples"] == 20
     assert record["seq"].tolist() == list(range(1, 21))
+
+
+def test_a_second_controller_on_a_lock_step_rig_is_refused_while_motorid_run_owns_it(tmp_path):
+    """The case of the review: a second client writing -6 V and heartbeats during a run was obeyed."""
+    port = free_port()
+    proc = start_rig_process(port, "--plant-seed", "1")  # lock-step
+    out = tmp_path / "run.csv"
+    argv = [sys.executable, "-m", "motorid.cli", "run", "--daq", f"modbus://127.0.0.1:{port}", "--estimator",
+            "arx-rls", "--signal", "steps", "--duration", "8", "--out", str(out), "--timeout", "2", "--quiet"]  # fmt: skip
+    runner = subprocess.Popen(argv, cwd=tmp_path, stderr=subprocess.PIPE, text=True)
+    intruder = client_for(port)
+    refused = 0
+    try:
+        wait_for(lambda: out.exists() and out.stat().st_size > 200, timeout=120, what="the run's first rows")
+        k = 40000
+        while runner.poll() is None:
+            k += 1
+            if command(intruder, -6.0, heartbeat=k & 0xFFFF) is False:
+                assert intruder.last_except == BUSY
+                refused += 1
+            time.sleep(0.005)
+        err = runner.stderr.read()
+    finally:
+        intruder.close()
+        runner.kill()
+        proc.kill()
+        proc.wait(30)
+    assert runner.returncode == 0, err
+    assert refused > 10
+    assert "not read" not in err and "too slow" not in err
+    import pandas as pd
+
+    table = pd.read_csv(out)
+    assert len(table) == 200 and (table["u"] != -6.0).all()
+    assert table["seq"].tolist() == list(range(1, 201))  # every sample the run's own: none skipped
