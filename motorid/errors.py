@@ -20,7 +20,8 @@ from __future__ import annotations
 
 import math
 
-#: Characters of an offending value a message quotes (:func:`quoted`).
+#: Characters of an offending value a message quotes (:func:`quoted`, a helper beside the exceptions,
+#: outside ``__all__``, which lists exceptions only).
 QUOTE_LIMIT = 80
 
 __all__ = [
@@ -34,7 +35,6 @@ __all__ = [
     "RigBusyError",
     "RigFaultError",
     "UniformGridError",
-    "quoted",
 ]
 
 
