@@ -12,16 +12,21 @@ takes 0.1-0.3 s on a busy machine) and ``--heap`` more objects.
   (the heap frozen, collection only between samples) against Python's default collector.
 - Load: the loop time's 99th percentile while 20 pyModbusTCP clients in another process read the
   rig, 1000 reads/s together (``--rate``; 0 for as fast as it answers), against the same loop alone.
+- Real time: ``run_online`` with an ARX-RLS estimator on a real-time rig server (its own process,
+  the default watchdog of 3 periods of 40 ms) for ``--realtime-seconds`` (400 s by default; 0 to
+  skip): whether it ends without a watchdog fault, and its largest time between two samples.
 
 Usage::
 
     python benchmarks/bench_modbus_loop.py [--samples 10000] [--heap 0] [--clients 20] [--rate 1000]
+                                           [--realtime-seconds 400]
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import math
 import multiprocessing as mp
 import sys
 import threading
@@ -34,12 +39,14 @@ from _table import Row, print_rows
 TITLE = "Modbus TCP sample loop on 127.0.0.1: garbage collection and 20 other clients"
 
 
-def serve(queue: mp.Queue, stop: mp.Event) -> None:  # type: ignore[type-arg]
-    """Child process: a lock-step rig server on 127.0.0.1, free port, until ``stop``."""
+def serve(queue: mp.Queue, stop: mp.Event, realtime: bool = False) -> None:  # type: ignore[type-arg]
+    """Child process: a rig server on 127.0.0.1, free port, until ``stop``: lock-step without a
+    watchdog, or real-time with the default watchdog (3 periods)."""
     from motorid.drive import paper_rig
     from motorid.io import RigServer
 
-    server = RigServer(paper_rig(), port=0, seed=1, watchdog_periods=None).start()
+    watchdog = 3.0 if realtime else None
+    server = RigServer(paper_rig(), port=0, seed=1, lockstep=not realtime, watchdog_periods=watchdog).start()
     queue.put(server.port)
     stop.wait()
     server.stop()
@@ -120,7 +127,44 @@ def loop_times(port: int, n: int, collector: contextlib.AbstractContextManager) 
     return times, longest
 
 
-def measure(samples: int = 10_000, heap: int = 0, clients: int = 20, rate: float = 1000.0) -> list[Row]:
+def realtime_run(seconds: float) -> tuple[bool, float, str]:
+    """``run_online`` for ``seconds`` on a real-time rig with the default watchdog: (ended without a
+    fault, largest time between two samples [s], what stopped it)."""
+    import tempfile
+
+    from motorid.errors import DAQError
+    from motorid.estimators import create
+    from motorid.io import ModbusDAQ, run_online
+    from motorid.signals import steps
+
+    ctx = mp.get_context("spawn")
+    queue, stop = ctx.Queue(), ctx.Event()
+    server = ctx.Process(target=serve, args=(queue, stop, True), daemon=True)
+    server.start()
+    try:
+        port = queue.get(timeout=60)
+        _, u = steps(seconds, 0.04, seed=0)
+        with tempfile.TemporaryDirectory() as tmp:
+            daq = ModbusDAQ("127.0.0.1", port, dt=0.04, timeout=1.0)
+            try:
+                record = run_online(
+                    daq, {"arx-rls": create("arx-rls", na=2, nb=2)}, u, None, out=f"{tmp}/run.csv"
+                )
+            except DAQError as exc:
+                return False, math.nan, str(exc)
+        return True, float(record.attrs["largest_interval"]), "ended"
+    finally:
+        stop.set()
+        server.join(10)
+
+
+def measure(
+    samples: int = 10_000,
+    heap: int = 0,
+    clients: int = 20,
+    rate: float = 1000.0,
+    realtime_seconds: float = 400.0,
+) -> list[Row]:
     import motorid.cli.control
     import motorid.diagnose
 
@@ -158,7 +202,16 @@ def measure(samples: int = 10_000, heap: int = 0, clients: int = 20, rate: float
 
     peer = "Python's default collector"
     alone = "the same loop, no other client"
+    timed = []
+    if realtime_seconds > 0:
+        ok, largest, why = realtime_run(realtime_seconds)
+        timed = [
+            Row(f"{realtime_seconds:g} s real-time run at 40 ms, watchdog 3 periods: "
+                + ("ended, largest interval" if ok else f"STOPPED ({why[:60]})"),
+                largest * 1e3, None, "ms", "", False),
+        ]  # fmt: skip
     return [
+        *timed,
         Row("largest jitter (max - median)", jitter(kept), jitter(plain), "ms", peer, False),
         Row("largest sample time", float(kept.max()) * 1e3, float(plain.max()) * 1e3, "ms", peer, False),
         Row("longest collection inside a sample", kept_gc * 1e3, plain_gc * 1e3, "ms", peer, False),
@@ -177,8 +230,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--clients", type=int, default=20, help="other clients reading the rig")
     parser.add_argument("--rate", type=float, default=1000.0, help="their reads/s together (0: unthrottled)")
+    parser.add_argument("--realtime-seconds", type=float, default=400.0, help="real-time run [s] (0: skip)")
     args = parser.parse_args(argv)
-    rows = measure(args.samples, args.heap, args.clients, args.rate)
+    rows = measure(args.samples, args.heap, args.clients, args.rate, args.realtime_seconds)
     print_rows(rows, f"{TITLE}; {args.samples} samples each, {args.heap} more live objects")
     return 0
 
