@@ -281,7 +281,7 @@ def _store_as_completed(
     completes, counting it in ``run``; a future whose worker was lost, or that ran longer than
     ``task_timeout`` [s] on its worker (:class:`_TaskClock`), is ``lost(key, exc)``'s rows.
     A task is done when its first row says ok."""
-    from dask.distributed import as_completed
+    from dask.distributed import as_completed, wait
 
     if not (task_timeout > 0):
         raise DataError(f"task_timeout must be a positive time [s], got {task_timeout!r}")
@@ -292,12 +292,19 @@ def _store_as_completed(
     last_csv = time.monotonic()
     try:
         pending = as_completed(list(futures), with_results=True, raise_errors=False)
+        remaining = set(futures)
         while not pending.is_empty():
             batch = pending.next_batch(block=False)
             if not batch:
                 clock.check()
-                time.sleep(0.1)
+                running = [future for future in remaining if future.key not in clock.timed_out]
+                if not running:  # only cancelled ones left, on their way out of as_completed
+                    time.sleep(0.05)
+                    continue
+                with contextlib.suppress(TimeoutError):  # until one completes, or the clock's next look
+                    wait(running, timeout=clock.EVERY, return_when="FIRST_COMPLETED")
                 continue
+            remaining.difference_update(future for future, _ in batch)
             rows = []
             failed = 0
             for future, result in batch:
