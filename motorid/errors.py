@@ -20,6 +20,10 @@ from __future__ import annotations
 
 import math
 
+#: Characters of an offending value a message quotes (:func:`quoted`, a helper beside the exceptions,
+#: outside ``__all__``, which lists exceptions only).
+QUOTE_LIMIT = 80
+
 __all__ = [
     "DAQConnectionError",
     "DAQError",
@@ -28,9 +32,29 @@ __all__ = [
     "FilterDivergenceError",
     "ModelFileError",
     "OutputError",
+    "RigBusyError",
     "RigFaultError",
     "UniformGridError",
 ]
+
+
+def quoted(value: object, limit: int = QUOTE_LIMIT) -> str:
+    """``repr(value)`` for a message, cut to about ``limit`` characters (a field may hold 200 MB).
+
+    A longer text ends in ``...`` and its full length: ``'xxxx...' (200,000,000 characters)``.
+
+    Parameters
+    ----------
+    value : object
+        The offending value (a string is cut before its ``repr`` is made).
+    limit : int
+        Characters kept.
+    """
+    length = len(value) if isinstance(value, str | bytes) else None
+    if length is not None and length > limit:
+        return f"{value[:limit]!r}... ({length:,} characters)"
+    text = repr(value)
+    return text if len(text) <= limit else f"{text[:limit]}... ({len(text):,} characters)"
 
 
 class DataError(ValueError):
@@ -139,3 +163,12 @@ class RigFaultError(DAQError):
     def __init__(self, message: str, status: int) -> None:
         super().__init__(message)
         self.status = status
+
+
+class RigBusyError(DAQError):
+    """The rig refused a write because another client owns it (Modbus exception 6, device busy).
+
+    A rig has one owner at a time: the first client that writes to it, until its
+    heartbeat stalls for the watchdog's time or it disconnects
+    (:class:`motorid.io.RigServer`). A run that gets this error has lost the rig.
+    """

@@ -6,11 +6,20 @@
   name exists, so the check and the create are one step and of two writers of
   one new name exactly one wins. A full disk or a lost race leaves the name as
   it was and raises :class:`~motorid.errors.OutputError` naming the file.
+- :func:`create_in_place` gives a file that is written as a run goes (a run's
+  CSV, row by row) its name at once, by the same link or rename.
 - :class:`FolderLock` locks a folder a run writes (a fleet's results, a
   command's figures) for as long as the run lasts.
+
+No writer follows a symbolic link at the name it writes: a link there is
+replaced by the new file (with ``overwrite``) or refused, never written
+through, and the lock file is opened with ``O_NOFOLLOW`` and must be a regular
+file.
 - :func:`safe_file_name` turns a name that comes from data (a drive id in a
   record's attrs, a file's stem) into one file name that stays in its folder.
 - :func:`jsonable`: numpy and pandas values as plain JSON, as ``--json`` and a fleet's rows write them.
+- :func:`spreadsheet_safe`: a table's text cells as a spreadsheet shows them and never executes them,
+  for the CSV tables motorid writes.
 """
 
 from __future__ import annotations
@@ -22,16 +31,29 @@ import math
 import os
 import secrets
 import socket
+import stat
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import IO, Any
+from typing import IO, TYPE_CHECKING, Any
 
-from motorid.errors import OutputError
+from motorid.errors import QUOTE_LIMIT, OutputError
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["LOCK_NAME", "FolderLock", "disk_full", "jsonable", "safe_file_name", "write_file"]
+__all__ = [
+    "LOCK_NAME",
+    "FolderLock",
+    "create_in_place",
+    "disk_full",
+    "jsonable",
+    "safe_file_name",
+    "spreadsheet_safe",
+    "write_file",
+]
 
 #: The lock file a run keeps in the folder it writes (:class:`FolderLock`).
 LOCK_NAME = ".motorid.lock"
@@ -39,6 +61,10 @@ LOCK_NAME = ".motorid.lock"
 MAX_NAME_BYTES = 120
 #: Characters besides letters and digits a name from data keeps.
 _NAME_CHARACTERS = frozenset("-_.+=@ ")
+#: First characters that make a spreadsheet read a cell as a formula (and tab, carriage return).
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
+#: Longest text cell a CSV table keeps whole [characters]; a longer one is cut (:func:`spreadsheet_safe`).
+MAX_TEXT_CELL = 1000
 #: errno of a file system that has no hard links (then the name is claimed with O_EXCL first).
 _NO_LINKS = {errno.EPERM, errno.EOPNOTSUPP, errno.ENOTSUP, errno.EXDEV, errno.EMLINK, errno.ENOSYS}
 
@@ -121,7 +147,7 @@ def write_file(
         through, with nothing written.
     """
     target = Path(path)
-    existed = target.exists()
+    existed = os.path.lexists(target)
     kept = f"{target} is as it was" if existed else "nothing was written"
     tmp = _temporary_name(target)
     try:
@@ -149,6 +175,83 @@ def write_file(
     return target
 
 
+def create_in_place(path: str | os.PathLike[str], *, overwrite: bool = False) -> int:
+    """Create an empty file at ``path`` for this process alone; return its descriptor, open for writing.
+
+    For a file written as a run goes (a run's CSV, row by row). The file is made
+    under a temporary name beside ``path``, locked (:func:`fcntl.flock`, held
+    until the descriptor is closed) and then takes the name as :func:`write_file`
+    puts a file in place: without ``overwrite`` by a link that fails when the name
+    exists; with it by a rename over the old entry. A symbolic link at ``path`` is
+    so refused or replaced, never written through, and what it points at is left
+    as it was. With ``overwrite``, a regular file at ``path`` that another process
+    holds locked (another run writing it) is refused.
+
+    Parameters
+    ----------
+    path : path-like
+        The file to create.
+    overwrite : bool
+        Replace what is at ``path`` (a file or a link).
+
+    Returns
+    -------
+    int
+        A descriptor open for writing on the new, empty file (the caller closes it).
+
+    Raises
+    ------
+    motorid.errors.OutputError
+        ``path`` exists (without ``overwrite``; ``errno`` is ``EEXIST``), another
+        run writes it, or the folder cannot be written; nothing was changed.
+    """
+    import fcntl
+
+    target = Path(path)
+    if overwrite:
+        _refuse_a_file_in_use(target)
+    tmp = _temporary_name(target)
+    fd = -1
+    try:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o666)
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        _put_in_place(tmp, target, overwrite)
+    except FileExistsError:
+        if fd >= 0:
+            os.close(fd)
+        taken = OutputError(
+            f"{target}: the file exists (another writer created it meanwhile); nothing was written"
+        )
+        taken.errno = errno.EEXIST
+        raise taken from None
+    except OSError as exc:
+        if fd >= 0:
+            os.close(fd)
+        raise OutputError(
+            f"{target}: cannot create the file: {exc.strerror or exc}; nothing was written"
+        ) from None
+    finally:
+        tmp.unlink(missing_ok=True)
+    return fd
+
+
+def _refuse_a_file_in_use(target: Path) -> None:
+    """Raise OutputError when ``target`` is a regular file another process holds locked."""
+    import fcntl
+
+    try:
+        fd = os.open(target, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_NOCTTY)
+    except OSError:  # no file, a link, or unreadable: nothing anyone writes through this name
+        return
+    try:
+        if stat.S_ISREG(os.fstat(fd).st_mode):
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        raise OutputError(f"{target}: another run is writing this file; it was left as it was") from None
+    finally:
+        os.close(fd)
+
+
 class FolderLock:
     """The lock of a folder a run writes, held until :meth:`release` (or the end of a ``with``).
 
@@ -157,7 +260,10 @@ class FolderLock:
     lock left by a killed run is taken over by the next run without a stale-lock
     test. The holder writes its process id and command into the file, for the
     message that refuses a second run. The file stays in the folder (removing it
-    would let two runs lock two different files of one name).
+    would let two runs lock two different files of one name). The lock file is
+    opened with ``O_NOFOLLOW``: a symbolic link (or anything but a regular file)
+    at its name is refused, so the lock never truncates or creates a file
+    elsewhere.
 
     Parameters
     ----------
@@ -170,7 +276,9 @@ class FolderLock:
     ------
     motorid.errors.OutputError
         From :meth:`acquire`: another process holds the lock (and ``wait`` is
-        false); the message names it (:meth:`holder`) and the lock file.
+        false; ``errno`` is ``EWOULDBLOCK``); the message names it (:meth:`holder`)
+        and the lock file. Or the lock file's name is a symbolic link or not a
+        regular file (``errno`` is ``ELOOP``), left as it is.
     """
 
     def __init__(self, folder: str | os.PathLike[str], *, wait: bool = False) -> None:
@@ -190,12 +298,19 @@ class FolderLock:
     def holder(self) -> str:
         """What the lock file says of its holder: ``process PID on HOST``, or ``an unknown process``.
 
-        The file's line is ``PID HOST COMMAND``.
+        The file's line is ``PID HOST COMMAND`` (its first 4096 bytes are read, never through a link).
         """
         try:
-            text = self.path.read_text(encoding="utf-8", errors="replace")
+            fd = os.open(self.path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_NOCTTY)
+        except OSError:
+            return "an unknown process"
+        try:
+            regular = stat.S_ISREG(os.fstat(fd).st_mode)
+            text = os.pread(fd, 4096, 0).decode("utf-8", errors="replace") if regular else ""
         except OSError:
             text = ""
+        finally:
+            os.close(fd)
         pid, host = ([*text.split(maxsplit=2), "", ""])[:2]
         return f"process {pid} on {host}" if pid.isdigit() else "an unknown process"
 
@@ -205,16 +320,18 @@ class FolderLock:
 
         if self._fd is not None:
             return self
-        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+        fd = self._open_lock_file()
         try:
             try:
                 fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
             except BlockingIOError:
                 holder = self.holder()
                 if not self.wait:
-                    raise OutputError(
+                    busy = OutputError(
                         f"{self.folder}: another run writes this folder: {holder} holds its lock file {self.path}"
-                    ) from None
+                    )
+                    busy.errno = errno.EWOULDBLOCK
+                    raise busy from None
                 logger.warning("%s: waiting for %s to finish (lock file %s)", self.folder, holder, self.path)
                 fcntl.flock(fd, fcntl.LOCK_EX)
             command = " ".join(os.path.basename(a) if i == 0 else a for i, a in enumerate(sys.argv))
@@ -226,6 +343,28 @@ class FolderLock:
         self._fd = fd
         logger.debug("%s: locked (%s)", self.folder, self.path)
         return self
+
+    def _open_lock_file(self) -> int:
+        """Open (or create) the lock file without following a link; refuse anything but a regular file."""
+        flags = os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_NOCTTY
+        try:
+            fd = os.open(self.path, flags, 0o666)
+        except OSError as exc:
+            if exc.errno == errno.ELOOP:
+                problem = "is a symbolic link"
+            else:
+                problem = f"cannot be opened: {exc.strerror or exc}"
+            refused = OutputError(f"{self.folder}: the lock file {self.path} {problem}; it was left as it is")
+            refused.errno = exc.errno
+            raise refused from None
+        if not stat.S_ISREG(os.fstat(fd).st_mode):
+            os.close(fd)
+            refused = OutputError(
+                f"{self.folder}: the lock file {self.path} is not a regular file; it was left as it is"
+            )
+            refused.errno = errno.ELOOP
+            raise refused
+        return fd
 
     def release(self) -> None:
         """Let the lock go (safe to call twice)."""
@@ -299,3 +438,41 @@ def jsonable(value: Any) -> Any:
     if isinstance(value, Path):
         return str(value)
     return value
+
+
+def _safe_cell(value: Any) -> Any:
+    if not isinstance(value, str):
+        return value
+    if len(value) > MAX_TEXT_CELL:
+        value = f"{value[:QUOTE_LIMIT]}... ({len(value):,} characters)"
+    if value.startswith(FORMULA_STARTS):
+        try:
+            float(value)
+        except ValueError:
+            return "'" + value
+    return value
+
+
+def spreadsheet_safe(table: pd.DataFrame) -> pd.DataFrame:
+    """A copy of ``table`` whose text cells a spreadsheet shows as text and never evaluates.
+
+    A text cell that begins with ``=``, ``+``, ``-``, ``@``, a tab or a carriage return
+    (a drive id ``=HYPERLINK(...)`` from a record) gets a leading ``'``, which spreadsheets
+    take as "text follows" (OWASP's advice for CSV injection). Numbers are left as they
+    are, a negative number included, and so is a text cell that reads as a number
+    (``"-1.5"``). A text cell longer than :data:`MAX_TEXT_CELL` characters keeps its first
+    :data:`~motorid.errors.QUOTE_LIMIT` and says how long it was.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        The table to write as CSV (not changed).
+    """
+    import pandas as pd
+
+    safe = table.copy()
+    for column in safe.columns:
+        if safe[column].dtype == object or pd.api.types.is_string_dtype(safe[column]):
+            safe[column] = safe[column].map(_safe_cell)
+    safe.columns = [_safe_cell(str(c)) for c in safe.columns]
+    return safe

@@ -193,7 +193,10 @@ def test_the_rig_options_make_the_simulated_plant_as_motorid_simulate_does(capsy
     options = ("--dead-zone", "1.1", "--coulomb-motor", "0.008", "--stribeck", "0.002", "0.1")
     by_options = control(capsys, files, *options, "--out", str(tmp_path / "a.csv"))
     by_file = control(capsys, files, "--model", str(tmp_path / "rig.json"), "--out", str(tmp_path / "b.csv"))
-    assert by_options == {**by_file, "out": by_options["out"]}
+    timing = ("out", "largest_interval")  # the file names differ; the loop's timing is the machine's
+    assert {k: v for k, v in by_options.items() if k not in timing} == {
+        k: v for k, v in by_file.items() if k not in timing
+    }
     # and it is not the default rig: a wider dead zone and more friction stick longer without compensation
     default = control(capsys, files, "--no-compensation")
     wider = control(capsys, files, *options, "--no-compensation")

@@ -37,6 +37,7 @@ LAYERS: dict[str, int] = {
     # 1: the common ground: units, checked JSON, writing files, progress bars, figure layout
     "motorid.units": 1,
     "motorid.json_input": 1,
+    "motorid.inputs": 1,
     "motorid.outputs": 1,
     "motorid.progress": 1,
     "motorid.figures": 1,

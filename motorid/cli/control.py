@@ -15,6 +15,7 @@ from .options import (
     add_out_file,
     add_plant_seed,
     check_out_file,
+    planned_samples,
     positive,
 )
 from .report import emit_json, say, show_progress
@@ -23,15 +24,24 @@ from .simulation import add_rig_options
 
 #: Share of the samples whose command may be clamped before ``motorid control`` warns [-].
 CLAMP_WARNING_SHARE = 0.05
+#: Memory the planned reference takes [B per sample]: its time and speed arrays, and the loop's copy.
+REFERENCE_BYTES_PER_SAMPLE = 24
+#: The largest --reference file read [bytes]: a day at 1 ms in two columns of text.
+MAX_REFERENCE_BYTES = 256 << 20
 
 
 def reference_from_file(path: Path, dt: float, duration: float | None) -> np.ndarray:
     """The reference speed [rad/s] of the CSV ``path`` (columns ``t`` [s] and ``r`` [rad/s]) at the
     loop's samples k dt, linearly interpolated; DataError naming the file and what is wrong."""
+    import io
+
     import pandas as pd
 
+    from motorid.inputs import read_small_file
+
+    raw = read_small_file(path, "--reference", MAX_REFERENCE_BYTES)
     try:
-        table = pd.read_csv(path)
+        table = pd.read_csv(io.BytesIO(raw))
     except (OSError, ValueError) as exc:
         raise DataError(f"--reference {path}: cannot read it as CSV: {exc}") from None
     for column in ("t", "r"):
@@ -84,6 +94,7 @@ def cmd_control(args: argparse.Namespace) -> int:
     )
     from motorid.validation import rpm_to_rad_s
 
+    from .rig import loop_timing, rig_stopped
     from .simulation import RIG_OPTIONS, rig_from_args
 
     if args.out is not None:
@@ -131,6 +142,8 @@ def cmd_control(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise DataError(str(exc)) from None
     dt = daq.dt
+    if args.duration is not None:
+        planned_samples(args.duration, dt, REFERENCE_BYTES_PER_SAMPLE, "the reference")
     if args.reference is not None:
         reference = reference_from_file(args.reference, dt, args.duration)
     else:
@@ -164,14 +177,14 @@ def cmd_control(args: argparse.Namespace) -> int:
         record = run_closed_loop(daq, controller, reference, out=args.out, progress=show_progress(), overwrite=args.overwrite,
                                  metrics=tracking, input_unit=unit)  # fmt: skip
     except DAQError as exc:
-        notes = " ".join(getattr(exc, "__notes__", []))
-        raise DataError(f"control stopped: {exc}. {notes}".strip()) from None
+        raise rig_stopped("control", args.daq, exc) from None
     except KeyboardInterrupt as exc:  # exit 130 (main), after saying what is on disk
         say(f"motorid control: {exc or 'interrupted'}; " + " ".join(getattr(exc, "__notes__", [])))
         raise
     metrics = tracking.result()
     if args.out is not None:
         say(f"wrote {args.out}: {record.attrs['samples']} samples (t, reference, u, y)")
+    say(f"motorid control: {loop_timing(record)}")
     say(f"RMS tracking error {metrics['rms_error']:.3g} rad/s; at low speed (|r| < {args.low_speed_rpm:g} rpm) "
         f"{metrics['low_speed_rms_error']:.3g} rad/s; largest stuck interval after a reversal "
         f"{metrics['largest_stuck_after_reversal']:.3g} s")  # fmt: skip
@@ -185,7 +198,7 @@ def cmd_control(args: argparse.Namespace) -> int:
             "compensation": None if compensation is None else source,
             "pi": {"kp": pi.kp, "ki": pi.ki, "tracking_time": pi.tracking_time, "u_max": pi.u_max,
                    "bandwidth": pi.bandwidth}, "input_unit": unit, "export_c": exported,
-            "low_speed_band": band, **metrics,
+            "low_speed_band": band, "largest_interval": record.attrs["largest_interval"], **metrics,
         })  # fmt: skip
     return 0
 

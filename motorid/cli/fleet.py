@@ -14,6 +14,8 @@ import os
 from pathlib import Path
 from typing import Any
 
+from motorid.fleet.runner import TASK_TIMEOUT
+
 from .doctor import add_doctor_options, doctor_options_from_args
 from .identification import add_identify_options, identify_options_from_args
 from .options import (
@@ -58,7 +60,8 @@ def _run(args: argparse.Namespace, command: str) -> int:
         f"results in {args.out}/")  # fmt: skip
     fleet_run = run(paths, args.out, job, read=read, per_drive=per_drive,
                     pattern=args.pattern, scheduler=args.scheduler, workers=args.workers, figures=args.figures,
-                    retry_failed=args.retry_failed, lock=False, progress=show_progress())  # fmt: skip
+                    retry_failed=args.retry_failed, lock=False, progress=show_progress(),
+                    task_timeout=args.task_timeout)  # fmt: skip
     what = (
         "records"
         if fleet_run.drives is None
@@ -96,7 +99,7 @@ def cmd_fleet_trend(args: argparse.Namespace) -> int:
 
     from motorid.fleet.results import load_results
     from motorid.fleet.trend import flag_drives, friction_trends, plot_trends
-    from motorid.outputs import write_file
+    from motorid.outputs import spreadsheet_safe, write_file
 
     hold_out_folder(args, args.results, "results")  # no run writes its rows while they are read
     results = load_results(args.results)
@@ -117,7 +120,8 @@ def cmd_fleet_trend(args: argparse.Namespace) -> int:
     out = args.out or args.results / "trend"
     check_out_folder(out)
     figures = plot_trends(trends, flags, out)
-    write_file(out / "flags.csv", lambda fh: flags.to_csv(fh, index=False), overwrite=True)
+    flags_csv = spreadsheet_safe(flags)
+    write_file(out / "flags.csv", lambda fh: flags_csv.to_csv(fh, index=False), overwrite=True)
     say(f"  wrote flags.csv and {len(figures)} figures in {out}/")
     if args.json:
         emit_json({"flagged": frame_records(flagged.set_index("drive")), "drives": len(flags),
@@ -159,11 +163,15 @@ def _add_run_options(p: argparse.ArgumentParser) -> None:
                    help="drive and time from the file name, e.g. '{drive}_{date:%%Y%%m%%d}.csv' "
                         "(default: the record's attrs 'drive' and 'time', else the file name)")  # fmt: skip
     p.add_argument("--scheduler", metavar="ADDRESS",
-                   help="a running Dask scheduler, e.g. tcp://HOST:8786 (default: a local cluster)")  # fmt: skip
+                   help="a running Dask scheduler you trust, e.g. tcp://HOST:8786 (default: a local cluster "
+                        "on 127.0.0.1 at a random port)")  # fmt: skip
     p.add_argument("--workers", type=number(int, low=1),
                    help="worker processes of the local cluster (default: the cores)")  # fmt: skip
     p.add_argument("--no-figures", dest="figures", action="store_false", help="write no figure per record")
     p.add_argument("--retry-failed", action="store_true", help="rerun the records whose row says failed")
+    p.add_argument("--task-timeout", type=positive, default=TASK_TIMEOUT, metavar="SECONDS",
+                   help="a record's (or drive's) task running longer is a failed row, its worker dropped, "
+                        f"and the run goes on [s] (default: {TASK_TIMEOUT:g})")  # fmt: skip
     add_wait(p)
     add_record_columns(p)
     add_json(p)

@@ -7,6 +7,7 @@ command with one line naming the option (exit status 2) before any work is done.
 from __future__ import annotations
 
 import argparse
+import errno
 import math
 import os
 import re
@@ -350,11 +351,63 @@ def add_signal_options(parser: argparse.ArgumentParser, duration: float | None) 
                        help="seed of the excitation signal (default: 0)")  # fmt: skip
 
 
-def excitation_from_args(args: argparse.Namespace, dt: float) -> np.ndarray:
-    """The excitation [V] per sample of :func:`add_signal_options`'s options at sample time ``dt``."""
+#: The longest run or simulation a command plans [s]: a year.
+MAX_PLANNED_SECONDS = 366 * 86400.0
+#: Samples of excitation a run holds; a longer run repeats them (``motorid run``).
+EXCITATION_BLOCK = 2**20
+
+
+def planned_samples(duration: float, dt: float, bytes_per_sample: float, held: str) -> int:
+    """The samples of ``--duration`` [s] at ``dt`` [s], refused in one line when impossible.
+
+    A duration over :data:`MAX_PLANNED_SECONDS` is refused, and so is one whose samples, at
+    ``bytes_per_sample`` in memory each (0: the command allocates as it goes), would need more
+    than this machine's physical memory.
+
+    Parameters
+    ----------
+    duration : float
+        The ``--duration`` given [s].
+    dt : float
+        Sample time [s].
+    bytes_per_sample : float
+        Memory the command holds per planned sample [B].
+    held : str
+        What it holds in memory, for the message (``the record``).
+
+    Raises
+    ------
+    DataError
+        Naming ``--duration``, the samples and the bound.
+    """
+    if duration > MAX_PLANNED_SECONDS:
+        raise DataError(
+            f"--duration {duration:g} s is longer than a year ({MAX_PLANNED_SECONDS:g} s), the longest a "
+            "command plans; run it in parts"
+        )
+    n = round(duration / dt)
+    try:
+        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (ValueError, OSError, AttributeError):  # no such figure on this system
+        memory = 0
+    need = n * bytes_per_sample
+    if memory > 0 and need > memory:
+        longest = memory / bytes_per_sample * dt
+        raise DataError(
+            f"--duration {duration:g} s is {n:,} samples at dt = {dt:g} s: {held} would need about "
+            f"{need / 1e9:.3g} GB in memory, more than this machine's {memory / 1e9:.3g} GB; "
+            f"give at most --duration {longest:.3g}"
+        )
+    return n
+
+
+def excitation_from_args(args: argparse.Namespace, dt: float, longest: float | None = None) -> np.ndarray:
+    """The excitation [V] per sample of :func:`add_signal_options`'s options at sample time ``dt``:
+    the first ``longest`` seconds of it when given (a run repeats them)."""
     from motorid import signals
 
-    kwargs: dict[str, Any] = {"duration": args.duration, "dt": dt, "seed": args.seed}
+    duration = args.duration if longest is None else min(args.duration, longest)
+    kwargs: dict[str, Any] = {"duration": duration, "dt": dt, "seed": args.seed}
     if args.signal == "paper":
         if args.amplitude is not None:
             kwargs["amplitudes"] = (args.amplitude, 0.625 * args.amplitude)
@@ -436,7 +489,9 @@ def hold_out_folder(args: argparse.Namespace, path: Path, option: str = "--out")
     try:
         lock.acquire()
     except OutputError as exc:
-        raise DataError(f"{option} {exc}; pass --wait to wait for it, or choose another folder") from None
+        if getattr(exc, "errno", None) == errno.EWOULDBLOCK:
+            raise DataError(f"{option} {exc}; pass --wait to wait for it, or choose another folder") from None
+        raise DataError(f"{option} {exc}; remove it, or choose another folder") from None
     args.out_lock = lock
 
 

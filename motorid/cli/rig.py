@@ -7,9 +7,12 @@ import math
 import sys
 from pathlib import Path
 
+import pandas as pd
+
 from motorid.errors import DataError
 
 from .options import (
+    EXCITATION_BLOCK,
     add_estimator_options,
     add_json,
     add_out_file,
@@ -20,6 +23,7 @@ from .options import (
     excitation_from_args,
     non_negative,
     number,
+    planned_samples,
     positive,
 )
 from .report import emit_json, say, say_error, say_params, show_progress
@@ -100,12 +104,50 @@ def cmd_rig_map(args: argparse.Namespace) -> int:
     return 0
 
 
+def rig_stopped(command: str, url: str, exc: Exception) -> DataError:
+    """The one line that says why ``motorid COMMAND`` (run, control) stopped on the rig at ``url``.
+
+    The library's errors advise Python calls; here the advice is a command and its options: a
+    fault is acknowledged by starting the command again, a rig another client owns is freed by
+    stopping that client. The notes on ``exc`` (what is on disk) follow.
+    """
+    from motorid.errors import RigBusyError, RigFaultError
+    from motorid.io import STATUS_BITS
+    from motorid.io.modbus import describe_status
+
+    notes = " ".join(getattr(exc, "__notes__", []))
+    if isinstance(exc, RigFaultError):
+        why = ""
+        if exc.status & STATUS_BITS["watchdog"]:
+            why = " (its watchdog tripped: no heartbeat came for its watchdog periods)"
+        text = (
+            f"{command} stopped: the rig at {url} reports fault {describe_status(exc.status)}{why} and holds 0 V. "
+            f"Once the cause is fixed, start motorid {command} again (with another --out, or --overwrite): "
+            "it acknowledges the fault as it connects."
+        )
+    elif isinstance(exc, RigBusyError):
+        text = (
+            f"{command} stopped: the rig at {url} is owned by another client and refused this one's commands. "
+            f"Stop the other client (or wait until the rig's watchdog frees it), then start motorid {command} again."
+        )
+    else:
+        text = f"{command} stopped: {exc}."
+    return DataError(f"{text} {notes}".strip())
+
+
+def loop_timing(record: pd.DataFrame) -> str:
+    """What a run's loop kept of its time: ``largest time between two samples 41.2 ms (dt 40 ms)``."""
+    largest, dt = record.attrs["largest_interval"], record.attrs["dt"]
+    if not math.isfinite(largest):
+        return "fewer than two samples taken"
+    return f"largest time between two samples {largest * 1e3:.3g} ms (dt {dt * 1e3:.3g} ms)"
+
+
 def cmd_run(args: argparse.Namespace) -> int:
     """Online identification on a DAQ (simulated rig or Modbus)."""
     from motorid.app.identify import create_estimator
-    from motorid.errors import DAQError, RigFaultError
-    from motorid.io import STATUS_BITS, daq_from_url, run_online
-    from motorid.io.modbus import describe_status
+    from motorid.errors import DAQError
+    from motorid.io import daq_from_url, run_online
 
     check_out_file(args.out, args.overwrite)
     estimators = {name: create_estimator(name, args) for name in args.estimator}
@@ -117,31 +159,28 @@ def cmd_run(args: argparse.Namespace) -> int:
         args.daq, seed=(args.plant_seed or 0) if simulated else None, dt=args.dt, register_map=args.map,
         u_max=args.u_max, timeout=args.timeout,
     )  # fmt: skip
-    excitation = excitation_from_args(args, daq.dt)
+    dt = daq.dt
+    n = planned_samples(args.duration, dt, 0, "the run")  # the rows go to --out as they come
+    block = excitation_from_args(args, dt, longest=EXCITATION_BLOCK * dt)
+
+    def repeated(t: float) -> float:  # a run longer than the block repeats it
+        return float(block[round(t / dt) % block.size])
+
+    excitation = block if block.size >= n else repeated
     try:
         record = run_online(daq, estimators, excitation, args.duration, out=args.out, progress=show_progress(),
                             overwrite=args.overwrite)  # fmt: skip
-    except RigFaultError as exc:  # the library's advice is a Python call: say what to type instead
-        notes = " ".join(getattr(exc, "__notes__", []))
-        why = ""
-        if exc.status & STATUS_BITS["watchdog"]:
-            why = " (its watchdog tripped: no command or heartbeat came for its watchdog periods)"
-        raise DataError(
-            f"run stopped: the rig at {args.daq} reports fault {describe_status(exc.status)}{why} and holds 0 V. "
-            "Once the cause is fixed, start motorid run again (with another --out, or --overwrite): "
-            f"it acknowledges the fault as it connects. {notes}".strip()
-        ) from None
     except DAQError as exc:
-        notes = " ".join(getattr(exc, "__notes__", []))
-        raise DataError(f"run stopped: {exc}. {notes}".strip()) from None
+        raise rig_stopped("run", args.daq, exc) from None
     except KeyboardInterrupt as exc:  # exit 130 (main), after saying what is on disk
         say_error(f"motorid run: {exc or 'interrupted'}; " + " ".join(getattr(exc, "__notes__", [])))
         raise
-    say(f"wrote {args.out}: {record.attrs['samples']} samples")
+    say(f"wrote {args.out}: {record.attrs['samples']} samples; {loop_timing(record)}")
     for name, est in estimators.items():
         say_params(f"{name}.", est.params)
     if args.json:
         emit_json({"out": args.out, "samples": record.attrs["samples"],
+                   "largest_interval": record.attrs["largest_interval"],
                    "params": {n: e.params for n, e in estimators.items()}})  # fmt: skip
     return 0
 

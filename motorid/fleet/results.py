@@ -182,14 +182,18 @@ class ResultsStore:
     def write_csv(self, reread: bool = False) -> Path:
         """Rewrite ``results.csv`` from the Parquet parts (temporary name, then renamed).
 
+        Text cells are written as :func:`motorid.outputs.spreadsheet_safe` makes them (a leading
+        ``'`` before ``=``, ``+``, ``-``, ``@``; text longer than 1000 characters cut); the Parquet
+        parts keep every value as it was.
+
         ``reread`` reads the parts from disk again first: a run stopped between writing a part
         and keeping it in memory still gets every row on disk into the CSV.
         """
-        from motorid.outputs import write_file
+        from motorid.outputs import spreadsheet_safe, write_file
 
         if reread:
             self._tables = None
-        rows = self.rows()
+        rows = spreadsheet_safe(self.rows())  # a drive id "=..." from a record is shown, never evaluated
         return write_file(self.csv, lambda fh: rows.to_csv(fh, index=False), overwrite=True)
 
     def compact(self) -> None:

@@ -13,16 +13,32 @@ What survives what:
 - a worker process that dies: the scheduler reruns its tasks on the others (and a
   LocalCluster's nanny restarts it); a task that kills workers again and again
   ends as a failed row naming the lost worker;
+- a task that runs longer than ``task_timeout`` (a frozen worker, a record that
+  never ends): its row says it timed out, the scheduler forgets its worker, and the
+  run goes on with the other workers;
 - the run itself stopped (Ctrl-C, killed): every row stored before is on disk; a
   rerun skips the records in the results (``retry_failed`` also reruns the
   failed ones).
+
+The LocalCluster listens on 127.0.0.1 at a random port, without TLS (Dask's TLS
+needs the ``cryptography`` package and certificates): any process of the machine
+can reach it while it runs, as it can reach any local service. A running
+scheduler given with ``scheduler`` runs whatever its clients submit: it must be
+one you trust, on a network you trust.
+
+Worker processes are started by spawning Python, which imports the main script
+again: a script that calls :func:`run` must do so under
+``if __name__ == "__main__":``, and is told so in one line when it does not.
 """
 
 from __future__ import annotations
 
 import contextlib
 import logging
+import math
 import os
+import re
+import sys
 import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
@@ -38,6 +54,31 @@ logger = logging.getLogger(__name__)
 
 #: A task: (record path, what the file-name pattern gave) -> the record's row.
 Task = Callable[[str, dict[str, Any]], dict[str, Any]]
+
+#: Longest a task may run on its worker before its row says it timed out [s] (``task_timeout``).
+TASK_TIMEOUT = 600.0
+#: What a script that runs a fleet needs, in the errors that say so.
+MAIN_GUARD = 'if __name__ == "__main__":'
+
+
+def _importing_the_script_in_a_worker() -> bool:
+    """True while a spawned worker process imports the main script again (as ``__mp_main__``)."""
+    import multiprocessing
+
+    main = sys.modules.get("__main__")
+    return multiprocessing.parent_process() is not None and getattr(main, "__name__", "") == "__mp_main__"
+
+
+def _script_without_main_guard() -> str | None:
+    """The main script's path when it has no ``if __name__ == "__main__":`` (workers would run it again)."""
+    path = getattr(sys.modules.get("__main__"), "__file__", None)
+    if not path:
+        return None
+    try:
+        text = Path(path).read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return None
+    return None if re.search(r"""if\s+__name__\s*==\s*['"]__main__['"]""", text) else path
 
 
 @contextlib.contextmanager
@@ -58,6 +99,7 @@ def fleet_client(scheduler: str | None = None, workers: int | None = None) -> It
     # gave the "distributed" logger (motorid's command line: critical only, all with -v); dask resets
     # the levels on import and as it starts, so they are set again once it runs
     level = logging.getLogger("distributed").getEffectiveLevel()
+    import dask
     from dask.distributed import Client, LocalCluster
 
     def keep_level() -> None:
@@ -73,19 +115,31 @@ def fleet_client(scheduler: str | None = None, workers: int | None = None) -> It
             yield client
         return
     n = workers or os.cpu_count() or 1
-    with (
-        LocalCluster(
-            n_workers=n,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            # the scheduler's HTTP endpoints on a free loopback port: its default, 8787, is taken by
-            # a second fleet run and would warn
-            scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
-            silence_logs=level,
-        ) as cluster,
-        Client(cluster) as client,
-    ):
+    try:
+        # one task on a worker at a time (no queue behind it): a task the scheduler sees on a
+        # worker is the one running there, which is what the task timeout measures
+        with dask.config.set({"distributed.scheduler.worker-saturation": 1.0}):
+            cluster = LocalCluster(
+                n_workers=n,
+                threads_per_worker=1,
+                processes=True,
+                host="127.0.0.1",  # loopback only, at a random port
+                scheduler_port=0,
+                dashboard_address=None,
+                # the scheduler's HTTP endpoints on a free loopback port: its default, 8787, is taken by
+                # a second fleet run and would warn
+                scheduler_kwargs={"dashboard_address": "127.0.0.1:0"},
+                silence_logs=level,
+            )
+    except RuntimeError as exc:  # "Nanny failed to start."
+        script = _script_without_main_guard()
+        if script is None:
+            raise
+        raise DataError(
+            f"the Dask worker processes did not start: each imports {script} again, which runs the fleet "
+            f"at import; put the code that runs it under {MAIN_GUARD}"
+        ) from exc
+    with cluster, Client(cluster) as client:
         keep_level()
         yield client
 
@@ -155,6 +209,7 @@ def run_fleet(
     retry_failed: bool = False,
     progress: bool = False,
     csv_every: float = 5.0,
+    task_timeout: float = TASK_TIMEOUT,
 ) -> FleetRun:
     """Run ``task`` on every record of ``paths`` not yet in ``out``'s results; store each row.
 
@@ -177,6 +232,9 @@ def run_fleet(
         (:func:`motorid.progress.progress_bar`).
     csv_every : float
         Seconds between rewrites of ``results.csv`` during the run [s].
+    task_timeout : float
+        Longest a record's task may run on its worker [s] (default :data:`TASK_TIMEOUT`); then
+        its row is a failure saying so and the run goes on without that worker.
     """
     start = time.perf_counter()
     store = ResultsStore(out)
@@ -194,7 +252,15 @@ def run_fleet(
                  "status": "failed", "error": f"{type(exc).__name__}: {exc}"}]  # fmt: skip
 
     _store_as_completed(
-        dict(zip(futures, todo, strict=True)), lost, store, run, progress, csv_every, "record"
+        dict(zip(futures, todo, strict=True)),
+        lost,
+        store,
+        run,
+        progress,
+        csv_every,
+        "record",
+        client,
+        task_timeout,
     )
     run.seconds = time.perf_counter() - start
     return run
@@ -208,22 +274,43 @@ def _store_as_completed(
     progress: bool,
     csv_every: float,
     unit: str,
+    client: Any,
+    task_timeout: float,
 ) -> None:
     """Store the row (or the list of rows) of each future of ``futures`` (future -> its key) as it
-    completes, counting it in ``run``; a future whose worker was lost is ``lost(key, exc)``'s rows.
+    completes, counting it in ``run``; a future whose worker was lost, or that ran longer than
+    ``task_timeout`` [s] on its worker (:class:`_TaskClock`), is ``lost(key, exc)``'s rows.
     A task is done when its first row says ok."""
-    from dask.distributed import as_completed
+    from dask.distributed import as_completed, wait
 
+    if not (task_timeout > 0):
+        raise DataError(f"task_timeout must be a positive time [s], got {task_timeout!r}")
     bar = progress_bar(show=progress, total=len(futures), desc="fleet", unit=unit)
     bar.set_postfix(done=0, failed=0)
     key_of = {future.key: key for future, key in futures.items()}
+    clock = _TaskClock(client, {future.key: future for future in futures}, task_timeout)
     last_csv = time.monotonic()
     try:
-        for batch in as_completed(list(futures), with_results=True, raise_errors=False).batches():
+        pending = as_completed(list(futures), with_results=True, raise_errors=False)
+        remaining = set(futures)
+        while not pending.is_empty():
+            batch = pending.next_batch(block=False)
+            if not batch:
+                clock.check()
+                running = [future for future in remaining if future.key not in clock.timed_out]
+                if not running:  # only cancelled ones left, on their way out of as_completed
+                    time.sleep(0.05)
+                    continue
+                with contextlib.suppress(TimeoutError):  # until one completes, or the clock's next look
+                    wait(running, timeout=clock.EVERY, return_when="FIRST_COMPLETED")
+                continue
+            remaining.difference_update(future for future, _ in batch)
             rows = []
             failed = 0
             for future, result in batch:
-                if (
+                if future.key in clock.timed_out:
+                    result = lost(key_of[future.key], TimeoutError(clock.timed_out[future.key]))
+                elif (
                     future.status == "error"
                 ):  # not the record's own error (the task catches that): a lost worker
                     result = lost(key_of[future.key], future.exception())
@@ -252,6 +339,48 @@ def _store_as_completed(
     with _saying_what_is_kept(run, store):
         store.write_csv(reread=True)
     store.compact()
+
+
+class _TaskClock:
+    """The time each task has been running on a worker, from the scheduler's view; a task past the
+    timeout is cancelled (its row says so) and its worker removed from the scheduler, so the tasks
+    queued behind it run elsewhere (a frozen worker answers nothing and would hold them)."""
+
+    #: Seconds between two looks at the scheduler.
+    EVERY = 1.0
+
+    def __init__(self, client: Any, futures: dict[str, Any], timeout: float) -> None:
+        self.client = client
+        self.futures = futures
+        self.timeout = float(timeout)
+        self.first_seen: dict[str, float] = {}
+        self.timed_out: dict[str, str] = {}  # key -> what happened
+        self._last = -math.inf
+
+    def check(self) -> None:
+        now = time.monotonic()
+        if now - self._last < self.EVERY:
+            return
+        self._last = now
+        stuck: set[str] = set()
+        for worker, keys in self.client.processing().items():
+            for key in keys:
+                key = key if isinstance(key, str) else str(key)
+                if key not in self.futures or key in self.timed_out:
+                    continue
+                started = self.first_seen.setdefault(key, now)
+                if now - started > self.timeout:
+                    self.timed_out[key] = f"the task ran longer than {self.timeout:g} s on worker {worker}"
+                    logger.warning("%s: %s; the run goes on without that worker", key, self.timed_out[key])
+                    self.futures[key].cancel()
+                    stuck.add(worker)
+        for worker in stuck:
+            self.client.run_on_scheduler(_forget_worker, address=worker)
+
+
+async def _forget_worker(dask_scheduler: Any, address: str) -> None:
+    """Scheduler side: remove the worker at ``address`` (its other tasks are rescheduled)."""
+    await dask_scheduler.remove_worker(address=address, stimulus_id="motorid-task-timeout", close=False)
 
 
 def pending_drives(
@@ -405,6 +534,7 @@ def run_fleet_per_drive(
     retry_failed: bool = False,
     progress: bool = False,
     csv_every: float = 5.0,
+    task_timeout: float = TASK_TIMEOUT,
 ) -> FleetRun:
     """Run ``task`` once per drive on all its records; store each drive's rows.
 
@@ -435,6 +565,8 @@ def run_fleet_per_drive(
         (:func:`motorid.progress.progress_bar`).
     csv_every : float
         Time between rewrites of ``results.csv`` during the run [s].
+    task_timeout : float
+        Longest a drive's task may run on its worker [s] (:func:`run_fleet`).
     """
     start = time.perf_counter()
     store = ResultsStore(out)
@@ -463,7 +595,17 @@ def run_fleet_per_drive(
             for path, when in groups[drive]
         ]  # fmt: skip
 
-    _store_as_completed(dict(zip(futures, todo, strict=True)), lost, store, run, progress, csv_every, "drive")
+    _store_as_completed(
+        dict(zip(futures, todo, strict=True)),
+        lost,
+        store,
+        run,
+        progress,
+        csv_every,
+        "drive",
+        client,
+        task_timeout,
+    )
     run.seconds = time.perf_counter() - start
     return run
 
@@ -484,6 +626,7 @@ def run(
     wait: bool = False,
     lock: bool = True,
     progress: bool = False,
+    task_timeout: float = TASK_TIMEOUT,
 ) -> FleetRun:
     """Run ``job`` on a fleet's records on Dask, the results in the folder ``out``: ``motorid fleet``
     from Python.
@@ -523,6 +666,13 @@ def run(
         caller holds it.
     progress : bool
         A progress bar on stderr.
+    task_timeout : float
+        Longest a record's (per drive: a drive's) task may run on its worker [s] (default
+        :data:`TASK_TIMEOUT`, 600 s): then its row is a failure saying so, the worker is dropped
+        and the run goes on.
+
+    Call it from a script under ``if __name__ == "__main__":``: the LocalCluster's worker
+    processes import the script again (a script without it is told so in one line).
 
     A run stopped and started again does only what is missing (a record, or per drive a
     drive, whose row is not in the results). One folder holds one kind of run: a per-drive run
@@ -532,6 +682,13 @@ def run(
     from motorid.fleet.sources import FilenamePattern, find_records
     from motorid.outputs import FolderLock
 
+    if _importing_the_script_in_a_worker():
+        raise RuntimeError(
+            f"motorid.fleet.run called while a Dask worker process imports the main script: put the code "
+            f"that runs the fleet under {MAIN_GUARD}"
+        )
+    if not (task_timeout > 0):
+        raise DataError(f"task_timeout must be a positive time [s], got {task_timeout!r}")
     read = read or ReadOptions()
     if per_drive and not isinstance(job, DoctorJob):
         raise DataError(f"per_drive: the doctor runs per drive (a DoctorJob), got a {type(job).__name__}")
@@ -567,10 +724,11 @@ def run(
                 client = stack.enter_context(fleet_client(scheduler, workers))
             if per_drive:
                 return run_fleet_per_drive(paths, task, out, client, read, given=given, retry_failed=retry_failed,
-                                           progress=progress)  # fmt: skip
+                                           progress=progress, task_timeout=task_timeout)  # fmt: skip
             return run_fleet(
-                paths, task, out, client, given=given, retry_failed=retry_failed, progress=progress
-            )
+                paths, task, out, client, given=given, retry_failed=retry_failed, progress=progress,
+                task_timeout=task_timeout,
+            )  # fmt: skip
     finally:
         if held is not None:
             held.release()
@@ -611,6 +769,7 @@ def _saying_what_is_kept(run: FleetRun, store: ResultsStore) -> Iterator[None]:
 
 
 __all__ = [
+    "TASK_TIMEOUT",
     "FleetRun",
     "Task",
     "check_run_kind",

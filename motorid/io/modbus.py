@@ -3,7 +3,9 @@
 Each sample the client writes the voltage command and an incremented
 heartbeat in one request, and reads status, sequence counter and speed in
 one request (with the default map; a map with gaps costs one request per
-contiguous run). Timeouts are short and suited to the sample time, with no
+contiguous run). The heartbeat counts on from the value the rig holds when the
+link opens, so its first write always changes it. A rig owned by another
+client refuses the writes (Modbus exception 6): :class:`~motorid.errors.RigBusyError`. Timeouts are short and suited to the sample time, with no
 retries: a lost link raises :class:`~motorid.errors.DAQConnectionError`
 within one timeout, and the next call tries to reconnect.
 """
@@ -17,12 +19,15 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import parse_qs, urlparse
 
-from motorid.errors import DAQConnectionError, DAQError, DAQValueError, RigFaultError
+from motorid.errors import DAQConnectionError, DAQError, DAQValueError, RigBusyError, RigFaultError
 
 from .base import DAQ, Sample
 from .registers import STATUS_BITS, STATUS_CLEAR, STATUS_FAULTS, Register, RegisterMap, WordOrder
 
 logger = logging.getLogger(__name__)
+
+#: Modbus exception code of a rig owned by another client (server device busy).
+_DEVICE_BUSY = 6
 
 __all__ = ["ModbusDAQ", "contiguous_runs", "describe_status"]
 
@@ -241,6 +246,11 @@ class ModbusDAQ(DAQ):
             raise
         # sequence numbers count from this connection: the first sample is seq 1
         self._seq, self._seq_raw = 0, seq_raw
+        try:  # the heartbeat counts on from the rig's: the first write is a change whatever came before
+            self._heartbeat = int(self._read_register("heartbeat"))
+        except Exception:
+            self._client.close()
+            raise
         if status & STATUS_FAULTS and self.clear_faults_on_open:
             logger.warning(
                 "%s: rig reported latched fault(s) %s from before this connection; acknowledged",
@@ -274,12 +284,34 @@ class ModbusDAQ(DAQ):
             self.reconnect_count += 1
             self._seq_raw = None
             logger.warning("%s: link re-established (reconnect #%d)", self.endpoint, self.reconnect_count)
+        if response.isError() and getattr(response, "exception_code", None) == _DEVICE_BUSY:
+            raise RigBusyError(
+                f"{self.endpoint}: the rig refused {what}: another client owns it (Modbus exception 6, "
+                "device busy); it takes commands again once that client disconnects or its heartbeat "
+                "stops for the rig's watchdog time"
+            )
         if response.isError():
             raise DAQError(
                 f"{self.endpoint}: device refused {what}: {response} "
                 "(does the register map match the device?)"
             )
         return response
+
+    def _read_register(self, name: str) -> float:
+        """One register of the map, read on its own (engineering value)."""
+        reg = self.register_map[name]
+        rr = self._execute(
+            f"reading register {name!r} at {reg.address}",
+            self._client.read_holding_registers,
+            reg.address,
+            count=reg.count,
+        )
+        words = list(rr.registers)
+        if len(words) != reg.count:
+            raise DAQValueError(
+                f"{self.endpoint}: asked for {reg.count} registers at {reg.address}, got {len(words)}"
+            )
+        return reg.decode(words)
 
     def _read_words(self) -> tuple[int, int, float]:
         values: dict[str, float] = {}
@@ -349,8 +381,8 @@ class ModbusDAQ(DAQ):
             if status & STATUS_FAULTS:
                 raise RigFaultError(
                     f"{self.endpoint}: rig reports fault {describe_status(status)} "
-                    f"(status word 0x{status:04x}); the rig holds 0 V. "
-                    "Acknowledge with reset_faults() once the cause is fixed.",
+                    f"(status word 0x{status:04x}); the rig holds 0 V until the fault is acknowledged "
+                    "(a new connection acknowledges it, or ModbusDAQ.reset_faults()) once the cause is fixed",
                     status,
                 )
             if not self.wait_new_sample or self._seq_raw is None or seq_raw != self._seq_raw:

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import copy
 import csv
+import gc
 import io
 import logging
 import math
 import os
 import signal
 import threading
+import time
 from collections import deque
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from contextlib import contextmanager
@@ -20,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.errors import OutputError
-from motorid.outputs import disk_full
+from motorid.outputs import create_in_place, disk_full
 from motorid.progress import progress_bar
 
 from .base import DAQ, Sample
@@ -133,7 +135,12 @@ class RunRecorder:
     on_disk : int
         Rows in the file (not counting the header): ``count`` after each flush.
     created : bool
-        True once this recorder has created (or, with ``overwrite``, truncated) the file.
+        True once this recorder has created (or, with ``overwrite``, replaced) the file.
+    largest_interval : float
+        Longest time between the starts of two successive samples of the loop that fed it [s]
+        (:func:`sample_loop`; NaN before two samples).
+    largest_interval_sample : int
+        The sample that started that late (-1 before two samples).
 
     Raises
     ------
@@ -160,6 +167,8 @@ class RunRecorder:
         self.count = 0
         self.on_disk = 0
         self.created = False
+        self.largest_interval = math.nan
+        self.largest_interval_sample = -1
         self.columns: list[str] | None = None
         self._fd: int | None = None
         self._size = 0  # bytes in the file, ending on a whole line
@@ -205,28 +214,10 @@ class RunRecorder:
                 self.flush()
 
     def _open_alone(self) -> int:
-        """Open the file for this recorder alone: created exclusively, or with ``overwrite`` locked
-        (:func:`fcntl.flock`, held until :meth:`close`) before it is emptied, so no two runs write one file."""
-        import fcntl
-
-        exclusive = 0 if self.overwrite else os.O_EXCL
-        try:
-            fd = os.open(self.path, os.O_WRONLY | os.O_CREAT | exclusive, 0o666)
-        except FileExistsError:
-            raise OutputError(
-                f"{self.path}: the file exists (another writer created it meanwhile); nothing was written"
-            ) from None
-        except OSError as exc:
-            raise OutputError(f"{self.path}: cannot create the file: {exc.strerror or exc}") from None
-        try:
-            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError:
-            os.close(fd)
-            raise OutputError(
-                f"{self.path}: another run is writing this file; it was left as it was"
-            ) from None
-        os.ftruncate(fd, 0)
-        return fd
+        """Create the file for this recorder alone (:func:`motorid.outputs.create_in_place`): a new file
+        takes the name, replacing what is there with ``overwrite`` (a link is replaced, never written
+        through), and stays locked until :meth:`close`, so no two runs write one file."""
+        return create_in_place(self.path, overwrite=self.overwrite)
 
     def flush(self) -> None:
         """Write the rows not yet written; on an error, cut the file back to its last whole row."""
@@ -296,9 +287,10 @@ class RunRecorder:
     ) -> pd.DataFrame:
         """The rows kept in memory as a DataFrame.
 
-        ``attrs`` holds ``dt`` [s], ``units``, ``timing`` and ``samples``, the
+        ``attrs`` holds ``dt`` [s], ``units``, ``timing``, ``samples``, the
         number of rows recorded in all (more than the frame's length when
-        ``keep`` bounded it; the file holds every row).
+        ``keep`` bounded it; the file holds every row), and ``largest_interval``,
+        the longest time between the starts of two samples [s] (:attr:`largest_interval`).
 
         Parameters
         ----------
@@ -317,6 +309,7 @@ class RunRecorder:
         df.attrs["units"] = dict(units) if units is not None else {"t": "s", "u": "V", "y": "rad/s"}
         df.attrs["timing"] = timing
         df.attrs["samples"] = self.count
+        df.attrs["largest_interval"] = self.largest_interval
         return df
 
 
@@ -425,6 +418,48 @@ def samples_for(duration: float | None, dt: float, series: object, who: str, wha
     return n
 
 
+class CollectorBetweenSamples:
+    """Python's garbage collector kept out of a sample loop: frozen, off, and run in small steps between samples.
+
+    On entry everything alive (modules, the model, the estimators) is collected once and frozen
+    (:func:`gc.freeze`: never scanned again), and automatic collection is turned off, so no
+    collection of the whole heap (165-320 ms with motorid's imports loaded on a busy machine, longer
+    than a rig's watchdog of 3 periods of 40 ms) can start inside a sample. :meth:`between_samples`,
+    called once a sample is recorded, collects the youngest generation when it holds more than
+    :data:`YOUNG_LIMIT` objects and the objects made since entry every :data:`FULL_EVERY` samples
+    (both scan only what the loop made: well under a millisecond). On exit the frozen objects are
+    released and automatic collection is as it was.
+    """
+
+    #: Objects in the youngest generation that start a collection of it between two samples.
+    YOUNG_LIMIT = 700
+    #: Samples between two collections of everything made since the loop started.
+    FULL_EVERY = 1000
+
+    def __init__(self) -> None:
+        self._was_enabled = gc.isenabled()
+        self._samples = 0
+
+    def __enter__(self) -> CollectorBetweenSamples:
+        gc.collect()
+        gc.freeze()
+        gc.disable()
+        return self
+
+    def between_samples(self) -> None:
+        """One small step of collection, where the loop has finished a sample."""
+        self._samples += 1
+        if self._samples % self.FULL_EVERY == 0:
+            gc.collect()
+        elif gc.get_count()[0] > self.YOUNG_LIMIT:
+            gc.collect(0)
+
+    def __exit__(self, *exc_info: object) -> None:
+        gc.unfreeze()
+        if self._was_enabled:
+            gc.enable()
+
+
 def sample_loop(
     daq: DAQ,
     n: int,
@@ -438,7 +473,9 @@ def sample_loop(
     the DAQ (which commands 0 V), whatever happens: the one loop of every run on a rig.
 
     ``sample(k)`` does the sample's reads and writes. Ctrl-C or SIGTERM stops the loop between two
-    samples (:class:`StopRequest`). When anything stops it early, the DAQ is closed, the recording
+    samples (:class:`StopRequest`). Python's garbage collector runs only between samples, in small
+    steps (:class:`CollectorBetweenSamples`), and the longest time between the starts of two samples
+    is kept in ``recorder.largest_interval`` [s] (``largest_interval_sample``: where). When anything stops it early, the DAQ is closed, the recording
     closed on a whole row, and a note on the exception says how many samples were taken and what
     is on disk (``{who} stopped after 11 of 50 samples (11 rows in run.csv)``), then it is re-raised.
 
@@ -462,14 +499,20 @@ def sample_loop(
     """
     bar = progress_bar(show=progress, total=n, unit="sample", desc=who)
     try:
-        with StopRequest().installed() as stop:
+        with StopRequest().installed() as stop, CollectorBetweenSamples() as collector:
             daq.open()
+            previous = math.nan
             for k in range(n):
                 stop.check()
+                started = time.perf_counter()
+                if started - previous > recorder.largest_interval or k == 1:
+                    recorder.largest_interval, recorder.largest_interval_sample = started - previous, k
+                previous = started
                 recorder.append(sample(k))
                 bar.update()
                 if then is not None:
                     then(k)
+                collector.between_samples()
     except BaseException as exc:
         bar.close()
         try:

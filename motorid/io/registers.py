@@ -1,6 +1,6 @@
 """The Modbus register map of a rig: where each signal lives and how it is encoded.
 
-A map names five registers (holding registers, addresses from 0):
+A map names five registers (holding registers, addresses from 0), and may name a sixth:
 
 =================  ======  =========================================================
 name               access  meaning
@@ -10,6 +10,8 @@ heartbeat          write   counter the client increments each sample (uint16, wr
 status             read    status/fault word (:data:`STATUS_BITS`); write 0 to clear
 sequence           read    sample counter of the rig (uint16, wraps)
 speed              read    measured load speed [rad/s]
+refused_writes     read    optional: writes the rig refused because another client
+                           owns it (uint16, wraps); the built-in map has it at 7
 =================  ======  =========================================================
 
 Each value is either ``float32`` (two registers, word order ``ABCD``: high
@@ -47,7 +49,11 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Literal
 
+from motorid.errors import quoted
+from motorid.inputs import read_small_file
+
 __all__ = [
+    "OPTIONAL_REGISTER_NAMES",
     "REGISTER_NAMES",
     "STATUS_BITS",
     "STATUS_CLEAR",
@@ -58,6 +64,9 @@ __all__ = [
 
 #: The registers every map must name.
 REGISTER_NAMES = ("voltage_command", "heartbeat", "status", "sequence", "speed")
+#: The registers a map may name: a map read from TOML has one only where the file names it.
+OPTIONAL_REGISTER_NAMES = ("refused_writes",)
+_KNOWN_NAMES = REGISTER_NAMES + OPTIONAL_REGISTER_NAMES
 
 #: Bits of the status word.
 STATUS_BITS: dict[str, int] = {
@@ -70,6 +79,9 @@ STATUS_BITS: dict[str, int] = {
 STATUS_FAULTS = STATUS_BITS["watchdog"] | STATUS_BITS["plant"] | STATUS_BITS["command"]
 #: Value a client writes to the status register to acknowledge latched faults.
 STATUS_CLEAR = 0
+
+#: The largest register map file read [bytes] (the built-in map's TOML is about 1 kB).
+MAX_MAP_BYTES = 1 << 20
 
 RegisterType = Literal["float32", "int16", "uint16"]
 WordOrder = Literal["ABCD", "CDAB"]
@@ -85,7 +97,7 @@ class Register:
     Parameters
     ----------
     name : str
-        Signal name (one of :data:`REGISTER_NAMES`).
+        Signal name (one of :data:`REGISTER_NAMES` or :data:`OPTIONAL_REGISTER_NAMES`).
     address : int
         First holding register (0-based, as on the wire).
     type : {"float32", "int16", "uint16"}
@@ -112,15 +124,15 @@ class Register:
     def __post_init__(self) -> None:
         where = f"register {self.name!r}"
         if not isinstance(self.address, int) or not 0 <= self.address <= 65535:
-            raise ValueError(f"{where}: address must be an integer in 0..65535, got {self.address!r}")
+            raise ValueError(f"{where}: address must be an integer in 0..65535, got {quoted(self.address)}")
         if self.type not in _TYPES:
-            raise ValueError(f"{where}: type must be one of {_TYPES}, got {self.type!r}")
+            raise ValueError(f"{where}: type must be one of {_TYPES}, got {quoted(self.type)}")
         if self.word_order not in _ORDERS:
-            raise ValueError(f"{where}: word_order must be one of {_ORDERS}, got {self.word_order!r}")
+            raise ValueError(f"{where}: word_order must be one of {_ORDERS}, got {quoted(self.word_order)}")
         if not (math.isfinite(self.scale) and self.scale != 0):
-            raise ValueError(f"{where}: scale must be finite and non-zero, got {self.scale!r}")
+            raise ValueError(f"{where}: scale must be finite and non-zero, got {quoted(self.scale)}")
         if not self.min <= self.max:
-            raise ValueError(f"{where}: min {self.min!r} must not exceed max {self.max!r}")
+            raise ValueError(f"{where}: min {quoted(self.min)} must not exceed max {quoted(self.max)}")
         if self.address + self.count - 1 > 65535:
             raise ValueError(f"{where}: address {self.address} + size runs past 65535")
         if self.type != "float32":  # one word: the order is meaningless, keep maps comparable
@@ -149,7 +161,7 @@ class Register:
         if not lo_raw <= raw <= hi_raw:
             raise ValueError(
                 f"register {self.name!r}: {value!r} {self.unit} does not fit {self.type} "
-                f"at scale {self.scale!r} (raw {raw} outside {lo_raw}..{hi_raw})"
+                f"at scale {quoted(self.scale)} (raw {raw} outside {lo_raw}..{hi_raw})"
             )
         return [raw & 0xFFFF]
 
@@ -172,7 +184,7 @@ class Register:
             raise ValueError(
                 f"{where}register {self.name!r} at address {self.address}: "
                 f"value {value!r} {self.unit} is not a valid reading "
-                f"(valid range {self.min!r}..{self.max!r})"
+                f"(valid range {quoted(self.min)}..{quoted(self.max)})"
             )
         return value
 
@@ -188,6 +200,7 @@ def _default_registers(word_order: WordOrder) -> dict[str, Register]:
         "speed": Register(
             "speed", 5, "float32", word_order=word_order, unit="rad/s", min=-5000.0, max=5000.0
         ),
+        "refused_writes": Register("refused_writes", 7, "uint16"),
     }
 
 
@@ -198,7 +211,8 @@ class RegisterMap:
     Parameters
     ----------
     registers : mapping of str to Register
-        One :class:`Register` for each name in :data:`REGISTER_NAMES`.
+        One :class:`Register` for each name in :data:`REGISTER_NAMES`, and optionally for
+        those in :data:`OPTIONAL_REGISTER_NAMES`.
     device_id : int
         Modbus device (unit/slave) id, 0..247.
     """
@@ -210,13 +224,14 @@ class RegisterMap:
         missing = [n for n in REGISTER_NAMES if n not in self.registers]
         if missing:
             raise ValueError(f"register map: missing register(s) {missing}")
-        unknown = [n for n in self.registers if n not in REGISTER_NAMES]
+        unknown = [n for n in self.registers if n not in _KNOWN_NAMES]
         if unknown:
-            raise ValueError(f"register map: unknown register(s) {unknown}; known: {REGISTER_NAMES}")
+            raise ValueError(f"register map: unknown register(s) {unknown}; known: {_KNOWN_NAMES}")
         if not isinstance(self.device_id, int) or not 0 <= self.device_id <= 247:
-            raise ValueError(f"register map: device_id must be 0..247, got {self.device_id!r}")
-        for name in ("heartbeat", "status", "sequence"):
-            if self.registers[name].type != "uint16" or self.registers[name].scale != 1:
+            raise ValueError(f"register map: device_id must be 0..247, got {quoted(self.device_id)}")
+        for name in ("heartbeat", "status", "sequence", *OPTIONAL_REGISTER_NAMES):
+            reg = self.registers.get(name)
+            if reg is not None and (reg.type != "uint16" or reg.scale != 1):
                 raise ValueError(f"register map: {name!r} must be a uint16 with scale 1")
         used: dict[int, str] = {}
         for reg in self.registers.values():
@@ -230,9 +245,9 @@ class RegisterMap:
 
     @classmethod
     def default(cls, word_order: WordOrder = "ABCD", device_id: int = 1) -> RegisterMap:
-        """The built-in map: voltage 0-1, heartbeat 2, status 3, sequence 4, speed 5-6."""
+        """The built-in map: voltage 0-1, heartbeat 2, status 3, sequence 4, speed 5-6, refused writes 7."""
         if word_order not in _ORDERS:
-            raise ValueError(f"word_order must be one of {_ORDERS}, got {word_order!r}")
+            raise ValueError(f"word_order must be one of {_ORDERS}, got {quoted(word_order)}")
         return cls(_default_registers(word_order), device_id)
 
     @property
@@ -250,22 +265,31 @@ class RegisterMap:
     # -- TOML ------------------------------------------------------------------
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], source: str = "register map") -> RegisterMap:
-        """Build a map from parsed TOML; missing registers/fields take the defaults."""
+        """Build a map from parsed TOML; missing registers/fields take the defaults.
+
+        An optional register (:data:`OPTIONAL_REGISTER_NAMES`) is in the map only where ``data``
+        names it (its default address could collide with a layout of the user's).
+        """
         known_top = {"device_id", "word_order", "registers"}
         unknown = set(data) - known_top
         if unknown:
-            raise ValueError(f"{source}: unknown key(s) {sorted(unknown)}; known: {sorted(known_top)}")
+            raise ValueError(
+                f"{source}: unknown key(s) {quoted(', '.join(sorted(unknown)))}; known: {sorted(known_top)}"
+            )
         word_order = data.get("word_order", "ABCD")
         if word_order not in _ORDERS:
-            raise ValueError(f"{source}: word_order must be one of {_ORDERS}, got {word_order!r}")
+            raise ValueError(f"{source}: word_order must be one of {_ORDERS}, got {quoted(word_order)}")
         regs = dict(_default_registers(word_order))
         table = data.get("registers", {})
         if not isinstance(table, Mapping):
             raise ValueError(f"{source}: [registers] must be a table")
+        for name in OPTIONAL_REGISTER_NAMES:
+            if name not in table:
+                del regs[name]
         fields = {"address", "type", "scale", "word_order", "unit", "min", "max"}
         for name, spec in table.items():
-            if name not in REGISTER_NAMES:
-                raise ValueError(f"{source}: unknown register {name!r}; known: {REGISTER_NAMES}")
+            if name not in _KNOWN_NAMES:
+                raise ValueError(f"{source}: unknown register {quoted(name)}; known: {_KNOWN_NAMES}")
             if not isinstance(spec, Mapping):
                 raise ValueError(f"{source}: [registers.{name}] must be a table")
             bad = set(spec) - fields
@@ -288,11 +312,24 @@ class RegisterMap:
 
     @classmethod
     def from_toml(cls, path: str | Path) -> RegisterMap:
-        """Read a map from a TOML file (see the module docstring for the format)."""
+        """Read a map from a TOML file (see the module docstring for the format).
+
+        The file must be a regular file of at most :data:`MAX_MAP_BYTES` (a FIFO or a device such
+        as ``/dev/zero`` is refused at once: :func:`motorid.inputs.read_small_file`).
+
+        Raises
+        ------
+        motorid.errors.DataError
+            The file cannot be read, is not a regular file or is too large.
+        ValueError
+            The file is not valid TOML, or not a valid map; the message names the file.
+        """
         path = Path(path)
+        raw = read_small_file(path, "register map", MAX_MAP_BYTES)
         try:
-            with path.open("rb") as fh:
-                data = tomllib.load(fh)
+            data = tomllib.loads(raw.decode("utf-8"))
+        except UnicodeDecodeError as exc:
+            raise ValueError(f"{path}: not UTF-8 text at byte {exc.start}") from None
         except tomllib.TOMLDecodeError as exc:
             raise ValueError(f"{path}: not valid TOML: {exc}") from None
         return cls.from_dict(data, source=str(path))
@@ -312,10 +349,12 @@ class RegisterMap:
             "; write 0 to status to clear latched faults",
             "# heartbeat: the client increments it each sample; the rig zeroes the voltage",
             "# and raises the watchdog bit when it stalls for more than 3 sample periods",
+            "# the first client that writes owns the rig until its heartbeat stalls or it disconnects;",
+            "# another client's writes are refused (exception 6, busy) and counted in refused_writes",
             f"device_id = {self.device_id}",
             "",
         ]
-        for name in REGISTER_NAMES:
+        for name in (n for n in _KNOWN_NAMES if n in self.registers):
             r = self.registers[name]
             lines.append(f"[registers.{name}]")
             lines.append(f"address = {r.address}")

@@ -8,13 +8,31 @@ exactly the run a :class:`~motorid.io.SimulatedDAQ` would give. In real-time
 mode the plant advances once per ``dt`` of wall-clock time whatever the
 client does.
 
-Like a PLC, the server has a watchdog, armed by the first voltage command:
-when no heartbeat came for more than ``watchdog_periods`` sample periods (3 by
-default) since the last command or the last heartbeat, whichever is later, the
-server forces the voltage to 0 V and latches the ``watchdog`` bit of the
-status word. A client that commands a voltage and never heart-beats gets 0 V
-within those periods, also after a fault was acknowledged. A client
-acknowledges latched faults by writing 0 to ``status``.
+The rig has one owner: the first client (TCP connection) that writes to it
+(a command, a heartbeat, a fault acknowledgement). It owns the rig until its
+heartbeat stalls for the watchdog's time or it disconnects; meanwhile every
+write of another client is refused with Modbus exception 6 (device busy),
+changes nothing and is counted (:attr:`RigServer.refused_writes`, and the
+``refused_writes`` register where the map has one). Reads are free to all.
+
+Like a PLC, the server has a watchdog, armed by the first voltage command or
+heartbeat: when the owner's heartbeat has not changed for more than
+``watchdog_periods`` sample periods (3 by default) since its last heartbeat
+(or since the command that armed the watchdog), the server forces the voltage
+to 0 V, latches the ``watchdog`` bit of the status word and lets the owner go.
+Re-writing the command is not a heartbeat, and no other client's heartbeat
+counts: a command holds only while its own client heart-beats. When the owner
+disconnects, the voltage goes to 0 V at once and the rig is free; the watchdog
+still trips once the periods have passed and latches its fault (the next client
+acknowledges it). A client acknowledges latched faults by writing 0 to ``status``.
+
+The register image is fixed: the server answers function codes 3, 6, 16 and
+23 (read, write one, write many, read/write holding registers) on the map's
+device id. Any other function code is answered with exception 1 (illegal
+function), an address outside the map or a write to a read-only register with
+exception 2, a request to another device id with exception 11 (no response
+from the target; over RTU, no answer, as a bus does): one line at debug level
+each, and nothing changes.
 
 Run it in a background thread (tests, notebooks)::
 
@@ -29,6 +47,7 @@ or in the foreground (the ``motorid rig serve`` command)::
 from __future__ import annotations
 
 import asyncio
+import contextvars
 import logging
 import math
 import threading
@@ -44,7 +63,18 @@ logger = logging.getLogger(__name__)
 
 __all__ = ["RigServer", "rig_map_toml"]
 
-_READONLY = ("sequence", "speed")
+_READONLY = ("sequence", "speed", "refused_writes")
+#: Function codes the rig answers: read holding registers, write one, write many, read/write many.
+SUPPORTED_FUNCTION_CODES = frozenset({3, 6, 16, 23})
+#: The connection (request handler) whose request is being served, for the rig's owner rule.
+_CLIENT: contextvars.ContextVar[object | None] = contextvars.ContextVar("rig_client", default=None)
+
+
+def _client_name(handler: object) -> str:
+    """``HOST:PORT`` of a TCP client, or ``the serial line``."""
+    transport = getattr(handler, "transport", None)
+    peer = transport.get_extra_info("peername") if transport is not None else None
+    return f"{peer[0]}:{peer[1]}" if isinstance(peer, tuple) and len(peer) >= 2 else "the serial line"
 
 
 def rig_map_toml(register_map: RegisterMap | str | Path | None = None, word_order: WordOrder = "ABCD") -> str:
@@ -116,6 +146,8 @@ class RigServer:
         Status word (:data:`~motorid.io.registers.STATUS_BITS`).
     watchdog_trips : int
         Number of times the watchdog tripped.
+    refused_writes : int
+        Writes refused because another client owned the rig (not wrapped).
     """
 
     def __init__(
@@ -158,12 +190,14 @@ class RigServer:
         self.seq = 0
         self.status = 0
         self.watchdog_trips = 0
+        self.refused_writes = 0
 
         self._base, n = register_map.span
         self._words = [0] * n
         self._heartbeat: int | None = None
         self._last_contact = 0.0  # loop time of the last command or heartbeat [s]
         self._armed = False
+        self._owner: object | None = None  # the request handler (connection) that owns the rig
         self._thread: threading.Thread | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._stop_event: asyncio.Event | None = None
@@ -197,6 +231,8 @@ class RigServer:
         return reg.decode((self._words if words is None else words)[i : i + reg.count])
 
     def _publish(self) -> None:
+        if "refused_writes" in self.register_map.registers:
+            self._set("refused_writes", self.refused_writes & 0xFFFF)
         self._set("status", self.status)
         self._set("sequence", self.seq & 0xFFFF)
         reg = self.register_map["speed"]
@@ -234,6 +270,44 @@ class RigServer:
         self.seq += 1
         self._publish()
 
+    def refusal(self, function_code: int, device_id: int) -> int | None:
+        """The Modbus exception code for a request the rig does not serve, or None to serve it.
+
+        Parameters
+        ----------
+        function_code : int
+            The request's function code.
+        device_id : int
+            The device (unit) id it is addressed to.
+        """
+        if device_id != self.register_map.device_id:
+            logger.debug(
+                "rig: request for device id %d refused (the rig is %d)",
+                device_id,
+                self.register_map.device_id,
+            )
+            return 0x0B  # gateway target device failed to respond
+        if function_code not in SUPPORTED_FUNCTION_CODES:
+            logger.debug("rig: function code %d refused (illegal function)", function_code)
+            return 0x01
+        return None
+
+    def _client_left(self, client: object) -> None:
+        """A connection closed: if it owned the rig, 0 V at once and the rig is free (the watchdog,
+        armed, still trips and latches its fault: the owner's heartbeat has stopped)."""
+        if client is not self._owner:
+            return
+        self._owner = None
+        if self.voltage:
+            logger.info(
+                "rig: the owning client %s disconnected at %.4g V: voltage set to 0 V",
+                _client_name(client),
+                self.voltage,
+            )
+        self.voltage = 0.0
+        self._set("voltage_command", 0.0)
+        self._publish()
+
     async def _on_access(
         self,
         func_code: int,
@@ -242,9 +316,30 @@ class RigServer:
         count: int,
         registers: list[int],
         set_values: list[int] | list[bool] | None,
-    ) -> None:
-        """pymodbus SimDevice action: our words are the truth; sync them both ways."""
+    ) -> Any:
+        """pymodbus SimDevice action: our words are the truth; sync them both ways.
+
+        Returns None, or pymodbus's ``ExcCodes.DEVICE_BUSY`` for a write of a client that does not own the rig.
+        """
+        offset = self._base - start_address
         if set_values is not None:
+            client = _CLIENT.get()
+            if self._owner is not None and client is not self._owner:
+                self.refused_writes += 1
+                self._publish()
+                registers[offset : offset + len(self._words)] = self._words
+                logger.debug(
+                    "rig: write of %s refused: %s owns the rig (%d refused)",
+                    _client_name(client),
+                    _client_name(self._owner),
+                    self.refused_writes,
+                )
+                from pymodbus.constants import ExcCodes
+
+                return ExcCodes.DEVICE_BUSY
+            if self._owner is None:
+                self._owner = client
+                logger.info("rig: owned by client %s", _client_name(client))
             words = list(self._words)
             first = address - self._base
             words[first : first + count] = [int(v) for v in set_values]
@@ -267,8 +362,11 @@ class RigServer:
                 self.voltage = 0.0
             self._words = words
             self._set("voltage_command", self.voltage)
-            if commanded or beat:  # the watchdog runs from the first command on
-                self._last_contact = asyncio.get_running_loop().time()
+            now = asyncio.get_running_loop().time()
+            if beat or (
+                commanded and not self._armed
+            ):  # a command arms the watchdog; only a heartbeat feeds it
+                self._last_contact = now
                 self._armed = self.watchdog_periods is not None
             if beat:
                 self._heartbeat = heartbeat
@@ -276,7 +374,6 @@ class RigServer:
                     self._advance()
             self._publish()
             set_values[:] = self._words[first : first + count]  # what pymodbus stores
-        offset = self._base - start_address
         registers[offset : offset + len(self._words)] = self._words
         return None
 
@@ -293,14 +390,15 @@ class RigServer:
                 level = logging.WARNING if self.voltage else logging.INFO
                 logger.log(
                     level,
-                    "rig: no heartbeat for more than %g sample periods (%.3g s) since the last "
-                    "command or heartbeat, at %.4g V: voltage forced to 0 V, watchdog fault latched",
+                    "rig: no heartbeat from the owning client for more than %g sample periods (%.3g s), "
+                    "at %.4g V: voltage forced to 0 V, watchdog fault latched, the rig is free",
                     self.watchdog_periods,
                     limit,
                     self.voltage,
                 )
                 self.voltage = 0.0
                 self.status |= STATUS_BITS["watchdog"]
+                self._owner = None  # the owner that stopped heart-beating lets the rig go
                 self._set("voltage_command", 0.0)
                 self._publish()
 
@@ -330,7 +428,7 @@ class RigServer:
         ]
         device = SimDevice(self.register_map.device_id, simdata=blocks, action=self._on_access)
         if self.serial_port:
-            server = ModbusSerialServer(
+            server = _owned_server(ModbusSerialServer, self)(
                 device,
                 framer=FramerType.RTU,
                 port=self.serial_port,
@@ -338,7 +436,7 @@ class RigServer:
                 timeout=max(self.dt, 0.05),
             )
         else:
-            server = ModbusTcpServer(device, address=(self.host, self.port))
+            server = _owned_server(ModbusTcpServer, self)(device, address=(self.host, self.port))
         await server.serve_forever(background=True)  # raises if it cannot listen
         if not self.serial_port:
             self.port = server.transport.sockets[0].getsockname()[1]
@@ -369,6 +467,8 @@ class RigServer:
         self.seq = self.status = 0
         self._heartbeat = None
         self._armed = False
+        self._owner = None
+        self.refused_writes = 0
         self._words = [0] * len(self._words)
         self._publish()
 
@@ -475,3 +575,47 @@ class RigServer:
                 signal.signal(signal.SIGTERM, previous)
         if self._error is not None:
             raise RuntimeError(f"{self!r} failed: {self._error}") from self._error
+
+
+def _owned_server(base: type, rig: RigServer) -> type:
+    """A pymodbus server class (``base``: TCP or serial) whose connections serve ``rig``'s rules.
+
+    Each request runs with its connection in :data:`_CLIENT` (the owner rule), a request the rig
+    does not serve (:meth:`RigServer.refusal`) is answered with its exception before it reaches
+    the data (over RTU an unknown device id gets no answer), and a closed connection is reported
+    to the rig.
+    """
+    from pymodbus.pdu import ExceptionResponse
+    from pymodbus.server.requesthandler import ServerRequestHandler
+
+    serial = rig.serial_port is not None
+
+    class RigRequestHandler(ServerRequestHandler):
+        async def handle_request(self) -> None:
+            pdu = self.last_pdu
+            if not pdu:
+                return
+            code = rig.refusal(pdu.function_code, pdu.dev_id)
+            if code is not None:
+                if serial and code == 0x0B:
+                    return  # another device on the bus may answer
+                response = ExceptionResponse(pdu.function_code, code)
+                response.transaction_id = pdu.transaction_id
+                response.dev_id = pdu.dev_id
+                self.server_send(response, self.last_addr)
+                return
+            token = _CLIENT.set(self)
+            try:
+                await super().handle_request()
+            finally:
+                _CLIENT.reset(token)
+
+        def callback_disconnected(self, exc: Exception | None) -> None:
+            super().callback_disconnected(exc)
+            rig._client_left(self)
+
+    class RigModbusServer(base):
+        def callback_new_connection(self) -> ServerRequestHandler:
+            return RigRequestHandler(self, self.trace_packet, self.trace_pdu, self.trace_connect)
+
+    return RigModbusServer
