@@ -87,7 +87,10 @@ def test_records_of_one_drive_are_diagnosed_as_one_model(drive):
     assert d.param_std["coulomb"] < 0.8 * alone.param_std["coulomb"]
     assert d.steps[0].evidence["delta_bic"] > alone.steps[0].evidence["delta_bic"]
     out = d.to_dict()
-    assert out["records"] == d.records and out["steps"][0]["record_gaps"] == d.steps[0].record_gaps
+    assert (
+        out["records"] == [r.to_dict() for r in d.records]
+        and out["steps"][0]["record_gaps"] == d.steps[0].record_gaps
+    )
 
 
 def test_one_record_in_a_list_is_that_record(drive):

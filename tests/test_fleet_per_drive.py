@@ -258,8 +258,8 @@ def test_drives_from_a_file_name_pattern(fleet_folder, client, tmp_path):
         (lambda: DoctorJob(base=("friction",)), "base: unknown effect 'friction'"),
         (lambda: DoctorJob(base="coulomb_friction"), "base must be a sequence of effect names"),
         (lambda: DoctorJob(model=Path("m.json"), base=BASE), "base cannot be combined with model"),
-        (lambda: ReadOptions(start=3.0, stop=1.0), "--stop 1 must be after --start 3"),
-        (lambda: ReadOptions(start=-1.0), "--start must be a time >= 0"),
+        (lambda: ReadOptions(start=3.0, stop=1.0), r"stop=1 must be after start=3"),
+        (lambda: ReadOptions(start=-1.0), r"start=\.\.\. must be a time >= 0"),
     ],
 )
 def test_the_typed_options_refuse_a_bad_value_by_name(make, message):

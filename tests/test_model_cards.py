@@ -239,7 +239,10 @@ def test_the_simulated_plant_measures_with_the_models_sensor(capsys, kit_model):
     # a rounding to steps of q alone leaves an RMS error of q / sqrt(12) on a speed that moves through them
     assert sensed["low_speed_rms_error"] >= card.quantisation_step / math.sqrt(12)
     assert sensed["low_speed_rms_error"] > quiet["low_speed_rms_error"]
-    assert sensed == again and other["rms_error"] != sensed["rms_error"]
+    # the same seed, the same run (but the loop's timing on this machine, largest_interval)
+    timing = "largest_interval"
+    assert {k: v for k, v in sensed.items() if k != timing} == {k: v for k, v in again.items() if k != timing}
+    assert other["rms_error"] != sensed["rms_error"]
 
 
 @needs_wheel

@@ -262,11 +262,11 @@ def best_model(diagnosis: Diagnosis) -> tuple[RigidDrive | TwoMassRig, str]:
     """
     error = diagnosis.position_error
     if diagnosis.rig is None and diagnosis.position_model is not None and error is not None:
-        if error["refitted"] < error["fitted"]:
+        if error.refitted < error.fitted:
             unit = diagnosis.units.get("v", "").removesuffix("/s")
             return diagnosis.position_model, (
-                f"the model refitted in position (RMS free-run position error {error['refitted']:.4g} {unit}; "
-                f"the balance fit's {error['fitted']:.4g} {unit})"
+                f"the model refitted in position (RMS free-run position error {error.refitted:.4g} {unit}; "
+                f"the balance fit's {error.fitted:.4g} {unit})"
             )
     kind = "the improved two-mass rig" if diagnosis.rig is not None else "the improved model"
     return diagnosis.improved_model, kind
@@ -322,13 +322,9 @@ def save_doctor_model(
         model, words = best_model(diagnosis)  # a rig that cannot carry the improved effects: ValueError
         card = record_card(records, paths, supply_voltage=supply_voltage, input_full_scale=input_full_scale)
         bands = tuple(
-            {
-                "speed_from": float(b["speed_from"]),
-                "speed_to": float(b["speed_to"]),
-                "std": float(b["noise_floor"]),
-            }
+            {"speed_from": b.speed_from, "speed_to": b.speed_to, "std": b.noise_floor}
             for b in diagnosis.noise_bands
-            if all(math.isfinite(float(b[k])) for k in ("speed_from", "speed_to", "noise_floor"))
+            if all(map(math.isfinite, (b.speed_from, b.speed_to, b.noise_floor)))
         )
         card = dataclasses.replace(card, quantisation_step=diagnosis.quantisation_step, noise_bands=bands)
         std = diagnosis.param_std if model is diagnosis.model else {}  # the position refit has none
