@@ -228,5 +228,7 @@ def test_readme_model_your_motor_runs_as_printed_and_prints_what_it_says(tmp_pat
             except subprocess.TimeoutExpired:
                 server.kill()
                 server.wait()
-    assert ran == ["doctor", "compare", "control", "control", "rig", "control"]
+    assert ran == ["doctor", "compare", "control", "control", "rig", "control", "control"]
     assert len(pd.read_csv(tmp_path / "loop.csv")) == 1200  # the loop over Modbus: 12 s at 10 ms
+    header = (tmp_path / "wheel_ctrl" / "motorid_speed.h").read_text(encoding="utf-8")
+    assert "MOTORID_SPEED_DT" in header  # the exported controller's sample time, for the sketch
