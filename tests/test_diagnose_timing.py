@@ -94,3 +94,21 @@ def test_the_command_line_says_the_drift_and_aligns(capsys, drifting, tmp_path):
     assert any("put back on the input's time" in n for n in out["notes"])
     assert out["delay_drift"][0]["drifts"] is True
     assert "the logger's time base drifts" in err
+
+
+def test_align_keeps_the_records_own_time_where_the_aligned_record_fits_no_better(monkeypatch):
+    """A drift said where there is none (here put in the doctor's mouth: 0 to 60 ms on a bench whose
+    logger has no delay) is taken out, the aligned record fits worse, and the diagnosis on the
+    record's own time is kept, with a note."""
+    import motorid.diagnose.workflow as workflow
+    from motorid.diagnose.timing import DelayDrift
+
+    b = bench("none", None, 1)
+    plain = diagnose(b.record)
+    said = DelayDrift("record 1", np.arange(5.0), np.zeros(5), np.ones(5), 0.0, 0.06, True)
+    monkeypatch.setattr(workflow, "delay_drift", lambda pool, model: [said])
+    kept = diagnose(b.record, align=True)
+    assert kept.named == plain.named and kept.model.params == plain.model.params
+    assert kept.final_gap == plain.final_gap
+    assert kept.notes[-1].startswith("align: the output put back on the input's time fits no better")
+    assert kept.notes[-1].endswith("the record's own time kept")

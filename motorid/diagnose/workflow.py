@@ -297,7 +297,10 @@ def diagnose(
         put its output back on the input's time and diagnose again: the output at ``t`` is read
         at ``t + d(t) - d(t_0)``, ``d`` the line through the segments' delays, so the drift goes
         and the delay at the record's start stays for the structure search to take (the samples
-        the shift runs past the end are left out). The report says what was moved.
+        the shift runs past the end are left out). The report says what was moved. Where the
+        aligned records fit no better (their final gap in noise floors not below the record's own,
+        or no drive model describes them), the diagnosis on the record's own time is kept and a
+        note says so.
 
     Returns
     -------
@@ -456,13 +459,29 @@ def diagnose(
         aligned_record(r, moved[label], first.kin.dt) if label in moved else r
         for r, label in zip(normalised, labels, strict=True)
     ]
-    again = diagnose(
-        aligned, dt=first.kin.dt, output_kind=output_kind, input_gain=input_gain,
-        base=None if model is not None else base_names, candidates=candidates, holdout=holdout,
-        max_steps=max_steps, progress=progress, threshold=threshold, min_holdout_gain=min_holdout_gain,
-        min_gap_shrink=min_gap_shrink, noise_explained=noise_explained, missing_factor=missing_factor,
-        timing=first.timing, band=band, model=rig if rig is not None else model, structure=structure, labels=labels,
-    )  # fmt: skip
+    try:
+        again = diagnose(
+            aligned, dt=first.kin.dt, output_kind=output_kind, input_gain=input_gain,
+            base=None if model is not None else base_names, candidates=candidates, holdout=holdout,
+            max_steps=max_steps, progress=progress, threshold=threshold, min_holdout_gain=min_holdout_gain,
+            min_gap_shrink=min_gap_shrink, noise_explained=noise_explained, missing_factor=missing_factor,
+            timing=first.timing, band=band, model=rig if rig is not None else model, structure=structure,
+            labels=labels,
+        )  # fmt: skip
+    except DataError:
+        again, why = None, "no drive model describes the aligned records"
+    else:
+        why = f"its final gap {again.final_gap.overall / again.noise_floor:.1f} noise floors"
+    if (
+        again is None
+        or again.final_gap.overall / again.noise_floor >= diagnosis.final_gap.overall / pool.noise
+    ):
+        # the drift said was no logger's (a segment's delay the input barely shows): the record as it is
+        diagnosis.notes.append(
+            f"align: the output put back on the input's time fits no better ({why}, against "
+            f"{diagnosis.final_gap.overall / pool.noise:.1f} on the record's own time): the record's own time kept"
+        )
+        return diagnosis
     said = [
         f"{d.label + ': ' if len(labels) > 1 else ''}the output put back on the input's time (align): its delay's "
         f"drift from {1e3 * d.first:.3g} to {1e3 * d.last:.3g} ms taken out, {1e3 * d.first:.3g} ms left for the "
