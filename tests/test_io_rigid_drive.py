@@ -78,16 +78,17 @@ def test_rig_serve_takes_the_rating_of_a_rigid_drive(tmp_path, monkeypatch, caps
     from motorid.cli import main
 
     served = []
+    port = str(free_port())  # the server is not started, but its address is checked free
     monkeypatch.setattr(RigServer, "serve_forever", lambda self, on_listening=None: served.append(self))
     DRIVE.save(tmp_path / "drive.json")
-    assert main(["rig", "serve", "--model", str(tmp_path / "drive.json")]) == 0
+    assert main(["rig", "serve", "--model", str(tmp_path / "drive.json"), "--port", port]) == 0
     assert served[-1].u_max == DRIVE.params["saturation"]
     unbounded = DRIVE.with_effects(
         ("coulomb_friction", "viscous_friction"),
         {k: DRIVE.params[k] for k in ("inertia", "input_gain", "coulomb", "viscous")},
     )
     unbounded.save(tmp_path / "unbounded.json")
-    assert main(["rig", "serve", "--model", str(tmp_path / "unbounded.json")]) == 2
+    assert main(["rig", "serve", "--model", str(tmp_path / "unbounded.json"), "--port", port]) == 2
     err = capsys.readouterr().err
     assert f"--model {tmp_path / 'unbounded.json'}: the rigid drive has no input saturation" in err
     assert "--u-max" in err

@@ -15,6 +15,7 @@ from cli_fixtures import run
 from conftest import examples
 from hypothesis import given
 from hypothesis import strategies as st
+from io_fixtures import free_port
 
 import motorid
 from motorid.drive import (
@@ -499,27 +500,28 @@ def test_rig_serve_hosts_the_model_file(capsys, tmp_path, monkeypatch):
     rig = paper_rig(J_l=1e-4, friction=(), amplifier=Amplifier(dead_zone=0.2, v_max=9.0))
     rig.save(tmp_path / "rig.json")
     served = []
+    port = str(free_port())  # hosted, not served: its address is checked free all the same
 
     def serve_forever(self, on_listening=None):  # hosted, not served: the test checks what would be
         served.append(self)
         on_listening()
 
     monkeypatch.setattr(RigServer, "serve_forever", serve_forever)
-    code, _, err = run(capsys, "rig", "serve", "--model", str(tmp_path / "rig.json"), "--port", "5999")
+    code, _, err = run(capsys, "rig", "serve", "--model", str(tmp_path / "rig.json"), "--port", port)
     assert code == 0 and "rig of" in err
     plant = served[-1].plant
     assert plant.rig == rig and served[-1].u_max == 9.0  # the rating is the model's saturation
     plant.reset(seed=2)
     sim = rig.simulation(seed=2)
     assert [plant.step(3.0) for _ in range(5)] == [sim.step(3.0) for _ in range(5)]
-    run(capsys, "rig", "serve", "--model", str(tmp_path / "rig.json"), "--u-max", "6")
+    run(capsys, "rig", "serve", "--model", str(tmp_path / "rig.json"), "--u-max", "6", "--port", port)
     assert served[-1].u_max == 6.0
-    run(capsys, "rig", "serve")
+    run(capsys, "rig", "serve", "--port", port)
     assert served[-1].plant.rig == paper_rig() and served[-1].u_max == paper_rig().amplifier.v_max
     TwoMassRig().save(tmp_path / "unbounded.json")  # an ideal amplifier has no rating to serve with
-    code, _, err = run(capsys, "rig", "serve", "--model", str(tmp_path / "unbounded.json"))
+    code, _, err = run(capsys, "rig", "serve", "--model", str(tmp_path / "unbounded.json"), "--port", port)
     assert code == 2 and "--u-max" in err
-    code, _, err = run(capsys, "rig", "serve", "--model", str(tmp_path / "missing.json"))
+    code, _, err = run(capsys, "rig", "serve", "--model", str(tmp_path / "missing.json"), "--port", port)
     assert code == 2 and "missing.json: cannot read" in err
 
 
