@@ -17,7 +17,19 @@ logged through one imperfection (:data:`IMPERFECTIONS`):
   a zero input);
 - ``pulsed_pwm``: the drive's PWM at 5-20 Hz, slower than the motor: the input column is the
   duty, the motor sees the supply in each on phase and nothing in the off phase;
-- ``slow_sampling``: a sample time drawn in 20-40 ms (the others draw 1-10 ms).
+- ``slow_sampling``: a sample time drawn in 20-40 ms (the others draw 1-10 ms);
+- ``pwm_ripple``: the drive's PWM at 100-490 Hz (an Arduino's is 490 Hz), logged at 1 or 2 ms:
+  the motor sees the supply in each on phase and nothing in the off phase, each simulation step
+  the PWM's exact average over that step (:func:`pwm_average`), so the speed ripples at the PWM
+  frequency and its harmonics, aliased by the logger; the input column is the mean voltage;
+- ``torque_ripple``: a once-per-revolution torque ripple (a bent shaft, an eccentric load, the
+  magnet's joint), ``A sin(θ + φ)`` with ``A`` 3-8 % of the full input's torque: the doctor
+  may name it (``cogging``), which is no false name on this bench;
+- ``closed_loop``: the drive in the speed loop of ``motorid control`` (the PI of
+  :func:`~motorid.speed_control.design_speed_pi` on the true linear part, with the true friction
+  fed forward on half of the benches, :class:`~motorid.compensation.FrictionCompensation`), the
+  excitation as its reference speed (a ``reference`` column), commands limited to ±12 V and the
+  controller acting on the noisy speed it logs.
 
 The truth rides along (:class:`Bench`): the planted effect and its parameters, the drive's own
 parameters and the logging delay at the start and the end. :func:`bench` draws one; the
@@ -37,7 +49,10 @@ from motorid.drive.rigid import RigidDrive
 #: The imperfections a bench is logged through (see the module notes).
 IMPERFECTIONS = (
     "none", "encoder", "constant_delay", "drifting_delay", "stale_start", "pulsed_pwm", "slow_sampling",
+    "pwm_ripple", "torque_ripple", "closed_loop",
 )  # fmt: skip
+#: The supply voltage of the PWM benches [V].
+SUPPLY = 12.0
 #: The excitations: the paper's two sines with quiet stretches, a full-scale chirp and held
 #: random levels (a stair).
 SIGNALS = ("two_sine", "chirp", "held_levels")
@@ -70,7 +85,8 @@ class Bench:
     stale_samples : int
         Samples of a stale start (0 without one).
     notes : dict
-        Other true values an imperfection draws (the PWM frequency [Hz] of a pulsed drive).
+        Other true values an imperfection draws: the PWM frequency ``pwm_frequency`` [Hz] of a
+        pulsed or rippling drive, ``compensated`` (1.0 or 0.0) of a closed loop.
     """
 
     record: pd.DataFrame
@@ -101,9 +117,11 @@ def _excitation(
 
 
 def _drive(
-    effect: str | None, rng: np.random.Generator, dt_sim: float
+    effect: str | None, rng: np.random.Generator, dt_sim: float, ripple: bool = False
 ) -> tuple[RigidDrive, dict[str, float]]:
-    """A small motor at 12 V turning up to 150-400 rad/s, with ``effect`` planted."""
+    """A small motor at 12 V turning up to 150-400 rad/s, with ``effect`` planted and, with
+    ``ripple``, a once-per-revolution torque ripple (``cogging`` with ``cogging_periods`` = 1 per
+    radian: one period per turn of the shaft)."""
     speed = float(rng.uniform(150.0, 400.0))  # at 12 V, without friction [rad/s]
     tau = float(rng.uniform(0.01, 0.06))  # J / B [s]
     gain = float(rng.uniform(2e-3, 6e-3))  # [N m/V]
@@ -129,6 +147,12 @@ def _drive(
         raise ValueError(f"effect must be one of {BENCH_EFFECTS}, got {effect!r}")
     if effect is not None:
         effects.append(effect)
+    if ripple:
+        amplitude = float(rng.uniform(0.03, 0.08)) * 12.0 * gain
+        phase = float(rng.uniform(0.0, 2.0 * np.pi))
+        params.update(cogging_sin=amplitude * np.cos(phase), cogging_cos=amplitude * np.sin(phase),
+                      cogging_periods=1.0)  # fmt: skip
+        effects.append("cogging")
     return RigidDrive(tuple(effects), params, dt_sim), params
 
 
@@ -161,15 +185,29 @@ def bench(
     if imperfection not in IMPERFECTIONS:
         raise ValueError(f"imperfection must be one of {', '.join(IMPERFECTIONS)}, got {imperfection!r}")
     rng = np.random.default_rng([seed, IMPERFECTIONS.index(imperfection)])
-    drawn = (
-        rng.uniform(0.02, 0.04) if imperfection == "slow_sampling" else rng.choice([1e-3, 2e-3, 5e-3, 1e-2])
-    )
+    if imperfection == "slow_sampling":
+        drawn = rng.uniform(0.02, 0.04)
+    elif imperfection == "pwm_ripple":
+        drawn = rng.choice([1e-3, 2e-3])
+    else:
+        drawn = rng.choice([1e-3, 2e-3, 5e-3, 1e-2])
     dt = float(drawn if dt is None else dt)  # drawn either way: the other draws stay the same
     dt_sim = dt / OVERSAMPLE
-    drive, params = _drive(effect, rng, dt_sim)
+    drive, params = _drive(effect, rng, dt_sim, ripple=imperfection == "torque_ripple")
     signal = SIGNALS[int(rng.integers(len(SIGNALS)))]
     amplitude = float(rng.uniform(6.0, 12.0))
     u = _excitation(signal, duration, dt, amplitude, rng)
+    n = u.size
+    t = np.arange(n) * dt
+    truth = {p: float(v) for p, v in params.items()}
+    if imperfection == "closed_loop":
+        compensated = bool(rng.integers(2))
+        reference = 0.6 * (12.0 * params["input_gain"] / params["viscous"]) * u / 12.0
+        u, y = _closed_loop(drive, params, reference, dt, compensated, rng)
+        record = pd.DataFrame({"t": t, "reference": reference, "u": u, "y": y})
+        record.attrs["dt"] = dt
+        record.attrs["units"] = {"t": "s", "reference": "rad/s", "u": "V", "y": "rad/s"}
+        return Bench(record, imperfection, signal, effect, truth, notes={"compensated": float(compensated)})
     stale = 0
     if imperfection == "stale_start":
         stale = max(3, round(float(rng.uniform(0.008, 0.084)) / dt))
@@ -180,12 +218,15 @@ def bench(
         frequency = float(rng.uniform(5.0, 20.0))
         notes["pwm_frequency"] = frequency
         t_sim = np.arange(applied.size) * dt_sim
-        duty = np.clip(np.abs(applied) / 12.0, 0.0, 1.0)
-        applied = np.where((t_sim * frequency) % 1.0 < duty, np.sign(applied) * 12.0, 0.0)
-        u = 100.0 * u / 12.0  # the record holds the duty [%]
+        duty = np.clip(np.abs(applied) / SUPPLY, 0.0, 1.0)
+        applied = np.where((t_sim * frequency) % 1.0 < duty, np.sign(applied) * SUPPLY, 0.0)
+        u = 100.0 * u / SUPPLY  # the record holds the duty [%]
+    elif imperfection == "pwm_ripple":
+        frequency = float(rng.uniform(100.0, 490.0))
+        notes["pwm_frequency"] = frequency
+        u = np.clip(u, -SUPPLY, SUPPLY)  # the bridge gives at most the supply: the record holds what it gave
+        applied = pwm_average(np.repeat(u, OVERSAMPLE), dt_sim, frequency)
     w = drive.free_run(applied)
-    n = u.size
-    t = np.arange(n) * dt
     delay = (0.0, 0.0)
     if logging_delay is not None:
         delay = (float(logging_delay[0]), float(logging_delay[1]))
@@ -208,8 +249,76 @@ def bench(
     record = pd.DataFrame({"t": t, "u": u, "y": y})
     record.attrs["dt"] = dt
     record.attrs["units"] = {"t": "s", "u": "%" if imperfection == "pulsed_pwm" else "V", "y": "rad/s"}
-    truth = {p: float(v) for p, v in params.items()}
     return Bench(record, imperfection, signal, effect, truth, delay, stale, notes)
+
+
+def pwm_average(volts: np.ndarray, step: float, frequency: float) -> np.ndarray:
+    """What a PWM bridge applies over each simulation step: the supply's exact mean over the step.
+
+    A PWM of period ``P = 1 / f`` and duty ``d = |v| / V_s`` (``v`` the mean voltage asked for,
+    clipped to ``V_s`` = :data:`SUPPLY`) is on over ``[m P, m P + d P)`` of each period ``m``. The
+    time it has been on since ``t = 0`` is ``H(t) = d P floor(t / P) + min(t mod P, d P)``, so the
+    mean voltage over the step ``[t_i, t_i + h)`` is ``sgn(v) V_s (H(t_i + h) - H(t_i)) / h``:
+    exact at any ratio of step to period (a step longer than the period sees the mean ``v``, a
+    shorter one the ripple).
+
+    Parameters
+    ----------
+    volts : ndarray, shape (N,)
+        The mean voltage asked for over each step [V] (the controller's command, held).
+    step : float
+        The simulation step h [s].
+    frequency : float
+        The PWM frequency f [Hz].
+    """
+    period = 1.0 / frequency
+    duty = np.clip(np.abs(volts) / SUPPLY, 0.0, 1.0)
+    t = np.arange(volts.size + 1) * step
+
+    def on_time(at: np.ndarray, d: np.ndarray) -> np.ndarray:
+        return d * period * np.floor(at / period) + np.minimum(at % period, d * period)
+
+    return np.sign(volts) * SUPPLY * (on_time(t[1:], duty) - on_time(t[:-1], duty)) / step
+
+
+def _closed_loop(
+    drive: RigidDrive,
+    params: dict[str, float],
+    reference: np.ndarray,
+    dt: float,
+    compensated: bool,
+    rng: np.random.Generator,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The drive in the speed loop of ``motorid control``: at each sample the controller's command
+    from the reference and the speed it measured at the end of the last sample (the truth plus
+    white noise of 0.2 % of the largest reference), held over the sample (:data:`OVERSAMPLE` steps
+    of the simulation); returns the commands [V] and the measured speeds [rad/s]."""
+    from motorid.compensation import FrictionCompensation
+    from motorid.drive.rigid import RigidSimulation
+    from motorid.speed_control import SpeedController, design_speed_pi
+
+    linear = {k: params[k] for k in ("inertia", "input_gain", "viscous")}
+    pi = design_speed_pi(RigidDrive(("viscous_friction",), linear, dt), dt, u_max=12.0)
+    compensation = None
+    if compensated:
+        known = {
+            "inertia": params["inertia"],
+            "input_gain": params["input_gain"],
+            "coulomb": params["coulomb"],
+        }
+        friction = RigidDrive(("coulomb_friction",), known, dt)
+        compensation = FrictionCompensation(friction, speed_band=0.02 * float(np.max(np.abs(reference))))
+    controller = SpeedController(pi, dt, compensation)
+    plant = RigidSimulation(drive)
+    noise = 0.002 * float(np.max(np.abs(reference))) * rng.standard_normal(reference.size)
+    u = np.empty(reference.size)
+    y = np.empty(reference.size)
+    measured = 0.0
+    for k, r in enumerate(reference):
+        u[k] = controller.step(float(r), measured)
+        measured = float(plant.run(np.full(OVERSAMPLE, u[k]))[-1]) + noise[k]
+        y[k] = measured
+    return u, y
 
 
 def delay_error_samples(found: float, bench: Bench) -> float:
@@ -225,4 +334,7 @@ def delay_error_samples(found: float, bench: Bench) -> float:
     return abs(found - 0.5 * sum(bench.logging_delay)) / bench.record.attrs["dt"]
 
 
-__all__ = ["BENCH_EFFECTS", "IMPERFECTIONS", "OVERSAMPLE", "SIGNALS", "Bench", "bench", "delay_error_samples"]
+__all__ = [
+    "BENCH_EFFECTS", "IMPERFECTIONS", "OVERSAMPLE", "SIGNALS", "SUPPLY", "Bench", "bench",
+    "delay_error_samples", "pwm_average",
+]  # fmt: skip

@@ -630,6 +630,9 @@ BANK_PARAMETER = {
 BANK_TOLERANCE = 0.15
 #: The imperfections whose benches carry a logging delay.
 DELAYED = ("constant_delay", "drifting_delay")
+#: Names that are no false name on a bench of an imperfection: the once-per-revolution ripple
+#: of a ``torque_ripple`` bench is a torque periodic in the position, which ``cogging`` describes.
+TRUE_ALSO = {"torque_ripple": ("cogging",)}
 
 
 @dataclass
@@ -641,7 +644,8 @@ class BankRow:
     imperfection, effect, seed, signal : str, str or None, int, str
         The bench (:func:`~motorid.diagnose.bench.bench`).
     named : list of str
-        The effects named (empty where refused).
+        The effects named (empty where refused), but those the imperfection itself shows
+        (:data:`TRUE_ALSO`).
     refused : str or None
         The refusal's text, where the doctor refused the record.
     first_right : bool
@@ -726,9 +730,10 @@ def bank(
             )
         else:
             delay = math.nan
+        named = [n for n in d.named if n not in TRUE_ALSO.get(imperfection, ())]
         rows.append(BankRow(
-            imperfection, effect, seed, b.signal, list(d.named), None,
-            d.named[:1] == [effect] if effect is not None else not d.named,
+            imperfection, effect, seed, b.signal, named, None,
+            named[:1] == [effect] if effect is not None else not named,
             abs(found - truth) / abs(truth), delay, bool(d.delay_drift),
             d.final_gap.overall / d.noise_floor,
         ))  # fmt: skip
