@@ -122,3 +122,16 @@ def test_a_closed_loop_bench_is_its_drive_under_the_logged_commands():
     peak = float(np.max(np.abs(record["reference"])))
     assert np.max(np.abs(record["y"].to_numpy() - w)) < 5 * 0.002 * peak
     assert np.sqrt(np.mean((record["reference"] - record["y"]) ** 2)) < 0.15 * peak
+
+
+def test_a_two_mass_bench_turns_at_its_lumped_drives_steady_speed():
+    """Held at 8 V, the rig's steady speed is the lumped drive's (g u - F_c) / B (the shaft
+    carries no torque difference at a steady speed); 0.5 % covers the tachogenerator's noise
+    averaged over 250 samples and its A/D step."""
+    from motorid.diagnose.bench import _two_mass
+
+    params = {"inertia": 8e-6, "input_gain": 3.3e-3, "viscous": 2e-4, "coulomb": 3.5e-3, "offset": 0.0}
+    record, truth = _two_mass(dict(params), None, np.full(1000, 8.0), 2e-3, np.random.default_rng(0))
+    steady = (truth["input_gain"] * 8.0 - truth["coulomb"]) / truth["viscous"]
+    assert truth["inertia"] == params["inertia"] and truth["coulomb"] == params["coulomb"]
+    assert record["y"].iloc[-250:].mean() == pytest.approx(steady, rel=5e-3)

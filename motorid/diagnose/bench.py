@@ -29,7 +29,14 @@ logged through one imperfection (:data:`IMPERFECTIONS`):
   :func:`~motorid.speed_control.design_speed_pi` on the true linear part, with the true friction
   fed forward on half of the benches, :class:`~motorid.compensation.FrictionCompensation`), the
   excitation as its reference speed (a ``reference`` column), commands limited to ±12 V and the
-  controller acting on the noisy speed it logs.
+  controller acting on the noisy speed it logs;
+- ``two_mass``: the paper's two-mass rig (:func:`~motorid.drive.paper_rig`) drawn around the same
+  small motor, the motor 20-50 % of the inertia, a shaft between motor and load whose resonance
+  lies at 30-80 Hz with a damping ratio of 0.05-0.2, Coulomb friction on both masses
+  (the motor's share 30-70 %) and the planted friction on the motor (the dead zone in the
+  amplifier), measured by the rig's tachogenerator and 12-bit A/D converter. The truth the
+  doctor's rigid model is held to is the lumped drive: ``J_m + J_l``, ``K_m / R_a``,
+  ``K_m^2 / R_a + B_m + B_l`` and the sum of the Coulomb levels.
 
 The truth rides along (:class:`Bench`): the planted effect and its parameters, the drive's own
 parameters and the logging delay at the start and the end. :func:`bench` draws one; the
@@ -49,7 +56,7 @@ from motorid.drive.rigid import RigidDrive
 #: The imperfections a bench is logged through (see the module notes).
 IMPERFECTIONS = (
     "none", "encoder", "constant_delay", "drifting_delay", "stale_start", "pulsed_pwm", "slow_sampling",
-    "pwm_ripple", "torque_ripple", "closed_loop",
+    "pwm_ripple", "torque_ripple", "closed_loop", "two_mass",
 )  # fmt: skip
 #: The supply voltage of the PWM benches [V].
 SUPPLY = 12.0
@@ -200,6 +207,9 @@ def bench(
     n = u.size
     t = np.arange(n) * dt
     truth = {p: float(v) for p, v in params.items()}
+    if imperfection == "two_mass":
+        record, truth = _two_mass(truth, effect, u, dt, rng)
+        return Bench(record, imperfection, signal, effect, truth)
     if imperfection == "closed_loop":
         compensated = bool(rng.integers(2))
         reference = 0.6 * (12.0 * params["input_gain"] / params["viscous"]) * u / 12.0
@@ -279,6 +289,49 @@ def pwm_average(volts: np.ndarray, step: float, frequency: float) -> np.ndarray:
         return d * period * np.floor(at / period) + np.minimum(at % period, d * period)
 
     return np.sign(volts) * SUPPLY * (on_time(t[1:], duty) - on_time(t[:-1], duty)) / step
+
+
+def _two_mass(
+    params: dict[str, float], effect: str | None, u: np.ndarray, dt: float, rng: np.random.Generator
+) -> tuple[pd.DataFrame, dict[str, float]]:
+    """The record of a two-mass rig whose lumped drive is ``params`` (see the module notes), and
+    the lumped truth."""
+    from motorid.drive import Amplifier, Friction, paper_rig
+
+    R_a = float(rng.uniform(1.5, 3.0))
+    K_m = params["input_gain"] * R_a  # the torque per volt K_m / R_a of the drawn motor
+    mechanical = params["viscous"] - K_m**2 / R_a  # what the back EMF leaves to the bearings
+    if mechanical <= 0.0:  # a motor whose back EMF alone damps more: the bearings take 10 %
+        K_m = float(np.sqrt(0.9 * params["viscous"] * R_a))
+        mechanical = 0.1 * params["viscous"]
+    share_m = float(rng.uniform(0.2, 0.5))  # the motor's share of the inertia
+    J = params["inertia"]
+    # the shaft: k_s = ω_r² J_m J_l / J and B_s = 2 ζ ω_r J_m J_l / J for the resonance ω_r
+    reduced = share_m * (1.0 - share_m) * J
+    resonance = 2.0 * np.pi * float(rng.uniform(30.0, 80.0))
+    k_s, B_s = resonance**2 * reduced, 2.0 * float(rng.uniform(0.05, 0.2)) * resonance * reduced
+    coulomb, share_c = params["coulomb"], float(rng.uniform(0.3, 0.7))
+    friction = [
+        Friction(("coulomb_friction",), {"coulomb": share_c * coulomb}, side="motor"),
+        Friction(("coulomb_friction",), {"coulomb": (1.0 - share_c) * coulomb}, side="load"),
+    ]
+    planted = {
+        k: v for k, v in params.items() if k not in ("inertia", "input_gain", "viscous", "coulomb", "offset")
+    }
+    if effect is not None and effect != "input_dead_zone":
+        friction.append(Friction((effect,), planted, side="motor"))
+    rig = paper_rig(
+        J_m=share_m * J, J_l=(1.0 - share_m) * J, K_m=K_m, R_a=R_a, B_m=0.5 * mechanical,
+        B_l=0.5 * mechanical, k_s=k_s, B_s=B_s, dt=dt, substeps=max(1, round(dt / 2.5e-4)),
+        friction=tuple(friction),
+        amplifier=Amplifier(gain=1.0, dead_zone=planted.get("dead_zone", 0.0), v_max=SUPPLY),
+    )  # fmt: skip
+    y = rig.simulate(np.clip(u, -SUPPLY, SUPPLY), seed=int(rng.integers(2**31)))["y"].to_numpy()
+    record = pd.DataFrame({"t": np.arange(u.size) * dt, "u": np.clip(u, -SUPPLY, SUPPLY), "y": y})
+    record.attrs["dt"] = dt
+    record.attrs["units"] = {"t": "s", "u": "V", "y": "rad/s"}
+    truth = {**params, "input_gain": K_m / R_a, "viscous": K_m**2 / R_a + mechanical}
+    return record, truth
 
 
 def _closed_loop(
