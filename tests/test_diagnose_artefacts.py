@@ -4,6 +4,8 @@ line."""
 
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -11,7 +13,14 @@ from cli_fixtures import run
 from emps_fixtures import real_motor_file
 
 from motorid.diagnose import diagnose
-from motorid.diagnose.artefacts import clean_output, dropout_spikes, held_start, stale_start
+from motorid.diagnose.artefacts import (
+    MIN_DRIVEN_STOPS,
+    clean_output,
+    driven_stops,
+    dropout_spikes,
+    held_start,
+    stale_start,
+)
 from motorid.diagnose.synthetic import planted_record
 from motorid.records import write_record
 
@@ -155,3 +164,45 @@ def test_a_bad_span_is_refused_with_one_line(capsys, planted, tmp_path, argv, wo
     code, out, err = run(capsys, "doctor", str(path), *argv)
     assert code == 2 and out == ""
     assert words in err, err
+
+
+def test_driven_stops_are_stops_in_one_direction_under_a_held_input():
+    """A drive pulsed at 10 Hz under a held 6 V: the speed rises in each 50 ms on phase and decays
+    to rest in the off phase, 20 times in 2 s (the first stop at the end of the first pulse); the
+    same speed reversing with its input, or resting while the input is small, has none."""
+    dt, n = 1e-3, 2000
+    t = np.arange(n) * dt
+    phase = (t * 10.0) % 1.0
+    pulsed = np.where(phase < 0.5, 100.0 * (1 - np.exp(-phase / 0.01)), 0.0)  # back to 0 each period
+    u = np.full(n, 6.0)
+    stops = driven_stops(u, pulsed)
+    assert stops.size == 19 and np.all(np.diff(stops) == 100)
+    assert driven_stops(-u, -pulsed).size == 19
+    # the same pulses while the input reverses every 100 ms: each stop is a reversal
+    assert (
+        driven_stops(np.where(phase < 0.5, 6.0, -6.0) * np.sign(np.sin(np.pi * t * 10 + 0.1)), pulsed).size
+        < 19
+    )
+    # a drive that rests only while its input is within a dead zone (|u| < 1 V of 6 V) has none
+    u_sine = 6.0 * np.sin(2 * np.pi * t)
+    w = np.where(np.abs(u_sine) > 1.0, 20.0 * (u_sine - np.sign(u_sine)), 0.0)
+    assert driven_stops(u_sine, w).size == 0
+    # nor does a speed that reverses with its input
+    assert driven_stops(u_sine, 20.0 * u_sine).size == 0
+
+
+def test_a_pulsed_drive_is_refused_with_what_to_do(capsys, tmp_path):
+    """A bench whose 19 Hz PWM stops the drive every period, logged at 10 ms: one line, exit 2."""
+    from motorid.diagnose.bench import bench
+
+    b = bench("pulsed_pwm", None, 2)
+    assert driven_stops(b.record["u"].to_numpy(), b.record["y"].to_numpy()).size >= MIN_DRIVEN_STOPS
+    path = tmp_path / "pulsed.csv"
+    write_record(b.record, path)
+    code, out, err = run(capsys, "doctor", str(path), "--input-unit", "%")
+    assert code == 2 and out == ""
+    assert "a pulsed drive, whose PWM is slower than the motor" in err and "average the speed" in err
+    assert len(err.strip().splitlines()) == 1, err
+    # the stops lie one PWM period apart, within a sample
+    apart = float(re.search(r"typically ([0-9.]+) ms apart", err).group(1)) * 1e-3
+    assert abs(apart - 1.0 / b.notes["pwm_frequency"]) <= b.record.attrs["dt"]

@@ -30,6 +30,13 @@
   kept. A spike is replaced by m_k, so the record keeps its uniform sample time.
 
 Each artefact left out gets a one-line note (:func:`clean_output`).
+
+One kind of record is refused rather than cleaned: **a pulsed drive** (:func:`driven_stops`). A
+PWM slower than the motor (a few hertz to some tens) lets the drive stop in every off phase: the
+speed falls to zero and starts again in the same direction while the input, the duty averaged
+over the period, holds its sign well above the level that turns the drive. No drive model of the
+averaged input describes that; the record is refused naming what to do (a PWM frequency well
+above ``1 / (2 pi tau)``, or an input logged as the voltage the motor sees).
 """
 
 from __future__ import annotations
@@ -56,6 +63,21 @@ SPIKE_FACTOR = 10.0
 NEIGHBOURS = 0.25
 #: A spike deviates from its neighbours' mean by more than this share of the output's range.
 SPIKE_SHARE = 0.1
+#: A pulsed drive: the speed is "moving" above this share of its range (the 99th percentile of
+#: |y|), "stopped" below :data:`STOPPED` of it, and "driven" where |u| exceeds :data:`DRIVEN` of
+#: the input's (the 99th percentile of |u|).
+MOVING = 0.1
+STOPPED = 0.03
+DRIVEN = 0.2
+#: Fewest driven stops that make a record a pulsed drive. On the bank of benches
+#: (:mod:`motorid.diagnose.bench`, seeds 0-12 of every effect, 65 benches per imperfection) the
+#: benches that are not pulsed have at most 3, but one: 14 on a 163 Hz PWM at 20 % duty on an
+#: 18 ms motor, which does stop at the bottom of its ripple; none of 110 planted rig records
+#: (:func:`~motorid.diagnose.synthetic.planted_record`) has one, the real motors' records of
+#: ``realmotors/`` at most 1. Of the 65 pulsed benches (5-20 Hz) 53 have 6 or more, up to 225;
+#: the others stop too few times in 30 s to be told from a drive that stops now and then, and
+#: are left to the fit.
+MIN_DRIVEN_STOPS = 6
 
 
 def held_start(u: np.ndarray, y: np.ndarray) -> int:
@@ -103,6 +125,70 @@ def stale_start(u: np.ndarray, y: np.ndarray) -> int:
         return 0
     after = y[k0 : k0 + STALE_SAMPLES]
     return k0 if float(np.max(np.abs(after - y[0]))) > STALE_JUMP * abs(float(y[0])) else 0
+
+
+def driven_stops(u: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Where the drive stops while driven: the indices of the first sample of each stop.
+
+    A driven stop is a stretch of samples between two moving samples ``m_1 < m_2``
+    (``|y| > MOVING y_s``) that holds at least one stopped sample (``|y| < STOPPED y_s``), over
+    which the input keeps one sign, the sign of ``y[m_1]`` and of ``y[m_2]``, with
+    ``|u| > DRIVEN u_s`` throughout (``y_s``, ``u_s``: the 99th percentiles of ``|y|`` and
+    ``|u|``). A reversal (the speed's sign changes) and a rest under a small input (a dead zone,
+    a breakaway) are no driven stops; a drive pulsed by a slow PWM makes one each period.
+
+    Parameters
+    ----------
+    u, y : ndarray
+        The record's input and speed.
+    """
+    y_s = float(np.quantile(np.abs(y), 0.99)) if y.size else 0.0
+    u_s = float(np.quantile(np.abs(u), 0.99)) if u.size else 0.0
+    if not (y_s > 0.0 and u_s > 0.0):
+        return np.zeros(0, dtype=int)
+    moving = np.flatnonzero(np.abs(y) > MOVING * y_s)
+    stopped = np.concatenate(([0], np.cumsum(np.abs(y) < STOPPED * y_s)))
+    sign = np.sign(u) * (np.abs(u) > DRIVEN * u_s)  # 0 where not driven
+    # samples driven against each direction, counted: a stretch is driven one way when it has none
+    off = {+1: np.concatenate(([0], np.cumsum(sign != 1))), -1: np.concatenate(([0], np.cumsum(sign != -1)))}
+    first, second = moving[:-1], moving[1:]
+    gap = second - first > 1
+    first, second = first[gap], second[gap]
+    direction = np.sign(y[first])
+    same = direction == np.sign(y[second])
+    has_stop = stopped[second] - stopped[first + 1] > 0
+    driven = np.zeros(first.size, dtype=bool)
+    for d in (+1, -1):
+        mine = direction == d
+        driven[mine] = off[d][second[mine] + 1] - off[d][first[mine]] == 0
+    found = same & has_stop & driven
+    return first[found] + 1
+
+
+def refuse_pulsed(u: np.ndarray, y: np.ndarray, dt: float) -> None:
+    """Refuse a pulsed drive (:func:`driven_stops`, at least :data:`MIN_DRIVEN_STOPS` stops) with
+    a :class:`~motorid.errors.DataError` that says what the record shows and what to do.
+
+    Parameters
+    ----------
+    u, y : ndarray
+        The record's input and speed.
+    dt : float
+        Sample time [s].
+    """
+    from motorid.errors import DataError
+
+    stops = driven_stops(u, y)
+    if stops.size < MIN_DRIVEN_STOPS:
+        return
+    apart = float(np.median(np.diff(stops))) * dt
+    raise DataError(
+        f"no drive model describes this record: the speed falls to zero {stops.size} times while the "
+        f"input keeps its sign above {DRIVEN:.0%} of its range (the first at sample {int(stops[0])}, "
+        f"typically {1e3 * apart:.3g} ms apart): a pulsed drive, whose PWM is slower than the motor "
+        "(about one stop per PWM period). Record with a PWM frequency well above the motor's bandwidth "
+        "(hundreds of hertz or more), or average the speed over whole PWM periods"
+    )
 
 
 def dropout_spikes(y: np.ndarray) -> np.ndarray:
@@ -174,4 +260,6 @@ def clean_output(
     return u, y, notes
 
 
-__all__ = ["clean_output", "dropout_spikes", "held_start", "stale_start"]
+__all__ = [
+    "clean_output", "driven_stops", "dropout_spikes", "held_start", "refuse_pulsed", "stale_start",
+]  # fmt: skip

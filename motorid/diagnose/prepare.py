@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from motorid.diagnose.artefacts import clean_output
+from motorid.diagnose.artefacts import clean_output, refuse_pulsed
 from motorid.diagnose.kinematics import Kinematics, NoiseBand, kinematics, noise_bands, quantisation_step
 from motorid.diagnose.locate import Region, feature, features
 from motorid.diagnose.measures import (
@@ -224,6 +224,8 @@ def prepare(
     u, y, notes = clean_output(u, y, dt, (units["u"], y_unit), start=output_kind == "velocity")
     for note in notes:
         logger.info("%s", note)
+    if output_kind == "velocity":
+        refuse_pulsed(u, y, dt)
     if timing == "sampled":
         u, y = u[:-1], y[1:]
     kin = kinematics(u, y, dt, output_kind, band)  # type: ignore[arg-type]
