@@ -135,3 +135,19 @@ def test_a_two_mass_bench_turns_at_its_lumped_drives_steady_speed():
     steady = (truth["input_gain"] * 8.0 - truth["coulomb"]) / truth["viscous"]
     assert truth["inertia"] == params["inertia"] and truth["coulomb"] == params["coulomb"]
     assert record["y"].iloc[-250:].mean() == pytest.approx(steady, rel=5e-3)
+
+
+def test_a_sample_time_near_the_motors_time_constant_is_said():
+    """The note's rule on a model (τ = J / B = 20 ms: 11 ms is said, 9 ms is not, and nothing without
+    viscous friction), and on the bench it was found on: a no-effect chirp at 10 ms of a 12 ms motor."""
+    from motorid.diagnose import diagnose
+    from motorid.diagnose.results import slow_sampling_note
+
+    model = RigidDrive(("viscous_friction",), {"inertia": 2e-6, "input_gain": 2e-3, "viscous": 1e-4}, 0.01)
+    assert slow_sampling_note(model, 0.011).startswith("the sample time 11 ms is 0.55 of the fitted")
+    assert slow_sampling_note(model, 0.009) is None
+    assert slow_sampling_note(RigidDrive(("coulomb_friction",), {"inertia": 2e-6, "input_gain": 2e-3,
+                                                                   "coulomb": 1e-3}, 0.01), 0.04) is None  # fmt: skip
+    b = bench("none", None, 0)
+    d = diagnose(b.record, input_gain=b.params["input_gain"])
+    assert any(n.startswith("the sample time 10 ms is 0.") and "record at 2." in n for n in d.notes), d.notes

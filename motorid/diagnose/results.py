@@ -43,6 +43,29 @@ RELATIVE_STD_LIMIT = 0.5
 #: effect, and above the 99th percentile (3.04) of 191 on an encoder's speed (quantised, noise
 #: growing with speed) (:mod:`.calibration`).
 MISSING_FACTOR = 3.5
+#: A sample time above this share of the fitted mechanical time constant τ = J / B is said to be
+#: too slow for the balance: its acceleration is a difference of speeds a good part of τ apart,
+#: not the derivative the balance needs. On the bank of benches (:mod:`.bench`) the doctor names
+#: an effect on no-effect benches at 10 ms with τ = 12 ms (dt/τ = 0.8) and on all three at
+#: 20-40 ms; no real record of ``realmotors/`` comes near (the L298N's 10 ms against 0.28 s).
+SLOW_SAMPLING = 0.5
+
+
+def slow_sampling_note(model: RigidDrive, dt: float) -> str | None:
+    """A note where the sample time ``dt`` [s] exceeds :data:`SLOW_SAMPLING` of the mechanical time
+    constant τ = J / B of the fitted ``model`` (a rigid drive with viscous friction); None else."""
+    viscous = float(model.params.get("viscous", 0.0))
+    if not viscous > 0.0:
+        return None
+    tau = float(model.params["inertia"]) / viscous
+    if not (tau > 0.0 and dt > SLOW_SAMPLING * tau):
+        return None
+    return (
+        f"the sample time {1e3 * dt:.3g} ms is {dt / tau:.2g} of the fitted mechanical time constant "
+        f"J/B = {1e3 * tau:.3g} ms: the speed changes too much between two samples for the balance's "
+        f"acceleration, so the names and the inertia are not reliable; record at {1e3 * tau / 5:.2g} ms "
+        "or faster"
+    )
 
 
 @dataclass

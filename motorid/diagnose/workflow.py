@@ -156,6 +156,7 @@ from motorid.diagnose.results import (
     final_gap_sentence,
     record_summaries,
     rest_summaries,
+    slow_sampling_note,
 )
 from motorid.diagnose.search import (
     DEFAULT_BASE,
@@ -432,6 +433,9 @@ def diagnose(
         for note in prep.notes
     ]
     notes += [f"{d.label}: {d.sentence()}" if len(labels) > 1 else d.sentence() for d in drifts]
+    slow = slow_sampling_note(final_model, pool.dt)
+    if slow:
+        notes.append(slow)
     if rig is not None:
         notes.append(rig_note(rig, pool.parts[0].kin.band))
     diagnosis = Diagnosis(
