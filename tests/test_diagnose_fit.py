@@ -136,3 +136,21 @@ def test_each_model_gets_its_own_balance_and_gaps_not_another_ones(prep):
     assert again.overall == pytest.approx(
         np.sqrt(np.mean(err[ok] ** 2)), rel=1e-12
     )  # the RMS; rel 1e-12 allows another summation order
+
+
+def test_a_level_below_zero_beyond_its_errors_is_not_physical():
+    """A fit whose Coulomb level lies more than two standard errors below zero is no drive (a
+    dead zone traded against it); within two errors of zero it is kept (a drive without Coulomb
+    friction fits a small level of either sign)."""
+    from motorid.diagnose.model import fit_model
+    from motorid.diagnose.search import NEGATIVE_ERRORS, negative_levels
+
+    record = planted_record("coulomb_friction", 3, sizes={"coulomb": 8e-3}).record
+    fit = fit_model(prepare(record).data, ("viscous_friction", "coulomb_friction", "offset"))
+    assert negative_levels(fit) == ""  # the fitted level is positive
+    sigma = fit.param_std["coulomb"]
+    assert sigma > 0
+    for level, said in ((-(NEGATIVE_ERRORS + 0.5) * sigma, True), (-0.5 * NEGATIVE_ERRORS * sigma, False)):
+        traded = dataclasses.replace(fit, model=fit.model.with_params(coulomb=level))
+        assert bool(negative_levels(traded)) is said
+        assert not said or negative_levels(traded).startswith("coulomb = -")

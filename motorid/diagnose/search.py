@@ -493,6 +493,31 @@ def lookalike_rule(
     return accepted, lookalike
 
 
+#: A level (a parameter that cannot be negative) below this many of its standard errors under
+#: zero makes a fit not physical; within them it is zero within the record's noise (a drive
+#: without Coulomb friction fits a level of either sign).
+NEGATIVE_ERRORS = 2.0
+
+
+def negative_levels(fit: FitResult) -> str:
+    """The parameters of ``fit`` that cannot be negative (:attr:`Effect.nonnegative`, the levels,
+    the dead zone) and are, by more than :data:`NEGATIVE_ERRORS` standard errors, as
+    ``name = value < 0``; empty where none.
+
+    Parameters
+    ----------
+    fit : FitResult
+        A fitted model with its standard errors.
+    """
+    found = []
+    for name in fit.model.effects:
+        for p in get_effect(name).nonnegative:
+            value = float(fit.model.params.get(p, 0.0))
+            if value < -NEGATIVE_ERRORS * float(fit.param_std.get(p, 0.0)):
+                found.append(f"{p} = {value:.3g} < 0")
+    return ", ".join(found)
+
+
 @dataclass
 class SearchOutcome:
     """What an effect search ends with.
@@ -767,7 +792,9 @@ class Search:
 
     def judge(self, c: Candidate, at: StepStart) -> Decision:
         """Whether candidate ``c`` improves held-out data and shrinks the free-run gap beyond the
-        noise, against the step's model.
+        noise, against the step's model, with no level below zero beyond its errors
+        (:func:`negative_levels`: a dead zone that drives the Coulomb level below zero explains
+        nothing a drive does).
 
         On position records a candidate must also lower the free-run position
         error on held-out halves (:meth:`held_position`) by ``min_holdout_gain``: a position free
@@ -836,6 +863,9 @@ class Search:
                 f"free-run gap{where} {figure(after)} vs {figure(before)} {v}: it accounts for {part:.2f} "
                 f"noise floors{where} ({floor:.3g} {v}) of it, not above {self.noise_explained:g}"
             )
+        below = negative_levels(c.fit)
+        if below:
+            why.append(f"not physical: {below}")
         position = None
         if self.position:
             position = (at.held_position, self.held_position((*at.effects, c.effect), c.fit.model.params))
