@@ -28,7 +28,7 @@ from .options import (
 from .report import emit_json, say, show_progress
 
 if TYPE_CHECKING:
-    from motorid.diagnose.results import Diagnosis
+    from motorid.diagnose.results import Diagnosis, RestSummary
 
 
 def effect_list(text: str | None, option: str) -> list[str]:
@@ -107,7 +107,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
             say(table.round(4).to_string())
     for step in diagnosis.steps:
         params = ", ".join(f"{k} = {v:.5g} {param_units[k]}" for k, v in step.params.items())
-        say(f"  + {step.effect}: {params} (ΔBIC {step.evidence['delta_bic']:.1f})")
+        say(f"  + {step.effect}: {params} at this step (ΔBIC {step.evidence['delta_bic']:.1f})")
         if step.lookalike is not None:
             say(f"    {step.lookalike.describe(units)}")
     say(
@@ -137,16 +137,9 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         if not rest.count:
             say(f"  rests: {label}none (the speed never stays at zero between motions)")
             continue
-        excess = rest.breakaway_excess
-        above = (
-            f"{excess:.3g} ± {rest.breakaway_excess_std:.2g} {units['F']} above the kinetic level "
-            f"{rest.kinetic_level:.3g} {units['F']}"
-            if math.isfinite(excess)
-            else "its level above the kinetic one not told from a lag (the input rises alike at each)"
-        )
         say(
             f"  rests: {label}{rest.count}, median {1000 * rest.median_length:.0f} ms, breaking away at a "
-            f"median {rest.median_breakaway_input:.3g} {units['u']}; at breakaway {above}"
+            f"median {rest.median_breakaway_input:.3g} {units['u']}; {breakaway_words(rest, diagnosis.model.dt, units)}"
         )
     say(f"  stopped: {diagnosis.stop_reason}")
     final = ", ".join(
@@ -155,7 +148,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         + f" {param_units[k]}"
         for k, v in diagnosis.model.params.items()
     )
-    say(f"  final model (± one standard error): {final}")
+    say(f"  final model, every parameter refitted with the effects found (± one standard error): {final}")
     if diagnosis.position_error is not None:
         pe = diagnosis.position_error
         say(
@@ -188,6 +181,54 @@ def cmd_doctor(args: argparse.Namespace) -> int:
             out["validation"] = {"record": str(args.validate), "models": scores.to_dict(orient="index")}
         emit_json(out)
     return 0
+
+
+def breakaway_words(rest: RestSummary, dt: float, units: dict[str, str]) -> str:
+    """What a record's rests say of the level a friction compensation should use, and its sign.
+
+    The level the rests measure is ΔF_s, the force at breakaway above the kinetic level at an input
+    rising infinitely slowly (:class:`~motorid.diagnose.measures.Breakaway`). Shown (above two
+    standard errors), a compensation breaks the drive away with the kinetic level plus ΔF_s and
+    holds the kinetic level once it moves; within two standard errors of zero, the higher input at
+    breakaway is the input's lag, and the kinetic level is the one to use; below zero by more, the
+    measure does not hold (no friction breaks away below its kinetic level): the sample taken as
+    the breakaway comes before the force that broke the drive away, as where the input steps past
+    the breakaway level within a sample (the steps' size is said where the input's rate there,
+    times ``dt`` [s], is larger than the kinetic level). The compensation's sign is the speed's it
+    drives: + forwards, - backwards.
+    """
+    force = units["F"]
+    kinetic = rest.kinetic_level
+    signed = f"+{kinetic:.3g} {force} forwards, -{kinetic:.3g} {force} backwards"
+    excess, error = rest.breakaway_excess, rest.breakaway_excess_std
+    if not math.isfinite(excess):
+        return (f"its level above the kinetic one not told from a lag (the input rises alike at each); a "
+                f"compensation should use the kinetic level: {signed}")  # fmt: skip
+    measured = f"{excess:.3g} ± {error:.2g} {force} from the kinetic level {kinetic:.3g} {force}"
+    if excess > 2.0 * error:
+        breakaway = kinetic + excess
+        return (f"static friction: at a slowly rising input it breaks away {measured}; a compensation should "
+                f"break it away with {breakaway:.3g} {force} (+{breakaway:.3g} forwards, -{breakaway:.3g} "
+                f"backwards) and use the kinetic level once it moves: {signed}")  # fmt: skip
+    if excess >= -2.0 * error:
+        lag = (
+            f" (the input at breakaway is higher where it rises faster: a lag of {1000 * rest.breakaway_lag:.2g} "
+            "ms between input and force)"
+            if rest.breakaway_lag > 0
+            else ""
+        )
+        return (f"no static friction shown: at a slowly rising input it breaks away {measured}, within two "
+                f"standard errors{lag}; a compensation should use the kinetic level: {signed}")  # fmt: skip
+    step = rest.median_input_rate * dt
+    steps = (
+        f": its input steps past the breakaway level within a sample (a median {step:.3g} {units['u']} a "
+        "sample there)"
+        if step > kinetic
+        else ""
+    )
+    return (f"the force at breakaway measures {measured}, below it, which no friction does: the sample "
+            f"taken as the breakaway comes before the force that broke the drive away{steps}, so the rests "
+            f"do not measure the breakaway level; a compensation should use the kinetic level: {signed}")  # fmt: skip
 
 
 def record_table(diagnosis: Diagnosis) -> pd.DataFrame:
