@@ -344,14 +344,24 @@ def test_a_duty_model_is_controlled_within_100_percent_and_a_clamp_is_said(capsy
 
 @needs_kit
 def test_the_simulated_plant_measures_with_the_models_sensor(capsys, kit_model):
+    """``control --daq sim --model kit.json`` measures the plant with the kit's encoder: noise of the
+    card's band, rounded to its 0.767 rad/s step. The low-speed error is not at or above the step
+    itself: rounding leaves an RMS error of q / sqrt(12) = 0.221 rad/s on a speed that moves
+    through the steps, and with the band's noise sigma (0.281 rad/s below 23.8 rad/s) the
+    measurement alone errs by sqrt(sigma^2 + q^2 / 12) = 0.358 rad/s RMS. The loop follows only the
+    part of that noise inside its bandwidth (66.7 rad/s of the 3,142 rad/s Nyquist frequency: about
+    2 % of white noise's power), so the measured error stays above 0.95 of it: measured 0.389 rad/s
+    (0.145 rad/s with --noise-free, the issue's figure before the sensor)."""
     quiet, _ = control(capsys, kit_model, "--noise-free")
     sensed, _ = control(capsys, kit_model)
     again, _ = control(capsys, kit_model, "--plant-seed", "0")
     other, _ = control(capsys, kit_model, "--plant-seed", "7")
     card = read_model_file(kit_model).card
     assert card.quantisation_step == pytest.approx(KIT_ENCODER_STEP, rel=0.01)
-    # a rounding to steps of q alone leaves an RMS error of q / sqrt(12) on a speed that moves through them
-    assert sensed["low_speed_rms_error"] >= card.quantisation_step / math.sqrt(12)
+    band = card.noise_bands[0]
+    assert band["speed_to"] >= sensed["low_speed_band"]  # the low-speed band lies in the card's first
+    floor = math.sqrt(band["std"] ** 2 + card.quantisation_step**2 / 12)
+    assert sensed["low_speed_rms_error"] >= 0.95 * floor
     assert sensed["low_speed_rms_error"] > quiet["low_speed_rms_error"]
     # the same seed, the same run (but the loop's timing on this machine, largest_interval)
     timing = "largest_interval"
