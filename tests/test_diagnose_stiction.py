@@ -263,3 +263,24 @@ def test_breakaways_at_one_held_input_level_are_as_uncertain_as_the_inputs_step(
     assert d.rests[0].breakaway_excess_std == found.standard_error
     kit = diagnose(read_record(KIT_CHIRP), input_unit="%", max_steps=1)
     assert kit._pool.input_quantisation == 0.0
+
+
+L298N = real_motor_file("l298n_staircase.csv")
+
+
+@pytest.mark.skipif(not L298N.exists(), reason=f"real motor data not found at {L298N.parent}")
+def test_a_model_with_static_friction_gives_the_compensation_its_breakaway_level(capsys):
+    """The L298N staircase rests twice, too few for the rests to measure a breakaway, and the doctor
+    fits static friction from the free run (measured 3.82 V above a kinetic level near 0): the
+    rests line says the rests do not measure it and gives a compensation the model's level, signed."""
+    code, out, err = run(capsys, "doctor", str(L298N), "--input-unit", "V", "--output-unit", "rpm", "--json")
+    assert code == 0, err
+    params, rest = out["model"]["params"], out["rests"][0]
+    assert "static_friction" in out["model"]["effects"] and rest["count"] < 3
+    level = rest["kinetic_level"] + params["breakaway_excess"]
+    line = next(x.strip() for x in err.splitlines() if x.strip().startswith("rests: "))
+    assert "not measured: fewer than 3 of them break away under a rising input" in line
+    assert (
+        f"break it away with the kinetic level plus the model's static friction, +{level:.3g} V forwards, "
+        f"-{level:.3g} V backwards" in line
+    )
