@@ -41,6 +41,12 @@ PAPER_ORDER = 4
 #: (``tests/test_identify_defaults.py``).
 IDENTIFY_BASIS = "u,sign"
 
+#: A free run below this FIT [%] on the record the model was identified on is poor, and ``motorid
+#: identify`` warns (:func:`poor_fit_words`): with its defaults it holds 81.6 % (a wheel motor's
+#: validation record) to 92.3 % (the kit's chirp) on the real records of ``realmotors/``, ARX 94-95 %
+#: on the kit's.
+POOR_FIT_PERCENT = 80.0
+
 #: The key of a record's attrs that holds the simulated rig (:meth:`motorid.drive.TwoMassRig.simulate`
 #: writes it): a record that has it is motorid's own simulation.
 SIMULATED_RIG_ATTR = "rig"
@@ -545,6 +551,47 @@ def identify_record(
     return payload, tests, est
 
 
+def poor_fit_words(payload: dict[str, Any]) -> str | None:
+    """One line on a free run that stays bounded but fits its own record below
+    :data:`POOR_FIT_PERCENT` (None otherwise, and for a run that diverges, which
+    :func:`motorid.validation.divergence_words` words), with what to try.
+
+    A static block ``u, sign(u)`` whose sign weight is negative, ``x = u - |γ_2| sign(u)``, drives
+    the drive backwards at inputs below ``|γ_2|``: no motor does that. It is how least squares
+    bends ``u, sign(u)`` towards an input dead zone (no motion at small inputs), which the basis
+    cannot hold (the L298N staircase: γ_2 = -0.73 V, free-run FIT 78.3 %; ``--basis
+    dead_zone:2`` gives 94.2 %); the line then names the dead zone.
+
+    Parameters
+    ----------
+    payload : dict
+        :func:`identify_record`'s payload (``estimator``, ``scores``, ``params``,
+        ``free_run_diverges_from_sample``).
+    """
+    row = payload["scores"].get("free_run")
+    if row is None or payload["free_run_diverges_from_sample"] is not None:
+        return None
+    fit = row["fit_percent"]
+    if not fit < POOR_FIT_PERCENT:
+        return None
+    params = payload["params"]
+    one_step = payload["scores"]["one_step"]["fit_percent"]
+    words = (
+        f"{payload['estimator']}: its free run fits {fit:.1f} %, below {POOR_FIT_PERCENT:g} % (one step ahead "
+        f"{one_step:.1f} %): the model predicts a sample ahead but does not hold on its own"
+    )
+    basis = list(params.get("basis", ()))
+    if "sign(u)" in basis:
+        weight = float(np.asarray(params["gamma"])[basis.index("sign(u)")])
+        if weight < 0:
+            return (
+                f"{words}; its sign(u) weight is negative ({weight:.3g}), so it drives backwards at small "
+                "inputs: the mark of an input dead zone, which u,sign cannot hold; try --basis dead_zone:D, D "
+                "the input the drive starts to move at (motorid doctor measures it)"
+            )
+    return f"{words}; try another --na/--nb or --basis, or motorid doctor for the physics it misses"
+
+
 def record_residual_tests(u: np.ndarray, residual: np.ndarray, max_lag: int, notes: list[str]) -> list:
     """:func:`motorid.validation.residual_tests` of a record's one-step residuals, up to the largest lag
     the record allows (:func:`motorid.validation.residual_max_lag`): a shorter lag than ``max_lag``
@@ -862,10 +909,12 @@ def write_identify_figure(tests: list, folder: Path, estimator: str) -> Path | N
 __all__ = [
     "IDENTIFY_BASIS",
     "PAPER_ORDER",
+    "POOR_FIT_PERCENT",
     "IdentifyOptions",
     "create_estimator",
     "identify",
     "identify_blocks",
     "identify_file",
     "identify_record",
+    "poor_fit_words",
 ]

@@ -18,6 +18,7 @@ from motorid.app.identify import (
     identify_file,
     identify_record,
     low_speed_band,
+    poor_fit_words,
     runs_in_blocks,
     start_model,
     validate_on_record,
@@ -99,9 +100,15 @@ def cmd_identify(args: argparse.Namespace) -> int:
         say(f"  {kind:<9} {mse}, {low}, FIT {row['fit_percent']:.2f} %")
     if unit != "rad/s":
         say(f"  low speed: {band}")
+    warnings = []
     if diverged is not None:
-        say(f"warning: {divergence_words(args.estimator, diverged, 'free_run' in payload['scores'])}; try "
-            "--basis u,sign or --estimator arx-rls")  # fmt: skip
+        warnings.append(f"{divergence_words(args.estimator, diverged, 'free_run' in payload['scores'])}; try "
+                        "--basis u,sign or --estimator arx-rls")  # fmt: skip
+    poor = poor_fit_words(payload)
+    if poor is not None:
+        warnings.append(poor)
+    for warning in warnings:
+        say(f"warning: {warning}")
     if payload["residual_tests_samples"] < payload["samples"] - args.skip:
         say(f"  residual tests on the last {payload['residual_tests_samples']} samples of the record "
             "(a bounded window: a record read in blocks is not held whole)")  # fmt: skip
@@ -130,7 +137,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
             say(f"  wrote {figure}")
     if args.json:
         extra = {} if validation is None else {"validation": validation}
-        emit_json({**payload, "figure": figure, "model": args.save_model, **extra})
+        emit_json({**payload, "figure": figure, "model": args.save_model, "warnings": warnings, **extra})
     return 0
 
 
