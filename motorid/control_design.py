@@ -150,13 +150,13 @@ def unit_factors(
     k_u = k_y = 1.0
     if fitted[0] is not None and asked_u != fitted[0]:
         supply = supply_voltage if supply_voltage is not None else card.supply_voltage  # type: ignore[union-attr]
-        volts = {"V": 1.0, "mV": 1e-3}
+        # volts per unit of each input unit a factor to volts is known for (% duty: with a supply)
+        volts = {unit: factor for unit, factor in INPUT_UNITS.items() if factor is not None}
+        if supply is not None:
+            volts["%"] = supply / 100.0
         if asked_u in volts and fitted[0] in volts:
-            k_u = INPUT_UNITS[asked_u] / INPUT_UNITS[fitted[0]]  # type: ignore[operator]
-        elif {asked_u, fitted[0]} <= {"%", "V", "mV"} and supply is not None:
-            to_volts = volts.get(asked_u, supply / 100.0)  # the asked input in V per its unit
-            k_u = to_volts / volts.get(fitted[0], supply / 100.0)  # type: ignore[arg-type]
-        elif {asked_u, fitted[0]} <= {"%", "V", "mV"}:
+            k_u = volts[asked_u] / volts[fitted[0]]
+        elif {asked_u, fitted[0]} <= {"%", *volts}:
             raise DataError(f"{model} was fitted on {card.input_words()}; the system asked for is in "  # type: ignore[union-attr]
                             f"{_words(asked_u)}: give supply_voltage= or ask for {_words(fitted[0])}")  # fmt: skip
         else:

@@ -68,12 +68,15 @@ def test_identify_defaults_hold_on_every_real_record_or_warn(capsys, name):
 
 
 def test_a_poor_free_run_is_warned_of_in_one_line():
-    """The words of a bounded free run below 80 % FIT: with a negative sign(u) weight, the dead zone;
-    otherwise what else to try; none above 80 % or for a run that diverges (its own warning)."""
+    """The words of a bounded free run of a lagged regression below 80 % FIT: with a negative sign(u)
+    weight, the dead zone; otherwise what else to try; none above 80 %, for a run that diverges (its
+    own warning) or for a friction filter."""
     from motorid.app.identify import poor_fit_words
 
     def payload(fit, gamma=None, diverged=None):
-        params = {"a": [0.5]} if gamma is None else {"gamma": [1.0, gamma], "basis": ["u", "sign(u)"]}
+        params = (
+            {"a": [0.5]} if gamma is None else {"a": [0.5], "gamma": [1.0, gamma], "basis": ["u", "sign(u)"]}
+        )
         scores = {"one_step": {"fit_percent": 99.0}, "free_run": {"fit_percent": fit}}
         return {
             "estimator": "e",
@@ -91,6 +94,8 @@ def test_a_poor_free_run_is_warned_of_in_one_line():
     assert words.startswith("e: its free run fits 70.0 %, below 80 % (one step ahead 99.0 %)")
     assert "dead zone" not in words and "--na/--nb" in words
     assert "--na/--nb" in poor_fit_words(payload(70.0))
+    friction_filter = {**payload(70.0), "params": {"coulomb": 0.1, "coulomb_std": 0.01}}
+    assert poor_fit_words(friction_filter) is None  # it warns of its own divergence
 
 
 def test_the_papers_cubic_on_a_duty_record_warns_in_identify_and_compare(capsys, tmp_path):

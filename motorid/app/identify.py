@@ -548,13 +548,40 @@ def identify_record(
     param_units = getattr(est, "param_units", None)  # declared by the friction filters
     if param_units:
         payload["units"] = {"params": dict(param_units)}
+    payload["warnings"] = free_run_warnings(payload)
     return payload, tests, est
+
+
+def free_run_warnings(payload: dict[str, Any]) -> list[str]:
+    """The one-line warnings on the identified model's free run (the payload's ``warnings``,
+    printed by ``motorid identify``): where it diverges
+    (:func:`motorid.validation.divergence_words`) and where it fits poorly (:func:`poor_fit_words`).
+
+    Parameters
+    ----------
+    payload : dict
+        :func:`identify_record`'s payload.
+    """
+    from motorid.validation import divergence_words
+
+    warnings = []
+    diverged = payload["free_run_diverges_from_sample"]
+    if diverged is not None:
+        scored = "free_run" in payload["scores"]
+        warnings.append(f"{divergence_words(payload['estimator'], diverged, scored)}; try --basis u,sign or "
+                        "--estimator arx-rls")  # fmt: skip
+    poor = poor_fit_words(payload)
+    if poor is not None:
+        warnings.append(poor)
+    return warnings
 
 
 def poor_fit_words(payload: dict[str, Any]) -> str | None:
     """One line on a free run that stays bounded but fits its own record below
     :data:`POOR_FIT_PERCENT` (None otherwise, and for a run that diverges, which
-    :func:`motorid.validation.divergence_words` words), with what to try.
+    :func:`motorid.validation.divergence_words` words), with what to try. Only the models of a
+    lagged regression (ARX, Hammerstein: ``params`` with ``a``) are judged so; a friction filter
+    warns of its own divergence (its innovations' test).
 
     A static block ``u, sign(u)`` whose sign weight is negative, ``x = u - |γ_2| sign(u)``, drives
     the drive backwards at inputs below ``|γ_2|``: no motor does that. It is how least squares
@@ -569,12 +596,12 @@ def poor_fit_words(payload: dict[str, Any]) -> str | None:
         ``free_run_diverges_from_sample``).
     """
     row = payload["scores"].get("free_run")
-    if row is None or payload["free_run_diverges_from_sample"] is not None:
+    params = payload["params"]
+    if row is None or payload["free_run_diverges_from_sample"] is not None or "a" not in params:
         return None
     fit = row["fit_percent"]
     if not fit < POOR_FIT_PERCENT:
         return None
-    params = payload["params"]
     one_step = payload["scores"]["one_step"]["fit_percent"]
     words = (
         f"{payload['estimator']}: its free run fits {fit:.1f} %, below {POOR_FIT_PERCENT:g} % (one step ahead "
@@ -794,6 +821,7 @@ def identify_blocks(
     param_units = getattr(est, "param_units", None)
     if param_units:
         payload["units"] = {"params": dict(param_units)}
+    payload["warnings"] = free_run_warnings(payload)
     return payload, tests, est
 
 
@@ -912,6 +940,7 @@ __all__ = [
     "POOR_FIT_PERCENT",
     "IdentifyOptions",
     "create_estimator",
+    "free_run_warnings",
     "identify",
     "identify_blocks",
     "identify_file",

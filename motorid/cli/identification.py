@@ -18,7 +18,6 @@ from motorid.app.identify import (
     identify_file,
     identify_record,
     low_speed_band,
-    poor_fit_words,
     runs_in_blocks,
     start_model,
     validate_on_record,
@@ -53,7 +52,7 @@ def identify_options_from_args(args: argparse.Namespace) -> IdentifyOptions:
 
 def cmd_identify(args: argparse.Namespace) -> int:
     """Identify one estimator on a record; report params, MSE, FIT and residual tests."""
-    from motorid.validation import RPM_PER_RAD_S, divergence_words
+    from motorid.validation import RPM_PER_RAD_S
 
     options = identify_options_from_args(args)
     # a span (--start/--stop) is cut from the record read whole; an RLS otherwise streams the file
@@ -82,7 +81,6 @@ def cmd_identify(args: argparse.Namespace) -> int:
     if args.out and getattr(args, "out_lock", None) is None:
         check_out_folder(args.out)
         hold_out_folder(args, args.out)
-    diverged = payload["free_run_diverges_from_sample"]
     unit = payload["output_unit"]
     threshold = payload["low_speed_threshold_rad_s" if unit == "rad/s" else "low_speed_threshold"]
     band = band_words(unit, threshold, args.low_speed_rpm)
@@ -100,14 +98,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
         say(f"  {kind:<9} {mse}, {low}, FIT {row['fit_percent']:.2f} %")
     if unit != "rad/s":
         say(f"  low speed: {band}")
-    warnings = []
-    if diverged is not None:
-        warnings.append(f"{divergence_words(args.estimator, diverged, 'free_run' in payload['scores'])}; try "
-                        "--basis u,sign or --estimator arx-rls")  # fmt: skip
-    poor = poor_fit_words(payload)
-    if poor is not None:
-        warnings.append(poor)
-    for warning in warnings:
+    for warning in payload["warnings"]:
         say(f"warning: {warning}")
     if payload["residual_tests_samples"] < payload["samples"] - args.skip:
         say(f"  residual tests on the last {payload['residual_tests_samples']} samples of the record "
@@ -137,7 +128,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
             say(f"  wrote {figure}")
     if args.json:
         extra = {} if validation is None else {"validation": validation}
-        emit_json({**payload, "figure": figure, "model": args.save_model, "warnings": warnings, **extra})
+        emit_json({**payload, "figure": figure, "model": args.save_model, **extra})
     return 0
 
 
