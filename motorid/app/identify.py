@@ -548,13 +548,13 @@ def identify_record(
     param_units = getattr(est, "param_units", None)  # declared by the friction filters
     if param_units:
         payload["units"] = {"params": dict(param_units)}
-    payload["warnings"] = free_run_warnings(payload)
+    payload["free_run_warnings"] = free_run_warnings(payload)
     return payload, tests, est
 
 
 def free_run_warnings(payload: dict[str, Any]) -> list[str]:
-    """The one-line warnings on the identified model's free run (the payload's ``warnings``,
-    printed by ``motorid identify``): where it diverges
+    """The one-line warnings on the identified model's free run (the payload's ``free_run_warnings``,
+    printed by ``motorid identify``; a fleet's ``warnings`` column holds the Python warnings of its work): where it diverges
     (:func:`motorid.validation.divergence_words`) and where it fits poorly (:func:`poor_fit_words`).
 
     Parameters
@@ -821,7 +821,7 @@ def identify_blocks(
     param_units = getattr(est, "param_units", None)
     if param_units:
         payload["units"] = {"params": dict(param_units)}
-    payload["warnings"] = free_run_warnings(payload)
+    payload["free_run_warnings"] = free_run_warnings(payload)
     return payload, tests, est
 
 

@@ -98,7 +98,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
         say(f"  {kind:<9} {mse}, {low}, FIT {row['fit_percent']:.2f} %")
     if unit != "rad/s":
         say(f"  low speed: {band}")
-    for warning in payload["warnings"]:
+    for warning in payload["free_run_warnings"]:
         say(f"warning: {warning}")
     if payload["residual_tests_samples"] < payload["samples"] - args.skip:
         say(f"  residual tests on the last {payload['residual_tests_samples']} samples of the record "
