@@ -445,3 +445,20 @@ def test_a_duty_model_without_u_max_is_clamped_no_more_than_the_same_model_in_vo
         on_duty["clamped_samples"] > 0
     )  # 400 rad/s asks for more than the limit near the peaks: measured 282 of 1,200 samples, both
     assert on_duty["clamped_share"] <= in_volts["clamped_share"] + 2 / 1200
+
+
+def test_a_friction_filters_card_holds_its_posterior_standard_deviations(capsys, tmp_path):
+    """The friction EKF on motorid's own simulation: the card's standard errors are the filter's
+    posterior standard deviations (``coulomb_std``: the square root of P's diagonal), and the record
+    determined both (their variance far below half the prior's)."""
+    record = tmp_path / "sim.csv"
+    code, _, err = run(capsys, "simulate", "--duration", "20", "--out", str(record))
+    assert code == 0, err
+    model = tmp_path / "ekf.json"
+    code, out, err = run(capsys, "identify", str(record), "--estimator", "friction-ekf", "--save-model", str(model),
+                         "--json")  # fmt: skip
+    assert code == 0, err
+    table = read_model_file(model).card.parameters
+    assert set(table) == {"coulomb", "viscous"}
+    for name, entry in table.items():
+        assert entry["standard_error"] == out["params"][f"{name}_std"] and entry["determined"]
