@@ -18,6 +18,15 @@ So for an input ``u``, python-control's ``y[k + 1]`` is motorid's ``y[k]`` for t
 exports of the drive, and the identified transfer function (whose direct term makes
 ``y[k]`` answer ``u[k]``) gives motorid's ``y[k]`` at step k.
 
+Units. Each function takes ``units`` (the input's and the output's unit the system is wanted
+in) and ``card`` (what the model is: :class:`~motorid.drive.files.ModelCard`,
+``read_model_file(path).card``). The system's signals are named with their units (``u [V]``,
+``y [rad/s]``: :func:`signal_names`), and where the card names the model's units and ``units``
+asks for others, the system is converted where the conversion is known: % duty and volts with the
+supply voltage (``supply_voltage``, or the card's), volts and millivolts, and any two speeds of
+one kind (rad/s, rpm, rev/s, deg/s; m/s, mm/s); anything else is refused in one line
+(:func:`unit_factors`).
+
 python-control is imported where it is used: the rest of motorid never needs it.
 """
 
@@ -29,9 +38,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from motorid.drive.files import ModelCard
 from motorid.drive.input_path import InputPathState
 from motorid.drive.rigid import RigidDrive, check_sample_time
 from motorid.drive.two_mass import TwoMassRig
+from motorid.errors import DataError
+from motorid.units import INPUT_UNITS, OUTPUT_UNITS
 
 if TYPE_CHECKING:
     import control
@@ -46,6 +58,7 @@ __all__ = [
     "signal_names",
     "state_space",
     "transfer_function",
+    "unit_factors",
 ]  # fmt: skip
 
 
@@ -88,8 +101,100 @@ def signal_names(units: tuple[str, str] | None) -> tuple[str, str]:
     return f"u [{units[0]}]", f"y [{units[1]}]"
 
 
+def unit_factors(
+    units: tuple[str, str] | None,
+    card: ModelCard | None = None,
+    supply_voltage: float | None = None,
+    model: str = "the model",
+) -> tuple[float, float, tuple[str, str] | None]:
+    """The factors that put a model fitted in its card's units into the ``units`` asked for, and
+    the units its signals are named with.
+
+    With ``u_model = k_u u`` (the input asked for, in the model's input unit) and
+    ``y = k_y y_model`` (the model's output in the unit asked for), a system in the units asked
+    for is the model's with its input multiplied by ``k_u`` and its output by ``k_y``:
+
+    - ``%`` duty and ``V`` with the supply voltage ``V_s`` [V]: ``u_% = (100 / V_s) u_V`` and
+      ``u_V = (V_s / 100) u_%``; ``mV`` and ``V`` by 1000;
+    - speeds of one kind by :data:`motorid.units.OUTPUT_UNITS` (rad/s, rpm, rev/s, deg/s; m/s, mm/s).
+
+    Parameters
+    ----------
+    units : (str, str) or None
+        The input's and the output's units asked for; None: the card's (or none).
+    card : ModelCard, optional
+        What the model is; None, or a card that names no unit: nothing to convert, ``units`` name
+        the signals as given.
+    supply_voltage : float, optional
+        The drive's supply voltage [V] for % duty and volts; the card's where not given.
+    model : str
+        The model's name in the messages (its file).
+
+    Returns
+    -------
+    (float, float, (str, str) or None)
+        ``k_u``, ``k_y`` and the signals' units (None: unnamed).
+
+    Raises
+    ------
+    DataError
+        One line naming the model, the two units and what to give, where no conversion is known
+        (% duty and volts without a supply voltage, counts, a speed asked of a position or of
+        another kind).
+    """
+    fitted = (None, None) if card is None else (card.input_unit, card.output_unit)
+    if units is None:
+        return 1.0, 1.0, None if None in fitted else (str(fitted[0]), str(fitted[1]))
+    signal_names(units)  # two non-empty texts, or a ValueError naming them
+    asked_u, asked_y = units
+    k_u = k_y = 1.0
+    if fitted[0] is not None and asked_u != fitted[0]:
+        supply = supply_voltage if supply_voltage is not None else card.supply_voltage  # type: ignore[union-attr]
+        # volts per unit of each input unit a factor to volts is known for (% duty: with a supply)
+        volts = {unit: factor for unit, factor in INPUT_UNITS.items() if factor is not None}
+        if supply is not None:
+            volts["%"] = supply / 100.0
+        if asked_u in volts and fitted[0] in volts:
+            k_u = volts[asked_u] / volts[fitted[0]]
+        elif {asked_u, fitted[0]} <= {"%", *volts}:
+            raise DataError(f"{model} was fitted on {card.input_words()}; the system asked for is in "  # type: ignore[union-attr]
+                            f"{_words(asked_u)}: give supply_voltage= or ask for {_words(fitted[0])}")  # fmt: skip
+        else:
+            raise DataError(f"{model} was fitted on {card.input_words()}; no conversion to {asked_u!r} is "  # type: ignore[union-attr]
+                            f"known (known: {_words(fitted[0])}, and % duty, V and mV with a supply voltage)")  # fmt: skip
+    if fitted[1] is not None and asked_y != fitted[1]:
+        factor, base = OUTPUT_UNITS.get(asked_y, (None, None))
+        if base != fitted[1] or factor is None:
+            same = sorted(u for u, (_, b) in OUTPUT_UNITS.items() if b == fitted[1])
+            raise DataError(f"{model} was fitted on an output in {fitted[1]}; no conversion to {asked_y!r} is "
+                            f"known (known: {', '.join(same)})")  # fmt: skip
+        k_y = 1.0 / factor  # y_asked = y_SI / (SI per asked unit)
+    if (k_u, k_y) != (1.0, 1.0):
+        logger.info(
+            "%s: converted from %s to %s (input x %.6g, output x %.6g)", model, fitted, units, k_u, k_y
+        )
+    return k_u, k_y, (asked_u, asked_y)
+
+
+def _words(unit: str) -> str:
+    return "% duty" if unit == "%" else unit
+
+
+def _scaled(sys: control.StateSpace, k_u: float, k_y: float, names: tuple[str, str]) -> control.StateSpace:
+    """``sys`` with its input multiplied by ``k_u`` and its output by ``k_y``, named ``names``."""
+    import control
+
+    return control.ss(sys.A, sys.B * k_u, sys.C * k_y, sys.D * (k_u * k_y), inputs=names[0], outputs=names[1],
+                      states=sys.state_labels, dt=sys.dt)  # fmt: skip
+
+
 def transfer_function(
-    estimator: Any, dt: float, units: tuple[str, str] | None = None
+    estimator: Any,
+    dt: float,
+    units: tuple[str, str] | None = None,
+    *,
+    card: ModelCard | None = None,
+    supply_voltage: float | None = None,
 ) -> control.TransferFunction:
     """The identified linear part ``B(q^-1)/A(q^-1)`` as a discrete transfer function.
 
@@ -109,22 +214,38 @@ def transfer_function(
     dt : float
         Sample time of the record it was identified on [s].
     units : (str, str), optional
-        The input's and the output's units, in the signals' names (:func:`signal_names`).
+        The input's and the output's units, in the signals' names (:func:`signal_names`);
+        converted from the card's (:func:`unit_factors`).
+    card : ModelCard, optional
+        What the model is (``read_model_file(path).card``): its units. A Hammerstein model's x
+        is in the input's unit (γ_1 = 1), so the input's factor converts the block after the
+        static map too (the map's γ_j of ``u^j`` then scale by ``k_u^(j-1)``, of ``sign(u)`` by
+        ``1 / k_u``).
+    supply_voltage : float, optional
+        The supply voltage [V] for % duty and volts (the card's where not given).
 
     Returns
     -------
     control.TransferFunction
-        Discrete, sample time ``dt``; input ``u`` (or x), output ``y``, named with ``units``.
+        Discrete, sample time ``dt``; input ``u`` (or x), output ``y``, named with their units.
     """
     import control
 
     dt = check_sample_time(dt)
     num, den = _polynomials(estimator)
-    u, y = signal_names(units)
-    return control.tf(num, den, dt, inputs=u, outputs=y)
+    k_u, k_y, named = unit_factors(units, card, supply_voltage)
+    u, y = signal_names(named)
+    return control.tf(num * (k_u * k_y), den, dt, inputs=u, outputs=y)
 
 
-def state_space(estimator: Any, dt: float, units: tuple[str, str] | None = None) -> control.StateSpace:
+def state_space(
+    estimator: Any,
+    dt: float,
+    units: tuple[str, str] | None = None,
+    *,
+    card: ModelCard | None = None,
+    supply_voltage: float | None = None,
+) -> control.StateSpace:
     """:func:`transfer_function` as a discrete state-space system (a minimal realisation of it;
     ``D`` holds the direct term b_0).
 
@@ -135,11 +256,16 @@ def state_space(estimator: Any, dt: float, units: tuple[str, str] | None = None)
     dt : float
         Sample time [s].
     units : (str, str), optional
-        The input's and the output's units, in the signals' names (:func:`signal_names`).
+        The input's and the output's units, in the signals' names (:func:`signal_names`);
+        converted from the card's (:func:`unit_factors`).
+    card : ModelCard, optional
+        What the model is: its units.
+    supply_voltage : float, optional
+        The supply voltage [V] for % duty and volts (the card's where not given).
     """
     import control
 
-    return control.ss(transfer_function(estimator, dt, units))
+    return control.ss(transfer_function(estimator, dt, units, card=card, supply_voltage=supply_voltage))
 
 
 def friction_slope(drive: RigidDrive, speed: float, direction: float = 1.0) -> float:
@@ -178,6 +304,9 @@ def linearise(
     direction: float = 1.0,
     pade_order: int = 1,
     units: tuple[str, str] | None = None,
+    *,
+    card: ModelCard | None = None,
+    supply_voltage: float | None = None,
 ) -> control.StateSpace:
     """A drive model linearised about the constant ``speed`` [rad/s], as a continuous system.
 
@@ -210,19 +339,32 @@ def linearise(
         Order of the Padé approximant of the rigid drive's input delay (>= 1).
     units : (str, str), optional
         The input's and the output's units, in the signals' names (:func:`signal_names`; a
-        two-mass rig's are V and rad/s).
+        two-mass rig's are V and rad/s); converted from the card's (:func:`unit_factors`).
+    card : ModelCard, optional
+        What the model is (``read_model_file(path).card``): its units.
+    supply_voltage : float, optional
+        The supply voltage [V] for % duty and volts (the card's where not given).
 
     Returns
     -------
     control.StateSpace
         Continuous; input ``u``, output ``y`` (the speed deviation from ω_0 for a deviation of u
-        from its value there), named with ``units``.
+        from its value there), named with their units.
     """
+    if card is None and isinstance(drive, TwoMassRig):
+        card = ModelCard(input_unit="V", output_unit="rad/s")  # the rig's own units
+    sys = _linearised(drive, speed, direction, pade_order)
+    k_u, k_y, named = unit_factors(units, card, supply_voltage)
+    return _scaled(sys, k_u, k_y, signal_names(named))
+
+
+def _linearised(
+    drive: RigidDrive | TwoMassRig, speed: float, direction: float, pade_order: int
+) -> control.StateSpace:
+    """:func:`linearise` in the model's own units, its signals named ``u`` and ``y``."""
     import control
 
-    u_name, y_name = signal_names(
-        ("V", "rad/s") if units is None and isinstance(drive, TwoMassRig) else units
-    )
+    u_name, y_name = signal_names(None)
 
     speed = float(speed)
     if not math.isfinite(speed):
@@ -271,7 +413,14 @@ def _rig_static_slope(rig: TwoMassRig, side: str, speed: float, direction: float
     return sum(f.slope(speed, direction) for f in rig.friction if side in f.sides())
 
 
-def nonlinear_system(drive: RigidDrive | TwoMassRig, name: str | None = None) -> control.NonlinearIOSystem:
+def nonlinear_system(
+    drive: RigidDrive | TwoMassRig,
+    name: str | None = None,
+    units: tuple[str, str] | None = None,
+    *,
+    card: ModelCard | None = None,
+    supply_voltage: float | None = None,
+) -> control.NonlinearIOSystem:
     """The whole drive as a discrete-time ``control.NonlinearIOSystem`` at its sample time.
 
     Its state update is one sample of motorid's own simulation (the same compiled
@@ -294,13 +443,24 @@ def nonlinear_system(drive: RigidDrive | TwoMassRig, name: str | None = None) ->
         The drive model (its sample time is the system's).
     name : str, optional
         The system's name in an ``interconnect`` (python-control names it otherwise).
+    units : (str, str), optional
+        The input's and the output's units, in the signals' names (:func:`signal_names`);
+        converted from the card's (:func:`unit_factors`). None and no card: ``u`` and ``y``.
+    card : ModelCard, optional
+        What the model is (``read_model_file(path).card``): its units.
+    supply_voltage : float, optional
+        The supply voltage [V] for % duty and volts (the card's where not given).
 
     Returns
     -------
     control.NonlinearIOSystem
-        Discrete, ``dt = drive.dt``; input ``u``, output ``y``.
+        Discrete, ``dt = drive.dt``; input ``u``, output ``y``, named with their units where
+        ``units`` or ``card`` give them.
     """
     import control
+
+    k_u, k_y, named = unit_factors(units, card, supply_voltage)
+    u_label, y_label = signal_names(named)
 
     if isinstance(drive, RigidDrive):
         fresh = drive.input_state()
@@ -312,7 +472,7 @@ def nonlinear_system(drive: RigidDrive | TwoMassRig, name: str | None = None) ->
         def update(t: float, x: np.ndarray, u: np.ndarray, params: dict) -> np.ndarray:
             n1, n2 = head + sizes[0], head + sizes[0] + sizes[1]
             state = InputPathState(ring=x[head:n1].copy(), lag=x[n1:n2].copy(), clock=x[n2:].copy())
-            force = drive.input_force(np.array([float(u[0])]), state)
+            force = drive.input_force(np.array([k_u * float(u[0])]), state)
             if moved:
                 w, q = drive._motion_force(setup, force, float(x[0]), float(x[1]))
                 return np.concatenate([w, q, state.ring, state.lag, state.clock])
@@ -330,7 +490,7 @@ def nonlinear_system(drive: RigidDrive | TwoMassRig, name: str | None = None) ->
         def update(t: float, x: np.ndarray, u: np.ndarray, params: dict) -> np.ndarray:
             xn = np.array(x, dtype=float)
             kernels.advance_sample(
-                xn, float(u[0]), drive.T_d, 0.0, phi, gam, p, fric, lug, np.zeros(kernels.N_OUT)
+                xn, k_u * float(u[0]), drive.T_d, 0.0, phi, gam, p, fric, lug, np.zeros(kernels.N_OUT)
             )
             return xn
 
@@ -341,9 +501,9 @@ def nonlinear_system(drive: RigidDrive | TwoMassRig, name: str | None = None) ->
     speed_index = 0 if isinstance(drive, RigidDrive) else 2
 
     def output(t: float, x: np.ndarray, u: np.ndarray, params: dict) -> np.ndarray:
-        return np.array([x[speed_index]])
+        return np.array([k_y * x[speed_index]])
 
-    return control.nlsys(update, output, inputs=["u"], outputs=["y"], states=names[:n_states],
+    return control.nlsys(update, output, inputs=[u_label], outputs=[y_label], states=names[:n_states],
                          dt=drive.dt, name=name)  # fmt: skip
 
 

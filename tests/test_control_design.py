@@ -235,3 +235,75 @@ def test_systems_name_their_input_and_output_with_units():
     assert (H.input_labels, H.output_labels) == (["u [V]"], ["y [m/s]"])
     with pytest.raises(ValueError, match="units must be"):
         signal_names(("V",))
+
+
+# --------------------------------------------------------------------------- the model's units
+def duty_card(supply_voltage: float | None = None):
+    from motorid.drive.files import ModelCard
+
+    return ModelCard(input_unit="%", supply_voltage=supply_voltage, output_unit="rad/s", dt=DT, timing="hold")
+
+
+def test_a_system_asked_in_other_units_is_converted_where_the_conversion_is_known():
+    """A drive fitted on % duty with a 12 V supply, asked for in V and rpm: its input is 100 / 12 % per
+    volt and its output 60 / (2 pi) rpm per rad/s. Held against motorid's own free run of the model on
+    the duty the volts make, in rpm (rel 1e-12: the factors' products round once or twice apart)."""
+    drive = friction_drive()
+    card = duty_card(12.0)
+    u_volts = steps(seed=7) / 100.0 * 12.0 * 1.3  # within ±7.8 V
+    sys = nonlinear_system(drive, units=("V", "rpm"), card=card)
+    assert (sys.input_labels, sys.output_labels) == (["u [V]"], ["y [rpm]"])
+    resp = control.input_output_response(
+        sys, np.arange(u_volts.size) * DT, u_volts, initial_state=rest_state(drive)
+    )
+    y_rpm = drive.simulate(u_volts * (100.0 / 12.0))["y"].to_numpy() * 60.0 / (2.0 * np.pi)
+    assert resp.outputs[1:] == pytest.approx(y_rpm[:-1], rel=1e-12, abs=1e-9)
+    # the linearised drive: its static gain in rpm per volt
+    own, asked = (
+        linearise(linear_drive(), card=card),
+        linearise(linear_drive(), units=("V", "rpm"), card=card),
+    )
+    assert (own.input_labels, own.output_labels) == (["u [%]"], ["y [rad/s]"])
+    assert asked.input_labels == ["u [V]"] and asked.output_labels == ["y [rpm]"]
+    assert control.dcgain(asked) == pytest.approx(
+        control.dcgain(own) * 100.0 / 12.0 * 60.0 / (2.0 * np.pi), rel=1e-12
+    )
+    # a supply voltage given beside a card that has none
+    given = linearise(linear_drive(), units=("V", "rad/s"), card=duty_card(), supply_voltage=12.0)
+    assert control.dcgain(given) == pytest.approx(control.dcgain(own) * 100.0 / 12.0, rel=1e-12)
+
+
+def test_an_identified_model_in_rpm_simulates_as_the_estimator_times_the_factor():
+    from motorid.drive.files import ModelCard
+    from motorid.estimators import ARXRLS
+
+    u = sines()
+    y = linear_drive().simulate(u)["y"].to_numpy()
+    arx = ARXRLS(na=2, nb=2)
+    arx.batch_filter(u, y)
+    card = ModelCard(input_unit="V", output_unit="rad/s")
+    H = transfer_function(arx, DT, ("V", "rpm"), card=card)
+    assert (H.input_labels, H.output_labels) == (["u [V]"], ["y [rpm]"])
+    expected = arx.simulate(u) * 60.0 / (2.0 * np.pi)
+    assert pc_response(H, u) == pytest.approx(expected, rel=1e-9, abs=1e-9)  # lfilter against the free run
+    assert state_space(arx, DT, card=card).input_labels == ["u [V]"]  # the card names them
+
+
+@pytest.mark.parametrize(
+    ("units", "card", "words"),
+    [
+        (("V", "rad/s"), duty_card(), "the model was fitted on % duty; the system asked for is in V: give "
+                                      "supply_voltage= or ask for % duty"),
+        (("counts", "rad/s"), duty_card(12.0), "no conversion to 'counts' is known"),
+        (("%", "m/s"), duty_card(), "the model was fitted on an output in rad/s; no conversion to 'm/s' is known"),
+        (("%", "rad"), duty_card(), "no conversion to 'rad' is known (known: deg/s, rad/s, rev/min, rev/s, rpm, rps)"),
+    ],
+)  # fmt: skip
+def test_a_unit_mismatch_without_a_known_conversion_is_refused_in_one_line(units, card, words):
+    from motorid.errors import DataError
+
+    with pytest.raises(DataError) as caught:
+        linearise(linear_drive(), units=units, card=card)
+    assert words in str(caught.value) and "\n" not in str(caught.value)
+    with pytest.raises(DataError):
+        nonlinear_system(linear_drive(), units=units, card=card)

@@ -41,6 +41,12 @@ PAPER_ORDER = 4
 #: (``tests/test_identify_defaults.py``).
 IDENTIFY_BASIS = "u,sign"
 
+#: A free run below this FIT [%] on the record the model was identified on is poor, and ``motorid
+#: identify`` warns (:func:`poor_fit_words`): with its defaults it holds 81.6 % (a wheel motor's
+#: validation record) to 92.3 % (the kit's chirp) on the real records of ``realmotors/``, ARX 94-95 %
+#: on the kit's.
+POOR_FIT_PERCENT = 80.0
+
 #: The key of a record's attrs that holds the simulated rig (:meth:`motorid.drive.TwoMassRig.simulate`
 #: writes it): a record that has it is motorid's own simulation.
 SIMULATED_RIG_ATTR = "rig"
@@ -542,7 +548,75 @@ def identify_record(
     param_units = getattr(est, "param_units", None)  # declared by the friction filters
     if param_units:
         payload["units"] = {"params": dict(param_units)}
+    payload["free_run_warnings"] = free_run_warnings(payload)
     return payload, tests, est
+
+
+def free_run_warnings(payload: dict[str, Any]) -> list[str]:
+    """The one-line warnings on the identified model's free run (the payload's ``free_run_warnings``,
+    printed by ``motorid identify``; a fleet's ``warnings`` column holds the Python warnings of its work): where it diverges
+    (:func:`motorid.validation.divergence_words`) and where it fits poorly (:func:`poor_fit_words`).
+
+    Parameters
+    ----------
+    payload : dict
+        :func:`identify_record`'s payload.
+    """
+    from motorid.validation import divergence_words
+
+    warnings = []
+    diverged = payload["free_run_diverges_from_sample"]
+    if diverged is not None:
+        scored = "free_run" in payload["scores"]
+        warnings.append(f"{divergence_words(payload['estimator'], diverged, scored)}; try --basis u,sign or "
+                        "--estimator arx-rls")  # fmt: skip
+    poor = poor_fit_words(payload)
+    if poor is not None:
+        warnings.append(poor)
+    return warnings
+
+
+def poor_fit_words(payload: dict[str, Any]) -> str | None:
+    """One line on a free run that stays bounded but fits its own record below
+    :data:`POOR_FIT_PERCENT` (None otherwise, and for a run that diverges, which
+    :func:`motorid.validation.divergence_words` words), with what to try. Only the models of a
+    lagged regression (ARX, Hammerstein: ``params`` with ``a``) are judged so; a friction filter
+    warns of its own divergence (its innovations' test).
+
+    A static block ``u, sign(u)`` whose sign weight is negative, ``x = u - |γ_2| sign(u)``, drives
+    the drive backwards at inputs below ``|γ_2|``: no motor does that. It is how least squares
+    bends ``u, sign(u)`` towards an input dead zone (no motion at small inputs), which the basis
+    cannot hold (the L298N staircase: γ_2 = -0.73 V, free-run FIT 78.3 %; ``--basis
+    dead_zone:2`` gives 94.2 %); the line then names the dead zone.
+
+    Parameters
+    ----------
+    payload : dict
+        :func:`identify_record`'s payload (``estimator``, ``scores``, ``params``,
+        ``free_run_diverges_from_sample``).
+    """
+    row = payload["scores"].get("free_run")
+    params = payload["params"]
+    if row is None or payload["free_run_diverges_from_sample"] is not None or "a" not in params:
+        return None
+    fit = row["fit_percent"]
+    if not fit < POOR_FIT_PERCENT:
+        return None
+    one_step = payload["scores"]["one_step"]["fit_percent"]
+    words = (
+        f"{payload['estimator']}: its free run fits {fit:.1f} %, below {POOR_FIT_PERCENT:g} % (one step ahead "
+        f"{one_step:.1f} %): the model predicts a sample ahead but does not hold on its own"
+    )
+    basis = list(params.get("basis", ()))
+    if "sign(u)" in basis:
+        weight = float(np.asarray(params["gamma"])[basis.index("sign(u)")])
+        if weight < 0:
+            return (
+                f"{words}; its sign(u) weight is negative ({weight:.3g}), so it drives backwards at small "
+                "inputs: the mark of an input dead zone, which u,sign cannot hold; try --basis dead_zone:D, D "
+                "the input the drive starts to move at (motorid doctor measures it)"
+            )
+    return f"{words}; try another --na/--nb or --basis, or motorid doctor for the physics it misses"
 
 
 def record_residual_tests(u: np.ndarray, residual: np.ndarray, max_lag: int, notes: list[str]) -> list:
@@ -747,6 +821,7 @@ def identify_blocks(
     param_units = getattr(est, "param_units", None)
     if param_units:
         payload["units"] = {"params": dict(param_units)}
+    payload["free_run_warnings"] = free_run_warnings(payload)
     return payload, tests, est
 
 
@@ -862,10 +937,13 @@ def write_identify_figure(tests: list, folder: Path, estimator: str) -> Path | N
 __all__ = [
     "IDENTIFY_BASIS",
     "PAPER_ORDER",
+    "POOR_FIT_PERCENT",
     "IdentifyOptions",
     "create_estimator",
+    "free_run_warnings",
     "identify",
     "identify_blocks",
     "identify_file",
     "identify_record",
+    "poor_fit_words",
 ]

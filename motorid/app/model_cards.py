@@ -9,16 +9,21 @@ the check of a model's card against a record or a command's settings.
   and what to give.
 - :func:`check_output`: a record's output against the model's (a speed, or the position it
   integrates to).
+- :func:`estimator_parameters`: an identified estimator's parameters for its card, each with its
+  standard error and whether the record determined it.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from motorid.drive.files import ModelCard, file_sha256
@@ -27,7 +32,18 @@ from motorid.records import record_timing
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["check_output", "check_record", "input_scale", "record_card", "with_parameters"]
+__all__ = [
+    "check_output",
+    "check_record",
+    "estimator_parameters",
+    "input_scale",
+    "record_card",
+    "with_parameters",
+]
+
+#: A parameter is determined by the records where they shrank its variance below this share of
+#: the prior's (the information the records carried on it is at least the prior's).
+DETERMINED_SHARE = 0.5
 
 #: The speed whose integral each position unit is.
 SPEED_OF_POSITION = {"rad": "rad/s", "m": "m/s"}
@@ -107,6 +123,101 @@ def with_parameters(
         for name in params
     }
     return dataclasses.replace(card, parameters=table)
+
+
+def estimator_parameters(estimator: Any, residual_variance: float) -> dict[str, dict[str, Any]]:
+    """The ``parameters`` of an identified estimator's card: each parameter's standard error
+    [its unit] and whether the record determined it.
+
+    - An RLS on a lagged regression (ARX, Hammerstein; :class:`~motorid.estimators.rls.LaggedRegressionRLS`).
+      With the forgetting factor λ = 1, RLS is the Kalman filter of ``y = φᵀθ + e`` with
+      ``Var e = R``, so ``P⁻¹ = P₀⁻¹ + Σ φφᵀ / R`` with ``P₀ = δ I``; the least-squares covariance
+      ``σ² (Σ φφᵀ)⁻¹`` of the estimate is then, where the data outweigh the prior,
+
+          Cov θ = (σ² / R) P,
+
+      with ``σ²`` ``residual_variance``: the mean square of the one-step prediction errors over
+      the scored samples [output unit²] (a priori errors, a little above the a posteriori
+      residuals: the standard errors err on the large side). With λ < 1, P weights the record's
+      end, and so do the standard errors. The parameters are ARX's ``a1..a_na``, ``b_k0..b_nb``;
+      Hammerstein's ``a1..``, ``b_k0..`` and ``gamma2..`` of step 2
+      (:meth:`~motorid.estimators.hammerstein.HammersteinRLS.factorize`; ``gamma1 = 1`` by the
+      normalisation, so none), their covariance ``J Cov θ Jᵀ`` with J the Jacobian of step 2 by
+      central differences (the delta method). A parameter is determined where the record shrank
+      its variance below :data:`DETERMINED_SHARE` of the prior's, ``(J P Jᵀ)_ii < ½ δ (J Jᵀ)_ii``.
+    - A friction filter (EKF, UKF): its ``params`` give each parameter's standard deviation
+      ``<name>_std``, the square root of the diagonal of P: the posterior covariance for the
+      speed variance R the filter was given. Determined where ``P_ii < ½ P₀_ii``.
+    - Any other estimator: none (an empty table).
+
+    Parameters
+    ----------
+    estimator : Estimator
+        The identified estimator.
+    residual_variance : float
+        The one-step prediction errors' mean square [output unit²] (``motorid identify``'s
+        ``scores.one_step.mse``).
+
+    Returns
+    -------
+    dict
+        Parameter name -> ``{"standard_error": float or None, "determined": bool}`` (None where
+        the covariance is not finite).
+    """
+    from motorid.estimators.rls import LaggedRegressionRLS
+
+    if isinstance(estimator, LaggedRegressionRLS):
+        return _regression_parameters(estimator, residual_variance)
+    params = getattr(estimator, "params", {})
+    names = list(getattr(estimator, "state_names", ()))
+    prior = getattr(estimator, "P0", None)
+    table: dict[str, dict[str, Any]] = {}
+    for name in params:
+        std = params.get(f"{name}_std")
+        if name.endswith("_std") or std is None or name not in names or prior is None:
+            continue
+        i = names.index(name)
+        table[name] = {
+            "standard_error": float(std) if math.isfinite(std) else None,
+            "determined": bool(estimator.P[i, i] < DETERMINED_SHARE * prior[i, i]),
+        }
+    return table
+
+
+def _regression_parameters(estimator: Any, residual_variance: float) -> dict[str, dict[str, Any]]:
+    """:func:`estimator_parameters` of an RLS on a lagged regression."""
+    theta = np.asarray(estimator.x, dtype=float)
+    P = np.asarray(estimator.P, dtype=float)
+
+    def named(x: np.ndarray) -> tuple[list[str], np.ndarray]:
+        if not hasattr(estimator, "factorize"):
+            return list(estimator.state_names), x
+        b, gamma = estimator.factorize(x)
+        a = x[: len(estimator.a)]
+        names = [f"a{i}" for i in range(1, a.size + 1)]
+        names += [f"b{k}" for k in range(estimator.k0, estimator.k0 + b.size)]
+        names += [f"gamma{j}" for j in range(2, gamma.size + 1)]
+        return names, np.concatenate([a, b, gamma[1:]])
+
+    names, values = named(theta)
+    # the Jacobian of the parameters in theta, by central differences (the identity for ARX)
+    steps = 1e-7 * (np.abs(theta) + np.sqrt(np.abs(np.diag(P)))) + 1e-300
+    jacobian = np.empty((values.size, theta.size))
+    for j, h in enumerate(steps):
+        up, down = theta.copy(), theta.copy()
+        up[j] += h
+        down[j] -= h
+        jacobian[:, j] = (named(up)[1] - named(down)[1]) / (2.0 * h)
+    posterior = np.einsum("ij,jk,ik->i", jacobian, P, jacobian)  # diag(J P Jᵀ)
+    prior = float(estimator.delta) * np.einsum("ij,ij->i", jacobian, jacobian)  # diag(J δI Jᵀ)
+    variance = residual_variance / float(estimator.R) * posterior  # Cov = (σ²/R) J P Jᵀ
+    return {
+        name: {
+            "standard_error": float(math.sqrt(max(v, 0.0))) if math.isfinite(v) else None,
+            "determined": bool(math.isfinite(v) and post < DETERMINED_SHARE * pri),
+        }
+        for name, v, post, pri in zip(names, variance, posterior, prior, strict=True)
+    }
 
 
 def input_scale(

@@ -28,7 +28,7 @@ from .options import (
 from .report import emit_json, say, show_progress
 
 if TYPE_CHECKING:
-    from motorid.diagnose.results import Diagnosis
+    from motorid.diagnose.results import Diagnosis, RestSummary
 
 
 def effect_list(text: str | None, option: str) -> list[str]:
@@ -107,7 +107,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
             say(table.round(4).to_string())
     for step in diagnosis.steps:
         params = ", ".join(f"{k} = {v:.5g} {param_units[k]}" for k, v in step.params.items())
-        say(f"  + {step.effect}: {params} (ΔBIC {step.evidence['delta_bic']:.1f})")
+        say(f"  + {step.effect}: {params} at this step (ΔBIC {step.evidence['delta_bic']:.1f})")
         if step.lookalike is not None:
             say(f"    {step.lookalike.describe(units)}")
     say(
@@ -137,16 +137,9 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         if not rest.count:
             say(f"  rests: {label}none (the speed never stays at zero between motions)")
             continue
-        excess = rest.breakaway_excess
-        above = (
-            f"{excess:.3g} ± {rest.breakaway_excess_std:.2g} {units['F']} above the kinetic level "
-            f"{rest.kinetic_level:.3g} {units['F']}"
-            if math.isfinite(excess)
-            else "its level above the kinetic one not told from a lag (the input rises alike at each)"
-        )
         say(
             f"  rests: {label}{rest.count}, median {1000 * rest.median_length:.0f} ms, breaking away at a "
-            f"median {rest.median_breakaway_input:.3g} {units['u']}; at breakaway {above}"
+            f"median {rest.median_breakaway_input:.3g} {units['u']}; {breakaway_words(rest, diagnosis.model.dt, units, diagnosis.model.params.get('breakaway_excess', 0.0))}"
         )
     say(f"  stopped: {diagnosis.stop_reason}")
     final = ", ".join(
@@ -155,7 +148,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         + f" {param_units[k]}"
         for k, v in diagnosis.model.params.items()
     )
-    say(f"  final model (± one standard error): {final}")
+    say(f"  final model, every parameter refitted with the effects found (± one standard error): {final}")
     if diagnosis.position_error is not None:
         pe = diagnosis.position_error
         say(
@@ -188,6 +181,68 @@ def cmd_doctor(args: argparse.Namespace) -> int:
             out["validation"] = {"record": str(args.validate), "models": scores.to_dict(orient="index")}
         emit_json(out)
     return 0
+
+
+def breakaway_words(rest: RestSummary, dt: float, units: dict[str, str], model_excess: float = 0.0) -> str:
+    """What a record's rests say of the breakaway, and the level a friction compensation should use
+    with its sign.
+
+    The level the rests measure is ΔF_s, the force at breakaway above the kinetic level at an input
+    rising infinitely slowly (:class:`~motorid.diagnose.measures.Breakaway`): shown where above two
+    standard errors; within two of zero, the higher input at breakaway is the input's lag; below
+    zero by more, the measure does not hold (no friction breaks away below its kinetic level): the
+    sample taken as the breakaway comes before the force that broke the drive away, as where the
+    input steps past the breakaway level within a sample (the steps' size is said where the
+    input's rate there, times ``dt`` [s], is larger than the kinetic level).
+
+    The compensation: the kinetic level once the drive moves, and to break it away the kinetic level
+    plus the final model's static friction ``model_excess`` [F] (the model saved), or, in a model
+    without it, plus the rests' ΔF_s where they show it. Its sign is the speed's it drives:
+    + forwards, - backwards.
+    """
+    force = units["F"]
+    kinetic = rest.kinetic_level
+    excess, error = rest.breakaway_excess, rest.breakaway_excess_std
+    shown = math.isfinite(excess) and excess > 2.0 * error
+    above = model_excess if model_excess > 0 else (excess if shown else 0.0)
+    signed = f"+{kinetic:.3g} {force} forwards, -{kinetic:.3g} {force} backwards"
+    if above > 0:
+        whose = "the model's static friction" if model_excess > 0 else "the rests'"
+        breakaway = kinetic + above
+        compensation = (f"a compensation should break it away with the kinetic level plus {whose}, "
+                        f"+{breakaway:.3g} {force} forwards, -{breakaway:.3g} {force} backwards, and use the "
+                        f"kinetic level once it moves: {signed}")  # fmt: skip
+    else:
+        compensation = f"a compensation should use the kinetic level: {signed}"
+    if not math.isfinite(excess):
+        why = (
+            "not told from a lag (the input rises alike at each)"
+            if error == math.inf
+            else "not measured: fewer than 3 of them break away under a rising input"
+        )
+        return f"its level above the kinetic one {why}; {compensation}"
+    measured = f"{excess:.3g} ± {error:.2g} {force} from the kinetic level {kinetic:.3g} {force}"
+    if shown:
+        return f"static friction: at a slowly rising input it breaks away {measured}; {compensation}"
+    if excess >= -2.0 * error:
+        lag = (
+            f" (the input at breakaway is higher where it rises faster: a lag of {1000 * rest.breakaway_lag:.2g} "
+            "ms between input and force)"
+            if rest.breakaway_lag > 0
+            else ""
+        )
+        return (f"no static friction shown: at a slowly rising input it breaks away {measured}, within two "
+                f"standard errors{lag}; {compensation}")  # fmt: skip
+    step = rest.median_input_rate * dt
+    steps = (
+        f": its input steps past the breakaway level within a sample (a median {step:.3g} {units['u']} a "
+        "sample there)"
+        if step > kinetic
+        else ""
+    )
+    return (f"the force at breakaway measures {measured}, below it, which no friction does: the sample "
+            f"taken as the breakaway comes before the force that broke the drive away{steps}, so the rests "
+            f"do not measure the breakaway level; {compensation}")  # fmt: skip
 
 
 def record_table(diagnosis: Diagnosis) -> pd.DataFrame:

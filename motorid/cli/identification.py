@@ -52,7 +52,7 @@ def identify_options_from_args(args: argparse.Namespace) -> IdentifyOptions:
 
 def cmd_identify(args: argparse.Namespace) -> int:
     """Identify one estimator on a record; report params, MSE, FIT and residual tests."""
-    from motorid.validation import RPM_PER_RAD_S, divergence_words
+    from motorid.validation import RPM_PER_RAD_S
 
     options = identify_options_from_args(args)
     # a span (--start/--stop) is cut from the record read whole; an RLS otherwise streams the file
@@ -81,7 +81,6 @@ def cmd_identify(args: argparse.Namespace) -> int:
     if args.out and getattr(args, "out_lock", None) is None:
         check_out_folder(args.out)
         hold_out_folder(args, args.out)
-    diverged = payload["free_run_diverges_from_sample"]
     unit = payload["output_unit"]
     threshold = payload["low_speed_threshold_rad_s" if unit == "rad/s" else "low_speed_threshold"]
     band = band_words(unit, threshold, args.low_speed_rpm)
@@ -99,9 +98,8 @@ def cmd_identify(args: argparse.Namespace) -> int:
         say(f"  {kind:<9} {mse}, {low}, FIT {row['fit_percent']:.2f} %")
     if unit != "rad/s":
         say(f"  low speed: {band}")
-    if diverged is not None:
-        say(f"warning: {divergence_words(args.estimator, diverged, 'free_run' in payload['scores'])}; try "
-            "--basis u,sign or --estimator arx-rls")  # fmt: skip
+    for warning in payload["free_run_warnings"]:
+        say(f"warning: {warning}")
     if payload["residual_tests_samples"] < payload["samples"] - args.skip:
         say(f"  residual tests on the last {payload['residual_tests_samples']} samples of the record "
             "(a bounded window: a record read in blocks is not held whole)")  # fmt: skip
@@ -114,12 +112,15 @@ def cmd_identify(args: argparse.Namespace) -> int:
     if args.save_model:
         try:
             save_model(
-                est, args.save_model, overwrite=args.overwrite, card=identified_card(args, record, payload)
+                est,
+                args.save_model,
+                overwrite=args.overwrite,
+                card=identified_card(args, record, payload, est),
             )
         except ValueError as exc:
             raise DataError(f"--save-model {args.save_model}: {exc}") from None
-        say(f"  wrote {args.save_model}: the identified model, with its units, timing and record "
-            "(motorid.load_model reads it)")  # fmt: skip
+        say(f"  wrote {args.save_model}: the identified model, with its units, timing, record and its "
+            "parameters' standard errors (motorid.load_model reads it)")  # fmt: skip
     figure = None
     if args.out:
         figure = write_identify_figure(tests, args.out, args.estimator)
@@ -131,13 +132,16 @@ def cmd_identify(args: argparse.Namespace) -> int:
     return 0
 
 
-def identified_card(args: argparse.Namespace, record: pd.DataFrame | None, payload: dict[str, Any]) -> Any:
+def identified_card(
+    args: argparse.Namespace, record: pd.DataFrame | None, payload: dict[str, Any], est: Any
+) -> Any:
     """The card of the model ``motorid identify`` fitted (:func:`motorid.app.model_cards.record_card`):
     the record held whole, or, read in blocks, its first block with the span of the ``samples``
-    the payload counts."""
+    the payload counts; each parameter's standard error from the estimator's covariance and the
+    one-step MSE (:func:`motorid.app.model_cards.estimator_parameters`)."""
     import dataclasses
 
-    from motorid.app.model_cards import record_card
+    from motorid.app.model_cards import estimator_parameters, record_card
 
     read = read_options_from_args(args)
     if record is None:
@@ -149,9 +153,12 @@ def identified_card(args: argparse.Namespace, record: pd.DataFrame | None, paylo
             {**entry, "samples": samples, "stop": entry["start"] + (samples - 1) * card.dt}
             for entry in card.records
         )
-        return dataclasses.replace(card, records=records)
-    return record_card([record], [args.data], supply_voltage=read.supply_voltage,
-                       input_full_scale=read.input_full_scale)  # fmt: skip
+        card = dataclasses.replace(card, records=records)
+    else:
+        card = record_card([record], [args.data], supply_voltage=read.supply_voltage,
+                           input_full_scale=read.input_full_scale)  # fmt: skip
+    parameters = estimator_parameters(est, payload["scores"]["one_step"]["mse"])
+    return dataclasses.replace(card, parameters=parameters)
 
 
 def say_validation(validation: dict[str, Any]) -> None:
