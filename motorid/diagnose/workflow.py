@@ -132,6 +132,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.diagnose.agreement import agreement
+from motorid.diagnose.closed_loop import instrumental_refit, loop_records
 from motorid.diagnose.given_rig import GivenRig, rig_note
 from motorid.diagnose.locate import locate
 from motorid.diagnose.measures import fit_static_friction, free_run_error, gaps
@@ -207,6 +208,7 @@ def diagnose(
     resample: bool = False,
     labels: Sequence[str] | None = None,
     align: bool = False,
+    reference_column: str | None = None,
 ) -> Diagnosis:
     """Find the effects missing from a rigid drive model of ``record`` (see the module notes).
 
@@ -301,6 +303,11 @@ def diagnose(
         aligned records fit no better (their final gap in noise floors not below the record's own,
         or no drive model describes them), the diagnosis on the record's own time is kept and a
         note says so.
+    reference_column : str, optional
+        The column of a closed loop's reference; default a column named ``reference`` or ``r``.
+        A record with one is identified as a closed loop (:mod:`.closed_loop`): read with timing
+        ``"sampled"`` where it names none, the balance's linear parameters refitted with the
+        reference as instrument, and :attr:`Diagnosis.closed_loop` says so.
 
     Returns
     -------
@@ -348,7 +355,11 @@ def diagnose(
     labels = [f"record {k + 1}" for k in range(len(records))] if labels is None else [str(x) for x in labels]
     if len(labels) != len(records):
         raise DataError(f"labels: {len(labels)} labels for {len(records)} records")
+    given_records = list(records)
     records = normalised_records(records, labels, columns, reading)
+    # a closed loop's reference, kept (the pool lets the records go), and its timing
+    records, loops, references = loop_records(given_records, records, labels, reference_column, timing)
+    del given_records
     if timing is None:
         timing = common_timing(records, labels)  # type: ignore[assignment]
     if timing not in ("auto", "hold", "sampled"):
@@ -407,9 +418,13 @@ def diagnose(
     # the results: the gaps before and after, and why the search stopped
     bar.set_postfix_str("final gaps")
     final_model = outcome.fit.model
+    if any(r is not None for r in references):
+        final_model, refitted_iv = instrumental_refit(pool, final_model, references)
+        for loop in loops:
+            loop.instrumental = refitted_iv if loop.reference is not None else {}
     initial_gap = pool.gaps(initial_model, first_region)
     refitted_gap = None if model is None else pool.gaps(refitted_model, first_region)
-    if outcome.steps or chosen.effects:
+    if outcome.steps or chosen.effects or final_model is not outcome.fit.model:
         final_gap = pool.gaps(final_model, first_region)
     else:
         final_gap = initial_gap if refitted_gap is None else refitted_gap
@@ -451,6 +466,7 @@ def diagnose(
         pool, final_model, diagnosis.param_std, set(diagnosis.undetermined), diagnosis.delay_trade
     )
     diagnosis.delay_drift = drifts
+    diagnosis.closed_loop = [loop for loop in loops if loop.closed]
     if not (align and drifts):
         return diagnosis
     # the drift found: each drifting record's output put back on its input's time, then again
