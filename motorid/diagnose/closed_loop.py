@@ -31,8 +31,9 @@ A closed loop changes three things the doctor otherwise takes for granted:
 
 A record is recognised as closed loop by its reference column (named ``reference`` or ``r``, as
 ``motorid control --out`` writes it, or given: ``reference_column``). A record without one whose
-input follows its output's past beyond what the input's own past explains (:func:`input_feedback`)
-is said to look closed: it is fitted as an open loop, and the sentence asks for its reference.
+input answers its output's noise as a controller does (:func:`input_feedback`: the input's
+innovation correlated negatively with the output's, beyond what an open loop's plant gives) is
+said to look closed: it is fitted as an open loop, and the sentence asks for its reference.
 """
 
 from __future__ import annotations
@@ -56,14 +57,16 @@ logger = logging.getLogger(__name__)
 
 #: Column names a closed loop's reference goes by (``motorid control --out`` writes ``reference``).
 REFERENCE_COLUMNS = ("reference", "r")
-#: Past samples of the input and of the output in :func:`input_feedback`'s regressions.
-FEEDBACK_LAGS = 4
-#: Share of the input's innovation the output's past explains above which a record without a
-#: reference is said to look closed [-] (with :data:`FEEDBACK_F`).
-FEEDBACK_SHARE = 0.05
-#: F statistic of the output's past above which its share counts (far beyond chance: an F of 20 on
-#: 4 and hundreds of degrees of freedom has a p-value below 1e-14).
-FEEDBACK_F = 20.0
+#: Order of the autoregressions whose residuals are the input's and the output's innovations
+#: (:func:`input_feedback`).
+FEEDBACK_LAGS = 8
+#: Correlation of the innovations below which a record without a reference is said to look closed
+#: [-] (with :data:`FEEDBACK_Z`): on ``motorid control``'s loop without compensation -0.78, on open
+#: loops (the simulated rig's two-sine record, the kit motor's chirp and sine, the wheel motor, the
+#: L298N staircase) -0.01 to +0.19.
+FEEDBACK_CORRELATION = -0.3
+#: Standard errors of a correlation of nothing (1/sqrt(M)) the correlation must lie beyond.
+FEEDBACK_Z = 5.0
 
 
 def reference_column(record: pd.DataFrame, given: str | None = None) -> str | None:
@@ -90,44 +93,75 @@ def reference_column(record: pd.DataFrame, given: str | None = None) -> str | No
 
 @dataclass(frozen=True)
 class Feedback:
-    """How much of the input its output's past explains (:func:`input_feedback`).
+    """How the input answers its output's noise (:func:`input_feedback`).
 
     Attributes
     ----------
-    share : float
-        ``1 - RSS_1 / RSS_0`` [-]: the share of the input's innovation (what its own past leaves
-        unexplained) the output's past explains.
-    statistic : float
-        The F statistic of the output's lags, ``((RSS_0 - RSS_1) / p) / (RSS_1 / (M - 2p - 1))``.
+    correlation : float
+        The most negative correlation of the input's innovation with the output's innovation one
+        sample before or at the same sample [-].
+    lag : int
+        Its lag [samples]: the input's innovation ``lag`` samples after the output's.
+    samples : int
+        M, the innovations correlated.
     """
 
-    share: float
-    statistic: float
+    correlation: float
+    lag: int
+    samples: int
 
     @property
     def looks_closed(self) -> bool:
-        """Whether the share exceeds :data:`FEEDBACK_SHARE` with an F beyond :data:`FEEDBACK_F`."""
-        return self.share > FEEDBACK_SHARE and self.statistic > FEEDBACK_F
+        """A correlation below :data:`FEEDBACK_CORRELATION` and :data:`FEEDBACK_Z` standard errors."""
+        return (
+            self.correlation < FEEDBACK_CORRELATION
+            and -self.correlation * math.sqrt(self.samples) > FEEDBACK_Z
+        )
 
 
-def input_feedback(u: np.ndarray, y: np.ndarray, lags: int = FEEDBACK_LAGS) -> Feedback:
-    """Whether the output's past predicts the input beyond the input's own past (Granger's test).
+def innovation(x: np.ndarray, order: int = FEEDBACK_LAGS) -> np.ndarray:
+    """What a signal's own past does not predict: the residual of its least-squares autoregression
+    ``x[k] = c + Σ_i α_i x[k-i]`` (i = 1..order), clipped at 3 robust standard deviations
+    (1.4826 times the median absolute deviation) so a few jumps (a compensation switching at a
+    reversal) do not decide a correlation; one value per sample from ``order`` on.
 
-    Two least-squares fits of ``u[k]`` over the M samples that have p = ``lags`` past ones::
+    Parameters
+    ----------
+    x : ndarray
+        The signal.
+    order : int
+        The autoregression's order, >= 1.
+    """
+    n = x.size
+    X = np.column_stack([np.ones(n - order)] + [x[order - i : n - i] for i in range(1, order + 1)])
+    scale = np.maximum(np.linalg.norm(X, axis=0), 1e-300)
+    theta, *_ = np.linalg.lstsq(X / scale, x[order:], rcond=None)
+    e = x[order:] - (X / scale) @ theta
+    spread = 1.4826 * float(np.median(np.abs(e - np.median(e))))
+    return np.clip(e, -3.0 * spread, 3.0 * spread) if spread > 0.0 else e
 
-        u[k] = c + Σ_i α_i u[k-i]                    (RSS_0)
-        u[k] = c + Σ_i α_i u[k-i] + Σ_i β_i y[k-i]   (RSS_1),    i = 1..p
 
-    In an open loop the input is the experimenter's: the output is a response to the input's past
-    and its noise never reaches the input, so ``β`` only fits chance (F near 1). A controller
-    computes the input from the measured output, so its past explains a share of the input.
+def input_feedback(u: np.ndarray, y: np.ndarray, order: int = FEEDBACK_LAGS) -> Feedback:
+    """Whether the input answers the output's noise, as a controller does.
+
+    With ``ε_u`` and ``ε_y`` the innovations of the input and the output (:func:`innovation`)::
+
+        ρ_τ = corr(ε_u[k + τ], ε_y[k]),    τ = 0, 1
+
+    A controller answers the noise of the speed it reads with a command of the opposite sign
+    (negative feedback, ``u = -K_p y + ...``), in the same sample (a loop that reads, then
+    commands) or the next: ρ is clearly negative. In an open loop the input is the
+    experimenter's and never sees the output's noise, and the plant answers the input with the
+    same sign: ρ lies near zero or above it. A loop whose command is dominated by a feed-forward
+    of its reference (a friction compensation that switches at each reversal) can hide its
+    feedback from this test; its reference column says it.
 
     Parameters
     ----------
     u, y : ndarray
         The input and the output, one sample each per row.
-    lags : int
-        p, >= 1.
+    order : int
+        The autoregressions' order, >= 1.
 
     Returns
     -------
@@ -135,27 +169,18 @@ def input_feedback(u: np.ndarray, y: np.ndarray, lags: int = FEEDBACK_LAGS) -> F
     """
     u = np.asarray(u, dtype=float)
     y = np.asarray(y, dtype=float)
-    n = u.size
-    m = n - lags
-    if m <= 2 * lags + 1:
-        return Feedback(0.0, 0.0)
-    past_u = np.column_stack([np.ones(m)] + [u[lags - i : n - i] for i in range(1, lags + 1)])
-    past_y = np.column_stack([y[lags - i : n - i] for i in range(1, lags + 1)])
-    target = u[lags:]
-
-    def rss(X: np.ndarray) -> float:
-        X = X / np.maximum(np.linalg.norm(X, axis=0), 1e-300)
-        theta, *_ = np.linalg.lstsq(X, target, rcond=None)
-        return float(np.sum((target - X @ theta) ** 2))
-
-    rss0 = rss(past_u)
-    rss1 = rss(np.column_stack([past_u, past_y]))
-    if not rss0 > 0.0:
-        return Feedback(0.0, 0.0)
-    share = max(1.0 - rss1 / rss0, 0.0)
-    dof = m - 2 * lags - 1
-    statistic = ((rss0 - rss1) / lags) / (rss1 / dof) if rss1 > 0.0 else math.inf
-    return Feedback(share, float(statistic))
+    if u.size < 4 * order + 4:
+        return Feedback(0.0, 0, 0)
+    eu, ey = innovation(u, order), innovation(y, order)
+    best = Feedback(0.0, 0, eu.size)
+    for lag in (0, 1):
+        a = eu[lag:] - eu[lag:].mean()
+        b = ey[: ey.size - lag] - ey[: ey.size - lag].mean()
+        norm = math.sqrt(float(a @ a) * float(b @ b))
+        rho = float(a @ b) / norm if norm > 0.0 else 0.0
+        if rho < best.correlation:
+            best = Feedback(rho, lag, a.size)
+    return best
 
 
 @dataclass
@@ -195,10 +220,11 @@ class ClosedLoop:
 
     def sentence(self, units: dict[str, str] | None = None) -> str:
         """The report's line on the loop."""
-        share = f"{self.feedback.share:.0%} of the input's innovation follows the output's past"
         if self.reference is None:
+            fb = self.feedback
             return (
-                f"the input follows the output ({share}, F = {self.feedback.statistic:.3g}): the record looks "
+                f"the input answers the output's noise (their innovations correlate at {fb.correlation:.2f}, the "
+                f"input's {fb.lag} sample{'s' if fb.lag != 1 else ''} after): the record looks "
                 "like a closed loop; fitted by least squares as an open loop, which the loop's feedback of "
                 "the noise can bias: give its reference column (reference_column, --reference-column)"
             )
@@ -208,7 +234,7 @@ class ClosedLoop:
             for name, entry in self.instrumental.items()
         )
         return (
-            f"closed loop: the reference is column {self.reference!r} ({share}){timing}; the balance's linear "
+            f"closed loop: the reference is column {self.reference!r}{timing}; the balance's linear "
             f"parameters refitted with the reference as instrument ({moved or 'none'})"
         )
 
@@ -216,7 +242,7 @@ class ClosedLoop:
         """For ``--json``."""
         return {
             "record": self.label, "closed": self.closed, "reference": self.reference,
-            "feedback_share": self.feedback.share, "feedback_statistic": self.feedback.statistic,
+            "feedback_correlation": self.feedback.correlation, "feedback_lag": self.feedback.lag,
             "timing_set": self.timing_set, "method": self.method,
             "instrumental": {name: dict(entry) for name, entry in self.instrumental.items()},
             "sentence": self.sentence(),
@@ -229,6 +255,7 @@ def loop_records(
     labels: list[str],
     given: str | None,
     timing: str | None,
+    output_kind: str = "velocity",
 ) -> tuple[list[pd.DataFrame], list[ClosedLoop], list[np.ndarray | None]]:
     """The records with the timing rule applied, what each says of its loop, and each one's
     reference (None: it has none).
@@ -249,9 +276,23 @@ def loop_records(
         The reference column named by the user.
     timing : str, optional
         The timing given to the doctor (None: the records').
+    output_kind : {"velocity", "position"}
+        What the records measure. Closed loops are recognised on speed records only: a position
+        loop's reference is a position (EMPS's), which the instruments here do not take, and
+        :func:`input_feedback`'s bounds were measured on speeds.
     """
+    if given is not None and output_kind != "velocity":
+        raise DataError(
+            f"reference_column={given!r}: closed loops are identified on speed records; a position loop's "
+            "reference (a position) is not taken as an instrument"
+        )
     out, loops, references = [], [], []
     for raw, record, label in zip(given_records, records, labels, strict=True):
+        if output_kind != "velocity":
+            out.append(record)
+            references.append(None)
+            loops.append(ClosedLoop(label, None, Feedback(0.0, 0, 0)))
+            continue
         column = reference_column(raw, given) if isinstance(raw, pd.DataFrame) else None
         reference = None if column is None else raw[column].to_numpy(dtype=float)
         if reference is not None and reference.size != len(record):
@@ -357,12 +398,13 @@ def instrumental_refit(
 
 
 __all__ = [
-    "FEEDBACK_F",
+    "FEEDBACK_CORRELATION",
     "FEEDBACK_LAGS",
-    "FEEDBACK_SHARE",
+    "FEEDBACK_Z",
     "REFERENCE_COLUMNS",
     "ClosedLoop",
     "Feedback",
+    "innovation",
     "input_feedback",
     "instrumental_refit",
     "loop_records",

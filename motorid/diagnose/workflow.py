@@ -358,7 +358,9 @@ def diagnose(
     given_records = list(records)
     records = normalised_records(records, labels, columns, reading)
     # a closed loop's reference, kept (the pool lets the records go), and its timing
-    records, loops, references = loop_records(given_records, records, labels, reference_column, timing)
+    records, loops, references = loop_records(
+        given_records, records, labels, reference_column, timing, output_kind
+    )
     del given_records
     if timing is None:
         timing = common_timing(records, labels)  # type: ignore[assignment]
