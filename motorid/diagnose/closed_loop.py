@@ -6,8 +6,9 @@ A closed loop changes three things the doctor otherwise takes for granted:
   ``u[k]`` held over ``[t[k], t[k] + dt)`` (``timing="sampled"``, :data:`motorid.records.TIMINGS`).
   Read with the open loop's ``"hold"`` timing, every command seems to act one sample late, and the
   delay search takes that sample, and the loop's own correlation around it, for an input delay
-  (60 ms on ``motorid control``'s 40 ms loop). **The rule**: a record recognised as closed loop
-  whose attributes name no timing is read with ``"sampled"`` timing, and the report says so.
+  (55 ms on ``motorid control``'s 40 ms loop). **The rule**: a record recognised as closed loop
+  (or whose input looks like a controller's: below) whose attributes name no timing is read with
+  ``"sampled"`` timing, and the report says so.
 - **Noise fed back.** The input holds the controller's answer to the measured speed's noise, so
   the input and the noise on the regressors of the torque balance (the filtered speed and its
   derivative) are correlated, and least squares is biased. With the loop's reference ``r`` (a
@@ -220,15 +221,15 @@ class ClosedLoop:
 
     def sentence(self, units: dict[str, str] | None = None) -> str:
         """The report's line on the loop."""
+        timing = "; read with timing 'sampled' (the loop reads, then commands)" if self.timing_set else ""
         if self.reference is None:
             fb = self.feedback
             return (
                 f"the input answers the output's noise (their innovations correlate at {fb.correlation:.2f}, the "
-                f"input's {fb.lag} sample{'s' if fb.lag != 1 else ''} after): the record looks "
+                f"input's {fb.lag} sample{'s' if fb.lag != 1 else ''} after){timing}: the record looks "
                 "like a closed loop; fitted by least squares as an open loop, which the loop's feedback of "
                 "the noise can bias: give its reference column (reference_column, --reference-column)"
             )
-        timing = "; read with timing 'sampled' (the loop reads, then commands)" if self.timing_set else ""
         moved = ", ".join(
             f"{name} {entry['least_squares']:.4g} -> {entry['value']:.4g} ± {entry['standard_error']:.2g}"
             for name, entry in self.instrumental.items()
@@ -260,7 +261,8 @@ def loop_records(
     """The records with the timing rule applied, what each says of its loop, and each one's
     reference (None: it has none).
 
-    A record with a reference column whose attributes name no timing (and no ``timing`` given) is
+    A record with a reference column, or whose input looks like a controller's
+    (:attr:`Feedback.looks_closed`), whose attributes name no timing (and no ``timing`` given) is
     given ``attrs["timing"] = "sampled"`` (a copy; the module notes' rule). The reference is taken
     from the record as given, in its own unit: an instrument's scale changes nothing of θ_IV.
 
@@ -299,7 +301,8 @@ def loop_records(
             logger.info("%s: the reference is not row for row with the record as read: no instruments", label)
             reference = None
         feedback = input_feedback(record["u"].to_numpy(dtype=float), record["y"].to_numpy(dtype=float))
-        timing_set = column is not None and timing is None and "timing" not in record.attrs
+        closed = column is not None or feedback.looks_closed
+        timing_set = closed and timing is None and "timing" not in record.attrs
         if timing_set:
             record = record.copy()
             record.attrs["timing"] = "sampled"
