@@ -182,3 +182,20 @@ def test_a_reference_column_that_is_not_there_is_refused_by_name(capsys, loops):
         diagnose(record, reference_column="setpoint", max_steps=0)
     code, _, err = run(capsys, "doctor", str(loops / "loop.csv"), "--reference-column", "setpoint")
     assert code == 2 and "--reference-column setpoint" in err and "no such column" in err
+
+
+def test_a_full_disk_in_the_first_write_counts_the_rows_after_the_attribute_line(small_disk):
+    from motorid.errors import OutputError
+    from motorid.io.online import RunRecorder
+    from motorid.speed_control import attrs_line
+
+    line = attrs_line({"dt": DT, "units": {"t": "s", "u": "V", "y": "rad/s"}, "timing": "sampled"})
+    recorder = RunRecorder(small_disk / "run.csv", flush_every=100_000, preamble=[line])  # one write: 4 MB
+    with pytest.raises(OutputError, match=r"the file holds the first \d+ of 100000 samples") as info:
+        for k in range(100_000):
+            recorder.append({"t": k * DT, "seq": k + 1, "u": 1.0 / 3.0, "y": float(k) / 7.0})
+    recorder.close()
+    table = read_record(small_disk / "run.csv")
+    assert table.attrs["timing"] == "sampled"
+    assert len(table) == recorder.on_disk == int(str(info.value).split("first ")[1].split(" of")[0])
+    assert table["seq"].tolist() == list(range(1, len(table) + 1))

@@ -55,20 +55,31 @@ def doctor_options_from_args(args: argparse.Namespace) -> DoctorOptions:
     return DoctorOptions(
         output_kind=args.output_kind, input_gain=args.input_gain, base=base, candidates=candidates,
         holdout=args.holdout, max_steps=args.max_steps, timing=args.timing, structure=not args.no_structure,
-        align=args.align, model=model, reference_column=args.reference_column,
+        align=args.align, model=model,
+        reference_column=getattr(args, "reference_column", None),  # motorid doctor only: a fleet reads t, u, y
     )  # fmt: skip
 
 
-def with_reference(record: pd.DataFrame, path: Path, reading: ReadOptions, given: str | None) -> pd.DataFrame:
+def with_reference(
+    record: pd.DataFrame, path: Path, reading: ReadOptions, given: str | None, segment: bool
+) -> pd.DataFrame:
     """``record`` with its closed loop's reference column: ``--reference-column``, else the one its
     attributes name (``attrs["loop"]["reference"]``, as ``motorid control --out`` writes), read with
-    the same options and span; the record itself where neither names one."""
+    the same options and span; the record itself where neither names one, or where it is a segment
+    of a longer record (said)."""
     import dataclasses
 
     from motorid.records import read_record, trim_record
 
     column = given if given is not None else (record.attrs.get("loop") or {}).get("reference")
     if column is None or column in record.columns:
+        return record
+    if segment:
+        if given is not None:
+            raise DataError(f"--reference-column {column}: {path} is longer than --max-samples; the reference "
+                            "of a segment is not read (raise --max-samples, or cut it with --start/--stop)")  # fmt: skip
+        say(f"  note: {path} is longer than --max-samples: its reference {column!r} is not read, and the "
+            "segment is fitted as an open loop")  # fmt: skip
         return record
     options = {
         k: v for k, v in dataclasses.asdict(reading).items() if k not in ("max_samples", "start", "stop")
@@ -78,9 +89,6 @@ def with_reference(record: pd.DataFrame, path: Path, reading: ReadOptions, given
     if column not in whole.columns:
         raise DataError(f"--reference-column {column}: {path} has no such column (it has "
                         f"{', '.join(map(str, whole.columns))})")  # fmt: skip
-    if len(whole) != len(record):
-        raise DataError(f"--reference-column {column}: {path} is longer than --max-samples; the reference of a "
-                        "segment is not read")  # fmt: skip
     out = record.assign(**{column: whole[column].to_numpy()})
     out.attrs = dict(record.attrs)
     return out
@@ -95,7 +103,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         check_out_file(args.save_model, True, "--save-model")
     reading = read_options_from_args(args)
     read = [reading.read_segment(path) for path in args.data]
-    read = [(with_reference(r, path, reading, args.reference_column), segment)
+    read = [(with_reference(r, path, reading, args.reference_column, segment), segment)
             for path, (r, segment) in zip(args.data, read, strict=True)]  # fmt: skip
     records = [record for record, _ in read]
     labels = [str(path) for path in args.data]
@@ -269,10 +277,6 @@ def add_doctor_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-structure", action="store_true",
                         help="keep the base as given: do not choose an input delay and lag from the record "
                              "before judging friction")  # fmt: skip
-    parser.add_argument("--reference-column", metavar="COL",
-                        help="the column of a closed loop's reference: the record is then read with timing "
-                             "'sampled' where it names none, and the balance refitted with the reference as "
-                             "instrument (default: the column a motorid control record names)")  # fmt: skip
     parser.add_argument("--align", action="store_true",
                         help="where a record's input delay drifts along it (a logger's time base: the "
                              "report says so either way), put its output back on the input's time and "
@@ -290,6 +294,10 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     add_record_columns(p, "work on the first this many samples of a longer record (a segment, said in the "
                        "output); the doctor's memory grows with it, 0.9 GB at the default (%(default)s)")  # fmt: skip
     add_doctor_options(p)
+    p.add_argument("--reference-column", metavar="COL",
+                   help="the column of a closed loop's reference: the record is then read with timing "
+                        "'sampled' where it names none, and the balance refitted with the reference as "
+                        "instrument (default: the column a motorid control record names)")  # fmt: skip
     p.add_argument("--out", type=Path, help="folder for the figures and the table (replaced if there)")
     add_wait(p)
     p.add_argument("--validate", type=Path, metavar="FILE",

@@ -62,9 +62,10 @@ REFERENCE_COLUMNS = ("reference", "r")
 #: (:func:`input_feedback`).
 FEEDBACK_LAGS = 8
 #: Correlation of the innovations below which a record without a reference is said to look closed
-#: [-] (with :data:`FEEDBACK_Z`): on ``motorid control``'s loop without compensation -0.78, on open
-#: loops (the simulated rig's two-sine record, the kit motor's chirp and sine, the wheel motor, the
-#: L298N staircase) -0.01 to +0.19.
+#: [-] (with :data:`FEEDBACK_Z`): on ``motorid control``'s loop without compensation -0.78; on open
+#: loops -0.01 to +0.19 (the simulated rig's two-sine record, the 15 records of ``realmotors`` read as
+#: they are, 21 planted records of :mod:`.synthetic`, 70 benches of :mod:`.bench`: two seeds per
+#: imperfection and effect).
 FEEDBACK_CORRELATION = -0.3
 #: Standard errors of a correlation of nothing (1/sqrt(M)) the correlation must lie beyond.
 FEEDBACK_Z = 5.0

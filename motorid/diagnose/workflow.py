@@ -428,6 +428,12 @@ def diagnose(
     refitted_gap = None if model is None else pool.gaps(refitted_model, first_region)
     if outcome.steps or chosen.effects or final_model is not outcome.fit.model:
         final_gap = pool.gaps(final_model, first_region)
+        if final_model is not outcome.fit.model and not math.isfinite(final_gap.overall):
+            # the instrumental fit's model does not run free: the search's least squares kept
+            final_model = outcome.fit.model
+            for loop in loops:
+                loop.instrumental = {}
+            final_gap = pool.gaps(final_model, first_region)
     else:
         final_gap = initial_gap if refitted_gap is None else refitted_gap
     refuse_unphysical(final_model, final_gap.overall, pool.units)

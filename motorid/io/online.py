@@ -249,9 +249,8 @@ class RunRecorder:
                 break
             whole_bytes += len(line)
             whole_lines += 1
-        header_lines = (
-            1 + len(self.preamble) if self._size == 0 else 0
-        )  # the preamble and header in this batch
+        # the preamble and the header, where this batch holds them
+        header_lines = 1 + len(self.preamble) if self._size == 0 else 0
         rows = self.on_disk + max(whole_lines - header_lines, 0)
         size = self._size + whole_bytes
         fd, self._fd = self._fd, None
