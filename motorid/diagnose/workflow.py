@@ -436,6 +436,9 @@ def diagnose(
             final_gap = pool.gaps(final_model, first_region)
     else:
         final_gap = initial_gap if refitted_gap is None else refitted_gap
+    # the standard errors of the parameters the instrumental fit gave, its own
+    instrumental = next((loop.instrumental for loop in loops if loop.instrumental), {})
+    param_std = {**outcome.fit.param_std, **{k: v["standard_error"] for k, v in instrumental.items()}}
     refuse_unphysical(final_model, final_gap.overall, pool.units)
     drifts = [d for d in delay_drift(pool, final_model) if d.drifts]
     final_region = locate(pool.balance_residual(final_model)[0], pool.feats_dec, pool.units)
@@ -462,7 +465,7 @@ def diagnose(
         noise_floor=pool.noise, final_region=final_region,
         model=final_model, initial_model=initial_model, region=first_region, units=pool.units,
         settings=settings, rejected=outcome.rejected, refitted_model=None if model is None else refitted_model,
-        refitted_gap=refitted_gap, param_std=outcome.fit.param_std, param_share=outcome.fit.param_share,
+        refitted_gap=refitted_gap, param_std=param_std, param_share=outcome.fit.param_share,
         delay_trade=outcome.fit.delay_trade,
         structure=chosen, structure_model=structure_model,
         records=record_summaries(pool, initial_model, final_model, first_region), _pool=pool,
