@@ -41,16 +41,17 @@ def loops(tmp_path_factory) -> Path:
     """drive.json: the doctor's model of a 60 s open-loop record of the rig (Coulomb 0.005 N m on
     the motor, dead zone 0.5 V); loop.csv and plain_loop.csv: ``motorid control`` (PI with friction
     compensation from the reference, designed on drive.json) on that rig and on the rig without
-    its dead zone."""
+    its dead zone; pi_loop.csv: the PI alone on the first rig."""
     root = tmp_path_factory.mktemp("closed_loop")
     friction = (Friction(("coulomb_friction",), {"coulomb": 5e-3}, side="motor"),
                 Friction(("coulomb_friction",), {"coulomb": 2e-3}, side="load"))  # fmt: skip
     rig = paper_rig(friction=friction, amplifier=Amplifier(dead_zone=DEAD_ZONE, v_max=12.0))
     _, u = two_sine_signal(duration=60.0, dt=rig.dt, seed=0)
     diagnose(rig.simulate(u, seed=1), max_steps=2).model.save(root / "drive.json")
-    for name, dead_zone in (("loop.csv", DEAD_ZONE), ("plain_loop.csv", 0.0)):
+    for name, dead_zone, options in (("loop.csv", DEAD_ZONE, []), ("plain_loop.csv", 0.0, []),
+                                     ("pi_loop.csv", DEAD_ZONE, ["--no-compensation"])):  # fmt: skip
         argv = ["control", "--design", str(root / "drive.json"), "--coulomb-motor", "0.005",
-                "--dead-zone", str(dead_zone), "--out", str(root / name)]  # fmt: skip
+                "--dead-zone", str(dead_zone), "--out", str(root / name), *options]  # fmt: skip
         from motorid.cli import main
 
         assert main(argv) == 0
@@ -106,6 +107,20 @@ def test_the_doctor_on_a_loop_without_a_dead_zone(capsys, loops):
     assert "input_delay" not in out["structure"]["effects"]
     assert out["closed_loop"][0]["reference"] == "reference"
     assert out["model"]["params"]["coulomb"] == pytest.approx(COULOMB_V, rel=WITHIN)
+
+
+def test_a_pi_loop_that_names_coulomb_friction_and_the_dead_zone_says_their_sum_is_what_it_determines(
+    capsys, loops
+):
+    code, out, err = run(capsys, "doctor", str(loops / "pi_loop.csv"), "--json")
+    assert code == 0, err
+    assert "input_delay" not in out["structure"]["effects"]
+    params = out["model"]["params"]
+    assert {"coulomb_friction", "input_dead_zone"} <= set(out["model"]["effects"])
+    level = params["coulomb"] + params["dead_zone"]  # no input gain: both in V
+    assert level == pytest.approx(COULOMB_V + DEAD_ZONE, rel=WITHIN)
+    (note,) = [n for n in out["notes"] if n.startswith("closed loop: Coulomb friction")]
+    assert f"as one level, {level:.3g} V" in note
 
 
 def test_a_loop_record_without_attributes_is_read_with_the_loops_timing(loops):

@@ -251,6 +251,34 @@ class ClosedLoop:
         }  # fmt: skip
 
 
+def kinetic_split(model: RigidDrive, units: dict[str, str]) -> str | None:
+    """On a closed loop's model that holds both Coulomb friction ``F_c`` and an input dead zone
+    ``d``, the sentence that their sum is what the loop determines, ``F_c + g d`` [F] (``g`` the
+    input gain); None for a model without both.
+
+    A loop keeps its input out of the dead zone while the drive moves, except for the few samples
+    where the command crosses it (at a reversal, or while a PI winds through it at rest), so the two
+    hold the moving drive back as one level and their split rests on those samples.
+
+    Parameters
+    ----------
+    model : RigidDrive
+        The final model.
+    units : dict
+        The diagnosis's units (``F``, ``u``).
+    """
+    if not {"coulomb_friction", "input_dead_zone"} <= set(model.effects):
+        return None
+    coulomb, dead_zone = model.params["coulomb"], model.params["dead_zone"]
+    level = coulomb + model.input_gain * dead_zone
+    return (
+        f"closed loop: Coulomb friction {coulomb:.3g} {units['F']} and the dead zone {dead_zone:.3g} {units['u']} "
+        f"hold the moving drive back as one level, {level:.3g} {units['F']}, which the loop's record determines; "
+        "their split rests on the few samples where the command crosses the dead zone (an open-loop record "
+        "separates them)"
+    )
+
+
 def loop_records(
     given_records: list[pd.DataFrame],
     records: list[pd.DataFrame],
@@ -411,6 +439,7 @@ __all__ = [
     "innovation",
     "input_feedback",
     "instrumental_refit",
+    "kinetic_split",
     "loop_records",
     "reference_column",
 ]

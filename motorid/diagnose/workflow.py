@@ -132,7 +132,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.diagnose.agreement import agreement
-from motorid.diagnose.closed_loop import instrumental_refit, loop_records
+from motorid.diagnose.closed_loop import instrumental_refit, kinetic_split, loop_records
 from motorid.diagnose.given_rig import GivenRig, rig_note
 from motorid.diagnose.locate import locate
 from motorid.diagnose.measures import fit_static_friction, free_run_error, gaps
@@ -478,6 +478,9 @@ def diagnose(
     )
     diagnosis.delay_drift = drifts
     diagnosis.closed_loop = [loop for loop in loops if loop.closed]
+    split = kinetic_split(final_model, pool.units) if diagnosis.closed_loop else None
+    if split is not None:
+        diagnosis.notes.append(split)
     if not (align and drifts):
         return diagnosis
     # the drift found: each drifting record's output put back on its input's time, then again
