@@ -524,8 +524,8 @@ def run_closed_loop(
     Returns
     -------
     DataFrame
-        Columns ``t`` [s], ``reference`` [rad/s], ``u`` [the model's input unit: V or %] (the
-        command held over [t, t + dt), after the DAQ's clamp), ``y`` [rad/s] (measured at t),
+        Columns ``t`` [s], ``reference`` [``output_unit``], ``u`` [``input_unit``: V or %] (the
+        command held over [t, t + dt), after the DAQ's clamp), ``y`` [``output_unit``] (measured at t),
         ``clamped`` (1 where the command was clipped, by the controller's limit or the DAQ's);
         ``attrs``: ``dt``, ``units``, ``timing`` (``"sampled"``), ``loop`` (:func:`loop_attrs`),
         ``samples``.

@@ -28,13 +28,17 @@ A closed loop changes three things the doctor otherwise takes for granted:
 - **What the record can tell.** A loop that keeps the input beyond the dead zone whenever the
   drive moves (a compensation that jumps across it at each reversal) leaves Coulomb friction and
   the dead zone one kinetic level: the doctor then names one and reports the other as its
-  lookalike (:class:`~motorid.diagnose.results.Lookalike`), with their common level.
+  lookalike (:class:`~motorid.diagnose.results.Lookalike`), with their common level. Where it names
+  both (a PI alone winds through the dead zone at each reversal), their split rests on the few
+  samples where the command crosses it, and a note gives their sum (:func:`kinetic_split`).
 
 A record is recognised as closed loop by its reference column (named ``reference`` or ``r``, as
 ``motorid control --out`` writes it, or given: ``reference_column``). A record without one whose
 input answers its output's noise as a controller does (:func:`input_feedback`: the input's
 innovation correlated negatively with the output's, beyond what an open loop's plant gives) is
-said to look closed: it is fitted as an open loop, and the sentence asks for its reference.
+said to look closed: it is read with the loop's timing and fitted by least squares, and the
+sentence asks for its reference. Closed loops are recognised on speed records only (a position
+loop's reference, EMPS's, is a position).
 """
 
 from __future__ import annotations
