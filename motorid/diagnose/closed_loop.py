@@ -73,6 +73,9 @@ FEEDBACK_LAGS = 8
 FEEDBACK_CORRELATION = -0.3
 #: Standard errors of a correlation of nothing (1/sqrt(M)) the correlation must lie beyond.
 FEEDBACK_Z = 5.0
+#: Most samples (the first) :func:`input_feedback` looks at: a loop shows in far fewer, and the
+#: autoregressions' columns of a day at 1 kHz would take gigabytes.
+FEEDBACK_SAMPLES = 100_000
 
 
 def reference_column(record: pd.DataFrame, given: str | None = None) -> str | None:
@@ -165,7 +168,8 @@ def input_feedback(u: np.ndarray, y: np.ndarray, order: int = FEEDBACK_LAGS) -> 
     Parameters
     ----------
     u, y : ndarray
-        The input and the output, one sample each per row.
+        The input and the output, one sample each per row (the first :data:`FEEDBACK_SAMPLES`
+        are looked at).
     order : int
         The autoregressions' order, >= 1.
 
@@ -173,8 +177,8 @@ def input_feedback(u: np.ndarray, y: np.ndarray, order: int = FEEDBACK_LAGS) -> 
     -------
     Feedback
     """
-    u = np.asarray(u, dtype=float)
-    y = np.asarray(y, dtype=float)
+    u = np.asarray(u, dtype=float)[:FEEDBACK_SAMPLES]
+    y = np.asarray(y, dtype=float)[:FEEDBACK_SAMPLES]
     if u.size < 4 * order + 4:
         return Feedback(0.0, 0, 0)
     eu, ey = innovation(u, order), innovation(y, order)
@@ -436,6 +440,7 @@ def instrumental_refit(
 __all__ = [
     "FEEDBACK_CORRELATION",
     "FEEDBACK_LAGS",
+    "FEEDBACK_SAMPLES",
     "FEEDBACK_Z",
     "REFERENCE_COLUMNS",
     "ClosedLoop",
