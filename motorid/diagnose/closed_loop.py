@@ -8,7 +8,11 @@ A closed loop changes three things the doctor otherwise takes for granted:
   delay search takes that sample, and the loop's own correlation around it, for an input delay
   (55 ms on ``motorid control``'s 40 ms loop). **The rule**: a record recognised as closed loop
   (or whose input looks like a controller's: below) whose attributes name no timing is read with
-  ``"sampled"`` timing, and the report says so.
+  ``"sampled"`` timing, and the report says so. And where the balance is refitted by instrumental
+  variables (below), no delay is set free in it by least squares
+  (:attr:`~motorid.diagnose.results.Diagnosis.delay_trade` is None): on ``motorid control``'s loop
+  that fit took the loop's correlation for a 14.6 ms delay the structure search had rejected, and
+  called the inertia undetermined for it.
 - **Noise fed back.** The input holds the controller's answer to the measured speed's noise, so
   the input and the noise on the regressors of the torque balance (the filtered speed and its
   derivative) are correlated, and least squares is biased. With the loop's reference ``r`` (a

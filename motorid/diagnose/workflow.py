@@ -436,7 +436,8 @@ def diagnose(
             final_gap = pool.gaps(final_model, first_region)
     else:
         final_gap = initial_gap if refitted_gap is None else refitted_gap
-    # the standard errors of the parameters the instrumental fit gave, its own
+    # the standard errors of the parameters the instrumental fit gave, its own; and no delay set free by
+    # least squares in the balance (:mod:`.closed_loop`: it would take the loop's own correlation)
     instrumental = next((loop.instrumental for loop in loops if loop.instrumental), {})
     param_std = {**outcome.fit.param_std, **{k: v["standard_error"] for k, v in instrumental.items()}}
     refuse_unphysical(final_model, final_gap.overall, pool.units)
@@ -466,7 +467,7 @@ def diagnose(
         model=final_model, initial_model=initial_model, region=first_region, units=pool.units,
         settings=settings, rejected=outcome.rejected, refitted_model=None if model is None else refitted_model,
         refitted_gap=refitted_gap, param_std=param_std, param_share=outcome.fit.param_share,
-        delay_trade=outcome.fit.delay_trade,
+        delay_trade=None if instrumental else outcome.fit.delay_trade,
         structure=chosen, structure_model=structure_model,
         records=record_summaries(pool, initial_model, final_model, first_region), _pool=pool,
         noise_bands=pool.noise_bands(), quantisation_step=pool.quantisation,
