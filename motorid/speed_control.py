@@ -22,6 +22,7 @@ controller reads y[k], measured at t[k], and holds u[k] over [t[k], t[k] + dt).
 from __future__ import annotations
 
 import copy
+import json
 import logging
 import math
 from collections.abc import Callable
@@ -37,6 +38,7 @@ from motorid.drive.files import ModelCard
 from motorid.drive.rigid import RigidDrive, check_sample_time
 from motorid.io.base import DAQ
 from motorid.io.online import KEEP_WITH_FILE, RunRecorder, sample_loop, samples_for
+from motorid.records import ATTRS_MARKER
 
 logger = logging.getLogger(__name__)
 
@@ -478,6 +480,7 @@ def run_closed_loop(
     metrics: TrackingMetrics | None = None,
     keep: int | None = None,
     input_unit: str = "V",
+    output_unit: str = "rad/s",
 ) -> pd.DataFrame:
     """Close the speed loop on a DAQ: read the speed, step the controller, command, record.
 
@@ -498,7 +501,11 @@ def run_closed_loop(
         Length [s]; default the whole array.
     out : path, optional
         CSV written row by row as the loop runs (:class:`~motorid.io.online.RunRecorder`);
-        an existing file is refused before the DAQ is opened unless ``overwrite``.
+        an existing file is refused before the DAQ is opened unless ``overwrite``. Its first
+        line is the record's attributes (:data:`motorid.records.ATTRS_MARKER`: ``dt``,
+        ``units``, ``timing`` ``"sampled"``, ``loop``), so ``motorid doctor``, ``identify`` and
+        ``compare`` read it as it is, in its units, and the doctor knows the ``reference``
+        column for a closed loop's.
     progress : bool
         A progress bar on stderr (:func:`motorid.progress.progress_bar`).
     overwrite : bool
@@ -510,14 +517,18 @@ def run_closed_loop(
         :data:`~motorid.io.online.KEEP_WITH_FILE` with it (the file holds them all).
     input_unit : str
         The unit of the commands, the design model's input (``V``, ``%``), in the record's units.
+    output_unit : str
+        The unit of the measured speed and the reference (the design model's output: ``rad/s``,
+        or ``m/s`` for a linear drive), in the record's units.
 
     Returns
     -------
     DataFrame
-        Columns ``t`` [s], ``reference`` [rad/s], ``u`` [the model's input unit: V or %] (the
-        command held over [t, t + dt), after the DAQ's clamp), ``y`` [rad/s] (measured at t),
+        Columns ``t`` [s], ``reference`` [``output_unit``], ``u`` [``input_unit``: V or %] (the
+        command held over [t, t + dt), after the DAQ's clamp), ``y`` [``output_unit``] (measured at t),
         ``clamped`` (1 where the command was clipped, by the controller's limit or the DAQ's);
-        ``attrs``: ``dt``, ``units``, ``timing`` (``"sampled"``), ``samples``.
+        ``attrs``: ``dt``, ``units``, ``timing`` (``"sampled"``), ``loop`` (:func:`loop_attrs`),
+        ``samples``.
 
     Raises
     ------
@@ -543,7 +554,9 @@ def run_closed_loop(
         raise ValueError(f"run_closed_loop: reference[{bad[0]}] = {r[bad[0]]!r} is not finite")
     if keep is None and out is not None:
         keep = KEEP_WITH_FILE
-    recorder = RunRecorder(out, overwrite=overwrite, keep=keep)
+    units = {"t": "s", "reference": output_unit, "u": input_unit, "y": output_unit}
+    attrs = {"dt": dt, "units": units, "timing": "sampled", "loop": loop_attrs(controller)}
+    recorder = RunRecorder(out, overwrite=overwrite, keep=keep, preamble=[attrs_line(attrs)])
     comp = controller.compensation
     if comp is not None and comp.position_effect:
         logger.warning(
@@ -570,9 +583,37 @@ def run_closed_loop(
         return row
 
     sample_loop(daq, n, sample, recorder, "run_closed_loop", progress)
-    return recorder.frame(
-        dt,
-        columns=("t", "reference", "u", "y", "clamped"),
-        units={"t": "s", "reference": "rad/s", "u": input_unit, "y": "rad/s"},
-        timing="sampled",
+    record = recorder.frame(
+        dt, columns=("t", "reference", "u", "y", "clamped"), units=units, timing="sampled"
     )
+    record.attrs["loop"] = attrs["loop"]
+    return record
+
+
+def loop_attrs(controller: SpeedController) -> dict[str, Any]:
+    """What a closed-loop record says of its loop (``attrs["loop"]``, descriptive): the column of
+    the reference, the PI's ``kp`` [u/(v)], ``ki`` [u/(v s)] and ``u_max`` [u], and the speed the
+    friction compensation follows (``reference``, ``measured``; None: no compensation).
+
+    Parameters
+    ----------
+    controller : SpeedController
+        The loop's controller.
+    """
+    comp = controller.compensation
+    return {
+        "reference": "reference", "kp": controller.pi.kp, "ki": controller.pi.ki, "u_max": controller.pi.u_max,
+        "compensation": None if comp is None else comp.source,
+    }  # fmt: skip
+
+
+def attrs_line(attrs: dict[str, Any]) -> str:
+    """A record's attributes as the first line of its CSV (:data:`motorid.records.ATTRS_MARKER` and
+    JSON, as :func:`motorid.records.write_record` writes them).
+
+    Parameters
+    ----------
+    attrs : dict
+        JSON-serialisable attributes (finite numbers).
+    """
+    return ATTRS_MARKER + json.dumps(attrs, separators=(",", ":"), allow_nan=False)

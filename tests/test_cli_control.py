@@ -49,7 +49,7 @@ def test_compensation_from_the_doctors_model_cuts_the_low_speed_error_on_the_sim
     assert with_comp["pi"] == without["pi"]  # the same PI, designed on the model
     assert with_comp["low_speed_rms_error"] < 0.5 * without["low_speed_rms_error"]
     assert with_comp["largest_stuck_after_reversal"] < 0.5 * without["largest_stuck_after_reversal"]
-    record = pd.read_csv(tmp_path / "run.csv")
+    record = pd.read_csv(tmp_path / "run.csv", comment="#")
     assert list(record.columns) == ["t", "reference", "u", "y", "clamped"]
     assert len(record) == with_comp["samples"] == 300  # 12 s at the rig's 40 ms
     # the built-in reference reverses through zero: a triangle of ±40 rad/s over 4 s
@@ -64,7 +64,7 @@ def test_a_reference_file_and_the_measured_speed_source(capsys, files, tmp_path)
     out = control(capsys, files, "--model", str(files / "plant.json"), "--reference", str(tmp_path / "ref.csv"),
                   "--source", "measured", "--speed-band", "2", "--out", str(tmp_path / "run.csv"))  # fmt: skip
     assert out["compensation"] == "measured" and out["samples"] == 150  # the file's 6 s at 40 ms
-    record = pd.read_csv(tmp_path / "run.csv")
+    record = pd.read_csv(tmp_path / "run.csv", comment="#")
     # the reference is the file's, interpolated at the loop's samples
     np.testing.assert_allclose(
         record["reference"], np.interp(record["t"], t, 30.0 * np.sin(2 * np.pi * t / 3.0))
@@ -92,7 +92,10 @@ def test_the_loop_over_modbus_against_rig_serve_gives_the_simulated_figures(caps
         assert proc.wait(30) == 0
     simulated = control(capsys, files, "--model", str(files / "plant.json"), "--plant-seed", PLANT_SEED,
                         "--out", str(tmp_path / "sim.csv"))  # fmt: skip
-    modbus, sim = pd.read_csv(tmp_path / "modbus.csv"), pd.read_csv(tmp_path / "sim.csv")
+    modbus, sim = (
+        pd.read_csv(tmp_path / "modbus.csv", comment="#"),
+        pd.read_csv(tmp_path / "sim.csv", comment="#"),
+    )
     assert len(modbus) == len(sim)
     # the registers are float32: the speed and the command are rounded to 24 bits each sample (6e-8
     # relative) and the loop carries the rounding on; the drive's sticking can turn a rounding into a
@@ -177,7 +180,7 @@ def test_the_built_in_sine_reference_bandwidth_and_low_speed_band(capsys, files,
     out = control(capsys, files, "--model", str(files / "plant.json"), "--shape", "sine", "--amplitude", "20",
                   "--period", "2", "--duration", "4", "--bandwidth", "8", "--low-speed-rpm", "60",
                   "--out", str(tmp_path / "run.csv"))  # fmt: skip
-    record = pd.read_csv(tmp_path / "run.csv")
+    record = pd.read_csv(tmp_path / "run.csv", comment="#")
     assert out["samples"] == 100  # 4 s at 40 ms
     np.testing.assert_allclose(record["reference"], 20.0 * np.sin(2 * np.pi * record["t"] / 2.0), atol=1e-9)
     assert out["pi"]["bandwidth"] == 8.0 and out["reversals"] == 3

@@ -131,7 +131,7 @@ def test_control_with_overwrite_replaces_a_link_at_out(tmp_path, victim, capsys)
     code, _, err = run(capsys, *argv)
     assert code == 0, err
     assert victim.read_text() == "precious\n"
-    assert not out.is_symlink() and out.read_text().startswith("t,")
+    assert not out.is_symlink() and out.read_text().startswith("# motorid-record ")
 
 
 # -- tables a spreadsheet opens ------------------------------------------------------------------------

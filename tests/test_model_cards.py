@@ -333,7 +333,7 @@ def test_a_duty_model_is_controlled_within_100_percent_and_a_clamp_is_said(capsy
     assert out["rms_error"] < 1.0  # measured 0.112 rad/s (12.9 with the 12 of a model in volts)
     clamped, err = control(capsys, kit_model, "--noise-free", "--u-max", "12", "--out", str(tmp_path / "c.csv"),
                            "--overwrite")  # fmt: skip
-    record = pd.read_csv(tmp_path / "c.csv")
+    record = pd.read_csv(tmp_path / "c.csv", comment="#")
     # the column says where the command sits on the limit: measured 8,160 of 12,000 samples
     at_limit = (record["u"].abs() >= 12.0 - 1e-9).to_numpy()
     assert (record["clamped"].to_numpy() == 1).sum() == clamped["clamped_samples"] == at_limit.sum() > 600

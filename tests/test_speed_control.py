@@ -207,7 +207,7 @@ def test_the_loops_metrics_cover_the_whole_run_whatever_it_keeps(tmp_path):
     kept = run_closed_loop(SimulatedDAQ(drive), ctrl, r, out=tmp_path / "run.csv", progress=False, metrics=fed,
                            keep=100)  # fmt: skip
     assert len(kept) == 100 and kept.attrs["samples"] == r.size
-    whole = pd.read_csv(tmp_path / "run.csv")
+    whole = pd.read_csv(tmp_path / "run.csv", comment="#")
     assert fed.result() == tracking_metrics(whole, low_speed=15.0)
 
 
@@ -219,7 +219,7 @@ def test_closed_loop_record_file_and_zero_volts_at_the_end(tmp_path):
     record = run_closed_loop(daq, ctrl, r, out=tmp_path / "run.csv", progress=False)
     assert list(record.columns) == ["t", "reference", "u", "y", "clamped"]
     assert record.attrs["timing"] == "sampled" and len(record) == r.size
-    on_disk = pd.read_csv(tmp_path / "run.csv")
+    on_disk = pd.read_csv(tmp_path / "run.csv", comment="#")
     assert np.array_equal(
         on_disk[["t", "reference", "u", "y"]].to_numpy(), record[["t", "reference", "u", "y"]].to_numpy()
     )
@@ -255,5 +255,5 @@ def test_a_failing_rig_stops_the_loop_with_zero_volts_and_the_samples_on_disk(tm
     with pytest.raises(DAQError) as info:
         run_closed_loop(daq, ctrl, np.full(200, 10.0), out=tmp_path / "run.csv", progress=False)
     assert "after 48 of 200 samples" in " ".join(info.value.__notes__)
-    assert len(pd.read_csv(tmp_path / "run.csv")) == 48
+    assert len(pd.read_csv(tmp_path / "run.csv", comment="#")) == 48
     assert daq.u == 0.0 and not daq.is_open

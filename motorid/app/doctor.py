@@ -62,6 +62,9 @@ class DoctorOptions:
         A drive model file to start from, a rigid drive (``motorid doctor --save-model`` writes
         one) or a two-mass rig (``motorid simulate --save-model``); its effects are the base, so
         ``base`` stays None.
+    reference_column : str, optional
+        The column of a closed loop's reference (:func:`motorid.diagnose.diagnose`'s
+        ``reference_column``); default a column named ``reference`` or ``r``.
     """
 
     output_kind: Literal["velocity", "position"] = "velocity"
@@ -74,6 +77,7 @@ class DoctorOptions:
     structure: bool = True
     align: bool = False
     model: Path | None = None
+    reference_column: str | None = None
 
     #: The command whose work this is (a fleet's rows say it).
     command = "doctor"
@@ -119,7 +123,7 @@ class DoctorOptions:
             base=None if self.base is None else list(self.base),
             candidates=None if not self.candidates else list(self.candidates), holdout=self.holdout,
             max_steps=self.max_steps, progress=progress, timing=self.timing, model=self.start_model(),
-            structure=self.structure, labels=labels, align=self.align,
+            structure=self.structure, labels=labels, align=self.align, reference_column=self.reference_column,
         )  # fmt: skip
 
     def start_model(self) -> Any:

@@ -158,11 +158,11 @@ def cmd_control(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise DataError(f"--design {args.design}: {exc}") from None
     controller = SpeedController(pi, dt, compensation)
+    speed_unit = card.output_unit if card is not None and card.output_unit else "rad/s"
     exported: list[Path] = []
     if args.export_c is not None:
         from motorid.controller_c import export_controller_c
 
-        speed_unit = card.output_unit if card is not None and card.output_unit else "rad/s"
         exported = list(export_controller_c(controller, args.export_c, input_unit=unit, model=args.design.name,
                                             speed_unit=speed_unit))  # fmt: skip
         say(
@@ -175,7 +175,7 @@ def cmd_control(args: argparse.Namespace) -> int:
     tracking = TrackingMetrics(low_speed=band)
     try:
         record = run_closed_loop(daq, controller, reference, out=args.out, progress=show_progress(), overwrite=args.overwrite,
-                                 metrics=tracking, input_unit=unit)  # fmt: skip
+                                 metrics=tracking, input_unit=unit, output_unit=speed_unit)  # fmt: skip
     except DAQError as exc:
         raise rig_stopped("control", args.daq, exc) from None
     except KeyboardInterrupt as exc:  # exit 130 (main), after saying what is on disk
@@ -183,7 +183,9 @@ def cmd_control(args: argparse.Namespace) -> int:
         raise
     metrics = tracking.result()
     if args.out is not None:
-        say(f"wrote {args.out}: {record.attrs['samples']} samples (t, reference, u, y)")
+        say(f"wrote {args.out}: {record.attrs['samples']} samples (t, reference [{speed_unit}], u [{unit}], "
+            f"y [{speed_unit}], clamped) at dt = {dt:g} s, timing sampled: motorid doctor, identify and "
+            "compare read it as it is")  # fmt: skip
     say(f"motorid control: {loop_timing(record)}")
     say(f"RMS tracking error {metrics['rms_error']:.3g} rad/s; at low speed (|r| < {args.low_speed_rpm:g} rpm) "
         f"{metrics['low_speed_rms_error']:.3g} rad/s; largest stuck interval after a reversal "
@@ -243,7 +245,8 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                        help="[s] (default: 12, or the whole --reference file)")  # fmt: skip
     add_out_file(p, "CSV of t [s], reference [rad/s], u (the command held over the sample, in the model's "
                  "input unit), y [rad/s] (measured at t) and clamped (1 where the rig clamped the command "
-                 "to its rating), written row by row", required=False)  # fmt: skip
+                 "to its rating), written row by row after a first line of the record's attributes (dt, "
+                 "units, timing), so motorid doctor, identify and compare read it as it is", required=False)  # fmt: skip
     p.add_argument(
         "--dt", type=positive, help="sample time [s] (default: the simulated plant's; Modbus: 0.04)"
     )

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 import pandas as pd
 
 from motorid.app.doctor import DoctorOptions, save_doctor_model, start_model_from_file
+from motorid.app.reading import ReadOptions
 from motorid.errors import DataError
 from motorid.outputs import write_file
 
@@ -55,7 +56,42 @@ def doctor_options_from_args(args: argparse.Namespace) -> DoctorOptions:
         output_kind=args.output_kind, input_gain=args.input_gain, base=base, candidates=candidates,
         holdout=args.holdout, max_steps=args.max_steps, timing=args.timing, structure=not args.no_structure,
         align=args.align, model=model,
+        reference_column=getattr(args, "reference_column", None),  # motorid doctor only: a fleet reads t, u, y
     )  # fmt: skip
+
+
+def with_reference(
+    record: pd.DataFrame, path: Path, reading: ReadOptions, given: str | None, segment: bool
+) -> pd.DataFrame:
+    """``record`` with its closed loop's reference column: ``--reference-column``, else the one its
+    attributes name (``attrs["loop"]["reference"]``, as ``motorid control --out`` writes), read with
+    the same options and span; the record itself where neither names one, or where it is a segment
+    of a longer record (said)."""
+    import dataclasses
+
+    from motorid.records import read_record, trim_record
+
+    column = given if given is not None else (record.attrs.get("loop") or {}).get("reference")
+    if column is None or column in record.columns:
+        return record
+    if segment:
+        if given is not None:
+            raise DataError(f"--reference-column {column}: {path} is longer than --max-samples; the reference "
+                            "of a segment is not read (raise --max-samples, or cut it with --start/--stop)")  # fmt: skip
+        say(f"  note: {path} is longer than --max-samples: its reference {column!r} is not read, and the "
+            "segment is fitted as an open loop")  # fmt: skip
+        return record
+    options = {
+        k: v for k, v in dataclasses.asdict(reading).items() if k not in ("max_samples", "start", "stop")
+    }
+    whole = read_record(path, max_samples=reading.max_samples, other_columns=True, **options)
+    whole = trim_record(whole, reading.start, reading.stop, path)
+    if column not in whole.columns:
+        raise DataError(f"--reference-column {column}: {path} has no such column (it has "
+                        f"{', '.join(map(str, whole.columns))})")  # fmt: skip
+    out = record.assign(**{column: whole[column].to_numpy()})
+    out.attrs = dict(record.attrs)
+    return out
 
 
 def cmd_doctor(args: argparse.Namespace) -> int:
@@ -67,6 +103,8 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         check_out_file(args.save_model, True, "--save-model")
     reading = read_options_from_args(args)
     read = [reading.read_segment(path) for path in args.data]
+    read = [(with_reference(r, path, reading, args.reference_column, segment), segment)
+            for path, (r, segment) in zip(args.data, read, strict=True)]  # fmt: skip
     records = [record for record, _ in read]
     labels = [str(path) for path in args.data]
     validation = None
@@ -88,6 +126,8 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     )
     for note in diagnosis.notes:
         say(f"  note: {note}")
+    for loop in diagnosis.closed_loop:
+        say(f"  {loop.label + ': ' if len(records) > 1 else ''}{loop.sentence()}")
     for path, (record, segment) in zip(args.data, read, strict=True):
         if segment:
             say(f"  a segment: {path} is longer than --max-samples; the doctor works on its first "
@@ -309,6 +349,10 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     add_record_columns(p, "work on the first this many samples of a longer record (a segment, said in the "
                        "output); the doctor's memory grows with it, 0.9 GB at the default (%(default)s)")  # fmt: skip
     add_doctor_options(p)
+    p.add_argument("--reference-column", metavar="COL",
+                   help="the column of a closed loop's reference: the record is then read with timing "
+                        "'sampled' where it names none, and the balance refitted with the reference as "
+                        "instrument (default: the column a motorid control record names)")  # fmt: skip
     p.add_argument("--out", type=Path, help="folder for the figures and the table (replaced if there)")
     add_wait(p)
     p.add_argument("--validate", type=Path, metavar="FILE",

@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.diagnose.agreement import Agreement
+from motorid.diagnose.closed_loop import ClosedLoop
 from motorid.diagnose.kinematics import NoiseBand
 from motorid.diagnose.locate import Region
 from motorid.diagnose.measures import Gap, breakaway, gaps
@@ -312,6 +313,9 @@ class Diagnosis:
         The records whose input delay drifts along them (:func:`~motorid.diagnose.timing.delay_drift`:
         a logger's time base); each is said in :attr:`notes`. Empty where none drifts. With
         ``align``, the drifts taken out before the records were diagnosed again.
+    closed_loop : list of ClosedLoop
+        The records recognised as closed loops, or whose input looks like one's
+        (:mod:`.closed_loop`): how each was read and identified. Empty for open loops.
     """
 
     initial_gap: Gap
@@ -343,6 +347,7 @@ class Diagnosis:
     position_error: PositionError | None = None
     agreement: list[Agreement] = field(default_factory=list)
     delay_drift: list[DelayDrift] = field(default_factory=list)
+    closed_loop: list[ClosedLoop] = field(default_factory=list)
     _pool: Pool | None = field(default=None, repr=False)
 
     @property
@@ -477,6 +482,7 @@ class Diagnosis:
             **({"lookalikes": [x.to_dict() for x in self.lookalikes]} if self.lookalikes else {}),
             **({"notes": self.notes} if self.notes else {}),
             **({"delay_drift": [x.to_dict() for x in self.delay_drift]} if self.delay_drift else {}),
+            **({"closed_loop": [x.to_dict() for x in self.closed_loop]} if self.closed_loop else {}),
             **({"two_mass_rig": self._rig_dict()} if self.rig is not None else {}),
             **({"position_refit": self._position_dict()} if self.position_model is not None else {}),
         }

@@ -132,6 +132,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.diagnose.agreement import agreement
+from motorid.diagnose.closed_loop import instrumental_refit, kinetic_split, loop_records
 from motorid.diagnose.given_rig import GivenRig, rig_note
 from motorid.diagnose.locate import locate
 from motorid.diagnose.measures import fit_static_friction, free_run_error, gaps
@@ -208,6 +209,7 @@ def diagnose(
     resample: bool = False,
     labels: Sequence[str] | None = None,
     align: bool = False,
+    reference_column: str | None = None,
 ) -> Diagnosis:
     """Find the effects missing from a rigid drive model of ``record`` (see the module notes).
 
@@ -302,6 +304,11 @@ def diagnose(
         aligned records fit no better (their final gap in noise floors not below the record's own,
         or no drive model describes them), the diagnosis on the record's own time is kept and a
         note says so.
+    reference_column : str, optional
+        The column of a closed loop's reference; default a column named ``reference`` or ``r``.
+        A record with one is identified as a closed loop (:mod:`.closed_loop`): read with timing
+        ``"sampled"`` where it names none, the balance's linear parameters refitted with the
+        reference as instrument, and :attr:`Diagnosis.closed_loop` says so.
 
     Returns
     -------
@@ -349,7 +356,13 @@ def diagnose(
     labels = [f"record {k + 1}" for k in range(len(records))] if labels is None else [str(x) for x in labels]
     if len(labels) != len(records):
         raise DataError(f"labels: {len(labels)} labels for {len(records)} records")
+    given_records = list(records)
     records = normalised_records(records, labels, columns, reading)
+    # a closed loop's reference, kept (the pool lets the records go), and its timing
+    records, loops, references = loop_records(
+        given_records, records, labels, reference_column, timing, output_kind
+    )
+    del given_records
     if timing is None:
         timing = common_timing(records, labels)  # type: ignore[assignment]
     if timing not in ("auto", "hold", "sampled"):
@@ -408,12 +421,26 @@ def diagnose(
     # the results: the gaps before and after, and why the search stopped
     bar.set_postfix_str("final gaps")
     final_model = outcome.fit.model
+    if any(r is not None for r in references):
+        final_model, refitted_iv = instrumental_refit(pool, final_model, references)
+        for loop in loops:
+            loop.instrumental = refitted_iv if loop.reference is not None else {}
     initial_gap = pool.gaps(initial_model, first_region)
     refitted_gap = None if model is None else pool.gaps(refitted_model, first_region)
-    if outcome.steps or chosen.effects:
+    if outcome.steps or chosen.effects or final_model is not outcome.fit.model:
         final_gap = pool.gaps(final_model, first_region)
+        if final_model is not outcome.fit.model and not math.isfinite(final_gap.overall):
+            # the instrumental fit's model does not run free: the search's least squares kept
+            final_model = outcome.fit.model
+            for loop in loops:
+                loop.instrumental = {}
+            final_gap = pool.gaps(final_model, first_region)
     else:
         final_gap = initial_gap if refitted_gap is None else refitted_gap
+    # the standard errors of the parameters the instrumental fit gave, its own; and no delay set free by
+    # least squares in the balance (:mod:`.closed_loop`: it would take the loop's own correlation)
+    instrumental = next((loop.instrumental for loop in loops if loop.instrumental), {})
+    param_std = {**outcome.fit.param_std, **{k: v["standard_error"] for k, v in instrumental.items()}}
     refuse_unphysical(final_model, final_gap.overall, pool.units)
     drifts = [d for d in delay_drift(pool, final_model) if d.drifts]
     final_region = locate(pool.balance_residual(final_model)[0], pool.feats_dec, pool.units)
@@ -443,8 +470,8 @@ def diagnose(
         noise_floor=pool.noise, final_region=final_region,
         model=final_model, initial_model=initial_model, region=first_region, units=pool.units,
         settings=settings, rejected=outcome.rejected, refitted_model=None if model is None else refitted_model,
-        refitted_gap=refitted_gap, param_std=outcome.fit.param_std, param_share=outcome.fit.param_share,
-        delay_trade=outcome.fit.delay_trade,
+        refitted_gap=refitted_gap, param_std=param_std, param_share=outcome.fit.param_share,
+        delay_trade=None if instrumental else outcome.fit.delay_trade,
         structure=chosen, structure_model=structure_model,
         records=record_summaries(pool, initial_model, final_model, first_region), _pool=pool,
         noise_bands=pool.noise_bands(), quantisation_step=pool.quantisation,
@@ -455,6 +482,10 @@ def diagnose(
         pool, final_model, diagnosis.param_std, set(diagnosis.undetermined), diagnosis.delay_trade
     )
     diagnosis.delay_drift = drifts
+    diagnosis.closed_loop = [loop for loop in loops if loop.closed]
+    split = kinetic_split(final_model, pool.units) if diagnosis.closed_loop else None
+    if split is not None:
+        diagnosis.notes.append(split)
     if not (align and drifts):
         return diagnosis
     # the drift found: each drifting record's output put back on its input's time, then again

@@ -127,6 +127,9 @@ class RunRecorder:
         here, before the run starts.
     keep : int or None
         Rows kept in memory for :meth:`frame`; None keeps all of them.
+    preamble : sequence of str
+        Lines written before the header, each whole (a record's attribute line,
+        :data:`motorid.records.ATTRS_MARKER`), so the file says its sample time and units.
 
     Attributes
     ----------
@@ -155,6 +158,7 @@ class RunRecorder:
         *,
         overwrite: bool = False,
         keep: int | None = None,
+        preamble: Sequence[str] = (),
     ) -> None:
         if flush_every < 1:
             raise ValueError(f"flush_every must be >= 1, got {flush_every!r}")
@@ -170,6 +174,9 @@ class RunRecorder:
         self.largest_interval = math.nan
         self.largest_interval_sample = -1
         self.columns: list[str] | None = None
+        if any("\n" in line or "\r" in line for line in preamble):
+            raise ValueError("preamble: each line must be one line, without line breaks")
+        self.preamble = tuple(preamble)
         self._fd: int | None = None
         self._size = 0  # bytes in the file, ending on a whole line
         self._pending: list[bytes] = []  # lines formatted, not yet written
@@ -205,6 +212,7 @@ class RunRecorder:
                 self.path.parent.mkdir(parents=True, exist_ok=True)
                 self._fd = self._open_alone()
                 self.created = True
+                self._pending.extend(line.encode("utf-8") + b"\n" for line in self.preamble)
                 self._pending.append(self._csv_line(self.columns))
         self.rows.append(row)
         self.count += 1
@@ -241,8 +249,9 @@ class RunRecorder:
                 break
             whole_bytes += len(line)
             whole_lines += 1
-        header_in_batch = self._size == 0
-        rows = self.on_disk + whole_lines - (1 if header_in_batch and whole_lines else 0)
+        # the preamble and the header, where this batch holds them
+        header_lines = 1 + len(self.preamble) if self._size == 0 else 0
+        rows = self.on_disk + max(whole_lines - header_lines, 0)
         size = self._size + whole_bytes
         fd, self._fd = self._fd, None
         try:

@@ -1,0 +1,458 @@
+"""Closed-loop records: a drive measured while a controller computed its input from its output.
+
+A closed loop changes three things the doctor otherwise takes for granted:
+
+- **Timing.** A controller reads the speed, then commands: ``y[k]`` is measured at ``t[k]`` and
+  ``u[k]`` held over ``[t[k], t[k] + dt)`` (``timing="sampled"``, :data:`motorid.records.TIMINGS`).
+  Read with the open loop's ``"hold"`` timing, every command seems to act one sample late, and the
+  delay search takes that sample, and the loop's own correlation around it, for an input delay
+  (55 ms on ``motorid control``'s 40 ms loop). **The rule**: a record recognised as closed loop
+  (or whose input looks like a controller's: below) whose attributes name no timing is read with
+  ``"sampled"`` timing, and the report says so. And where the balance is refitted by instrumental
+  variables (below), no delay is set free in it by least squares
+  (:attr:`~motorid.diagnose.results.Diagnosis.delay_trade` is None): on ``motorid control``'s loop
+  that fit took the loop's correlation for a 14.6 ms delay the structure search had rejected, and
+  called the inertia undetermined for it.
+- **Noise fed back.** The input holds the controller's answer to the measured speed's noise, so
+  the input and the noise on the regressors of the torque balance (the filtered speed and its
+  derivative) are correlated, and least squares is biased. With the loop's reference ``r`` (a
+  signal the noise never reaches) the linear part of the balance is refitted by instrumental
+  variables (:func:`instrumental_refit`)::
+
+      F_in,d = X θ + e,        X = [a_d, c_1(w_d), ..., c_m(w_d)]      (the balance's columns)
+      Z = [a_r,d, c_1(r_d), ..., c_m(r_d)]                              (the same at the reference)
+      θ_IV = (Zᵀ X)⁻¹ Zᵀ F_in,d
+      cov θ_IV = σ² (Zᵀ X)⁻¹ Zᵀ Z (Xᵀ Z)⁻¹,    σ² = ||F_in,d - X θ_IV||² / (M - k)
+
+  on the M decimated moving rows, ``r`` filtered, differentiated and decimated as the speed is
+  (:func:`~motorid.diagnose.kinematics.kinematics`), the shape parameters (a Stribeck velocity, a
+  dead zone, a delay) held at the search's values. The instruments are correlated with the
+  regressors (the loop makes the speed follow the reference) and not with the noise, so θ_IV is
+  consistent where least squares is not.
+- **What the record can tell.** A loop that keeps the input beyond the dead zone whenever the
+  drive moves (a compensation that jumps across it at each reversal) leaves Coulomb friction and
+  the dead zone one kinetic level: the doctor then names one and reports the other as its
+  lookalike (:class:`~motorid.diagnose.results.Lookalike`), with their common level. Where it names
+  both (a PI alone winds through the dead zone at each reversal), their split rests on the few
+  samples where the command crosses it, and a note gives their sum (:func:`kinetic_split`).
+
+A record is recognised as closed loop by its reference column (named ``reference`` or ``r``, as
+``motorid control --out`` writes it, or given: ``reference_column``). A record without one whose
+input answers its output's noise as a controller does (:func:`input_feedback`: the input's
+innovation correlated negatively with the output's, beyond what an open loop's plant gives) is
+said to look closed: it is read with the loop's timing and fitted by least squares, and the
+sentence asks for its reference. Closed loops are recognised on speed records only (a position
+loop's reference, EMPS's, is a position).
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from motorid.diagnose.kinematics import kinematics
+from motorid.diagnose.model import model_balance
+from motorid.diagnose.prepare import Pool
+from motorid.drive.effects import get as get_effect
+from motorid.drive.rigid import RigidDrive
+from motorid.errors import DataError
+
+logger = logging.getLogger(__name__)
+
+#: Column names a closed loop's reference goes by (``motorid control --out`` writes ``reference``).
+REFERENCE_COLUMNS = ("reference", "r")
+#: Order of the autoregressions whose residuals are the input's and the output's innovations
+#: (:func:`input_feedback`).
+FEEDBACK_LAGS = 8
+#: Correlation of the innovations below which a record without a reference is said to look closed
+#: [-] (with :data:`FEEDBACK_Z`): on ``motorid control``'s loop without compensation -0.78; on open
+#: loops -0.01 to +0.19 (the simulated rig's two-sine record, the 15 records of ``realmotors`` read as
+#: they are, 21 planted records of :mod:`.synthetic`, 70 benches of :mod:`.bench`: two seeds per
+#: imperfection and effect).
+FEEDBACK_CORRELATION = -0.3
+#: Standard errors of a correlation of nothing (1/sqrt(M)) the correlation must lie beyond.
+FEEDBACK_Z = 5.0
+#: Most samples (the first) :func:`input_feedback` looks at: a loop shows in far fewer, and the
+#: autoregressions' columns of a day at 1 kHz would take gigabytes.
+FEEDBACK_SAMPLES = 100_000
+
+
+def reference_column(record: pd.DataFrame, given: str | None = None) -> str | None:
+    """The column of ``record`` that holds a closed loop's reference: ``given`` (a DataError naming
+    it where the record has no such column), else the first of :data:`REFERENCE_COLUMNS` it holds,
+    else None.
+
+    Parameters
+    ----------
+    record : DataFrame
+        A record.
+    given : str, optional
+        The column named by the user (``reference_column``, ``--reference-column``).
+    """
+    if given is not None:
+        if given not in record.columns:
+            raise DataError(
+                f"reference_column={given!r}: the record has no such column (it has "
+                f"{', '.join(map(str, record.columns))})"
+            )
+        return given
+    return next((c for c in REFERENCE_COLUMNS if c in record.columns), None)
+
+
+@dataclass(frozen=True)
+class Feedback:
+    """How the input answers its output's noise (:func:`input_feedback`).
+
+    Attributes
+    ----------
+    correlation : float
+        The most negative correlation of the input's innovation with the output's innovation one
+        sample before or at the same sample [-].
+    lag : int
+        Its lag [samples]: the input's innovation ``lag`` samples after the output's.
+    samples : int
+        M, the innovations correlated.
+    """
+
+    correlation: float
+    lag: int
+    samples: int
+
+    @property
+    def looks_closed(self) -> bool:
+        """A correlation below :data:`FEEDBACK_CORRELATION` and :data:`FEEDBACK_Z` standard errors."""
+        return (
+            self.correlation < FEEDBACK_CORRELATION
+            and -self.correlation * math.sqrt(self.samples) > FEEDBACK_Z
+        )
+
+
+def innovation(x: np.ndarray, order: int = FEEDBACK_LAGS) -> np.ndarray:
+    """What a signal's own past does not predict: the residual of its least-squares autoregression
+    ``x[k] = c + Σ_i α_i x[k-i]`` (i = 1..order), clipped at 3 robust standard deviations
+    (1.4826 times the median absolute deviation) so a few jumps (a compensation switching at a
+    reversal) do not decide a correlation; one value per sample from ``order`` on.
+
+    Parameters
+    ----------
+    x : ndarray
+        The signal.
+    order : int
+        The autoregression's order, >= 1.
+    """
+    n = x.size
+    X = np.column_stack([np.ones(n - order)] + [x[order - i : n - i] for i in range(1, order + 1)])
+    scale = np.maximum(np.linalg.norm(X, axis=0), 1e-300)
+    theta, *_ = np.linalg.lstsq(X / scale, x[order:], rcond=None)
+    e = x[order:] - (X / scale) @ theta
+    spread = 1.4826 * float(np.median(np.abs(e - np.median(e))))
+    return np.clip(e, -3.0 * spread, 3.0 * spread) if spread > 0.0 else e
+
+
+def input_feedback(u: np.ndarray, y: np.ndarray, order: int = FEEDBACK_LAGS) -> Feedback:
+    """Whether the input answers the output's noise, as a controller does.
+
+    With ``ε_u`` and ``ε_y`` the innovations of the input and the output (:func:`innovation`)::
+
+        ρ_τ = corr(ε_u[k + τ], ε_y[k]),    τ = 0, 1
+
+    A controller answers the noise of the speed it reads with a command of the opposite sign
+    (negative feedback, ``u = -K_p y + ...``), in the same sample (a loop that reads, then
+    commands) or the next: ρ is clearly negative. In an open loop the input is the
+    experimenter's and never sees the output's noise, and the plant answers the input with the
+    same sign: ρ lies near zero or above it. A loop whose command is dominated by a feed-forward
+    of its reference (a friction compensation that switches at each reversal) can hide its
+    feedback from this test; its reference column says it.
+
+    Parameters
+    ----------
+    u, y : ndarray
+        The input and the output, one sample each per row (the first :data:`FEEDBACK_SAMPLES`
+        are looked at).
+    order : int
+        The autoregressions' order, >= 1.
+
+    Returns
+    -------
+    Feedback
+    """
+    u = np.asarray(u, dtype=float)[:FEEDBACK_SAMPLES]
+    y = np.asarray(y, dtype=float)[:FEEDBACK_SAMPLES]
+    if u.size < 4 * order + 4:
+        return Feedback(0.0, 0, 0)
+    eu, ey = innovation(u, order), innovation(y, order)
+    best = Feedback(0.0, 0, eu.size)
+    for lag in (0, 1):
+        a = eu[lag:] - eu[lag:].mean()
+        b = ey[: ey.size - lag] - ey[: ey.size - lag].mean()
+        norm = math.sqrt(float(a @ a) * float(b @ b))
+        rho = float(a @ b) / norm if norm > 0.0 else 0.0
+        if rho < best.correlation:
+            best = Feedback(rho, lag, a.size)
+    return best
+
+
+@dataclass
+class ClosedLoop:
+    """What the doctor found of one record's loop, and how it identified it.
+
+    Attributes
+    ----------
+    label : str
+        The record.
+    reference : str or None
+        Its reference column (None: it has none).
+    feedback : Feedback
+        How much of its input the output's past explains.
+    timing_set : bool
+        Whether its timing was set to ``"sampled"`` by the rule of the module notes.
+    instrumental : dict
+        Per linear parameter refitted by instrumental variables: ``value``, ``standard_error`` and
+        ``least_squares`` (the search's value) [the parameter's unit]; empty without a reference.
+    """
+
+    label: str
+    reference: str | None
+    feedback: Feedback
+    timing_set: bool = False
+    instrumental: dict[str, dict[str, float]] = field(default_factory=dict)
+
+    @property
+    def closed(self) -> bool:
+        """A reference column, or an input that follows the output's past."""
+        return self.reference is not None or self.feedback.looks_closed
+
+    @property
+    def method(self) -> str:
+        """How the record was identified: ``instrumental variables`` or ``least squares``."""
+        return "instrumental variables" if self.instrumental else "least squares"
+
+    def sentence(self, units: dict[str, str] | None = None) -> str:
+        """The report's line on the loop."""
+        timing = "; read with timing 'sampled' (the loop reads, then commands)" if self.timing_set else ""
+        if self.reference is None:
+            fb = self.feedback
+            return (
+                f"the input answers the output's noise (their innovations correlate at {fb.correlation:.2f}, the "
+                f"input's {fb.lag} sample{'s' if fb.lag != 1 else ''} after){timing}: the record looks "
+                "like a closed loop; fitted by least squares as an open loop, which the loop's feedback of "
+                "the noise can bias: give its reference column (reference_column, --reference-column)"
+            )
+        moved = ", ".join(
+            f"{name} {entry['least_squares']:.4g} -> {entry['value']:.4g} ± {entry['standard_error']:.2g}"
+            for name, entry in self.instrumental.items()
+        )
+        return (
+            f"closed loop: the reference is column {self.reference!r}{timing}; the balance's linear "
+            f"parameters refitted with the reference as instrument ({moved or 'none'})"
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """For ``--json``."""
+        return {
+            "record": self.label, "closed": self.closed, "reference": self.reference,
+            "feedback_correlation": self.feedback.correlation, "feedback_lag": self.feedback.lag,
+            "timing_set": self.timing_set, "method": self.method,
+            "instrumental": {name: dict(entry) for name, entry in self.instrumental.items()},
+            "sentence": self.sentence(),
+        }  # fmt: skip
+
+
+def kinetic_split(model: RigidDrive, units: dict[str, str]) -> str | None:
+    """On a closed loop's model that holds both Coulomb friction ``F_c`` and an input dead zone
+    ``d``, the sentence that their sum is what the loop determines, ``F_c + g d`` [F] (``g`` the
+    input gain); None for a model without both.
+
+    A loop keeps its input out of the dead zone while the drive moves, except for the few samples
+    where the command crosses it (at a reversal, or while a PI winds through it at rest), so the two
+    hold the moving drive back as one level and their split rests on those samples.
+
+    Parameters
+    ----------
+    model : RigidDrive
+        The final model.
+    units : dict
+        The diagnosis's units (``F``, ``u``).
+    """
+    if not {"coulomb_friction", "input_dead_zone"} <= set(model.effects):
+        return None
+    coulomb, dead_zone = model.params["coulomb"], model.params["dead_zone"]
+    level = coulomb + model.input_gain * dead_zone
+    return (
+        f"closed loop: Coulomb friction {coulomb:.3g} {units['F']} and the dead zone {dead_zone:.3g} {units['u']} "
+        f"hold the moving drive back as one level, {level:.3g} {units['F']}, which the loop's record determines; "
+        "their split rests on the few samples where the command crosses the dead zone (an open-loop record "
+        "separates them)"
+    )
+
+
+def loop_records(
+    given_records: list[pd.DataFrame],
+    records: list[pd.DataFrame],
+    labels: list[str],
+    given: str | None,
+    timing: str | None,
+    output_kind: str = "velocity",
+) -> tuple[list[pd.DataFrame], list[ClosedLoop], list[np.ndarray | None]]:
+    """The records with the timing rule applied, what each says of its loop, and each one's
+    reference (None: it has none).
+
+    A record with a reference column, or whose input looks like a controller's
+    (:attr:`Feedback.looks_closed`), whose attributes name no timing (and no ``timing`` given) is
+    given ``attrs["timing"] = "sampled"`` (a copy; the module notes' rule). The reference is taken
+    from the record as given, in its own unit: an instrument's scale changes nothing of θ_IV.
+
+    Parameters
+    ----------
+    given_records : list of DataFrame
+        The records as the user gave them (the reference among their columns).
+    records : list of DataFrame
+        The same records normalised (columns ``u``, ``y``).
+    labels : list of str
+        Their names.
+    given : str, optional
+        The reference column named by the user.
+    timing : str, optional
+        The timing given to the doctor (None: the records').
+    output_kind : {"velocity", "position"}
+        What the records measure. Closed loops are recognised on speed records only: a position
+        loop's reference is a position (EMPS's), which the instruments here do not take, and
+        :func:`input_feedback`'s bounds were measured on speeds.
+    """
+    if given is not None and output_kind != "velocity":
+        raise DataError(
+            f"reference_column={given!r}: closed loops are identified on speed records; a position loop's "
+            "reference (a position) is not taken as an instrument"
+        )
+    out, loops, references = [], [], []
+    for raw, record, label in zip(given_records, records, labels, strict=True):
+        if output_kind != "velocity":
+            out.append(record)
+            references.append(None)
+            loops.append(ClosedLoop(label, None, Feedback(0.0, 0, 0)))
+            continue
+        column = reference_column(raw, given) if isinstance(raw, pd.DataFrame) else None
+        reference = None if column is None else raw[column].to_numpy(dtype=float)
+        if reference is not None and reference.size != len(record):
+            logger.info("%s: the reference is not row for row with the record as read: no instruments", label)
+            reference = None
+        feedback = input_feedback(record["u"].to_numpy(dtype=float), record["y"].to_numpy(dtype=float))
+        closed = column is not None or feedback.looks_closed
+        timing_set = closed and timing is None and "timing" not in record.attrs
+        if timing_set:
+            record = record.copy()
+            record.attrs["timing"] = "sampled"
+        out.append(record)
+        references.append(reference)
+        loops.append(ClosedLoop(label, column, feedback, timing_set))
+    return out, loops, references
+
+
+def instrumental_refit(
+    pool: Pool, model: RigidDrive, references: list[np.ndarray | None]
+) -> tuple[RigidDrive, dict[str, dict[str, float]]]:
+    """The model with the linear parameters of its torque balance refitted by instrumental
+    variables, the reference as instrument (the module notes' equations), its shape parameters
+    held.
+
+    Parameters
+    ----------
+    pool : Pool
+        The prepared records.
+    model : RigidDrive
+        The search's model (least squares).
+    references : list of ndarray or None
+        Each record's reference, row for row with the record as read (None: the record has none
+        and adds no rows).
+
+    Returns
+    -------
+    RigidDrive, dict
+        The refitted model (``model`` itself where no record has a reference or the instruments
+        do not determine the parameters), and per refitted parameter its ``value``,
+        ``standard_error`` and ``least_squares`` value.
+    """
+    effects = [
+        get_effect(n) for n in sorted(model.effects, key=lambda n: n != "offset")
+        if get_effect(n).kind == "friction" and get_effect(n).linear and not get_effect(n).position
+    ]  # fmt: skip
+    names = ["inertia"] + [p for eff in effects for p in eff.linear]
+    X_rows, Z_rows, F_rows = [], [], []
+    for prep, r in zip(pool.parts, references, strict=True):
+        if r is None:
+            continue
+        kin, data = prep.kin, prep.data
+        r = np.asarray(r, dtype=float)
+        if prep.timing == "sampled":
+            r = r[1:]  # paired as the output is (prepare)
+        r = r[r.size - kin.n :]  # the samples a bad start left out go here too
+        kin_r = kinematics(kin.u, r, kin.dt, "velocity", kin.band)
+        if kin_r.factor != kin.factor or not np.array_equal(kin_r.decimated_index, data.idx):
+            logger.info("the reference decimates unlike the speed: no instruments from it")
+            continue
+        rows = data.moving
+        f_in = model_balance(model, data)[0]
+        x_cols, z_cols = [data.a], [kin_r.decimate(kin_r.a)]
+        for eff in effects:
+            on_w = eff.columns(kin.w, model.params, model.stribeck_shape, None)
+            on_r = eff.columns(kin_r.w, model.params, model.stribeck_shape, None)
+            for j in range(len(eff.linear)):
+                x_cols.append(kin.decimate(on_w[:, j]))
+                z_cols.append(kin_r.decimate(on_r[:, j]))
+        X_rows.append(np.column_stack(x_cols)[rows])
+        Z_rows.append(np.column_stack(z_cols)[rows])
+        F_rows.append(f_in[rows])
+    if not X_rows:
+        return model, {}
+    X, Z, F = np.vstack(X_rows), np.vstack(Z_rows), np.concatenate(F_rows)
+    # columns the instruments carry nothing of (a zero column on the moving rows) keep their values
+    used = np.flatnonzero((np.linalg.norm(X, axis=0) > 0.0) & (np.linalg.norm(Z, axis=0) > 0.0))
+    X, Z = X[:, used], Z[:, used]
+    scale = np.linalg.norm(X, axis=0)
+    Xs, Zs = X / scale, Z / np.linalg.norm(Z, axis=0)
+    ZX = Zs.T @ Xs
+    m, k = X.shape
+    if m <= k or np.linalg.cond(ZX) > 1e8:
+        logger.info("the reference does not determine the balance's parameters: least squares kept")
+        return model, {}
+    theta_s = np.linalg.solve(ZX, Zs.T @ F)  # θ_IV = (ZᵀX)⁻¹ ZᵀF, on unit-norm columns
+    residual = F - Xs @ theta_s
+    sigma2 = float(residual @ residual) / (m - k)  # σ² = ||F - X θ||² / (M - k)
+    inv = np.linalg.inv(ZX)
+    cov_s = sigma2 * inv @ (Zs.T @ Zs) @ inv.T  # cov θ = σ² (ZᵀX)⁻¹ ZᵀZ (XᵀZ)⁻¹
+    theta = theta_s / scale
+    std = np.sqrt(np.clip(np.diag(cov_s), 0.0, None)) / scale
+    changes, entries = {}, {}
+    for j, col in enumerate(used):
+        name = names[col]
+        value = float(theta[j])  # [the parameter's unit]: the balance is in force units, as the model
+        changes[name] = value
+        entries[name] = {"value": value, "standard_error": float(std[j]),
+                         "least_squares": float(model.params[name])}  # fmt: skip
+    try:
+        return model.with_params(**changes), entries
+    except ValueError as exc:  # a parameter of the wrong sign (a negative inertia or Coulomb level)
+        logger.info("instrumental variables give a non-physical model (%s): least squares kept", exc)
+        return model, {}
+
+
+__all__ = [
+    "FEEDBACK_CORRELATION",
+    "FEEDBACK_LAGS",
+    "FEEDBACK_SAMPLES",
+    "FEEDBACK_Z",
+    "REFERENCE_COLUMNS",
+    "ClosedLoop",
+    "Feedback",
+    "innovation",
+    "input_feedback",
+    "instrumental_refit",
+    "kinetic_split",
+    "loop_records",
+    "reference_column",
+]

@@ -1,0 +1,223 @@
+"""Closed-loop records: ``motorid control --out`` writes a record every command reads as it is, and
+the doctor recognises a closed loop, reads it with the loop's timing and refits its balance with the
+reference as instrument (:mod:`motorid.diagnose.closed_loop`).
+
+The truths: the rig's rigid equivalent has input gain g = K_m / R_a = 0.02142 N m/V, so without
+``--input-gain`` a Coulomb torque of 0.005 + 0.002 N m (motor and load) is 0.327 V of input, and
+a dead zone of 0.5 V adds 0.5 V to the level that holds a moving drive back.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from cli_fixtures import run
+
+from motorid.diagnose import diagnose
+from motorid.diagnose.closed_loop import input_feedback
+from motorid.diagnose.synthetic import planted_record
+from motorid.drive import Amplifier, Friction, RigidDrive, paper_rig
+from motorid.errors import DataError
+from motorid.records import read_record
+from motorid.signals import two_sine_signal
+from motorid.speed_control import SpeedController, design_speed_pi, reversing_reference
+
+#: The rig's input gain K_m / R_a [N m/V] (paper_rig: K_m = 0.04284 N m/A, R_a = 2 ohm).
+GAIN = 0.04284 / 2.0
+#: The rig's Coulomb torque, motor 0.005 + load 0.002 N m, in volts of input.
+COULOMB_V = 0.007 / GAIN
+#: The rig's inertia, motor 2.5e-5 + load 7.5e-5 kg m², per input gain [V s/(rad/s)].
+INERTIA_V = 1e-4 / GAIN
+#: The dead zone [V].
+DEAD_ZONE = 0.5
+#: The 15 % the issue asks of the friction found on a closed loop.
+WITHIN = 0.15
+DT = 0.04
+
+
+@pytest.fixture(scope="module")
+def loops(tmp_path_factory) -> Path:
+    """drive.json: the doctor's model of a 60 s open-loop record of the rig (Coulomb 0.005 N m on
+    the motor, dead zone 0.5 V); loop.csv and plain_loop.csv: ``motorid control`` (PI with friction
+    compensation from the reference, designed on drive.json) on that rig and on the rig without
+    its dead zone; pi_loop.csv: the PI alone on the first rig."""
+    root = tmp_path_factory.mktemp("closed_loop")
+    friction = (Friction(("coulomb_friction",), {"coulomb": 5e-3}, side="motor"),
+                Friction(("coulomb_friction",), {"coulomb": 2e-3}, side="load"))  # fmt: skip
+    rig = paper_rig(friction=friction, amplifier=Amplifier(dead_zone=DEAD_ZONE, v_max=12.0))
+    _, u = two_sine_signal(duration=60.0, dt=rig.dt, seed=0)
+    diagnose(rig.simulate(u, seed=1), max_steps=2).model.save(root / "drive.json")
+    for name, dead_zone, options in (("loop.csv", DEAD_ZONE, []), ("plain_loop.csv", 0.0, []),
+                                     ("pi_loop.csv", DEAD_ZONE, ["--no-compensation"])):  # fmt: skip
+        argv = ["control", "--design", str(root / "drive.json"), "--coulomb-motor", "0.005",
+                "--dead-zone", str(dead_zone), "--out", str(root / name), *options]  # fmt: skip
+        from motorid.cli import main
+
+        assert main(argv) == 0
+    return root
+
+
+def test_the_control_record_names_its_timing_units_and_reference(loops):
+    record = read_record(loops / "loop.csv")
+    assert record.attrs["dt"] == DT and record.attrs["timing"] == "sampled"
+    assert record.attrs["units"] == {"t": "s", "reference": "rad/s", "u": "V", "y": "rad/s"}
+    assert (
+        record.attrs["loop"]["reference"] == "reference"
+        and record.attrs["loop"]["compensation"] == "reference"
+    )
+    assert list(record.columns) == ["t", "reference", "u", "y", "clamped"] and len(record) == 300
+    # pandas reads it too, the attribute line as a comment
+    assert pd.read_csv(loops / "loop.csv", comment="#")["y"].equals(record["y"])
+
+
+def test_identify_and_compare_read_the_control_record_with_no_options(capsys, loops):
+    code, out, err = run(capsys, "identify", str(loops / "loop.csv"), "--estimator", "arx-rls", "--json")
+    assert code == 0, err
+    assert out["samples"] == 300 and out["output_unit"] == "rad/s"
+    code, out, err = run(
+        capsys, "compare", str(loops / "loop.csv"), "--model", str(loops / "drive.json"), "--json"
+    )
+    assert code == 0, err
+    (scores,) = out["models"].values()
+    assert scores["fit_percent"] > 90.0  # the open-loop model predicts the loop's speed from its commands
+
+
+def test_the_doctor_on_a_loop_with_coulomb_friction_and_a_dead_zone(capsys, loops):
+    code, out, err = run(capsys, "doctor", str(loops / "loop.csv"), "--json")
+    assert code == 0, err
+    # no invented delay (it took 55 ms, 1.4 samples, when the record was read with the open loop's timing)
+    assert "input_delay" not in out["structure"]["effects"]
+    assert out["units"]["velocity"] == "rad/s" and out["units"]["input"] == "V"
+    (loop,) = out["closed_loop"]
+    assert loop["reference"] == "reference" and loop["method"] == "instrumental variables"
+    assert "closed loop: the reference is column 'reference'" in err
+    # the compensation jumps across the dead zone at each reversal: the input is never inside it while the
+    # drive moves, so Coulomb friction and the dead zone are one level here, named once, the other its lookalike
+    (step,) = out["steps"]
+    assert step["effect"] == "coulomb_friction"
+    assert set(step["lookalike"]["effects"]) == {"coulomb_friction", "input_dead_zone"}
+    kinetic = out["model"]["params"]["coulomb"]
+    assert kinetic == pytest.approx(COULOMB_V + DEAD_ZONE, rel=WITHIN)
+    # no delay set free by least squares (it took 14.6 ms of the loop's correlation and called the inertia
+    # undetermined): the instrumental inertia holds the rig's 1e-4 kg m² within 3 of its standard errors
+    assert out["model"]["delay_trade"] is None and "inertia" not in out["model"]["params_undetermined"]
+    inertia, std = out["model"]["params"]["inertia"], out["model"]["params_std"]["inertia"]
+    assert abs(inertia - INERTIA_V) < 3.0 * std
+
+
+def test_the_doctor_on_a_loop_without_a_dead_zone(capsys, loops):
+    code, out, err = run(capsys, "doctor", str(loops / "plain_loop.csv"), "--json")
+    assert code == 0, err
+    assert "input_delay" not in out["structure"]["effects"]
+    assert out["closed_loop"][0]["reference"] == "reference"
+    assert out["model"]["params"]["coulomb"] == pytest.approx(COULOMB_V, rel=WITHIN)
+
+
+def test_a_pi_loop_that_names_coulomb_friction_and_the_dead_zone_says_their_sum_is_what_it_determines(
+    capsys, loops
+):
+    code, out, err = run(capsys, "doctor", str(loops / "pi_loop.csv"), "--json")
+    assert code == 0, err
+    assert "input_delay" not in out["structure"]["effects"]
+    params = out["model"]["params"]
+    assert {"coulomb_friction", "input_dead_zone"} <= set(out["model"]["effects"])
+    level = params["coulomb"] + params["dead_zone"]  # no input gain: both in V
+    assert level == pytest.approx(COULOMB_V + DEAD_ZONE, rel=WITHIN)
+    (note,) = [n for n in out["notes"] if n.startswith("closed loop: Coulomb friction")]
+    assert f"as one level, {level:.3g} V" in note
+
+
+def test_a_loop_record_without_attributes_is_read_with_the_loops_timing(loops):
+    plain = pd.read_csv(loops / "loop.csv", comment="#")  # a PLC's log of the loop: no dt, units or timing
+    plain.attrs = {}
+    d = diagnose(plain, max_steps=1)
+    (loop,) = d.closed_loop
+    assert loop.timing_set and d.settings["timing"] == "sampled"
+    assert "input_delay" not in d.structure.effects
+    assert "read with timing 'sampled'" in loop.sentence()
+    # the same log read with the open loop's timing takes the loop's one-sample shift for a delay
+    held = diagnose(plain, max_steps=1, timing="hold")
+    assert held.structure.params["input_delay"] > DT
+
+
+def simulated_loop(noise: float, seed: int) -> tuple[RigidDrive, pd.DataFrame]:
+    """A PI loop (bandwidth 40 rad/s, no compensation) at 10 ms on a drive with viscous and Coulomb
+    friction, its speed read with white noise of ``noise`` rad/s RMS: t, reference, u, y, sampled."""
+    dt = 0.01
+    drive = RigidDrive(("viscous_friction", "coulomb_friction"),
+                       {"inertia": 0.005, "input_gain": 1.0, "viscous": 0.04, "coulomb": 0.3}, dt=dt)  # fmt: skip
+    rng = np.random.default_rng(seed)
+    _, r = reversing_reference("sine", 30.0, 4.0, 40.0, dt)
+    controller = SpeedController(design_speed_pi(drive, dt, bandwidth=40.0), dt, None)
+    sim, w, rows = drive.simulation(), 0.0, []
+    for k in range(r.size):
+        y = w + noise * rng.standard_normal()
+        u = controller.step(r[k], y)
+        rows.append((k * dt, r[k], u, y))
+        w = sim.step(u)
+    record = pd.DataFrame(rows, columns=["t", "reference", "u", "y"])
+    record.attrs.update(dt=dt, timing="sampled")
+    return drive, record
+
+
+def test_the_reference_as_instrument_removes_the_loops_bias():
+    drive, record = simulated_loop(noise=1.0, seed=0)
+    d = diagnose(record, base=("viscous_friction", "coulomb_friction"), max_steps=0, structure=False)
+    (loop,) = d.closed_loop
+    for name in ("inertia", "coulomb", "viscous"):
+        entry, truth = loop.instrumental[name], drive.params[name]
+        # the instrumental estimate holds the truth within 3 of its standard errors
+        assert abs(entry["value"] - truth) < 3.0 * entry["standard_error"], name
+        assert d.model.params[name] == entry["value"] and d.param_std[name] == entry["standard_error"]
+    # least squares, which the noise fed back through the PI reaches, misses the inertia by more than 25 % (38 %)
+    ls = loop.instrumental["inertia"]["least_squares"]
+    assert abs(ls - drive.params["inertia"]) > 0.25 * drive.params["inertia"]
+    assert (
+        abs(loop.instrumental["inertia"]["value"] - drive.params["inertia"]) < 0.1 * drive.params["inertia"]
+    )
+
+
+def test_an_input_that_answers_the_outputs_noise_looks_closed():
+    _, record = simulated_loop(noise=0.5, seed=1)
+    assert input_feedback(record["u"].to_numpy(), record["y"].to_numpy()).looks_closed
+    log = record.drop(columns="reference")
+    log.attrs = {"dt": record.attrs["dt"]}  # a log that names no timing
+    d = diagnose(log, max_steps=0)
+    (loop,) = d.closed_loop
+    assert loop.reference is None and "looks like a closed loop" in loop.sentence()
+    assert loop.timing_set and d.settings["timing"] == "sampled"  # the loop's timing: no one-sample shift
+    assert "input_delay" not in d.structure.effects
+    assert "closed_loop" in d.to_dict()
+    # an open loop's input never sees the output's noise
+    for effect, seed in (("coulomb_friction", 3), (None, 4)):
+        open_loop = planted_record(effect, seed).record
+        assert not input_feedback(open_loop["u"].to_numpy(), open_loop["y"].to_numpy()).looks_closed
+        assert "closed_loop" not in diagnose(open_loop, max_steps=0).to_dict()
+
+
+def test_a_reference_column_that_is_not_there_is_refused_by_name(capsys, loops):
+    _, record = simulated_loop(noise=0.5, seed=1)
+    with pytest.raises(DataError, match="reference_column='setpoint': the record has no such column"):
+        diagnose(record, reference_column="setpoint", max_steps=0)
+    code, _, err = run(capsys, "doctor", str(loops / "loop.csv"), "--reference-column", "setpoint")
+    assert code == 2 and "--reference-column setpoint" in err and "no such column" in err
+
+
+def test_a_full_disk_in_the_first_write_counts_the_rows_after_the_attribute_line(small_disk):
+    from motorid.errors import OutputError
+    from motorid.io.online import RunRecorder
+    from motorid.speed_control import attrs_line
+
+    line = attrs_line({"dt": DT, "units": {"t": "s", "u": "V", "y": "rad/s"}, "timing": "sampled"})
+    recorder = RunRecorder(small_disk / "run.csv", flush_every=100_000, preamble=[line])  # one write: 4 MB
+    with pytest.raises(OutputError, match=r"the file holds the first \d+ of 100000 samples") as info:
+        for k in range(100_000):
+            recorder.append({"t": k * DT, "seq": k + 1, "u": 1.0 / 3.0, "y": float(k) / 7.0})
+    recorder.close()
+    table = read_record(small_disk / "run.csv")
+    assert table.attrs["timing"] == "sampled"
+    assert len(table) == recorder.on_disk == int(str(info.value).split("first ")[1].split(" of")[0])
+    assert table["seq"].tolist() == list(range(1, len(table) + 1))
