@@ -218,7 +218,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     serve.add_argument("--realtime", action="store_true", help="advance with the clock, not lock-step")
     add_plant_seed(serve, default=None)
     serve.add_argument("--watchdog-periods", type=non_negative, default=3.0,
-                       help="heartbeat timeout [samples]; 0: off (default: 3)")  # fmt: skip
+                       help="the watchdog: with --realtime, the time without a heartbeat [sample periods]; "
+                            "lock-step, the commands in a row without a heartbeat (the plant waits for the "
+                            "client); more zero the voltage and latch a fault; 0: off (default: 3)")  # fmt: skip
     serve.add_argument("--u-max", type=positive,
                        help="voltage rating [V]: commands are clamped to it (default: the rig's amplifier "
                             "saturation, or the rigid drive's input saturation)")  # fmt: skip
