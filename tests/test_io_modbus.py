@@ -377,5 +377,7 @@ def test_rig_process_killed_mid_run_and_sigterm(tmp_path):
 
     proc = start_rig_process(port, "--plant-seed", "1", "--watchdog-periods", "0")
     proc.send_signal(signal.SIGTERM)
-    assert proc.wait(30) == 0
-    assert "stopped" in proc.stderr.read()
+    code = proc.wait(30)
+    err = proc.stderr.read()
+    assert code == 0, err
+    assert "stopped" in err

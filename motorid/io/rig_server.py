@@ -79,6 +79,8 @@ __all__ = ["RigServer", "rig_map_toml"]
 _READONLY = ("sequence", "speed", "refused_writes")
 #: Function codes the rig answers: read holding registers, write one, write many, read/write many.
 SUPPORTED_FUNCTION_CODES = frozenset({3, 6, 16, 23})
+#: Time the real-time watchdog lets requests already received be served before it trips [s].
+_SERVE_PENDING = 0.002
 #: The connection (request handler) whose request is being served, for the rig's owner rule.
 _CLIENT: contextvars.ContextVar[object | None] = contextvars.ContextVar("rig_client", default=None)
 
@@ -215,6 +217,7 @@ class RigServer:
         self._armed = False
         self._unbeaten_commands = 0  # the owner's commands since its last heartbeat (lock-step watchdog)
         self._owner: object | None = None  # the request handler (connection) that owns the rig
+        self._owner_name = ""  # its HOST:PORT, kept for the messages after it disconnected
         self._thread: threading.Thread | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._stop_event: asyncio.Event | None = None
@@ -318,7 +321,7 @@ class RigServer:
         if self.voltage:
             logger.info(
                 "rig: the owning client %s disconnected at %.4g V: voltage set to 0 V",
-                _client_name(client),
+                self._owner_name,
                 self.voltage,
             )
         self.voltage = 0.0
@@ -366,16 +369,16 @@ class RigServer:
                 logger.debug(
                     "rig: write of %s refused: %s owns the rig (%d refused)",
                     _client_name(client),
-                    _client_name(self._owner),
+                    self._owner_name,
                     self.refused_writes,
                 )
                 from pymodbus.constants import ExcCodes
 
                 return ExcCodes.DEVICE_BUSY
             if self._owner is None:
-                self._owner = client
+                self._owner, self._owner_name = client, _client_name(client)
                 self._unbeaten_commands = 0
-                logger.info("rig: owned by client %s", _client_name(client))
+                logger.info("rig: owned by client %s", self._owner_name)
             words = list(self._words)
             first = address - self._base
             words[first : first + count] = [int(v) for v in set_values]
@@ -429,10 +432,16 @@ class RigServer:
         loop = asyncio.get_running_loop()
         while True:
             await asyncio.sleep(min(self.dt / 2, limit / 3))
-            if self._armed and loop.time() - self._last_contact > limit:
+            if not (self._armed and loop.time() - self._last_contact > limit):
+                continue
+            # a server the machine paused may hold requests that came in time: serve them before judging
+            # (a request takes several turns of the loop between its bytes and the register image)
+            await asyncio.sleep(_SERVE_PENDING)
+            silent = loop.time() - self._last_contact
+            if self._armed and silent > limit:
                 self._trip(
-                    f"no heartbeat from the owning client for more than {self.watchdog_periods:g} sample "
-                    f"periods ({limit:.3g} s)"
+                    f"no heartbeat from the owning client for {silent:.3g} s, more than {self.watchdog_periods:g} "
+                    f"sample periods ({limit:.3g} s)"
                 )
 
     async def _clock(self) -> None:
