@@ -106,10 +106,10 @@ class ModbusDAQ(DAQ):
         acknowledged silently: :meth:`read` raises :class:`RigFaultError`.
     wait_new_sample : bool
         :meth:`read` waits until the rig's sequence counter has moved on, so
-        a loop is paced by a real-time rig and never sees a sample twice: it
-        sleeps until a quarter period before the next sample is due, then
-        polls every ``dt / 20`` (at most 2 ms). A lock-step rig advances on
-        each :meth:`write`, so there is no wait.
+        a loop is paced by a real-time rig and never sees a sample twice: after
+        a read that had to wait, the next sleeps until a quarter period before
+        its sample is due, then polls every ``dt / 20`` (at most 2 ms). A
+        lock-step rig advances on each :meth:`write`, so there is no wait.
 
     Examples
     --------
@@ -173,7 +173,7 @@ class ModbusDAQ(DAQ):
         self._missed_open = 0  # missed_samples when the link opened
         self._missed_said: int | None = None  # missed_samples at the warning of this link's first miss
         self._seen_at: float | None = None  # time.monotonic() when the last new sample was read
-        self._paced = False  # the rig keeps its own time: a read found no new sample
+        self._waited = False  # the last read waited for its sample: the rig keeps its own time
         self._clamped_for_next = False
         m = register_map
         self._read_runs = contiguous_runs([m["status"], m["sequence"], m["speed"]])
@@ -412,10 +412,11 @@ class ModbusDAQ(DAQ):
         if not self._is_open:
             raise DAQError(f"{self.endpoint}: the DAQ is not open (call open() first)")
         deadline = None
-        if self._paced and self._seen_at is not None and self._seq_raw is not None:
+        if self._waited and self._seen_at is not None and self._seq_raw is not None:
             pause = self._seen_at + (1.0 - _WAKE_EARLY) * self._dt - time.monotonic()
             if pause > 0:
                 time.sleep(pause)
+        self._waited = False
         while True:
             status, seq_raw, y = self._read_words()
             if status & STATUS_FAULTS:
@@ -427,7 +428,7 @@ class ModbusDAQ(DAQ):
                 )
             if not self.wait_new_sample or self._seq_raw is None or seq_raw != self._seq_raw:
                 break
-            self._paced = True
+            self._waited = True
             now = time.monotonic()
             if deadline is None:
                 deadline = now + max(self.timeout, 2.0 * self._dt)
