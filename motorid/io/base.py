@@ -168,7 +168,7 @@ class DAQ(ABC):
             self._write(0.0)
             self._u = 0.0
         except Exception as exc:  # the link may be what failed; closing must go on
-            logger.warning("%s: could not command 0 V while closing: %s", self, exc)
+            logger.warning("could not command 0 V while closing: %s", exc)  # exc names the link
         finally:
             self._is_open = False
             if self._clamps_said is not None and self.clamp_count > self._clamps_said:
