@@ -117,7 +117,9 @@ def register_map_option(path: str | None) -> RegisterMap | None:
         return None
     try:
         return RegisterMap.from_toml(path)
-    except ValueError as exc:  # the message starts with the file's name
+    except DataError:  # a file that cannot be read: the message names it as a register map
+        raise
+    except ValueError as exc:  # a file that is no map: the message starts with the file's name
         raise DataError(f"--map {exc}") from None
 
 
@@ -132,8 +134,9 @@ def daq_from_options(
     if simulated and (register_map is not None or timeout is not None):
         given = "--map" if register_map is not None else "--timeout"
         raise DataError(f"{given} applies to a Modbus --daq only, not to --daq {url}")
+    the_map = register_map_option(register_map)
     try:
-        return daq_from_url(url, dt=dt, register_map=register_map_option(register_map), timeout=timeout, **kw)
+        return daq_from_url(url, dt=dt, register_map=the_map, timeout=timeout, **kw)
     except ValueError as exc:
         text = str(exc).removeprefix(f"{url.strip()!r}: ")
         if text.startswith("--") or simulated:  # the simulated rig's refusal names its dt (main's with_flags)
