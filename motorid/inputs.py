@@ -47,7 +47,7 @@ def read_small_file(path: str | os.PathLike[str], what: str, max_bytes: int) -> 
     try:
         fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_NOCTTY)
     except OSError as exc:
-        raise DataError(f"{where}: cannot open it: {exc.strerror or exc}") from None
+        raise DataError(f"{where}: cannot read it: {exc.strerror or exc}") from None
     try:
         mode = os.fstat(fd).st_mode
         if not stat.S_ISREG(mode):

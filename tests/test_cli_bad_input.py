@@ -81,6 +81,7 @@ def folder(tmp_path_factory) -> Path:
     lines = (root / "good.csv").read_text().splitlines()
     lines[6] += ",1.5"
     (root / "extra_field.csv").write_text("\n".join(lines) + "\n")
+    (root / "bad_map.toml").write_text("[[[\n")
     if hasattr(os, "mkfifo"):
         os.mkfifo(root / "fifo.csv")
     return root
@@ -240,6 +241,37 @@ BAD_INPUT = [
     ("full scale without counts", "identify {d}/good.csv --input-full-scale 255", ["--input-full-scale", "counts"]),
     ("a row with an extra field", "identify {d}/extra_field.csv", ["row 5", "line 7", "4 fields", "3"]),
     ("a FIFO named like a record", "identify {d}/fifo.csv", ["fifo.csv", "FIFO"]),
+    # the messages speak of the command's options, never of Python calls (ARXRLS.__init__(), ValueError)
+    ("--param the estimator does not take", "run --estimator arx-rls --duration 1 --out {d}/new.csv -p foo=1",
+     ["--param 'foo=1'", "'arx-rls' takes no argument 'foo'", "it takes na, nb", "--help-params"]),
+    ("--param the filter does not take", "identify {d}/good.csv --estimator friction-ekf --model {d}/rig.json -p Q=1",
+     ["--param 'Q=1'", "takes no argument 'Q'", "coulomb0"]),
+    ("--daq of no known kind", "run --estimator arx-rls --duration 1 --out {d}/new.csv --daq bogus://x",
+     ["--daq 'bogus://x'", "modbus://HOST:PORT"]),
+    ("--daq with an unknown query", "run --estimator arx-rls --duration 1 --out {d}/new.csv --daq modbus://127.0.0.1:9?foo=2",
+     ["--daq modbus://127.0.0.1:9?foo=2: unknown query parameter"]),
+    ("--map that is no TOML", "run --estimator arx-rls --duration 1 --out {d}/new.csv --daq modbus://127.0.0.1:9 "
+     "--map {d}/bad_map.toml", ["--map", "bad_map.toml", "not valid TOML"]),
+    ("rig map --map that is no TOML", "rig map --map {d}/bad_map.toml", ["--map", "bad_map.toml", "not valid TOML"]),
+    ("--map with the simulated rig", "run --estimator arx-rls --duration 1 --out {d}/new.csv --map {d}/bad_map.toml",
+     ["--map", "Modbus --daq only", "--daq sim"]),
+    ("--dt the simulated rig cannot take", "run --estimator arx-rls --duration 1 --out {d}/new.csv --dt 1e-9",
+     ["--dt 1e-09", "whole multiple", "0.04 s"]),
+    ("compare --skip beyond the record", "compare {d}/rec.csv --model {d}/rig.json --skip 100000",
+     ["rec.csv", "500 samples", "at least 100"]),
+    ("fleet trend on no folder", "fleet trend {d}/nowhere", ["nowhere", "no such folder"]),
+    # a model file goes through the checks of every small file a command reads: refused before it is read
+    ("simulate --model a FIFO", "simulate --out {d}/new.csv --model {d}/fifo.csv",
+     ["model file", "fifo.csv", "is a FIFO, not a regular file"]),
+    ("simulate --model /dev/zero", "simulate --out {d}/new.csv --model /dev/zero",
+     ["model file /dev/zero", "is a device or socket, not a regular file"]),
+    ("compare --model a FIFO", "compare {d}/rec.csv --model {d}/fifo.csv", ["fifo.csv", "is a FIFO"]),
+    ("identify --model /dev/zero", "identify {d}/good.csv --estimator friction-ekf --model /dev/zero",
+     ["model file /dev/zero", "not a regular file"]),
+    ("doctor --model a FIFO", "doctor {d}/good.csv --model {d}/fifo.csv", ["fifo.csv", "is a FIFO"]),
+    ("control --design /dev/zero", "control --design /dev/zero", ["model file /dev/zero", "not a regular file"]),
+    ("fleet doctor --model /dev/zero", "fleet doctor {d}/good.csv --out {d}/fleet --model /dev/zero",
+     ["/dev/zero", "not a regular file"]),
     ("--start beyond the end, identify", "identify {d}/good.csv --start 500",
      ["good.csv", "no sample within --start 500 s", "from 0 to 19.96 s"]),
     ("--start beyond the end, sweep", "sweep {d}/good.csv --start 20", ["good.csv", "--start 20 s", "19.96 s"]),

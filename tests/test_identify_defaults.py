@@ -109,7 +109,7 @@ def test_the_papers_cubic_on_a_duty_record_warns_in_identify_and_compare(capsys,
     # measured: FIT -158,161 %, the run beyond 10 x max |y| from sample 257 on
     diverged = out["free_run_diverges_from_sample"]
     assert diverged is not None and 50 < diverged < 1000
-    warnings = [line for line in err.splitlines() if line.startswith("warning:")]
+    warnings = [line for line in err.splitlines() if line.startswith("motorid: warning:")]
     assert (
         len(warnings) == 1 and f"diverges from sample {diverged}" in warnings[0] and "--basis" in warnings[0]
     )
@@ -117,5 +117,5 @@ def test_the_papers_cubic_on_a_duty_record_warns_in_identify_and_compare(capsys,
     assert code == 0, err
     row = out["models"][str(model)]
     assert row["diverges_from_sample"] is not None and row["fit_percent"] < 0
-    warnings = [line for line in err.splitlines() if line.startswith("warning:")]
+    warnings = [line for line in err.splitlines() if line.startswith("motorid: warning:")]
     assert len(warnings) == 1 and f"diverges from sample {row['diverges_from_sample']}" in warnings[0]

@@ -184,9 +184,15 @@ def test_no_import_goes_up_a_layer():
 
 
 #: What the drive package may import of motorid besides itself: the design's errors and units, and
-#: the checked reading and whole writing of files its model files need (json_input, outputs). The
+#: the checked reading and whole writing of files its model files need (json_input, inputs, outputs). The
 #: physics of a drive stands on nothing else of the package.
-DRIVE_MAY_IMPORT = ("motorid.errors", "motorid.units", "motorid.json_input", "motorid.outputs")
+DRIVE_MAY_IMPORT = (
+    "motorid.errors",
+    "motorid.units",
+    "motorid.json_input",
+    "motorid.inputs",
+    "motorid.outputs",
+)
 
 
 def test_the_drive_imports_nothing_of_motorid_but_errors_units_and_file_io():

@@ -337,7 +337,7 @@ def test_a_duty_model_is_controlled_within_100_percent_and_a_clamp_is_said(capsy
     # the column says where the command sits on the limit: measured 8,160 of 12,000 samples
     at_limit = (record["u"].abs() >= 12.0 - 1e-9).to_numpy()
     assert (record["clamped"].to_numpy() == 1).sum() == clamped["clamped_samples"] == at_limit.sum() > 600
-    warning = [line for line in err.splitlines() if line.startswith("warning:")]
+    warning = [line for line in err.splitlines() if line.startswith("motorid: warning:")]
     assert len(warning) == 1 and "--u-max" in warning[0] and "±12 %" in warning[0]
     assert clamped["rms_error"] > 5 * out["rms_error"]
 

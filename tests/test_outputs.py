@@ -216,7 +216,8 @@ def test_run_stopped_by_the_watchdog_tells_what_to_type(tmp_path, capsys):
     register("stalling-arx", StallingARX)
     out = tmp_path / "run.csv"
     try:
-        with RigServer(paper_rig(), port=0, seed=1, watchdog_periods=3.0) as server:
+        # real time: the rig's clock goes on while the estimator stalls (a lock-step rig waits for it)
+        with RigServer(paper_rig(), port=0, seed=1, watchdog_periods=3.0, lockstep=False) as server:
             argv = ("run", "--daq", server.url, "--estimator", "stalling-arx", "--duration", "2",
                     "--out", str(out), "--timeout", "2")  # fmt: skip
             code, _, err = run(capsys, *argv)

@@ -187,8 +187,12 @@ def compare_in_blocks(
     """
     from motorid.comparison import POSITION_UNITS, compare_blocks, runs_in_blocks
     from motorid.errors import UniformGridError
+    from motorid.record_chunks import CHUNK_ROWS
 
     if read.spanned or not all(map(runs_in_blocks, models.values())):
+        return None
+    if options.min_samples > CHUNK_ROWS:  # a first block must hold the samples skipped and scored
+        logger.info("%s: --skip %d is more than a block holds: compared whole", path, options.skip)
         return None
     try:
         first = next(read.iter_blocks(path, min_samples=options.min_samples))

@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.app.reading import ReadOptions
-from motorid.errors import DataError
+from motorid.errors import DataError, quoted
 
 logger = logging.getLogger(__name__)
 
@@ -333,11 +333,19 @@ def create_estimator(name: str, options: Any, rig: Any = None) -> Any:
         if accepted and key not in accepted:
             raise DataError(f"{option}: estimator {name!r} takes no {key!r} argument")
         kwargs[key] = value
+    takes_any = not accepted or any(p.kind is inspect.Parameter.VAR_KEYWORD for p in accepted.values())
     for item in options.param:
         key, sep, value = item.partition("=")
         if not sep or not key:
             raise DataError(f"--param expects KEY=VALUE, got {item!r}")
-        kwargs[key.replace("-", "_")] = _parse_value(value)
+        key = key.replace("-", "_")
+        if not takes_any and key not in accepted:
+            keys = ", ".join(k for k, p in accepted.items() if p.kind is not inspect.Parameter.VAR_POSITIONAL)
+            raise DataError(
+                f"--param {quoted(item)}: estimator {name!r} takes no argument {quoted(key)}; it takes {keys} "
+                f"(--estimator {name} --help-params lists them with their defaults)"
+            )
+        kwargs[key] = _parse_value(value)
     if takes_identify_basis(name, kwargs):
         kwargs["basis"] = IDENTIFY_BASIS
     try:

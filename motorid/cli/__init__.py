@@ -34,24 +34,11 @@ from motorid.errors import DataError
 
 from . import comparison, control, doctor, fleet, identification, rig, simulation
 from .options import with_flags
-from .report import configure, say_error
+from .report import configure, first_time, say_error, warning_line
 
 __all__ = ["build_parser", "main"]
 
 logger = logging.getLogger("motorid")
-
-
-#: The warnings said so far by the running command, as their one-line text: each is said once, whether
-#: it comes through :mod:`warnings` or :mod:`logging` (a record read four times warns once).
-_said: set[str] = set()
-
-
-def first_time(text: str) -> bool:
-    """True the first time the running command says the warning ``text``."""
-    if text in _said:
-        return False
-    _said.add(text)
-    return True
 
 
 def show_warning(
@@ -64,9 +51,9 @@ def show_warning(
 ) -> None:
     """A warning as one line on stderr, ``motorid: warning: <message>``, once per cause: no source
     line, no file name (what a user of the command can act on is the message; ``-v`` logs say where)."""
-    text = " ".join(str(message).split())
-    if first_time(text):
-        (file or sys.stderr).write(f"motorid: warning: {text}\n")
+    said = warning_line(str(message))
+    if said is not None:
+        (file or sys.stderr).write(said + "\n")
     logger.debug("the warning above is a %s from %s:%s", category.__name__, filename, lineno)
 
 
@@ -147,7 +134,6 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(exc.code or 0)
     configure(quiet=getattr(args, "quiet", False), json=getattr(args, "json", False))
     level = logging.WARNING - 10 * min(args.verbose, 2)
-    _said.clear()
     handler = logging.StreamHandler(sys.stderr)
     handler.setFormatter(LogFormatter())
     handler.addFilter(OncePerCause())

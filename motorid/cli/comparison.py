@@ -19,7 +19,7 @@ from .options import (
     check_out_folder,
     read_options_from_args,
 )
-from .report import emit_json, say
+from .report import emit_json, say, say_warning
 
 
 def cmd_compare(args: argparse.Namespace) -> int:
@@ -47,7 +47,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     say(f"  low speed: {band}")
     for model in comparison.models:
         if model.diverges_from is not None:
-            say(f"warning: {divergence_words(model.name, model.diverges_from, math.isfinite(model.mse))}")
+            say_warning(f"{divergence_words(model.name, model.diverges_from, math.isfinite(model.mse))}")
     figure = None
     if args.out:
         input_unit = units.get("u") or "input units"

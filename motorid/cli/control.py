@@ -18,7 +18,7 @@ from .options import (
     planned_samples,
     positive,
 )
-from .report import emit_json, say, show_progress
+from .report import emit_json, say, say_warning, show_progress
 from .rig import add_register_map
 from .simulation import add_rig_options
 
@@ -191,7 +191,7 @@ def cmd_control(args: argparse.Namespace) -> int:
         f"{metrics['low_speed_rms_error']:.3g} rad/s; largest stuck interval after a reversal "
         f"{metrics['largest_stuck_after_reversal']:.3g} s")  # fmt: skip
     if metrics["clamped_share"] > CLAMP_WARNING_SHARE:
-        say(f"warning: the command was clamped at ±{pi.u_max:g} {unit} on {metrics['clamped_share']:.0%} of the "
+        say_warning(f"the command was clamped at ±{pi.u_max:g} {unit} on {metrics['clamped_share']:.0%} of the "
             f"samples ({metrics['clamped_samples']} of {record.attrs['samples']}): raise --u-max if the drive "
             "takes more, or lower the reference")  # fmt: skip
     if args.json:

@@ -14,6 +14,7 @@ import os
 from pathlib import Path
 from typing import Any
 
+from motorid.errors import DataError
 from motorid.fleet.runner import TASK_TIMEOUT
 
 from .doctor import add_doctor_options, doctor_options_from_args
@@ -101,6 +102,10 @@ def cmd_fleet_trend(args: argparse.Namespace) -> int:
     from motorid.fleet.trend import flag_drives, friction_trends, plot_trends
     from motorid.outputs import spreadsheet_safe, write_file
 
+    if not args.results.is_dir():  # before its lock: a missing folder is not a lock that failed
+        raise DataError(
+            f"results {args.results}: no such folder (the --out of motorid fleet identify or doctor)"
+        )
     hold_out_folder(args, args.results, "results")  # no run writes its rows while they are read
     results = load_results(args.results)
     trends = friction_trends(results)

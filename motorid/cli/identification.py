@@ -42,7 +42,7 @@ from .options import (
     read_options_from_args,
     read_record_from_args,
 )
-from .report import emit_json, frame_records, say, say_params, show_progress
+from .report import emit_json, frame_records, say, say_params, say_warning, show_progress
 
 
 def identify_options_from_args(args: argparse.Namespace) -> IdentifyOptions:
@@ -99,7 +99,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
     if unit != "rad/s":
         say(f"  low speed: {band}")
     for warning in payload["free_run_warnings"]:
-        say(f"warning: {warning}")
+        say_warning(warning)
     if payload["residual_tests_samples"] < payload["samples"] - args.skip:
         say(f"  residual tests on the last {payload['residual_tests_samples']} samples of the record "
             "(a bounded window: a record read in blocks is not held whole)")  # fmt: skip
@@ -173,7 +173,7 @@ def say_validation(validation: dict[str, Any]) -> None:
     diverged = validation["free_run_diverges_from_sample"]
     row = validation["scores"].get("free_run")
     if diverged is not None:
-        say(f"warning: on {validation['record']}, {divergence_words('the model', diverged, row is not None)}")
+        say_warning(f"on {validation['record']}, {divergence_words('the model', diverged, row is not None)}")
     if row is None:
         return
     unit = validation["output_unit"]

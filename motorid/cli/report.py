@@ -24,12 +24,38 @@ def emit_json(payload: dict[str, Any]) -> None:
 
 #: The running command's --quiet and --json (set by :func:`configure`).
 _settings = {"quiet": False, "json": False}
+#: The warnings said so far by the running command, as their one-line text: each is said once, whether
+#: it comes from the command itself (:func:`say_warning`), through :mod:`warnings` or through :mod:`logging`.
+_said: set[str] = set()
 
 
 def configure(*, quiet: bool, json: bool) -> None:
     """Set what the command about to run prints: ``quiet`` silences :func:`say` and
-    the progress bars; ``json`` is whether it prints its result on stdout."""
+    the progress bars; ``json`` is whether it prints its result on stdout. No warning is said yet."""
     _settings.update(quiet=quiet, json=json)
+    _said.clear()
+
+
+def first_time(text: str) -> bool:
+    """True the first time the running command says the warning ``text`` (one line)."""
+    if text in _said:
+        return False
+    _said.add(text)
+    return True
+
+
+def warning_line(text: str) -> str | None:
+    """``motorid: warning: <text>`` on one line, the first time the running command says it; else None."""
+    text = " ".join(str(text).split())
+    return f"motorid: warning: {text}" if first_time(text) else None
+
+
+def say_warning(text: str) -> None:
+    """Print a warning on stderr as every warning of a command is: ``motorid: warning: <text>``, one
+    line, once per cause, also with ``--quiet`` (which keeps errors and warnings)."""
+    line = warning_line(text)
+    if line is not None:
+        sys.stderr.write(line + "\n")
 
 
 def say(text: str = "") -> None:

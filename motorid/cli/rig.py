@@ -6,6 +6,7 @@ import argparse
 import math
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import pandas as pd
 
@@ -27,6 +28,9 @@ from .options import (
     positive,
 )
 from .report import emit_json, say, say_error, say_params, show_progress
+
+if TYPE_CHECKING:
+    from motorid.io import DAQ, RegisterMap
 
 
 def cmd_rig_serve(args: argparse.Namespace) -> int:
@@ -60,8 +64,8 @@ def cmd_rig_serve(args: argparse.Namespace) -> int:
             f"{card.input_unit}")  # fmt: skip
     server = RigServer(
         plant, host=args.host, port=args.port, serial_port=args.serial, baudrate=args.baudrate,
-        register_map=args.map, word_order=args.word_order, lockstep=not args.realtime, seed=args.plant_seed,
-        watchdog_periods=args.watchdog_periods or None, u_max=u_max,
+        register_map=register_map_option(args.map), word_order=args.word_order, lockstep=not args.realtime,
+        seed=args.plant_seed, watchdog_periods=args.watchdog_periods or None, u_max=u_max,
     )  # fmt: skip
     where = args.serial or f"{args.host}:{args.port}"
     if not args.serial:
@@ -100,8 +104,44 @@ def cmd_rig_map(args: argparse.Namespace) -> int:
     """Print the register map in use as TOML."""
     from motorid.io import rig_map_toml
 
-    sys.stdout.write(rig_map_toml(args.map, args.word_order))
+    sys.stdout.write(rig_map_toml(register_map_option(args.map), args.word_order))
     return 0
+
+
+def register_map_option(path: str | None) -> RegisterMap | None:
+    """The register map of ``--map PATH`` (None: the built-in one); a file that is no map is refused in one
+    line naming the option."""
+    from motorid.io import RegisterMap
+
+    if path is None:
+        return None
+    try:
+        return RegisterMap.from_toml(path)
+    except DataError:  # a file that cannot be read: the message names it as a register map
+        raise
+    except ValueError as exc:  # a file that is no map: the message starts with the file's name
+        raise DataError(f"--map {exc}") from None
+
+
+def daq_from_options(
+    url: str, *, dt: float | None, register_map: str | None, timeout: float | None, **kw: Any
+) -> DAQ:
+    """The DAQ of ``--daq URL`` with ``--dt``, ``--map`` and ``--timeout`` (:func:`motorid.io.daq_from_url`);
+    what cannot be used is refused in one line naming the option."""
+    from motorid.io import daq_from_url
+
+    simulated = url.strip() in ("sim", "sim://", "simulated")
+    if simulated and (register_map is not None or timeout is not None):
+        given = "--map" if register_map is not None else "--timeout"
+        raise DataError(f"{given} applies to a Modbus --daq only, not to --daq {url}")
+    the_map = register_map_option(register_map)
+    try:
+        return daq_from_url(url, dt=dt, register_map=the_map, timeout=timeout, **kw)
+    except ValueError as exc:
+        text = str(exc).removeprefix(f"{url.strip()!r}: ")
+        if text.startswith("--") or simulated:  # the simulated rig's refusal names its dt (main's with_flags)
+            raise DataError(text) from None
+        raise DataError(f"--daq {url}: {text}") from None
 
 
 def rig_stopped(command: str, url: str, exc: Exception) -> DataError:
@@ -147,7 +187,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     """Online identification on a DAQ (simulated rig or Modbus)."""
     from motorid.app.identify import create_estimator
     from motorid.errors import DAQError
-    from motorid.io import daq_from_url, run_online
+    from motorid.io import run_online
 
     check_out_file(args.out, args.overwrite)
     estimators = {name: create_estimator(name, args) for name in args.estimator}
@@ -155,7 +195,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     if not simulated and args.plant_seed is not None:
         raise DataError(f"--plant-seed applies to --daq sim only; the rig behind {args.daq} has its own "
                         "(motorid rig serve --plant-seed)")  # fmt: skip
-    daq = daq_from_url(
+    daq = daq_from_options(
         args.daq, seed=(args.plant_seed or 0) if simulated else None, dt=args.dt, register_map=args.map,
         u_max=args.u_max, timeout=args.timeout,
     )  # fmt: skip
@@ -218,7 +258,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     serve.add_argument("--realtime", action="store_true", help="advance with the clock, not lock-step")
     add_plant_seed(serve, default=None)
     serve.add_argument("--watchdog-periods", type=non_negative, default=3.0,
-                       help="heartbeat timeout [samples]; 0: off (default: 3)")  # fmt: skip
+                       help="the watchdog: with --realtime, the time without a heartbeat [sample periods]; "
+                            "lock-step, the commands in a row without a heartbeat (the plant waits for the "
+                            "client); more zero the voltage and latch a fault; 0: off (default: 3)")  # fmt: skip
     serve.add_argument("--u-max", type=positive,
                        help="voltage rating [V]: commands are clamped to it (default: the rig's amplifier "
                             "saturation, or the rigid drive's input saturation)")  # fmt: skip

@@ -49,7 +49,9 @@ unknown version, a missing or unknown key, a wrong type, NaN, a value out of ran
 such as a negative inertia, an unknown effect) raises one
 :class:`~motorid.errors.DataError` naming the file and the key, e.g.
 ``rig.json: model.J_m: J_m must be > 0, got -1.0``. Nothing a file says is trusted
-with memory or time: the file is at most :data:`LARGEST_FILE` bytes, its JSON at most
+with memory or time: the file is a regular file (a FIFO or a device such as ``/dev/zero`` is
+refused before it is read: :func:`motorid.inputs.read_small_file`, as every small file a command
+reads) of at most :data:`LARGEST_FILE` bytes, its JSON at most
 32 levels deep with integers within ±2**53 (:mod:`motorid.json_input`), every drive
 parameter within its physical range (:mod:`motorid.drive.ranges`), every size an
 array is allocated with bounded (NIS window, delay line, orders, basis) before the
@@ -76,6 +78,7 @@ from pathlib import Path
 from typing import Any
 
 from motorid.errors import DataError, ModelFileError
+from motorid.inputs import read_small_file
 from motorid.json_input import boolean, integer, key_path, number, object_keys, parse_json, shown, text
 from motorid.outputs import write_file
 
@@ -514,17 +517,9 @@ def read_model_file(path: str | os.PathLike[str]) -> ModelFile:
         Naming the file and the key for an unreadable or bad file (module docstring).
     """
     source = Path(path)
+    raw = read_small_file(source, "model file", LARGEST_FILE)  # a FIFO or a device is refused unopened
     try:
-        size = source.stat().st_size
-        if not source.is_file():  # a FIFO or a device would block or never end
-            raise DataError(f"{source}: cannot read the model file: not a regular file")
-        if size > LARGEST_FILE:
-            raise DataError(
-                f"{source}: not a model file: {size} bytes, more than the {LARGEST_FILE} a model file takes"
-            )
-        content = source.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise DataError(f"{source}: cannot read the model file: {exc.strerror or exc}") from None
+        content = raw.decode("utf-8")
     except UnicodeDecodeError:
         raise DataError(f"{source}: not a model file (not UTF-8 text)") from None
     data = parse_json(content, str(source), invalid="not a model file: invalid JSON")

@@ -110,7 +110,11 @@ def fleet_client(scheduler: str | None = None, workers: int | None = None) -> It
 
     keep_level()
     if scheduler is not None:
-        with Client(scheduler) as client:
+        try:
+            client = Client(scheduler)
+        except OSError as exc:  # refused, timed out, no such host
+            raise DataError(f"cannot reach the scheduler at {scheduler}: {exc}") from None
+        with client:
             keep_level()
             yield client
         return

@@ -103,6 +103,8 @@ class DAQ(ABC):
         self.u_max = float(u_max)
         #: Number of commands clamped since the DAQ was created.
         self.clamp_count = 0
+        self._clamps_open = 0  # clamp_count when the DAQ opened
+        self._clamps_said: int | None = None  # clamp_count at the warning of the first clamp while open
         self._last_clamped = False
         self._u = 0.0
         self._is_open = False
@@ -155,6 +157,7 @@ class DAQ(ABC):
         if not self._is_open:
             self._open()
             self._is_open = True
+            self._clamps_open, self._clamps_said = self.clamp_count, None
         return self
 
     def close(self) -> None:
@@ -165,9 +168,16 @@ class DAQ(ABC):
             self._write(0.0)
             self._u = 0.0
         except Exception as exc:  # the link may be what failed; closing must go on
-            logger.warning("%s: could not command 0 V while closing: %s", self, exc)
+            logger.warning("could not command 0 V while closing: %s", exc)  # exc names the link
         finally:
             self._is_open = False
+            if self._clamps_said is not None and self.clamp_count > self._clamps_said:
+                logger.warning(
+                    "%d command(s) clamped to the rating +/-%.4g V while the DAQ was open",
+                    self.clamp_count - self._clamps_open,
+                    self.u_max,
+                )
+            self._clamps_said = None
             self._close()
 
     def __enter__(self) -> DAQ:
@@ -230,13 +240,14 @@ class DAQ(ABC):
         u_sent, clamped = self.clamp(u)
         if clamped:
             self.clamp_count += 1
-            if not self._last_clamped:
+            if self._clamps_said is None:  # said once while open; the total when it closes
+                self._clamps_said = self.clamp_count
                 logger.warning(
-                    "command %.4g V clamped to %.4g V (rating +/-%.4g V); %d clamp(s) so far",
+                    "command %.4g V clamped to %.4g V (rating +/-%.4g V); the clamps that follow are counted and "
+                    "said when the DAQ closes",
                     float(u),
                     u_sent,
                     self.u_max,
-                    self.clamp_count,
                 )
         self._last_clamped = clamped
         self._write(u_sent)

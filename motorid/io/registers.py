@@ -347,8 +347,9 @@ class RegisterMap:
             "# integer registers hold value / scale",
             f"# status bits: {', '.join(f'{k}={v}' for k, v in STATUS_BITS.items())}"
             "; write 0 to status to clear latched faults",
-            "# heartbeat: the client increments it each sample; the rig zeroes the voltage",
-            "# and raises the watchdog bit when it stalls for more than 3 sample periods",
+            "# heartbeat: the client increments it each sample; the rig zeroes the voltage and raises the",
+            "# watchdog bit when it stalls for more than 3 sample periods (real time) or for more than",
+            "# 3 commands in a row (lock-step, where the plant waits for the client)",
             "# the first client that writes owns the rig until its heartbeat stalls or it disconnects;",
             "# another client's writes are refused (exception 6, busy) and counted in refused_writes",
             f"device_id = {self.device_id}",

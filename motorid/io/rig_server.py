@@ -15,16 +15,29 @@ write of another client is refused with Modbus exception 6 (device busy),
 changes nothing and is counted (:attr:`RigServer.refused_writes`, and the
 ``refused_writes`` register where the map has one). Reads are free to all.
 
-Like a PLC, the server has a watchdog, armed by the first voltage command or
-heartbeat: when the owner's heartbeat has not changed for more than
-``watchdog_periods`` sample periods (3 by default) since its last heartbeat
-(or since the command that armed the watchdog), the server forces the voltage
-to 0 V, latches the ``watchdog`` bit of the status word and lets the owner go.
-Re-writing the command is not a heartbeat, and no other client's heartbeat
-counts: a command holds only while its own client heart-beats. When the owner
-disconnects, the voltage goes to 0 V at once and the rig is free; the watchdog
-still trips once the periods have passed and latches its fault (the next client
-acknowledges it). A client acknowledges latched faults by writing 0 to ``status``.
+Like a PLC, the server has a watchdog that follows one rule: a command holds
+only while its own client heart-beats. Re-writing the command is not a
+heartbeat, and no other client's heartbeat counts. What it counts depends on
+what keeps the plant's time:
+
+- Real time (the plant advances with the clock): the watchdog is armed by the
+  first voltage command or heartbeat; when the owner's heartbeat has not
+  changed for more than ``watchdog_periods`` sample periods of wall-clock time
+  since its last heartbeat (or since the command that armed it), the server
+  forces the voltage to 0 V, latches the ``watchdog`` bit of the status word
+  and lets the owner go. When the owner disconnects, the voltage goes to 0 V at
+  once and the rig is free; the watchdog still trips once the periods have
+  passed and latches its fault (the next client acknowledges it).
+- Lock-step (the plant advances one sample per heartbeat: the client is the
+  clock): the plant stands still while the client computes, however long, so
+  wall-clock time is no fault. The watchdog counts the owner's commands
+  instead: more than ``watchdog_periods`` commands in a row without a heartbeat
+  force 0 V, latch the fault and let the owner go. The owner keeps the rig,
+  however long it is silent, until then or until it disconnects: the voltage
+  then goes to 0 V and the rig is free (a client that froze with its
+  connection open is stopped, not waited out).
+
+A client acknowledges latched faults by writing 0 to ``status``.
 
 The register image is fixed: the server answers function codes 3, 6, 16 and
 23 (read, write one, write many, read/write holding registers) on the map's
@@ -66,6 +79,8 @@ __all__ = ["RigServer", "rig_map_toml"]
 _READONLY = ("sequence", "speed", "refused_writes")
 #: Function codes the rig answers: read holding registers, write one, write many, read/write many.
 SUPPORTED_FUNCTION_CODES = frozenset({3, 6, 16, 23})
+#: Time the real-time watchdog lets requests already received be served before it trips [s].
+_SERVE_PENDING = 0.002
 #: The connection (request handler) whose request is being served, for the rig's owner rule.
 _CLIENT: contextvars.ContextVar[object | None] = contextvars.ContextVar("rig_client", default=None)
 
@@ -127,9 +142,12 @@ class RigServer:
     seed : int, optional
         Seed for ``plant.reset`` at start.
     watchdog_periods : float or None
-        Time without a heartbeat, in sample periods, since the last command or
-        heartbeat (whichever is later), after which the voltage is forced to
-        0 V and the watchdog fault is latched. None disables the watchdog.
+        Real time: time without the owner's heartbeat, in sample periods, since
+        its last heartbeat or the command that armed the watchdog, after which
+        the voltage is forced to 0 V and the watchdog fault is latched.
+        Lock-step: the number of the owner's commands in a row without a
+        heartbeat it tolerates (one more trips the watchdog); wall-clock time
+        is not counted. None disables the watchdog.
     u_max : float
         Rating of the drive [V]; the rig clamps commands to it and sets the
         ``clamped`` status bit.
@@ -195,9 +213,11 @@ class RigServer:
         self._base, n = register_map.span
         self._words = [0] * n
         self._heartbeat: int | None = None
-        self._last_contact = 0.0  # loop time of the last command or heartbeat [s]
+        self._last_contact = 0.0  # loop time of the owner's last heartbeat or arming command [s]
         self._armed = False
+        self._unbeaten_commands = 0  # the owner's commands since its last heartbeat (lock-step watchdog)
         self._owner: object | None = None  # the request handler (connection) that owns the rig
+        self._owner_name = ""  # its HOST:PORT, kept for the messages after it disconnected
         self._thread: threading.Thread | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
         self._stop_event: asyncio.Event | None = None
@@ -293,18 +313,36 @@ class RigServer:
         return None
 
     def _client_left(self, client: object) -> None:
-        """A connection closed: if it owned the rig, 0 V at once and the rig is free (the watchdog,
-        armed, still trips and latches its fault: the owner's heartbeat has stopped)."""
+        """A connection closed: if it owned the rig, 0 V at once and the rig is free (in real time the
+        watchdog, armed, still trips and latches its fault: the owner's heartbeat has stopped)."""
         if client is not self._owner:
             return
         self._owner = None
         if self.voltage:
             logger.info(
                 "rig: the owning client %s disconnected at %.4g V: voltage set to 0 V",
-                _client_name(client),
+                self._owner_name,
                 self.voltage,
             )
         self.voltage = 0.0
+        self._set("voltage_command", 0.0)
+        self._publish()
+
+    def _trip(self, what: str) -> None:
+        """The watchdog trips: 0 V, the watchdog fault latched, the owner let go."""
+        self._armed = False
+        self.watchdog_trips += 1
+        level = logging.WARNING if self.voltage else logging.INFO
+        logger.log(
+            level,
+            "rig: %s, at %.4g V: voltage forced to 0 V, watchdog fault latched, the rig is free",
+            what,
+            self.voltage,
+        )
+        self.voltage = 0.0
+        self.status |= STATUS_BITS["watchdog"]
+        self._owner = None  # the owner that stopped heart-beating lets the rig go
+        self._unbeaten_commands = 0
         self._set("voltage_command", 0.0)
         self._publish()
 
@@ -331,15 +369,16 @@ class RigServer:
                 logger.debug(
                     "rig: write of %s refused: %s owns the rig (%d refused)",
                     _client_name(client),
-                    _client_name(self._owner),
+                    self._owner_name,
                     self.refused_writes,
                 )
                 from pymodbus.constants import ExcCodes
 
                 return ExcCodes.DEVICE_BUSY
             if self._owner is None:
-                self._owner = client
-                logger.info("rig: owned by client %s", _client_name(client))
+                self._owner, self._owner_name = client, _client_name(client)
+                self._unbeaten_commands = 0
+                logger.info("rig: owned by client %s", self._owner_name)
             words = list(self._words)
             first = address - self._base
             words[first : first + count] = [int(v) for v in set_values]
@@ -370,8 +409,16 @@ class RigServer:
                 self._armed = self.watchdog_periods is not None
             if beat:
                 self._heartbeat = heartbeat
+                self._unbeaten_commands = 0
                 if self.lockstep:
                     self._advance()
+            elif commanded and self.lockstep and self.watchdog_periods is not None:
+                self._unbeaten_commands += 1
+                if self._unbeaten_commands > self.watchdog_periods:
+                    self._trip(
+                        f"{self._unbeaten_commands} commands in a row without a heartbeat from the owning client "
+                        f"(more than {self.watchdog_periods:g})"
+                    )
             self._publish()
             set_values[:] = self._words[first : first + count]  # what pymodbus stores
         registers[offset : offset + len(self._words)] = self._words
@@ -379,28 +426,23 @@ class RigServer:
 
     # -- background tasks ---------------------------------------------------------------
     async def _watchdog(self) -> None:
+        """Real time: trip when the owner's heartbeat has stalled for the watchdog's periods of wall-clock time."""
         assert self.watchdog_periods is not None
         limit = self.watchdog_periods * self.dt
         loop = asyncio.get_running_loop()
         while True:
             await asyncio.sleep(min(self.dt / 2, limit / 3))
-            if self._armed and loop.time() - self._last_contact > limit:
-                self._armed = False
-                self.watchdog_trips += 1
-                level = logging.WARNING if self.voltage else logging.INFO
-                logger.log(
-                    level,
-                    "rig: no heartbeat from the owning client for more than %g sample periods (%.3g s), "
-                    "at %.4g V: voltage forced to 0 V, watchdog fault latched, the rig is free",
-                    self.watchdog_periods,
-                    limit,
-                    self.voltage,
+            if not (self._armed and loop.time() - self._last_contact > limit):
+                continue
+            # a server the machine paused may hold requests that came in time: serve them before judging
+            # (a request takes several turns of the loop between its bytes and the register image)
+            await asyncio.sleep(_SERVE_PENDING)
+            silent = loop.time() - self._last_contact
+            if self._armed and silent > limit:
+                self._trip(
+                    f"no heartbeat from the owning client for {silent:.3g} s, more than {self.watchdog_periods:g} "
+                    f"sample periods ({limit:.3g} s)"
                 )
-                self.voltage = 0.0
-                self.status |= STATUS_BITS["watchdog"]
-                self._owner = None  # the owner that stopped heart-beating lets the rig go
-                self._set("voltage_command", 0.0)
-                self._publish()
 
     async def _clock(self) -> None:
         loop = asyncio.get_running_loop()
@@ -443,10 +485,10 @@ class RigServer:
         self._server = server
         self._stop_event = asyncio.Event()
         tasks = []
-        if self.watchdog_periods is not None:
-            tasks.append(asyncio.create_task(self._watchdog()))
-        if not self.lockstep:
+        if not self.lockstep:  # lock-step: the watchdog counts commands (in _on_access), not time
             tasks.append(asyncio.create_task(self._clock()))
+            if self.watchdog_periods is not None:
+                tasks.append(asyncio.create_task(self._watchdog()))
         logger.info(
             "rig server listening on %s (%s)", self.url, "lock-step" if self.lockstep else "real-time"
         )
@@ -467,6 +509,7 @@ class RigServer:
         self.seq = self.status = 0
         self._heartbeat = None
         self._armed = False
+        self._unbeaten_commands = 0
         self._owner = None
         self.refused_writes = 0
         self._words = [0] * len(self._words)
