@@ -48,8 +48,8 @@ def test_identify_defaults_hold_on_every_real_record_or_warn(capsys, name):
     assert code == 0, err
     assert out["params"]["basis"] == ["u", "sign(u)"] and "static block u,sign" in out["notes"][0]
     fit = out["scores"]["free_run"]["fit_percent"]
-    warnings = [line for line in err.splitlines() if line.startswith("warning:")]
-    assert [f"warning: {w}" for w in out["free_run_warnings"]] == warnings and len(warnings) <= 1
+    warnings = [line for line in err.splitlines() if line.startswith("motorid: warning:")]
+    assert [f"motorid: warning: {w}" for w in out["free_run_warnings"]] == warnings and len(warnings) <= 1
     if name == "l298n_staircase.csv":
         # the staircase does not move up to ±2 V (its README): u,sign bends towards that dead zone with a
         # negative sign weight (-0.73: the model drives backwards at small inputs) and its free run
