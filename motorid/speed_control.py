@@ -15,7 +15,7 @@
   card (quantisation, noise per speed band), fed in the controller's input unit: the plant of
   ``motorid control --daq sim --model`` and ``motorid rig serve --model``.
 
-The loop's timing is ``"sampled"`` (:data:`motorid.records.TIMINGS`): at sample k the
+The loop's timing is ``"sampled"`` (:data:`motorid.io.records.TIMINGS`): at sample k the
 controller reads y[k], measured at t[k], and holds u[k] over [t[k], t[k] + dt).
 """
 

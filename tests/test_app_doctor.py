@@ -2,7 +2,7 @@
 
 The reference is the command itself: the same numbers written to CSV files and read by
 ``motorid doctor FILE... --json`` with the same column and unit options. Both bring the
-record to motorid's columns and units with the same rules (:func:`motorid.records.normalise_record`)
+record to motorid's columns and units with the same rules (:func:`motorid.io.records.normalise_record`)
 and run the same doctor (:meth:`motorid.app.DoctorOptions.diagnose`), and pandas writes a float
 to CSV in the shortest text that reads back to the same float, so the payloads are compared for
 equality, key for key, with no tolerance.

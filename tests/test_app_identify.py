@@ -2,7 +2,7 @@
 
 The reference is the command itself: the same numbers written to a CSV file and read by
 ``motorid identify FILE --json`` with the same column and unit options. Both read the record
-with the same rules (:func:`motorid.records.normalise_record`) and run the same function
+with the same rules (:func:`motorid.io.records.normalise_record`) and run the same function
 (:func:`motorid.app.identify.identify_record`), and pandas writes a float to CSV in the
 shortest text that reads back to the same float, so the payloads are compared for equality,
 key for key, with no tolerance.

@@ -13,7 +13,7 @@ from emps_fixtures import real_motor_file
 from motorid.diagnose import diagnose
 from motorid.diagnose.artefacts import clean_output, dropout_spikes, held_start, stale_start
 from motorid.diagnose.synthetic import planted_record
-from motorid.records import write_record
+from motorid.io.records import write_record
 
 
 @pytest.fixture(scope="module")

@@ -294,7 +294,7 @@ def test_drive_and_time_from_the_file_name_pattern_on_parquet_records(
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from motorid.records import read_record
+    from motorid.io.records import read_record
 
     folder = tmp_path / "daq"
     folder.mkdir()
@@ -437,7 +437,7 @@ def test_a_full_disk_stops_the_run_saying_what_is_kept(fleet_folder, address, sm
 
 # --------------------------------------------------------------------------- names from data
 def test_drive_ids_from_attrs_never_leave_the_out_folder(fleet_folder, address, tmp_path, capsys):
-    from motorid.records import read_record, write_record
+    from motorid.io.records import read_record, write_record
 
     outside = tmp_path / "outside"
     hostile = ["../../x", str(outside), "a\x00b", "d" * 10_000]

@@ -22,8 +22,8 @@ from motorid.cli import main
 from motorid.fleet import DoctorJob, IdentifyJob, ReadOptions, flatten, fleet_client, load_results, run
 from motorid.fleet.jobs import DRIVE_KEY_PREFIX
 from motorid.fleet.synthetic import make_fleet, write_fleet
+from motorid.io.records import read_record, write_record
 from motorid.outputs import jsonable
-from motorid.records import read_record, write_record
 
 BASE = ("coulomb_friction", "viscous_friction", "offset")
 DOCTOR = ["--base", ",".join(BASE), "--max-steps", "1"]

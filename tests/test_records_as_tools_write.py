@@ -28,8 +28,7 @@ from hypothesis import strategies as st
 
 from motorid.diagnose.synthetic import planted_record
 from motorid.errors import DataError
-from motorid.record_chunks import iter_record
-from motorid.records import FORMATS_READ, normalise_record, read_record
+from motorid.io.records import FORMATS_READ, iter_record, normalise_record, read_record
 
 RPM = 60.0 / (2.0 * math.pi)
 DT = 0.01
@@ -166,7 +165,7 @@ def test_thousands_separators_are_detected_with_the_decimal_mark(original, folde
     first = int(np.flatnonzero(original["y"].abs() >= 1000)[0]) - 5  # a grouped number in the first lines
     german.iloc[first:].to_csv(folder / "tausend_head.csv", sep=";", index=False)
     original.iloc[first:].to_csv(folder / "original_head.csv", index=False)
-    with caplog.at_level(logging.INFO, logger="motorid.records"):
+    with caplog.at_level(logging.INFO, logger="motorid.io.records"):
         head = read_record(folder / "tausend_head.csv", output_unit="rpm")
     assert (
         "separator ';' (detected), decimal mark ',' (detected), thousands separator '.' (detected)"
@@ -224,7 +223,7 @@ def test_cut_or_crowded_archives_are_refused_naming_the_file(original, folder):
 def test_a_sample_logged_twice_is_dropped_with_one_line(original, folder, reference, caplog):
     twice = pd.concat([original.iloc[:1500], original.iloc[1499:]]).reset_index(drop=True)
     twice.to_csv(folder / "twice.csv", index=False)
-    with caplog.at_level(logging.WARNING, logger="motorid.records"):
+    with caplog.at_level(logging.WARNING, logger="motorid.io.records"):
         record = read_record(folder / "twice.csv", output_unit="rpm")
     _same(record, reference)
     said = [r.getMessage() for r in caplog.records if "repeated" in r.getMessage()]
@@ -286,7 +285,7 @@ def test_an_encoders_counts_read_as_a_position_and_give_the_speed(
     ):
         read_record(folder / "encoder.csv", output="enc", output_unit="counts")
     step = 2 * np.pi / N / DT  # [rad/s]: one count in one sample
-    with caplog.at_level(logging.WARNING, logger="motorid.records"):
+    with caplog.at_level(logging.WARNING, logger="motorid.io.records"):
         code, out, err = run(capsys, "identify", str(folder / "encoder.csv"), "--output", "enc", "--output-unit",
                              "counts", "--counts-per-rev", str(N), "--estimator", "arx-rls", "--json")  # fmt: skip
     assert code == 0, err
@@ -305,7 +304,9 @@ def test_an_encoders_counts_read_as_a_position_and_give_the_speed(
     )
     assert code == 2 and "--counts-per-rev" in err and "counts_per_rev" not in err, err
     caplog.clear()
-    with caplog.at_level(logging.WARNING, logger="motorid.records"):  # the doctor reads a segment, in blocks
+    with caplog.at_level(
+        logging.WARNING, logger="motorid.io.records"
+    ):  # the doctor reads a segment, in blocks
         code, out, err = run(capsys, "doctor", str(folder / "encoder.csv"), "--output", "enc", "--output-unit",
                              "counts", "--counts-per-rev", str(N), "--max-steps", "0", "--json")  # fmt: skip
     assert code == 0, err
@@ -516,11 +517,11 @@ def test_a_simulink_dataset_object_is_refused_saying_how_to_save_its_signals(fol
 
 # --------------------------------------------------------------------------- fields in the library, flags on the command line
 RECORD_MODULES = [
-    "motorid/records.py",
-    "motorid/record_chunks.py",
+    *sorted(str(p.relative_to(Path(__file__).resolve().parent.parent))
+            for p in (Path(__file__).resolve().parent.parent / "motorid/io/records").glob("*.py")),
     "motorid/units.py",
     "motorid/app/reading.py",
-]
+]  # fmt: skip
 
 
 @pytest.mark.parametrize("module", RECORD_MODULES)

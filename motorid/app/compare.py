@@ -267,7 +267,7 @@ def compare(
     """``motorid compare`` on a DataFrame of the user's own: its ``--json`` payload.
 
     The record is read as the command line reads a file with the same options
-    (:func:`motorid.records.normalise_record`: the named columns become ``t`` [s], ``u`` and
+    (:func:`motorid.io.records.normalise_record`: the named columns become ``t`` [s], ``u`` and
     ``y`` in motorid's units), then each model runs free on its input and is scored
     (:func:`motorid.comparison.compare_models`), so the result equals
     ``motorid compare FILE --model ... --json`` on the same data written to a file (without its
@@ -314,7 +314,7 @@ def compare(
     ...         output="rpm", output_unit="rpm")  # doctest: +SKIP
     """
     from motorid.comparison import compare_models
-    from motorid.records import normalise_record
+    from motorid.io.records import normalise_record
 
     unknown = sorted(set(options) - {f.name for f in fields(CompareOptions)})
     if unknown:

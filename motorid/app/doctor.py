@@ -185,7 +185,7 @@ def doctor(
     """``motorid doctor`` on a DataFrame of the user's own, or on several of one drive: its ``--json`` payload.
 
     Each record is read as the command line reads a file with the same options
-    (:func:`motorid.records.normalise_record`: the named columns become ``t`` [s], ``u`` and
+    (:func:`motorid.io.records.normalise_record`: the named columns become ``t`` [s], ``u`` and
     ``y`` in motorid's units, as the payload's ``settings`` name them), then doctored by :meth:`DoctorOptions.diagnose`, so the result
     equals ``motorid doctor FILE... --json`` on the same data written to files (without its
     ``figures`` and ``segment``: a DataFrame is never a segment), when ``labels`` are the files'
@@ -230,7 +230,7 @@ def doctor(
     --------
     >>> doctor(df, input="pwm", input_unit="%", supply_voltage=24, output="rpm", output_unit="rpm")  # doctest: +SKIP
     """
-    from motorid.records import normalise_record
+    from motorid.io.records import normalise_record
 
     unknown = sorted(set(options) - {f.name for f in fields(DoctorOptions)})
     if unknown:

@@ -2,7 +2,7 @@
 
 - :class:`IdentifyOptions`: the options of ``motorid identify`` by their names;
 - :func:`identify`: on a DataFrame of the user's own, columns and units named as on the command
-  line (:func:`motorid.records.normalise_record`);
+  line (:func:`motorid.io.records.normalise_record`);
 - :func:`identify_record`: on a motorid record (columns ``t``, ``u``, ``y``);
 - :func:`identify_file`: on a record file read in blocks, in memory that does not grow with it;
 - :func:`validate_on_record`: the identified model on a second record, without refitting.
@@ -141,7 +141,7 @@ def identify(
     """``motorid identify`` on a DataFrame of the user's own: its ``--json`` payload.
 
     The record is read as the command line reads a file with the same options
-    (:func:`motorid.records.normalise_record`: the named columns become ``t`` [s], ``u`` and
+    (:func:`motorid.io.records.normalise_record`: the named columns become ``t`` [s], ``u`` and
     ``y`` in motorid's units, jittered stamps put on a uniform grid), then identified by
     :func:`identify_record`, so the result equals ``motorid identify FILE --json`` on the
     same data written to a file (without its ``figure`` and ``model``).
@@ -184,7 +184,7 @@ def identify(
     --------
     >>> identify(df, input="pwm", input_unit="%", output="rpm", output_unit="rpm", na=2, nb=2)  # doctest: +SKIP
     """
-    from motorid.records import normalise_record
+    from motorid.io.records import normalise_record
 
     unknown = sorted(set(options) - {f.name for f in fields(IdentifyOptions)} - {"estimator"})
     if unknown:
@@ -459,7 +459,7 @@ def identify_record(
     ----------
     record : pandas.DataFrame
         The record, columns ``t`` [s], ``u``, ``y`` and its attrs (units, timing), as
-        :func:`motorid.records.read_record` gives it.
+        :func:`motorid.io.records.read_record` gives it.
     options : IdentifyOptions
         The estimator and the scores' options.
     source : str
@@ -474,8 +474,7 @@ def identify_record(
         the identified estimator (for ``--save-model``).
     """
     from motorid.comparison import holds_input
-    from motorid.record_chunks import CHUNK_ROWS
-    from motorid.records import record_timing
+    from motorid.io.records import CHUNK_ROWS, record_timing
     from motorid.validation import (
         RPM_PER_RAD_S,
         check_scored_samples,
@@ -754,7 +753,7 @@ def identify_file(
     path: str | os.PathLike[str], options: IdentifyOptions, read: ReadOptions
 ) -> tuple[dict[str, Any], list, Any]:
     """:func:`identify_blocks` on the record file ``path``, read in blocks
-    (:func:`motorid.record_chunks.iter_record`): memory does not grow with the record.
+    (:func:`motorid.io.records.iter_record`): memory does not grow with the record.
 
     The first block gives the record's attrs (its units, whether it is motorid's simulation);
     an output in another unit than rad/s takes one more pass, for its largest magnitude (the
@@ -766,7 +765,7 @@ def identify_file(
     Parameters
     ----------
     path : str or os.PathLike
-        The record file (any format :func:`motorid.records.read_record` reads).
+        The record file (any format :func:`motorid.io.records.read_record` reads).
     options : IdentifyOptions
         The estimator and the scores' options.
     read : ReadOptions

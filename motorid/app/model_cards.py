@@ -23,7 +23,7 @@ import pandas as pd
 
 from motorid.drive.files import ModelCard, file_sha256
 from motorid.errors import DataError
-from motorid.records import record_timing
+from motorid.io.records import record_timing
 
 logger = logging.getLogger(__name__)
 

@@ -19,8 +19,8 @@ from motorid.errors import DataError
 
 @dataclass(frozen=True)
 class ReadOptions:
-    """How a record is read: :func:`motorid.records.read_record`'s options, then the span
-    ``start <= t <= stop`` [s] (:func:`motorid.records.trim_record`).
+    """How a record is read: :func:`motorid.io.records.read_record`'s options, then the span
+    ``start <= t <= stop`` [s] (:func:`motorid.io.records.trim_record`).
 
     The names are the command line's record options (``--time``, ``--input-unit``,
     ``--start`` ...).
@@ -51,7 +51,7 @@ class ReadOptions:
     counts_per_rev : float, optional
         Counts per revolution of an encoder whose position is the output
         (``output_unit="counts"``): the commands get its speed, differentiated
-        (:func:`motorid.records.speed_from_position`), and a warning says the speed's
+        (:func:`motorid.io.records.speed_from_position`), and a warning says the speed's
         quantisation step.
     direction : str, optional
         A direction column that gives the unsigned input its sign (sign and magnitude).
@@ -110,7 +110,7 @@ class ReadOptions:
         return self.start is not None or self.stop is not None
 
     def _options(self) -> dict[str, Any]:
-        """The options :func:`motorid.records.read_record` and :func:`motorid.record_chunks.iter_record` take."""
+        """The options :func:`motorid.io.records.read_record` and :func:`motorid.io.records.iter_record` take."""
         return {k: v for k, v in asdict(self).items() if k not in ("max_samples", "start", "stop")}
 
     def read(self, path: str | os.PathLike[str], min_samples: int = 20) -> pd.DataFrame:
@@ -119,11 +119,11 @@ class ReadOptions:
         Parameters
         ----------
         path : str or os.PathLike
-            The record file (any format :func:`motorid.records.read_record` reads).
+            The record file (any format :func:`motorid.io.records.read_record` reads).
         min_samples : int
             Fewest samples the record, and its span, must hold.
         """
-        from motorid.records import read_record, trim_record
+        from motorid.io.records import read_record, trim_record
 
         record = read_record(
             path,
@@ -136,7 +136,7 @@ class ReadOptions:
 
     def _speed(self, record: pd.DataFrame, path: str | os.PathLike[str]) -> pd.DataFrame:
         """``record``, its output differentiated to a speed when it is an encoder's position in counts."""
-        from motorid.records import speed_from_position
+        from motorid.io.records import speed_from_position
         from motorid.units import ENCODER_COUNTS
 
         if (record.attrs.get("converted_from") or {}).get("y") != ENCODER_COUNTS:
@@ -145,7 +145,7 @@ class ReadOptions:
 
     def read_segment(self, path: str | os.PathLike[str], min_samples: int = 20) -> tuple[pd.DataFrame, bool]:
         """As :meth:`read`, but a record longer than ``max_samples`` gives its first ``max_samples``
-        rows (a segment, as ``motorid doctor`` reads it: :func:`motorid.record_chunks.read_head`);
+        rows (a segment, as ``motorid doctor`` reads it: :func:`motorid.io.records.read_head`);
         and whether it is a segment.
 
         Parameters
@@ -155,8 +155,7 @@ class ReadOptions:
         min_samples : int
             Fewest samples the record, and its span, must hold.
         """
-        from motorid.record_chunks import read_head
-        from motorid.records import trim_record
+        from motorid.io.records import read_head, trim_record
 
         record, segment = read_head(path, self.max_samples, min_samples, **self._options())
         return trim_record(
@@ -167,7 +166,7 @@ class ReadOptions:
         self, path: str | os.PathLike[str], min_samples: int = 20, chunk_rows: int | None = None
     ) -> Iterator[pd.DataFrame]:
         """The record ``path`` in consecutive blocks of ``chunk_rows`` rows, each read, checked and
-        converted as the whole record is (:func:`motorid.record_chunks.iter_record`); neither
+        converted as the whole record is (:func:`motorid.io.records.iter_record`); neither
         ``max_samples`` nor the span applies. A record whose time stamps jitter raises
         :class:`motorid.errors.UniformGridError` (it is resampled whole: :meth:`read`), and so does
         one whose output is in encoder counts (differentiated whole).
@@ -179,10 +178,10 @@ class ReadOptions:
         min_samples : int
             Fewest samples the record must hold.
         chunk_rows : int, optional
-            Rows per block; default :data:`motorid.record_chunks.CHUNK_ROWS`.
+            Rows per block; default :data:`motorid.io.records.CHUNK_ROWS`.
         """
         from motorid.errors import UniformGridError
-        from motorid.record_chunks import CHUNK_ROWS, iter_record
+        from motorid.io.records import CHUNK_ROWS, iter_record
         from motorid.units import ENCODER_COUNTS
 
         if self.output_unit == ENCODER_COUNTS:

@@ -108,10 +108,10 @@ def add_record_input(parser: argparse.ArgumentParser, max_samples_help: str = MA
 
 
 def add_record_columns(parser: argparse.ArgumentParser, max_samples_help: str = MAX_SAMPLES_HELP) -> None:
-    """How a record is read: columns, time, separator, units, size limit (:class:`motorid.records.RecordOptions`;
+    """How a record is read: columns, time, separator, units, size limit (:class:`motorid.io.records.RecordOptions`;
     what the limit does in this command: ``max_samples_help``), and the span used (--start, --stop:
     :func:`add_trim_options`)."""
-    from motorid.records import COMMENT, DUPLICATES, THOUSANDS
+    from motorid.io.records import COMMENT, DUPLICATES, THOUSANDS
     from motorid.units import TIME_UNITS
 
     group = parser.add_argument_group("record")
@@ -233,7 +233,7 @@ def iter_record_from_args(
     args: argparse.Namespace, chunk_rows: int | None = None, min_samples: int = 20
 ) -> Iterator[pd.DataFrame]:
     """The record of :func:`read_record_from_args` in consecutive blocks of ``chunk_rows`` rows
-    (default :data:`motorid.record_chunks.CHUNK_ROWS`), each read, checked and converted as the
+    (default :data:`motorid.io.records.CHUNK_ROWS`), each read, checked and converted as the
     whole record is, with the same options (:meth:`motorid.app.ReadOptions.iter_blocks`);
     ``--max-samples`` does not apply, since memory does not grow with the record. A record whose
     time stamps jitter raises :class:`motorid.errors.UniformGridError` (it is resampled

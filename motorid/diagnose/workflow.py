@@ -215,7 +215,7 @@ def diagnose(
     record : pandas.DataFrame or sequence of DataFrame
         The measurement, as the user's own code holds it: the columns and units
         are named by the options below, the same as the command line's, and
-        brought to motorid's by :func:`motorid.records.normalise_record`;
+        brought to motorid's by :func:`motorid.io.records.normalise_record`;
         ``attrs["dt"]`` is used when ``dt`` is None. Several records of one
         drive (at one sample time, read with the same options) are fitted as one model
         (:class:`Pool`): shared parameters, each record its own initial state and time origin;
@@ -286,7 +286,7 @@ def diagnose(
         the chosen values are held in every later fit. False: the base as given.
     time, time_unit, input_unit, output_unit, supply_voltage, input_full_scale, resample : str, float or bool, optional
         The time column (default ``t``; none needed when ``dt`` is known) and the
-        record's units, as :class:`motorid.records.RecordOptions` (``--time``,
+        record's units, as :class:`motorid.io.records.RecordOptions` (``--time``,
         ``--time-unit``, ``--input-unit``, ... on the command line): e.g.
         ``diagnose(df, input="pwm", output="rpm", input_unit="%", output_unit="rpm")``.
     labels : sequence of str, optional
@@ -306,8 +306,8 @@ def diagnose(
     -------
     Diagnosis
     """
+    from motorid.io.records import normalise_record
     from motorid.progress import progress_bar
-    from motorid.records import normalise_record
 
     # the arguments, checked before any record is read
     columns = {"time": time, "input": input, "output": output}

@@ -448,7 +448,7 @@ def group_by_drive(
     """The records of ``paths`` per drive, and a failed row for each record that cannot be read.
 
     A record's drive is what a file-name pattern gave, else its attrs ``drive``
-    (:data:`motorid.records.DRIVE_ATTR`), else its file's stem: a record without a drive id is
+    (:data:`motorid.io.records.DRIVE_ATTR`), else its file's stem: a record without a drive id is
     a drive of its own. The records whose drive the pattern gave or ``known`` holds are not
     read; the others are read on the cluster, one task each. Each drive's records are sorted
     by time, then path.

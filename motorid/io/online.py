@@ -301,7 +301,7 @@ class RunRecorder:
         units : mapping, optional
             Column -> unit; default ``t`` in s, ``u`` in V, ``y`` in rad/s.
         timing : str
-            A keyword of :data:`motorid.records.TIMINGS`: ``"hold"`` (``y`` measured at
+            A keyword of :data:`motorid.io.records.TIMINGS`: ``"hold"`` (``y`` measured at
             the end of the sample) or ``"sampled"`` (at its start).
         """
         df = pd.DataFrame(list(self.rows), columns=self.columns or list(columns))

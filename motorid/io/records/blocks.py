@@ -39,7 +39,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.errors import DataError, UniformGridError
-from motorid.records import (
+from motorid.io.records.read import (
     COMMENT,
     DIRECTION,
     HDF5_ERRORS,
@@ -504,7 +504,7 @@ def read_head(
         The record options :func:`iter_record` takes (``dt``, ``columns``, ``time``,
         ``input_unit`` ... ``sep``, ``decimal``), but ``chunk_rows``.
     """
-    from motorid.records import read_record
+    from motorid.io.records.read import read_record
 
     if rows < min_samples:  # too few to read in blocks: the whole-record read says why
         return read_record(path, min_samples=min_samples, max_samples=rows, **options), False
