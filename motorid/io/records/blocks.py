@@ -39,47 +39,28 @@ import numpy as np
 import pandas as pd
 
 from motorid.errors import DataError, UniformGridError
-from motorid.io.records.read import (
-    COMMENT,
-    DIRECTION,
-    HDF5_ERRORS,
-    REQUIRED_COLUMNS,
-    CsvLayout,
+from motorid.io.records.columns import Blocks
+from motorid.io.records.files import record_format
+from motorid.io.records.hdf5 import _hdf5_blocks
+from motorid.io.records.normalise import (
     InputSignCheck,
-    RecordOptions,
-    _column_chooser,
-    _hdf5_file,
-    _parquet_file,
-    _read_binary,
-    _reason,
-    _regular_file,
-    _samples,
-    binary_column,
-    check_dialect,
     check_increasing,
-    csv_data_options,
-    csv_layout,
     named_attrs,
-    quoted,
-    raise_bad_cell,
-    record_format,
     row_place,
     signed_by_direction,
-    stamped_in_ns,
     steps_off_grid,
     time_base,
     untimed_dt,
 )
+from motorid.io.records.options import COMMENT, DIRECTION, REQUIRED_COLUMNS, RecordOptions, quoted
+from motorid.io.records.parquet import _parquet_blocks
+from motorid.io.records.read import _read_binary, read_record
+from motorid.io.records.text import _csv_blocks, check_dialect
 
 #: Rows per block by default: 65,536 rows of three float64 columns are 1.5 MB, and what an
 #: estimator's ``batch_filter`` returns per block (estimate and covariance diagonal per sample,
 #: 19 parameters) 20 MB.
 CHUNK_ROWS = 1 << 16
-
-# A source of blocks: a generator that yields the record's attrs, then the line number of a CSV's
-# header (None in the other formats), then each block as {canonical name: array} (a time column
-# of integers as int64, the rest float64).
-Blocks = Iterator[Any]
 
 
 def iter_record(
@@ -327,141 +308,6 @@ def _joined(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
     return {key: np.concatenate([part[key] for part in parts]) for key in parts[0]}
 
 
-def _csv_blocks(
-    name: str,
-    mapping: dict[str, str],
-    optional: set[str],
-    chunk_rows: int,
-    sep: str | None,
-    decimal: str | None,
-    thousands: str | None = None,
-    comment: str | None = COMMENT,
-) -> Blocks:
-    """A CSV record by pandas' C parser in chunks, with the whole-record read's layout and options; a
-    chunk that does not parse as finite numbers is named by :func:`~motorid.records.raise_bad_cell`.
-
-    A time column whose first lines are integers is read as int64, exactly, as the whole read
-    reads it; should a later chunk hold a fraction there, the rest is read as float64 (the whole
-    read then reads the column as float64: the same numbers below 2**53).
-    """
-    layout = csv_layout(name, mapping, optional, sep, decimal, comment=comment, thousands=thousands)
-    if layout.time_text:
-        raise UniformGridError(
-            f"{name}: the time column {quoted(layout.time_column)} holds {layout.time_text} stamps as text, which "
-            "are read when the record is read whole (read_record), not in blocks"
-        )
-    yield layout.attrs
-    yield layout.data_line
-    names = [column for column in layout.present if column in mapping.values()]
-    canonical = {column: key for key, column in mapping.items()}
-    integers = list(layout.integers)
-    rows_read = 0
-    reader = _csv_reader(name, layout, names, integers, chunk_rows, rows_read)
-    try:
-        while True:
-            try:
-                data = next(reader)
-            except StopIteration:
-                return
-            except (ValueError, OverflowError):  # a cell that is not a number, or a fraction in an int column
-                if not integers:
-                    raise_bad_cell(name, layout, names)
-                integers = []  # this chunk again, as floats: a bad cell is then named above
-                reader.close()
-                reader = _csv_reader(name, layout, names, integers, chunk_rows, rows_read)
-                continue
-            arrays = {canonical[c]: data[c].to_numpy() for c in names}
-            if not all(np.isfinite(values).all() for values in arrays.values()):
-                raise_bad_cell(name, layout, names)
-            rows_read += len(data)
-            yield arrays
-    finally:
-        reader.close()
-
-
-def _csv_reader(
-    name: str, layout: CsvLayout, names: list[str], integers: list[str], chunk_rows: int, start: int
-) -> Any:
-    """pandas' chunked reader of the columns ``names`` of a CSV record from data row ``start`` on."""
-    options = csv_data_options(layout, names)
-    if start:  # the header (and a units row) is skipped with the rows read before: the columns are named
-        options.update(skiprows=layout.data_line + start, header=None, names=layout.present)
-    dtypes = {column: np.int64 if column in integers else np.float64 for column in names}
-    return pd.read_csv(name, dtype=dtypes, chunksize=chunk_rows, **options)
-
-
-def _parquet_blocks(
-    name: str, kind: str, mapping: dict[str, str], optional: set[str], chunk_rows: int
-) -> Blocks:
-    """A Parquet record in batches of at most ``chunk_rows`` rows (pyarrow reads them across row groups)."""
-    import pyarrow as pa
-
-    if _regular_file(name) == 0:
-        raise DataError(f"{name} is empty")
-    parquet, attrs = _parquet_file(name)
-    with parquet:
-        found: dict[str, str] = {}
-        rows = parquet.metadata.num_rows
-        chosen = _column_chooser(name, mapping, False, None, found, optional)(
-            {column: (rows,) for column in parquet.schema_arrow.names}
-        )
-        for key in chosen:
-            if found[key] == "t" and (pa.types.is_timestamp(parquet.schema_arrow.field(key).type)
-                                      or pa.types.is_duration(parquet.schema_arrow.field(key).type)):  # fmt: skip
-                attrs = stamped_in_ns(name, attrs, mapping["t"], "date and time")
-        yield attrs
-        yield None
-        first_row = 0
-        batches = parquet.iter_batches(batch_size=chunk_rows, columns=chosen)
-        while True:
-            try:
-                batch = next(batches, None)
-            except (pa.ArrowException, OSError) as exc:  # a corrupt page or a cut file
-                raise DataError(
-                    f"{name}: its Parquet data cannot be read (corrupt or cut?): {_reason(exc)}"
-                ) from None
-            if batch is None:
-                return
-            yield {
-                found[key]: binary_column(
-                    name, key, batch.column(key).to_numpy(zero_copy_only=False), found[key] == "t", first_row
-                )
-                for key in chosen
-            }
-            first_row += batch.num_rows
-
-
-def _hdf5_blocks(
-    name: str, kind: str, mapping: dict[str, str], optional: set[str], chunk_rows: int
-) -> Blocks:
-    """An HDF5 record by slices of ``chunk_rows`` samples of its datasets."""
-    if _regular_file(name) == 0:
-        raise DataError(f"{name} is empty")
-    handle, shapes, attrs, paths = _hdf5_file(name)
-    with handle:
-        found: dict[str, str] = {}
-        chosen = _column_chooser(name, mapping, False, None, found, optional)(shapes)
-        yield attrs
-        yield None
-        rows = _samples(shapes[chosen[0]]) or 0
-        for first_row in range(0, rows, chunk_rows):
-            block = {}
-            for key in chosen:
-                shape = shapes[key]
-                axis = next((i for i, n in enumerate(shape) if n > 1), 0)  # the one axis along the samples
-                where = tuple(
-                    slice(first_row, first_row + chunk_rows) if i == axis else 0 for i in range(len(shape))
-                )
-                try:
-                    values = np.asarray(handle[paths[key]][where]).reshape(-1)
-                except HDF5_ERRORS as exc:
-                    raise DataError(
-                        f"{name}: its HDF5 data cannot be read (corrupt?): {_reason(exc)}"
-                    ) from None
-                block[found[key]] = binary_column(name, key, values, found[key] == "t", first_row)
-            yield block
-
-
 def _whole_blocks(
     name: str,
     kind: str,
@@ -504,7 +350,6 @@ def read_head(
         The record options :func:`iter_record` takes (``dt``, ``columns``, ``time``,
         ``input_unit`` ... ``sep``, ``decimal``), but ``chunk_rows``.
     """
-    from motorid.io.records.read import read_record
 
     if rows < min_samples:  # too few to read in blocks: the whole-record read says why
         return read_record(path, min_samples=min_samples, max_samples=rows, **options), False
@@ -519,6 +364,3 @@ def read_head(
         except DataError:  # a bad row after the segment (or stamps off the grid): there are rows after it
             more = True
     return record, more
-
-
-__all__ = ["CHUNK_ROWS", "iter_record", "read_head"]
