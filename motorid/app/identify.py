@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from motorid.app.reading import ReadOptions
 from motorid.errors import DataError
+from motorid.io.records import RecordOptions
 
 logger = logging.getLogger(__name__)
 
@@ -126,16 +126,7 @@ def identify(
     record: pd.DataFrame,
     estimator: str = "hammerstein-rls",
     *,
-    time: str | None = None,
-    input: str = "u",
-    output: str = "y",
-    time_unit: str | None = None,
-    dt: float | None = None,
-    resample: bool = False,
-    input_unit: str | None = None,
-    input_full_scale: float | None = None,
-    output_unit: str | None = None,
-    supply_voltage: float | None = None,
+    record_options: RecordOptions | None = None,
     **options: Any,
 ) -> dict[str, Any]:
     """``motorid identify`` on a DataFrame of the user's own: its ``--json`` payload.
@@ -152,23 +143,10 @@ def identify(
         The samples, one row each, with the time (or ``dt``), input and output columns.
     estimator : str
         A registered estimator's name (:func:`motorid.estimators.available`).
-    time : str, optional
-        Name of the time column (default ``t``; none needed when ``dt`` is known).
-    input, output : str
-        Names of the input and output columns.
-    time_unit : {"s", "ms", "us", "ns"}, optional
-        Unit of the time column (default: the record's ``attrs["units"]["t"]``, else seconds).
-    dt : float, optional
-        Sample time [s]; a time column that says otherwise is refused.
-    resample : bool
-        Put a record with gaps on the uniform grid instead of refusing it.
-    input_unit, output_unit : str, optional
-        Units of the input and output columns, converted to motorid's
-        (:data:`motorid.units.INPUT_UNITS`, :data:`motorid.units.OUTPUT_UNITS`).
-    input_full_scale : float, optional
-        The count of full duty, for ``input_unit="counts"``.
-    supply_voltage : float, optional
-        Supply voltage [V] of a PWM drive: a duty in % (or counts) becomes volts.
+    record_options : RecordOptions, optional
+        How the record is read (:class:`motorid.io.records.RecordOptions`: its columns, time,
+        units and span), as the command line's record options say it; its fields may also be
+        given one by one among the keyword arguments (``input="pwm"``, ``input_unit="%"``).
     **options :
         The other fields of :class:`IdentifyOptions` (``na``, ``nb``, ``degree``, ``lam``,
         ``skip``, ``low_speed_rpm``, ``param`` ...).
@@ -186,16 +164,15 @@ def identify(
     """
     from motorid.io.records import normalise_record
 
+    reading, options = RecordOptions.split(record_options, options)
     unknown = sorted(set(options) - {f.name for f in fields(IdentifyOptions)} - {"estimator"})
     if unknown:
         raise DataError(f"identify: unknown option {unknown[0]!r}")
     settings = IdentifyOptions(estimator=estimator, **options)
-    normalised = normalise_record(
-        record, time=time, input=input, output=output, time_unit=time_unit, dt=dt, resample=resample,
-        input_unit=input_unit, input_full_scale=input_full_scale, output_unit=output_unit,
-        supply_voltage=supply_voltage, min_samples=20,
-    )  # fmt: skip
-    payload, _, _ = identify_record(normalised, settings, source="the DataFrame", input=input, output=output)
+    normalised = normalise_record(record, reading, min_samples=20)
+    payload, _, _ = identify_record(
+        normalised, settings, source="the DataFrame", input=reading.input or "u", output=reading.output or "y"
+    )
     return payload
 
 
@@ -308,10 +285,10 @@ def create_estimator(name: str, options: Any, rig: Any = None) -> Any:
     from motorid.estimators import available, factory
 
     if name not in available():
-        raise DataError(f"--estimator: unknown estimator {name!r}; known: {', '.join(available())}")
+        raise DataError(f"unknown estimator {name!r} (estimator=...); known: {', '.join(available())}")
     make = factory(name)
     if rig is not None and not hasattr(make, "from_rig"):
-        raise DataError(f"--model: estimator {name!r} does not start from a drive model")
+        raise DataError(f"model=...: estimator {name!r} does not start from a drive model")
     try:
         accepted = inspect.signature(make).parameters
     except (TypeError, ValueError):  # a factory without a signature takes what it is given
@@ -330,7 +307,7 @@ def create_estimator(name: str, options: Any, rig: Any = None) -> Any:
     for item in options.param:
         key, sep, value = item.partition("=")
         if not sep or not key:
-            raise DataError(f"--param expects KEY=VALUE, got {item!r}")
+            raise DataError(f"param=... expects KEY=VALUE, got {item!r}")
         kwargs[key.replace("-", "_")] = _parse_value(value)
     if takes_identify_basis(name, kwargs):
         kwargs["basis"] = IDENTIFY_BASIS
@@ -340,14 +317,15 @@ def create_estimator(name: str, options: Any, rig: Any = None) -> Any:
         raise DataError(f"estimator {name!r}: {exc}") from None
 
 
-def drive_model_from_file(path: Path, option: str = "--model") -> Any:
-    """The drive model in the model file ``path``: a two-mass rig or a rigid drive; DataError otherwise."""
+def drive_model_from_file(path: Path, field: str = "model") -> Any:
+    """The drive model in the model file ``path``: a two-mass rig or a rigid drive; DataError otherwise,
+    naming the ``field`` that gave the file (``model=PATH``)."""
     from motorid.drive import RigidDrive, TwoMassRig
     from motorid.estimators import load_model
 
     model = load_model(path)
     if not isinstance(model, TwoMassRig | RigidDrive):
-        raise DataError(f"{option} {path}: holds a {type(model).__name__}, not a drive model")
+        raise DataError(f"{field}={path}: holds a {type(model).__name__}, not a drive model")
     return model
 
 
@@ -364,14 +342,14 @@ def start_model(options: IdentifyOptions) -> Any:
     if options.estimator not in available() or not hasattr(factory(options.estimator), "from_rig"):
         create_estimator(options.estimator, options)  # an unknown name is named first
         raise DataError(
-            f"--model: estimator {options.estimator!r} identifies its model from the record alone; "
-            "--model starts a friction filter (friction-ekf, friction-ukf) from a drive model"
+            f"model=...: estimator {options.estimator!r} identifies its model from the record alone; "
+            "model=... starts a friction filter (friction-ekf, friction-ukf) from a drive model"
         )
     model = drive_model_from_file(model_file)
     if isinstance(model, RigidDrive) and not any(p.partition("=")[0] == "R" for p in options.param):
         raise DataError(
-            f"--model {model_file} is a rigid drive, which has no sensor model: give the variance of the "
-            "speed measurement with --param R=VALUE [(output unit)^2]"
+            f"model={model_file} is a rigid drive, which has no sensor model: give the variance of the "
+            "speed measurement with param=R=VALUE [(output unit)^2]"
         )
     return model
 
@@ -414,8 +392,8 @@ def estimator_for_record(
     units = record.attrs.get("units")
     name = options.estimator
     if model is not None:
-        check_output_unit(model, units, f"--model {options.model}")
-        note = input_unit_note(model, units, f"--model {options.model}")
+        check_output_unit(model, units, f"model={options.model}")
+        note = input_unit_note(model, units, f"model={options.model}")
         return create_estimator(name, options, rig=model), [note] if note else []
     if name not in available() or not hasattr(factory(name), "from_rig"):
         notes = []
@@ -428,7 +406,7 @@ def estimator_for_record(
     if SIMULATED_RIG_ATTR not in record.attrs:
         raise DataError(
             f"{source}: the {name} needs the drive's model, and this record (not motorid's own "
-            "simulation) carries none: give it with --model FILE (motorid doctor --save-model writes one)"
+            "simulation) carries none: give it with model=FILE (the doctor's save_model=... writes one)"
         )
     check_output_unit(paper_rig(), units, "the default rig")
     note = input_unit_note(paper_rig(), units, "the default rig")
@@ -750,7 +728,7 @@ def identify_blocks(
 
 
 def identify_file(
-    path: str | os.PathLike[str], options: IdentifyOptions, read: ReadOptions
+    path: str | os.PathLike[str], options: IdentifyOptions, read: RecordOptions
 ) -> tuple[dict[str, Any], list, Any]:
     """:func:`identify_blocks` on the record file ``path``, read in blocks
     (:func:`motorid.io.records.iter_record`): memory does not grow with the record.
@@ -768,7 +746,7 @@ def identify_file(
         The record file (any format :func:`motorid.io.records.read_record` reads).
     options : IdentifyOptions
         The estimator and the scores' options.
-    read : ReadOptions
+    read : RecordOptions
         How the record is read (columns, units, sample time; ``max_samples``: most rows of a
         record that must be held whole, one whose stamps jitter). A span (``start``, ``stop``)
         is cut from the record read whole, which is then identified as :func:`identify_record` does.
@@ -779,14 +757,15 @@ def identify_file(
         What :func:`identify_record` returns.
     """
     from motorid.errors import UniformGridError
+    from motorid.io.records import CHUNK_ROWS, iter_record, read_record
 
-    names = (read.input, read.output)
+    names = (read.input or "u", read.output or "y")
     if read.spanned:  # a span is cut from the record read whole
-        record = read.read(path)
+        record = read_record(path, read, min_samples=20, other_columns=False, speed=True)
         return identify_record(record, options, source=str(path), input=names[0], output=names[1])
 
     def read_blocks() -> Iterator[pd.DataFrame]:
-        return read.iter_blocks(path)
+        return iter_record(path, read, min_samples=20, chunk_rows=CHUNK_ROWS, speed=True)
 
     try:
         passes: Iterator[pd.DataFrame] | None = read_blocks()
@@ -807,8 +786,8 @@ def identify_file(
 
         return identify_blocks(blocks, options, est, notes, unit, threshold, names, str(path))
     except UniformGridError as exc:
-        logger.info("%s: identify reads it whole (--max-samples %d)", exc, read.max_samples)
-        record = read.read(path)
+        logger.info("%s: identify reads it whole (max_samples=%s)", exc, read.max_samples)
+        record = read_record(path, read, min_samples=20, other_columns=False, speed=True)
         return identify_record(record, options, source=str(path), input=names[0], output=names[1])
 
 

@@ -150,7 +150,7 @@ def input_scale(
     given_words = "% duty" if given == "%" else given
     if supply is None:
         raise DataError(
-            f"{name} was fitted on {fitted_words}; {given_as} in {given_words}: give --supply-voltage or "
+            f"{name} was fitted on {fitted_words}; {given_as} in {given_words}: give supply_voltage=... or "
             f"use a model fitted in {given_words}"
         )
     factor = 100.0 / supply if fitted == "%" else supply / 100.0

@@ -23,7 +23,7 @@ from .options import (
     hold_out_folder,
     number,
     positive,
-    read_options_from_args,
+    record_options_from_args,
 )
 from .report import emit_json, say, show_progress
 
@@ -65,14 +65,16 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         start_model_from_file(args.model)
     if args.save_model is not None:
         check_out_file(args.save_model, True, "--save-model")
-    reading = read_options_from_args(args)
-    read = [reading.read_segment(path) for path in args.data]
+    from motorid.io.records import read_head
+
+    reading = record_options_from_args(args)
+    read = [read_head(path, reading, min_samples=20, speed=True) for path in args.data]
     records = [record for record, _ in read]
     labels = [str(path) for path in args.data]
     validation = None
     if args.validate is not None:
         # the same record options (columns, dt, units, span) as the records the models are fitted on
-        validation, _ = reading.read_segment(args.validate)
+        validation, _ = read_head(args.validate, reading, min_samples=20, speed=True)
     if args.out:
         check_out_folder(args.out)
         hold_out_folder(args, args.out)

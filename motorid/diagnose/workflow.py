@@ -126,7 +126,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Sequence
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
@@ -172,15 +172,13 @@ from motorid.diagnose.timing import DelayDrift, delay_drift
 from motorid.drive.rigid import RigidDrive
 from motorid.drive.two_mass import TwoMassRig
 from motorid.errors import DataError
+from motorid.io.records import RecordOptions
 
 logger = logging.getLogger(__name__)
 
 
 def diagnose(
     record: pd.DataFrame | Sequence[pd.DataFrame],
-    dt: float | None = None,
-    input: str = "u",
-    output: str = "y",
     output_kind: Literal["velocity", "position"] = "velocity",
     input_gain: float | None = None,
     base: Sequence[str] | str | None = None,
@@ -198,15 +196,10 @@ def diagnose(
     band: float | None = None,
     model: RigidDrive | TwoMassRig | None = None,
     structure: bool = True,
-    time: str | None = None,
-    time_unit: str | None = None,
-    input_unit: str | None = None,
-    output_unit: str | None = None,
-    supply_voltage: float | None = None,
-    input_full_scale: float | None = None,
-    resample: bool = False,
     labels: Sequence[str] | None = None,
     align: bool = False,
+    record_options: RecordOptions | None = None,
+    **record_fields: Any,
 ) -> Diagnosis:
     """Find the effects missing from a rigid drive model of ``record`` (see the module notes).
 
@@ -214,17 +207,13 @@ def diagnose(
     ----------
     record : pandas.DataFrame or sequence of DataFrame
         The measurement, as the user's own code holds it: the columns and units
-        are named by the options below, the same as the command line's, and
+        are named by ``record_options``, the same as the command line's, and
         brought to motorid's by :func:`motorid.io.records.normalise_record`;
         ``attrs["dt"]`` is used when ``dt`` is None. Several records of one
         drive (at one sample time, read with the same options) are fitted as one model
         (:class:`Pool`): shared parameters, each record its own initial state and time origin;
         each candidate is judged on the pooled evidence, and :attr:`Diagnosis.records` holds
         the gaps of each record.
-    dt : float, optional
-        Sample time [s], > 0; default from ``attrs["dt"]`` or the time column.
-    input, output : str
-        Column names of the input (e.g. [V]) and the output, any text.
     output_kind : {"velocity", "position"}
         What the output is. Position records are differentiated (zero-phase
         low-pass and central differences); their output gap is then measured
@@ -284,11 +273,6 @@ def diagnose(
         Choose the input delay and lag from the record before any other effect is
         judged (:func:`choose_structure`; skipped when the base already holds one);
         the chosen values are held in every later fit. False: the base as given.
-    time, time_unit, input_unit, output_unit, supply_voltage, input_full_scale, resample : str, float or bool, optional
-        The time column (default ``t``; none needed when ``dt`` is known) and the
-        record's units, as :class:`motorid.io.records.RecordOptions` (``--time``,
-        ``--time-unit``, ``--input-unit``, ... on the command line): e.g.
-        ``diagnose(df, input="pwm", output="rpm", input_unit="%", output_unit="rpm")``.
     labels : sequence of str, optional
         A name for each record in the report (e.g. its file); default ``record 1``, ``record 2``...
     align : bool
@@ -301,6 +285,15 @@ def diagnose(
         aligned records fit no better (their final gap in noise floors not below the record's own,
         or no drive model describes them), the diagnosis on the record's own time is kept and a
         note says so.
+    record_options : RecordOptions, optional
+        How the records are read (:class:`motorid.io.records.RecordOptions`): the time, input
+        and output columns (any text; default ``t``, ``u``, ``y``, the time column not needed
+        when ``dt`` is known), the sample time ``dt`` [s] (default from ``attrs["dt"]`` or
+        the time column), the units, the span.
+    **record_fields :
+        Fields of :class:`~motorid.io.records.RecordOptions` given one by one, in place of those
+        of ``record_options``: ``diagnose(df, input="pwm", output="rpm", input_unit="%",
+        output_unit="rpm")``.
 
     Returns
     -------
@@ -310,9 +303,10 @@ def diagnose(
     from motorid.progress import progress_bar
 
     # the arguments, checked before any record is read
-    columns = {"time": time, "input": input, "output": output}
-    reading = {"dt": dt, "time_unit": time_unit, "input_unit": input_unit, "output_unit": output_unit,
-               "supply_voltage": supply_voltage, "input_full_scale": input_full_scale, "resample": resample}  # fmt: skip
+    given = RecordOptions.of(record_options, **record_fields)
+    time, dt = given.time, given.dt
+    columns = {"time": time, "input": given.input or "u", "output": given.output or "y"}
+    reading = given.normalising()
     if isinstance(holdout, pd.DataFrame):
         holdout = normalise_record(holdout, **columns, **reading)
     input, output = "u", "y"

@@ -53,13 +53,14 @@ from .options import (
     DUPLICATES,
     JITTER_LIMIT,
     REQUIRED_COLUMNS,
+    THOUSANDS,
     TIME_ATTR,
     TIMINGS,
     RecordOptions,
     record_timing,
 )
 from .read import read_record
-from .text import ATTRS_MARKER, SEPARATORS, THOUSANDS, csv_layout, write_record
+from .text import ATTRS_MARKER, SEPARATORS, csv_layout, write_record
 
 __all__ = [
     "ATTRS_KEY",

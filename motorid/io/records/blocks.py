@@ -1,17 +1,17 @@
 """Records read in blocks of rows, so that a record of any length is worked on in bounded memory.
 
-:func:`iter_record` reads what :func:`motorid.records.read_record` reads, with the
-same options (:class:`motorid.records.RecordOptions`, ``sep`` and ``decimal``), the
+:func:`iter_record` reads what :func:`motorid.io.records.read_record` reads, with the
+same options (:class:`motorid.io.records.RecordOptions`, ``sep`` and ``decimal``), the
 same checks and the same numbers, but yields the record as consecutive blocks of
 ``chunk_rows`` rows instead of returning it whole: a CSV through pandas' C parser
 in chunks (its layout, separator and decimal mark found once, from its header and
-first lines: :func:`motorid.records.csv_layout`), Parquet in batches across its
+first lines: :func:`motorid.io.records.csv_layout`), Parquet in batches across its
 row groups, HDF5 by slices of its datasets. Memory is then a few blocks, whatever
 the length of the record: an hour at 1 kHz (3.6 M rows) or a day (86.4 M).
 MATLAB and TDMS files are read whole and handed out in blocks (their formats
 hold a column in one piece).
 
-Each block is checked and converted as :func:`~motorid.records.read_record` checks
+Each block is checked and converted as :func:`~motorid.io.records.read_record` checks
 and converts a record, with the errors naming the row in the whole record (and its
 line in a CSV): a non-numeric, NaN or infinite cell, a row with more fields than
 the header, a time column that goes backwards, has a gap or is not uniformly
@@ -33,6 +33,7 @@ from __future__ import annotations
 import contextlib
 import os
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -44,6 +45,7 @@ from motorid.io.records.files import record_format
 from motorid.io.records.hdf5 import _hdf5_blocks
 from motorid.io.records.normalise import (
     InputSignCheck,
+    as_used,
     check_increasing,
     named_attrs,
     row_place,
@@ -52,10 +54,11 @@ from motorid.io.records.normalise import (
     time_base,
     untimed_dt,
 )
-from motorid.io.records.options import COMMENT, DIRECTION, REQUIRED_COLUMNS, RecordOptions, quoted
+from motorid.io.records.options import DIRECTION, REQUIRED_COLUMNS, RecordOptions, quoted
 from motorid.io.records.parquet import _parquet_blocks
 from motorid.io.records.read import _read_binary, read_record
-from motorid.io.records.text import _csv_blocks, check_dialect
+from motorid.io.records.text import _csv_blocks
+from motorid.units import ENCODER_COUNTS
 
 #: Rows per block by default: 65,536 rows of three float64 columns are 1.5 MB, and what an
 #: estimator's ``batch_filter`` returns per block (estimate and covariance diagonal per sample,
@@ -65,76 +68,41 @@ CHUNK_ROWS = 1 << 16
 
 def iter_record(
     path: str | os.PathLike[str],
-    dt: float | None = None,
+    options: RecordOptions | None = None,
+    *,
     columns: Sequence[str] | Mapping[str, str] | None = None,
     min_samples: int = 2,
-    dt_rtol: float = 1e-3,
-    *,
-    time: str | None = None,
-    input: str | None = None,
-    output: str | None = None,
-    time_unit: str | None = None,
-    input_unit: str | None = None,
-    output_unit: str | None = None,
-    supply_voltage: float | None = None,
-    input_full_scale: float | None = None,
-    resample: bool = False,
-    counts_per_rev: float | None = None,
-    direction: str | None = None,
-    direction_forward: float = 1.0,
-    duplicates: str = "refuse",
-    sep: str | None = None,
-    decimal: str | None = None,
-    thousands: str | None = None,
-    comment: str | None = COMMENT,
-    sheet: str | None = None,
     chunk_rows: int = CHUNK_ROWS,
+    speed: bool = False,
+    **fields: Any,
 ) -> Iterator[pd.DataFrame]:
-    """The record of :func:`motorid.records.read_record`, as consecutive blocks of rows.
+    """The record of :func:`motorid.io.records.read_record`, as consecutive blocks of rows.
 
     Parameters
     ----------
     path : str or path-like
-        The record file, in any format :func:`~motorid.records.read_record` reads. Only
+        The record file, in any format :func:`~motorid.io.records.read_record` reads. Only
         the record's columns are read (its ``other_columns=False``); there is no
         ``max_samples``, since memory does not grow with the record.
-    dt : float, optional
-        Expected sample time [s]. Default: ``attrs["dt"]`` from the file, else the
-        median step of the first block; a file or time column that says otherwise is
-        a DataError.
+    options : RecordOptions, optional
+        How the record is read, as for ``read_record``; ``max_samples`` does not apply,
+        since memory does not grow with the record, and a span (``start``, ``stop``) is
+        cut from the record read whole (a :class:`UniformGridError`). As in
+        ``read_record``, ``dt`` given and a file or time column that says otherwise is a
+        DataError; without it, the sample time is the file's, else the median step of
+        the first block.
+    **fields :
+        Fields of :class:`RecordOptions` given one by one, in place of those of ``options``.
     columns : sequence of str or mapping, optional
         Columns that must be present (default ``("t", "u", "y")``), or a mapping
         ``{canonical: name_in_file}`` that renames them, as for ``read_record``.
     min_samples : int
         Fewest rows accepted, >= 1.
-    dt_rtol : float
-        Relative tolerance on the uniformity of the time steps.
-    time, input, output : str, optional
-        Names of the time, input and output columns (default ``t``, ``u``, ``y``),
-        renamed to ``t``, ``u``, ``y``.
-    time_unit : {"s", "ms", "us", "ns"}, optional
-        Unit of the time column (default: the record's ``attrs["units"]["t"]``, else
-        seconds).
-    input_unit, output_unit : str, optional
-        Units of the input and output columns, converted block by block as
-        :func:`motorid.units.convert_record` converts a whole record.
-    supply_voltage : float, optional
-        Supply voltage [V] of a PWM drive: a duty in % (or counts) becomes volts.
-    input_full_scale : float, optional
-        The count of full duty, for ``input_unit="counts"``.
-    resample : bool
-        As for ``read_record``: put a record with gaps on the uniform grid. That takes
-        the record whole, so here a record with gaps is then a :class:`UniformGridError`
-        (without it, a DataError).
-    sep : str, optional
-        Separator of a CSV (one character); default: detected from its first lines.
-    decimal : {".", ","}, optional
-        Decimal mark of a CSV; default: detected from its first lines.
-    counts_per_rev, direction, direction_forward, duplicates, thousands, comment, sheet : optional
-        As for ``read_record``. Rows that repeat a time stamp, and a CSV's time stamps written
-        as text, are read whole (a :class:`UniformGridError`).
     chunk_rows : int
         Rows per block (the last one may be shorter), >= ``max(2, min_samples)``.
+    speed : bool
+        Refuse an encoder's position (``output_unit="counts"``) with a :class:`UniformGridError`:
+        a command that needs a speed differentiates it, which ``read_record`` does whole.
 
     Yields
     ------
@@ -142,39 +110,51 @@ def iter_record(
         One block: float64 columns ``t`` [s, from 0], ``u``, ``y`` in motorid's
         units, the index the rows' numbers in the whole record (0-based),
         ``attrs`` as the whole record's (``dt`` set). Concatenated, the blocks
-        equal the record :func:`~motorid.records.read_record` returns, bit for bit.
+        equal the record :func:`~motorid.io.records.read_record` returns, bit for bit.
 
     Raises
     ------
     DataError
-        As :func:`~motorid.records.read_record`, naming the row in the whole
+        As :func:`~motorid.io.records.read_record`, naming the row in the whole
         record; an error in a later block is raised when that block is reached.
     UniformGridError
         (a DataError) The time stamps jitter, or have gaps and ``resample`` is
-        set: ``read_record`` puts such a record on a uniform grid, whole.
+        set: ``read_record`` puts such a record on a uniform grid, whole; a span is
+        asked for, or a speed from an encoder's counts.
     """
     if not isinstance(min_samples, int) or min_samples < 1:
         raise ValueError(f"min_samples must be an integer >= 1, got {min_samples!r}")
     if not isinstance(chunk_rows, int) or chunk_rows < max(2, min_samples):
         raise ValueError(f"chunk_rows must be an integer >= max(2, min_samples), got {chunk_rows!r}")
-    options = RecordOptions(
-        time=time, input=input, output=output, dt=dt, time_unit=time_unit, input_unit=input_unit,
-        output_unit=output_unit, supply_voltage=supply_voltage, input_full_scale=input_full_scale,
-        resample=resample, dt_rtol=dt_rtol, counts_per_rev=counts_per_rev, direction=direction,
-        direction_forward=direction_forward, duplicates=duplicates,
-    )  # fmt: skip
-    check_dialect(sep, decimal, thousands)
+    options = RecordOptions.of(options, **fields)
     name = os.fspath(path)
+    if options.spanned:
+        raise UniformGridError(
+            f"{name}: a span (start, stop) is cut from the record read whole (read_record)"
+        )
+    if speed and options.output_unit == ENCODER_COUNTS:
+        raise UniformGridError(
+            f"{name}: an encoder's counts are differentiated to a speed when the record is read whole (read_record)"
+        )
     mapping = options.column_map(columns)
     optional = {"t"} if options.time_optional(columns) else set()
     kind = record_format(name)
     if kind == "CSV":
-        source = _csv_blocks(name, mapping, optional, chunk_rows, sep, decimal, thousands, comment)
+        source = _csv_blocks(
+            name,
+            mapping,
+            optional,
+            chunk_rows,
+            options.sep,
+            options.decimal,
+            options.thousands,
+            options.comment,
+        )
     elif kind in ("Parquet", "HDF5"):
         readers = {"Parquet": _parquet_blocks, "HDF5": _hdf5_blocks}
         source = readers[kind](name, kind, mapping, optional, chunk_rows)
     else:
-        source = _whole_blocks(name, kind, mapping, optional, chunk_rows, sheet)
+        source = _whole_blocks(name, kind, mapping, optional, chunk_rows, options.sheet)
     with contextlib.closing(source) as blocks:
         attrs = dict(next(blocks))
         where = row_place(name, next(blocks))
@@ -208,7 +188,7 @@ def iter_record(
 
 class _BlockClock:
     """The time column of a record read in blocks, in s from 0: the unit, origin and sample time
-    from the first block (:func:`motorid.records.time_base`, which also sets ``attrs``), each
+    from the first block (:func:`motorid.io.records.time_base`, which also sets ``attrs``), each
     later block checked against them and across the boundary with the block before."""
 
     def __init__(
@@ -326,41 +306,57 @@ def _whole_blocks(
 
 
 def read_head(
-    path: str | os.PathLike[str], rows: int, min_samples: int = 2, **options: Any
+    path: str | os.PathLike[str],
+    options: RecordOptions | None = None,
+    *,
+    min_samples: int = 2,
+    speed: bool = False,
+    **fields: Any,
 ) -> tuple[pd.DataFrame, bool]:
-    """The record ``path`` when it has at most ``rows`` rows, else its first ``rows`` rows (a
-    segment); and whether it is a segment.
+    """The record ``path`` when it has at most ``max_samples`` rows, else its first ``max_samples``
+    rows (a segment, as ``motorid doctor`` reads a record); and whether it is a segment.
 
-    Read in blocks of ``rows`` (:func:`iter_record`): the first block is the record or the
-    segment, checked as a whole record is, and the start of a second one tells that there is
-    more, so no more than about ``rows`` rows are ever held (the rows after the segment are not
-    checked). A record whose time stamps jitter is put on a uniform grid, which takes it whole:
-    it is read by :func:`motorid.records.read_record` (``max_samples`` = ``rows`` then refuses
-    a longer one).
+    Read in blocks of ``max_samples`` rows (:func:`iter_record`): the first block is the record
+    or the segment, checked as a whole record is, and the start of a second one tells that there
+    is more, so no more than about ``max_samples`` rows are ever held (the rows after the segment
+    are not checked). A record whose time stamps jitter is put on a uniform grid, which takes it
+    whole: it is read by :func:`~motorid.io.records.read_record` (which then refuses a longer
+    one). The output is then differentiated to a speed when ``speed`` asks, and the span of the
+    options cut, as :func:`~motorid.io.records.read_record` does.
 
     Parameters
     ----------
     path : str or path-like
         The record file.
-    rows : int
-        Most rows read: the length of a segment.
+    options : RecordOptions, optional
+        How the record is read; its ``max_samples`` is the length of a segment (None: the
+        record is read whole).
     min_samples : int
         Fewest rows accepted, >= 1.
-    **options : Any
-        The record options :func:`iter_record` takes (``dt``, ``columns``, ``time``,
-        ``input_unit`` ... ``sep``, ``decimal``), but ``chunk_rows``.
+    speed : bool
+        As for :func:`~motorid.io.records.read_record`.
+    **fields :
+        Fields of :class:`RecordOptions` given one by one, in place of those of ``options``.
     """
+    options = RecordOptions.of(options, **fields)
+    whole = options.whole()
+    rows = options.max_samples
+    if rows is None or rows < max(2, min_samples):  # the whole-record read says what is wrong
+        record, more = read_record(path, whole, min_samples=min_samples, other_columns=False), False
+    else:
+        blocks = iter_record(path, replace(whole, max_samples=None), min_samples=min_samples, chunk_rows=rows)
+        with contextlib.closing(blocks):
+            try:
+                record = next(blocks)
+            except UniformGridError:
+                record = read_record(path, whole, min_samples=min_samples, other_columns=False)
+                blocks.close()
+                return as_used(record, options, path, min_samples, speed), False
+            try:
+                more = next(blocks, None) is not None
+            except DataError:  # a bad row after the segment (or stamps off the grid): there are rows after it
+                more = True
+    return as_used(record, options, path, min_samples, speed), more
 
-    if rows < min_samples:  # too few to read in blocks: the whole-record read says why
-        return read_record(path, min_samples=min_samples, max_samples=rows, **options), False
-    blocks = iter_record(path, min_samples=min_samples, chunk_rows=rows, **options)
-    with contextlib.closing(blocks):
-        try:
-            record = next(blocks)
-        except UniformGridError:
-            return read_record(path, min_samples=min_samples, max_samples=rows, **options), False
-        try:
-            more = next(blocks, None) is not None
-        except DataError:  # a bad row after the segment (or stamps off the grid): there are rows after it
-            more = True
-    return record, more
+
+__all__ = ["CHUNK_ROWS", "iter_record", "read_head"]

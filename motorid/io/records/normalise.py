@@ -92,24 +92,7 @@ def row_place(name: str, header_line: int | None) -> Callable[[int], str]:
 
 
 def normalise_record(
-    record: pd.DataFrame,
-    *,
-    time: str | None = None,
-    input: str | None = None,
-    output: str | None = None,
-    dt: float | None = None,
-    time_unit: str | None = None,
-    input_unit: str | None = None,
-    output_unit: str | None = None,
-    supply_voltage: float | None = None,
-    input_full_scale: float | None = None,
-    resample: bool = False,
-    dt_rtol: float = 1e-3,
-    min_samples: int = 2,
-    counts_per_rev: float | None = None,
-    direction: str | None = None,
-    direction_forward: float = 1.0,
-    duplicates: str = "refuse",
+    record: pd.DataFrame, options: RecordOptions | None = None, *, min_samples: int = 2, **fields: Any
 ) -> pd.DataFrame:
     """A DataFrame from the user's own code as a motorid record, with the options :func:`read_record` takes.
 
@@ -130,12 +113,15 @@ def normalise_record(
     ----------
     record : pandas.DataFrame
         The measurement; ``attrs`` may hold ``dt`` and ``units``.
-    time, input, output, dt, time_unit, input_unit, output_unit, supply_voltage, input_full_scale, resample, dt_rtol : optional
-        As :class:`RecordOptions`.
+    options : RecordOptions, optional
+        How the record is read: its columns, time, units and span (``start``, ``stop``);
+        the fields for files (``sep``, ``sheet`` ...) do not apply. Default: every
+        field's default.
     min_samples : int
         Fewest rows accepted, >= 1.
-    counts_per_rev, direction, direction_forward, duplicates : optional
-        As :class:`RecordOptions`.
+    **fields :
+        Fields of :class:`RecordOptions` given one by one (``input="pwm"``,
+        ``input_unit="%"``), in place of those of ``options``.
 
     Returns
     -------
@@ -151,12 +137,7 @@ def normalise_record(
     """
     if not isinstance(record, pd.DataFrame):
         raise DataError(f"record must be a pandas DataFrame, got {type(record).__name__}")
-    options = RecordOptions(
-        time=time, input=input, output=output, dt=dt, time_unit=time_unit, input_unit=input_unit,
-        output_unit=output_unit, supply_voltage=supply_voltage, input_full_scale=input_full_scale,
-        resample=resample, dt_rtol=dt_rtol, counts_per_rev=counts_per_rev, direction=direction,
-        direction_forward=direction_forward, duplicates=duplicates,
-    )  # fmt: skip
+    options = RecordOptions.of(options, **fields)
     mapping = options.column_map()
     present = [str(c) for c in record.columns]
     for canonical, column in mapping.items():
@@ -206,7 +187,10 @@ def normalise_record(
     if time_unit_of_dates is not None:
         options = replace(options, time_unit=time_unit_of_dates)
     names = {canonical: mapping[canonical] for canonical in REQUIRED_COLUMNS if canonical in mapping}
-    return _normalised("the record", rec, attrs, lambda row: f"sample {row}", options, min_samples, names)
+    normalised = _normalised(
+        "the record", rec, attrs, lambda row: f"sample {row}", options, min_samples, names
+    )
+    return as_used(normalised, options, "the record", min_samples, speed=False)
 
 
 #: Time stamps a CSV's time column may hold as text: ISO-8601 dates and times and clock times.
@@ -690,6 +674,21 @@ def speed_from_position(record: pd.DataFrame, source: str | os.PathLike[str] = "
             step, step * 60.0 / (2.0 * math.pi),
         )  # fmt: skip
     return out
+
+
+def as_used(
+    record: pd.DataFrame,
+    options: RecordOptions,
+    source: str | os.PathLike[str],
+    min_samples: int,
+    speed: bool,
+) -> pd.DataFrame:
+    """``record`` as it is used: its output differentiated to a speed when ``speed`` asks and it is
+    an encoder's position in counts (:func:`speed_from_position`), then cut to the span of
+    ``options`` (:func:`trim_record`)."""
+    if speed and (record.attrs.get("converted_from") or {}).get("y") == ENCODER_COUNTS:
+        record = speed_from_position(record, os.fspath(source))
+    return trim_record(record, options.start, options.stop, source, min_samples=min_samples)
 
 
 def trim_record(

@@ -7,6 +7,7 @@ flags.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -154,10 +155,37 @@ SAMPLE_TIMES = (1e-6, 1.0)
 JITTER_DT_RTOL = 0.02
 
 
+#: Thousands separators a CSV may use (``thousands``).
+THOUSANDS: tuple[str, ...] = (",", ".", "'", " ")
+
+
+def check_dialect(sep: str | None, decimal: str | None, thousands: str | None = None) -> None:
+    """Refuse a CSV separator, decimal mark or thousands separator the reader cannot use (one
+    character each, none the same as another)."""
+    if sep is not None and (not isinstance(sep, str) or len(sep) != 1 or sep in '\r\n".'):
+        raise DataError(f"sep=... must be one character such as ',', ';' or a tab, got {sep!r}")
+    if decimal is not None and decimal not in (".", ","):
+        raise DataError(f"decimal=... must be '.' or ',', got {decimal!r}")
+    if sep is not None and sep == decimal:
+        raise DataError(f"sep=... and decimal=... are both {sep!r}: a CSV cannot use one for both")
+    if thousands is not None:
+        if thousands not in THOUSANDS:
+            raise DataError(
+                f"thousands=... must be one of {', '.join(map(repr, THOUSANDS))}, got {quoted(thousands)}"
+            )
+        if thousands == decimal:
+            raise DataError(
+                f"thousands={thousands!r} is also the decimal mark: a CSV cannot use one mark for both"
+            )
+
+
 @dataclass(frozen=True)
 class RecordOptions:
-    """How a record is read: the options of :func:`read_record` and :func:`normalise_record`,
-    the same as the command line's (``--time``, ``--time-unit``, ``--input-unit`` ...).
+    """How a record is read: one object, passed whole from the command line through
+    :mod:`motorid.app` to :func:`~motorid.io.records.read_record`,
+    :func:`~motorid.io.records.iter_record`, :func:`~motorid.io.records.normalise_record` and
+    :func:`motorid.diagnose.diagnose`, each of which also takes its fields as keyword arguments
+    (:meth:`of`). The command line says each field as its flag (``time_unit`` as ``--time-unit``).
 
     Attributes
     ----------
@@ -202,6 +230,30 @@ class RecordOptions:
         other values: refused naming the row (default), or merged into one row
         (the first, the last, or the mean of each column). Repeated rows with the
         same values are always dropped, and one line says how many.
+    sep : str, optional
+        Separator of a CSV (one character). Default: detected from the header and the
+        first lines among :data:`~motorid.io.records.text.SEPARATORS`.
+    decimal : {".", ","}, optional
+        Decimal mark of a CSV. Default: ``,`` when the separator is not a comma and the
+        first lines hold numbers written with one.
+    thousands : str, optional
+        Thousands separator of a CSV (one of :data:`THOUSANDS`). Default: detected with
+        the decimal mark from a number written with both (``-1,035.7``, ``-1.035,7``) or
+        with two groups of three digits; else none.
+    comment : str, optional
+        Prefix of the comment lines before a CSV's header (default ``#``), kept as
+        ``attrs["notes"]``; None or ``""``: none.
+    sheet : str, optional
+        The sheet of an Excel workbook (default: its first).
+    max_samples : int, optional
+        Most rows a record read whole may have, counted before anything is parsed (a
+        record takes about 8 bytes per row and column once read); a longer one is refused
+        naming the limit and how to decimate. :func:`~motorid.io.records.read_head` reads
+        the first ``max_samples`` rows instead; a record read in blocks has no limit.
+        Default: none.
+    start, stop : float, optional
+        The span kept, ``start <= t <= stop`` [s], ``t`` from 0 at the first sample (without
+        a time column, ``k dt``); None leaves that end as it is.
     """
 
     time: str | None = None
@@ -219,6 +271,14 @@ class RecordOptions:
     direction: str | None = None
     direction_forward: float = 1.0
     duplicates: str = "refuse"
+    sep: str | None = None
+    decimal: str | None = None
+    thousands: str | None = None
+    comment: str | None = COMMENT
+    sheet: str | None = None
+    max_samples: int | None = None
+    start: float | None = None
+    stop: float | None = None
 
     def __post_init__(self) -> None:
         for key in ("time", "input", "output", "direction"):
@@ -279,6 +339,93 @@ class RecordOptions:
             raise DataError(
                 f"direction={self.direction!r} is the time, input or output column: it must name its own"
             )
+        check_dialect(self.sep, self.decimal, self.thousands)
+        if self.comment is not None and (
+            not isinstance(self.comment, str) or "\n" in self.comment or "\r" in self.comment
+        ):
+            raise DataError(
+                f"comment=... must be the text comment lines begin with, got {quoted(self.comment)}"
+            )
+        if self.sheet is not None and not isinstance(self.sheet, str):
+            raise DataError(f"sheet=... must name a sheet (a text), got {quoted(self.sheet)}")
+        if self.max_samples is not None and (
+            isinstance(self.max_samples, bool)
+            or not isinstance(self.max_samples, int)
+            or self.max_samples < 1
+        ):
+            raise DataError(f"max_samples=... must be an integer >= 1, got {quoted(self.max_samples)}")
+        for key in ("start", "stop"):
+            value = getattr(self, key)
+            if value is not None and (
+                isinstance(value, bool) or not isinstance(value, int | float) or not 0.0 <= value < math.inf
+            ):
+                raise DataError(f"{key}=... must be a time >= 0 [s], got {quoted(value)}")
+        if self.start is not None and self.stop is not None and self.stop <= self.start:
+            raise DataError(f"stop={self.stop:g} must be after start={self.start:g} [s]")
+
+    @classmethod
+    def of(cls, options: RecordOptions | None = None, **fields: Any) -> RecordOptions:
+        """``options`` (default: every field's default) with the ``fields`` given as keyword
+        arguments in their place: how the functions that take a ``RecordOptions`` also take its
+        fields, ``read_record(path, input="pwm", input_unit="%")``.
+
+        Raises
+        ------
+        DataError
+            ``options`` is no RecordOptions, or a keyword is no field of it (naming the fields).
+        """
+        if options is not None and not isinstance(options, RecordOptions):
+            raise DataError(f"options must be a RecordOptions, got {type(options).__name__}")
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(fields) - known)
+        if unknown:
+            raise DataError(
+                f"{unknown[0]!r} is no record option; the record options are {', '.join(sorted(known))}"
+            )
+        if options is None:
+            return cls(**fields)
+        return dataclasses.replace(options, **fields) if fields else options
+
+    @classmethod
+    def split(
+        cls, options: RecordOptions | None, keywords: Mapping[str, Any]
+    ) -> tuple[RecordOptions, dict[str, Any]]:
+        """``options`` with the ``keywords`` that are its fields in their place (:meth:`of`), and the
+        other keywords: how a function that takes a record and options of its own
+        (``identify(df, input="pwm", na=2)``) tells the record's from its own."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        mine = {key: value for key, value in keywords.items() if key in names}
+        return cls.of(options, **mine), {key: value for key, value in keywords.items() if key not in names}
+
+    def normalising(self) -> dict[str, Any]:
+        """The fields :func:`~motorid.io.records.normalise_record` reads besides the columns' names:
+        the sample time and units always, the others where they are not their defaults."""
+        always = (
+            "dt",
+            "time_unit",
+            "input_unit",
+            "output_unit",
+            "supply_voltage",
+            "input_full_scale",
+            "resample",
+        )
+        unread = ("time", "input", "output", "sep", "decimal", "thousands", "comment", "sheet", "max_samples")
+        defaults = RecordOptions()
+        return {
+            f.name: getattr(self, f.name)
+            for f in dataclasses.fields(self)
+            if f.name in always
+            or (f.name not in unread and getattr(self, f.name) != getattr(defaults, f.name))
+        }
+
+    @property
+    def spanned(self) -> bool:
+        """Whether a span is kept (``start`` or ``stop`` given)."""
+        return self.start is not None or self.stop is not None
+
+    def whole(self) -> RecordOptions:
+        """These options without the span: the record as a whole."""
+        return dataclasses.replace(self, start=None, stop=None) if self.spanned else self
 
     def column_map(self, columns: Sequence[str] | Mapping[str, str] | None = None) -> dict[str, str]:
         """Canonical name -> name in the file: ``columns`` (as :func:`read_record` takes it) and the names."""

@@ -21,11 +21,11 @@ from motorid.io.records.excel import _read_excel
 from motorid.io.records.files import _regular_file, record_format
 from motorid.io.records.hdf5 import _read_hdf5
 from motorid.io.records.matlab import _read_mat
-from motorid.io.records.normalise import _normalised, row_place, stamped_in_ns
-from motorid.io.records.options import COMMENT, REQUIRED_COLUMNS, RecordOptions, quoted
+from motorid.io.records.normalise import _normalised, as_used, row_place, stamped_in_ns
+from motorid.io.records.options import REQUIRED_COLUMNS, RecordOptions, quoted
 from motorid.io.records.parquet import _read_parquet
 from motorid.io.records.tdms import _read_tdms
-from motorid.io.records.text import _read_csv, check_dialect
+from motorid.io.records.text import _read_csv
 
 _READERS: dict[str, Callable[[str, Choose], tuple[dict[str, np.ndarray], dict[str, Any]]]] = {
     "Parquet": _read_parquet,
@@ -67,31 +67,13 @@ def _read_binary(
 
 def read_record(
     path: str | os.PathLike[str],
-    dt: float | None = None,
+    options: RecordOptions | None = None,
+    *,
     columns: Sequence[str] | Mapping[str, str] | None = None,
     min_samples: int = 2,
-    dt_rtol: float = 1e-3,
-    max_samples: int | None = None,
     other_columns: bool = True,
-    *,
-    time: str | None = None,
-    input: str | None = None,
-    output: str | None = None,
-    time_unit: str | None = None,
-    input_unit: str | None = None,
-    output_unit: str | None = None,
-    supply_voltage: float | None = None,
-    input_full_scale: float | None = None,
-    resample: bool = False,
-    counts_per_rev: float | None = None,
-    direction: str | None = None,
-    direction_forward: float = 1.0,
-    duplicates: str = "refuse",
-    sep: str | None = None,
-    decimal: str | None = None,
-    thousands: str | None = None,
-    comment: str | None = COMMENT,
-    sheet: str | None = None,
+    speed: bool = False,
+    **fields: Any,
 ) -> pd.DataFrame:
     """Read and check a record: CSV (as :func:`write_record` writes it, or any CSV) or a DAQ's file.
 
@@ -109,18 +91,19 @@ def read_record(
     the time, when the file has no time column). Every format is checked the same
     way, and the columns are then brought to motorid's names and units by
     :func:`normalise_record`'s rules (time in s from 0, jitter resampled, units
-    converted). ``read_record(path, **options)`` takes the command line's record
-    options by the same names (:class:`RecordOptions`).
+    converted), and the span of ``options`` is kept.
 
     Parameters
     ----------
     path : str or path-like
         The record file (a regular file: a FIFO or a device is refused before it
         is opened).
-    dt : float, optional
-        Expected sample time [s]. Default: ``attrs["dt"]`` from the file, else
-        the median spacing of the time column. If given and the file or its time
-        column says otherwise, DataError.
+    options : RecordOptions, optional
+        How the record is read: its columns, time, units, CSV dialect, size limit
+        (``max_samples``) and span (``start``, ``stop``). Default: every field's default.
+    **fields :
+        Fields of :class:`RecordOptions` given one by one (``time="Zeit [s]"``,
+        ``input_unit="%"``, ``dt=0.01``), in place of those of ``options``.
     columns : sequence of str or mapping, optional
         Columns that must be present. A sequence lists them by name (default
         ``("t", "u", "y")``); a mapping ``{canonical: name_in_file}``, e.g.
@@ -128,37 +111,14 @@ def read_record(
         ``y`` (unmapped ones keep their canonical name).
     min_samples : int
         Fewest rows accepted (what the model needs), >= 1.
-    dt_rtol : float
-        Relative tolerance on the uniformity of the time steps (:class:`RecordOptions`).
-    max_samples : int, optional
-        Most rows accepted. The rows are counted before anything is parsed (the
-        lines of a CSV in bounded memory, the others from their metadata), so a
-        record too long for memory is refused at once, by a DataError naming
-        the limit and how to decimate. A record takes about 8 bytes per row and
-        column once read.
     other_columns : bool
         Keep the file's other columns too (default; in the binary formats those
         of the same length that hold numbers); False reads only ``columns``
         (less memory and time on a wide file).
-    time, input, output, time_unit, input_unit, output_unit, supply_voltage, input_full_scale, resample : optional
-        As :class:`RecordOptions` (``--time``, ``--input`` ... on the command line).
-    counts_per_rev, direction, direction_forward, duplicates : optional
-        As :class:`RecordOptions`.
-    sep : str, optional
-        Separator of a CSV (one character; ``--sep``). Default: detected from the
-        header and the first lines among :data:`SEPARATORS` (logged at INFO, ``-v``).
-    decimal : {".", ","}, optional
-        Decimal mark of a CSV (``--decimal``). Default: ``,`` when the separator is
-        not a comma and the first lines hold numbers written with one.
-    thousands : str, optional
-        Thousands separator of a CSV (one of :data:`THOUSANDS`). Default: detected
-        with the decimal mark from a number written with both (``-1,035.7``,
-        ``-1.035,7``) or with two groups of three digits; else none.
-    comment : str, optional
-        Prefix of the comment lines before a CSV's header (default ``#``), kept as
-        ``attrs["notes"]``; None: none.
-    sheet : str, optional
-        The sheet of an Excel workbook (default: its first).
+    speed : bool
+        Differentiate an encoder's position (``output_unit="counts"``) to a speed
+        (:func:`speed_from_position`) before the span is cut, as the commands that
+        need a speed do; a warning says the speed's quantisation step.
 
     Returns
     -------
@@ -177,33 +137,28 @@ def read_record(
         another, a NaN or infinite value, a time column that is not increasing,
         has a gap or is not uniformly sampled, that looks like ms or µs read as
         seconds, or contradicts ``dt``, fewer than ``min_samples`` or more than
-        ``max_samples`` rows; the message names the file, the column and the row
+        ``max_samples`` rows, no sample in the span; the message names the file, the column and the row
         (0-based data row, and in a CSV the line in the file).
     """
     if not isinstance(min_samples, int) or min_samples < 1:
         raise ValueError(f"min_samples must be an integer >= 1, got {min_samples!r}")
-    if max_samples is not None and (not isinstance(max_samples, int) or max_samples < min_samples):
-        raise ValueError(
-            f"max_samples must be an integer >= min_samples = {min_samples}, got {max_samples!r}"
-        )
-    options = RecordOptions(
-        time=time, input=input, output=output, dt=dt, time_unit=time_unit, input_unit=input_unit,
-        output_unit=output_unit, supply_voltage=supply_voltage, input_full_scale=input_full_scale,
-        resample=resample, dt_rtol=dt_rtol, counts_per_rev=counts_per_rev, direction=direction,
-        direction_forward=direction_forward, duplicates=duplicates,
-    )  # fmt: skip
-    check_dialect(sep, decimal, thousands)
+    options = RecordOptions.of(options, **fields)
+    max_samples = options.max_samples
+    if max_samples is not None and max_samples < min_samples:
+        raise DataError(f"max_samples={max_samples} is below min_samples = {min_samples}")
     name = os.fspath(path)
     mapping = options.column_map(columns)
     optional = {"t"} if options.time_optional(columns) else set()
     kind = record_format(name)
     if kind == "CSV":
         rec, attrs, header_line = _read_csv(
-            name, mapping, optional, other_columns, max_samples, sep, decimal, thousands, comment
-        )
+            name, mapping, optional, other_columns, max_samples, options.sep, options.decimal, options.thousands,
+            options.comment,
+        )  # fmt: skip
         where = row_place(name, header_line)
     else:
-        rec, attrs = _read_binary(name, kind, mapping, other_columns, max_samples, optional, sheet)
+        rec, attrs = _read_binary(name, kind, mapping, other_columns, max_samples, optional, options.sheet)
         where = row_place(name, None)
     names = {canonical: mapping[canonical] for canonical in REQUIRED_COLUMNS if canonical in mapping}
-    return _normalised(name, rec, attrs, where, options, min_samples, names)
+    record = _normalised(name, rec, attrs, where, options, min_samples, names)
+    return as_used(record, options, name, min_samples, speed)

@@ -38,7 +38,14 @@ from motorid.io.records.normalise import (
     stamped_in_ns,
     text_times,
 )
-from motorid.io.records.options import COMMENT, TIME_ATTR, _name_it, check_row_limit, quoted, quoted_names
+from motorid.io.records.options import (
+    COMMENT,
+    TIME_ATTR,
+    _name_it,
+    check_row_limit,
+    quoted,
+    quoted_names,
+)
 
 logger = logging.getLogger(__name__)
 
@@ -169,10 +176,6 @@ _GROUPED: dict[tuple[str, str], re.Pattern[str]] = {
 }
 
 
-#: Thousands separators a CSV may use (``thousands``).
-THOUSANDS: tuple[str, ...] = (",", ".", "'", " ")
-
-
 def _dialect(
     name: str,
     header: str,
@@ -209,26 +212,6 @@ def _dialect(
     logger.info("%s: separator %r (%s), decimal mark %r (%s)%s", name, sep, said[0], decimal, said[1],
                 "" if thousands is None else f", thousands separator {thousands!r} ({said[2]})")  # fmt: skip
     return sep, decimal, thousands
-
-
-def check_dialect(sep: str | None, decimal: str | None, thousands: str | None = None) -> None:
-    """Refuse a CSV separator, decimal mark or thousands separator the reader cannot use (one
-    character each, none the same as another)."""
-    if sep is not None and (not isinstance(sep, str) or len(sep) != 1 or sep in '\r\n".'):
-        raise DataError(f"sep=... must be one character such as ',', ';' or a tab, got {sep!r}")
-    if decimal is not None and decimal not in (".", ","):
-        raise DataError(f"decimal=... must be '.' or ',', got {decimal!r}")
-    if sep is not None and sep == decimal:
-        raise DataError(f"sep=... and decimal=... are both {sep!r}: a CSV cannot use one for both")
-    if thousands is not None:
-        if thousands not in THOUSANDS:
-            raise DataError(
-                f"thousands=... must be one of {', '.join(map(repr, THOUSANDS))}, got {quoted(thousands)}"
-            )
-        if thousands == decimal:
-            raise DataError(
-                f"thousands={thousands!r} is also the decimal mark: a CSV cannot use one mark for both"
-            )
 
 
 def _count_lines_and(path: str, sep: str, chunk_bytes: int = 1 << 20) -> tuple[int, int]:
@@ -297,7 +280,7 @@ def csv_data_options(layout: CsvLayout, names: list[str]) -> dict[str, Any]:
     """The options of :func:`pandas.read_csv` that parse the data rows of a CSV record of ``layout``
     (the lines before the header and a units row under it skipped, the columns ``names``, the
     separator, decimal mark and thousands separator): one place for the whole-record read and
-    the read in blocks (:mod:`motorid.record_chunks`); a compressed file is decompressed by
+    the read in blocks (:mod:`motorid.io.records.blocks`); a compressed file is decompressed by
     pandas as it is read (the same compressions, by extension: :data:`COMPRESSIONS`)."""
     skiprows: int | list[int] = layout.skip
     if layout.units_row:
@@ -469,7 +452,7 @@ def csv_layout(
     """The layout of a CSV record, once the columns of ``mapping`` are found in its header and
     every data row has the header's number of fields (checked in one pass over the file in
     bounded memory): one place for the whole-record read and the read in blocks
-    (:mod:`motorid.record_chunks`).
+    (:mod:`motorid.io.records.blocks`).
 
     Lines before the header that begin with ``comment`` are the record's notes
     (``attrs["notes"]``); a row under the header whose cells name units (``s``, ``%``,
@@ -599,7 +582,7 @@ def _csv_blocks(
     comment: str | None = COMMENT,
 ) -> Blocks:
     """A CSV record by pandas' C parser in chunks, with the whole-record read's layout and options; a
-    chunk that does not parse as finite numbers is named by :func:`~motorid.records.raise_bad_cell`.
+    chunk that does not parse as finite numbers is named by :func:`~motorid.io.records.raise_bad_cell`.
 
     A time column whose first lines are integers is read as int64, exactly, as the whole read
     reads it; should a later chunk hold a fraction there, the rest is read as float64 (the whole
