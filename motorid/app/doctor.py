@@ -115,8 +115,18 @@ class DoctorOptions:
         """
         from motorid.diagnose import diagnose
 
+        def motorid_columns(record: pd.DataFrame) -> pd.DataFrame:  # a position beside a speed stays behind
+            part = record[[c for c in ("t", "u", "y") if c in record.columns]]
+            part.attrs = dict(record.attrs)
+            return part
+
+        read = (
+            motorid_columns(records)
+            if isinstance(records, pd.DataFrame)
+            else list(map(motorid_columns, records))
+        )
         return diagnose(
-            records, input="u", output="y", output_kind=self.output_kind, input_gain=self.input_gain,
+            read, as_read=True, output_kind=self.output_kind, input_gain=self.input_gain,
             base=None if self.base is None else list(self.base),
             candidates=None if not self.candidates else list(self.candidates), holdout=self.holdout,
             max_steps=self.max_steps, progress=progress, timing=self.timing, model=self.start_model(),

@@ -199,6 +199,7 @@ def diagnose(
     labels: Sequence[str] | None = None,
     align: bool = False,
     record_options: RecordOptions | None = None,
+    as_read: bool = False,
     **record_fields: Any,
 ) -> Diagnosis:
     """Find the effects missing from a rigid drive model of ``record`` (see the module notes).
@@ -294,6 +295,11 @@ def diagnose(
         Fields of :class:`~motorid.io.records.RecordOptions` given one by one, in place of those
         of ``record_options``: ``diagnose(df, input="pwm", output="rpm", input_unit="%",
         output_unit="rpm")``.
+    as_read : bool
+        The records (and a holdout DataFrame) are motorid records already, as
+        :func:`~motorid.io.records.read_record` or :func:`~motorid.io.records.normalise_record`
+        give them (``t`` [s], ``u``, ``y`` in motorid's units, ``attrs["dt"]``): taken as they are,
+        not read again; ``record_options`` and its fields then do not apply.
 
     Returns
     -------
@@ -307,7 +313,9 @@ def diagnose(
     time, dt = given.time, given.dt
     columns = {"time": time, "input": given.input or "u", "output": given.output or "y"}
     reading = given.normalising()
-    if isinstance(holdout, pd.DataFrame):
+    if as_read and given != RecordOptions():
+        raise DataError("record_options: records as_read are not read again; give either")
+    if isinstance(holdout, pd.DataFrame) and not as_read:
         holdout = normalise_record(holdout, **columns, **reading)
     input, output = "u", "y"
     rig = model if isinstance(model, TwoMassRig) else None
@@ -342,7 +350,7 @@ def diagnose(
     labels = [f"record {k + 1}" for k in range(len(records))] if labels is None else [str(x) for x in labels]
     if len(labels) != len(records):
         raise DataError(f"labels: {len(labels)} labels for {len(records)} records")
-    records = normalised_records(records, labels, columns, reading)
+    records = list(records) if as_read else normalised_records(records, labels, columns, reading)
     if timing is None:
         timing = common_timing(records, labels)  # type: ignore[assignment]
     if timing not in ("auto", "hold", "sampled"):
