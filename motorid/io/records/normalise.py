@@ -36,7 +36,8 @@ from motorid.units import ENCODER_COUNTS, INPUT_UNITS, OUTPUT_UNIT_NAMES, TIME_U
 logger = logging.getLogger(__name__)
 
 
-#: Lines after the header that the separator and decimal mark are detected from.
+#: Rows a column's kind is judged from: a CSV's lines after the header that the separator, decimal mark and
+#: time stamps as text are detected from, and a DataFrame's first time stamps.
 SNIFF_LINES = 50
 
 
