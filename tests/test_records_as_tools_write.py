@@ -535,7 +535,6 @@ STILL_NAMING_FLAGS: dict[str, tuple[int, str]] = {
     "motorid/fleet/sources.py": (5, "the file-name pattern's messages (--pattern)"),
     "motorid/fleet/trend.py": (2, "the trend's messages on a per-drive run and records without a time"),
     "motorid/io/daq_url.py": (4, "the DAQ address's messages (--daq)"),
-    "motorid/validation.py": (2, "the skipped samples' messages (--skip)"),
 }  # fmt: skip
 
 

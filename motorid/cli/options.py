@@ -170,13 +170,13 @@ def add_record_columns(parser: argparse.ArgumentParser, max_samples_help: str = 
 #: The fields the library's messages name (``field=...`` or ``field=VALUE``) and the flags the command
 #: line says instead, the one table of them: the record options' (:class:`motorid.io.records.RecordOptions`,
 #: which :func:`record_options_from_args` reads from their flags) and the commands' options that the
-#: application layer's messages name (``model``, ``estimator``, ``param``, ``save_model``).
+#: application layer's messages name (``model``, ``estimator``, ``param``, ``save_model``, ``skip``).
 FLAGS: dict[str, str] = {
     field: "--" + field.replace("_", "-")
     for field in ("time", "input", "output", "time_unit", "dt", "resample", "sep", "decimal", "thousands",
                   "comment", "sheet", "input_unit", "input_full_scale", "output_unit", "counts_per_rev",
                   "supply_voltage", "direction", "direction_forward", "duplicates", "max_samples", "start", "stop",
-                  "model", "estimator", "param", "save_model")
+                  "model", "estimator", "param", "save_model", "skip")
 }  # fmt: skip
 _ASIDE = re.compile(r" \(([a-z_]+=[^()]*)\)")
 _FIELD = re.compile(r"\b(" + "|".join(sorted(FLAGS, key=len, reverse=True)) + r")=(\.\.\.|'[^']*'|\S+)?")
