@@ -42,7 +42,7 @@ import pandas as pd
 from motorid.errors import DataError, UniformGridError
 from motorid.io.records.columns import Blocks
 from motorid.io.records.files import record_format
-from motorid.io.records.hdf5 import _hdf5_blocks
+from motorid.io.records.hdf5 import hdf5_blocks
 from motorid.io.records.normalise import (
     InputSignCheck,
     as_used,
@@ -55,9 +55,9 @@ from motorid.io.records.normalise import (
     untimed_dt,
 )
 from motorid.io.records.options import DIRECTION, REQUIRED_COLUMNS, RecordOptions, quoted
-from motorid.io.records.parquet import _parquet_blocks
-from motorid.io.records.read import _read_binary, read_record
-from motorid.io.records.text import _csv_blocks
+from motorid.io.records.parquet import parquet_blocks
+from motorid.io.records.read import read_binary, read_record
+from motorid.io.records.text import csv_blocks
 from motorid.units import ENCODER_COUNTS
 
 #: Rows per block by default: 65,536 rows of three float64 columns are 1.5 MB, and what an
@@ -140,7 +140,7 @@ def iter_record(
     optional = {"t"} if options.time_optional(columns) else set()
     kind = record_format(name)
     if kind == "CSV":
-        source = _csv_blocks(
+        source = csv_blocks(
             name,
             mapping,
             optional,
@@ -151,7 +151,7 @@ def iter_record(
             options.comment,
         )
     elif kind in ("Parquet", "HDF5"):
-        readers = {"Parquet": _parquet_blocks, "HDF5": _hdf5_blocks}
+        readers = {"Parquet": parquet_blocks, "HDF5": hdf5_blocks}
         source = readers[kind](name, kind, mapping, optional, chunk_rows)
     else:
         source = _whole_blocks(name, kind, mapping, optional, chunk_rows, options.sheet)
@@ -297,7 +297,7 @@ def _whole_blocks(
     sheet: str | None = None,
 ) -> Blocks:
     """A MATLAB, TDMS or Excel record read whole (its format holds a column in one piece), in blocks."""
-    record, attrs = _read_binary(name, kind, mapping, False, None, optional, sheet)
+    record, attrs = read_binary(name, kind, mapping, False, None, optional, sheet)
     yield attrs
     yield None
     arrays = {column: record[column].to_numpy() for column in record.columns}

@@ -1,5 +1,5 @@
 """The columns of the binary formats (Parquet, MATLAB, HDF5, TDMS, Excel): which of the file's
-arrays are the record's (:func:`_column_chooser`, checked before anything is loaded) and
+arrays are the record's (:func:`column_chooser`, checked before anything is loaded) and
 each array checked and converted as a CSV's cells are (:func:`binary_column`).
 """
 
@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from motorid.errors import DataError
-from motorid.io.records.options import _name_it, check_row_limit, quoted, quoted_names
+from motorid.io.records.options import check_row_limit, column_hint, quoted, quoted_names
 
 # A reader of a binary format: (file name, choose) -> (arrays by column name, attrs). ``choose`` is
 # given the shape of every column the file holds and returns the names to load (it raises on a
@@ -32,12 +32,12 @@ def _find_column(name: str, column: str, present: list[str]) -> str | None:
     return nested[0] if nested else None
 
 
-def _samples(shape: tuple[int, ...]) -> int | None:
+def samples_of(shape: tuple[int, ...]) -> int | None:
     """Number of samples of an array that is one column (at most one axis longer than 1), else None."""
     return math.prod(shape) if sum(n > 1 for n in shape) <= 1 else None
 
 
-def _column_chooser(
+def column_chooser(
     name: str, mapping: dict[str, str], other_columns: bool, max_samples: int | None, found: dict[str, str],
     optional: set[str] = frozenset(),  # type: ignore[assignment]
 ) -> Choose:  # fmt: skip
@@ -56,19 +56,19 @@ def _column_chooser(
                 raise DataError(
                     f"column {quoted(column)} is missing from {name}"
                     + (f" (needed as {canonical!r})" if column != canonical else "")
-                    + f"; columns are {quoted_names(present)}{_name_it(canonical)}"
+                    + f"; columns are {quoted_names(present)}{column_hint(canonical)}"
                 )
-            if _samples(shapes[key]) is None:
+            if samples_of(shapes[key]) is None:
                 raise DataError(
                     f"column {quoted(column)} of {name} is not one column of samples (shape {shapes[key]})"
                 )
             found[key] = canonical
         first = next(iter(found))
-        rows = _samples(shapes[first])
+        rows = samples_of(shapes[first])
         for key in found:
-            if _samples(shapes[key]) != rows:
+            if samples_of(shapes[key]) != rows:
                 raise DataError(
-                    f"column {quoted(key)} of {name} has {_samples(shapes[key])} samples, column {quoted(first)} has {rows}"
+                    f"column {quoted(key)} of {name} has {samples_of(shapes[key])} samples, column {quoted(first)} has {rows}"
                 )
         if not rows:
             raise DataError(f"{name} has columns but no samples")
@@ -76,7 +76,7 @@ def _column_chooser(
         replaced = {k for k, v in mapping.items() if v != k}  # a canonical name that a named column takes
         others = [
             k for k in present
-            if k not in found and _samples(shapes[k]) == rows and _short_name(k, present) not in replaced
+            if k not in found and samples_of(shapes[k]) == rows and short_name(k, present) not in replaced
         ] if other_columns else []  # fmt: skip
         return [k for k in present if k in found or k in others]
 
@@ -109,7 +109,7 @@ def binary_column(name: str, key: str, values: np.ndarray, time: bool, first_row
     return values
 
 
-def _short_name(key: str, keys: list[str]) -> str:
+def short_name(key: str, keys: list[str]) -> str:
     """``group/name`` as ``name`` when no other of ``keys`` ends in that name."""
     last = key.rsplit("/", 1)[-1]
     return last if sum(k.rsplit("/", 1)[-1] == last for k in keys) == 1 else key

@@ -11,12 +11,12 @@ import numpy as np
 
 from motorid.errors import DataError
 from motorid.io.records.columns import Choose
-from motorid.io.records.files import _reason
-from motorid.io.records.normalise import _unit_cell
+from motorid.io.records.files import one_line_reason
+from motorid.io.records.normalise import unit_cell
 from motorid.io.records.options import quoted, quoted_names
 
 
-def _read_excel(name: str, choose: Choose, sheet: str | None) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+def read_excel(name: str, choose: Choose, sheet: str | None) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """The columns of a sheet of an Excel workbook (openpyxl, read-only: row by row), named by the
     cells of its first row; a second row that names units (``s``, ``%``, ``rpm``) gives theirs.
 
@@ -27,7 +27,7 @@ def _read_excel(name: str, choose: Choose, sheet: str | None) -> tuple[dict[str,
     try:
         workbook = openpyxl.load_workbook(name, read_only=True, data_only=True)
     except Exception as exc:  # zipfile, KeyError, XML errors ... on a file that is not a workbook
-        raise DataError(f"{name} is not a readable Excel workbook: {_reason(exc)}") from None
+        raise DataError(f"{name} is not a readable Excel workbook: {one_line_reason(exc)}") from None
     try:
         if sheet is not None and sheet not in workbook.sheetnames:
             raise DataError(
@@ -49,9 +49,9 @@ def _read_excel(name: str, choose: Choose, sheet: str | None) -> tuple[dict[str,
         units = None
         if second is not None and all(isinstance(c, str | type(None)) for c in second[:width]):
             cells = ["" if c is None else c for c in second[:width]]
-            if any(_unit_cell(c) for c in cells):
+            if any(unit_cell(c) for c in cells):
                 units = {
-                    column: unit for column, c in zip(names, cells, strict=True) if (unit := _unit_cell(c))
+                    column: unit for column, c in zip(names, cells, strict=True) if (unit := unit_cell(c))
                 }
         pending = [] if second is None or units else [second]
         stored = worksheet.max_row  # the sheet's stored dimension; None when it stores none

@@ -83,7 +83,9 @@ def open_record_bytes(path: str | os.PathLike[str]) -> Iterator[io.BufferedIOBas
     except _COMPRESSION_ERRORS as exc:
         if kind is None:
             raise
-        raise DataError(f"{name}: its {kind} data cannot be read (cut or corrupt?): {_reason(exc)}") from None
+        raise DataError(
+            f"{name}: its {kind} data cannot be read (cut or corrupt?): {one_line_reason(exc)}"
+        ) from None
 
 
 @contextlib.contextmanager
@@ -124,7 +126,7 @@ def count_data_lines(path: str | os.PathLike[str], chunk_bytes: int = 1 << 24) -
     return count + (last != b"\n")
 
 
-def _regular_file(name: str) -> int:
+def regular_file_size(name: str) -> int:
     """The size of ``name``; a DataError when it is missing, a folder or not a regular file.
 
     Checked with ``os.stat`` before the file is opened, so a FIFO or a device named
@@ -233,7 +235,7 @@ def record_format(path: str | os.PathLike[str]) -> str:
     return RECORD_FORMATS.get(extension, "CSV")
 
 
-def _not_text_hint(name: str) -> str:
+def not_text_hint(name: str) -> str:
     """What a file that is not text seems to be, by its first bytes, and what is read."""
     try:
         with open(name, "rb") as fh:
@@ -248,7 +250,7 @@ def _not_text_hint(name: str) -> str:
     return (f": it looks like {seen}" if seen else "") + f"; {FORMATS_READ}"
 
 
-def _attrs_from_json(text: Any, name: str, where: str) -> dict[str, Any]:
+def attrs_from_json(text: Any, name: str, where: str) -> dict[str, Any]:
     """The attributes stored as JSON text (str or bytes) at ``where`` in file ``name``; {} when absent.
 
     Parsed within bounds (:func:`motorid.json_input.parse_json`) and checked by :func:`check_attrs`.
@@ -334,7 +336,7 @@ def check_attrs(attrs: Mapping[str, Any], source: str) -> None:
             raise DataError(f"{source}: attrs.{key} must be an object, got {shown(attrs[key])}")
 
 
-def _reason(exc: BaseException) -> str:
+def one_line_reason(exc: BaseException) -> str:
     """An exception of a format library as one line: its kind and the first line of its message."""
     lines = str(exc).strip().splitlines()
     text = lines[0] if lines else ""

@@ -11,8 +11,8 @@ from typing import Any
 import numpy as np
 
 from motorid.errors import DataError
-from motorid.io.records.columns import Blocks, Choose, _column_chooser, _samples, binary_column
-from motorid.io.records.files import ATTRS_KEY, _attrs_from_json, _reason, _regular_file
+from motorid.io.records.columns import Blocks, Choose, binary_column, column_chooser, samples_of
+from motorid.io.records.files import ATTRS_KEY, attrs_from_json, one_line_reason, regular_file_size
 from motorid.io.records.options import quoted
 
 #: What h5py raises on a damaged HDF5 file.
@@ -39,7 +39,7 @@ def _hdf5_file(name: str) -> tuple[Any, dict[str, tuple[int, ...]], dict[str, An
     try:
         handle = h5py.File(name, "r")
     except OSError as exc:
-        raise DataError(f"{name} is not a readable HDF5 file: {_reason(exc)}") from None
+        raise DataError(f"{name} is not a readable HDF5 file: {one_line_reason(exc)}") from None
     shapes: dict[str, tuple[int, ...]] = {}
     elsewhere: list[
         str
@@ -65,12 +65,14 @@ def _hdf5_file(name: str) -> tuple[Any, dict[str, tuple[int, ...]], dict[str, An
                 handle.visititems(visit)
             text = handle.attrs.get(ATTRS_KEY)
         except HDF5_ERRORS as exc:  # a damaged file
-            raise DataError(f"{name}: its HDF5 structure cannot be read (corrupt?): {_reason(exc)}") from None
+            raise DataError(
+                f"{name}: its HDF5 structure cannot be read (corrupt?): {one_line_reason(exc)}"
+            ) from None
         if elsewhere:
             raise DataError(
                 f"{name}: {elsewhere[0]}: a record is read from its own file only; copy the data into it"
             )
-        attrs = _attrs_from_json(text, name, f"the root attribute {ATTRS_KEY!r}")
+        attrs = attrs_from_json(text, name, f"the root attribute {ATTRS_KEY!r}")
         objects = {key: kind for key in handle if (kind := _matlab_class(handle[key])) in SIMULINK_OBJECTS}
         paths = {key: key for key in shapes}
         signals = _simulink_structures(handle, shapes)
@@ -107,7 +109,11 @@ def _simulink_structures(handle: Any, shapes: dict[str, tuple[int, ...]]) -> dic
     signals: dict[str, tuple[str, str]] = {}
     for key in handle:
         values, time = f"{key}/signals/values", f"{key}/time"
-        if values not in shapes or time not in shapes or _samples(shapes[values]) != _samples(shapes[time]):
+        if (
+            values not in shapes
+            or time not in shapes
+            or samples_of(shapes[values]) != samples_of(shapes[time])
+        ):
             continue
         signals[key] = (values, time)
         label = f"{key}/signals/label"
@@ -118,29 +124,29 @@ def _simulink_structures(handle: Any, shapes: dict[str, tuple[int, ...]]) -> dic
     return signals
 
 
-def _read_hdf5(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+def read_hdf5(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     handle, shapes, attrs, paths = _hdf5_file(name)
     with handle:
         chosen = choose(shapes)
         try:
             return {key: np.asarray(handle[paths[key]][()]).reshape(-1) for key in chosen}, attrs
         except HDF5_ERRORS as exc:
-            raise DataError(f"{name}: its HDF5 data cannot be read (corrupt?): {_reason(exc)}") from None
+            raise DataError(
+                f"{name}: its HDF5 data cannot be read (corrupt?): {one_line_reason(exc)}"
+            ) from None
 
 
-def _hdf5_blocks(
-    name: str, kind: str, mapping: dict[str, str], optional: set[str], chunk_rows: int
-) -> Blocks:
+def hdf5_blocks(name: str, kind: str, mapping: dict[str, str], optional: set[str], chunk_rows: int) -> Blocks:
     """An HDF5 record by slices of ``chunk_rows`` samples of its datasets."""
-    if _regular_file(name) == 0:
+    if regular_file_size(name) == 0:
         raise DataError(f"{name} is empty")
     handle, shapes, attrs, paths = _hdf5_file(name)
     with handle:
         found: dict[str, str] = {}
-        chosen = _column_chooser(name, mapping, False, None, found, optional)(shapes)
+        chosen = column_chooser(name, mapping, False, None, found, optional)(shapes)
         yield attrs
         yield None
-        rows = _samples(shapes[chosen[0]]) or 0
+        rows = samples_of(shapes[chosen[0]]) or 0
         for first_row in range(0, rows, chunk_rows):
             block = {}
             for key in chosen:
@@ -153,7 +159,7 @@ def _hdf5_blocks(
                     values = np.asarray(handle[paths[key]][where]).reshape(-1)
                 except HDF5_ERRORS as exc:
                     raise DataError(
-                        f"{name}: its HDF5 data cannot be read (corrupt?): {_reason(exc)}"
+                        f"{name}: its HDF5 data cannot be read (corrupt?): {one_line_reason(exc)}"
                     ) from None
                 block[found[key]] = binary_column(name, key, values, found[key] == "t", first_row)
             yield block

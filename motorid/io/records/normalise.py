@@ -27,7 +27,7 @@ from motorid.io.records.options import (
     REQUIRED_COLUMNS,
     SAMPLE_TIMES,
     RecordOptions,
-    _name_it,
+    column_hint,
     quoted,
     quoted_names,
 )
@@ -146,7 +146,7 @@ def normalise_record(
             raise DataError(
                 f"column {quoted(column)} is missing from the record"
                 + (f" (needed as {canonical!r})" if column != canonical else "")
-                + f"; columns are {quoted_names(present)}{_name_it(canonical)}"
+                + f"; columns are {quoted_names(present)}{column_hint(canonical)}"
             )
     mapping = {k: v for k, v in mapping.items() if v in present}
     renamed = {v: k for k, v in mapping.items()}
@@ -188,7 +188,7 @@ def normalise_record(
     if time_unit_of_dates is not None:
         options = replace(options, time_unit=time_unit_of_dates)
     names = {canonical: mapping[canonical] for canonical in REQUIRED_COLUMNS if canonical in mapping}
-    normalised = _normalised(
+    normalised = normalised_read(
         "the record", rec, attrs, lambda row: f"sample {row}", options, min_samples, names
     )
     return as_used(normalised, options, "the record", min_samples, speed=False)
@@ -201,7 +201,7 @@ TIME_TEXTS: dict[str, re.Pattern[str]] = {
 }
 
 
-def _unit_cell(cell: str) -> str | None:
+def unit_cell(cell: str) -> str | None:
     """The unit a cell of a units row names (``s``, ``[ms]``, ``(%)``, ``1/min``), or None."""
     from motorid.units import RECORD_UNITS
 
@@ -230,7 +230,7 @@ def _seconds(value: float) -> str:
     return f"{value:.3g} s"  # pragma: no cover (the loop always returns)
 
 
-def _normalised(
+def normalised_read(
     name: str,
     rec: pd.DataFrame,
     attrs: dict[str, Any],

@@ -133,7 +133,7 @@ def _column_map(columns: Sequence[str] | Mapping[str, str] | None) -> dict[str, 
 _COLUMN_OPTIONS = {"t": "time", "u": "input", "y": "output", DIRECTION: "direction"}
 
 
-def _name_it(canonical: str) -> str:
+def column_hint(canonical: str) -> str:
     """The end of a missing column's message: the option that names the column (none for others)."""
     option = _COLUMN_OPTIONS.get(canonical)
     return f"; name the {option} column with {option}=..." if option else ""

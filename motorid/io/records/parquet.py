@@ -9,8 +9,8 @@ from typing import Any
 import numpy as np
 
 from motorid.errors import DataError
-from motorid.io.records.columns import Blocks, Choose, _column_chooser, binary_column
-from motorid.io.records.files import ATTRS_KEY, _attrs_from_json, _reason, _regular_file
+from motorid.io.records.columns import Blocks, Choose, binary_column, column_chooser
+from motorid.io.records.files import ATTRS_KEY, attrs_from_json, one_line_reason, regular_file_size
 from motorid.io.records.normalise import stamped_in_ns
 
 
@@ -22,12 +22,12 @@ def _parquet_file(name: str) -> tuple[Any, dict[str, Any]]:
     try:
         parquet = pq.ParquetFile(name)
     except (pa.ArrowException, OSError) as exc:
-        raise DataError(f"{name} is not a readable Parquet file: {_reason(exc)}") from None
+        raise DataError(f"{name} is not a readable Parquet file: {one_line_reason(exc)}") from None
     metadata = parquet.schema_arrow.metadata or {}
-    return parquet, _attrs_from_json(metadata.get(ATTRS_KEY.encode()), name, "the schema metadata")
+    return parquet, attrs_from_json(metadata.get(ATTRS_KEY.encode()), name, "the schema metadata")
 
 
-def _read_parquet(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+def read_parquet(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     import pyarrow as pa
 
     parquet, attrs = _parquet_file(name)
@@ -38,24 +38,24 @@ def _read_parquet(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dic
         table = parquet.read(columns=chosen)
     except (pa.ArrowException, OSError) as exc:  # a corrupt page or a cut file
         raise DataError(
-            f"{name}: its Parquet data cannot be read (corrupt or cut?): {_reason(exc)}"
+            f"{name}: its Parquet data cannot be read (corrupt or cut?): {one_line_reason(exc)}"
         ) from None
     return {column: table.column(column).to_numpy() for column in chosen}, attrs
 
 
-def _parquet_blocks(
+def parquet_blocks(
     name: str, kind: str, mapping: dict[str, str], optional: set[str], chunk_rows: int
 ) -> Blocks:
     """A Parquet record in batches of at most ``chunk_rows`` rows (pyarrow reads them across row groups)."""
     import pyarrow as pa
 
-    if _regular_file(name) == 0:
+    if regular_file_size(name) == 0:
         raise DataError(f"{name} is empty")
     parquet, attrs = _parquet_file(name)
     with parquet:
         found: dict[str, str] = {}
         rows = parquet.metadata.num_rows
-        chosen = _column_chooser(name, mapping, False, None, found, optional)(
+        chosen = column_chooser(name, mapping, False, None, found, optional)(
             {column: (rows,) for column in parquet.schema_arrow.names}
         )
         for key in chosen:
@@ -71,7 +71,7 @@ def _parquet_blocks(
                 batch = next(batches, None)
             except (pa.ArrowException, OSError) as exc:  # a corrupt page or a cut file
                 raise DataError(
-                    f"{name}: its Parquet data cannot be read (corrupt or cut?): {_reason(exc)}"
+                    f"{name}: its Parquet data cannot be read (corrupt or cut?): {one_line_reason(exc)}"
                 ) from None
             if batch is None:
                 return

@@ -16,26 +16,26 @@ import numpy as np
 import pandas as pd
 
 from motorid.errors import DataError
-from motorid.io.records.columns import Choose, _column_chooser, _short_name, binary_column
-from motorid.io.records.excel import _read_excel
-from motorid.io.records.files import _regular_file, record_format
-from motorid.io.records.hdf5 import _read_hdf5
-from motorid.io.records.matlab import _read_mat
-from motorid.io.records.normalise import _normalised, as_used, row_place, stamped_in_ns
+from motorid.io.records.columns import Choose, binary_column, column_chooser, short_name
+from motorid.io.records.excel import read_excel
+from motorid.io.records.files import record_format, regular_file_size
+from motorid.io.records.hdf5 import read_hdf5
+from motorid.io.records.matlab import read_mat
+from motorid.io.records.normalise import as_used, normalised_read, row_place, stamped_in_ns
 from motorid.io.records.options import REQUIRED_COLUMNS, RecordOptions, quoted
-from motorid.io.records.parquet import _read_parquet
-from motorid.io.records.tdms import _read_tdms
-from motorid.io.records.text import _read_csv
+from motorid.io.records.parquet import read_parquet
+from motorid.io.records.tdms import read_tdms
+from motorid.io.records.text import read_csv_record
 
 _READERS: dict[str, Callable[[str, Choose], tuple[dict[str, np.ndarray], dict[str, Any]]]] = {
-    "Parquet": _read_parquet,
-    "MATLAB": _read_mat,
-    "HDF5": _read_hdf5,
-    "TDMS": _read_tdms,
+    "Parquet": read_parquet,
+    "MATLAB": read_mat,
+    "HDF5": read_hdf5,
+    "TDMS": read_tdms,
 }
 
 
-def _read_binary(
+def read_binary(
     name: str, kind: str, mapping: dict[str, str], other_columns: bool, max_samples: int | None,
     optional: set[str] = frozenset(),  # type: ignore[assignment]
     sheet: str | None = None,
@@ -46,20 +46,20 @@ def _read_binary(
     the file (a nested one by its last part when that is unique); the rest of the file (scalars,
     matrices, text) is left out. A time column of dates and times (datetime64) is read in ns.
     """
-    if _regular_file(name) == 0:
+    if regular_file_size(name) == 0:
         raise DataError(f"{name} is empty")
     if sheet is not None and kind != "Excel":
         raise DataError(f"sheet={quoted(sheet)} names a sheet of an Excel workbook; {name} is a {kind} file")
     found: dict[str, str] = {}
-    choose = _column_chooser(name, mapping, other_columns, max_samples, found, optional)
-    arrays, attrs = _read_excel(name, choose, sheet) if kind == "Excel" else _READERS[kind](name, choose)
+    choose = column_chooser(name, mapping, other_columns, max_samples, found, optional)
+    arrays, attrs = read_excel(name, choose, sheet) if kind == "Excel" else _READERS[kind](name, choose)
     columns: dict[str, np.ndarray] = {}
     for key, values in arrays.items():
         if values.dtype.kind not in "fiub" and key not in found:
             continue
         if found.get(key) == "t" and values.dtype.kind in "mM":
             attrs = stamped_in_ns(name, attrs, mapping["t"], "date and time")
-        columns[found[key] if key in found else _short_name(key, list(arrays))] = binary_column(
+        columns[found[key] if key in found else short_name(key, list(arrays))] = binary_column(
             name, key, values, found.get(key) == "t"
         )
     return pd.DataFrame(columns), attrs
@@ -151,14 +151,14 @@ def read_record(
     optional = {"t"} if options.time_optional(columns) else set()
     kind = record_format(name)
     if kind == "CSV":
-        rec, attrs, header_line = _read_csv(
+        rec, attrs, header_line = read_csv_record(
             name, mapping, optional, other_columns, max_samples, options.sep, options.decimal, options.thousands,
             options.comment,
         )  # fmt: skip
         where = row_place(name, header_line)
     else:
-        rec, attrs = _read_binary(name, kind, mapping, other_columns, max_samples, optional, options.sheet)
+        rec, attrs = read_binary(name, kind, mapping, other_columns, max_samples, optional, options.sheet)
         where = row_place(name, None)
     names = {canonical: mapping[canonical] for canonical in REQUIRED_COLUMNS if canonical in mapping}
-    record = _normalised(name, rec, attrs, where, options, min_samples, names)
+    record = normalised_read(name, rec, attrs, where, options, min_samples, names)
     return as_used(record, options, name, min_samples, speed)

@@ -11,7 +11,7 @@ import numpy as np
 
 from motorid.errors import DataError
 from motorid.io.records.columns import Choose
-from motorid.io.records.files import ATTRS_KEY, _attrs_from_json, _reason
+from motorid.io.records.files import ATTRS_KEY, attrs_from_json, one_line_reason
 
 logger = logging.getLogger(__name__)
 
@@ -30,7 +30,7 @@ class _Collected(logging.Handler):
             self.messages.append(text)
 
 
-def _read_tdms(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+def read_tdms(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
     """Columns ``group/channel``; ``dt`` from the channels' ``wf_increment`` when the file has no attrs' dt.
 
     npTDMS's own warnings (printed by its handler and again through the root logger) are
@@ -57,12 +57,12 @@ def _tdms_columns(name: str, choose: Choose, tdms_file: Any) -> tuple[dict[str, 
     try:
         tdms = tdms_file.open(name)
     except Exception as exc:  # npTDMS raises ValueError, KeyError, struct errors ... on a foreign file
-        raise DataError(f"{name} is not a readable TDMS file: {_reason(exc)}") from None
+        raise DataError(f"{name} is not a readable TDMS file: {one_line_reason(exc)}") from None
     with tdms:
         channels = {f"{g.name}/{c.name}": c for g in tdms.groups() for c in g.channels()}
         if not channels:  # a header and then bytes that hold no channel
             raise DataError(f"{name} is not a readable TDMS file: it holds no channel")
-        attrs = _attrs_from_json(tdms.properties.get(ATTRS_KEY), name, f"the file property {ATTRS_KEY!r}")
+        attrs = attrs_from_json(tdms.properties.get(ATTRS_KEY), name, f"the file property {ATTRS_KEY!r}")
         chosen = choose({key: (len(channel),) for key, channel in channels.items()})
         increments = {channels[key].properties.get("wf_increment") for key in chosen}
         if "dt" not in attrs and len(increments) == 1 and None not in increments:
@@ -71,5 +71,5 @@ def _tdms_columns(name: str, choose: Choose, tdms_file: Any) -> tuple[dict[str, 
             return {key: np.asarray(channels[key][:]) for key in chosen}, attrs
         except Exception as exc:  # a damaged data segment
             raise DataError(
-                f"{name}: its TDMS data cannot be read (corrupt or cut?): {_reason(exc)}"
+                f"{name}: its TDMS data cannot be read (corrupt or cut?): {one_line_reason(exc)}"
             ) from None

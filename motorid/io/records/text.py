@@ -1,8 +1,8 @@
 """CSV and other text records: written with the record's attributes in a commented first line
 (:func:`write_record`); read as loggers write them (any separator, a decimal comma, a
 thousands separator, comment lines before the header, a row of units under it, time as
-text), whole (:func:`_read_csv`) or in blocks of rows through pandas' C parser
-(:func:`_csv_blocks`), both from one layout (:func:`csv_layout`).
+text), whole (:func:`read_csv_record`) or in blocks of rows through pandas' C parser
+(:func:`csv_blocks`), both from one layout (:func:`csv_layout`).
 """
 
 from __future__ import annotations
@@ -23,26 +23,26 @@ import pandas as pd
 from motorid.errors import DataError, UniformGridError
 from motorid.io.records.columns import Blocks
 from motorid.io.records.files import (
-    _attrs_from_json,
-    _not_text_hint,
-    _regular_file,
+    attrs_from_json,
+    not_text_hint,
     open_record_bytes,
     open_record_text,
+    regular_file_size,
 )
 from motorid.io.records.normalise import (
     HEADER_UNITS,
     SNIFF_LINES,
     TIME_TEXTS,
-    _unit_cell,
     row_place,
     stamped_in_ns,
     text_times,
+    unit_cell,
 )
 from motorid.io.records.options import (
     COMMENT,
     TIME_ATTR,
-    _name_it,
     check_row_limit,
+    column_hint,
     quoted,
     quoted_names,
 )
@@ -114,13 +114,13 @@ _EXACT_FLOATS: dict[str, str] = (
 def _open_checked(path: str | os.PathLike[str]) -> str:
     """The first line of ``path`` (a UTF-8 BOM left out), or a DataError naming what keeps it from being a record."""
     name = os.fspath(path)
-    size = _regular_file(name)
+    size = regular_file_size(name)
     try:
         with open_record_text(name) as fh:
             first = fh.readline()
     except UnicodeDecodeError as exc:
         raise DataError(
-            f"{name} is not a text CSV file (byte {exc.start} of its first line is not UTF-8){_not_text_hint(name)}"
+            f"{name} is not a text CSV file (byte {exc.start} of its first line is not UTF-8){not_text_hint(name)}"
         ) from None
     if not first.strip():
         raise DataError(f"{name} is empty" if size == 0 else f"{name}: line 1 is blank")
@@ -428,11 +428,11 @@ def _units_row(
     such row (it holds a number, or no cell names a unit). A named column's unit that is none of
     its kind's is refused, naming the option that gives it."""
     cells = [cell.strip() for cell in _fields(line, sep)]
-    if len(cells) != len(present) or not any(_unit_cell(c) for c in cells):
+    if len(cells) != len(present) or not any(unit_cell(c) for c in cells):
         return None
     if any(_is_number(c, ".", None) or _is_number(c, ",", None) for c in cells if c):
         return None
-    units = {column: unit for column, cell in zip(present, cells, strict=True) if (unit := _unit_cell(cell))}
+    units = {column: unit for column, cell in zip(present, cells, strict=True) if (unit := unit_cell(cell))}
     options = {"t": "time_unit", "u": "input_unit", "y": "output_unit"}
     for canonical, column in mapping.items():
         cell = cells[present.index(column)] if column in present else ""
@@ -483,7 +483,7 @@ def csv_layout(
     attrs: dict[str, Any] = {}
     skip = 0
     if first.startswith(ATTRS_MARKER):
-        attrs = _attrs_from_json(first[len(ATTRS_MARKER) :], name, "the attribute line (line 1)")
+        attrs = attrs_from_json(first[len(ATTRS_MARKER) :], name, "the attribute line (line 1)")
         skip = 1
     notes: list[str] = []
     head: list[str] = []
@@ -515,7 +515,7 @@ def csv_layout(
             raise DataError(
                 f"column {quoted(column)} is missing from {name}"
                 + (f" (needed as {canonical!r})" if column != canonical else "")
-                + f"; columns are {quoted_names(present)}{hint or _name_it(canonical)}"
+                + f"; columns are {quoted_names(present)}{hint or column_hint(canonical)}"
             )
     units = _units_row(name, sample[0], present, sep, mapping) if sample else None
     if units is not None:
@@ -545,7 +545,7 @@ def csv_layout(
                      units is not None, rows)  # fmt: skip
 
 
-def _read_csv(
+def read_csv_record(
     name: str,
     mapping: dict[str, str],
     optional: set[str],
@@ -571,7 +571,7 @@ def _read_csv(
     return rec.reset_index(drop=True), attrs, layout.data_line
 
 
-def _csv_blocks(
+def csv_blocks(
     name: str,
     mapping: dict[str, str],
     optional: set[str],
