@@ -23,6 +23,7 @@ import pandas as pd
 from motorid.app.identify import PAPER_ORDER
 from motorid.errors import DataError
 from motorid.io.records import RecordOptions
+from motorid.io.records.options import COMMAND_MAX_SAMPLES
 from motorid.units import INPUT_UNITS, OUTPUT_UNIT_NAMES
 
 #: The paper's low-speed band, |y| < 150 rpm (its Figs. 9-11).
@@ -162,7 +163,7 @@ def add_record_columns(parser: argparse.ArgumentParser, max_samples_help: str = 
     group.add_argument("--supply-voltage", type=positive, metavar="V",
                        help="supply voltage of a PWM drive [V]: --input-unit %% or counts becomes volts")  # fmt: skip
     group.add_argument(
-        "--max-samples", type=number(int, low=1), default=2_000_000, help=max_samples_help,
+        "--max-samples", type=number(int, low=1), default=COMMAND_MAX_SAMPLES, help=max_samples_help,
     )  # fmt: skip
     add_trim_options(parser)
 

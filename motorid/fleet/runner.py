@@ -49,6 +49,7 @@ from motorid.errors import DataError, OutputError
 from motorid.fleet.jobs import DRIVE_KEY_PREFIX, Job, RecordOptions
 from motorid.fleet.results import ResultsStore
 from motorid.io.records import read_record
+from motorid.io.records.options import COMMAND_MAX_SAMPLES
 from motorid.progress import progress_bar
 
 logger = logging.getLogger(__name__)
@@ -645,7 +646,9 @@ def run(
     job : DoctorJob or IdentifyJob
         What is computed (:mod:`motorid.fleet.jobs`).
     read : RecordOptions, optional
-        How each record is read (default: columns ``t``, ``u``, ``y``, the whole record).
+        How each record is read (default: columns ``t``, ``u``, ``y``, the whole record, at most
+        :data:`~motorid.io.records.options.COMMAND_MAX_SAMPLES` rows held whole, as the command line's
+        ``--max-samples``).
     per_drive : bool
         The doctor once per drive on all its records as one model (:func:`run_fleet_per_drive`;
         a ``DoctorJob`` only): one row per drive, one per record with its gaps.
@@ -696,7 +699,7 @@ def run(
         )
     if not (task_timeout > 0):
         raise DataError(f"task_timeout must be a positive time [s], got {task_timeout!r}")
-    read = RecordOptions.of(read, **record_fields)
+    read = RecordOptions.of(read or RecordOptions(max_samples=COMMAND_MAX_SAMPLES), **record_fields)
     if per_drive and not isinstance(job, DoctorJob):
         raise DataError(f"per_drive: the doctor runs per drive (a DoctorJob), got a {type(job).__name__}")
     items = [records] if isinstance(records, str | os.PathLike) else list(records)
