@@ -33,7 +33,7 @@ RECORDS, SECONDS, DT = 6, 30.0, 0.001
 def make_records(folder: Path) -> list[Path]:
     """Six 30 s records of one drive at 1 kHz, as CSV files in ``folder``."""
     from motorid.diagnose.synthetic import planted_record
-    from motorid.records import write_record
+    from motorid.io.records import write_record
 
     paths = []
     for k in range(RECORDS):

@@ -26,7 +26,7 @@ from pathlib import Path
 
 from _table import Row, print_rows
 
-from motorid.fleet import DoctorJob, ReadOptions, fleet_client, run_fleet
+from motorid.fleet import DoctorJob, RecordOptions, fleet_client, run_fleet
 from motorid.fleet.jobs import RecordTask
 from motorid.fleet.synthetic import make_fleet, write_fleet
 
@@ -37,7 +37,7 @@ REPEATS = 3
 
 
 def _task(figures: Path | None = None) -> RecordTask:
-    return RecordTask(DOCTOR, ReadOptions(), figures=figures)
+    return RecordTask(DOCTOR, RecordOptions(), figures=figures)
 
 
 def _cluster_rate(

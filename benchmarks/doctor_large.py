@@ -7,7 +7,7 @@ Two records of the default rig (:func:`motorid.drive.paper_rig` at ``dt``, drive
 samples (``--samples 0``: the 80 s one only). Each is diagnosed in a fresh process by
 ``motorid doctor REC --json`` (no figures: matplotlib is not imported), by ``motorid doctor
 REC --json --out DIR`` and by ``diagnose()`` in Python (read with
-:func:`motorid.records.read_record`), ``--repeat`` times each, the runs alternated; the script
+:func:`motorid.io.records.read_record`), ``--repeat`` times each, the runs alternated; the script
 prints the median and the smallest wall time [s] (start-up and reading included) and the largest
 peak resident memory [MB] (``ru_maxrss`` of that process). Not a test: it prints figures.
 """
@@ -23,14 +23,14 @@ import time
 from pathlib import Path
 
 from motorid.drive import paper_rig
-from motorid.records import write_record
+from motorid.io.records import write_record
 from motorid.signals import two_sine_signal
 
 MOTORID = Path(sys.executable).with_name("motorid")
 PYTHON_RUN = """
 import sys
 from motorid.diagnose import diagnose
-from motorid.records import read_record
+from motorid.io.records import read_record
 d = diagnose(read_record(sys.argv[1], max_samples=10**8))
 print(d.named)
 """

@@ -27,7 +27,7 @@ Hammerstein model file does not know its sample time; it is taken as the record'
 
 Timing: a physical model (a drive model, a friction filter) gives the output at the
 end of the sample over which ``u[k]`` is held (the ``"hold"`` timing of
-:data:`motorid.records.TIMINGS`). On a ``"sampled"`` record (``y[k]`` read before
+:data:`motorid.io.records.TIMINGS`). On a ``"sampled"`` record (``y[k]`` read before
 ``u[k]`` is applied) its output for ``u[k]`` is compared with ``y[k+1]``, as the doctor
 pairs them, and ``y[0]``, read before any input, with the rest it starts from
 (:func:`free_run_on_record`). An ARX or Hammerstein model learnt the pairing of the
@@ -59,7 +59,7 @@ from motorid.drive.rigid import RigidDrive
 from motorid.drive.two_mass import TwoMassRig
 from motorid.errors import DataError
 from motorid.estimators.base import Estimator, first_bad_index
-from motorid.records import record_timing
+from motorid.io.records import record_timing
 from motorid.validation import MIN_SCORED_SAMPLES, free_run_divergence, low_speed_mask, score
 
 if TYPE_CHECKING:
@@ -523,7 +523,7 @@ def _samples(record: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
             raise DataError(f"the record has no column {column!r}; columns are {list(record.columns)}")
     dt = record.attrs.get("dt")
     if dt is None:
-        raise DataError("the record has no attrs['dt']: read it with motorid.records.read_record")
+        raise DataError("the record has no attrs['dt']: read it with motorid.io.records.read_record")
     dt = float(dt)
     u = record["u"].to_numpy(dtype=float)
     y = record["y"].to_numpy(dtype=float)
@@ -878,7 +878,7 @@ def compare_blocks(
     Parameters
     ----------
     blocks : iterable of DataFrame
-        The record's consecutive blocks (:func:`motorid.record_chunks.iter_record`): columns
+        The record's consecutive blocks (:func:`motorid.io.records.iter_record`): columns
         ``t`` [s], ``u``, ``y``, the first block's ``attrs`` (``dt``, ``units``, ``timing``)
         those of the record. A velocity record: the band of a record of positions is judged
         on their speed, which takes the record whole.

@@ -241,7 +241,7 @@ def initial_state(
     """
     from scipy.optimize import minimize_scalar
 
-    from motorid.records import record_timing
+    from motorid.io.records import record_timing
 
     if samples < 3:
         raise ValueError(f"samples must be at least 3 (a position and a speed from them), got {samples}")
@@ -275,7 +275,7 @@ def simulate_position(
     the state read off the first ``init_samples`` measured positions ``y`` (:func:`initial_state`).
 
     The model runs at the record's sample time (``attrs["dt"]``) and pairs input and output by
-    the record's timing (:func:`motorid.records.record_timing`): on a ``"sampled"`` record
+    the record's timing (:func:`motorid.io.records.record_timing`): on a ``"sampled"`` record
     (EMPS: the controller reads ``y[k]``, then holds ``u[k]``) ``u[k]`` moves the drive to
     ``y[k + 1]``; on a ``"hold"`` record (motorid's own) ``u[k]`` ends at ``y[k]``.
 
@@ -284,7 +284,7 @@ def simulate_position(
     numpy.ndarray, shape (N,)
         The measured positions for the first ``init_samples`` samples, the simulated ones after.
     """
-    from motorid.records import record_timing
+    from motorid.io.records import record_timing
 
     w0, q0 = initial_state(model, record, init_samples)
     u = record["u"].to_numpy(dtype=float)

@@ -88,8 +88,8 @@ class ModelFileError(DataError):
 
 class UniformGridError(DataError):
     """The time stamps of a record read in blocks jitter (or have gaps, with ``resample``): the
-    record is put on a uniform grid by :func:`motorid.records.read_record`, which reads it whole
-    (:func:`motorid.record_chunks.iter_record`)."""
+    record is put on a uniform grid by :func:`motorid.io.records.read_record`, which reads it whole
+    (:func:`motorid.io.records.iter_record`)."""
 
 
 class OutputError(OSError):

@@ -15,7 +15,7 @@
   card (quantisation, noise per speed band), fed in the controller's input unit: the plant of
   ``motorid control --daq sim --model`` and ``motorid rig serve --model``.
 
-The loop's timing is ``"sampled"`` (:data:`motorid.records.TIMINGS`): at sample k the
+The loop's timing is ``"sampled"`` (:data:`motorid.io.records.TIMINGS`): at sample k the
 controller reads y[k], measured at t[k], and holds u[k] over [t[k], t[k] + dt).
 """
 
@@ -38,7 +38,7 @@ from motorid.drive.files import ModelCard
 from motorid.drive.rigid import RigidDrive, check_sample_time
 from motorid.io.base import DAQ
 from motorid.io.online import KEEP_WITH_FILE, RunRecorder, sample_loop, samples_for
-from motorid.records import ATTRS_MARKER
+from motorid.io.records import ATTRS_MARKER
 
 logger = logging.getLogger(__name__)
 
@@ -502,7 +502,7 @@ def run_closed_loop(
     out : path, optional
         CSV written row by row as the loop runs (:class:`~motorid.io.online.RunRecorder`);
         an existing file is refused before the DAQ is opened unless ``overwrite``. Its first
-        line is the record's attributes (:data:`motorid.records.ATTRS_MARKER`: ``dt``,
+        line is the record's attributes (:data:`motorid.io.records.ATTRS_MARKER`: ``dt``,
         ``units``, ``timing`` ``"sampled"``, ``loop``), so ``motorid doctor``, ``identify`` and
         ``compare`` read it as it is, in its units, and the doctor knows the ``reference``
         column for a closed loop's.
@@ -608,8 +608,8 @@ def loop_attrs(controller: SpeedController) -> dict[str, Any]:
 
 
 def attrs_line(attrs: dict[str, Any]) -> str:
-    """A record's attributes as the first line of its CSV (:data:`motorid.records.ATTRS_MARKER` and
-    JSON, as :func:`motorid.records.write_record` writes them).
+    """A record's attributes as the first line of its CSV (:data:`motorid.io.records.ATTRS_MARKER` and
+    JSON, as :func:`motorid.io.records.write_record` writes them).
 
     Parameters
     ----------

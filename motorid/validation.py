@@ -64,12 +64,12 @@ def check_scored_samples(samples: int, skip: int, source: str = "the record") ->
     if left < MIN_SCORED_SAMPLES:
         largest = samples - MIN_SCORED_SAMPLES
         how = (
-            f"give --skip {largest} or less, or a longer record"
+            f"give skip={largest} or less, or a longer record"
             if largest >= 0
             else f"give a record of at least {MIN_SCORED_SAMPLES} samples"
         )
         raise DataError(
-            f"{source}: {samples} samples; --skip {skip} leaves {max(left, 0)} to score, at least "
+            f"{source}: {samples} samples; skip={skip} leaves {max(left, 0)} to score, at least "
             f"{MIN_SCORED_SAMPLES} are needed: {how}"
         )
 

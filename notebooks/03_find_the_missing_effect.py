@@ -52,7 +52,7 @@ from motorid.drive import Friction, RigidDrive, effects, paper_rig
 from motorid.estimators import FrictionEKF
 from motorid.estimators.friction_kf import tacho_variance
 from motorid.io import ModbusDAQ, RigServer, run_online
-from motorid.records import read_record
+from motorid.io.records import read_record
 from motorid.signals import two_sine_signal
 
 pd.set_option("display.width", 180)

@@ -46,7 +46,7 @@ def _realmotor(name: str) -> Path:
 
 def _wheel(name: str) -> Any:
     from motorid.diagnose import diagnose
-    from motorid.records import read_record
+    from motorid.io.records import read_record
 
     return diagnose(read_record(_realmotor(name)), input_unit="%", output_unit="rev/s")
 
@@ -64,7 +64,7 @@ def wheel_motor3_validation() -> Any:
 def l298n_staircase() -> Any:
     """``motorid doctor l298n_staircase.csv --input-unit V --output-unit rpm``."""
     from motorid.diagnose import diagnose
-    from motorid.records import read_record
+    from motorid.io.records import read_record
 
     return diagnose(read_record(_realmotor("l298n_staircase.csv")), input_unit="V", output_unit="rpm")
 
@@ -88,7 +88,7 @@ def wheel_motor2_joint() -> Any:
     """``motorid doctor wheel_free_train_motor2.csv wheel_free_validation_motor2.csv --input-unit %
     --output-unit rev/s``: one model of both records of the motor."""
     from motorid.diagnose import diagnose
-    from motorid.records import read_record
+    from motorid.io.records import read_record
 
     names = [f"wheel_free_{w}_motor2.csv" for w in ("train", "validation")]
     return diagnose(

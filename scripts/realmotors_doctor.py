@@ -56,7 +56,7 @@ def data_folder() -> Path:
 
 def read(name: str, output_unit: str | None):
     """A record as ``motorid doctor NAME.csv --input-unit % [--output-unit UNIT]`` reads it."""
-    from motorid.records import read_record
+    from motorid.io.records import read_record
     from motorid.units import convert_record
 
     return convert_record(read_record(data_folder() / f"{name}.csv"), "%", output_unit)

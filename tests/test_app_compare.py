@@ -3,7 +3,7 @@
 The reference is the command itself: the same numbers written to a CSV file and read by
 ``motorid compare FILE --model ... --json`` with the same column and unit options. Both bring
 the record to motorid's columns and units with the same rules
-(:func:`motorid.records.normalise_record`) and run each model free on the same input, so every
+(:func:`motorid.io.records.normalise_record`) and run each model free on the same input, so every
 key and every free run is the same; the command reads the file in blocks and scores with running
 sums (:func:`motorid.comparison.compare_blocks`), the Python call the whole record with numpy's
 sums, so the five scores agree to the rounding of those sums (:data:`SUMS_RTOL`).

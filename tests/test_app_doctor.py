@@ -2,7 +2,7 @@
 
 The reference is the command itself: the same numbers written to CSV files and read by
 ``motorid doctor FILE... --json`` with the same column and unit options. Both bring the
-record to motorid's columns and units with the same rules (:func:`motorid.records.normalise_record`)
+record to motorid's columns and units with the same rules (:func:`motorid.io.records.normalise_record`)
 and run the same doctor (:meth:`motorid.app.DoctorOptions.diagnose`), and pandas writes a float
 to CSV in the shortest text that reads back to the same float, so the payloads are compared for
 equality, key for key, with no tolerance.
@@ -19,12 +19,13 @@ import pandas as pd
 import pytest
 from cli_fixtures import run
 
-from motorid.app import DoctorOptions, ReadOptions, doctor
+from motorid.app import DoctorOptions, doctor
 from motorid.cli.report import jsonable
 from motorid.diagnose.synthetic import planted_record
 from motorid.errors import DataError
 from motorid.fleet import DoctorJob
-from motorid.fleet import ReadOptions as FleetReadOptions
+from motorid.fleet import RecordOptions as FleetRecordOptions
+from motorid.io.records import RecordOptions
 
 SUPPLY = 24.0  # [V]: the planted rig's input stays well inside it
 RPM = 60.0 / (2.0 * math.pi)
@@ -102,7 +103,7 @@ def test_doctor_refuses_bad_options_naming_them(records):
 
 def test_the_fleets_doctor_job_and_read_options_are_the_application_layers():
     """One class each: the fleet runs the doctor with the options the command line builds."""
-    assert DoctorJob is DoctorOptions and FleetReadOptions is ReadOptions
+    assert DoctorJob is DoctorOptions and FleetRecordOptions is RecordOptions
     assert DoctorOptions(base=["offset"]).base == ("offset",)
     with pytest.raises(DataError, match="sequence of effect names"):
         DoctorOptions(base="offset")

@@ -2,7 +2,7 @@
 
 The reference is the command itself: the same numbers written to a CSV file and read by
 ``motorid identify FILE --json`` with the same column and unit options. Both read the record
-with the same rules (:func:`motorid.records.normalise_record`) and run the same function
+with the same rules (:func:`motorid.io.records.normalise_record`) and run the same function
 (:func:`motorid.app.identify.identify_record`), and pandas writes a float to CSV in the
 shortest text that reads back to the same float, so the payloads are compared for equality,
 key for key, with no tolerance.
@@ -18,11 +18,12 @@ import pandas as pd
 import pytest
 from cli_fixtures import run
 
-from motorid.app import IdentifyOptions, ReadOptions, identify, identify_file
+from motorid.app import IdentifyOptions, identify, identify_file
 from motorid.cli.report import jsonable
 from motorid.drive import paper_rig
 from motorid.errors import DataError
 from motorid.fleet import IdentifyJob
+from motorid.io.records import RecordOptions
 from motorid.signals import two_sine_signal
 
 SUPPLY = 24.0  # [V]: the paper's rig takes at most 12 V, a duty of at most 50 %
@@ -101,7 +102,7 @@ def test_identify_file_with_read_options_equals_the_command(capsys, tmp_path, lo
     read whole, the payload of ``motorid identify FILE --json`` with the same options."""
     path = tmp_path / "log.csv"
     logged.to_csv(path, index=False)
-    read = ReadOptions(**READING, **span)
+    read = RecordOptions(**READING, **span)
     payload, _, _ = identify_file(path, IdentifyOptions(na=2, nb=2, degree=3), read)
     spanned = [arg for key, value in span.items() for arg in (f"--{key}", repr(value))]
     code, out, err = run(capsys, "identify", str(path), "--na", "2", "--nb", "2", "--degree", "3",

@@ -9,7 +9,7 @@ import pytest
 from cli_fixtures import interrupt_when_written, run
 
 from motorid.cli import main
-from motorid.records import read_record
+from motorid.io.records import read_record
 
 
 @pytest.fixture(scope="module")

@@ -19,7 +19,7 @@ import pytest
 from motorid.cli import main
 from motorid.drive import RigidDrive, paper_rig
 from motorid.estimators import create
-from motorid.records import write_record
+from motorid.io.records import write_record
 from motorid.signals import two_sine_signal
 
 
@@ -367,7 +367,7 @@ def hostile(tmp_path_factory) -> Path:
 
     from motorid.drive import RigidDrive
     from motorid.estimators import FrictionEKF, create
-    from motorid.records import ATTRS_KEY, ATTRS_MARKER
+    from motorid.io.records import ATTRS_KEY, ATTRS_MARKER
 
     root = tmp_path_factory.mktemp("hostile")
     rigid = lambda: RigidDrive(("viscous_friction", "coulomb_friction"), {"inertia": 2e-3, "input_gain": 0.05, "viscous": 1e-3, "coulomb": 0.02}, dt=0.01)  # noqa: E731  # fmt: skip

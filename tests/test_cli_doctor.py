@@ -10,7 +10,7 @@ from cli_fixtures import run
 from emps_fixtures import emps_folder, force_error_percent, published_inverse_dynamics, requires_emps
 
 from motorid.diagnose.synthetic import planted_record
-from motorid.records import write_record
+from motorid.io.records import write_record
 
 
 @pytest.fixture(scope="module")
@@ -139,7 +139,7 @@ def datasheet_model(rig):
 def test_doctor_improves_the_users_model_and_the_saved_model_predicts_a_fresh_measurement(capsys, tmp_path):
     import numpy as np
 
-    from motorid.records import read_record
+    from motorid.io.records import read_record
 
     rig = stribeck_rig()
     rig.save(tmp_path / "truth.json")

@@ -97,7 +97,7 @@ def test_help_params_names_the_keys_of_the_chosen_estimator(capsys):
 
 def test_a_warning_is_said_once_in_the_command_line_form(tmp_path):
     """A logger's jittered stamps, read twice by one command (the record and its --validate record):
-    one line ``motorid: warning: ...``, not the logging module's ``WARNING motorid.records: ...``."""
+    one line ``motorid: warning: ...``, not the logging module's ``WARNING motorid.io.records: ...``."""
     rng = np.random.default_rng(0)
     n = 2000
     u = np.sin(2 * np.pi * 0.5 * 0.01 * np.arange(n)) * 50

@@ -337,7 +337,7 @@ def test_motorid_doctor_names_cogging_asked_for_or_by_default(capsys, tmp_path):
     amplitude and phase beside its parameters, with their units (tolerance as the doctor's test)."""
     from cli_fixtures import run
 
-    from motorid.records import write_record
+    from motorid.io.records import write_record
 
     write_record(cogging_record(1), tmp_path / "cog.csv")
     base = ["--input-gain", "0.02", "--base", ",".join(BASE), "--json"]

@@ -20,7 +20,7 @@ from emps_fixtures import real_motor_file
 
 from motorid import load_model
 from motorid.drive import RigidDrive, paper_rig
-from motorid.records import read_record, write_record
+from motorid.io.records import read_record, write_record
 from motorid.signals import two_sine_signal
 from motorid.validation import rpm_to_rad_s
 
@@ -403,7 +403,7 @@ def long_files(files, tmp_path_factory) -> Path:
 
 
 def _blocks(path: Path, timing: str, rows: int = AWKWARD_ROWS):
-    from motorid.record_chunks import iter_record
+    from motorid.io.records import iter_record
 
     for block in iter_record(path, chunk_rows=rows):
         block.attrs["timing"] = timing

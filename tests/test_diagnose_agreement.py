@@ -15,7 +15,7 @@ from motorid.diagnose import diagnose
 from motorid.diagnose.agreement import AGREEMENT_LEVEL, homogeneity
 from motorid.diagnose.model import fit_model
 from motorid.diagnose.synthetic import planted_record
-from motorid.records import write_record
+from motorid.io.records import write_record
 
 LABELS = ["a.csv", "b.csv", "c.csv"]
 

@@ -22,7 +22,7 @@ from motorid.diagnose.artefacts import (
     stale_start,
 )
 from motorid.diagnose.synthetic import planted_record
-from motorid.records import write_record
+from motorid.io.records import write_record
 
 
 @pytest.fixture(scope="module")

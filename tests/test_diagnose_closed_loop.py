@@ -21,7 +21,7 @@ from motorid.diagnose.closed_loop import input_feedback
 from motorid.diagnose.synthetic import planted_record
 from motorid.drive import Amplifier, Friction, RigidDrive, paper_rig
 from motorid.errors import DataError
-from motorid.records import read_record
+from motorid.io.records import read_record
 from motorid.signals import two_sine_signal
 from motorid.speed_control import SpeedController, design_speed_pi, reversing_reference
 

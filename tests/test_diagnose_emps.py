@@ -24,7 +24,7 @@ from motorid.cli import main
 from motorid.datasets import EMPS_BENCHMARK_RESULTS, EMPS_REFERENCE, emps_benchmark_rmse, load_emps
 from motorid.diagnose import diagnose
 from motorid.diagnose.position import refit_in_position
-from motorid.records import write_record
+from motorid.io.records import write_record
 
 pytestmark = requires_emps
 

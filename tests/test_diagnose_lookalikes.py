@@ -12,7 +12,7 @@ from cli_fixtures import run
 from motorid.diagnose import diagnose
 from motorid.diagnose.synthetic import planted_record
 from motorid.drive.rigid import RigidDrive
-from motorid.records import write_record
+from motorid.io.records import write_record
 
 KINETIC = 1.0  # V: the kinetic friction level planted, as a Coulomb level or a dead zone (input gain 1)
 

@@ -12,7 +12,7 @@ from cli_fixtures import run
 from motorid.diagnose.kinematics import kinematics, noise_bands, quantisation_step
 from motorid.diagnose.synthetic import planted_record
 from motorid.drive import paper_rig
-from motorid.records import write_record
+from motorid.io.records import write_record
 
 
 def test_the_quantisation_step_of_an_encoder_is_found_when_it_shows():

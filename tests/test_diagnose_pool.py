@@ -16,7 +16,7 @@ from motorid.diagnose import diagnose
 from motorid.diagnose.model import PooledBalance, fit_model
 from motorid.diagnose.workflow import free_run_error, prepare
 from motorid.drive.effects import get as get_effect
-from motorid.records import write_record
+from motorid.io.records import write_record
 
 
 @pytest.fixture(scope="module")

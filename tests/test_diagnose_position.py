@@ -79,7 +79,7 @@ def test_motorid_doctor_prints_and_reports_both_position_errors(tmp_path, capsys
     import json
 
     from motorid.cli import main
-    from motorid.records import write_record
+    from motorid.io.records import write_record
 
     record = position_record(TRUE.without("input_delay"))
     write_record(record, tmp_path / "position.csv")

@@ -100,7 +100,7 @@ needs_kit = pytest.mark.skipif(
 def kit_runs():
     """The kit motor's six records diagnosed alone, and their joint run."""
     from motorid.diagnose import diagnose
-    from motorid.records import read_record
+    from motorid.io.records import read_record
 
     records = [read_record(p) for p in KIT]
     return [diagnose(r) for r in records], diagnose(records, labels=[p.name for p in KIT])
@@ -211,7 +211,7 @@ def test_each_kit_record_agrees_with_the_joint_run_within_its_errors_and_the_spr
     from motorid.diagnose.model import fit_model
     from motorid.diagnose.prepare import prepare
     from motorid.drive.effects import get as get_effect
-    from motorid.records import read_record
+    from motorid.io.records import read_record
 
     singles, joint = kit_runs
     spread = {a.parameter: a.spread for a in joint.agreement}
@@ -289,7 +289,7 @@ def test_in_a_10_hz_band_the_kit_records_agree_on_the_inertia_plus_viscous_times
     The chirps choose a 2-3 ms input delay, and J + B τ_d agrees over all six (measured
     0.00659-0.00681, 3.4 %), in either band."""
     from motorid.diagnose import diagnose
-    from motorid.records import read_record
+    from motorid.io.records import read_record
 
     singles, _ = kit_runs
     fits = {p.stem: diagnose(read_record(p), band=10.0, max_steps=1).model.params for p in KIT}
@@ -312,7 +312,7 @@ def test_the_compensation_for_the_speed_noise_moves_the_kit_sines_inertia_by_a_p
     below their fit in a 10 Hz band."""
     from motorid.diagnose.model import fit_model
     from motorid.diagnose.workflow import prepare
-    from motorid.records import read_record
+    from motorid.io.records import read_record
 
     base = ("viscous_friction", "coulomb_friction", "offset")
     for path in KIT:

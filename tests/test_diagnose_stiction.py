@@ -16,7 +16,7 @@ from motorid.diagnose import diagnose
 from motorid.diagnose.kinematics import kinematics, noise_bands, quantisation_step
 from motorid.diagnose.rests import rests
 from motorid.diagnose.synthetic import ENCODER_STEP, encoder_speed, planted_record
-from motorid.records import write_record
+from motorid.io.records import write_record
 
 
 def breakaway_level(d) -> float:
@@ -251,7 +251,7 @@ def test_breakaways_at_one_held_input_level_are_as_uncertain_as_the_inputs_step(
     only, which differs from CPU to CPU). Its standard error is the duty's rounding instead,
     1 % / sqrt(12 n); the kit motor's input, not quantised, adds nothing."""
     from motorid.diagnose.measures import _breakaway_fit, _typical, breakaway
-    from motorid.records import read_record
+    from motorid.io.records import read_record
 
     d = diagnose(read_record(WHEEL), input_unit="%", output_unit="rev/s")
     pool = d._pool

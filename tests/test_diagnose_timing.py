@@ -11,7 +11,7 @@ from cli_fixtures import run
 from motorid.diagnose import diagnose
 from motorid.diagnose.bench import bench, delay_error_samples
 from motorid.diagnose.model import DELAY_LONGEST, DELAY_SAMPLES, delay_reach
-from motorid.records import write_record
+from motorid.io.records import write_record
 
 
 def test_the_delay_search_reaches_a_share_of_the_record_within_stated_limits():

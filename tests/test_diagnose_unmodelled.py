@@ -14,7 +14,7 @@ from motorid.diagnose import diagnose
 from motorid.diagnose.search import figure
 from motorid.drive.rigid import RigidDrive
 from motorid.errors import DataError
-from motorid.records import write_record
+from motorid.io.records import write_record
 
 
 @pytest.fixture(scope="module")

@@ -11,7 +11,7 @@ import pytest
 from cli_fixtures import run
 
 from motorid.diagnose.synthetic import planted_record
-from motorid.records import read_record, write_record
+from motorid.io.records import read_record, write_record
 
 
 @pytest.fixture(scope="module")

@@ -14,7 +14,7 @@ from io_fixtures import free_port, start_rig_process
 
 from motorid import load_model
 from motorid.drive import Friction, TwoMassRig, paper_rig
-from motorid.records import read_record
+from motorid.io.records import read_record
 
 STRIBECK = Friction(("stribeck_friction",), {"stribeck": 6e-3, "stribeck_velocity": 10.0}, side="motor")
 
@@ -199,7 +199,7 @@ def test_python_diagnose_refuses_a_rig_without_a_rigid_equivalent(doctored):
 def measured_with(effect: str, parameter: str, value: float, tmp_path) -> list[str]:
     """The datasheet rig saved, and a 60 s record of its rigid equivalent with ``effect`` added
     (a rigid drive's, measured with 0.3 rad/s of noise): the doctor's arguments for one step on it."""
-    from motorid.records import write_record
+    from motorid.io.records import write_record
     from motorid.signals import two_sine_signal
 
     sheet = datasheet_rig()

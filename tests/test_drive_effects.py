@@ -20,7 +20,7 @@ from motorid.drive import RigidDrive, effects, kernels
 from motorid.drive.effects import Effect, Parameter
 from motorid.estimators.friction_kf import check_rigid_drive, filter_effects
 from motorid.fleet import DoctorJob
-from motorid.records import write_record
+from motorid.io.records import write_record
 
 
 class ConstantTorque(Effect):

@@ -185,9 +185,9 @@ def test_a_rerun_skips_what_is_done_and_retries_failed_ones_on_request(
 
 
 def test_a_worker_killed_mid_run_loses_no_result(client, fleet_folder, tmp_path):
-    from motorid.fleet.jobs import DoctorJob, ReadOptions, RecordTask
+    from motorid.fleet.jobs import DoctorJob, RecordOptions, RecordTask
 
-    task = RecordTask(DoctorJob(base=tuple(DOCTOR[1].split(","))), ReadOptions(), figures=None)
+    task = RecordTask(DoctorJob(base=tuple(DOCTOR[1].split(","))), RecordOptions(), figures=None)
     paths = records(fleet_folder)
     out = tmp_path / "killed"
     pids = client.run(os.getpid)
@@ -294,7 +294,7 @@ def test_drive_and_time_from_the_file_name_pattern_on_parquet_records(
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    from motorid.records import read_record
+    from motorid.io.records import read_record
 
     folder = tmp_path / "daq"
     folder.mkdir()
@@ -322,9 +322,9 @@ def test_drive_and_time_from_the_file_name_pattern_on_parquet_records(
 def test_a_records_warnings_are_in_its_row(fleet_folder):
     """The friction EKF's model (the paper's rig, with its 0.6 V dead zone) does not fit these drives:
     it warns that it diverged, and the row says so instead of the worker's stderr."""
-    from motorid.fleet.jobs import IdentifyJob, ReadOptions, RecordTask
+    from motorid.fleet.jobs import IdentifyJob, RecordOptions, RecordTask
 
-    task = RecordTask(IdentifyJob(estimator="friction-ekf"), ReadOptions(), figures=None)
+    task = RecordTask(IdentifyJob(estimator="friction-ekf"), RecordOptions(), figures=None)
     row = task(str(records(fleet_folder)[0]), {})
     assert row["status"] == "ok" and "friction-ekf diverged at sample" in row["warnings"]
 
@@ -437,7 +437,7 @@ def test_a_full_disk_stops_the_run_saying_what_is_kept(fleet_folder, address, sm
 
 # --------------------------------------------------------------------------- names from data
 def test_drive_ids_from_attrs_never_leave_the_out_folder(fleet_folder, address, tmp_path, capsys):
-    from motorid.records import read_record, write_record
+    from motorid.io.records import read_record, write_record
 
     outside = tmp_path / "outside"
     hostile = ["../../x", str(outside), "a\x00b", "d" * 10_000]

@@ -19,11 +19,11 @@ import pytest
 from io_fixtures import wait_for
 
 from motorid.cli import main
-from motorid.fleet import DoctorJob, IdentifyJob, ReadOptions, flatten, fleet_client, load_results, run
+from motorid.fleet import DoctorJob, IdentifyJob, RecordOptions, flatten, fleet_client, load_results, run
 from motorid.fleet.jobs import DRIVE_KEY_PREFIX
 from motorid.fleet.synthetic import make_fleet, write_fleet
+from motorid.io.records import read_record, write_record
 from motorid.outputs import jsonable
-from motorid.records import read_record, write_record
 
 BASE = ("coulomb_friction", "viscous_friction", "offset")
 DOCTOR = ["--base", ",".join(BASE), "--max-steps", "1"]
@@ -192,7 +192,9 @@ def test_the_python_call_and_fleet_identify_with_a_span_equal_the_single_command
     span = ["--start", "2", "--stop", "12"]
     from_python = tmp_path / "python"
     job = IdentifyJob(estimator="hammerstein-rls", na=2, nb=2, degree=3)
-    done = run(chosen, from_python, job, read=ReadOptions(start=2.0, stop=12.0), client=client, figures=False)
+    done = run(
+        chosen, from_python, job, read=RecordOptions(start=2.0, stop=12.0), client=client, figures=False
+    )
     assert (done.done, done.failed) == (2, 0)
     from_command = tmp_path / "command"
     argv = ["fleet", "identify", *map(str, chosen), "--out", str(from_command), "--scheduler", address,
@@ -254,12 +256,12 @@ def test_drives_from_a_file_name_pattern(fleet_folder, client, tmp_path):
 @pytest.mark.parametrize(
     ("make", "message"),
     [
-        (lambda: IdentifyJob(estimator="nope"), "estimator: unknown estimator 'nope'"),
+        (lambda: IdentifyJob(estimator="nope"), "unknown estimator 'nope'"),
         (lambda: DoctorJob(base=("friction",)), "base: unknown effect 'friction'"),
         (lambda: DoctorJob(base="coulomb_friction"), "base must be a sequence of effect names"),
         (lambda: DoctorJob(model=Path("m.json"), base=BASE), "base cannot be combined with model"),
-        (lambda: ReadOptions(start=3.0, stop=1.0), r"stop=1 must be after start=3"),
-        (lambda: ReadOptions(start=-1.0), r"start=\.\.\. must be a time >= 0"),
+        (lambda: RecordOptions(start=3.0, stop=1.0), r"stop=1 must be after start=3"),
+        (lambda: RecordOptions(start=-1.0), r"start=\.\.\. must be a time >= 0"),
     ],
 )
 def test_the_typed_options_refuse_a_bad_value_by_name(make, message):

@@ -10,7 +10,7 @@ import pytest
 from motorid.errors import DataError
 from motorid.fleet import FilenamePattern, find_records, identity
 from motorid.fleet.synthetic import FLEET_START, make_fleet, write_fleet
-from motorid.records import read_record
+from motorid.io.records import read_record
 
 
 def test_a_pattern_gives_drive_and_time_from_the_file_name():

@@ -27,7 +27,7 @@ from motorid.drive import RigidDrive, TwoMassRig, paper_rig
 from motorid.drive.files import model_to_dict, read_model_file
 from motorid.errors import DataError
 from motorid.estimators import Estimator, FrictionEKF, FrictionUKF, create, load_model
-from motorid.records import ATTRS_MARKER, read_record, write_record
+from motorid.io.records import ATTRS_MARKER, read_record, write_record
 from motorid.signals import two_sine_signal
 
 #: A JSON token put in place of a value: (raw JSON text, what it is).

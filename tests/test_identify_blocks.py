@@ -32,7 +32,7 @@ from motorid.cli.report import jsonable
 from motorid.drive import paper_rig
 from motorid.errors import DataError
 from motorid.estimators.rls import FreeRun
-from motorid.records import read_record, write_record
+from motorid.io.records import read_record, write_record
 from motorid.signals import two_sine_signal
 from motorid.validation import (
     ResidualWindow,
@@ -306,13 +306,13 @@ def test_a_semicolon_decimal_comma_export_in_ms_identifies_alike_streamed_and_wh
     its header once, time in ms, duty and rpm converted per block); the same file read whole by
     read_record and identified by identify_record (as fleet identify does) gives the same
     payload, key for key: both run the estimator over blocks of 997 rows of the same numbers."""
-    import motorid.record_chunks
+    import motorid.io.records
 
     rig = paper_rig()
     _, u = two_sine_signal(duration=60.0, dt=rig.dt, seed=4)
     path = tmp_path / "export.csv"
     options = spreadsheet_export(path, rig.simulate(u, seed=4))
-    monkeypatch.setattr(motorid.record_chunks, "CHUNK_ROWS", BLOCK)
+    monkeypatch.setattr(motorid.io.records, "CHUNK_ROWS", BLOCK)
     code, streamed, err = run(capsys, "identify", str(path), *options, "--json")
     assert code == 0, err
     assert "reads it whole" not in err  # the uniform stamps are read in blocks

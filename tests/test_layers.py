@@ -47,8 +47,6 @@ LAYERS: dict[str, int] = {
     # 3: what measures and estimates a drive, and the records it writes
     "motorid.estimators": 3,
     "motorid.io": 3,
-    "motorid.records": 3,
-    "motorid.record_chunks": 3,
     "motorid.datasets": 3,
     # 5: metrics and residual tests
     "motorid.validation": 5,

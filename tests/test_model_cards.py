@@ -411,7 +411,7 @@ def test_identify_and_simulate_follow_the_models_card(capsys, wheel_models, tmp_
     code, _, err = run(capsys, "simulate", "--model", str(duty), "--out", str(tmp_path / "sim.csv"),
                        "--duration", "2", "--amplitude", "30")  # fmt: skip
     assert code == 0, err
-    from motorid.records import read_record
+    from motorid.io.records import read_record
 
     assert read_record(tmp_path / "sim.csv").attrs["units"]["u"] == "%" and "in %" in err
 

@@ -476,7 +476,7 @@ def test_identify_saves_the_identified_estimator(capsys, tmp_path, record):
     rec = tmp_path / "rec.csv"
     import pandas as pd
 
-    from motorid.records import write_record
+    from motorid.io.records import write_record
 
     frame = pd.DataFrame({"t": np.arange(len(u)) * 0.04, "u": u, "y": y})
     frame.attrs["dt"] = 0.04
@@ -721,7 +721,7 @@ def test_a_plugin_estimator_registered_at_run_time_is_saved_loaded_and_continues
         # identify --save-model writes it as well (the README's promise)
         import pandas as pd
 
-        from motorid.records import write_record
+        from motorid.io.records import write_record
 
         frame = pd.DataFrame({"t": np.arange(len(u)) * 0.04, "u": u, "y": y})
         frame.attrs["dt"] = 0.04

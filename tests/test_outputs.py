@@ -102,13 +102,13 @@ def test_two_simulate_runs_into_one_out_exactly_one_wins(tmp_path):
     assert len(refused_err.strip().splitlines()) == 1 and "race.csv" in refused_err
     assert "the file exists" in refused_err
     assert leftovers(tmp_path) == ["race.csv"]
-    from motorid.records import read_record
+    from motorid.io.records import read_record
 
     assert len(read_record(tmp_path / "race.csv")) == 125  # 5 s at 40 ms: one whole record
 
 
 def test_two_simulate_runs_with_overwrite_leave_one_whole_record(tmp_path):
-    from motorid.records import read_record
+    from motorid.io.records import read_record
 
     (tmp_path / "race.csv").write_text("an old record\n")
     argv = ("simulate", "--out", "race.csv", "--overwrite", "--duration", "5", "--seed")

@@ -1,7 +1,7 @@
 """iter_record: a record read in blocks equals the record read whole, its errors name the row in
 the whole record, and its memory is a few blocks whatever the record's length.
 
-The reference is :func:`motorid.records.read_record` on the same file; the files are written by
+The reference is :func:`motorid.io.records.read_record` on the same file; the files are written by
 each format's own library (the writers of test_records_formats.py). The blocks are 997 rows:
 no divisor of any record length here, so every record ends on a short block, and a Parquet
 file's row groups (300 rows) never line up with them.
@@ -19,8 +19,7 @@ import pytest
 from test_records_formats import write_hdf5, write_mat
 
 from motorid.errors import DataError
-from motorid.record_chunks import iter_record
-from motorid.records import read_record, write_record
+from motorid.io.records import iter_record, read_record, write_record
 
 BLOCK = 997
 ROWS = 5_000
@@ -49,7 +48,7 @@ def write_parquet_groups(path, columns, attrs=None) -> None:
 
     import pyarrow.parquet as pq
 
-    from motorid.records import ATTRS_KEY
+    from motorid.io.records import ATTRS_KEY
 
     table = pa.table(columns)
     if attrs is not None:

@@ -16,7 +16,7 @@ import pytest
 
 from motorid.cli import main
 from motorid.drive import paper_rig
-from motorid.records import read_record, trim_record
+from motorid.io.records import read_record, trim_record
 from motorid.signals import two_sine_signal
 
 START, STOP = 4.0, 12.0

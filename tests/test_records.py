@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from motorid.drive import TwoMassRig, paper_rig
 from motorid.errors import DataError
-from motorid.records import ATTRS_MARKER, count_data_lines, read_record, write_record
+from motorid.io.records import ATTRS_MARKER, count_data_lines, read_record, write_record
 from motorid.signals import two_sine_signal
 
 

@@ -24,7 +24,7 @@ from nptdms import ChannelObject, RootObject, TdmsWriter
 
 from motorid.cli import main
 from motorid.errors import DataError
-from motorid.records import (
+from motorid.io.records import (
     ATTRS_KEY,
     MAT_ATTRS_VARIABLE,
     read_record,

@@ -28,7 +28,7 @@ from cli_fixtures import run
 from motorid.diagnose import diagnose
 from motorid.diagnose.synthetic import planted_record
 from motorid.errors import DataError
-from motorid.records import JITTER_LIMIT, normalise_record, read_record, write_record
+from motorid.io.records import JITTER_LIMIT, normalise_record, read_record, write_record
 
 RPM = 60.0 / (2.0 * math.pi)
 SUPPLY = 24.0  # [V]: the planted drive's input, at most 6.4 V, is a duty of at most 27 %
@@ -105,7 +105,7 @@ LOGGER_OPTIONS = [
 def test_the_doctor_finds_the_sample_time_and_the_friction_in_a_loggers_file(
     capsys, caplog, logs, planted, name, options
 ):
-    caplog.set_level(logging.WARNING, logger="motorid.records")
+    caplog.set_level(logging.WARNING, logger="motorid.io.records")
     code, out, err = run(capsys, "doctor", str(logs[name]), *options, "--input-gain", repr(planted.input_gain),
                          "--base", "viscous_friction,offset", "--max-steps", "1", "--json")  # fmt: skip
     assert code == 0, err
@@ -156,7 +156,7 @@ def test_fleet_identify_reads_the_same_options(capsys, logs, tmp_path):
 
 
 def test_separator_and_decimal_are_detected_and_said_at_v(logs, caplog):
-    with caplog.at_level(logging.INFO, logger="motorid.records"):
+    with caplog.at_level(logging.INFO, logger="motorid.io.records"):
         rec = read_record(
             logs["export.csv"], time="Zeit [s]", input="Spannung [V]", output="Drehzahl [1/min]"
         )
@@ -164,7 +164,7 @@ def test_separator_and_decimal_are_detected_and_said_at_v(logs, caplog):
     explicit = read_record(logs["export.csv"], time="Zeit [s]", input="Spannung [V]", output="Drehzahl [1/min]",
                            sep=";", decimal=",")  # fmt: skip
     pd.testing.assert_frame_equal(rec, explicit)
-    with caplog.at_level(logging.INFO, logger="motorid.records"):
+    with caplog.at_level(logging.INFO, logger="motorid.io.records"):
         read_record(logs["tab.tsv"], time="t_us", time_unit="us", output="w")
     assert "separator '\\t' (detected)" in caplog.text
 
@@ -231,7 +231,7 @@ def test_jitter_is_accepted_up_to_the_limit_and_gaps_are_refused_unless_resample
     gap.to_csv(path, index=False)
     with pytest.raises(DataError, match=r"gap of 1 sample before row 120 .*resample=True"):
         read_record(path)
-    with caplog.at_level(logging.WARNING, logger="motorid.records"):
+    with caplog.at_level(logging.WARNING, logger="motorid.io.records"):
         filled = read_record(path, resample=True)
     assert len(filled) == n and "1 gap of missing samples" in caplog.text and "row 120" in caplog.text
     assert filled["u"].iloc[120] == u[119]  # held across the gap
@@ -410,7 +410,11 @@ def test_tdms_warnings_once_random_bytes_refused_and_time_from_the_increment(tmp
     with caplog.at_level(logging.WARNING):
         assert len(read_record(tmp_path / "cut.tdms", columns=["u"], other_columns=False)) == n
     warned = [r for r in caplog.records if "less data than expected" in r.getMessage()]
-    assert len(warned) == 1 and "cut.tdms" in warned[0].getMessage() and warned[0].name == "motorid.records"
+    assert (
+        len(warned) == 1
+        and "cut.tdms" in warned[0].getMessage()
+        and warned[0].name.startswith("motorid.io.records.")
+    )
 
 
 def test_the_records_own_attrs_name_the_time_unit(tmp_path):

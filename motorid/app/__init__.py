@@ -10,23 +10,20 @@
 - :mod:`motorid.app.compare`: ``motorid compare`` on a record (:func:`~motorid.app.compare.compare`
   on a DataFrame of the user's own, :func:`~motorid.app.compare.compare_file` on a file), its
   options :class:`~motorid.app.compare.CompareOptions`.
-- :mod:`motorid.app.reading`: how a record file is read, :class:`~motorid.app.reading.ReadOptions`
-  (the record options the commands share).
 
-The command line builds the options from its arguments and calls these; so does the fleet
+The command line builds the options from its arguments and calls these, with one
+:class:`motorid.io.records.RecordOptions` saying how each record is read; so does the fleet
 (:mod:`motorid.fleet`), on each record of a run.
 """
 
 from motorid.app.compare import CompareOptions, compare
 from motorid.app.doctor import DoctorOptions, doctor
 from motorid.app.identify import IdentifyOptions, identify, identify_file, identify_record
-from motorid.app.reading import ReadOptions
 
 __all__ = [
     "CompareOptions",
     "DoctorOptions",
     "IdentifyOptions",
-    "ReadOptions",
     "compare",
     "doctor",
     "identify",

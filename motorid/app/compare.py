@@ -26,9 +26,9 @@ import pandas as pd
 
 from motorid.app.identify import low_speed_band, output_band
 from motorid.app.model_cards import check_record
-from motorid.app.reading import ReadOptions
 from motorid.drive.files import ModelCard, ModelFile
 from motorid.errors import DataError
+from motorid.io.records import RecordOptions
 
 if TYPE_CHECKING:
     from motorid.comparison import Comparison
@@ -117,7 +117,7 @@ def compare_file(
     path: str | os.PathLike[str],
     models: Mapping[str, Any],
     options: CompareOptions,
-    read: ReadOptions,
+    read: RecordOptions,
     cards: Mapping[str, ModelCard | None] | None = None,
 ) -> tuple[Comparison, str, dict[str, str]]:
     """``motorid compare`` on the record file ``path``: the comparison, the low-speed band in
@@ -134,7 +134,7 @@ def compare_file(
         Label -> a drive model or an identified estimator (:func:`load_models`).
     options : CompareOptions
         The low-speed band and the samples skipped.
-    read : ReadOptions
+    read : RecordOptions
         How the record is read.
     cards : mapping of str to ModelCard or None, optional
         Each model's card (:func:`load_model_files`), checked against the record: its input
@@ -157,11 +157,11 @@ def compare_in_blocks(
     path: str | os.PathLike[str],
     models: Mapping[str, Any],
     options: CompareOptions,
-    read: ReadOptions,
+    read: RecordOptions,
     cards: Mapping[str, ModelCard | None] | None = None,
 ) -> tuple[Comparison, str, dict[str, str]] | None:
     """:func:`motorid.comparison.compare_blocks` on the record ``path`` read in blocks
-    (:meth:`ReadOptions.iter_blocks`), in memory that does not grow with the record:
+    (:func:`motorid.io.records.iter_record`), in memory that does not grow with the record:
     the comparison, the low-speed band in words and the record's units. A first pass finds the
     output's largest magnitude: the bound of a diverging free run
     (:func:`motorid.validation.free_run_divergence`) and, for an output in another unit than
@@ -180,14 +180,14 @@ def compare_in_blocks(
         Label -> model.
     options : CompareOptions
         The low-speed band and the samples skipped.
-    read : ReadOptions
+    read : RecordOptions
         How the record is read.
     cards : mapping of str to ModelCard or None, optional
         Each model's card, checked against the record (:func:`compare_file`).
     """
     from motorid.comparison import POSITION_UNITS, compare_blocks, runs_in_blocks
     from motorid.errors import UniformGridError
-    from motorid.record_chunks import CHUNK_ROWS
+    from motorid.io.records import CHUNK_ROWS, iter_record
 
     if read.spanned or not all(map(runs_in_blocks, models.values())):
         return None
@@ -195,26 +195,29 @@ def compare_in_blocks(
         logger.info("%s: --skip %d is more than a block holds: compared whole", path, options.skip)
         return None
     try:
-        first = next(read.iter_blocks(path, min_samples=options.min_samples))
+        first = next(
+            iter_record(path, read, min_samples=options.min_samples, chunk_rows=CHUNK_ROWS, speed=True)
+        )
         units = dict(first.attrs.get("units") or {})
         scales = check_record(cards or {}, units, read.supply_voltage)
         unit = units.get("y")
         if unit in POSITION_UNITS:
-            logger.info(
-                "%s: a record of positions, compared whole (--max-samples %d)", path, read.max_samples
-            )
+            logger.info("%s: a record of positions, compared whole (max_samples=%s)", path, read.max_samples)
             return None
-        largest = max(float(np.max(np.abs(b["y"].to_numpy()))) for b in read.iter_blocks(path))
+        largest = max(
+            float(np.max(np.abs(b["y"].to_numpy())))
+            for b in iter_record(path, read, min_samples=20, chunk_rows=CHUNK_ROWS, speed=True)
+        )
         _, threshold, band = output_band(unit, options.low_speed_rpm, largest)
-        blocks = read.iter_blocks(path, min_samples=options.min_samples)
+        blocks = iter_record(path, read, min_samples=options.min_samples, chunk_rows=CHUNK_ROWS, speed=True)
         return compare_blocks(blocks, models, threshold, options.skip, largest, scales), band, units
     except UniformGridError as exc:
-        logger.info("%s: compare reads it whole (--max-samples %d)", exc, read.max_samples)
+        logger.info("%s: compare reads it whole (max_samples=%s)", exc, read.max_samples)
         return None
 
 
 def read_whole(
-    path: str | os.PathLike[str], models: Mapping[str, Any], options: CompareOptions, read: ReadOptions
+    path: str | os.PathLike[str], models: Mapping[str, Any], options: CompareOptions, read: RecordOptions
 ) -> pd.DataFrame:
     """The record ``path`` read whole, for a comparison that cannot be made in blocks
     (:func:`compare_in_blocks`): a span of it (``start``, ``stop``) or, within
@@ -228,7 +231,7 @@ def read_whole(
         Label -> model (named in the message when one takes a long record whole).
     options : CompareOptions
         The samples skipped (the record must hold more).
-    read : ReadOptions
+    read : RecordOptions
         How the record is read.
 
     Raises
@@ -237,17 +240,18 @@ def read_whole(
         For a record longer than ``max_samples``, naming what takes it whole.
     """
     from motorid.comparison import model_kind, runs_in_blocks
+    from motorid.io.records import read_head, read_record
 
     if read.spanned:
-        return read.read(path, min_samples=options.min_samples)
-    record, more = read.read_segment(path, min_samples=options.min_samples)
+        return read_record(path, read, min_samples=options.min_samples, other_columns=False, speed=True)
+    record, more = read_head(path, read, min_samples=options.min_samples, speed=True)
     if more:
         whole = [
             f"the free run of {name} ({model_kind(m)})" for name, m in models.items() if not runs_in_blocks(m)
         ]
         raise DataError(
-            f"{path}: longer than --max-samples {read.max_samples}, and "
-            f"{whole[0] if whole else 'a record of positions'} takes the record whole: raise --max-samples"
+            f"{path}: longer than max_samples={read.max_samples}, and "
+            f"{whole[0] if whole else 'a record of positions'} takes the record whole: raise max_samples=..."
         )
     return record
 
@@ -256,22 +260,13 @@ def compare(
     record: pd.DataFrame,
     models: Mapping[str, Any] | Sequence[str | os.PathLike[str]],
     *,
-    time: str | None = None,
-    input: str = "u",
-    output: str = "y",
-    time_unit: str | None = None,
-    dt: float | None = None,
-    resample: bool = False,
-    input_unit: str | None = None,
-    input_full_scale: float | None = None,
-    output_unit: str | None = None,
-    supply_voltage: float | None = None,
+    record_options: RecordOptions | None = None,
     **options: Any,
 ) -> dict[str, Any]:
     """``motorid compare`` on a DataFrame of the user's own: its ``--json`` payload.
 
     The record is read as the command line reads a file with the same options
-    (:func:`motorid.records.normalise_record`: the named columns become ``t`` [s], ``u`` and
+    (:func:`motorid.io.records.normalise_record`: the named columns become ``t`` [s], ``u`` and
     ``y`` in motorid's units), then each model runs free on its input and is scored
     (:func:`motorid.comparison.compare_models`), so the result equals
     ``motorid compare FILE --model ... --json`` on the same data written to a file (without its
@@ -285,23 +280,10 @@ def compare(
     models : mapping or sequence
         Model files (named by their paths, as the command names them), or a mapping of names
         to models or model files (:func:`load_models`).
-    time : str, optional
-        Name of the time column (default ``t``; none needed when ``dt`` is known).
-    input, output : str
-        Names of the input and output columns.
-    time_unit : {"s", "ms", "us", "ns"}, optional
-        Unit of the time column (default: the record's ``attrs["units"]["t"]``, else seconds).
-    dt : float, optional
-        Sample time [s]; a time column that says otherwise is refused.
-    resample : bool
-        Put a record with gaps on the uniform grid instead of refusing it.
-    input_unit, output_unit : str, optional
-        Units of the input and output columns, converted to motorid's
-        (:data:`motorid.units.INPUT_UNITS`, :data:`motorid.units.OUTPUT_UNITS`).
-    input_full_scale : float, optional
-        The count of full duty, for ``input_unit="counts"``.
-    supply_voltage : float, optional
-        Supply voltage [V] of a PWM drive: a duty in % (or counts) becomes volts.
+    record_options : RecordOptions, optional
+        How the record is read (:class:`motorid.io.records.RecordOptions`: its columns, time,
+        units and span), as the command line's record options say it; its fields may also be
+        given one by one among the keyword arguments (``input="pwm"``, ``input_unit="%"``).
     **options :
         The fields of :class:`CompareOptions` (``low_speed_rpm``, ``skip``).
 
@@ -318,21 +300,18 @@ def compare(
     ...         output="rpm", output_unit="rpm")  # doctest: +SKIP
     """
     from motorid.comparison import compare_models
-    from motorid.records import normalise_record
+    from motorid.io.records import normalise_record
 
+    reading, options = RecordOptions.split(record_options, options)
     unknown = sorted(set(options) - {f.name for f in fields(CompareOptions)})
     if unknown:
         raise DataError(f"compare: unknown option {unknown[0]!r}")
     settings = CompareOptions(**options)
     files = load_model_files(models)
     loaded = {name: file.model for name, file in files.items()}
-    normalised = normalise_record(
-        record, time=time, input=input, output=output, time_unit=time_unit, dt=dt, resample=resample,
-        input_unit=input_unit, input_full_scale=input_full_scale, output_unit=output_unit,
-        supply_voltage=supply_voltage, min_samples=settings.min_samples,
-    )  # fmt: skip
+    normalised = normalise_record(record, reading, min_samples=settings.min_samples)
     scales = check_record({name: file.card for name, file in files.items()}, normalised.attrs.get("units"),
-                          supply_voltage)  # fmt: skip
+                          reading.supply_voltage)  # fmt: skip
     _, threshold, _ = low_speed_band(normalised, settings.low_speed_rpm)
     return compare_models(normalised, loaded, threshold, settings.skip, scales).to_dict()
 

@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import pandas as pd
 
 from motorid.errors import DataError
+from motorid.io.records import RecordOptions
 
 if TYPE_CHECKING:
     from motorid.diagnose.results import Diagnosis
@@ -109,7 +110,7 @@ class DoctorOptions:
         Parameters
         ----------
         records : pandas.DataFrame or sequence of DataFrame
-            A record with columns ``t`` [s], ``u``, ``y`` (as :class:`ReadOptions` reads a file),
+            A record with columns ``t`` [s], ``u``, ``y`` (as :func:`motorid.io.records.read_record` reads a file),
             or the records of one drive.
         labels : sequence of str, optional
             A name for each record in the report (its file); default ``record 1``, ...
@@ -118,8 +119,18 @@ class DoctorOptions:
         """
         from motorid.diagnose import diagnose
 
+        def motorid_columns(record: pd.DataFrame) -> pd.DataFrame:  # a position beside a speed stays behind
+            part = record[[c for c in ("t", "u", "y") if c in record.columns]]
+            part.attrs = dict(record.attrs)
+            return part
+
+        read = (
+            motorid_columns(records)
+            if isinstance(records, pd.DataFrame)
+            else list(map(motorid_columns, records))
+        )
         return diagnose(
-            records, input="u", output="y", output_kind=self.output_kind, input_gain=self.input_gain,
+            read, as_read=True, output_kind=self.output_kind, input_gain=self.input_gain,
             base=None if self.base is None else list(self.base),
             candidates=None if not self.candidates else list(self.candidates), holdout=self.holdout,
             max_steps=self.max_steps, progress=progress, timing=self.timing, model=self.start_model(),
@@ -137,15 +148,15 @@ class DoctorOptions:
         model = load_model(self.model)
         if not isinstance(model, RigidDrive | TwoMassRig):
             raise DataError(
-                f"--model {self.model}: holds a {type(model).__name__}; the doctor starts from a drive model "
-                "(a rigid drive motorid doctor --save-model wrote, or a two-mass rig motorid simulate "
-                "--save-model wrote)"
+                f"model={self.model}: holds a {type(model).__name__}; the doctor starts from a drive model "
+                "(a rigid drive the doctor's save_model=... wrote, or a two-mass rig simulate's "
+                "save_model=... wrote)"
             )
         if isinstance(model, TwoMassRig):
             try:
                 model.rigid_equivalent()  # the doctor searches on it
             except ValueError as exc:
-                raise DataError(f"--model {self.model}: {exc}") from None
+                raise DataError(f"model={self.model}: {exc}") from None
         return model
 
     def row(self, records: list[pd.DataFrame], labels: list[str], figures: Path | None) -> dict[str, Any]:
@@ -174,22 +185,13 @@ def doctor(
     records: pd.DataFrame | Sequence[pd.DataFrame],
     *,
     labels: Sequence[str] | None = None,
-    time: str | None = None,
-    input: str = "u",
-    output: str = "y",
-    time_unit: str | None = None,
-    dt: float | None = None,
-    resample: bool = False,
-    input_unit: str | None = None,
-    input_full_scale: float | None = None,
-    output_unit: str | None = None,
-    supply_voltage: float | None = None,
+    record_options: RecordOptions | None = None,
     **options: Any,
 ) -> dict[str, Any]:
     """``motorid doctor`` on a DataFrame of the user's own, or on several of one drive: its ``--json`` payload.
 
     Each record is read as the command line reads a file with the same options
-    (:func:`motorid.records.normalise_record`: the named columns become ``t`` [s], ``u`` and
+    (:func:`motorid.io.records.normalise_record`: the named columns become ``t`` [s], ``u`` and
     ``y`` in motorid's units, as the payload's ``settings`` name them), then doctored by :meth:`DoctorOptions.diagnose`, so the result
     equals ``motorid doctor FILE... --json`` on the same data written to files (without its
     ``figures`` and ``segment``: a DataFrame is never a segment), when ``labels`` are the files'
@@ -202,23 +204,10 @@ def doctor(
         records of one drive are fitted as one model.
     labels : sequence of str, optional
         A name for each record in the payload; default ``record 1``, ``record 2`` ...
-    time : str, optional
-        Name of the time column (default ``t``; none needed when ``dt`` is known).
-    input, output : str
-        Names of the input and output columns.
-    time_unit : {"s", "ms", "us", "ns"}, optional
-        Unit of the time column (default: the record's ``attrs["units"]["t"]``, else seconds).
-    dt : float, optional
-        Sample time [s]; a time column that says otherwise is refused.
-    resample : bool
-        Put a record with gaps on the uniform grid instead of refusing it.
-    input_unit, output_unit : str, optional
-        Units of the input and output columns, converted to motorid's
-        (:data:`motorid.units.INPUT_UNITS`, :data:`motorid.units.OUTPUT_UNITS`).
-    input_full_scale : float, optional
-        The count of full duty, for ``input_unit="counts"``.
-    supply_voltage : float, optional
-        Supply voltage [V] of a PWM drive: a duty in % (or counts) becomes volts.
+    record_options : RecordOptions, optional
+        How the record is read (:class:`motorid.io.records.RecordOptions`: its columns, time,
+        units and span), as the command line's record options say it; its fields may also be
+        given one by one among the keyword arguments (``input="pwm"``, ``input_unit="%"``).
     **options :
         The fields of :class:`DoctorOptions` (``base``, ``candidates``, ``input_gain``,
         ``max_steps``, ``holdout``, ``timing``, ``structure``, ``model`` ...).
@@ -234,18 +223,16 @@ def doctor(
     --------
     >>> doctor(df, input="pwm", input_unit="%", supply_voltage=24, output="rpm", output_unit="rpm")  # doctest: +SKIP
     """
-    from motorid.records import normalise_record
+    from motorid.io.records import normalise_record
 
+    reading, options = RecordOptions.split(record_options, options)
     unknown = sorted(set(options) - {f.name for f in fields(DoctorOptions)})
     if unknown:
         raise DataError(f"doctor: unknown option {unknown[0]!r}")
     settings = DoctorOptions(**options)
-    reading = {"time": time, "input": input, "output": output, "time_unit": time_unit, "dt": dt,
-               "resample": resample, "input_unit": input_unit, "input_full_scale": input_full_scale,
-               "output_unit": output_unit, "supply_voltage": supply_voltage}  # fmt: skip
     several = not isinstance(records, pd.DataFrame)
     normalised = [
-        normalise_record(record, **reading, min_samples=20) for record in (records if several else [records])
+        normalise_record(record, reading, min_samples=20) for record in (records if several else [records])
     ]
     diagnosis = settings.diagnose(normalised if several else normalised[0], labels=labels)
     return diagnosis.to_dict()
@@ -335,7 +322,7 @@ def save_doctor_model(
         card = with_parameters(card, std, list(getattr(model, "params", {})), list(diagnosis.undetermined))
         save_model(model, path, card=card)
     except ValueError as exc:
-        raise DataError(f"--save-model {path}: {what}: {exc}") from None
+        raise DataError(f"save_model={path}: {what}: {exc}") from None
     return words
 
 

@@ -2,7 +2,7 @@
 
 - :class:`IdentifyOptions`: the options of ``motorid identify`` by their names;
 - :func:`identify`: on a DataFrame of the user's own, columns and units named as on the command
-  line (:func:`motorid.records.normalise_record`);
+  line (:func:`motorid.io.records.normalise_record`);
 - :func:`identify_record`: on a motorid record (columns ``t``, ``u``, ``y``);
 - :func:`identify_file`: on a record file read in blocks, in memory that does not grow with it;
 - :func:`validate_on_record`: the identified model on a second record, without refitting.
@@ -25,8 +25,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from motorid.app.reading import ReadOptions
 from motorid.errors import DataError, quoted
+from motorid.io.records import RecordOptions
 
 logger = logging.getLogger(__name__)
 
@@ -132,22 +132,13 @@ def identify(
     record: pd.DataFrame,
     estimator: str = "hammerstein-rls",
     *,
-    time: str | None = None,
-    input: str = "u",
-    output: str = "y",
-    time_unit: str | None = None,
-    dt: float | None = None,
-    resample: bool = False,
-    input_unit: str | None = None,
-    input_full_scale: float | None = None,
-    output_unit: str | None = None,
-    supply_voltage: float | None = None,
+    record_options: RecordOptions | None = None,
     **options: Any,
 ) -> dict[str, Any]:
     """``motorid identify`` on a DataFrame of the user's own: its ``--json`` payload.
 
     The record is read as the command line reads a file with the same options
-    (:func:`motorid.records.normalise_record`: the named columns become ``t`` [s], ``u`` and
+    (:func:`motorid.io.records.normalise_record`: the named columns become ``t`` [s], ``u`` and
     ``y`` in motorid's units, jittered stamps put on a uniform grid), then identified by
     :func:`identify_record`, so the result equals ``motorid identify FILE --json`` on the
     same data written to a file (without its ``figure`` and ``model``).
@@ -158,23 +149,10 @@ def identify(
         The samples, one row each, with the time (or ``dt``), input and output columns.
     estimator : str
         A registered estimator's name (:func:`motorid.estimators.available`).
-    time : str, optional
-        Name of the time column (default ``t``; none needed when ``dt`` is known).
-    input, output : str
-        Names of the input and output columns.
-    time_unit : {"s", "ms", "us", "ns"}, optional
-        Unit of the time column (default: the record's ``attrs["units"]["t"]``, else seconds).
-    dt : float, optional
-        Sample time [s]; a time column that says otherwise is refused.
-    resample : bool
-        Put a record with gaps on the uniform grid instead of refusing it.
-    input_unit, output_unit : str, optional
-        Units of the input and output columns, converted to motorid's
-        (:data:`motorid.units.INPUT_UNITS`, :data:`motorid.units.OUTPUT_UNITS`).
-    input_full_scale : float, optional
-        The count of full duty, for ``input_unit="counts"``.
-    supply_voltage : float, optional
-        Supply voltage [V] of a PWM drive: a duty in % (or counts) becomes volts.
+    record_options : RecordOptions, optional
+        How the record is read (:class:`motorid.io.records.RecordOptions`: its columns, time,
+        units and span), as the command line's record options say it; its fields may also be
+        given one by one among the keyword arguments (``input="pwm"``, ``input_unit="%"``).
     **options :
         The other fields of :class:`IdentifyOptions` (``na``, ``nb``, ``degree``, ``lam``,
         ``skip``, ``low_speed_rpm``, ``param`` ...).
@@ -190,18 +168,17 @@ def identify(
     --------
     >>> identify(df, input="pwm", input_unit="%", output="rpm", output_unit="rpm", na=2, nb=2)  # doctest: +SKIP
     """
-    from motorid.records import normalise_record
+    from motorid.io.records import normalise_record
 
+    reading, options = RecordOptions.split(record_options, options)
     unknown = sorted(set(options) - {f.name for f in fields(IdentifyOptions)} - {"estimator"})
     if unknown:
         raise DataError(f"identify: unknown option {unknown[0]!r}")
     settings = IdentifyOptions(estimator=estimator, **options)
-    normalised = normalise_record(
-        record, time=time, input=input, output=output, time_unit=time_unit, dt=dt, resample=resample,
-        input_unit=input_unit, input_full_scale=input_full_scale, output_unit=output_unit,
-        supply_voltage=supply_voltage, min_samples=20,
-    )  # fmt: skip
-    payload, _, _ = identify_record(normalised, settings, source="the DataFrame", input=input, output=output)
+    normalised = normalise_record(record, reading, min_samples=20)
+    payload, _, _ = identify_record(
+        normalised, settings, source="the DataFrame", input=reading.input or "u", output=reading.output or "y"
+    )
     return payload
 
 
@@ -314,10 +291,10 @@ def create_estimator(name: str, options: Any, rig: Any = None) -> Any:
     from motorid.estimators import available, factory
 
     if name not in available():
-        raise DataError(f"--estimator: unknown estimator {name!r}; known: {', '.join(available())}")
+        raise DataError(f"unknown estimator {name!r} (estimator=...); known: {', '.join(available())}")
     make = factory(name)
     if rig is not None and not hasattr(make, "from_rig"):
-        raise DataError(f"--model: estimator {name!r} does not start from a drive model")
+        raise DataError(f"model=...: estimator {name!r} does not start from a drive model")
     try:
         accepted = inspect.signature(make).parameters
     except (TypeError, ValueError):  # a factory without a signature takes what it is given
@@ -337,13 +314,13 @@ def create_estimator(name: str, options: Any, rig: Any = None) -> Any:
     for item in options.param:
         key, sep, value = item.partition("=")
         if not sep or not key:
-            raise DataError(f"--param expects KEY=VALUE, got {item!r}")
+            raise DataError(f"param=... expects KEY=VALUE, got {item!r}")
         key = key.replace("-", "_")
         if not takes_any and key not in accepted:
             keys = ", ".join(k for k, p in accepted.items() if p.kind is not inspect.Parameter.VAR_POSITIONAL)
             raise DataError(
-                f"--param {quoted(item)}: estimator {name!r} takes no argument {quoted(key)}; it takes {keys} "
-                f"(--estimator {name} --help-params lists them with their defaults)"
+                f"param={quoted(item)}: estimator {name!r} takes no argument {quoted(key)}; it takes {keys} "
+                f"(estimator={name!r} with help_params lists them with their defaults)"
             )
         kwargs[key] = _parse_value(value)
     if takes_identify_basis(name, kwargs):
@@ -354,14 +331,15 @@ def create_estimator(name: str, options: Any, rig: Any = None) -> Any:
         raise DataError(f"estimator {name!r}: {exc}") from None
 
 
-def drive_model_from_file(path: Path, option: str = "--model") -> Any:
-    """The drive model in the model file ``path``: a two-mass rig or a rigid drive; DataError otherwise."""
+def drive_model_from_file(path: Path, field: str = "model") -> Any:
+    """The drive model in the model file ``path``: a two-mass rig or a rigid drive; DataError otherwise,
+    naming the ``field`` that gave the file (``model=PATH``)."""
     from motorid.drive import RigidDrive, TwoMassRig
     from motorid.estimators import load_model
 
     model = load_model(path)
     if not isinstance(model, TwoMassRig | RigidDrive):
-        raise DataError(f"{option} {path}: holds a {type(model).__name__}, not a drive model")
+        raise DataError(f"{field}={path}: holds a {type(model).__name__}, not a drive model")
     return model
 
 
@@ -378,14 +356,14 @@ def start_model(options: IdentifyOptions) -> Any:
     if options.estimator not in available() or not hasattr(factory(options.estimator), "from_rig"):
         create_estimator(options.estimator, options)  # an unknown name is named first
         raise DataError(
-            f"--model: estimator {options.estimator!r} identifies its model from the record alone; "
-            "--model starts a friction filter (friction-ekf, friction-ukf) from a drive model"
+            f"model=...: estimator {options.estimator!r} identifies its model from the record alone; "
+            "model=... starts a friction filter (friction-ekf, friction-ukf) from a drive model"
         )
     model = drive_model_from_file(model_file)
     if isinstance(model, RigidDrive) and not any(p.partition("=")[0] == "R" for p in options.param):
         raise DataError(
-            f"--model {model_file} is a rigid drive, which has no sensor model: give the variance of the "
-            "speed measurement with --param R=VALUE [(output unit)^2]"
+            f"model={model_file} is a rigid drive, which has no sensor model: give the variance of the "
+            "speed measurement with param=R=VALUE [(output unit)^2]"
         )
     return model
 
@@ -428,8 +406,8 @@ def estimator_for_record(
     units = record.attrs.get("units")
     name = options.estimator
     if model is not None:
-        check_output_unit(model, units, f"--model {options.model}")
-        note = input_unit_note(model, units, f"--model {options.model}")
+        check_output_unit(model, units, f"model={options.model}")
+        note = input_unit_note(model, units, f"model={options.model}")
         return create_estimator(name, options, rig=model), [note] if note else []
     if name not in available() or not hasattr(factory(name), "from_rig"):
         notes = []
@@ -442,7 +420,7 @@ def estimator_for_record(
     if SIMULATED_RIG_ATTR not in record.attrs:
         raise DataError(
             f"{source}: the {name} needs the drive's model, and this record (not motorid's own "
-            "simulation) carries none: give it with --model FILE (motorid doctor --save-model writes one)"
+            "simulation) carries none: give it with model=FILE (the doctor's save_model=... writes one)"
         )
     check_output_unit(paper_rig(), units, "the default rig")
     note = input_unit_note(paper_rig(), units, "the default rig")
@@ -473,7 +451,7 @@ def identify_record(
     ----------
     record : pandas.DataFrame
         The record, columns ``t`` [s], ``u``, ``y`` and its attrs (units, timing), as
-        :func:`motorid.records.read_record` gives it.
+        :func:`motorid.io.records.read_record` gives it.
     options : IdentifyOptions
         The estimator and the scores' options.
     source : str
@@ -488,8 +466,7 @@ def identify_record(
         the identified estimator (for ``--save-model``).
     """
     from motorid.comparison import holds_input
-    from motorid.record_chunks import CHUNK_ROWS
-    from motorid.records import record_timing
+    from motorid.io.records import CHUNK_ROWS, record_timing
     from motorid.validation import (
         RPM_PER_RAD_S,
         check_scored_samples,
@@ -834,10 +811,10 @@ def identify_blocks(
 
 
 def identify_file(
-    path: str | os.PathLike[str], options: IdentifyOptions, read: ReadOptions
+    path: str | os.PathLike[str], options: IdentifyOptions, read: RecordOptions
 ) -> tuple[dict[str, Any], list, Any]:
     """:func:`identify_blocks` on the record file ``path``, read in blocks
-    (:func:`motorid.record_chunks.iter_record`): memory does not grow with the record.
+    (:func:`motorid.io.records.iter_record`): memory does not grow with the record.
 
     The first block gives the record's attrs (its units, whether it is motorid's simulation);
     an output in another unit than rad/s takes one more pass, for its largest magnitude (the
@@ -849,10 +826,10 @@ def identify_file(
     Parameters
     ----------
     path : str or os.PathLike
-        The record file (any format :func:`motorid.records.read_record` reads).
+        The record file (any format :func:`motorid.io.records.read_record` reads).
     options : IdentifyOptions
         The estimator and the scores' options.
-    read : ReadOptions
+    read : RecordOptions
         How the record is read (columns, units, sample time; ``max_samples``: most rows of a
         record that must be held whole, one whose stamps jitter). A span (``start``, ``stop``)
         is cut from the record read whole, which is then identified as :func:`identify_record` does.
@@ -863,14 +840,15 @@ def identify_file(
         What :func:`identify_record` returns.
     """
     from motorid.errors import UniformGridError
+    from motorid.io.records import CHUNK_ROWS, iter_record, read_record
 
-    names = (read.input, read.output)
+    names = (read.input or "u", read.output or "y")
     if read.spanned:  # a span is cut from the record read whole
-        record = read.read(path)
+        record = read_record(path, read, min_samples=20, other_columns=False, speed=True)
         return identify_record(record, options, source=str(path), input=names[0], output=names[1])
 
     def read_blocks() -> Iterator[pd.DataFrame]:
-        return read.iter_blocks(path)
+        return iter_record(path, read, min_samples=20, chunk_rows=CHUNK_ROWS, speed=True)
 
     try:
         passes: Iterator[pd.DataFrame] | None = read_blocks()
@@ -891,8 +869,8 @@ def identify_file(
 
         return identify_blocks(blocks, options, est, notes, unit, threshold, names, str(path))
     except UniformGridError as exc:
-        logger.info("%s: identify reads it whole (--max-samples %d)", exc, read.max_samples)
-        record = read.read(path)
+        logger.info("%s: identify reads it whole (max_samples=%s)", exc, read.max_samples)
+        record = read_record(path, read, min_samples=20, other_columns=False, speed=True)
         return identify_record(record, options, source=str(path), input=names[0], output=names[1])
 
 

@@ -28,7 +28,7 @@ import pandas as pd
 
 from motorid.drive.files import ModelCard, file_sha256
 from motorid.errors import DataError
-from motorid.records import record_timing
+from motorid.io.records import record_timing
 
 logger = logging.getLogger(__name__)
 
@@ -261,7 +261,7 @@ def input_scale(
     given_words = "% duty" if given == "%" else given
     if supply is None:
         raise DataError(
-            f"{name} was fitted on {fitted_words}; {given_as} in {given_words}: give --supply-voltage or "
+            f"{name} was fitted on {fitted_words}; {given_as} in {given_words}: give supply_voltage=... or "
             f"use a model fitted in {given_words}"
         )
     factor = 100.0 / supply if fitted == "%" else supply / 100.0

@@ -59,15 +59,16 @@ def show_warning(
 
 class LogFormatter(logging.Formatter):
     """The library's log records on the command line: a warning or an error as the warnings are,
-    ``motorid: warning: <message>`` on one line; the details of ``-v`` with their level and logger."""
+    ``motorid: warning: <message>`` on one line; the details of ``-v`` with their level and logger;
+    the fields they name said as their flags (:func:`~motorid.cli.options.with_flags`)."""
 
     def __init__(self) -> None:
         super().__init__("%(levelname)s %(name)s: %(message)s")
 
     def format(self, record: logging.LogRecord) -> str:
         if record.levelno >= logging.WARNING:
-            return f"motorid: {record.levelname.lower()}: {' '.join(record.getMessage().split())}"
-        return super().format(record)
+            return f"motorid: {record.levelname.lower()}: {with_flags(' '.join(record.getMessage().split()))}"
+        return with_flags(super().format(record))
 
 
 class OncePerCause(logging.Filter):

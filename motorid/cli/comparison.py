@@ -17,7 +17,7 @@ from .options import (
     add_record_input,
     add_skip,
     check_out_folder,
-    read_options_from_args,
+    record_options_from_args,
 )
 from .report import emit_json, say, say_warning
 
@@ -27,7 +27,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     files = load_model_files(args.model)  # a bad file stops before the record is read
     models = {name: file.model for name, file in files.items()}
     options = CompareOptions(low_speed_rpm=args.low_speed_rpm, skip=args.skip)
-    comparison, band, units = compare_file(args.data, models, options, read_options_from_args(args),
+    comparison, band, units = compare_file(args.data, models, options, record_options_from_args(args),
                                           {name: file.card for name, file in files.items()})  # fmt: skip
     if args.out:
         check_out_folder(args.out)

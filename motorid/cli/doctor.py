@@ -10,8 +10,8 @@ from typing import TYPE_CHECKING
 import pandas as pd
 
 from motorid.app.doctor import DoctorOptions, save_doctor_model, start_model_from_file
-from motorid.app.reading import ReadOptions
 from motorid.errors import DataError
+from motorid.io.records import RecordOptions
 from motorid.outputs import write_file
 
 from .options import (
@@ -24,7 +24,7 @@ from .options import (
     hold_out_folder,
     number,
     positive,
-    read_options_from_args,
+    record_options_from_args,
 )
 from .report import emit_json, say, show_progress
 
@@ -61,15 +61,13 @@ def doctor_options_from_args(args: argparse.Namespace) -> DoctorOptions:
 
 
 def with_reference(
-    record: pd.DataFrame, path: Path, reading: ReadOptions, given: str | None, segment: bool
+    record: pd.DataFrame, path: Path, reading: RecordOptions, given: str | None, segment: bool
 ) -> pd.DataFrame:
     """``record`` with its closed loop's reference column: ``--reference-column``, else the one its
     attributes name (``attrs["loop"]["reference"]``, as ``motorid control --out`` writes), read with
     the same options and span; the record itself where neither names one, or where it is a segment
     of a longer record (said)."""
-    import dataclasses
-
-    from motorid.records import read_record, trim_record
+    from motorid.io.records import read_record
 
     column = given if given is not None else (record.attrs.get("loop") or {}).get("reference")
     if column is None or column in record.columns:
@@ -81,11 +79,7 @@ def with_reference(
         say(f"  note: {path} is longer than --max-samples: its reference {column!r} is not read, and the "
             "segment is fitted as an open loop")  # fmt: skip
         return record
-    options = {
-        k: v for k, v in dataclasses.asdict(reading).items() if k not in ("max_samples", "start", "stop")
-    }
-    whole = read_record(path, max_samples=reading.max_samples, other_columns=True, **options)
-    whole = trim_record(whole, reading.start, reading.stop, path)
+    whole = read_record(path, reading, other_columns=True)  # the same columns, units and span
     if column not in whole.columns:
         raise DataError(f"--reference-column {column}: {path} has no such column (it has "
                         f"{', '.join(map(str, whole.columns))})")  # fmt: skip
@@ -101,8 +95,10 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         start_model_from_file(args.model)
     if args.save_model is not None:
         check_out_file(args.save_model, True, "--save-model")
-    reading = read_options_from_args(args)
-    read = [reading.read_segment(path) for path in args.data]
+    from motorid.io.records import read_head
+
+    reading = record_options_from_args(args)
+    read = [read_head(path, reading, min_samples=20, speed=True) for path in args.data]
     read = [(with_reference(r, path, reading, args.reference_column, segment), segment)
             for path, (r, segment) in zip(args.data, read, strict=True)]  # fmt: skip
     records = [record for record, _ in read]
@@ -110,7 +106,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     validation = None
     if args.validate is not None:
         # the same record options (columns, dt, units, span) as the records the models are fitted on
-        validation, _ = reading.read_segment(args.validate)
+        validation, _ = read_head(args.validate, reading, min_samples=20, speed=True)
     if args.out:
         check_out_folder(args.out)
         hold_out_folder(args, args.out)

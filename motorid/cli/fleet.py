@@ -28,7 +28,7 @@ from .options import (
     hold_out_folder,
     number,
     positive,
-    read_options_from_args,
+    record_options_from_args,
 )
 from .report import emit_json, frame_records, say, say_error, show_progress
 
@@ -46,7 +46,7 @@ def _run(args: argparse.Namespace, command: str) -> int:
     else:
         job = doctor_options_from_args(args)
         job.start_model()  # a bad --model stops before any work
-    read = read_options_from_args(args)  # a bad span stops before any work too
+    read = record_options_from_args(args)  # a bad span stops before any work too
     per_drive = getattr(args, "per_drive", False)
     paths = find_records(args.records)
     if args.pattern:  # a bad pattern, or a file it does not fit, stops before the folder is made

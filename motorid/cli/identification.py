@@ -38,9 +38,10 @@ from .options import (
     check_out_folder,
     hold_out_folder,
     int_range,
+    iter_record_from_args,
     number,
-    read_options_from_args,
     read_record_from_args,
+    record_options_from_args,
 )
 from .report import emit_json, frame_records, say, say_params, say_warning, show_progress
 
@@ -74,7 +75,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
     if args.save_model:
         check_out_file(args.save_model, args.overwrite, "--save-model")
     if record is None:
-        payload, tests, est = identify_file(args.data, options, read_options_from_args(args))
+        payload, tests, est = identify_file(args.data, options, record_options_from_args(args))
     else:
         payload, tests, est = identify_record(record, options, source=str(args.data), input=args.input,
                                               output=args.output)  # fmt: skip
@@ -143,9 +144,9 @@ def identified_card(
 
     from motorid.app.model_cards import estimator_parameters, record_card
 
-    read = read_options_from_args(args)
+    read = record_options_from_args(args)
     if record is None:
-        first = next(read.iter_blocks(args.data))
+        first = next(iter_record_from_args(args))
         card = record_card([first], [args.data], supply_voltage=read.supply_voltage,
                            input_full_scale=read.input_full_scale)  # fmt: skip
         samples = payload["samples"]

@@ -21,8 +21,9 @@ import numpy as np
 import pandas as pd
 
 from motorid.app.identify import PAPER_ORDER
-from motorid.app.reading import ReadOptions
 from motorid.errors import DataError
+from motorid.io.records import RecordOptions
+from motorid.io.records.options import COMMAND_MAX_SAMPLES
 from motorid.units import INPUT_UNITS, OUTPUT_UNIT_NAMES
 
 #: The paper's low-speed band, |y| < 150 rpm (its Figs. 9-11).
@@ -108,10 +109,10 @@ def add_record_input(parser: argparse.ArgumentParser, max_samples_help: str = MA
 
 
 def add_record_columns(parser: argparse.ArgumentParser, max_samples_help: str = MAX_SAMPLES_HELP) -> None:
-    """How a record is read: columns, time, separator, units, size limit (:class:`motorid.records.RecordOptions`;
+    """How a record is read: columns, time, separator, units, size limit (:class:`motorid.io.records.RecordOptions`;
     what the limit does in this command: ``max_samples_help``), and the span used (--start, --stop:
     :func:`add_trim_options`)."""
-    from motorid.records import COMMENT, DUPLICATES, THOUSANDS
+    from motorid.io.records import COMMENT, DUPLICATES, THOUSANDS
     from motorid.units import TIME_UNITS
 
     group = parser.add_argument_group("record")
@@ -162,27 +163,28 @@ def add_record_columns(parser: argparse.ArgumentParser, max_samples_help: str = 
     group.add_argument("--supply-voltage", type=positive, metavar="V",
                        help="supply voltage of a PWM drive [V]: --input-unit %% or counts becomes volts")  # fmt: skip
     group.add_argument(
-        "--max-samples", type=number(int, low=1), default=2_000_000, help=max_samples_help,
+        "--max-samples", type=number(int, low=1), default=COMMAND_MAX_SAMPLES, help=max_samples_help,
     )  # fmt: skip
     add_trim_options(parser)
 
 
-#: The record options' fields (:class:`motorid.app.ReadOptions`) and their flags: the library's messages
-#: name a field as ``field=...`` (or ``field=VALUE``); the command line says the flag instead.
-RECORD_FLAGS: dict[str, str] = {
+#: The fields the library's messages name (``field=...`` or ``field=VALUE``) and the flags the command
+#: line says instead, the one table of them: the record options' (:class:`motorid.io.records.RecordOptions`,
+#: which :func:`record_options_from_args` reads from their flags) and the commands' options that the
+#: application layer's messages name (``model``, ``estimator``, ``param``, ``save_model``, ``skip``).
+FLAGS: dict[str, str] = {
     field: "--" + field.replace("_", "-")
     for field in ("time", "input", "output", "time_unit", "dt", "resample", "sep", "decimal", "thousands",
                   "comment", "sheet", "input_unit", "input_full_scale", "output_unit", "counts_per_rev",
-                  "supply_voltage", "direction", "direction_forward", "duplicates", "max_samples", "start", "stop")
+                  "supply_voltage", "direction", "direction_forward", "duplicates", "max_samples", "start", "stop",
+                  "model", "estimator", "param", "save_model", "skip")
 }  # fmt: skip
 _ASIDE = re.compile(r" \(([a-z_]+=[^()]*)\)")
-_FIELD = re.compile(
-    r"\b(" + "|".join(sorted(RECORD_FLAGS, key=len, reverse=True)) + r")=(\.\.\.|'[^']*'|\S+)?"
-)
+_FIELD = re.compile(r"\b(" + "|".join(sorted(FLAGS, key=len, reverse=True)) + r")=(\.\.\.|'[^']*'|\S+)?")
 
 
 def with_flags(message: str) -> str:
-    """A library message as the command line says it: each record field named as ``field=...``
+    """A library message as the command line says it: each field of :data:`FLAGS` named as ``field=...``
     (``time_unit=...``, ``direction='dir'``) becomes its flag (``--time-unit``, ``--direction dir``).
 
     Parameters
@@ -194,12 +196,12 @@ def with_flags(message: str) -> str:
     def flag(found: re.Match[str]) -> str:
         value = found.group(2)
         if value in (None, "...", "True"):  # True: a flag that takes no value
-            return RECORD_FLAGS[found.group(1)]
-        return f"{RECORD_FLAGS[found.group(1)]} {value.strip(chr(39))}"
+            return FLAGS[found.group(1)]
+        return f"{FLAGS[found.group(1)]} {value.strip(chr(39))}"
 
     def aside(found: re.Match[str]) -> str:  # "--time-unit (time_unit=...)": the flag is said already
         fields = [field for field, _ in _FIELD.findall(found.group(1))]
-        said = all(RECORD_FLAGS[f] in message or message.count(f"{f}=") > 1 for f in fields)
+        said = all(FLAGS[f] in message or message.count(f"{f}=") > 1 for f in fields)
         return "" if fields and said else found.group(0)
 
     return _FIELD.sub(flag, _ASIDE.sub(aside, message))
@@ -213,36 +215,46 @@ def separator(text: str) -> str:
     return value
 
 
-def read_options_from_args(args: argparse.Namespace) -> ReadOptions:
-    """The record options (:func:`add_record_columns`) as :class:`motorid.app.ReadOptions`."""
-    return ReadOptions(**{f.name: getattr(args, f.name) for f in fields(ReadOptions)})
+def record_options_from_args(args: argparse.Namespace) -> RecordOptions:
+    """The record options (:func:`add_record_columns`) as one :class:`motorid.io.records.RecordOptions`,
+    each field from its flag (:data:`FLAGS`)."""
+    names = {f.name for f in fields(RecordOptions)}
+    return RecordOptions(**{field: getattr(args, field) for field in FLAGS if field in names})
 
 
 def read_record_from_args(args: argparse.Namespace, min_samples: int = 20) -> pd.DataFrame:
     """Read the record named by :func:`add_record_input`'s options, with columns ``t`` [s], ``u``, ``y``.
 
-    :meth:`motorid.app.ReadOptions.read` with the options by their names: the time
-    column is optional when the sample time is known (``--dt``, the file's attrs),
-    and the input and output are converted to motorid's units as they are read; then the
-    span of ``--start``/``--stop`` is kept.
+    :func:`motorid.io.records.read_record` with the options of :func:`record_options_from_args`:
+    the time column is optional when the sample time is known (``--dt``, the file's attrs),
+    the input and output are converted to motorid's units as they are read, an encoder's
+    position is differentiated to a speed; then the span of ``--start``/``--stop`` is kept.
     """
-    return read_options_from_args(args).read(args.data, min_samples)
+    from motorid.io.records import read_record
+
+    options = record_options_from_args(args)
+    return read_record(args.data, options, min_samples=min_samples, other_columns=False, speed=True)
 
 
 def iter_record_from_args(
     args: argparse.Namespace, chunk_rows: int | None = None, min_samples: int = 20
 ) -> Iterator[pd.DataFrame]:
     """The record of :func:`read_record_from_args` in consecutive blocks of ``chunk_rows`` rows
-    (default :data:`motorid.record_chunks.CHUNK_ROWS`), each read, checked and converted as the
-    whole record is, with the same options (:meth:`motorid.app.ReadOptions.iter_blocks`);
+    (default :data:`motorid.io.records.CHUNK_ROWS`), each read, checked and converted as the
+    whole record is, with the same options (:func:`motorid.io.records.iter_record`);
     ``--max-samples`` does not apply, since memory does not grow with the record. A record whose
     time stamps jitter raises :class:`motorid.errors.UniformGridError` (it is resampled
     whole: :func:`read_record_from_args`)."""
-    return read_options_from_args(args).iter_blocks(args.data, min_samples, chunk_rows)
+    from motorid.io.records import CHUNK_ROWS, iter_record
+
+    options = record_options_from_args(args)
+    return iter_record(
+        args.data, options, min_samples=min_samples, chunk_rows=chunk_rows or CHUNK_ROWS, speed=True
+    )
 
 
 def add_trim_options(parser: argparse.ArgumentParser) -> None:
-    """--start and --stop: the span of each record a command uses (:class:`motorid.app.ReadOptions`)."""
+    """--start and --stop: the span of each record a command uses (:class:`motorid.io.records.RecordOptions`)."""
     group = parser.add_argument_group("span")
     group.add_argument("--start", type=number(float, low=0.0, unit="s"), metavar="SECONDS",
                        help="leave out the samples before this time [s] of the record's time column "

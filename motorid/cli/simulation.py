@@ -33,8 +33,8 @@ from .report import emit_json, say
 def cmd_demo(args: argparse.Namespace) -> int:
     """The paper's experiment on the simulated rig: tables, figures, record."""
     from motorid.experiment import run_paper_experiment
+    from motorid.io.records import write_record
     from motorid.outputs import write_file
-    from motorid.records import write_record
 
     out = Path(args.out)
     check_out_folder(out)
@@ -188,7 +188,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
     from motorid.app.identify import drive_model_from_file
     from motorid.drive import RigidDrive
     from motorid.drive.files import read_model_file
-    from motorid.records import write_record
+    from motorid.io.records import write_record
 
     if args.out is None and args.save_model is None:
         raise DataError("give --out (the record to write), --save-model (the rig's model file) or both")

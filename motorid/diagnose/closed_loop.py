@@ -3,7 +3,7 @@
 A closed loop changes three things the doctor otherwise takes for granted:
 
 - **Timing.** A controller reads the speed, then commands: ``y[k]`` is measured at ``t[k]`` and
-  ``u[k]`` held over ``[t[k], t[k] + dt)`` (``timing="sampled"``, :data:`motorid.records.TIMINGS`).
+  ``u[k]`` held over ``[t[k], t[k] + dt)`` (``timing="sampled"``, :data:`motorid.io.records.TIMINGS`).
   Read with the open loop's ``"hold"`` timing, every command seems to act one sample late, and the
   delay search takes that sample, and the loop's own correlation around it, for an input delay
   (55 ms on ``motorid control``'s 40 ms loop). **The rule**: a record recognised as closed loop

@@ -460,7 +460,7 @@ def normalised_records(
     columns: dict[str, str | None],
     reading: dict[str, object],
 ) -> list[pd.DataFrame]:
-    """Each record brought to motorid's columns and units (:func:`motorid.records.normalise_record`).
+    """Each record brought to motorid's columns and units (:func:`motorid.io.records.normalise_record`).
 
     Parameters
     ----------
@@ -471,7 +471,7 @@ def normalised_records(
     columns : dict
         ``time``, ``input`` and ``output``: the columns to read (``time`` None: ``t``).
     reading : dict
-        The rest of :func:`~motorid.records.normalise_record`'s options (``dt``, units...).
+        The rest of :func:`~motorid.io.records.normalise_record`'s options (``dt``, units...).
 
     Returns
     -------
@@ -479,7 +479,7 @@ def normalised_records(
         Columns ``t`` (when given), ``u``, ``y``: only the columns the doctor reads are brought
         over (a simulated record's true states stay behind).
     """
-    from motorid.records import normalise_record
+    from motorid.io.records import normalise_record
 
     time = columns["time"]
 
@@ -499,7 +499,7 @@ def normalised_records(
 
 
 def common_timing(records: Sequence[pd.DataFrame], labels: Sequence[str]) -> str:
-    """The timing the records say (:func:`motorid.records.record_timing`), one for all of them.
+    """The timing the records say (:func:`motorid.io.records.record_timing`), one for all of them.
 
     Parameters
     ----------
@@ -513,7 +513,7 @@ def common_timing(records: Sequence[pd.DataFrame], labels: Sequence[str]) -> str
     str
         ``hold`` or ``sampled``.
     """
-    from motorid.records import record_timing
+    from motorid.io.records import record_timing
 
     own = [record_timing(getattr(r, "attrs", {})) for r in records]
     if len(set(own)) > 1:

@@ -544,7 +544,7 @@ class Diagnosis:
         No refitting: the models found here are simulated on ``record``'s input
         and their torque balance evaluated on its data. Column names, output
         kind, input gain, timing and band, and the way the record is read (its
-        columns and units, :func:`motorid.records.normalise_record`), are those of
+        columns and units, :func:`motorid.io.records.normalise_record`), are those of
         this diagnosis unless overridden (``input=``, ``output=``, ``dt=`` ...).
 
         Returns
@@ -554,7 +554,7 @@ class Diagnosis:
             and ``region`` [v] (the region located on this record's initial
             residual) and ``force_error_percent`` [%].
         """
-        from motorid.records import normalise_record
+        from motorid.io.records import normalise_record
 
         reading = {"input": self.settings["input"], "output": self.settings["output"], "dt": None,
                    **self.settings.get("reading", {})}  # fmt: skip

@@ -126,7 +126,7 @@ from __future__ import annotations
 import logging
 import math
 from collections.abc import Sequence
-from typing import Literal
+from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
@@ -174,15 +174,13 @@ from motorid.diagnose.timing import DelayDrift, delay_drift
 from motorid.drive.rigid import RigidDrive
 from motorid.drive.two_mass import TwoMassRig
 from motorid.errors import DataError
+from motorid.io.records import RecordOptions
 
 logger = logging.getLogger(__name__)
 
 
 def diagnose(
     record: pd.DataFrame | Sequence[pd.DataFrame],
-    dt: float | None = None,
-    input: str = "u",
-    output: str = "y",
     output_kind: Literal["velocity", "position"] = "velocity",
     input_gain: float | None = None,
     base: Sequence[str] | str | None = None,
@@ -200,16 +198,12 @@ def diagnose(
     band: float | None = None,
     model: RigidDrive | TwoMassRig | None = None,
     structure: bool = True,
-    time: str | None = None,
-    time_unit: str | None = None,
-    input_unit: str | None = None,
-    output_unit: str | None = None,
-    supply_voltage: float | None = None,
-    input_full_scale: float | None = None,
-    resample: bool = False,
     labels: Sequence[str] | None = None,
     align: bool = False,
     reference_column: str | None = None,
+    record_options: RecordOptions | None = None,
+    as_read: bool = False,
+    **record_fields: Any,
 ) -> Diagnosis:
     """Find the effects missing from a rigid drive model of ``record`` (see the module notes).
 
@@ -217,17 +211,13 @@ def diagnose(
     ----------
     record : pandas.DataFrame or sequence of DataFrame
         The measurement, as the user's own code holds it: the columns and units
-        are named by the options below, the same as the command line's, and
-        brought to motorid's by :func:`motorid.records.normalise_record`;
+        are named by ``record_options``, the same as the command line's, and
+        brought to motorid's by :func:`motorid.io.records.normalise_record`;
         ``attrs["dt"]`` is used when ``dt`` is None. Several records of one
         drive (at one sample time, read with the same options) are fitted as one model
         (:class:`Pool`): shared parameters, each record its own initial state and time origin;
         each candidate is judged on the pooled evidence, and :attr:`Diagnosis.records` holds
         the gaps of each record.
-    dt : float, optional
-        Sample time [s], > 0; default from ``attrs["dt"]`` or the time column.
-    input, output : str
-        Column names of the input (e.g. [V]) and the output, any text.
     output_kind : {"velocity", "position"}
         What the output is. Position records are differentiated (zero-phase
         low-pass and central differences); their output gap is then measured
@@ -287,11 +277,6 @@ def diagnose(
         Choose the input delay and lag from the record before any other effect is
         judged (:func:`choose_structure`; skipped when the base already holds one);
         the chosen values are held in every later fit. False: the base as given.
-    time, time_unit, input_unit, output_unit, supply_voltage, input_full_scale, resample : str, float or bool, optional
-        The time column (default ``t``; none needed when ``dt`` is known) and the
-        record's units, as :class:`motorid.records.RecordOptions` (``--time``,
-        ``--time-unit``, ``--input-unit``, ... on the command line): e.g.
-        ``diagnose(df, input="pwm", output="rpm", input_unit="%", output_unit="rpm")``.
     labels : sequence of str, optional
         A name for each record in the report (e.g. its file); default ``record 1``, ``record 2``...
     align : bool
@@ -309,19 +294,36 @@ def diagnose(
         A record with one is identified as a closed loop (:mod:`.closed_loop`): read with timing
         ``"sampled"`` where it names none, the balance's linear parameters refitted with the
         reference as instrument, and :attr:`Diagnosis.closed_loop` says so.
+    record_options : RecordOptions, optional
+        How the records are read (:class:`motorid.io.records.RecordOptions`): the time, input
+        and output columns (any text; default ``t``, ``u``, ``y``, the time column not needed
+        when ``dt`` is known), the sample time ``dt`` [s] (default from ``attrs["dt"]`` or
+        the time column), the units, the span.
+    **record_fields :
+        Fields of :class:`~motorid.io.records.RecordOptions` given one by one, in place of those
+        of ``record_options``: ``diagnose(df, input="pwm", output="rpm", input_unit="%",
+        output_unit="rpm")``.
+    as_read : bool
+        The records (and a holdout DataFrame) are motorid records already, as
+        :func:`~motorid.io.records.read_record` or :func:`~motorid.io.records.normalise_record`
+        give them (``t`` [s], ``u``, ``y`` in motorid's units, ``attrs["dt"]``): taken as they are,
+        not read again; ``record_options`` and its fields then do not apply.
 
     Returns
     -------
     Diagnosis
     """
+    from motorid.io.records import normalise_record
     from motorid.progress import progress_bar
-    from motorid.records import normalise_record
 
     # the arguments, checked before any record is read
-    columns = {"time": time, "input": input, "output": output}
-    reading = {"dt": dt, "time_unit": time_unit, "input_unit": input_unit, "output_unit": output_unit,
-               "supply_voltage": supply_voltage, "input_full_scale": input_full_scale, "resample": resample}  # fmt: skip
-    if isinstance(holdout, pd.DataFrame):
+    given = RecordOptions.of(record_options, **record_fields)
+    time, dt = given.time, given.dt
+    columns = {"time": time, "input": given.input or "u", "output": given.output or "y"}
+    reading = given.normalising()
+    if as_read and given != RecordOptions():
+        raise DataError("record_options: records as_read are not read again; give either")
+    if isinstance(holdout, pd.DataFrame) and not as_read:
         holdout = normalise_record(holdout, **columns, **reading)
     input, output = "u", "y"
     rig = model if isinstance(model, TwoMassRig) else None
@@ -357,7 +359,7 @@ def diagnose(
     if len(labels) != len(records):
         raise DataError(f"labels: {len(labels)} labels for {len(records)} records")
     given_records = list(records)
-    records = normalised_records(records, labels, columns, reading)
+    records = list(given_records) if as_read else normalised_records(given_records, labels, columns, reading)
     # a closed loop's reference, kept (the pool lets the records go), and its timing
     records, loops, references = loop_records(
         given_records, records, labels, reference_column, timing, output_kind

@@ -149,7 +149,7 @@ _KINDS: dict[str, ModelKind] = {}
 INPUT_KINDS = {"V": "voltage", "%": "duty", "counts": "duty counts"}
 #: Kinds of a model's output by its SI unit.
 OUTPUT_KINDS = {"rad/s": "speed", "m/s": "speed", "rad": "position", "m": "position"}
-#: Timings of a record (:data:`motorid.records.TIMINGS`).
+#: Timings of a record (:data:`motorid.io.records.TIMINGS`).
 CARD_TIMINGS = ("hold", "sampled")
 #: Most records and sensor bands a card lists.
 LONGEST_LIST = 10_000
@@ -173,7 +173,7 @@ class ModelCard:
     dt : float or None
         The sample time of the records [s].
     timing : {"hold", "sampled"} or None
-        Their input/output timing (:data:`motorid.records.TIMINGS`).
+        Their input/output timing (:data:`motorid.io.records.TIMINGS`).
     quantisation_step : float or None
         The speed sensor's step [output unit, or its speed for a position], e.g. an encoder's
         one count per sample.

@@ -421,7 +421,7 @@ class TwoMassRig:
         df.attrs["rig"] = self.to_dict()
         df.attrs["integrator"] = integrator
         df.attrs["seed"] = seed
-        # a keyword of motorid.records.TIMINGS; the true states are at t[k]+dt too
+        # a keyword of motorid.io.records.TIMINGS; the true states are at t[k]+dt too
         df.attrs["timing"] = "hold"
         return df
 

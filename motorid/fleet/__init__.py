@@ -5,10 +5,10 @@
 - :func:`~motorid.fleet.runner.run_fleet` on :func:`~motorid.fleet.runner.fleet_client`:
   one task per record on ``dask.distributed``, resumable, each row stored as it completes;
 - :func:`~motorid.fleet.runner.run` with a :class:`~motorid.fleet.jobs.DoctorJob` or
-  :class:`~motorid.fleet.jobs.IdentifyJob` (and :class:`~motorid.fleet.jobs.ReadOptions`):
+  :class:`~motorid.fleet.jobs.IdentifyJob` (and :class:`~motorid.io.records.RecordOptions`):
   a whole run from Python, per record or (the doctor) per drive, as ``motorid fleet`` does;
   the jobs are the application layer's options (:class:`motorid.app.DoctorOptions`,
-  :class:`motorid.app.IdentifyOptions`, :class:`motorid.app.ReadOptions`) under the fleet's names;
+  :class:`motorid.app.IdentifyOptions`, :class:`motorid.io.records.RecordOptions`) under the fleet's names;
 - :func:`~motorid.fleet.results.load_results`: the results table;
 - :func:`~motorid.fleet.trend.friction_trends` and :func:`~motorid.fleet.trend.flag_drives`:
   friction against time per drive, the drives whose friction rose or that grew an effect.
@@ -16,7 +16,7 @@
 ``motorid fleet identify|doctor|trend`` is the command line over these.
 """
 
-from motorid.fleet.jobs import DoctorJob, IdentifyJob, ReadOptions
+from motorid.fleet.jobs import DoctorJob, IdentifyJob, RecordOptions
 from motorid.fleet.results import ResultsStore, flatten, load_results
 from motorid.fleet.runner import FleetRun, fleet_client, run, run_fleet, run_fleet_per_drive
 from motorid.fleet.sources import FilenamePattern, find_records, identity
@@ -26,7 +26,7 @@ __all__ = [
     "FilenamePattern",
     "FleetRun",
     "IdentifyJob",
-    "ReadOptions",
+    "RecordOptions",
     "ResultsStore",
     "find_records",
     "flatten",

@@ -1,7 +1,7 @@
 """What a fleet run does to its records, as typed options: how each record is read, and the job.
 
-- :class:`ReadOptions`: how a record is read (columns, units, sample time, span), the
-  command line's record options by their names (:class:`motorid.app.ReadOptions`);
+- :class:`RecordOptions`: how a record is read (columns, units, sample time, span), the
+  command line's record options by their names (:class:`motorid.io.records.RecordOptions`);
 - :class:`DoctorJob`: ``motorid doctor`` on a record, or on all records of one drive as one
   model (:class:`motorid.app.DoctorOptions`, the application layer's options of the doctor);
 - :class:`IdentifyJob`: ``motorid identify`` on a record (:class:`motorid.app.IdentifyOptions`,
@@ -28,8 +28,8 @@ from typing import Any
 
 from motorid.app.doctor import DoctorOptions
 from motorid.app.identify import IdentifyOptions
-from motorid.app.reading import ReadOptions
 from motorid.errors import DataError
+from motorid.io.records import RecordOptions, read_head, read_record
 
 #: ``motorid doctor``'s options, the job of a fleet's doctor run: the application layer's
 #: :class:`motorid.app.DoctorOptions`, whose ``row`` is the single command's computation.
@@ -50,14 +50,14 @@ class RecordTask:
     ----------
     job : DoctorJob or IdentifyJob
         What is computed on the record.
-    read : ReadOptions
+    read : RecordOptions
         How the record is read (the doctor reads a longer record's first ``max_samples`` rows).
     figures : Path, optional
         The run folder, the figures written under ``<drive>/<record>/``; None: no figures.
     """
 
     job: Job
-    read: ReadOptions
+    read: RecordOptions
     figures: Path | None
 
     def __call__(self, path: str, given: dict[str, Any]) -> dict[str, Any]:
@@ -68,7 +68,11 @@ class RecordTask:
         with _row_of(row):
             doctor = isinstance(self.job, DoctorJob)
             # as the single command reads it: the doctor a longer record's first max_samples samples
-            record, segment = self.read.read_segment(path) if doctor else (self.read.read(path), False)
+            record, segment = (
+                read_head(path, self.read, min_samples=20, speed=True)
+                if doctor
+                else (read_record(path, self.read, min_samples=20, other_columns=False, speed=True), False)
+            )
             drive, when = identity(path, record.attrs, given)
             row.update(drive=drive, time=when)
             payload = self.job.row([record], [path], _figure_folder(self.figures, drive, Path(path).stem))
@@ -93,14 +97,14 @@ class DriveTask:
     ----------
     job : DoctorJob
         The doctor, run on all the drive's records as one model.
-    read : ReadOptions
+    read : RecordOptions
         How each record is read (a longer record's first ``max_samples`` rows).
     figures : Path, optional
         The run folder, the drive's figures written under ``<drive>/``; None: no figures.
     """
 
     job: DoctorJob
-    read: ReadOptions
+    read: RecordOptions
     figures: Path | None
 
     def __call__(self, drive: str, paths: list[str], times: list[str | None]) -> list[dict[str, Any]]:
@@ -112,7 +116,7 @@ class DriveTask:
             for p, t in zip(paths, times, strict=True)
         ]
         with _row_of(row):
-            read = [self.read.read_segment(p) for p in paths]
+            read = [read_head(p, self.read, min_samples=20, speed=True) for p in paths]
             records = [record for record, _ in read]
             payload = self.job.row(records, list(paths), _figure_folder(self.figures, drive, None))
             payload["segment"] = any(segment for _, segment in read)
@@ -170,4 +174,4 @@ def _row_of(row: dict[str, Any]) -> Iterator[None]:
     row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
 
 
-__all__ = ["DRIVE_KEY_PREFIX", "DoctorJob", "DriveTask", "IdentifyJob", "Job", "ReadOptions", "RecordTask"]
+__all__ = ["DRIVE_KEY_PREFIX", "DoctorJob", "DriveTask", "IdentifyJob", "Job", "RecordOptions", "RecordTask"]

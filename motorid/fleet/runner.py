@@ -46,8 +46,10 @@ from pathlib import Path
 from typing import Any
 
 from motorid.errors import DataError, OutputError
-from motorid.fleet.jobs import DRIVE_KEY_PREFIX, Job, ReadOptions
+from motorid.fleet.jobs import DRIVE_KEY_PREFIX, Job, RecordOptions
 from motorid.fleet.results import ResultsStore
+from motorid.io.records import read_record
+from motorid.io.records.options import COMMAND_MAX_SAMPLES
 from motorid.progress import progress_bar
 
 logger = logging.getLogger(__name__)
@@ -426,8 +428,8 @@ def record_identity(path: str, read: Any, given: dict[str, Any]) -> tuple[str, s
     ----------
     path : str
         The record file.
-    read : ReadOptions
-        How it is read (:class:`~motorid.fleet.jobs.ReadOptions`): its attrs may name the drive
+    read : RecordOptions
+        How it is read (:class:`~motorid.io.records.RecordOptions`): its attrs may name the drive
         and time.
     given : dict
         What a file-name pattern gave for it (``drive``, ``time``), which comes first.
@@ -435,7 +437,9 @@ def record_identity(path: str, read: Any, given: dict[str, Any]) -> tuple[str, s
     from motorid.fleet.sources import identity
 
     try:
-        drive, when = identity(path, read.read(path).attrs, given)
+        drive, when = identity(
+            path, read_record(path, read, min_samples=20, other_columns=False, speed=True).attrs, given
+        )
         return drive, when, None
     except Exception as exc:  # the record's failure is its row
         drive, when = identity(path, {}, given)
@@ -452,7 +456,7 @@ def group_by_drive(
     """The records of ``paths`` per drive, and a failed row for each record that cannot be read.
 
     A record's drive is what a file-name pattern gave, else its attrs ``drive``
-    (:data:`motorid.records.DRIVE_ATTR`), else its file's stem: a record without a drive id is
+    (:data:`motorid.io.records.DRIVE_ATTR`), else its file's stem: a record without a drive id is
     a drive of its own. The records whose drive the pattern gave or ``known`` holds are not
     read; the others are read on the cluster, one task each. Each drive's records are sorted
     by time, then path.
@@ -461,7 +465,7 @@ def group_by_drive(
     ----------
     paths : sequence of path
         The records; made absolute.
-    read : ReadOptions
+    read : RecordOptions
         How a record is read to find its drive and time (:func:`record_identity`).
     client : dask.distributed.Client
         Where the records are read; unused (None will do) when none needs reading.
@@ -558,7 +562,7 @@ def run_fleet_per_drive(
         The run folder (:mod:`motorid.fleet.results`).
     client : dask.distributed.Client
         Where the records are grouped and the drives run.
-    read : ReadOptions
+    read : RecordOptions
         How a record is read to find its drive (:func:`group_by_drive`).
     given : dict, optional
         Per absolute path, what a file-name pattern gave (``drive``, ``time``).
@@ -619,7 +623,7 @@ def run(
     out: str | os.PathLike[str],
     job: Job,
     *,
-    read: ReadOptions | None = None,
+    read: RecordOptions | None = None,
     per_drive: bool = False,
     pattern: str | None = None,
     scheduler: str | None = None,
@@ -631,6 +635,7 @@ def run(
     lock: bool = True,
     progress: bool = False,
     task_timeout: float = TASK_TIMEOUT,
+    **record_fields: Any,
 ) -> FleetRun:
     """Run ``job`` on a fleet's records on Dask, the results in the folder ``out``: ``motorid fleet``
     from Python.
@@ -644,8 +649,10 @@ def run(
         with ``figures``, the figures under ``<drive>/<record>/`` (per drive: ``<drive>/``).
     job : DoctorJob or IdentifyJob
         What is computed (:mod:`motorid.fleet.jobs`).
-    read : ReadOptions, optional
-        How each record is read (default: columns ``t``, ``u``, ``y``, the whole record).
+    read : RecordOptions, optional
+        How each record is read (default: columns ``t``, ``u``, ``y``, the whole record, at most
+        :data:`~motorid.io.records.options.COMMAND_MAX_SAMPLES` rows held whole, as the command line's
+        ``--max-samples``).
     per_drive : bool
         The doctor once per drive on all its records as one model (:func:`run_fleet_per_drive`;
         a ``DoctorJob`` only): one row per drive, one per record with its gaps.
@@ -674,6 +681,9 @@ def run(
         Longest a record's (per drive: a drive's) task may run on its worker [s] (default
         :data:`TASK_TIMEOUT`, 600 s): then its row is a failure saying so, the worker is dropped
         and the run goes on.
+    **record_fields :
+        Fields of :class:`~motorid.io.records.RecordOptions` given one by one (``input="pwm"``,
+        ``input_unit="%"``), in place of those of ``read``.
 
     Call it from a script under ``if __name__ == "__main__":``: the LocalCluster's worker
     processes import the script again (a script without it is told so in one line).
@@ -682,7 +692,7 @@ def run(
     drive, whose row is not in the results). One folder holds one kind of run: a per-drive run
     into a folder of per-record rows (or the other way round) is refused.
     """
-    from motorid.fleet.jobs import DoctorJob, DriveTask, ReadOptions, RecordTask
+    from motorid.fleet.jobs import DoctorJob, DriveTask, RecordOptions, RecordTask
     from motorid.fleet.sources import FilenamePattern, find_records
     from motorid.outputs import FolderLock
 
@@ -693,7 +703,7 @@ def run(
         )
     if not (task_timeout > 0):
         raise DataError(f"task_timeout must be a positive time [s], got {task_timeout!r}")
-    read = read or ReadOptions()
+    read = RecordOptions.of(read or RecordOptions(max_samples=COMMAND_MAX_SAMPLES), **record_fields)
     if per_drive and not isinstance(job, DoctorJob):
         raise DataError(f"per_drive: the doctor runs per drive (a DoctorJob), got a {type(job).__name__}")
     items = [records] if isinstance(records, str | os.PathLike) else list(records)

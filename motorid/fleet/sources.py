@@ -4,7 +4,7 @@ Records are named by glob patterns, folders (every record file in them, not
 recursing) or list files (``@list.txt``: one path per line, ``#`` comments).
 The drive id and the record time come from a file-name pattern
 (:class:`FilenamePattern`) when one is given, else from the record's attrs
-(``attrs["drive"]``, ``attrs["time"]``, see :mod:`motorid.records`), else the
+(``attrs["drive"]``, ``attrs["time"]``, see :mod:`motorid.io.records`), else the
 drive is the file's stem and the time unknown.
 """
 
@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from motorid.errors import DataError
-from motorid.records import DRIVE_ATTR, RECORD_FORMATS, TIME_ATTR
+from motorid.io.records import DRIVE_ATTR, RECORD_FORMATS, TIME_ATTR
 
 logger = logging.getLogger(__name__)
 

@@ -35,7 +35,7 @@ import pandas as pd
 from motorid.drive.components import Amplifier
 from motorid.drive.friction import Friction
 from motorid.drive.two_mass import TwoMassRig, paper_rig
-from motorid.records import DRIVE_ATTR, TIME_ATTR, write_record
+from motorid.io.records import DRIVE_ATTR, TIME_ATTR, write_record
 from motorid.signals import two_sine_signal
 
 logger = logging.getLogger(__name__)

@@ -1,4 +1,4 @@
-"""DAQ backends and the online identification loop.
+"""DAQ backends, the online identification loop, and the records wing.
 
 - :class:`SimulatedDAQ`: the simulated rig in process (the default backend).
 - :class:`ModbusDAQ`: a rig behind Modbus TCP or RTU (a PLC, or our rig server).
@@ -6,6 +6,8 @@
 - :class:`RegisterMap`: where the rig's signals live in the Modbus registers.
 - :func:`run_online`: excite, measure, feed estimators, record to CSV as it goes.
 - :func:`daq_from_url`: ``sim``, ``modbus://HOST:PORT`` or ``modbus-rtu:///dev/X``.
+- :mod:`motorid.io.records`: records read, checked and written, whatever file they come in, with
+  one :class:`~motorid.io.records.RecordOptions`.
 """
 
 from .base import DAQ, Plant, Sample

@@ -129,7 +129,7 @@ class RunRecorder:
         Rows kept in memory for :meth:`frame`; None keeps all of them.
     preamble : sequence of str
         Lines written before the header, each whole (a record's attribute line,
-        :data:`motorid.records.ATTRS_MARKER`), so the file says its sample time and units.
+        :data:`motorid.io.records.ATTRS_MARKER`), so the file says its sample time and units.
 
     Attributes
     ----------
@@ -310,7 +310,7 @@ class RunRecorder:
         units : mapping, optional
             Column -> unit; default ``t`` in s, ``u`` in V, ``y`` in rad/s.
         timing : str
-            A keyword of :data:`motorid.records.TIMINGS`: ``"hold"`` (``y`` measured at
+            A keyword of :data:`motorid.io.records.TIMINGS`: ``"hold"`` (``y`` measured at
             the end of the sample) or ``"sampled"`` (at its start).
         """
         df = pd.DataFrame(list(self.rows), columns=self.columns or list(columns))

@@ -1,0 +1,165 @@
+"""HDF5 records (h5py), MATLAB v7.3 files included: a column per one-dimensional dataset,
+named by its path; the "structure with time" Simulink logs read by signal name. Read whole,
+or in blocks by slices of the datasets.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from motorid.errors import DataError
+from motorid.io.records.columns import Blocks, Choose, binary_column, column_chooser, samples_of
+from motorid.io.records.files import ATTRS_KEY, attrs_from_json, one_line_reason, regular_file_size
+from motorid.io.records.options import quoted
+
+#: What h5py raises on a damaged HDF5 file.
+HDF5_ERRORS = (OSError, RuntimeError, KeyError, ValueError, TypeError)
+
+
+#: MATLAB classes of the objects Simulink logs (``sim``'s ``logsout``, ``timeseries``): stored in
+#: MATLAB's own object format, which is not read.
+SIMULINK_OBJECTS = ("Simulink.SimulationData.Dataset", "Simulink.SimulationData.Signal", "timeseries")
+
+
+def _hdf5_file(name: str) -> tuple[Any, dict[str, tuple[int, ...]], dict[str, Any], dict[str, str]]:
+    """An HDF5 file opened (an ``h5py.File``, to be closed by the caller), the shape of each of
+    its columns, its record attributes, and each column's dataset path.
+
+    A column is a dataset, named by its path; a MATLAB v7.3 structure that Simulink logs
+    ("structure with time": ``sig.time``, ``sig.signals.values``, ``sig.signals.label``) is
+    also the column ``sig`` (and its label), and its time the column ``t`` when the file has
+    none and every such structure has as many samples. A Simulink object (:data:`SIMULINK_OBJECTS`)
+    is refused when it is all the file holds, saying how to save its signals.
+    """
+    import h5py
+
+    try:
+        handle = h5py.File(name, "r")
+    except OSError as exc:
+        raise DataError(f"{name} is not a readable HDF5 file: {one_line_reason(exc)}") from None
+    shapes: dict[str, tuple[int, ...]] = {}
+    elsewhere: list[
+        str
+    ] = []  # what keeps data in other files (raised after the visit: h5py's callbacks must return)
+
+    def visit(key: str, item: Any) -> None:
+        if isinstance(item, h5py.Dataset) and not key.startswith("#"):  # '#refs#': MATLAB's own
+            if item.external or item.is_virtual:
+                elsewhere.append(
+                    f"the dataset {quoted(key)} keeps its data in other files "
+                    f"({'virtual' if item.is_virtual else 'external storage'})"
+                )
+            shapes[key] = tuple(item.shape)
+
+    def visit_link(key: str, link: Any) -> None:
+        if isinstance(link, h5py.ExternalLink):
+            elsewhere.append(f"{quoted(key)} is a link to {quoted(link.filename)}")
+
+    try:
+        try:
+            handle.visititems_links(visit_link)
+            if not elsewhere:  # an external link is not followed
+                handle.visititems(visit)
+            text = handle.attrs.get(ATTRS_KEY)
+        except HDF5_ERRORS as exc:  # a damaged file
+            raise DataError(
+                f"{name}: its HDF5 structure cannot be read (corrupt?): {one_line_reason(exc)}"
+            ) from None
+        if elsewhere:
+            raise DataError(
+                f"{name}: {elsewhere[0]}: a record is read from its own file only; copy the data into it"
+            )
+        attrs = attrs_from_json(text, name, f"the root attribute {ATTRS_KEY!r}")
+        objects = {key: kind for key in handle if (kind := _matlab_class(handle[key])) in SIMULINK_OBJECTS}
+        paths = {key: key for key in shapes}
+        signals = _simulink_structures(handle, shapes)
+        for signal, (values, _) in signals.items():
+            if signal not in shapes:
+                shapes[signal], paths[signal] = shapes[values], values
+        times = {shapes[time] for _, time in signals.values()}
+        if signals and "t" not in shapes and len(times) == 1:
+            first = next(iter(signals.values()))[1]
+            shapes["t"], paths["t"] = shapes[first], first
+        if objects and not signals and all(key in objects for key in shapes):
+            variable, kind = next(iter(objects.items()))
+            raise DataError(
+                f"{name} holds {quoted(variable)}, a Simulink {kind} object, in MATLAB's object format, which is not "
+                "read: log the signals as 'Structure With Time' (a To Workspace block's Save format, or the model's "
+                "Data Import/Export), or save their Time and Data as variables (y = ts.Data; t = ts.Time)"
+            )
+    except BaseException:
+        handle.close()
+        raise
+    return handle, shapes, attrs, paths
+
+
+def _matlab_class(item: Any) -> str:
+    """The ``MATLAB_class`` attribute of an HDF5 item of a v7.3 MAT-file ('' when it has none)."""
+    value = item.attrs.get("MATLAB_class", b"")
+    return value.decode("ascii", "replace") if isinstance(value, bytes) else str(value)
+
+
+def _simulink_structures(handle: Any, shapes: dict[str, tuple[int, ...]]) -> dict[str, tuple[str, str]]:
+    """Signal name -> (values path, time path) of the structures with time that Simulink logs in a
+    v7.3 MAT-file (a top-level group ``sig`` holding ``time`` and ``signals/values``); a
+    structure whose ``signals/label`` names it (MATLAB char, UTF-16 codes) is named by that too."""
+    signals: dict[str, tuple[str, str]] = {}
+    for key in handle:
+        values, time = f"{key}/signals/values", f"{key}/time"
+        if (
+            values not in shapes
+            or time not in shapes
+            or samples_of(shapes[values]) != samples_of(shapes[time])
+        ):
+            continue
+        signals[key] = (values, time)
+        label = f"{key}/signals/label"
+        if label in shapes and shapes[label] and 0 < math.prod(shapes[label]) <= 200:
+            text = "".join(map(chr, np.asarray(handle[label][()]).reshape(-1))).strip()
+            if text and text not in signals:
+                signals[text] = (values, time)
+    return signals
+
+
+def read_hdf5(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
+    handle, shapes, attrs, paths = _hdf5_file(name)
+    with handle:
+        chosen = choose(shapes)
+        try:
+            return {key: np.asarray(handle[paths[key]][()]).reshape(-1) for key in chosen}, attrs
+        except HDF5_ERRORS as exc:
+            raise DataError(
+                f"{name}: its HDF5 data cannot be read (corrupt?): {one_line_reason(exc)}"
+            ) from None
+
+
+def hdf5_blocks(name: str, kind: str, mapping: dict[str, str], optional: set[str], chunk_rows: int) -> Blocks:
+    """An HDF5 record by slices of ``chunk_rows`` samples of its datasets."""
+    if regular_file_size(name) == 0:
+        raise DataError(f"{name} is empty")
+    handle, shapes, attrs, paths = _hdf5_file(name)
+    with handle:
+        found: dict[str, str] = {}
+        chosen = column_chooser(name, mapping, False, None, found, optional)(shapes)
+        yield attrs
+        yield None
+        rows = samples_of(shapes[chosen[0]]) or 0
+        for first_row in range(0, rows, chunk_rows):
+            block = {}
+            for key in chosen:
+                shape = shapes[key]
+                axis = next((i for i, n in enumerate(shape) if n > 1), 0)  # the one axis along the samples
+                where = tuple(
+                    slice(first_row, first_row + chunk_rows) if i == axis else 0 for i in range(len(shape))
+                )
+                try:
+                    values = np.asarray(handle[paths[key]][where]).reshape(-1)
+                except HDF5_ERRORS as exc:
+                    raise DataError(
+                        f"{name}: its HDF5 data cannot be read (corrupt?): {one_line_reason(exc)}"
+                    ) from None
+                block[found[key]] = binary_column(name, key, values, found[key] == "t", first_row)
+            yield block
