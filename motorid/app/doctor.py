@@ -120,7 +120,10 @@ class DoctorOptions:
         from motorid.diagnose import diagnose
 
         def motorid_columns(record: pd.DataFrame) -> pd.DataFrame:  # a position beside a speed stays behind
-            part = record[[c for c in ("t", "u", "y") if c in record.columns]]
+            # ... and a closed loop's reference goes along (diagnose's reference_column)
+            reference = self.reference_column or (record.attrs.get("loop") or {}).get("reference")
+            kept = ("t", "u", "y", *([reference] if reference else ["reference", "r"]))
+            part = record[[c for c in dict.fromkeys(kept) if c in record.columns]]
             part.attrs = dict(record.attrs)
             return part
 
