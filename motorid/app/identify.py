@@ -319,8 +319,7 @@ def create_estimator(name: str, options: Any, rig: Any = None) -> Any:
         if not takes_any and key not in accepted:
             keys = ", ".join(k for k, p in accepted.items() if p.kind is not inspect.Parameter.VAR_POSITIONAL)
             raise DataError(
-                f"param={quoted(item)}: estimator {name!r} takes no argument {quoted(key)}; it takes {keys} "
-                f"(estimator={name!r} with help_params lists them with their defaults)"
+                f"param={quoted(item)}: estimator {name!r} takes no argument {quoted(key)}; it takes {keys}"
             )
         kwargs[key] = _parse_value(value)
     if takes_identify_basis(name, kwargs):
