@@ -144,6 +144,8 @@ def cmd_doctor(args: argparse.Namespace) -> int:
             if math.isfinite(excess)
             else "its level above the kinetic one not told from a lag (the input rises alike at each)"
         )
+        if rest.breakaway_one_rate:  # one excess at one input rate, read both ways
+            above += f", or a lag of {1e3 * rest.breakaway_lag:.3g} ms (the input rises alike at each)"
         say(
             f"  rests: {label}{rest.count}, median {1000 * rest.median_length:.0f} ms, breaking away at a "
             f"median {rest.median_breakaway_input:.3g} {units['u']}; at breakaway {above}"

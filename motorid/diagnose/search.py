@@ -21,6 +21,7 @@ import numpy as np
 from motorid.diagnose.locate import Region, locate
 from motorid.diagnose.measures import (
     MIN_RESTS,
+    Breakaway,
     Gap,
     breakaway,
     breakaway_evidence,
@@ -286,6 +287,122 @@ def friction_given(base: tuple[str, ...]) -> bool:
 WHERE = {"rests": " at the rests", "rest": " near rest", "speed": " at speed"}
 
 
+@dataclass(frozen=True)
+class LagTest:
+    """Whether the moving drive tells a breakaway level from a lag where rests at one input rate
+    cannot (:meth:`Search.lag_test`).
+
+    Attributes
+    ----------
+    lag : float
+        The lag τ the rests' excess would need [s] (:attr:`Breakaway.lag
+        <motorid.diagnose.measures.Breakaway.lag>`).
+    own : float
+        The model's own input lag T_l [s] (0 without one); the lag reading holds T_l + τ.
+    gap_level, gap_lag : float
+        The free-run gaps [v] of the model with the level (static friction) and with the lag.
+    z : float
+        The paired test of their squared free-run errors (:func:`paired_z`): positive where the
+        lag's are smaller.
+    """
+
+    lag: float
+    own: float
+    gap_level: float
+    gap_lag: float
+    z: float
+
+    @property
+    def reading(self) -> str:
+        """``static_friction`` (the level's errors smaller: ``z < -TOLD_Z``), ``lag`` (``z >
+        TOLD_Z``) or ``lookalike``; a free run that does not stay finite loses."""
+        if not math.isfinite(self.gap_lag) or self.z < -TOLD_Z:
+            return "static_friction" if math.isfinite(self.gap_level) else "lookalike"
+        return "lag" if not math.isfinite(self.gap_level) or self.z > TOLD_Z else "lookalike"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"lag": self.lag, "own": self.own, "gap_level": self.gap_level, "gap_lag": self.gap_lag,
+                "z": self.z, "reading": self.reading}  # fmt: skip
+
+
+#: Blocks the paired test of two free runs (:func:`paired_z`) averages over.
+PAIRED_BLOCKS = 30
+#: Two free runs differ where their paired test lies beyond this many standard errors.
+TOLD_Z = 3.0
+
+
+def paired_z(first: np.ndarray, second: np.ndarray, blocks: int = PAIRED_BLOCKS) -> float:
+    """A paired test of two models' free-run errors [v] on the same samples (Diebold-Mariano's,
+    with block means for the errors' correlation in time)::
+
+        d_k = e1_k² - e2_k²,    D_b = mean of d over block b,    z = mean(D) / (std(D) / sqrt(B))
+
+    over ``blocks`` equal blocks of the samples where both are finite (B of them with samples).
+    Positive: the second model's errors are smaller. NaN with fewer than 3 blocks.
+
+    Parameters
+    ----------
+    first, second : ndarray
+        The two models' errors at each sample (NaN where not settled).
+    blocks : int
+        How many blocks.
+    """
+    ok = np.isfinite(first) & np.isfinite(second)
+    d = (first**2 - second**2)[ok]
+    means = np.array([b.mean() for b in np.array_split(d, blocks) if b.size])
+    if means.size < 3:
+        return math.nan
+    spread = float(np.std(means, ddof=1))
+    centre = float(np.mean(means))
+    return math.copysign(math.inf, centre) if spread == 0.0 else centre / (spread / math.sqrt(means.size))
+
+
+def breakaway_sentence(found: Breakaway, told: LagTest | None, units: dict[str, str]) -> str:
+    """What the rests say of a breakaway that is not named static friction, in one sentence with
+    its figures (the level ΔF_s [F], the lag τ [ms]), e.g. ``40 rests break away 0.52 ± 0.01 V
+    above the kinetic level, all at one input rate (19 V/s): static friction of 0.52 V or a lag of
+    28 ms between input and force fit them alike ...``.
+
+    Parameters
+    ----------
+    found : Breakaway
+        The rests' breakaway.
+    told : LagTest or None
+        The moving drive's test of the lag, for rests at one rate.
+    units : dict
+        The pool's units (``F``).
+    """
+    f = units["F"]
+    above = f"{found.rests} rests break away {found.excess:.3g} ± {found.standard_error:.2g} {f} above the kinetic level"
+    lag = f"{1e3 * found.lag:.3g} ms"
+    if found.reading == "lag":
+        return (
+            f"{above} at an input rising infinitely slowly, higher as the input rises faster: a lag of "
+            f"{1e3 * found.lag:.3g} ± {1e3 * found.lag_std:.2g} ms between input and force, not static friction"
+        )
+    if found.reading != "lookalike":
+        return f"{above}: not shown"
+    rate = found.excess / found.lag if found.lag else math.nan
+    one = f"{above}, all at one input rate ({rate:.3g} {f}/s)"
+    v = units["v"]
+    apart = "rests at other input rates (a chirp, or records at other frequencies in one run) tell them apart"
+    if told is not None and told.reading == "lag":
+        return (
+            f"{one}: a lag of {lag} between input and force runs the drive closer than static friction of "
+            f"{found.excess:.3g} {f} (free-run gap {told.gap_lag:.4g} vs {told.gap_level:.4g} {v}, z = {told.z:.2g}): "
+            f"the lag, though a smaller level beside it is not ruled out at one rate; {apart}"
+        )
+    gaps = (
+        ""
+        if told is None
+        else f" (free-run gap {told.gap_level:.4g} vs {told.gap_lag:.4g} {v}, z = {told.z:.2g})"
+    )
+    return (
+        f"{one}: static friction of {found.excess:.3g} {f} and a lag of {lag} between input and force fit "
+        f"alike{gaps}; {apart}"
+    )
+
+
 @dataclass(eq=False)
 class Candidate:
     """An effect tried in a step: its fit added to the step's model, and its evidence.
@@ -306,6 +423,10 @@ class Candidate:
     free_run_gap : float
         Its free-run gap [v] in the step's region, measured for the candidates alike in the
         torque balance (NaN otherwise).
+    lag_allowed : bool
+        Static friction judged on the rests: False where the moving drive rules out the lag that
+        rests at one input rate would need (:meth:`Search.lag_test`), so that its held-out check
+        sets the level against no excess rather than against a lag.
     """
 
     effect: str
@@ -313,6 +434,7 @@ class Candidate:
     evidence: dict[str, Any]
     acts: str
     free_run_gap: float = math.nan
+    lag_allowed: bool = True
 
     @property
     def delta_bic(self) -> float:
@@ -508,12 +630,16 @@ class SearchOutcome:
         Why the search stopped.
     fit : FitResult
         The final model, fitted.
+    notes : list of str
+        What the search found and did not name: rests that show a lag, or a breakaway level and a
+        lag that look alike (:func:`breakaway_sentence`).
     """
 
     steps: list[Step]
     rejected: list[dict[str, Any]]
     stop: Stop
     fit: FitResult
+    notes: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -643,6 +769,12 @@ class Search:
         fewer than :data:`~motorid.diagnose.measures.MIN_RESTS` rests, fitted and judged on the
         whole free run.
 
+        Rests at spread input rates tell a level from a lag themselves
+        (:class:`~motorid.diagnose.measures.Breakaway`). Rests at one rate read their excess both
+        ways; the moving drive then tells them (:meth:`lag_test`): where it rules out the lag the
+        excess would need, the excess is a level, and its evidence that of the level against no
+        excess at all.
+
         Parameters
         ----------
         fit : FitResult
@@ -661,22 +793,50 @@ class Search:
             )
             ev["measure"] = f"free run ({found.rests} rests, fewer than {MIN_RESTS})"
             return Candidate(name, with_it, ev, "")
-        ev = breakaway_evidence(*pool.breakaway_excess(fit.model))
+        told = self.lag_test(fit, found, fitted) if found.reading == "lookalike" else None
+        lag_allowed = told is None or told.reading != "static_friction"
+        ev = breakaway_evidence(*pool.breakaway_excess(fit.model), lag_allowed=lag_allowed)
         ev["measure"] = "rests"
         ev["breakaway"] = found.to_dict()
-        if not found.shown:  # the rests do not show breakaway above the kinetic level
-            ev["delta_bic"] = -math.inf
-            if not math.isfinite(found.standard_error):
-                ev["note"] = (
-                    f"{found.rests} rests, all at one input rate: a breakaway level and a lag "
-                    "between input and force look alike there"
-                )
-            else:
-                ev["note"] = (
-                    f"{found.rests} rests break away {found.excess:.3g} ± {found.standard_error:.2g} "
-                    f"{pool.units['F']} above the kinetic level: not shown"
-                )
+        if told is not None:
+            ev["lag_test"] = told.to_dict()
+        if found.shown or not lag_allowed:
+            return Candidate(name, with_it, ev, get_effect(name).acts, lag_allowed=lag_allowed)
+        ev["delta_bic"] = -math.inf  # the rests do not show breakaway above the kinetic level
+        ev["note"] = breakaway_sentence(found, told, pool.units)
         return Candidate(name, with_it, ev, get_effect(name).acts)
+
+    def lag_test(self, fit: FitResult, found: Breakaway, level: RigidDrive) -> LagTest:
+        """Whether the moving drive tells a level from a lag where rests at one input rate read
+        their excess both ways: the free-run gap of the step's model with the level
+        (``level``: static friction ΔF_s = ē) against that of the step's model refitted to the
+        balance with its input lag held at ``T_l + τ`` (``T_l`` its own, 0 without one;
+        ``τ = ē / r̄``, :attr:`Breakaway.lag <motorid.diagnose.measures.Breakaway.lag>`). Both
+        break away where the rests do; only the lag changes how the drive moves. Gaps within
+        :data:`ALIKE_GAP` noise floors of each other fit alike (the lookalike rule's tolerance).
+        The free run, not the balance, judges: a lag trades with the inertia in the balance
+        (a 10 ms lag planted on a kit-like motor at 1 kHz: the balance's RSS grows from 0 to
+        20 ms as the inertia falls, while the free-run gap is least at 10 ms).
+
+        Parameters
+        ----------
+        fit : FitResult
+            The step's model, fitted.
+        found : Breakaway
+            The rests' breakaway, at one rate.
+        level : RigidDrive
+            The step's model with static friction ΔF_s = ē.
+        """
+        pool = self.pool
+        own = fit.model.params.get("lag_time_constant", 0.0)
+        effects = effect_order((*fit.model.effects, "input_lag"))
+        fixed = {**self.fixed, "lag_time_constant": own + max(found.lag, 0.0)}
+        lagged = fit_model(
+            pool.data, effects, start=fit.model.params, stribeck_shape=self.stribeck_shape, fixed=fixed
+        )
+        gap_level, gap_lag = pool.gaps(level, None).overall, pool.gaps(lagged.model, None).overall
+        e_level, e_lag = pool.free_run_error(level), pool.free_run_error(lagged.model)
+        return LagTest(found.lag, own, gap_level, gap_lag, paired_z(e_level, e_lag))
 
     def rank(self, fit: FitResult, effects: tuple[str, ...], names: list[str]) -> list[Candidate]:
         """Each effect of ``names`` fitted added to the step's model, highest ΔBIC first.
@@ -802,11 +962,11 @@ class Search:
         elif effect.rest_only:  # held out on the rests: ΔF_s and τ from the training rests
             if held.samples is None:
                 base_held, cand_held = breakaway_holdout(
-                    pool, None, Pool([held.other], ["held out"]), None, model0
+                    pool, None, Pool([held.other], ["held out"]), None, model0, c.lag_allowed
                 )
             else:
                 base_held, cand_held = breakaway_holdout(
-                    pool, [~m for m in held.samples], pool, held.samples, model0
+                    pool, [~m for m in held.samples], pool, held.samples, model0, c.lag_allowed
                 )
         else:
             base_held = at.held_error
@@ -991,7 +1151,13 @@ class Search:
             fit = accepted.candidate.fit
             effects = fit.model.effects
             bar.update(1)
-        return SearchOutcome(steps, rejected, stop, fit)
+        notes = []
+        if "static_friction" in candidates and "static_friction" not in effects:
+            # what the final model's rests say of a breakaway the search did not name
+            said = self.static_friction(fit).evidence
+            if "note" in said and said.get("breakaway", {}).get("reading") in ("lag", "lookalike"):
+                notes.append(said["note"])
+        return SearchOutcome(steps, rejected, stop, fit, notes)
 
 
 __all__ = [
@@ -1000,16 +1166,21 @@ __all__ = [
     "DEFAULT_BASE",
     "DEFAULT_THRESHOLD",
     "NOISE_EXPLAINED",
+    "PAIRED_BLOCKS",
     "STRUCTURES",
+    "TOLD_Z",
     "Candidate",
     "Decision",
+    "LagTest",
     "Search",
     "SearchOutcome",
     "StepStart",
+    "breakaway_sentence",
     "candidate_names",
     "choose_structure",
     "effect_names",
     "explained",
     "friction_given",
     "lookalike_rule",
+    "paired_z",
 ]

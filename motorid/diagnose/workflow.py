@@ -432,6 +432,7 @@ def diagnose(
         for note in prep.notes
     ]
     notes += [f"{d.label}: {d.sentence()}" if len(labels) > 1 else d.sentence() for d in drifts]
+    notes += outcome.notes
     if rig is not None:
         notes.append(rig_note(rig, pool.parts[0].kin.band))
     diagnosis = Diagnosis(
