@@ -167,6 +167,7 @@ from motorid.diagnose.search import (
     choose_structure,
     effect_names,
     friction_given,
+    keep_given,
 )
 from motorid.diagnose.timing import DelayDrift, delay_drift
 from motorid.drive.rigid import RigidDrive
@@ -407,6 +408,11 @@ def diagnose(
     # the results: the gaps before and after, and why the search stopped
     bar.set_postfix_str("final gaps")
     final_model = outcome.fit.model
+    if model is not None and outcome.steps:
+        # the given model's own values stand where the records do not contradict them
+        given_kept = keep_given(pool, model, final_model)
+        final_model = given_kept.model
+        outcome.notes.extend(given_kept.notes)
     initial_gap = pool.gaps(initial_model, first_region)
     refitted_gap = None if model is None else pool.gaps(refitted_model, first_region)
     if outcome.steps or chosen.effects:
