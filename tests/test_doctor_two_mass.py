@@ -250,36 +250,31 @@ def test_an_effect_found_that_the_rig_cannot_carry_refuses_the_save(capsys, tmp_
     )
 
 
-def test_the_default_rig_improved_predicts_a_prbs_input_with_half_the_datasheets_gap(capsys, tmp_path):
+@pytest.fixture(scope="module")
+def default_rig(tmp_path_factory):
     """``motorid simulate``'s default rig saved as the data sheet (Coulomb friction on both masses
-    and the amplifier's dead zone), the drive measured with Stribeck friction of 0.0045 N m at
-    9 rad/s on its motor besides: the doctor names it, keeps the data sheet's values the record
-    does not contradict, and the rig it writes predicts a PRBS input it never saw."""
-    f = {
-        name: str(tmp_path / name)
-        for name in ("sheet.json", "truth.json", "meas.csv", "fresh.csv", "better.json")
-    }
+    and the amplifier's dead zone) and as the truth with Stribeck friction of 0.0045 N m at 9 rad/s
+    on its motor besides; a 60 s measurement of the truth on the paper's signal and one on a PRBS."""
+    folder = tmp_path_factory.mktemp("default_rig")
+    from motorid.cli import main
+
     stribeck = ("--stribeck", "0.0045", "9")
     for argv in (
-        ["--save-model", f["sheet.json"]],
-        ["--save-model", f["truth.json"], *stribeck],
-        ["--out", f["meas.csv"], "--duration", "60", *stribeck],
-        [
-            "--out",
-            f["fresh.csv"],
-            "--duration",
-            "60",
-            "--signal",
-            "prbs",
-            "--seed",
-            "1",
-            "--plant-seed",
-            "1",
-            *stribeck,
-        ],
-    ):
-        code, _, err = run(capsys, "simulate", *argv, "--quiet")
-        assert code == 0, err
+        ["--save-model", str(folder / "sheet.json")],
+        ["--save-model", str(folder / "truth.json"), *stribeck],
+        ["--out", str(folder / "meas.csv"), "--duration", "60", *stribeck],
+        ["--out", str(folder / "fresh.csv"), "--duration", "60", "--signal", "prbs", "--seed", "1",
+         "--plant-seed", "1", *stribeck],
+    ):  # fmt: skip
+        assert main(["simulate", *argv, "--quiet"]) == 0
+    return folder
+
+
+def test_the_default_rig_improved_predicts_a_prbs_input_with_half_the_datasheets_gap(default_rig, capsys):
+    """The doctor names the Stribeck friction, keeps the data sheet's values the record does not
+    contradict, and the rig it writes predicts a PRBS input it never saw."""
+    f = {name: str(default_rig / name) for name in ("sheet.json", "truth.json", "meas.csv", "fresh.csv")}
+    f["better.json"] = str(default_rig / "better.json")
     code, out, err = run(capsys, "doctor", f["meas.csv"], "--model", f["sheet.json"], "--save-model",
                          f["better.json"], "--json")  # fmt: skip
     assert code == 0, err
@@ -303,3 +298,33 @@ def test_the_default_rig_improved_predicts_a_prbs_input_with_half_the_datasheets
            for name, rig in (("sheet", sheet), ("better", better))}  # fmt: skip
     # measured: better 0.088, data sheet 0.698 rad/s (0.627 when the balance alone set the values)
     assert gap["better"] <= 0.5 * gap["sheet"]
+
+
+@pytest.mark.parametrize(
+    ("wrong", "parameter", "truth"),
+    [({"coulomb": 1.5}, "coulomb", 0.006), ({"J_m": 1.3, "J_l": 1.3}, "inertia", 1e-4)],
+)
+def test_a_given_value_the_record_contradicts_is_released(default_rig, wrong, parameter, truth):
+    """The data sheet with its Coulomb levels 1.5 times (or its inertias 1.3 times) the drive's:
+    the paired free-run test releases that parameter alone (z 6.5 for each) and it lands on the
+    drive's value; the others stay the data sheet's."""
+    from motorid.diagnose import diagnose
+
+    sheet = load_model(default_rig / "sheet.json")
+    if parameter == "coulomb":
+        given = sheet.replace(friction=tuple(
+            dataclasses.replace(f, params={**f.params, "coulomb": wrong["coulomb"] * f.params["coulomb"]})
+            for f in sheet.friction
+        ))  # fmt: skip
+    else:
+        given = sheet.replace(J_m=wrong["J_m"] * sheet.J_m, J_l=wrong["J_l"] * sheet.J_l)
+    d = diagnose(read_record(default_rig / "meas.csv"), model=given)
+    assert d.named == ["stribeck_friction"]
+    note = next(n for n in d.notes if n.startswith("the given model's parameters kept"))
+    released = note.split("released: ")[1]
+    assert released.startswith(f"{parameter} ") and "," not in released, note
+    # the drive's rigid-equivalent value within 3 % (measured 0.005936 N m and 9.96e-05 kg m²)
+    assert d.model.params[parameter] == pytest.approx(truth, rel=0.03)
+    equivalent = sheet.rigid_equivalent().params
+    for name in ("viscous", "dead_zone"):
+        assert d.model.params[name] == equivalent[name], name
