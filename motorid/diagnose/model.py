@@ -1003,7 +1003,10 @@ def refitted_parameters(model: RigidDrive) -> tuple[str, ...]:
 
 
 def fit_output_error(
-    model: RigidDrive, error: Callable[[RigidDrive], np.ndarray], names: Sequence[str] | None = None
+    model: RigidDrive,
+    error: Callable[[RigidDrive], np.ndarray],
+    names: Sequence[str] | None = None,
+    declared_signs: bool = False,
 ) -> RigidDrive:
     """``model`` with its :func:`refitted_parameters` (or ``names``) fitted to an output error::
 
@@ -1023,6 +1026,9 @@ def fit_output_error(
         not finite for the starting model are left out of every trial's sum.
     names : sequence of str, optional
         The parameters fitted, the others held (default: :func:`refitted_parameters`).
+    declared_signs : bool
+        Also hold each parameter its effect declares non-negative (a dead zone, a Stribeck level)
+        at or above 0, where :data:`OUTPUT_ERROR_LOWER` names no bound.
 
     Returns
     -------
@@ -1033,7 +1039,10 @@ def fit_output_error(
 
     names = refitted_parameters(model) if names is None else tuple(names)
     x0 = np.array([model.params[n] for n in names])
-    lower = np.array([OUTPUT_ERROR_LOWER.get(n, -np.inf) for n in names])
+    signed = (
+        {p for effect in model.effects for p in get_effect(effect).nonnegative} if declared_signs else set()
+    )
+    lower = np.array([OUTPUT_ERROR_LOWER.get(n, 0.0 if n in signed else -np.inf) for n in names])
     x0 = np.maximum(x0, np.where(np.isfinite(lower), lower, x0))
     kept = np.isfinite(error(model))
 

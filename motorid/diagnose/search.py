@@ -378,7 +378,8 @@ def breakaway_sentence(found: Breakaway, told: LagTest | None, units: dict[str, 
     if found.reading == "lag":
         return (
             f"{above} at an input rising infinitely slowly, higher as the input rises faster: a lag of "
-            f"{1e3 * found.lag:.3g} ± {1e3 * found.lag_std:.2g} ms between input and force, not static friction"
+            f"{1e3 * found.lag:.3g} ± {1e3 * found.lag_std:.2g} ms between input and force (or in the time the "
+            "drive takes to leave rest), not static friction"
         )
     if found.reading != "lookalike":
         return f"{above}: not shown"
@@ -615,9 +616,8 @@ def lookalike_rule(
     return accepted, lookalike
 
 
-#: A Coulomb level set free that lands further than this share from the given one, while its free
-#: run is no closer (:func:`keep_given`), is another split of one friction: the records cannot
-#: separate Coulomb from Stribeck friction.
+#: Beside Stribeck friction, a Coulomb level whose standard error in the free run exceeds this
+#: share of it is not separated from the Stribeck level (:func:`keep_given`).
 SPLIT_APART = 0.1
 
 
@@ -660,9 +660,10 @@ def keep_given(pool: Pool, given: RigidDrive, found: RigidDrive) -> GivenKept:
     added effects' and those already released) runs the drive closest to the records is released
     where the paired test of the two free runs (:func:`paired_z`) exceeds :data:`TOLD_Z`: a given
     value stands until the records pull beyond what their free run's scatter allows. Where the
-    given Coulomb level is kept beside Stribeck friction, and set free it lands more than
-    :data:`SPLIT_APART` away from it without running the drive closer, the records cannot
-    separate the two, and a note says so with both splits. The
+    given Coulomb level is kept beside Stribeck friction added, and set free together with the
+    Stribeck level and velocity its standard error in the free run (:func:`free_run_std`) exceeds
+    :data:`SPLIT_APART` of it, the records cannot separate Coulomb from Stribeck friction, and a
+    note says so with both levels. The
     balance's own fit is not the judge: it lets Coulomb and Stribeck friction trade along the
     Stribeck velocity it fixes (the default rig with Stribeck friction planted: Coulomb 0.006 ->
     0.0045 N m and the velocity at 20 rad/s, against 9).
@@ -688,7 +689,7 @@ def keep_given(pool: Pool, given: RigidDrive, found: RigidDrive) -> GivenKept:
 
     def refit(free: list[str]) -> RigidDrive:
         names = [p for p in refitted_parameters(found) if p in set(free)]
-        return fit_output_error(held, pool.free_run_error, names) if names else held
+        return fit_output_error(held, pool.free_run_error, names, declared_signs=True) if names else held
 
     current, released = refit(added), []
     z: dict[str, float] = {}
@@ -704,7 +705,6 @@ def keep_given(pool: Pool, given: RigidDrive, found: RigidDrive) -> GivenKept:
         released.append(best)
         current = candidates[best]
     kept = tuple(p for p in own if p not in released)
-    v = pool.units["v"]
     notes = [
         "the given model's parameters kept where the records do not contradict them (set free, each runs the "
         f"drive no closer than {TOLD_Z:g} standard errors of the paired free-run test): "
@@ -717,22 +717,68 @@ def keep_given(pool: Pool, given: RigidDrive, found: RigidDrive) -> GivenKept:
             or "none"
         )
     ]
-    other = candidates.get("coulomb")
-    if (
-        "coulomb" in kept
-        and "stribeck" in current.params
-        and other is not None
-        and abs(other.params["coulomb"] - current.params["coulomb"]) > SPLIT_APART * current.params["coulomb"]
-    ):
-        F = pool.units["F"]
-        notes.append(
-            f"the records cannot separate Coulomb from Stribeck friction: Coulomb {current.params['coulomb']:.4g} + "
-            f"Stribeck {current.params['stribeck']:.4g} {F} (the given Coulomb level) and Coulomb "
-            f"{other.params['coulomb']:.4g} + Stribeck {other.params['stribeck']:.4g} {F} run the drive alike "
-            f"(free-run gap {pool.gaps(current, None).overall:.4g} vs {pool.gaps(other, None).overall:.4g} {v}, "
-            f"z = {z['coulomb']:.2g}): the given Coulomb level kept"
-        )
+    shapes = [q for q in ("stribeck", "stribeck_velocity") if q in added]
+    if "coulomb" in kept and "stribeck" in shapes:
+        names = ["coulomb", *shapes]
+        std, corr = free_run_std(pool, current, names)
+        if not std[0] <= SPLIT_APART * current.params["coulomb"]:
+            F = pool.units["F"]
+            notes.append(
+                f"the records cannot separate Coulomb from Stribeck friction: set free together in the free run, "
+                f"Coulomb {current.params['coulomb']:.4g} ± {std[0]:.2g} {F} and Stribeck "
+                f"{current.params['stribeck']:.4g} ± {std[1]:.2g} {F} (correlation {corr:.2f}); the given "
+                "Coulomb level kept"
+            )
     return GivenKept(current, kept, tuple(released), z, notes)
+
+
+def free_run_std(pool: Pool, model: RigidDrive, names: list[str]) -> tuple[np.ndarray, float]:
+    """Standard errors of the parameters ``names`` fitted together to the records' free run, and
+    the correlation of the first two: from the Jacobian ``G`` of the free-run error (central
+    differences, a step of 1e-4 of each value)::
+
+        C = s² (GᵀG)⁻¹ (1 + ρ) / (1 - ρ),    s² = Σ e² / (n - k)
+
+    with ρ the lag-one autocorrelation of the errors (clipped to [0, 0.95]: correlated errors
+    carry fewer independent samples, as in :func:`~motorid.diagnose.measures.evidence`).
+
+    Parameters
+    ----------
+    pool : Pool
+        The records of the drive.
+    model : RigidDrive
+        The model, at the values the errors are taken at.
+    names : list of str
+        At least two of its parameters.
+
+    Returns
+    -------
+    ndarray, float
+        Each parameter's standard error [its unit] (inf where they are not determined), and the
+        correlation of the first two.
+    """
+    base = pool.free_run_error(model)
+    ok = np.isfinite(base)
+    columns = []
+    for name in names:
+        h = 1e-4 * max(abs(model.params[name]), 1e-9)
+        up = pool.free_run_error(model.with_params(**{name: model.params[name] + h}))
+        down = pool.free_run_error(model.with_params(**{name: model.params[name] - h}))
+        ok &= np.isfinite(up) & np.isfinite(down)
+        columns.append((up - down) / (2.0 * h))
+    e = base[ok]
+    jac = np.column_stack([c[ok] for c in columns])
+    if e.size <= len(names) + 2:
+        return np.full(len(names), np.inf), math.nan
+    r = e - e.mean()
+    rho = min(max(float(r[1:] @ r[:-1] / (r @ r)) if r @ r > 0 else 0.0, 0.0), 0.95)
+    s2 = float(e @ e) / (e.size - len(names)) * (1.0 + rho) / (1.0 - rho)
+    try:
+        cov = s2 * np.linalg.inv(jac.T @ jac)
+    except np.linalg.LinAlgError:
+        return np.full(len(names), np.inf), math.nan
+    std = np.sqrt(np.abs(np.diag(cov)))
+    return std, float(cov[0, 1] / (std[0] * std[1])) if std[0] * std[1] > 0 else math.nan
 
 
 @dataclass
@@ -1302,6 +1348,7 @@ __all__ = [
     "choose_structure",
     "effect_names",
     "explained",
+    "free_run_std",
     "friction_given",
     "keep_given",
     "lookalike_rule",
