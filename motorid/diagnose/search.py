@@ -360,8 +360,8 @@ def paired_z(first: np.ndarray, second: np.ndarray, blocks: int = PAIRED_BLOCKS)
 def breakaway_sentence(found: Breakaway, told: LagTest | None, units: dict[str, str]) -> str:
     """What the rests say of a breakaway that is not named static friction, in one sentence with
     its figures (the level ΔF_s [F], the lag τ [ms]), e.g. ``40 rests break away 0.52 ± 0.01 V
-    above the kinetic level, all at one input rate (19 V/s): static friction of 0.52 V or a lag of
-    28 ms between input and force fit them alike ...``.
+    above the kinetic level, all at one input rate (19 V/s): static friction of 0.52 V and a lag
+    of 28 ms between input and force fit alike ...``.
 
     Parameters
     ----------
@@ -663,9 +663,8 @@ def keep_given(pool: Pool, given: RigidDrive, found: RigidDrive) -> GivenKept:
     given Coulomb level is kept beside Stribeck friction added, and set free together with the
     Stribeck level and velocity its standard error in the free run (:func:`free_run_std`) exceeds
     :data:`SPLIT_APART` of it, the records cannot separate Coulomb from Stribeck friction, and a
-    note says so with both levels. The
-    balance's own fit is not the judge: it lets Coulomb and Stribeck friction trade along the
-    Stribeck velocity it fixes (the default rig with Stribeck friction planted: Coulomb 0.006 ->
+    note says so with both levels. The balance's own fit is not the judge: it lets Coulomb and
+    Stribeck friction trade along the Stribeck velocity it fixes (the default rig with Stribeck friction planted: Coulomb 0.006 ->
     0.0045 N m and the velocity at 20 rad/s, against 9).
 
     Parameters
@@ -798,7 +797,8 @@ class SearchOutcome:
         The final model, fitted.
     notes : list of str
         What the search found and did not name: rests that show a lag, or a breakaway level and a
-        lag that look alike (:func:`breakaway_sentence`).
+        lag that look alike (:func:`breakaway_sentence`); :func:`~motorid.diagnose.workflow.diagnose`
+        adds what :func:`keep_given` says of a given model.
     """
 
     steps: list[Step]
@@ -978,9 +978,9 @@ class Search:
         (``level``: static friction ΔF_s = ē) against that of the step's model refitted to the
         balance with its input lag held at ``T_l + τ`` (``T_l`` its own, 0 without one;
         ``τ = ē / r̄``, :attr:`Breakaway.lag <motorid.diagnose.measures.Breakaway.lag>`). Both
-        break away where the rests do; only the lag changes how the drive moves. Gaps within
-        :data:`ALIKE_GAP` noise floors of each other fit alike (the lookalike rule's tolerance).
-        The free run, not the balance, judges: a lag trades with the inertia in the balance
+        break away where the rests do; only the lag changes how the drive moves. The paired test
+        of their free-run errors (:func:`paired_z`) decides (:attr:`LagTest.reading`). The free
+        run, not the balance, judges: a lag trades with the inertia in the balance
         (a 10 ms lag planted on a kit-like motor at 1 kHz: the balance's RSS grows from 0 to
         20 ms as the inertia falls, while the free-run gap is least at 10 ms).
 
