@@ -113,7 +113,8 @@ def rests(d) -> str:
         std = [d.rests[0].breakaway_excess_std]
     if not count:
         return "0"
-    if not all(map(math.isfinite, excess)):
+    one_rate = len(d.rests) == 1 and d.rests[0].breakaway_one_rate
+    if one_rate or not all(map(math.isfinite, excess)):
         return f"{count}, lag?"
     return f"{count}, {excess[0]:.2g} ± {std[0]:.1g}"
 

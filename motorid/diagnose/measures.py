@@ -145,28 +145,38 @@ def free_run_error(prep: Prepared, model: RigidDrive) -> np.ndarray:
 MIN_RESTS = 5
 
 
+#: What the rests of a drive say of its breakaway (:attr:`Breakaway.reading`).
+READINGS = ("static_friction", "lag", "lookalike", "none")
+
+
 @dataclass(frozen=True)
 class Breakaway:
     """What the rests of a pool say of static friction, against a model's kinetic level.
 
-    The force at breakaway above the kinetic level at 0±, ``e_i`` [F] at rest i
-    (:meth:`Pool.breakaway_excess <motorid.diagnose.prepare.Pool.breakaway_excess>`), is fitted
-    by least squares as a level and a lag::
+    A breakaway excess is a level of the force; a lag is a time. The force at breakaway above the
+    kinetic level at 0±, ``e_i`` [F] at rest i (:meth:`Pool.breakaway_excess
+    <motorid.diagnose.prepare.Pool.breakaway_excess>`), is fitted by least squares as a level and
+    a lag::
 
-        e_i = ΔF_s + τ g r_i
+        e_i = ΔF_s + τ r_i
 
-    with ``r_i`` the input's rate at breakaway [u/s] (:class:`~motorid.diagnose.rests.Rests`):
+    with ``r_i`` the rate of the force of the input at breakaway [F/s] (:class:`~motorid.diagnose.rests.Rests`):
     a lag τ [s] between input and force (an armature's electrical time constant) raises the input
     a drive breaks away at in proportion to how fast the input rises, static friction ΔF_s does
-    not. ΔF_s is the breakaway at an input that rises infinitely slowly; rests whose rates do not
-    spread (a sine's reversals all alike) cannot tell it from a lag, and its standard error says so.
+    not. ΔF_s is the breakaway at an input that rises infinitely slowly. The rule
+    (:attr:`reading`): where the rates spread (by :data:`RATE_SPREAD` of their mean: a chirp, or the
+    records of a joint run at other frequencies), a level above twice its standard error is static
+    friction, else a slope above twice its standard error is a lag. Where they do not spread (a
+    sine's reversals all alike), one excess ``ē`` at one rate ``r̄`` is read both ways, ``ΔF_s = ē``
+    or ``τ = ē / r̄``: a lookalike, which the rests alone cannot tell (the moving drive can:
+    :meth:`Search.static_friction <motorid.diagnose.search.Search.static_friction>`).
 
     Attributes
     ----------
     rests : int
         Rests counted.
     excess : float
-        ΔF_s [F] (NaN for fewer than 3 rests, or rates that do not spread).
+        ΔF_s [F]; at one rate, the mean excess ``ē`` (NaN for fewer than 3 rests).
     standard_error : float
         Standard error of ΔF_s [F] from the fit's residual, and at least ``g q / sqrt(12 n)``
         where the input is quantised in steps ``q`` [u] (an integer PWM duty; ``g`` the input
@@ -174,21 +184,41 @@ class Breakaway:
         (rounding's standard deviation ``q / sqrt(12)``), so rests that break away at one held
         level, which agree exactly, do not make ΔF_s exact.
     lag : float
-        τ [s].
+        τ [s]; at one rate, ``ē / r̄`` (0 where every breakaway is under a held input).
+    lag_std : float
+        Standard error of τ [s].
+    one_rate : bool
+        The rates do not spread: ``excess`` and ``lag`` are two readings of one excess.
     shown : bool
-        The rests show breakaway above the kinetic level: at least :data:`MIN_RESTS` rests and
-        ΔF_s above twice its standard error.
+        The rests show breakaway above the kinetic level: at least :data:`MIN_RESTS` rests at
+        spread rates (or held inputs) and ΔF_s above twice its standard error.
     """
 
     rests: int
     excess: float
     standard_error: float
     lag: float
-    shown: bool
+    lag_std: float = math.nan
+    one_rate: bool = False
+    shown: bool = False
+
+    @property
+    def reading(self) -> str:
+        """What the rests say (:data:`READINGS`): ``static_friction`` (:attr:`shown`), ``lag`` (the
+        rates spread and τ lies above twice its standard error, ΔF_s not), ``lookalike`` (one rate,
+        an excess above twice its standard error) or ``none``."""
+        if self.rests < MIN_RESTS or not math.isfinite(self.excess):
+            return "none"
+        if self.shown:
+            return "static_friction"
+        if self.one_rate:
+            return "lookalike" if self.excess > 2.0 * self.standard_error else "none"
+        return "lag" if self.lag > 2.0 * self.lag_std else "none"
 
     def to_dict(self) -> dict[str, Any]:
         return {"rests": self.rests, "excess": self.excess, "standard_error": self.standard_error,
-                "lag": self.lag, "shown": self.shown}  # fmt: skip
+                "lag": self.lag, "lag_std": self.lag_std, "one_rate": self.one_rate, "shown": self.shown,
+                "reading": self.reading}  # fmt: skip
 
 
 #: The rates at breakaway spread enough to tell a level from a lag when their standard deviation
@@ -196,10 +226,22 @@ class Breakaway:
 RATE_SPREAD = 0.2
 
 
+def one_rate(rate: np.ndarray) -> bool:
+    """The rates at breakaway do not spread by :data:`RATE_SPREAD` of their mean magnitude
+    (and are not all 0, breakaways under held inputs, which have no lag to tell).
+
+    Parameters
+    ----------
+    rate : ndarray
+        The rate of the input's force at each breakaway [F/s].
+    """
+    return bool(np.any(rate)) and float(np.std(rate)) < RATE_SPREAD * float(np.mean(np.abs(rate)))
+
+
 def _breakaway_fit(excess: np.ndarray, rate: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
     """Least-squares ``excess = ΔF_s + τ rate``: the coefficients, their covariance and the RSS.
-    The covariance is inf where the rates do not spread by :data:`RATE_SPREAD` of their mean
-    magnitude: reversals at one input rate cannot tell a level from a lag."""
+    The covariance is inf where the rates do not spread (:func:`one_rate`): reversals at one
+    input rate cannot tell a level from a lag."""
     x = np.column_stack([np.ones(excess.size), rate])
     coef, *_ = np.linalg.lstsq(x, excess, rcond=None)
     resid = excess - x @ coef
@@ -210,7 +252,7 @@ def _breakaway_fit(excess: np.ndarray, rate: np.ndarray) -> tuple[np.ndarray, np
         rss = float(np.sum((excess - level) ** 2))
         var = rss / max(excess.size - 1, 1) / excess.size
         return np.array([level, 0.0]), np.array([[var, 0.0], [0.0, 0.0]]), rss
-    if float(np.std(rate)) < RATE_SPREAD * float(np.mean(np.abs(rate))) or np.linalg.cond(xtx) > 1e12:
+    if one_rate(rate) or np.linalg.cond(xtx) > 1e12:
         return coef, np.full((2, 2), np.inf), rss
     return coef, rss / max(excess.size - 2, 1) * np.linalg.inv(xtx), rss
 
@@ -244,27 +286,42 @@ def breakaway(pool: Pool, model: RigidDrive, samples: list[np.ndarray] | None = 
     excess, rate = _typical(*pool.breakaway_excess(model, samples))
     n = int(excess.size)
     if n < 3:
-        return Breakaway(n, math.nan, math.nan, math.nan, False)
+        return Breakaway(n, math.nan, math.nan, math.nan)
+    rounding = model.params.get("input_gain", 1.0) * pool.input_quantisation / math.sqrt(12.0 * n)
+    if one_rate(rate):
+        # one excess at one rate, read as a level ē or as a lag ē / r̄
+        level = float(np.mean(excess))
+        se = max(float(np.std(excess, ddof=1)) / math.sqrt(n), rounding)
+        mean_rate = float(np.mean(rate))
+        return Breakaway(n, level, se, level / mean_rate, se / mean_rate, one_rate=True)
     coef, cov, _ = _breakaway_fit(excess, rate)
     se = math.sqrt(cov[0, 0])
-    if not math.isfinite(se):  # the rates cannot tell a level from a lag
-        return Breakaway(n, math.nan, math.inf, math.nan, False)
-    se = max(se, model.params.get("input_gain", 1.0) * pool.input_quantisation / math.sqrt(12.0 * n))
+    if not math.isfinite(se):  # the rates spread, yet the fit is singular: nothing told
+        return Breakaway(n, math.nan, math.inf, math.nan, math.inf)
+    se = max(se, rounding)
     level = float(coef[0])
-    return Breakaway(n, level, se, float(coef[1]), n >= MIN_RESTS and level > 2.0 * se)
+    return Breakaway(
+        n, level, se, float(coef[1]), math.sqrt(cov[1, 1]), False, n >= MIN_RESTS and level > 2.0 * se
+    )
 
 
-def breakaway_evidence(excess: np.ndarray, rate: np.ndarray) -> dict[str, float]:
+def breakaway_evidence(excess: np.ndarray, rate: np.ndarray, lag_allowed: bool = True) -> dict[str, float]:
     """ΔBIC of static friction on the rests: the fit of :class:`Breakaway` against the lag alone
-    (``e_i = τ g r_i``, no level above the kinetic one)::
+    (``e_i = τ r_i``, no level above the kinetic one)::
 
         ΔBIC = n ln(RSS_lag / RSS_lag+level) - ln n
 
-    (:func:`evidence` with the typical rests as its samples: one per reversal)."""
+    (:func:`evidence` with the typical rests as its samples: one per reversal). Where the moving
+    drive rules the lag out (``lag_allowed`` False: rests at one rate, whose excess a lag would
+    need the balance to take), the level ``ē`` against no excess at all: ``RSS_0 = Σ e_i²``,
+    ``RSS_1 = Σ (e_i - ē)²``."""
     excess, rate = _typical(excess, rate)
     n = int(excess.size)
     if n < 3:
         return {"delta_bic": -math.inf, "n": n, "n_eff": float(n), "rho": 0.0, "rss_ratio": 1.0}
+    if not lag_allowed:
+        resid1 = excess - float(np.mean(excess))
+        return evidence(float(excess @ excess), float(resid1 @ resid1), n, 1, resid1)
     coef, _, rss1 = _breakaway_fit(excess, rate)
     slope = float(rate @ excess / (rate @ rate)) if float(rate @ rate) > 0 else 0.0
     resid0 = excess - slope * rate
@@ -277,17 +334,23 @@ def breakaway_holdout(
     held: Pool,
     held_samples: list[np.ndarray] | None,
     model: RigidDrive,
+    lag_allowed: bool = True,
 ) -> tuple[float, float]:
     """Held-out check of static friction on the rests: the fits of :class:`Breakaway` on the
     rests of ``train`` (in ``train_samples``), with and without the level ΔF_s, predict the
     breakaway of the rests of ``held`` (in ``held_samples``; those with the input rising) above
     ``model``'s kinetic level; the median absolute errors [F] without and with it (a median: a
-    few held-out rests cannot be sifted for the typical ones; NaN without rests to fit or check)."""
+    few held-out rests cannot be sifted for the typical ones; NaN without rests to fit or check).
+    Where the moving drive rules the lag out (``lag_allowed`` False), no excess at all against the
+    training rests' mean level."""
     e_t, r_t = _typical(*train.breakaway_excess(model, train_samples))
     e_h, r_h = held.breakaway_excess(model, held_samples)
     e_h, r_h = e_h[r_h >= 0.0], r_h[r_h >= 0.0]
     if e_t.size < 3 or e_h.size == 0:
         return math.nan, math.nan
+    if not lag_allowed:
+        level = max(float(np.mean(e_t)), 0.0)
+        return float(np.median(np.abs(e_h))), float(np.median(np.abs(e_h - level)))
     coef, _, _ = _breakaway_fit(e_t, r_t)
     lag_only = float(r_t @ e_t / (r_t @ r_t)) if float(r_t @ r_t) > 0 else 0.0
     level = max(float(coef[0]), 0.0)
@@ -377,4 +440,4 @@ def holdout_rows(n: int, fraction: float, blocks: int = 10) -> np.ndarray:
     return np.isin(block, chosen)
 
 
-__all__ = ["MIN_RESTS", "Breakaway", "Gap", "fit_static_friction", "free_run_error"]
+__all__ = ["MIN_RESTS", "READINGS", "Breakaway", "Gap", "fit_static_friction", "free_run_error", "one_rate"]

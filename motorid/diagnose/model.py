@@ -47,7 +47,7 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable, Hashable
+from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -1002,8 +1002,13 @@ def refitted_parameters(model: RigidDrive) -> tuple[str, ...]:
     return tuple(names)
 
 
-def fit_output_error(model: RigidDrive, error: Callable[[RigidDrive], np.ndarray]) -> RigidDrive:
-    """``model`` with its :func:`refitted_parameters` fitted to an output error::
+def fit_output_error(
+    model: RigidDrive,
+    error: Callable[[RigidDrive], np.ndarray],
+    names: Sequence[str] | None = None,
+    declared_signs: bool = False,
+) -> RigidDrive:
+    """``model`` with its :func:`refitted_parameters` (or ``names``) fitted to an output error::
 
         θ* = argmin_θ Σ_k e_k(θ)²,    e = error(model with θ)
 
@@ -1019,6 +1024,11 @@ def fit_output_error(model: RigidDrive, error: Callable[[RigidDrive], np.ndarray
         ``error(trial)`` -> the output error of a trial model, one entry per sample compared
         (measured minus simulated speed [v], or simulated minus measured position); the entries
         not finite for the starting model are left out of every trial's sum.
+    names : sequence of str, optional
+        The parameters fitted, the others held (default: :func:`refitted_parameters`).
+    declared_signs : bool
+        Also hold each parameter its effect declares non-negative (a dead zone, a Stribeck level)
+        at or above 0, where :data:`OUTPUT_ERROR_LOWER` names no bound.
 
     Returns
     -------
@@ -1027,9 +1037,12 @@ def fit_output_error(model: RigidDrive, error: Callable[[RigidDrive], np.ndarray
     """
     from scipy.optimize import least_squares
 
-    names = refitted_parameters(model)
+    names = refitted_parameters(model) if names is None else tuple(names)
     x0 = np.array([model.params[n] for n in names])
-    lower = np.array([OUTPUT_ERROR_LOWER.get(n, -np.inf) for n in names])
+    signed = (
+        {p for effect in model.effects for p in get_effect(effect).nonnegative} if declared_signs else set()
+    )
+    lower = np.array([OUTPUT_ERROR_LOWER.get(n, 0.0 if n in signed else -np.inf) for n in names])
     x0 = np.maximum(x0, np.where(np.isfinite(lower), lower, x0))
     kept = np.isfinite(error(model))
 

@@ -670,8 +670,14 @@ class RestSummary:
     breakaway_excess, breakaway_excess_std : float
         The force at breakaway above it, at an input rising infinitely slowly, and its
         standard error [F] (:class:`~motorid.diagnose.measures.Breakaway`).
-    breakaway_lag : float
-        The lag between input and force the rests show [s].
+    breakaway_lag, breakaway_lag_std : float
+        The lag between input and force the rests show, and its standard error [s].
+    breakaway_reading : str
+        What the rests say (:attr:`Breakaway.reading <motorid.diagnose.measures.Breakaway.reading>`):
+        ``static_friction``, ``lag``, ``lookalike`` (an excess at one input rate) or ``none``.
+    breakaway_one_rate : bool
+        Every breakaway came at one input rate: ``breakaway_excess`` as a level and
+        ``breakaway_lag`` as a lag are two readings of one excess.
     """
 
     record: str
@@ -684,6 +690,9 @@ class RestSummary:
     breakaway_excess: float
     breakaway_excess_std: float
     breakaway_lag: float
+    breakaway_lag_std: float = math.nan
+    breakaway_reading: str = "none"
+    breakaway_one_rate: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
@@ -741,6 +750,7 @@ def rest_summaries(pool: Pool, model: RigidDrive) -> list[RestSummary]:
         out.append(RestSummary(
             label, **prep.rests.summary(), kinetic_level=0.5 * float(t_pos - t_neg),
             breakaway_excess=found.excess, breakaway_excess_std=found.standard_error, breakaway_lag=found.lag,
+            breakaway_lag_std=found.lag_std, breakaway_reading=found.reading, breakaway_one_rate=found.one_rate,
         ))  # fmt: skip
     return out
 

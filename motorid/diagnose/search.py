@@ -21,6 +21,7 @@ import numpy as np
 from motorid.diagnose.locate import Region, locate
 from motorid.diagnose.measures import (
     MIN_RESTS,
+    Breakaway,
     Gap,
     breakaway,
     breakaway_evidence,
@@ -30,7 +31,7 @@ from motorid.diagnose.measures import (
     free_run_error,
     rms,
 )
-from motorid.diagnose.model import FitResult, fit_model
+from motorid.diagnose.model import FitResult, fit_model, fit_output_error, refitted_parameters
 from motorid.diagnose.position import held_out_position_error, position_unit
 from motorid.diagnose.prepare import HeldOut, Pool
 from motorid.diagnose.results import Lookalike, Step, Stop, Structure
@@ -286,6 +287,123 @@ def friction_given(base: tuple[str, ...]) -> bool:
 WHERE = {"rests": " at the rests", "rest": " near rest", "speed": " at speed"}
 
 
+@dataclass(frozen=True)
+class LagTest:
+    """Whether the moving drive tells a breakaway level from a lag where rests at one input rate
+    cannot (:meth:`Search.lag_test`).
+
+    Attributes
+    ----------
+    lag : float
+        The lag τ the rests' excess would need [s] (:attr:`Breakaway.lag
+        <motorid.diagnose.measures.Breakaway.lag>`).
+    own : float
+        The model's own input lag T_l [s] (0 without one); the lag reading holds T_l + τ.
+    gap_level, gap_lag : float
+        The free-run gaps [v] of the model with the level (static friction) and with the lag.
+    z : float
+        The paired test of their squared free-run errors (:func:`paired_z`): positive where the
+        lag's are smaller.
+    """
+
+    lag: float
+    own: float
+    gap_level: float
+    gap_lag: float
+    z: float
+
+    @property
+    def reading(self) -> str:
+        """``static_friction`` (the level's errors smaller: ``z < -TOLD_Z``), ``lag`` (``z >
+        TOLD_Z``) or ``lookalike``; a free run that does not stay finite loses."""
+        if not math.isfinite(self.gap_lag) or self.z < -TOLD_Z:
+            return "static_friction" if math.isfinite(self.gap_level) else "lookalike"
+        return "lag" if not math.isfinite(self.gap_level) or self.z > TOLD_Z else "lookalike"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"lag": self.lag, "own": self.own, "gap_level": self.gap_level, "gap_lag": self.gap_lag,
+                "z": self.z, "reading": self.reading}  # fmt: skip
+
+
+#: Blocks the paired test of two free runs (:func:`paired_z`) averages over.
+PAIRED_BLOCKS = 30
+#: Two free runs differ where their paired test lies beyond this many standard errors.
+TOLD_Z = 3.0
+
+
+def paired_z(first: np.ndarray, second: np.ndarray, blocks: int = PAIRED_BLOCKS) -> float:
+    """A paired test of two models' free-run errors [v] on the same samples (Diebold-Mariano's,
+    with block means for the errors' correlation in time)::
+
+        d_k = e1_k² - e2_k²,    D_b = mean of d over block b,    z = mean(D) / (std(D) / sqrt(B))
+
+    over ``blocks`` equal blocks of the samples where both are finite (B of them with samples).
+    Positive: the second model's errors are smaller. NaN with fewer than 3 blocks.
+
+    Parameters
+    ----------
+    first, second : ndarray
+        The two models' errors at each sample (NaN where not settled).
+    blocks : int
+        How many blocks.
+    """
+    ok = np.isfinite(first) & np.isfinite(second)
+    d = (first**2 - second**2)[ok]
+    means = np.array([b.mean() for b in np.array_split(d, blocks) if b.size])
+    if means.size < 3:
+        return math.nan
+    spread = float(np.std(means, ddof=1))
+    centre = float(np.mean(means))
+    return math.copysign(math.inf, centre) if spread == 0.0 else centre / (spread / math.sqrt(means.size))
+
+
+def breakaway_sentence(found: Breakaway, told: LagTest | None, units: dict[str, str]) -> str:
+    """What the rests say of a breakaway that is not named static friction, in one sentence with
+    its figures (the level ΔF_s [F], the lag τ [ms]), e.g. ``40 rests break away 0.52 ± 0.01 V
+    above the kinetic level, all at one input rate (19 V/s): static friction of 0.52 V and a lag
+    of 28 ms between input and force fit alike ...``.
+
+    Parameters
+    ----------
+    found : Breakaway
+        The rests' breakaway.
+    told : LagTest or None
+        The moving drive's test of the lag, for rests at one rate.
+    units : dict
+        The pool's units (``F``).
+    """
+    f = units["F"]
+    above = f"{found.rests} rests break away {found.excess:.3g} ± {found.standard_error:.2g} {f} above the kinetic level"
+    lag = f"{1e3 * found.lag:.3g} ms"
+    if found.reading == "lag":
+        return (
+            f"{above} at an input rising infinitely slowly, higher as the input rises faster: a lag of "
+            f"{1e3 * found.lag:.3g} ± {1e3 * found.lag_std:.2g} ms between input and force (or in the time the "
+            "drive takes to leave rest), not static friction"
+        )
+    if found.reading != "lookalike":
+        return f"{above}: not shown"
+    rate = found.excess / found.lag if found.lag else math.nan
+    one = f"{above}, all at one input rate ({rate:.3g} {f}/s)"
+    v = units["v"]
+    apart = "rests at other input rates (a chirp, or records at other frequencies in one run) tell them apart"
+    if told is not None and told.reading == "lag":
+        return (
+            f"{one}: a lag of {lag} between input and force runs the drive closer than static friction of "
+            f"{found.excess:.3g} {f} (free-run gap {told.gap_lag:.4g} vs {told.gap_level:.4g} {v}, z = {told.z:.2g}): "
+            f"the lag, though a smaller level beside it is not ruled out at one rate; {apart}"
+        )
+    gaps = (
+        ""
+        if told is None
+        else f" (free-run gap {told.gap_level:.4g} vs {told.gap_lag:.4g} {v}, z = {told.z:.2g})"
+    )
+    return (
+        f"{one}: static friction of {found.excess:.3g} {f} and a lag of {lag} between input and force fit "
+        f"alike{gaps}; {apart}"
+    )
+
+
 @dataclass(eq=False)
 class Candidate:
     """An effect tried in a step: its fit added to the step's model, and its evidence.
@@ -306,6 +424,10 @@ class Candidate:
     free_run_gap : float
         Its free-run gap [v] in the step's region, measured for the candidates alike in the
         torque balance (NaN otherwise).
+    lag_allowed : bool
+        Static friction judged on the rests: False where the moving drive rules out the lag that
+        rests at one input rate would need (:meth:`Search.lag_test`), so that its held-out check
+        sets the level against no excess rather than against a lag.
     """
 
     effect: str
@@ -313,6 +435,7 @@ class Candidate:
     evidence: dict[str, Any]
     acts: str
     free_run_gap: float = math.nan
+    lag_allowed: bool = True
 
     @property
     def delta_bic(self) -> float:
@@ -518,6 +641,170 @@ def negative_levels(fit: FitResult) -> str:
     return ", ".join(found)
 
 
+#: Beside Stribeck friction, a Coulomb level whose standard error in the free run exceeds this
+#: share of it is not separated from the Stribeck level (:func:`keep_given`).
+SPLIT_APART = 0.1
+
+
+@dataclass(frozen=True)
+class GivenKept:
+    """A given model improved by the search, its own parameters kept where the records do not
+    contradict them (:func:`keep_given`).
+
+    Attributes
+    ----------
+    model : RigidDrive
+        The improved model: the given values kept, the released ones and the added effects'
+        fitted to the free run.
+    kept, released : tuple of str
+        The given model's parameters kept at their given values, and those the records contradict.
+    z : dict
+        Each given parameter tried -> the paired test (:func:`paired_z`) of setting it free
+        against keeping it, at the last round it was tried (positive: free runs closer).
+    notes : list of str
+        What the report says: the rule's outcome, and where the records cannot separate Coulomb
+        from Stribeck friction.
+    """
+
+    model: RigidDrive
+    kept: tuple[str, ...]
+    released: tuple[str, ...]
+    z: dict[str, float]
+    notes: list[str]
+
+
+def keep_given(pool: Pool, given: RigidDrive, found: RigidDrive) -> GivenKept:
+    """The given model's parameters kept where the records do not contradict them, the effects the
+    search added fitted beside them.
+
+    The rule: the search's model ``found`` (every parameter refitted to the balance) with each of
+    the given model's own parameters (:func:`~motorid.diagnose.model.refitted_parameters` of
+    ``given``, less those the records never reach) back at its given value, and the parameters of
+    the effects the search added fitted to the free run (:func:`~motorid.diagnose.model.fit_output_error`).
+    Then, one at a time, the given parameter whose release (fitted to the free run with the
+    added effects' and those already released) runs the drive closest to the records is released
+    where the paired test of the two free runs (:func:`paired_z`) exceeds :data:`TOLD_Z`: a given
+    value stands until the records pull beyond what their free run's scatter allows. Where the
+    given Coulomb level is kept beside Stribeck friction added, and set free together with the
+    Stribeck level and velocity its standard error in the free run (:func:`free_run_std`) exceeds
+    :data:`SPLIT_APART` of it, the records cannot separate Coulomb from Stribeck friction, and a
+    note says so with both levels. The balance's own fit is not the judge: it lets Coulomb and
+    Stribeck friction trade along the Stribeck velocity it fixes (the default rig with Stribeck friction planted: Coulomb 0.006 ->
+    0.0045 N m and the velocity at 20 rad/s, against 9).
+
+    Parameters
+    ----------
+    pool : Pool
+        The records of the drive.
+    given : RigidDrive
+        The model the user gave (its effects and values).
+    found : RigidDrive
+        The search's final model (the given effects and those added).
+
+    Returns
+    -------
+    GivenKept
+    """
+    scale = pool.data.scale
+    unreached = {p for n in given.effects for p in get_effect(n).unreached(given.params, scale)}
+    own = [p for p in refitted_parameters(given) if p in found.params and p not in unreached]
+    added = [p for p in refitted_parameters(found) if p not in given.params and p not in unreached]
+    held = found.with_params(**{p: given.params[p] for p in own})
+
+    def refit(free: list[str]) -> RigidDrive:
+        names = [p for p in refitted_parameters(found) if p in set(free)]
+        return fit_output_error(held, pool.free_run_error, names, declared_signs=True) if names else held
+
+    current, released = refit(added), []
+    z: dict[str, float] = {}
+    candidates = {}
+    while len(released) < len(own):
+        for p in own:
+            if p not in released:
+                candidates[p] = refit([*added, *released, p])
+                z[p] = paired_z(pool.free_run_error(current), pool.free_run_error(candidates[p]))
+        best = max((p for p in own if p not in released), key=lambda p: np.nan_to_num(z[p], nan=-np.inf))
+        if not z[best] > TOLD_Z:
+            break
+        released.append(best)
+        current = candidates[best]
+    kept = tuple(p for p in own if p not in released)
+    notes = [
+        "the given model's parameters kept where the records do not contradict them (set free, each runs the "
+        f"drive no closer than {TOLD_Z:g} standard errors of the paired free-run test): "
+        + (", ".join(f"{p} (z = {z[p]:.2g})" for p in kept) or "none")
+        + "; released: "
+        + (
+            ", ".join(
+                f"{p} {given.params[p]:.4g} -> {current.params[p]:.4g} (z = {z[p]:.2g})" for p in released
+            )
+            or "none"
+        )
+    ]
+    shapes = [q for q in ("stribeck", "stribeck_velocity") if q in added]
+    if "coulomb" in kept and "stribeck" in shapes:
+        names = ["coulomb", *shapes]
+        std, corr = free_run_std(pool, current, names)
+        if not std[0] <= SPLIT_APART * current.params["coulomb"]:
+            F = pool.units["F"]
+            notes.append(
+                f"the records cannot separate Coulomb from Stribeck friction: set free together in the free run, "
+                f"Coulomb {current.params['coulomb']:.4g} ± {std[0]:.2g} {F} and Stribeck "
+                f"{current.params['stribeck']:.4g} ± {std[1]:.2g} {F} (correlation {corr:.2f}); the given "
+                "Coulomb level kept"
+            )
+    return GivenKept(current, kept, tuple(released), z, notes)
+
+
+def free_run_std(pool: Pool, model: RigidDrive, names: list[str]) -> tuple[np.ndarray, float]:
+    """Standard errors of the parameters ``names`` fitted together to the records' free run, and
+    the correlation of the first two: from the Jacobian ``G`` of the free-run error (central
+    differences, a step of 1e-4 of each value)::
+
+        C = s² (GᵀG)⁻¹ (1 + ρ) / (1 - ρ),    s² = Σ e² / (n - k)
+
+    with ρ the lag-one autocorrelation of the errors (clipped to [0, 0.95]: correlated errors
+    carry fewer independent samples, as in :func:`~motorid.diagnose.measures.evidence`).
+
+    Parameters
+    ----------
+    pool : Pool
+        The records of the drive.
+    model : RigidDrive
+        The model, at the values the errors are taken at.
+    names : list of str
+        At least two of its parameters.
+
+    Returns
+    -------
+    ndarray, float
+        Each parameter's standard error [its unit] (inf where they are not determined), and the
+        correlation of the first two.
+    """
+    base = pool.free_run_error(model)
+    ok = np.isfinite(base)
+    columns = []
+    for name in names:
+        h = 1e-4 * max(abs(model.params[name]), 1e-9)
+        up = pool.free_run_error(model.with_params(**{name: model.params[name] + h}))
+        down = pool.free_run_error(model.with_params(**{name: model.params[name] - h}))
+        ok &= np.isfinite(up) & np.isfinite(down)
+        columns.append((up - down) / (2.0 * h))
+    e = base[ok]
+    jac = np.column_stack([c[ok] for c in columns])
+    if e.size <= len(names) + 2:
+        return np.full(len(names), np.inf), math.nan
+    r = e - e.mean()
+    rho = min(max(float(r[1:] @ r[:-1] / (r @ r)) if r @ r > 0 else 0.0, 0.0), 0.95)
+    s2 = float(e @ e) / (e.size - len(names)) * (1.0 + rho) / (1.0 - rho)
+    try:
+        cov = s2 * np.linalg.inv(jac.T @ jac)
+    except np.linalg.LinAlgError:
+        return np.full(len(names), np.inf), math.nan
+    std = np.sqrt(np.abs(np.diag(cov)))
+    return std, float(cov[0, 1] / (std[0] * std[1])) if std[0] * std[1] > 0 else math.nan
+
+
 @dataclass
 class SearchOutcome:
     """What an effect search ends with.
@@ -533,12 +820,17 @@ class SearchOutcome:
         Why the search stopped.
     fit : FitResult
         The final model, fitted.
+    notes : list of str
+        What the search found and did not name: rests that show a lag, or a breakaway level and a
+        lag that look alike (:func:`breakaway_sentence`); :func:`~motorid.diagnose.workflow.diagnose`
+        adds what :func:`keep_given` says of a given model.
     """
 
     steps: list[Step]
     rejected: list[dict[str, Any]]
     stop: Stop
     fit: FitResult
+    notes: list[str] = field(default_factory=list)
 
 
 @dataclass
@@ -668,6 +960,12 @@ class Search:
         fewer than :data:`~motorid.diagnose.measures.MIN_RESTS` rests, fitted and judged on the
         whole free run.
 
+        Rests at spread input rates tell a level from a lag themselves
+        (:class:`~motorid.diagnose.measures.Breakaway`). Rests at one rate read their excess both
+        ways; the moving drive then tells them (:meth:`lag_test`): where it rules out the lag the
+        excess would need, the excess is a level, and its evidence that of the level against no
+        excess at all.
+
         Parameters
         ----------
         fit : FitResult
@@ -686,22 +984,50 @@ class Search:
             )
             ev["measure"] = f"free run ({found.rests} rests, fewer than {MIN_RESTS})"
             return Candidate(name, with_it, ev, "")
-        ev = breakaway_evidence(*pool.breakaway_excess(fit.model))
+        told = self.lag_test(fit, found, fitted) if found.reading == "lookalike" else None
+        lag_allowed = told is None or told.reading != "static_friction"
+        ev = breakaway_evidence(*pool.breakaway_excess(fit.model), lag_allowed=lag_allowed)
         ev["measure"] = "rests"
         ev["breakaway"] = found.to_dict()
-        if not found.shown:  # the rests do not show breakaway above the kinetic level
-            ev["delta_bic"] = -math.inf
-            if not math.isfinite(found.standard_error):
-                ev["note"] = (
-                    f"{found.rests} rests, all at one input rate: a breakaway level and a lag "
-                    "between input and force look alike there"
-                )
-            else:
-                ev["note"] = (
-                    f"{found.rests} rests break away {found.excess:.3g} ± {found.standard_error:.2g} "
-                    f"{pool.units['F']} above the kinetic level: not shown"
-                )
+        if told is not None:
+            ev["lag_test"] = told.to_dict()
+        if found.shown or not lag_allowed:
+            return Candidate(name, with_it, ev, get_effect(name).acts, lag_allowed=lag_allowed)
+        ev["delta_bic"] = -math.inf  # the rests do not show breakaway above the kinetic level
+        ev["note"] = breakaway_sentence(found, told, pool.units)
         return Candidate(name, with_it, ev, get_effect(name).acts)
+
+    def lag_test(self, fit: FitResult, found: Breakaway, level: RigidDrive) -> LagTest:
+        """Whether the moving drive tells a level from a lag where rests at one input rate read
+        their excess both ways: the free-run gap of the step's model with the level
+        (``level``: static friction ΔF_s = ē) against that of the step's model refitted to the
+        balance with its input lag held at ``T_l + τ`` (``T_l`` its own, 0 without one;
+        ``τ = ē / r̄``, :attr:`Breakaway.lag <motorid.diagnose.measures.Breakaway.lag>`). Both
+        break away where the rests do; only the lag changes how the drive moves. The paired test
+        of their free-run errors (:func:`paired_z`) decides (:attr:`LagTest.reading`). The free
+        run, not the balance, judges: a lag trades with the inertia in the balance
+        (a 10 ms lag planted on a kit-like motor at 1 kHz: the balance's RSS grows from 0 to
+        20 ms as the inertia falls, while the free-run gap is least at 10 ms).
+
+        Parameters
+        ----------
+        fit : FitResult
+            The step's model, fitted.
+        found : Breakaway
+            The rests' breakaway, at one rate.
+        level : RigidDrive
+            The step's model with static friction ΔF_s = ē.
+        """
+        pool = self.pool
+        own = fit.model.params.get("lag_time_constant", 0.0)
+        effects = effect_order((*fit.model.effects, "input_lag"))
+        fixed = {**self.fixed, "lag_time_constant": own + max(found.lag, 0.0)}
+        lagged = fit_model(
+            pool.data, effects, start=fit.model.params, stribeck_shape=self.stribeck_shape, fixed=fixed
+        )
+        gap_level, gap_lag = pool.gaps(level, None).overall, pool.gaps(lagged.model, None).overall
+        e_level, e_lag = pool.free_run_error(level), pool.free_run_error(lagged.model)
+        return LagTest(found.lag, own, gap_level, gap_lag, paired_z(e_level, e_lag))
 
     def rank(self, fit: FitResult, effects: tuple[str, ...], names: list[str]) -> list[Candidate]:
         """Each effect of ``names`` fitted added to the step's model, highest ΔBIC first.
@@ -829,11 +1155,11 @@ class Search:
         elif effect.rest_only:  # held out on the rests: ΔF_s and τ from the training rests
             if held.samples is None:
                 base_held, cand_held = breakaway_holdout(
-                    pool, None, Pool([held.other], ["held out"]), None, model0
+                    pool, None, Pool([held.other], ["held out"]), None, model0, c.lag_allowed
                 )
             else:
                 base_held, cand_held = breakaway_holdout(
-                    pool, [~m for m in held.samples], pool, held.samples, model0
+                    pool, [~m for m in held.samples], pool, held.samples, model0, c.lag_allowed
                 )
         else:
             base_held = at.held_error
@@ -1021,7 +1347,13 @@ class Search:
             fit = accepted.candidate.fit
             effects = fit.model.effects
             bar.update(1)
-        return SearchOutcome(steps, rejected, stop, fit)
+        notes = []
+        if "static_friction" in candidates and "static_friction" not in effects:
+            # what the final model's rests say of a breakaway the search did not name
+            said = self.static_friction(fit).evidence
+            if "note" in said and said.get("breakaway", {}).get("reading") in ("lag", "lookalike"):
+                notes.append(said["note"])
+        return SearchOutcome(steps, rejected, stop, fit, notes)
 
 
 __all__ = [
@@ -1030,16 +1362,25 @@ __all__ = [
     "DEFAULT_BASE",
     "DEFAULT_THRESHOLD",
     "NOISE_EXPLAINED",
+    "PAIRED_BLOCKS",
+    "SPLIT_APART",
     "STRUCTURES",
+    "TOLD_Z",
     "Candidate",
     "Decision",
+    "GivenKept",
+    "LagTest",
     "Search",
     "SearchOutcome",
     "StepStart",
+    "breakaway_sentence",
     "candidate_names",
     "choose_structure",
     "effect_names",
     "explained",
+    "free_run_std",
     "friction_given",
+    "keep_given",
     "lookalike_rule",
+    "paired_z",
 ]

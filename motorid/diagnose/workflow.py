@@ -169,6 +169,7 @@ from motorid.diagnose.search import (
     choose_structure,
     effect_names,
     friction_given,
+    keep_given,
 )
 from motorid.diagnose.timing import DelayDrift, delay_drift
 from motorid.drive.rigid import RigidDrive
@@ -430,6 +431,11 @@ def diagnose(
         final_model, refitted_iv = instrumental_refit(pool, final_model, references)
         for loop in loops:
             loop.instrumental = refitted_iv if loop.reference is not None else {}
+    if model is not None and outcome.steps:
+        # the given model's own values stand where the records do not contradict them
+        given_kept = keep_given(pool, model, final_model)
+        final_model = given_kept.model
+        outcome.notes.extend(given_kept.notes)
     initial_gap = pool.gaps(initial_model, first_region)
     refitted_gap = None if model is None else pool.gaps(refitted_model, first_region)
     if outcome.steps or chosen.effects or final_model is not outcome.fit.model:
@@ -468,6 +474,7 @@ def diagnose(
     slow = slow_sampling_note(final_model, pool.dt)
     if slow:
         notes.append(slow)
+    notes += outcome.notes
     if rig is not None:
         notes.append(rig_note(rig, pool.parts[0].kin.band))
     diagnosis = Diagnosis(
