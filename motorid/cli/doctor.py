@@ -258,7 +258,9 @@ def breakaway_words(rest: RestSummary, dt: float, units: dict[str, str], model_e
         )
         return f"its level above the kinetic one {why}; {compensation}"
     measured = f"{excess:.3g} ± {error:.2g} {force} from the kinetic level {kinetic:.3g} {force}"
-    if rest.breakaway_one_rate and math.isfinite(rest.breakaway_lag):  # one excess at one rate, read both ways
+    if rest.breakaway_one_rate and math.isfinite(
+        rest.breakaway_lag
+    ):  # one excess at one rate, read both ways
         measured += f", or a lag of {1e3 * rest.breakaway_lag:.3g} ms (the input rises alike at each)"
     if shown:
         return f"static friction: at a slowly rising input it breaks away {measured}; {compensation}"

@@ -78,6 +78,10 @@ DRIVEN = 0.2
 #: the others stop too few times in 30 s to be told from a drive that stops now and then, and
 #: are left to the fit.
 MIN_DRIVEN_STOPS = 6
+#: ... two of which lie at most this far apart [s] (a PWM's period, 50-200 ms at 5-20 Hz). A drive
+#: whose friction holds it at the bottom of each period of a slow sine stops as often, seconds
+#: apart, and is physics to fit. With both rules 51 of the 65 pulsed benches are refused.
+MAX_STOP_SPACING = 1.0
 
 
 def held_start(u: np.ndarray, y: np.ndarray) -> int:
@@ -166,8 +170,9 @@ def driven_stops(u: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def refuse_pulsed(u: np.ndarray, y: np.ndarray, dt: float) -> None:
-    """Refuse a pulsed drive (:func:`driven_stops`, at least :data:`MIN_DRIVEN_STOPS` stops) with
-    a :class:`~motorid.errors.DataError` that says what the record shows and what to do.
+    """Refuse a pulsed drive (:func:`driven_stops`: at least :data:`MIN_DRIVEN_STOPS` stops, a
+    two of them :data:`MAX_STOP_SPACING` or less apart) with a :class:`~motorid.errors.DataError` that
+    says what the record shows and what to do.
 
     Parameters
     ----------
@@ -181,11 +186,13 @@ def refuse_pulsed(u: np.ndarray, y: np.ndarray, dt: float) -> None:
     stops = driven_stops(u, y)
     if stops.size < MIN_DRIVEN_STOPS:
         return
-    apart = float(np.median(np.diff(stops))) * dt
+    apart = float(np.min(np.diff(stops))) * dt
+    if apart > MAX_STOP_SPACING:
+        return
     raise DataError(
         f"no drive model describes this record: the speed falls to zero {stops.size} times while the "
         f"input keeps its sign above {DRIVEN:.0%} of its range (the first at sample {int(stops[0])}, "
-        f"typically {1e3 * apart:.3g} ms apart): a pulsed drive, whose PWM is slower than the motor "
+        f"the closest two {1e3 * apart:.3g} ms apart): a pulsed drive, whose PWM is slower than the motor "
         "(about one stop per PWM period). Record with a PWM frequency well above the motor's bandwidth "
         "(hundreds of hertz or more), or average the speed over whole PWM periods"
     )
