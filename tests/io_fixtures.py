@@ -168,3 +168,26 @@ def pty_pair() -> Iterator[tuple[str, str]]:
     finally:
         proc.terminate()
         proc.wait(10)
+
+
+class SlowUpdatesARX:
+    """An ARX-RLS estimator (na = nb = 2) whose updates numbered ``late(n)`` (from 1) take
+    ``seconds`` longer: an estimator that misses a real-time loop's period now and then."""
+
+    def __init__(self, seconds: float, late: Callable[[int], bool]) -> None:
+        from motorid.estimators import create
+
+        self.inner = create("arx-rls", na=2, nb=2)
+        self.seconds, self.late = seconds, late
+        self.updates = 0
+        self.params = self.inner.params
+
+    def predict(self, u: float) -> float:
+        return self.inner.predict(u)
+
+    def update(self, y: float) -> None:
+        self.updates += 1
+        if self.late(self.updates):
+            time.sleep(self.seconds)
+        self.inner.update(y)
+        self.params = self.inner.params

@@ -4,6 +4,7 @@ with a negative inertia (issue 31): a drive pulsed by a PWM slower than the moto
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pandas as pd
@@ -37,11 +38,29 @@ def pulsed() -> pd.DataFrame:
 
 
 def test_a_pulsed_drive_is_refused_naming_what_the_record_shows(pulsed):
-    with pytest.raises(
-        DataError, match=r"no drive model describes this record: the fitted inertia is -"
-    ) as info:
+    """Refused before any fit by its stops under a held input, one in each period of the PWM (100 ms):
+    the closest two within a period (a stop comes later in the off phase as the duty rises)."""
+    with pytest.raises(DataError, match=r"no drive model describes this record: the speed falls to zero") as info:
         diagnose(pulsed)
-    assert "averaged over whole PWM periods" in str(info.value) and "nan" not in str(info.value)
+    assert "a pulsed drive" in str(info.value) and "nan" not in str(info.value)
+    apart = float(re.search(r"the closest two ([0-9.]+) ms apart", str(info.value)).group(1))
+    assert 50.0 <= apart <= 101.0
+
+
+def test_a_fit_with_a_negative_inertia_or_a_free_run_that_diverges_is_refused():
+    """What a record no drive model describes leaves where nothing refused it earlier: the final
+    model's inertia not positive, or its free run not finite."""
+    from motorid.diagnose.workflow import refuse_unphysical
+
+    units = {"F": "V", "v": "rad/s", "u": "V"}
+    params = {"inertia": 1e-3, "input_gain": 1.0, "viscous": 0.1}
+    good = RigidDrive(("viscous_friction",), params, 0.01)
+    refuse_unphysical(good, 0.5, units)  # physical and finite: nothing said
+    with pytest.raises(DataError, match=r"the fitted inertia is -0.001 V s²/rad/s, not physical") as info:
+        refuse_unphysical(good.with_params(inertia=-1e-3), 0.5, units)
+    assert "averaged over whole PWM periods" in str(info.value)
+    with pytest.raises(DataError, match="the final model's free run does not stay finite"):
+        refuse_unphysical(good, math.nan, units)
 
 
 def test_the_command_line_exits_2_in_one_line_and_writes_no_model(capsys, pulsed, tmp_path):

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import time
 
-from io_fixtures import free_port, start_rig_process, wait_for
+from io_fixtures import SlowUpdatesARX, free_port, start_rig_process, wait_for
 from pyModbusTCP.client import ModbusClient
 from pyModbusTCP.utils import decode_ieee, encode_ieee, long_list_to_word, word_list_to_long
 
@@ -160,27 +160,6 @@ def test_a_lock_step_owner_that_disconnects_frees_the_rig_at_0_V_without_a_fault
         proc.wait(30)
 
 
-class SlowSampleARX:
-    """An ARX-RLS estimator whose 10th and 20th updates take 0.5 s each (12 periods of 40 ms)."""
-
-    def __init__(self) -> None:
-        from motorid.estimators import create
-
-        self.inner = create("arx-rls", na=2, nb=2)
-        self.updates = 0
-        self.params = self.inner.params
-
-    def predict(self, u: float) -> float:
-        return self.inner.predict(u)
-
-    def update(self, y: float) -> None:
-        self.updates += 1
-        if self.updates in (10, 20):
-            time.sleep(0.5)
-        self.inner.update(y)
-        self.params = self.inner.params
-
-
 def test_a_slow_estimator_on_a_lock_step_rig_runs_to_the_end_with_the_default_watchdog(tmp_path):
     """The case of a notebook on a busy machine: the estimator's step outlasted 3 periods of wall time
     and the lock-step rig tripped. The rig waits for its client: the run ends with every sample its own."""
@@ -189,7 +168,7 @@ def test_a_slow_estimator_on_a_lock_step_rig_runs_to_the_end_with_the_default_wa
 
     with RigServer(paper_rig(), port=0, seed=1, watchdog_periods=3.0) as server:
         daq = ModbusDAQ("127.0.0.1", server.port, dt=server.dt, timeout=2.0)
-        estimator = SlowSampleARX()
+        estimator = SlowUpdatesARX(0.5, lambda n: n in (10, 20))
         record = run_online(daq, {"arx": estimator}, [1.5] * 30, None, out=tmp_path / "run.csv")
         assert server.watchdog_trips == 0 and server.status == 0
     assert estimator.updates == 30

@@ -12,37 +12,16 @@ import logging
 import os
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pandas as pd
 import pytest
 from cli_fixtures import run
 from emps_fixtures import real_motor_file
+from io_fixtures import SlowUpdatesARX
 
 from motorid.drive import paper_rig
 from motorid.io import ModbusDAQ, RigServer, SimulatedDAQ, run_online
-
-
-class LateEveryFifth:
-    """An ARX-RLS estimator whose every 5th update takes 0.1 s (2.5 periods of 40 ms)."""
-
-    def __init__(self) -> None:
-        from motorid.estimators import create
-
-        self.inner = create("arx-rls", na=2, nb=2)
-        self.updates = 0
-        self.params = self.inner.params
-
-    def predict(self, u: float) -> float:
-        return self.inner.predict(u)
-
-    def update(self, y: float) -> None:
-        self.updates += 1
-        if self.updates % 5 == 0:
-            time.sleep(0.1)
-        self.inner.update(y)
-        self.params = self.inner.params
 
 
 def warnings_of(caplog: pytest.LogCaptureFixture, words: str) -> list[str]:
@@ -57,7 +36,13 @@ def test_a_client_too_slow_for_a_real_time_rig_is_said_at_its_first_miss_and_at_
     caplog.set_level(logging.WARNING, logger="motorid")
     with RigServer(paper_rig(), port=0, seed=1, lockstep=False, watchdog_periods=None) as server:
         daq = ModbusDAQ("127.0.0.1", server.port, dt=server.dt, timeout=2.0)
-        record = run_online(daq, {"arx": LateEveryFifth()}, [1.0] * 40, None, out=tmp_path / "run.csv")
+        record = run_online(
+            daq,
+            {"arx": SlowUpdatesARX(0.1, lambda n: n % 5 == 0)},
+            [1.0] * 40,
+            None,
+            out=tmp_path / "run.csv",
+        )
     gaps = int(record["seq"].iloc[-1]) - len(record)  # the rig's samples since the link opened, not rows
     assert daq.missed_samples == gaps >= 4  # 8 late updates of 2.5 periods each: at least one miss in two
     said = warnings_of(caplog, "were not read")

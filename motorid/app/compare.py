@@ -192,7 +192,7 @@ def compare_in_blocks(
     if read.spanned or not all(map(runs_in_blocks, models.values())):
         return None
     if options.min_samples > CHUNK_ROWS:  # a first block must hold the samples skipped and scored
-        logger.info("%s: --skip %d is more than a block holds: compared whole", path, options.skip)
+        logger.info("%s: skip=%d is more than a block holds: compared whole", path, options.skip)
         return None
     try:
         first = next(

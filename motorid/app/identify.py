@@ -221,9 +221,7 @@ def band_words(unit: str | None, threshold: float, low_speed_rpm: float, name: s
     if unit == "rad/s":
         return f"{name} < {low_speed_rpm:g} rpm"
     label = unit or "output units"
-    return (
-        f"{name} < {threshold:.4g} {label} (10 % of its max: --low-speed-rpm needs an output in a speed unit)"
-    )
+    return f"{name} < {threshold:.4g} {label} (10 % of its max: low_speed_rpm=... needs an output in a speed unit)"
 
 
 def require_finite_estimate(
@@ -552,8 +550,8 @@ def free_run_warnings(payload: dict[str, Any]) -> list[str]:
     diverged = payload["free_run_diverges_from_sample"]
     if diverged is not None:
         scored = "free_run" in payload["scores"]
-        warnings.append(f"{divergence_words(payload['estimator'], diverged, scored)}; try --basis u,sign or "
-                        "--estimator arx-rls")  # fmt: skip
+        warnings.append(f"{divergence_words(payload['estimator'], diverged, scored)}; try basis='u,sign' or "
+                        "estimator='arx-rls'")  # fmt: skip
     poor = poor_fit_words(payload)
     if poor is not None:
         warnings.append(poor)
@@ -597,10 +595,10 @@ def poor_fit_words(payload: dict[str, Any]) -> str | None:
         if weight < 0:
             return (
                 f"{words}; its sign(u) weight is negative ({weight:.3g}), so it drives backwards at small "
-                "inputs: the mark of an input dead zone, which u,sign cannot hold; try --basis dead_zone:D, D "
+                "inputs: the mark of an input dead zone, which u,sign cannot hold; try basis='dead_zone:D', D "
                 "the input the drive starts to move at (motorid doctor measures it)"
             )
-    return f"{words}; try another --na/--nb or --basis, or motorid doctor for the physics it misses"
+    return f"{words}; try other na=... and nb=... or basis=..., or motorid doctor for the physics it misses"
 
 
 def record_residual_tests(u: np.ndarray, residual: np.ndarray, max_lag: int, notes: list[str]) -> list:

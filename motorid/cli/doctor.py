@@ -25,6 +25,7 @@ from .options import (
     number,
     positive,
     record_options_from_args,
+    with_flags,
 )
 from .report import emit_json, say, show_progress
 
@@ -123,7 +124,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
     for note in diagnosis.notes:
         say(f"  note: {note}")
     for loop in diagnosis.closed_loop:
-        say(f"  {loop.label + ': ' if len(records) > 1 else ''}{loop.sentence()}")
+        say(f"  {loop.label + ': ' if len(records) > 1 else ''}{with_flags(loop.sentence())}")
     for path, (record, segment) in zip(args.data, read, strict=True):
         if segment:
             say(f"  a segment: {path} is longer than --max-samples; the doctor works on its first "

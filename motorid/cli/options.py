@@ -177,7 +177,8 @@ FLAGS: dict[str, str] = {
     for field in ("time", "input", "output", "time_unit", "dt", "resample", "sep", "decimal", "thousands",
                   "comment", "sheet", "input_unit", "input_full_scale", "output_unit", "counts_per_rev",
                   "supply_voltage", "direction", "direction_forward", "duplicates", "max_samples", "start", "stop",
-                  "model", "estimator", "param", "save_model", "skip")
+                  "model", "estimator", "param", "save_model", "skip", "na", "nb", "basis", "low_speed_rpm",
+                  "reference_column")
 }  # fmt: skip
 _ASIDE = re.compile(r" \(([a-z_]+=[^()]*)\)")
 _FIELD = re.compile(r"\b(" + "|".join(sorted(FLAGS, key=len, reverse=True)) + r")=(\.\.\.|'[^']*'|\S+)?")

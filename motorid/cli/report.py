@@ -52,8 +52,11 @@ def warning_line(text: str) -> str | None:
 
 def say_warning(text: str) -> None:
     """Print a warning on stderr as every warning of a command is: ``motorid: warning: <text>``, one
-    line, once per cause, also with ``--quiet`` (which keeps errors and warnings)."""
-    line = warning_line(text)
+    line, once per cause, also with ``--quiet`` (which keeps errors and warnings); the fields a
+    library warning names said as their flags (:func:`~motorid.cli.options.with_flags`)."""
+    from .options import with_flags
+
+    line = warning_line(with_flags(text))
     if line is not None:
         sys.stderr.write(line + "\n")
 

@@ -170,9 +170,9 @@ def driven_stops(u: np.ndarray, y: np.ndarray) -> np.ndarray:
 
 
 def refuse_pulsed(u: np.ndarray, y: np.ndarray, dt: float) -> None:
-    """Refuse a pulsed drive (:func:`driven_stops`: at least :data:`MIN_DRIVEN_STOPS` stops, a
-    two of them :data:`MAX_STOP_SPACING` or less apart) with a :class:`~motorid.errors.DataError` that
-    says what the record shows and what to do.
+    """Refuse a pulsed drive (:func:`driven_stops`: at least :data:`MIN_DRIVEN_STOPS` stops, two of
+    them :data:`MAX_STOP_SPACING` or less apart) with a :class:`~motorid.errors.DataError` that says
+    what the record shows and what to do.
 
     Parameters
     ----------

@@ -72,8 +72,8 @@ FEEDBACK_LAGS = 8
 #: Correlation of the innovations below which a record without a reference is said to look closed
 #: [-] (with :data:`FEEDBACK_Z`): on ``motorid control``'s loop without compensation -0.78; on open
 #: loops -0.01 to +0.19 (the simulated rig's two-sine record, the 15 records of ``realmotors`` read as
-#: they are, 21 planted records of :mod:`.synthetic`, 70 benches of :mod:`.bench`: two seeds per
-#: imperfection and effect).
+#: they are, 21 planted records of :mod:`motorid.diagnose.synthetic`, 70 benches of
+#: :mod:`motorid.diagnose.bench`: two seeds per imperfection and effect).
 FEEDBACK_CORRELATION = -0.3
 #: Standard errors of a correlation of nothing (1/sqrt(M)) the correlation must lie beyond.
 FEEDBACK_Z = 5.0
@@ -241,7 +241,7 @@ class ClosedLoop:
                 f"the input answers the output's noise (their innovations correlate at {fb.correlation:.2f}, the "
                 f"input's {fb.lag} sample{'s' if fb.lag != 1 else ''} after){timing}: the record looks "
                 "like a closed loop; fitted by least squares as an open loop, which the loop's feedback of "
-                "the noise can bias: give its reference column (reference_column, --reference-column)"
+                "the noise can bias: give its reference column (reference_column=...)"
             )
         moved = ", ".join(
             f"{name} {entry['least_squares']:.4g} -> {entry['value']:.4g} ± {entry['standard_error']:.2g}"

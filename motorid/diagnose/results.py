@@ -46,7 +46,7 @@ RELATIVE_STD_LIMIT = 0.5
 MISSING_FACTOR = 3.5
 #: A sample time above this share of the fitted mechanical time constant τ = J / B is said to be
 #: too slow for the balance: its acceleration is a difference of speeds a good part of τ apart,
-#: not the derivative the balance needs. On the bank of benches (:mod:`.bench`) the doctor names
+#: not the derivative the balance needs. On the bank of benches (:mod:`motorid.diagnose.bench`) the doctor names
 #: an effect on no-effect benches at 10 ms with τ = 12 ms (dt/τ = 0.8) and on all three at
 #: 20-40 ms; no real record of ``realmotors/`` comes near (the L298N's 10 ms against 0.28 s).
 SLOW_SAMPLING = 0.5
