@@ -40,7 +40,9 @@ def pulsed() -> pd.DataFrame:
 def test_a_pulsed_drive_is_refused_naming_what_the_record_shows(pulsed):
     """Refused before any fit by its stops under a held input, one in each period of the PWM (100 ms):
     the closest two within a period (a stop comes later in the off phase as the duty rises)."""
-    with pytest.raises(DataError, match=r"no drive model describes this record: the speed falls to zero") as info:
+    with pytest.raises(
+        DataError, match=r"no drive model describes this record: the speed falls to zero"
+    ) as info:
         diagnose(pulsed)
     assert "a pulsed drive" in str(info.value) and "nan" not in str(info.value)
     apart = float(re.search(r"the closest two ([0-9.]+) ms apart", str(info.value)).group(1))

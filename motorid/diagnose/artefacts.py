@@ -146,27 +146,23 @@ def driven_stops(u: np.ndarray, y: np.ndarray) -> np.ndarray:
     u, y : ndarray
         The record's input and speed.
     """
-    y_s = float(np.quantile(np.abs(y), 0.99)) if y.size else 0.0
-    u_s = float(np.quantile(np.abs(u), 0.99)) if u.size else 0.0
+    if not y.size:
+        return np.zeros(0, dtype=int)
+    speed = np.abs(y)  # the one full-rate copy: a long record's doctor keeps few columns at once
+    y_s = float(np.quantile(speed, 0.99))
+    u_s = float(np.quantile(np.abs(u[:: max(1, u.size // 100_000)]), 0.99))  # a sample of u suffices
     if not (y_s > 0.0 and u_s > 0.0):
         return np.zeros(0, dtype=int)
-    moving = np.flatnonzero(np.abs(y) > MOVING * y_s)
-    stopped = np.concatenate(([0], np.cumsum(np.abs(y) < STOPPED * y_s)))
-    sign = np.sign(u) * (np.abs(u) > DRIVEN * u_s)  # 0 where not driven
-    # samples driven against each direction, counted: a stretch is driven one way when it has none
-    off = {+1: np.concatenate(([0], np.cumsum(sign != 1))), -1: np.concatenate(([0], np.cumsum(sign != -1)))}
-    first, second = moving[:-1], moving[1:]
-    gap = second - first > 1
-    first, second = first[gap], second[gap]
-    direction = np.sign(y[first])
-    same = direction == np.sign(y[second])
-    has_stop = stopped[second] - stopped[first + 1] > 0
-    driven = np.zeros(first.size, dtype=bool)
-    for d in (+1, -1):
-        mine = direction == d
-        driven[mine] = off[d][second[mine] + 1] - off[d][first[mine]] == 0
-    found = same & has_stop & driven
-    return first[found] + 1
+    moving = np.flatnonzero(speed > MOVING * y_s)
+    gaps = np.flatnonzero(np.diff(moving) > 1)
+    found = []
+    for first, second in zip(moving[gaps], moving[gaps + 1], strict=True):
+        direction = np.sign(y[first])
+        if direction != np.sign(y[second]) or not np.any(speed[first + 1 : second] < STOPPED * y_s):
+            continue
+        if np.all(direction * u[first : second + 1] > DRIVEN * u_s):
+            found.append(first + 1)
+    return np.array(found, dtype=int)
 
 
 def refuse_pulsed(u: np.ndarray, y: np.ndarray, dt: float) -> None:
