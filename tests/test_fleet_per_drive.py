@@ -159,8 +159,10 @@ def test_an_interrupted_per_drive_run_keeps_the_finished_drives_and_a_rerun_does
 ):
     out = tmp_path / "interrupted"
     argv = [str(MOTORID), "fleet", "doctor", str(fleet_folder), "--per-drive", "--out", str(out),
-            "--scheduler", address, "--no-figures", *DOCTOR]  # fmt: skip
-    proc = subprocess.Popen(argv, stderr=subprocess.PIPE, text=True)
+            "--no-figures", *DOCTOR]  # fmt: skip
+    # its own cluster of one worker: the drives follow one another, so the interrupt lands while some
+    # are still to do (the running scheduler's warm workers can finish them all first)
+    proc = subprocess.Popen([*argv, "--workers", "1"], stderr=subprocess.PIPE, text=True)
     parts = out / "results.parquet"
     wait_for(lambda: parts.is_dir() and any(parts.glob("part-*.parquet")), timeout=120, what="a first drive")
     proc.send_signal(signal.SIGINT)
@@ -172,7 +174,7 @@ def test_an_interrupted_per_drive_run_keeps_the_finished_drives_and_a_rerun_does
     # a drive's rows are stored together: every finished drive has all its record rows
     for _, drive_row in finished.iterrows():
         assert set(drive_row["records"].split(",")) <= set(kept["record"])
-    assert main([*argv[1:], "--json"]) == 0
+    assert main([*argv[1:], "--scheduler", address, "--json"]) == 0
     summary = json.loads(capsys.readouterr().out)
     assert (summary["skipped"], summary["done"], summary["failed"]) == (
         len(finished),
