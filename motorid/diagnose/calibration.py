@@ -3,13 +3,14 @@ step on records with one.
 
 The bank of benches (``--bank``, :func:`bank`): small motors of :mod:`motorid.diagnose.bench` logged
 through one imperfection each, one effect planted or none. Measured with ``--bank --seeds 3
---first 0`` (105 benches): the planted effect named first on 0-8 of 12 per imperfection (none
-on a pulsed drive), a false name on 1 of 3 clean benches (none, drifting delay) and on 3 of 3 at
-20-40 ms (a sample time near the motor's time constant: the torque balance's acceleration is not
-measured there); a logging delay within one sample on 9 of 15 (constant) and 7 of 15 (drifting,
-the start's after ``align``); a drift said on 14 of 15 drifting loggers and on none of 15 constant
-ones. This is where the doctor stands on drives it has not seen; the rules have not yet been
-made to pass on it.
+--first 0`` (165 benches, 11 imperfections): the planted effect named first on 0-9 of 12 per
+imperfection (none on a pulsed drive, refused on 12 of its 15 benches), a false name on 1 of 3
+clean benches (none, drifting delay) and on 3 of 3 at 20-40 ms (a sample time near the motor's
+time constant: the torque balance's acceleration is not measured there, which a note now says);
+a logging delay within one sample on 9 of 15 (constant) and 7 of 15 (drifting, the start's after
+``align``); a drift said on 14 of 15 drifting loggers and on none of 15 constant ones; the
+two-mass rig's and the torque ripple's planted effect on 9 of 12. This is where the doctor
+stands on drives it has not seen; the rules have not yet been made to pass on it.
 
 A no-effect record is a random rig (:func:`motorid.diagnose.synthetic.planted_record`
 with no effect: viscous and Coulomb friction, both in the base model, plus the
