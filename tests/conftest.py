@@ -29,6 +29,7 @@ shows up there.
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 from pathlib import Path
 
@@ -73,6 +74,13 @@ def pytest_configure(config: pytest.Config) -> None:
         "cpu_sensitive: holds two code paths to the same numbers; make test runs these again "
         "under NUMBA_CPU_NAME=generic",
     )
+    # The tests interrupt the commands they start (rig serve, fleet, run) with SIGINT, as Ctrl-C
+    # does. A test run started in the background of a shell (`make test &`, nohup) inherits SIGINT
+    # ignored, and so would every command it starts: such a command stays deaf to Ctrl-C, as a
+    # background job should. The run takes Python's own handler back, so the commands it starts
+    # begin with SIGINT at its default and turn it into KeyboardInterrupt.
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 @pytest.fixture
