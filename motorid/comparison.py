@@ -148,7 +148,7 @@ def input_unit_note(model: Any, units: Mapping[str, str] | None, name: str = "mo
             return f"{name}: the record names no input unit; its input is taken as volts, the model's unit"
         if unit != "V":
             how = (
-                " (PWM duty): give the supply voltage (--supply-voltage) to make it volts"
+                " (PWM duty): give the supply voltage (supply_voltage=...) to make it volts"
                 if unit == "%"
                 else ""
             )

@@ -155,6 +155,8 @@ BAD_INPUT = [
     ("time column as output", "doctor {d}/good.csv --output t", ["'t'"]),
     ("unknown output unit", "identify {d}/good.csv --output-unit rpms", ["--output-unit", "'rpms'", "rpm"]),
     ("supply voltage without duty", "identify {d}/good.csv --supply-voltage 12", ["--supply-voltage", "%"]),
+    ("duty into a model in volts", "compare {d}/rec.csv --model {d}/rig.json --input-unit %",
+     ["the model's input is the amplifier's command in V, the record's is in %", "(--supply-voltage)"]),
     ("compare: missing model file", "compare {d}/rec.csv --model {d}/missing.json", ["missing.json"]),
     (
         "compare: unknown model kind",
@@ -247,9 +249,9 @@ BAD_INPUT = [
     ("--param the filter does not take", "identify {d}/good.csv --estimator friction-ekf --model {d}/rig.json -p Q=1",
      ["--param Q=1", "takes no argument 'Q'", "coulomb0"]),
     ("--daq of no known kind", "run --estimator arx-rls --duration 1 --out {d}/new.csv --daq bogus://x",
-     ["--daq 'bogus://x'", "modbus://HOST:PORT"]),
+     ["--daq bogus://x: expected 'sim'", "modbus://HOST:PORT"]),
     ("--daq with an unknown query", "run --estimator arx-rls --duration 1 --out {d}/new.csv --daq modbus://127.0.0.1:9?foo=2",
-     ["--daq modbus://127.0.0.1:9?foo=2: unknown query parameter"]),
+     ["--daq 'modbus://127.0.0.1:9?foo=2': unknown query parameter"]),
     ("--map that is no TOML", "run --estimator arx-rls --duration 1 --out {d}/new.csv --daq modbus://127.0.0.1:9 "
      "--map {d}/bad_map.toml", ["--map", "bad_map.toml", "not valid TOML"]),
     ("rig map --map that is no TOML", "rig map --map {d}/bad_map.toml", ["--map", "bad_map.toml", "not valid TOML"]),

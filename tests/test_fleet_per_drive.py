@@ -97,6 +97,7 @@ def test_one_row_per_drive_equals_the_joint_doctor_command_on_its_records(
         row = rows.loc[DRIVE_KEY_PREFIX + drive]
         assert row["status"] == "ok", row["error"]
         assert row["records"] == ",".join(paths)
+        assert set(rows.loc[[DRIVE_KEY_PREFIX + drive, *paths], "command"]) == {"doctor per drive"}
         payload = joint_command(capsys, paths)
         expected = flatten(jsonable(payload))
         # the same function on the same data in another process of this machine: equal to the last bit

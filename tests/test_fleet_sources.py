@@ -34,7 +34,7 @@ def test_a_pattern_gives_drive_and_time_from_the_file_name():
 )
 def test_a_pattern_that_does_not_fit_is_named(pattern, path, words):
     with pytest.raises(
-        DataError, match=f"--pattern '{pattern}'.*" + words.replace("{", r"\{").replace("(", r"\(")
+        DataError, match=f"pattern='{pattern}'.*" + words.replace("{", r"\{").replace("(", r"\(")
     ):
         FilenamePattern(pattern).parse(path)
 

@@ -123,3 +123,24 @@ def test_the_papers_cubic_on_a_duty_record_warns_in_identify_and_compare(capsys,
     assert row["diverges_from_sample"] is not None and row["fit_percent"] < 0
     warnings = [line for line in err.splitlines() if line.startswith("motorid: warning:")]
     assert len(warnings) == 1 and f"diverges from sample {row['diverges_from_sample']}" in warnings[0]
+
+
+def test_the_notes_name_fields_in_the_payload_and_flags_in_the_commands_text(capsys, tmp_path):
+    """identify's notes are the library's words (``degree=3``, ``model=...``) in the ``--json`` payload,
+    as :func:`motorid.app.identify_record` gives them, and the flags on the command line's stderr."""
+    path = tmp_path / "simulated.csv"
+    code, _, err = run(capsys, "simulate", "--duration", "10", "--out", str(path))
+    assert code == 0, err
+    code, out, err = run(capsys, "identify", str(path), "--json")
+    assert code == 0, err
+    assert out["notes"][0].endswith("goes far off on measured records; degree=3 for it)")
+    code, _, err = run(capsys, "identify", str(path))
+    assert code == 0, err
+    assert "goes far off on measured records; --degree 3 for it)" in err and "degree=3" not in err
+    code, out, err = run(capsys, "identify", str(path), "--estimator", "friction-ekf", "--json")
+    assert code == 0, err
+    assert any("without a model (model=...) the filter runs on the default rig's constants" in note
+               for note in out["notes"])  # fmt: skip
+    code, _, err = run(capsys, "identify", str(path), "--estimator", "friction-ekf")
+    assert code == 0, err
+    assert "note: without a model (--model) the filter runs on the default rig's constants" in err

@@ -348,10 +348,13 @@ def test_daq_from_url(rig_server):
     with daq:
         daq.write(1.0)
         assert daq.read().seq == 1
-    with pytest.raises(ValueError, match="expected 'sim'"):
+    # the library names its argument (url=...), never the command line's --daq
+    with pytest.raises(ValueError, match=r"^url='tcp://x': expected 'sim'"):
         daq_from_url("tcp://x")
-    with pytest.raises(ValueError, match="seed"):
+    with pytest.raises(ValueError, match=r"^url='modbus://127\.0\.0\.1:5020': plant, seed and realtime"):
         daq_from_url("modbus://127.0.0.1:5020", seed=3)
+    with pytest.raises(ValueError, match=r"^url='sim': register_map and timeout apply to a Modbus DAQ only"):
+        daq_from_url("sim", timeout=1.0)
 
 
 # -- a rig server in its own process: killed for real, stopped by SIGTERM ------------------------------

@@ -523,19 +523,6 @@ def test_a_simulink_dataset_object_is_refused_saying_how_to_save_its_signals(fol
 ROOT = Path(__file__).resolve().parent.parent
 #: A command-line flag in a string: ``--time-unit``, ``--model`` (not ``x--y`` nor a lone ``--``).
 FLAG = re.compile(r"(?<![\w-])--[a-z][a-z-]+")
-#: Modules outside ``motorid/cli/`` whose strings still name flags, how many, and why they are still
-#: there. The list only shrinks: a module that names more flags than listed, or a module not listed
-#: that names one, fails; a listed module that names none any more is taken out of the list.
-STILL_NAMING_FLAGS: dict[str, tuple[int, str]] = {
-    "motorid/app/identify.py": (3, "the payload's notes and the low-speed band's words, which identify() and "
-                                   "`motorid identify --json` give alike"),
-    "motorid/comparison.py": (1, "the PWM duty message of compare_models, outside the records wing"),
-    "motorid/fleet/jobs.py": (1, "a fleet row's `command` (`doctor --per-drive`): the command run, a value"),
-    "motorid/fleet/runner.py": (3, "a fleet row's `command`, and the run folder's message (--out)"),
-    "motorid/fleet/sources.py": (5, "the file-name pattern's messages (--pattern)"),
-    "motorid/fleet/trend.py": (2, "the trend's messages on a per-drive run and records without a time"),
-    "motorid/io/daq_url.py": (4, "the DAQ address's messages (--daq)"),
-}  # fmt: skip
 
 
 def _flags_named(path: Path) -> list[tuple[int, str]]:
@@ -565,7 +552,7 @@ def _is_a_command_line(path: Path) -> bool:
 def test_no_module_outside_the_command_line_names_a_flag():
     """The library's messages name fields and arguments (``time_unit=...``), which the command line
     says as flags (``--time-unit``, :func:`motorid.cli.options.with_flags`): no string of a module
-    outside ``motorid/cli/`` (docstrings aside) names a flag, but those of :data:`STILL_NAMING_FLAGS`."""
+    outside ``motorid/cli/`` (docstrings aside) names a flag."""
     found = {}
     for path in sorted((ROOT / "motorid").rglob("*.py")):
         module = str(path.relative_to(ROOT))
@@ -574,10 +561,7 @@ def test_no_module_outside_the_command_line_names_a_flag():
         named = _flags_named(path)
         if named:
             found[module] = named
-    new = {m: named for m, named in found.items() if len(named) > STILL_NAMING_FLAGS.get(m, (0, ""))[0]}
-    gone = [m for m in STILL_NAMING_FLAGS if m not in found]
-    assert new == {}, "strings that name a command-line flag: name the field (field=...) instead"
-    assert gone == [], "listed in STILL_NAMING_FLAGS but naming no flag any more: take them out of the list"
+    assert found == {}, "strings that name a command-line flag: name the field (field=...) instead"
 
 
 def test_the_command_line_says_each_field_as_its_flag():
@@ -592,6 +576,21 @@ def test_the_command_line_says_each_field_as_its_flag():
         "name it with --direction and merge with --duplicates first|last|mean (--resample resamples)"
     )
     assert with_flags("stop=5 must be after start=6 [s]") == "--stop 5 must be after --start 6 [s]"
+
+
+def test_the_fleet_and_the_daq_fields_are_said_as_their_flags_with_values_as_a_shell_takes_them():
+    """``url`` is ``--daq``; a quoted value keeps its quotes only where a shell needs them."""
+    from motorid.cli.options import with_flags
+
+    assert with_flags("url='bogus://x': expected 'sim'") == "--daq bogus://x: expected 'sim'"
+    assert with_flags("pattern='{drive}_{date:%Y%m%d}.csv' has neither") == (
+        "--pattern '{drive}_{date:%Y%m%d}.csv' has neither"
+    )
+    assert with_flags("input='motor speed' is missing") == "--input 'motor speed' is missing"
+    assert with_flags("a run per record (a doctor run without per_drive=True)") == (
+        "a run per record (a doctor run without --per-drive)"
+    )
+    assert with_flags("out='/tmp/run': holds the results") == "--out /tmp/run: holds the results"
 
 
 def test_an_excel_sheet_with_a_units_row_reads_in_those_units(original, folder, reference):

@@ -411,7 +411,7 @@ def estimator_for_record(
         if takes_identify_basis(name, options):
             notes.append(
                 f"static block {IDENTIFY_BASIS} (u and sign(u), identify's default: the paper's cubic "
-                "goes far off on measured records; --degree 3 for it)"
+                "goes far off on measured records; degree=3 for it)"
             )
         return create_estimator(name, options), notes
     if SIMULATED_RIG_ATTR not in record.attrs:
@@ -423,7 +423,8 @@ def estimator_for_record(
     note = input_unit_note(paper_rig(), units, "the default rig")
     notes = [note] if note else []
     notes.append(
-        "no --model: the filter runs on the default rig's constants (the record is motorid's simulation)"
+        "without a model (model=...) the filter runs on the default rig's constants (the record is motorid's "
+        "simulation)"
     )
     return create_estimator(name, options), notes
 

@@ -42,6 +42,7 @@ from .options import (
     number,
     read_record_from_args,
     record_options_from_args,
+    with_flags,
 )
 from .report import emit_json, frame_records, say, say_params, say_warning, show_progress
 
@@ -87,7 +88,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
     band = band_words(unit, threshold, args.low_speed_rpm)
     say(f"{args.estimator} on {args.data} ({payload['samples']} samples)")
     for note in payload["notes"]:
-        say(f"  note: {note}")
+        say(f"  note: {with_flags(note)}")
     say_params("", payload["params"])
     for kind, row in payload["scores"].items():
         if unit == "rad/s":
@@ -170,7 +171,7 @@ def say_validation(validation: dict[str, Any]) -> None:
         f"  on {validation['record']} ({validation['samples']} samples), the identified model without refitting:"
     )
     for note in validation["notes"]:
-        say(f"  note: {note}")
+        say(f"  note: {with_flags(note)}")
     diverged = validation["free_run_diverges_from_sample"]
     row = validation["scores"].get("free_run")
     if diverged is not None:

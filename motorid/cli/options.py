@@ -11,6 +11,7 @@ import errno
 import math
 import os
 import re
+import shlex
 import sys
 from collections.abc import Callable, Iterator
 from dataclasses import fields
@@ -170,23 +171,29 @@ def add_record_columns(parser: argparse.ArgumentParser, max_samples_help: str = 
 
 #: The fields the library's messages name (``field=...`` or ``field=VALUE``) and the flags the command
 #: line says instead, the one table of them: the record options' (:class:`motorid.io.records.RecordOptions`,
-#: which :func:`record_options_from_args` reads from their flags) and the commands' options that the
-#: application layer's messages name (``model``, ``estimator``, ``param``, ``save_model``, ``skip``).
+#: which :func:`record_options_from_args` reads from their flags), the commands' options that the
+#: application layer's messages name (``model``, ``estimator``, ``param``, ``save_model``, ``skip``,
+#: ``degree``), the fleet's (``out``, ``pattern``, ``per_drive`` of :func:`motorid.fleet.run`) and the
+#: DAQ address (``url`` of :func:`motorid.io.daq_from_url`, the command line's ``--daq``).
 FLAGS: dict[str, str] = {
-    field: "--" + field.replace("_", "-")
-    for field in ("time", "input", "output", "time_unit", "dt", "resample", "sep", "decimal", "thousands",
-                  "comment", "sheet", "input_unit", "input_full_scale", "output_unit", "counts_per_rev",
-                  "supply_voltage", "direction", "direction_forward", "duplicates", "max_samples", "start", "stop",
-                  "model", "estimator", "param", "save_model", "skip", "na", "nb", "basis", "low_speed_rpm",
-                  "reference_column")
+    **{
+        field: "--" + field.replace("_", "-")
+        for field in ("time", "input", "output", "time_unit", "dt", "resample", "sep", "decimal", "thousands",
+                      "comment", "sheet", "input_unit", "input_full_scale", "output_unit", "counts_per_rev",
+                      "supply_voltage", "direction", "direction_forward", "duplicates", "max_samples", "start",
+                      "stop", "model", "estimator", "param", "save_model", "skip", "na", "nb", "degree", "basis",
+                      "low_speed_rpm", "reference_column", "out", "pattern", "per_drive")
+    },
+    "url": "--daq",
 }  # fmt: skip
 _ASIDE = re.compile(r" \(([a-z_]+=[^()]*)\)")
-_FIELD = re.compile(r"\b(" + "|".join(sorted(FLAGS, key=len, reverse=True)) + r")=(\.\.\.|'[^']*'|\S+)?")
+_FIELD = re.compile(r"\b(" + "|".join(sorted(FLAGS, key=len, reverse=True)) + r")=(\.\.\.|'[^']*'|[^\s);]+)?")
 
 
 def with_flags(message: str) -> str:
     """A library message as the command line says it: each field of :data:`FLAGS` named as ``field=...``
-    (``time_unit=...``, ``direction='dir'``) becomes its flag (``--time-unit``, ``--direction dir``).
+    (``time_unit=...``, ``direction='dir'``, ``pattern='{drive}.csv'``) becomes its flag with the value
+    as a shell takes it (``--time-unit``, ``--direction dir``, ``--pattern '{drive}.csv'``).
 
     Parameters
     ----------
@@ -198,7 +205,9 @@ def with_flags(message: str) -> str:
         value = found.group(2)
         if value in (None, "...", "True"):  # True: a flag that takes no value
             return FLAGS[found.group(1)]
-        return f"{FLAGS[found.group(1)]} {value.strip(chr(39))}"
+        if value.startswith("'") and value.endswith("'") and len(value) > 1:
+            value = shlex.quote(value[1:-1])
+        return f"{FLAGS[found.group(1)]} {value}"
 
     def aside(found: re.Match[str]) -> str:  # "--time-unit (time_unit=...)": the flag is said already
         fields = [field for field, _ in _FIELD.findall(found.group(1))]

@@ -137,11 +137,11 @@ def daq_from_options(
     the_map = register_map_option(register_map)
     try:
         return daq_from_url(url, dt=dt, register_map=the_map, timeout=timeout, **kw)
-    except ValueError as exc:
-        text = str(exc).removeprefix(f"{url.strip()!r}: ")
-        if text.startswith("--") or simulated:  # the simulated rig's refusal names its dt (main's with_flags)
+    except ValueError as exc:  # the address said as url=... (main's with_flags: --daq), once
+        text = str(exc).removeprefix(f"{url.strip()!r}: ").removeprefix(f"url={url!r}: ")
+        if simulated:  # the simulated rig's refusal names its own field (dt=...)
             raise DataError(text) from None
-        raise DataError(f"--daq {url}: {text}") from None
+        raise DataError(f"url={url.strip()!r}: {text}") from None
 
 
 def rig_stopped(command: str, url: str, exc: Exception) -> DataError:

@@ -84,6 +84,18 @@ class RecordTask:
 DRIVE_KEY_PREFIX = "drive:"
 
 
+def per_drive_command(job: DoctorJob) -> str:
+    """The ``command`` the rows of a per-drive run say: the job's, on each drive's records as one
+    model (``"doctor per drive"``).
+
+    Parameters
+    ----------
+    job : DoctorJob
+        The doctor a per-drive run runs on each drive.
+    """
+    return f"{job.command} per drive"
+
+
 @dataclass(frozen=True)
 class DriveTask:
     """One drive's work in a worker: read its records, run the doctor on them as one model.
@@ -108,7 +120,7 @@ class DriveTask:
     figures: Path | None
 
     def __call__(self, drive: str, paths: list[str], times: list[str | None]) -> list[dict[str, Any]]:
-        command = f"{self.job.command} --per-drive"
+        command = per_drive_command(self.job)
         row: dict[str, Any] = {"record": DRIVE_KEY_PREFIX + drive, "drive": drive, "time": None,
                                "command": command, "records": ",".join(paths)}  # fmt: skip
         rows = [
@@ -174,4 +186,13 @@ def _row_of(row: dict[str, Any]) -> Iterator[None]:
     row["worker"] = f"{socket.gethostname()}:{os.getpid()}"
 
 
-__all__ = ["DRIVE_KEY_PREFIX", "DoctorJob", "DriveTask", "IdentifyJob", "Job", "RecordOptions", "RecordTask"]
+__all__ = [
+    "DRIVE_KEY_PREFIX",
+    "DoctorJob",
+    "DriveTask",
+    "IdentifyJob",
+    "Job",
+    "RecordOptions",
+    "RecordTask",
+    "per_drive_command",
+]

@@ -46,7 +46,7 @@ from pathlib import Path
 from typing import Any
 
 from motorid.errors import DataError, OutputError
-from motorid.fleet.jobs import DRIVE_KEY_PREFIX, Job, RecordOptions
+from motorid.fleet.jobs import DRIVE_KEY_PREFIX, Job, RecordOptions, per_drive_command
 from motorid.fleet.results import ResultsStore
 from motorid.io.records import read_record
 from motorid.io.records.options import COMMAND_MAX_SAMPLES
@@ -519,7 +519,8 @@ def known_identities(store: ResultsStore, command: str) -> dict[str, tuple[str, 
     store : ResultsStore
         The results of the run folder.
     command : str
-        The rows' ``command``, e.g. ``"doctor --per-drive"``; only its successful rows count.
+        The rows' ``command``, e.g. ``"doctor per drive"`` (:func:`~motorid.fleet.jobs.per_drive_command`);
+        only its successful rows count.
     """
     previous = store.rows()
     if not len(previous):
@@ -578,7 +579,7 @@ def run_fleet_per_drive(
     """
     start = time.perf_counter()
     store = ResultsStore(out)
-    command = f"{task.job.command} --per-drive"
+    command = per_drive_command(task.job)
     known = known_identities(store, command)
     groups, unread = group_by_drive(paths, read, client, given, known)
     members = {drive: [path for path, _ in group] for drive, group in groups.items()}
@@ -726,7 +727,7 @@ def run(
         if not per_drive and not pending_records(paths, store, retry_failed):  # every record done: no cluster
             return FleetRun(records=len(paths), skipped=len(paths), done=0, failed=0, seconds=0.0)
         if per_drive:  # every record's drive known, every drive done: no cluster either
-            known = known_identities(store, f"{job.command} --per-drive")
+            known = known_identities(store, per_drive_command(job))
             if all(path in known or "drive" in given.get(path, {}) for path in map(os.path.abspath, paths)):
                 groups, _ = group_by_drive(paths, read, None, given, known)
                 members = {drive: [path for path, _ in group] for drive, group in groups.items()}
@@ -766,7 +767,7 @@ def check_run_kind(out: str | os.PathLike[str] | ResultsStore, per_drive: bool) 
     if per_drive_rows != per_drive:
         held, asked = ("per drive", "per record") if per_drive_rows else ("per record", "per drive")
         raise DataError(
-            f"--out {store.folder}: holds the results of a run {held}; a run {asked} needs a folder of its own"
+            f"out={str(store.folder)!r}: holds the results of a run {held}; a run {asked} needs a folder of its own"
         )
 
 

@@ -100,11 +100,11 @@ class FilenamePattern:
             parts.append(re.escape(self.pattern[position : match.start()]))
             name, fmt = match.group(1), match.group(2)
             if name in seen and name in ("drive", "date", "time"):
-                raise DataError(f"--pattern {self.pattern!r}: the field {{{name}}} appears twice")
+                raise DataError(f"pattern={self.pattern!r}: the field {{{name}}} appears twice")
             if name in ("date", "time"):
                 if not fmt:
                     raise DataError(
-                        f"--pattern {self.pattern!r}: {{{name}}} needs a format, e.g. {{{name}:%Y%m%d}}"
+                        f"pattern={self.pattern!r}: {{{name}}} needs a format, e.g. {{{name}:%Y%m%d}}"
                     )
                 formats[name] = fmt
                 parts.append(f"(?P<{name}>.+?)")
@@ -116,7 +116,7 @@ class FilenamePattern:
             position = match.end()
         parts.append(re.escape(self.pattern[position:]))
         if "drive" not in seen and not formats:
-            raise DataError(f"--pattern {self.pattern!r} has neither {{drive}} nor {{date:...}}/{{time:...}}")
+            raise DataError(f"pattern={self.pattern!r} has neither {{drive}} nor {{date:...}}/{{time:...}}")
         return re.compile("".join(parts) + r"\Z"), formats
 
     def parse(self, path: str | os.PathLike[str]) -> dict[str, Any]:
@@ -132,7 +132,7 @@ class FilenamePattern:
         tail = "/".join(Path(path).parts[-depth:])
         match = regex.fullmatch(tail)
         if match is None:
-            raise DataError(f"--pattern {self.pattern!r} does not match the record {tail!r}")
+            raise DataError(f"pattern={self.pattern!r} does not match the record {tail!r}")
         out: dict[str, Any] = {}
         if match.groupdict().get("drive") is not None:
             out["drive"] = match.group("drive")
@@ -140,7 +140,7 @@ class FilenamePattern:
             try:
                 out["time"] = datetime.strptime(match.group(name), fmt)
             except ValueError as exc:
-                raise DataError(f"--pattern {self.pattern!r}: {{{name}}} of {tail!r}: {exc}") from None
+                raise DataError(f"pattern={self.pattern!r}: {{{name}}} of {tail!r}: {exc}") from None
         return out
 
 

@@ -65,14 +65,14 @@ def friction_trends(results: pd.DataFrame) -> pd.DataFrame:
     """
     if results["record"].astype(str).str.startswith(DRIVE_KEY_PREFIX).any():
         raise DataError(
-            "the results are of a run per drive (motorid fleet doctor --per-drive): one model per drive, "
-            "so no friction against time; trends need a run per record (motorid fleet doctor without --per-drive)"
+            "the results are of a run per drive (per_drive=True): one model per drive, so no friction against "
+            "time; trends need a run per record (a doctor run without per_drive=True)"
         )
     ok = results[(results["status"] == "ok") & results["time"].notna()] if "time" in results else results[:0]
     if ok.empty:
         raise DataError(
             "no successful record with a time in the results: give the records a time "
-            "(attrs 'time', or --pattern with {date:...}) and rerun"
+            "(attrs 'time', or pattern=... with {date:...}) and rerun"
         )
     frames = []
     # (prefix of a parameter's column, prefix and suffix of its standard error's column)

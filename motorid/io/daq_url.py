@@ -53,12 +53,13 @@ def daq_from_url(
     text = url.strip()
     if text in ("sim", "sim://", "simulated"):
         if register_map is not None or timeout is not None:
-            raise ValueError("--daq sim: register_map and timeout apply to Modbus only")
+            raise ValueError(f"url={url!r}: register_map and timeout apply to a Modbus DAQ only")
         return SimulatedDAQ(plant, dt=dt, realtime=realtime, seed=seed, u_max=u_max)
     if text.startswith(("modbus://", "modbus-tcp://", "modbus-rtu://")):
         if plant is not None or seed is not None or realtime:
             raise ValueError(
-                f"--daq {url}: plant, seed and realtime apply to --daq sim only (the rig server owns them)"
+                f"url={url!r}: plant, seed and realtime apply to the simulated DAQ (url='sim') only (the rig server "
+                "owns them)"
             )
         kw: dict[str, Any] = {"u_max": u_max, "register_map": register_map}
         if dt is not None:
@@ -66,4 +67,4 @@ def daq_from_url(
         if timeout is not None:
             kw["timeout"] = timeout
         return ModbusDAQ.from_url(text, **kw)
-    raise ValueError(f"--daq {url!r}: expected 'sim', 'modbus://HOST:PORT' or 'modbus-rtu:///dev/DEVICE'")
+    raise ValueError(f"url={url!r}: expected 'sim', 'modbus://HOST:PORT' or 'modbus-rtu:///dev/DEVICE'")
