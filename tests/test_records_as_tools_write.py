@@ -505,18 +505,93 @@ def test_a_simulink_structure_with_time_reads_by_signal_name(original, folder, r
     _same(blocks.reset_index(drop=True), reference)
 
 
-def test_a_simulink_dataset_object_is_refused_saying_how_to_save_its_signals(folder):
-    path = folder / "logsout.mat"
+def _matlab_object(f, name: str, kind: str) -> None:
+    """A MATLAB object as a v7.3 MAT-file holds it: a reference into the file's subsystem, marked by
+    its class and ``MATLAB_object_decode`` (3: a MATLAB class object)."""
+    f[name] = np.array([[3707764736, 2, 1, 1, 1, 1]], dtype=np.uint32)
+    f[name].attrs["MATLAB_class"] = np.bytes_(kind)
+    f[name].attrs["MATLAB_object_decode"] = 3
+
+
+#: What every refusal of a MATLAB object says: what is read, and how to save the object's signals.
+READ_INSTEAD = (
+    r"a MATLAB record is read as a numeric vector per variable \(any version of MAT-file, v7\.3 included\) or as "
+    r"Simulink's 'Structure With Time' by signal name: log the signals as 'Structure With Time'.*"
+    r"t = ts\.Time; y = ts\.Data"
+)
+
+
+@pytest.mark.parametrize(
+    ("objects", "held"),
+    [
+        (
+            {"logsout": "Simulink.SimulationData.Dataset"},
+            "'logsout' \\(a Simulink\\.SimulationData\\.Dataset object\\)",
+        ),
+        (
+            {"u_ts": "timeseries", "y_ts": "timeseries"},
+            "'u_ts' \\(a timeseries object\\), 'y_ts' \\(a timeseries object\\)",
+        ),
+    ],
+)
+def test_a_file_of_simulink_objects_is_refused_saying_what_is_read_and_how_to_save_its_signals(
+    folder, objects, held
+):
+    path = folder / f"{'_'.join(objects)}.mat"
+    _mat73(path, lambda f: [_matlab_object(f, name, kind) for name, kind in objects.items()])
+    with pytest.raises(
+        DataError, match=f"holds only MATLAB objects, which are not read: {held}; {READ_INSTEAD}"
+    ):
+        read_record(path, input="u_log", output="y_log")
+
+
+def test_the_objects_beside_a_record_are_no_columns(original, folder, reference, capsys):
+    """A record saved beside the Dataset ``sim`` logged reads as the record; the Dataset asked for as a
+    column is refused as an object (its reference into MATLAB's subsystem is no samples), and a
+    column that is missing is refused naming the objects too."""
+    path = folder / "beside_logsout.mat"
 
     def write(f):
-        f["logsout"] = np.array([[3707764736, 2, 1, 1, 1, 1]], dtype=np.uint32)
-        f["logsout"].attrs["MATLAB_class"] = np.bytes_("Simulink.SimulationData.Dataset")
-        f["logsout"].attrs["MATLAB_object_decode"] = 3
+        for column in original:
+            f[column] = original[column].to_numpy().reshape(1, -1)
+            f[column].attrs["MATLAB_class"] = np.bytes_("double")
+        _matlab_object(f, "logsout", "Simulink.SimulationData.Dataset")
 
     _mat73(path, write)
-    with pytest.raises(DataError, match=r"holds 'logsout', a Simulink Simulink\.SimulationData\.Dataset object.*"
-                                        r"'Structure With Time'"):  # fmt: skip
-        read_record(path, input="u_log", output="y_log")
+    _same(read_record(path, output_unit="rpm"), reference)
+    with pytest.raises(DataError, match=f"'logsout' is a Simulink\\.SimulationData\\.Dataset object, which is not read; "
+                                        f"{READ_INSTEAD}"):  # fmt: skip
+        read_record(path, output="logsout")
+    with pytest.raises(DataError, match=r"column 'speed' is missing .* columns are \['t', 'u', 'y'\]; name the output "
+                                        r"column with output=\.\.\.; .* also holds MATLAB objects, which are not read: "
+                                        r"'logsout' \(a Simulink\.SimulationData\.Dataset object\)"):  # fmt: skip
+        read_record(path, output="speed")
+    code, _, err = run(capsys, "identify", str(path), "--output", "speed")  # the command line says its flag
+    assert code == 2 and err.count("\n") == 1 and "name the output column with --output;" in err, err
+    assert "'logsout' (a Simulink.SimulationData.Dataset object)" in err and "output=" not in err
+
+
+def test_a_v7_mat_file_with_a_matlab_object_reads_its_vectors_and_refuses_the_object(
+    original, folder, reference
+):
+    """MATLAB's default MAT-file (v7, scipy's reader): an object saved beside the record (here an
+    old-style class object, as scipy writes one) is no column, and is refused when asked for."""
+    import scipy.io
+    from scipy.io.matlab import MatlabObject
+
+    fields = np.zeros((1, 1), dtype=[("Data", object), ("Time", object)])
+    fields[0, 0]["Data"], fields[0, 0]["Time"] = original["y"].to_numpy(), original["t"].to_numpy()
+    ts = MatlabObject(fields, "timeseries")
+    path = folder / "beside_ts_v7.mat"
+    scipy.io.savemat(path, {**{c: original[c].to_numpy() for c in original}, "ts": ts})
+    _same(read_record(path, output_unit="rpm"), reference)
+    with pytest.raises(DataError, match=f"'ts' is a MATLAB object, which is not read; {READ_INSTEAD}"):
+        read_record(path, output="ts")
+    alone = folder / "ts_v7.mat"
+    scipy.io.savemat(alone, {"ts": ts})
+    with pytest.raises(DataError, match=f"holds only MATLAB objects, which are not read: 'ts' \\(a MATLAB object\\); "
+                                        f"{READ_INSTEAD}"):  # fmt: skip
+        read_record(alone)
 
 
 # --------------------------------------------------------------------------- fields in the library, flags on the command line

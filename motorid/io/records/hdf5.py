@@ -1,5 +1,6 @@
 """HDF5 records (h5py), MATLAB v7.3 files included: a column per one-dimensional dataset,
-named by its path; the "structure with time" Simulink logs read by signal name. Read whole,
+named by its path; the "structure with time" Simulink logs read by signal name; MATLAB objects
+(a ``timeseries``, a Simulink ``Dataset``) refused, saying how to save their signals. Read whole,
 or in blocks by slices of the datasets.
 """
 
@@ -19,20 +20,37 @@ from motorid.io.records.options import quoted
 HDF5_ERRORS = (OSError, RuntimeError, KeyError, ValueError, TypeError)
 
 
-#: MATLAB classes of the objects Simulink logs (``sim``'s ``logsout``, ``timeseries``): stored in
-#: MATLAB's own object format, which is not read.
-SIMULINK_OBJECTS = ("Simulink.SimulationData.Dataset", "Simulink.SimulationData.Signal", "timeseries")
+#: What a MATLAB file is read as, in the messages that refuse the objects one holds.
+MATLAB_READ = (
+    "a MATLAB record is read as a numeric vector per variable (any version of MAT-file, v7.3 included) or "
+    "as Simulink's 'Structure With Time' by signal name"
+)
+#: How to save what a MATLAB object holds so that it is read.
+MATLAB_OBJECT_ADVICE = (
+    "log the signals as 'Structure With Time' (a To Workspace block's Save format, or the model's Data "
+    "Import/Export), or save each signal's time and values as variables (ts = logsout.get('speed').Values; "
+    "t = ts.Time; y = ts.Data; save('record.mat', 't', 'y'))"
+)
 
 
-def _hdf5_file(name: str) -> tuple[Any, dict[str, tuple[int, ...]], dict[str, Any], dict[str, str]]:
+def _hdf5_file(
+    name: str,
+) -> tuple[Any, dict[str, tuple[int, ...]], dict[str, Any], dict[str, str], dict[str, str]]:
     """An HDF5 file opened (an ``h5py.File``, to be closed by the caller), the shape of each of
     its columns, its record attributes, and each column's dataset path.
 
     A column is a dataset, named by its path; a MATLAB v7.3 structure that Simulink logs
     ("structure with time": ``sig.time``, ``sig.signals.values``, ``sig.signals.label``) is
     also the column ``sig`` (and its label), and its time the column ``t`` when the file has
-    none and every such structure has as many samples. A Simulink object (:data:`SIMULINK_OBJECTS`)
-    is refused when it is all the file holds, saying how to save its signals.
+    none and every such structure has as many samples. A MATLAB object (a ``timeseries``, a
+    Simulink ``Dataset`` that ``sim`` logs: any dataset MATLAB marks with ``MATLAB_object_decode``)
+    is no column (:func:`choose_columns` refuses it).
+
+    Returns
+    -------
+    tuple
+        The open file, the shape of each column, the record attributes, each column's dataset
+        path, and the MATLAB objects of the file (path -> class name).
     """
     import h5py
 
@@ -41,6 +59,7 @@ def _hdf5_file(name: str) -> tuple[Any, dict[str, tuple[int, ...]], dict[str, An
     except OSError as exc:
         raise DataError(f"{name} is not a readable HDF5 file: {one_line_reason(exc)}") from None
     shapes: dict[str, tuple[int, ...]] = {}
+    objects: dict[str, str] = {}
     elsewhere: list[
         str
     ] = []  # what keeps data in other files (raised after the visit: h5py's callbacks must return)
@@ -52,7 +71,10 @@ def _hdf5_file(name: str) -> tuple[Any, dict[str, tuple[int, ...]], dict[str, An
                     f"the dataset {quoted(key)} keeps its data in other files "
                     f"({'virtual' if item.is_virtual else 'external storage'})"
                 )
-            shapes[key] = tuple(item.shape)
+            if int(item.attrs.get("MATLAB_object_decode", 0)) > 0:
+                objects[key] = _matlab_class(item) or "MATLAB"
+            else:
+                shapes[key] = tuple(item.shape)
 
     def visit_link(key: str, link: Any) -> None:
         if isinstance(link, h5py.ExternalLink):
@@ -73,7 +95,6 @@ def _hdf5_file(name: str) -> tuple[Any, dict[str, tuple[int, ...]], dict[str, An
                 f"{name}: {elsewhere[0]}: a record is read from its own file only; copy the data into it"
             )
         attrs = attrs_from_json(text, name, f"the root attribute {ATTRS_KEY!r}")
-        objects = {key: kind for key in handle if (kind := _matlab_class(handle[key])) in SIMULINK_OBJECTS}
         paths = {key: key for key in shapes}
         signals = _simulink_structures(handle, shapes)
         for signal, (values, _) in signals.items():
@@ -83,17 +104,56 @@ def _hdf5_file(name: str) -> tuple[Any, dict[str, tuple[int, ...]], dict[str, An
         if signals and "t" not in shapes and len(times) == 1:
             first = next(iter(signals.values()))[1]
             shapes["t"], paths["t"] = shapes[first], first
-        if objects and not signals and all(key in objects for key in shapes):
-            variable, kind = next(iter(objects.items()))
-            raise DataError(
-                f"{name} holds {quoted(variable)}, a Simulink {kind} object, in MATLAB's object format, which is not "
-                "read: log the signals as 'Structure With Time' (a To Workspace block's Save format, or the model's "
-                "Data Import/Export), or save their Time and Data as variables (y = ts.Data; t = ts.Time)"
-            )
     except BaseException:
         handle.close()
         raise
-    return handle, shapes, attrs, paths
+    return handle, shapes, attrs, paths, objects
+
+
+def _objects_words(objects: dict[str, str]) -> str:
+    """The MATLAB objects of a file (name -> class), what is read instead and how to save their signals."""
+    listed = [f"{quoted(path)} (a {kind} object)" for path, kind in objects.items()]
+    more = f" and {len(listed) - 3} more" if len(listed) > 3 else ""
+    return f"{', '.join(listed[:3])}{more}; {MATLAB_READ}: {MATLAB_OBJECT_ADVICE}"
+
+
+def choose_columns(
+    name: str, choose: Choose, shapes: dict[str, tuple[int, ...]], objects: dict[str, str]
+) -> list[str]:
+    """The columns ``choose`` takes from ``shapes`` in the file ``name`` that also holds the MATLAB
+    ``objects`` (variable or dataset name -> class), which are no columns.
+
+    A file of objects alone, and a column asked for that is an object, are refused naming the
+    objects, what is read and how to save their signals; any other refusal of ``choose`` names
+    the objects too.
+
+    Parameters
+    ----------
+    name : str
+        The file, for the messages.
+    choose : Choose
+        The chooser of the columns asked for (:func:`~motorid.io.records.columns.column_chooser`).
+    shapes : dict
+        Column name -> shape of the data the file holds.
+    objects : dict
+        MATLAB object name -> its class ("MATLAB" when the file does not say).
+    """
+    if objects and not shapes:
+        raise DataError(f"{name} holds only MATLAB objects, which are not read: {_objects_words(objects)}")
+    try:
+        return choose(shapes)
+    except DataError as exc:
+        if not objects:
+            raise
+        for path, kind in objects.items():
+            if any(f"column {quoted(key)} is missing" in str(exc) for key in (path, path.rsplit("/", 1)[-1])):
+                raise DataError(
+                    f"{name}: {quoted(path)} is a {kind} object, which is not read; {MATLAB_READ}: "
+                    f"{MATLAB_OBJECT_ADVICE}"
+                ) from None
+        raise DataError(
+            f"{exc}; {name} also holds MATLAB objects, which are not read: {_objects_words(objects)}"
+        ) from None
 
 
 def _matlab_class(item: Any) -> str:
@@ -125,9 +185,9 @@ def _simulink_structures(handle: Any, shapes: dict[str, tuple[int, ...]]) -> dic
 
 
 def read_hdf5(name: str, choose: Choose) -> tuple[dict[str, np.ndarray], dict[str, Any]]:
-    handle, shapes, attrs, paths = _hdf5_file(name)
+    handle, shapes, attrs, paths, objects = _hdf5_file(name)
     with handle:
-        chosen = choose(shapes)
+        chosen = choose_columns(name, choose, shapes, objects)
         try:
             return {key: np.asarray(handle[paths[key]][()]).reshape(-1) for key in chosen}, attrs
         except HDF5_ERRORS as exc:
@@ -140,10 +200,12 @@ def hdf5_blocks(name: str, kind: str, mapping: dict[str, str], optional: set[str
     """An HDF5 record by slices of ``chunk_rows`` samples of its datasets."""
     if regular_file_size(name) == 0:
         raise DataError(f"{name} is empty")
-    handle, shapes, attrs, paths = _hdf5_file(name)
+    handle, shapes, attrs, paths, objects = _hdf5_file(name)
     with handle:
         found: dict[str, str] = {}
-        chosen = column_chooser(name, mapping, False, None, found, optional)(shapes)
+        chosen = choose_columns(
+            name, column_chooser(name, mapping, False, None, found, optional), shapes, objects
+        )
         yield attrs
         yield None
         rows = samples_of(shapes[chosen[0]]) or 0
