@@ -30,7 +30,9 @@ def test_the_balance_inertia_is_the_bernoulli_series_and_its_inverse_gives_the_i
     assert inertia_from_discrete(J, 0.0, dt) == J
 
 
-def held_response(u: np.ndarray, J: float, B: float, g: float, coulomb: float, w0: float, dt: float) -> np.ndarray:
+def held_response(
+    u: np.ndarray, J: float, B: float, g: float, coulomb: float, w0: float, dt: float
+) -> np.ndarray:
     """The exact speed at the end of each sample of a drive ``J ẇ = g u - B w - C`` whose input is
     held over each sample and whose speed stays positive: ``w_k = e^{-x} w_{k-1} + (1 - e^{-x})
     (g u_k - C) / B``, ``x = B dt / J``."""

@@ -8,13 +8,12 @@ import dataclasses
 
 import numpy as np
 import pytest
+from balance_reference import reference_columns, reference_target
 
 from motorid.diagnose.model import _linear_solve, model_balance, model_key
 from motorid.diagnose.synthetic import planted_record
 from motorid.diagnose.workflow import gaps, prepare
 from motorid.drive.rigid import RigidDrive
-
-from balance_reference import reference_columns, reference_target
 
 
 @pytest.fixture(scope="module")

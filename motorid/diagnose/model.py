@@ -595,7 +595,9 @@ def _linear_solve(
         def column(k: int, j: int, eff: Effect = eff, full: list[list[np.ndarray]] = full) -> np.ndarray:
             if not full[k]:
                 kin = data.parts[k].kin
-                full[k].append(eff.columns(kin.balance_w, shape, stribeck_shape, kin.q if eff.position else None))
+                full[k].append(
+                    eff.columns(kin.balance_w, shape, stribeck_shape, kin.q if eff.position else None)
+                )
             col = full[k][0][:, j]
             if j == len(eff.linear) - 1:
                 full[k].clear()  # the record's full-rate columns go once the last is decimated
@@ -1064,10 +1066,14 @@ def fit_model(
             param_std[name] = math.hypot(param_std[name], slope * trade.delay_free_std)
     coefficient = theta.pop("inertia")
     inertia = data.inertia(coefficient, theta.get("viscous", 0.0))
-    if coefficient > 0.0 and "inertia" in param_std:  # the delta method: σ_J = |dJ/dJ_b| σ_Jb
+    if (
+        coefficient > 0.0 and inertia != coefficient and "inertia" in param_std
+    ):  # delta method: σ_J = |dJ/dJ_b| σ_Jb
         step = 1e-6 * coefficient
         viscous = theta.get("viscous", 0.0)
-        slope = (data.inertia(coefficient + step, viscous) - data.inertia(coefficient - step, viscous)) / (2 * step)
+        slope = (data.inertia(coefficient + step, viscous) - data.inertia(coefficient - step, viscous)) / (
+            2 * step
+        )
         param_std["inertia"] *= abs(slope)
     params = {"inertia": inertia, "input_gain": gain, **theta, **shape}
     model = RigidDrive(effects, params, data.dt, stribeck_shape)
