@@ -8,32 +8,18 @@ import dataclasses
 
 import numpy as np
 import pytest
+from balance_reference import reference_columns, reference_target
 
 from motorid.diagnose.model import _linear_solve, model_balance, model_key
 from motorid.diagnose.synthetic import planted_record
 from motorid.diagnose.workflow import gaps, prepare
-from motorid.drive.rigid import RigidDrive, term_columns
+from motorid.drive.rigid import RigidDrive
 
 
 @pytest.fixture(scope="module")
 def prep():
     planted = planted_record("coulomb_friction", 0, duration=10.0)
     return prepare(planted.record)
-
-
-def reference_columns(prep, names: list[str]) -> np.ndarray:
-    """The decimated regressor columns written out: J's column a, then each term's column."""
-    kin, data = prep.kin, prep.data
-    terms = term_columns(tuple(names), kin.w, 1.0, "exponential")
-    return np.column_stack([data.a, *(kin.decimate(terms[:, j]) for j in range(len(names)))])
-
-
-def reference_target(prep) -> np.ndarray:
-    """F_in = g u (g = 1), held over the sample and taken at its end, decimated."""
-    kin = prep.kin
-    force = np.asarray(kin.u, dtype=float)
-    held = np.append(0.5 * (force[:-1] + force[1:]), force[-1])
-    return kin.decimate(held)
 
 
 def compensation(data, rows, k: int) -> np.ndarray:
@@ -124,8 +110,11 @@ def test_each_model_gets_its_own_balance_and_gaps_not_another_ones(prep):
     assert model_key(one.with_params(offset=-0.0)) != model_key(one)  # -0.0 == 0.0, but not the same bits
     for model in (one, other, one, bit_apart, other):
         f_in, f_model = model_balance(model, data)
-        np.testing.assert_array_equal(f_in, kin.decimate(data.balance_force(model.input_force(kin.u))))
-        np.testing.assert_array_equal(f_model, model.inertia * data.a + kin.decimate(model.friction(kin.w)))
+        f_held = np.where(data.holds, data.balance_force(model.input_force(kin.u)), 0.0)
+        np.testing.assert_array_equal(f_in, kin.decimate(f_held))
+        inertia = data.balance_inertia(model.inertia, model.params["viscous"])
+        friction = kin.decimate(np.where(data.holds, model.friction(kin.balance_w), 0.0))
+        np.testing.assert_array_equal(f_model, inertia * data.a + friction)
     first = gaps(one, prep, None)
     with pytest.raises(dataclasses.FrozenInstanceError):
         first.overall = -1.0  # a gap kept for the next caller cannot be changed by this one

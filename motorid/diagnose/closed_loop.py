@@ -399,10 +399,10 @@ def instrumental_refit(
         f_in = model_balance(model, data)[0]
         x_cols, z_cols = [data.a], [kin_r.decimate(kin_r.a)]
         for eff in effects:
-            on_w = eff.columns(kin.w, model.params, model.stribeck_shape, None)
+            on_w = eff.columns(kin.balance_w, model.params, model.stribeck_shape, None)
             on_r = eff.columns(kin_r.w, model.params, model.stribeck_shape, None)
             for j in range(len(eff.linear)):
-                x_cols.append(kin.decimate(on_w[:, j]))
+                x_cols.append(kin.decimate(np.where(data.holds, on_w[:, j], 0.0)))  # as data.decimated
                 z_cols.append(kin_r.decimate(on_r[:, j]))
         X_rows.append(np.column_stack(x_cols)[rows])
         Z_rows.append(np.column_stack(z_cols)[rows])
@@ -428,11 +428,17 @@ def instrumental_refit(
     theta = theta_s / scale
     std = np.sqrt(np.clip(np.diag(cov_s), 0.0, None)) / scale
     changes, entries = {}, {}
+    fitted = {names[col]: float(theta[j]) for j, col in enumerate(used)}
+    viscous = fitted.get("viscous", model.params.get("viscous", 0.0))
     for j, col in enumerate(used):
         name = names[col]
-        value = float(theta[j])  # [the parameter's unit]: the balance is in force units, as the model
+        value = fitted[name]  # [the parameter's unit]: the balance is in force units, as the model
+        scale_std = 1.0
+        if name == "inertia":  # the balance's coefficient J_b, and the inertia it gives
+            value = pool.parts[0].data.inertia(value, viscous)
+            scale_std = value / fitted[name] if fitted[name] > 0.0 else 1.0
         changes[name] = value
-        entries[name] = {"value": value, "standard_error": float(std[j]),
+        entries[name] = {"value": value, "standard_error": float(std[j]) * abs(scale_std),
                          "least_squares": float(model.params[name])}  # fmt: skip
     try:
         return model.with_params(**changes), entries

@@ -35,18 +35,26 @@ def balance_residual(model: RigidDrive, data: BalanceData) -> tuple[np.ndarray, 
     On samples near rest (not moving) static friction holds whatever force lies
     between the model's friction levels at 0- and 0+ (widened by its static friction
     ``ΔF_s``, moved by a position ripple's torque ``T_q`` where the drive rests): there the
-    model force is ``J a + clip(F_in - J a, T(0-) - ΔF_s + T_q, T(0+) + ΔF_s + T_q)``.
+    model force is ``J a + clip(F_in - J a, T(0-) - ΔF_s + T_q, T(0+) + ΔF_s + T_q)``, on the
+    force and acceleration as they are (the moving samples' balance leaves out the samples it
+    does not hold on, :meth:`~motorid.diagnose.model.BalanceData.decimated`). ``J`` is the
+    acceleration's coefficient in the balance (:meth:`~motorid.diagnose.model.BalanceData.balance_inertia`).
     """
     f_in, f_model = model_balance(model, data)
-    f_meas = data.decimated("F|", data.balance_force(data.input_gain * data.kin.u))
+    kin = data.kin
+    f_meas = data.decimated("F|", data.balance_force(data.input_gain * kin.u), held=False)
+    f_as_is = data.decimated(
+        ("input force", model_key(model)), lambda: data.balance_force(model.input_force(kin.u)), held=False
+    )
     eps = max(1e-9, 1e-6 * data.scale["w_max"])
     t_pos, t_neg = model.without(*model.position_effects).friction(np.array([eps, -eps]))
     excess = model.params.get("breakaway_excess", 0.0)  # static friction widens the band at rest
     rest = ~data.moving
     ripple = model.position_torque(data.kin.q[data.idx[rest]])  # moves the band where it rests
     lo, hi = min(t_pos, t_neg) - excess + ripple, max(t_pos, t_neg) + excess + ripple
-    ja = model.params["inertia"] * data.a[rest]
-    f_model = f_model.copy()
+    ja = data.balance_inertia(model.inertia, model.params.get("viscous", 0.0)) * data.a_as_is[rest]
+    f_in, f_model = f_in.copy(), f_model.copy()
+    f_in[rest] = f_as_is[rest]
     f_model[rest] = ja + np.clip(f_in[rest] - ja, lo, hi)
     return f_in - f_model, f_meas
 

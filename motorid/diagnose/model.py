@@ -10,7 +10,15 @@ regressor columns decimated in parallel, least squares on the moving samples
 (|w| above the noise band: a resting drive's static friction is not a function
 of w) of::
 
-    F_in,d = J a_d + Σ_i θ_i c_i,d                                        (linear part)
+    F_in,d = J_b a_d + Σ_i θ_i c_i,d                                      (linear part)
+
+On a velocity record each sample's balance is written on its own ends, ``a = Δw / dt`` and the
+columns on ``w̄ = (w_{k-1} + w_k) / 2``, against the force held over the sample: with the force
+and friction held over it this holds exactly for ``J_b`` (:func:`discrete_inertia`), and J comes
+back from J_b and B (:func:`inertia_from_discrete`). Samples it does not hold on (the speed
+reverses or comes to rest inside them) are set to zero in every column before the decimation's
+filter (:meth:`BalanceData.decimated`), so each decimated row is a sum of balances that hold.
+A position record's balance is the filtered position's central differences, J_b = J.
 
 bias-compensated for the noise in the acceleration: ``a_d`` is the derivative of the measured
 speed, and its noise (variance ``σ_a²`` per row, :func:`~motorid.diagnose.kinematics.acceleration_noise`)
@@ -101,6 +109,10 @@ class BalanceData:
     accel_noise : float
         Variance of the noise on the decimated acceleration over the moving samples [v²/s²]
         (:func:`~motorid.diagnose.kinematics.acceleration_noise`), taken out of the fit.
+    holds : ndarray of bool, shape (N,)
+        The full-rate samples whose balance holds as written (see the module notes): on a
+        velocity record, the samples whose two ends move the same way, both above the noise
+        band; every sample of a position record.
     """
 
     kin: Kinematics
@@ -111,16 +123,23 @@ class BalanceData:
     moving: np.ndarray = field(init=False)
     w_threshold: float = field(init=False)
     accel_noise: float = field(init=False)
+    holds: np.ndarray = field(init=False)
     scale: dict[str, float] = field(init=False)
     _cache: dict = field(init=False, default_factory=dict, repr=False)
 
     def __post_init__(self) -> None:
         kin = self.kin
         self.idx = kin.decimated_index
-        self.a = kin.decimate(kin.a)
         self.w = kin.w[self.idx]
         w_max = float(np.max(np.abs(kin.w[kin.valid]))) if kin.valid.any() else 1.0
         self.w_threshold = max(3.0 * kin.noise, 2e-3 * w_max)
+        if kin.output_kind == "velocity":
+            start = kin.balance_w - 0.5 * kin.dt * kin.balance_a
+            end = kin.balance_w + 0.5 * kin.dt * kin.balance_a
+            self.holds = (np.minimum(np.abs(start), np.abs(end)) > self.w_threshold) & (start * end > 0.0)
+        else:
+            self.holds = np.ones(kin.n, dtype=bool)
+        self.a = self.decimated("a", kin.balance_a)
         # a decimated sample is "moving" when the full-rate speed stays above the threshold
         slow = (np.abs(kin.w) < self.w_threshold).astype(float)
         half = kin.factor
@@ -155,25 +174,58 @@ class BalanceData:
         """The records whose rows a fit stacks: this one."""
         return (self,)
 
-    def decimated(self, key: Hashable, column: np.ndarray | Callable[[], np.ndarray]) -> np.ndarray:
-        """Decimate a full-rate column, cached under ``key``.
+    def decimated(
+        self, key: Hashable, column: np.ndarray | Callable[[], np.ndarray], held: bool = True
+    ) -> np.ndarray:
+        """Decimate a full-rate column of the balance, cached under ``key``.
 
         ``column`` is the column or a function that computes it, called only when
-        ``key`` is not cached. The cache keeps the columns used last, as many as fit
+        ``key`` is not cached. With ``held``, the samples whose balance does not hold as
+        written (:attr:`holds`) are set to zero first, in every column alike, so each
+        decimated row is a filtered sum of balances that hold; without, the column as it is
+        (the force and acceleration at rest, where :func:`~motorid.diagnose.measures.balance_residual`
+        bounds the friction instead). The cache keeps the columns used last, as many as fit
         in :data:`CACHE_BYTES` (16 to 256): the columns every fit shares stay, the
         oldest points of past shape searches go first.
         """
+        key = (key, held)
         value = self._cache.pop(key, None)
         if value is None:
-            value = self.kin.decimate(column() if callable(column) else column)
+            value = np.asarray(column() if callable(column) else column, dtype=float)
+            value = self.kin.decimate(np.where(self.holds, value, 0.0) if held else value)
             limit = min(max(int(CACHE_BYTES // max(value.nbytes, 1)), 16), 256)
             while len(self._cache) >= limit:
                 del self._cache[next(iter(self._cache))]
         self._cache[key] = value  # most recently used last
         return value
 
+    @property
+    def a_as_is(self) -> np.ndarray:
+        """The decimated acceleration with no sample set to zero (``decimated(held=False)``)."""
+        return self.decimated("a", self.kin.balance_a, held=False)
+
+    def balance_inertia(self, inertia: float, viscous: float) -> float:
+        """The coefficient of :attr:`a` in this record's balance for a drive of ``inertia`` J
+        and viscous friction B: :func:`discrete_inertia` on a velocity record, J itself on a
+        position record."""
+        if self.kin.output_kind != "velocity":
+            return float(inertia)
+        return discrete_inertia(inertia, viscous, self.dt)
+
+    def inertia(self, coefficient: float, viscous: float) -> float:
+        """The inertia J whose balance coefficient is ``coefficient`` (the inverse of
+        :meth:`balance_inertia`)."""
+        if self.kin.output_kind != "velocity":
+            return float(coefficient)
+        return inertia_from_discrete(coefficient, viscous, self.dt)
+
     def balance_force(self, force: np.ndarray) -> np.ndarray:
-        """The force held over sample k taken at the output instant: ``(F[k] + F[k+1]) / 2``."""
+        """The force of each sample's balance: on a velocity record the force held over sample
+        k, ``F[k]`` (:attr:`~motorid.diagnose.kinematics.Kinematics.balance_a`); on a position
+        record, whose speed and acceleration are taken at the output instant, the force held
+        on either side of it, ``(F[k] + F[k+1]) / 2``."""
+        if self.kin.output_kind == "velocity":
+            return np.asarray(force, dtype=float)
         out = np.empty_like(force)
         out[:-1] = 0.5 * (force[:-1] + force[1:])
         out[-1] = force[-1]
@@ -227,6 +279,65 @@ class PooledBalance:
     def input_gain(self) -> float:
         return self.parts[0].input_gain
 
+    def balance_inertia(self, inertia: float, viscous: float) -> float:
+        """:meth:`BalanceData.balance_inertia` (the records share one sample time)."""
+        return self.parts[0].balance_inertia(inertia, viscous)
+
+    def inertia(self, coefficient: float, viscous: float) -> float:
+        """:meth:`BalanceData.inertia` (the records share one sample time)."""
+        return self.parts[0].inertia(coefficient, viscous)
+
+
+def discrete_inertia(inertia: float, viscous: float, dt: float) -> float:
+    """The coefficient J_b of the acceleration in a velocity record's balance [F s²/v].
+
+    Over a sample of length dt whose input force F and friction T hold, ``J ẇ = F - B w - T``
+    is solved exactly: ``w_k = e^{-x} w_{k-1} + (1 - e^{-x}) (F - T) / B`` with ``x = B dt / J``.
+    Written on the sample's ends, with ``w̄ = (w_{k-1} + w_k) / 2`` and ``Δw = w_k - w_{k-1}``::
+
+        F = J_b Δw / dt + B w̄ + T,    J_b = B dt / (1 - e^{-x}) - B dt / 2
+
+    which holds at any ratio of dt to the time constant J / B; ``J_b = J (1 + x² / 12 + ...)``,
+    J itself without viscous friction.
+
+    Parameters
+    ----------
+    inertia : float
+        J [F s²/v] (kg m² for a rotary drive in N m and rad/s), > 0.
+    viscous : float
+        B [F s/v], >= 0.
+    dt : float
+        Sample time [s].
+    """
+    x = viscous * dt / inertia if inertia > 0.0 else 0.0
+    if x <= 0.0 or not math.isfinite(x):
+        return float(inertia)
+    return float(inertia * (x / -math.expm1(-x) - 0.5 * x))
+
+
+def inertia_from_discrete(coefficient: float, viscous: float, dt: float) -> float:
+    """The inertia J whose balance coefficient (:func:`discrete_inertia`) is ``coefficient``::
+
+        J = -B dt / ln(1 - B dt / (J_b + B dt / 2))
+
+    The coefficient itself where that is not defined (no viscous friction, or J_b <= B dt / 2,
+    which no positive inertia gives).
+
+    Parameters
+    ----------
+    coefficient : float
+        J_b [F s²/v].
+    viscous : float
+        B [F s/v].
+    dt : float
+        Sample time [s].
+    """
+    bdt = viscous * dt
+    held = coefficient + 0.5 * bdt
+    if not bdt > 0.0 or not held > bdt or not math.isfinite(held):
+        return float(coefficient)
+    return float(-bdt / math.log1p(-bdt / held))
+
 
 def stacked(columns: list[np.ndarray]) -> np.ndarray:
     """The columns of the records of a pool one after the other (one record's column itself)."""
@@ -264,7 +375,9 @@ def model_balance(model: RigidDrive, data: BalanceData) -> tuple[np.ndarray, np.
     kin = data.kin
     key = model_key(model)
     f_in = data.decimated(("input force", key), lambda: data.balance_force(model.input_force(kin.u)))
-    f_model = model.inertia * data.a + data.decimated(("friction", key), lambda: model.friction(kin.w, kin.q))
+    inertia = data.balance_inertia(model.inertia, model.params.get("viscous", 0.0))
+    friction = data.decimated(("friction", key), lambda: model.friction(kin.balance_w, kin.q))
+    f_model = inertia * data.a + friction
     return f_in, f_model
 
 
@@ -482,7 +595,9 @@ def _linear_solve(
         def column(k: int, j: int, eff: Effect = eff, full: list[list[np.ndarray]] = full) -> np.ndarray:
             if not full[k]:
                 kin = data.parts[k].kin
-                full[k].append(eff.columns(kin.w, shape, stribeck_shape, kin.q if eff.position else None))
+                full[k].append(
+                    eff.columns(kin.balance_w, shape, stribeck_shape, kin.q if eff.position else None)
+                )
             col = full[k][0][:, j]
             if j == len(eff.linear) - 1:
                 full[k].clear()  # the record's full-rate columns go once the last is decimated
@@ -949,12 +1064,22 @@ def fit_model(
         # the delay was estimated: its uncertainty goes into the rest (delta method)
         for name, slope in trade.sensitivity.items():
             param_std[name] = math.hypot(param_std[name], slope * trade.delay_free_std)
-    inertia = theta.pop("inertia")
+    coefficient = theta.pop("inertia")
+    inertia = data.inertia(coefficient, theta.get("viscous", 0.0))
+    if (
+        coefficient > 0.0 and inertia != coefficient and "inertia" in param_std
+    ):  # delta method: σ_J = |dJ/dJ_b| σ_Jb
+        step = 1e-6 * coefficient
+        viscous = theta.get("viscous", 0.0)
+        slope = (data.inertia(coefficient + step, viscous) - data.inertia(coefficient - step, viscous)) / (
+            2 * step
+        )
+        param_std["inertia"] *= abs(slope)
     params = {"inertia": inertia, "input_gain": gain, **theta, **shape}
     model = RigidDrive(effects, params, data.dt, stribeck_shape)
     return FitResult(
         model,
-        _accel_rss(rss, inertia),
+        _accel_rss(rss, coefficient),
         rss,
         int(rows.sum()),
         k + len(shaped),

@@ -1,0 +1,68 @@
+"""The doctor's torque balance on a velocity record is written on each sample's own ends, which
+holds exactly for a drive with viscous and Coulomb friction whatever the sample time
+(:func:`motorid.diagnose.model.discrete_inertia`); the references here are closed forms."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from motorid.diagnose.model import discrete_inertia, fit_model, inertia_from_discrete
+from motorid.diagnose.prepare import prepare
+
+BASE = ("viscous_friction", "coulomb_friction")  # one direction: an offset would repeat the Coulomb column
+
+
+def test_the_balance_inertia_is_the_bernoulli_series_and_its_inverse_gives_the_inertia_back():
+    J, dt = 2e-6, 0.01
+    for x in (1e-4, 1e-2, 0.1):
+        B = x * J / dt
+        # x / (1 - e^-x) - x / 2 = 1 + x²/12 - x⁴/720 + x⁶/30240 - ...: the terms left out are below 1e-13
+        series = J * (1.0 + x**2 / 12.0 - x**4 / 720.0 + x**6 / 30240.0)
+        assert discrete_inertia(J, B, dt) == pytest.approx(series, rel=1e-12)
+    for x in (1e-6, 0.3, 1.0, 4.0):
+        B = x * J / dt
+        assert inertia_from_discrete(discrete_inertia(J, B, dt), B, dt) == pytest.approx(J, rel=1e-9)
+    assert discrete_inertia(J, 0.0, dt) == J
+    assert inertia_from_discrete(J, 0.0, dt) == J
+
+
+def held_response(
+    u: np.ndarray, J: float, B: float, g: float, coulomb: float, w0: float, dt: float
+) -> np.ndarray:
+    """The exact speed at the end of each sample of a drive ``J ẇ = g u - B w - C`` whose input is
+    held over each sample and whose speed stays positive: ``w_k = e^{-x} w_{k-1} + (1 - e^{-x})
+    (g u_k - C) / B``, ``x = B dt / J``."""
+    decay = math.exp(-B * dt / J)
+    w = np.empty(u.size)
+    last = w0
+    for k, level in enumerate(u):
+        last = decay * last + (1.0 - decay) * (g * level - coulomb) / B
+        w[k] = last
+    return w
+
+
+@pytest.mark.parametrize("ratio", [0.05, 0.8, 1.5])
+def test_a_drive_sampled_near_its_time_constant_is_fitted_to_its_truth(ratio):
+    """A drive turning one way under a held two-tone input, sampled at ``ratio`` times its time
+    constant J / B (the central differences of the filtered speed took the inertia 10 % high at
+    0.8), with white noise of 0.1 % of its speed: the fit gives J, B and C of the truth. B and C
+    within 0.5 % (their spread over seeds is below 0.1 %); J within 3 %: the noise compensation
+    takes the speed's noise from its part near the Nyquist frequency, where a drive sampled at
+    1.5 J/B also has signal, which takes J 2.2 % high on the noise-free record (0.7 % at 0.8)."""
+    J, B, g, coulomb = 1.4e-6, 1.1e-4, 2e-3, 2.6e-3
+    dt = ratio * J / B
+    t = np.arange(4000) * dt
+    rng = np.random.default_rng(3)
+    u = 8.0 + 2.5 * np.sin(2 * np.pi * t / (400 * dt)) + 1.5 * np.sign(np.sin(2 * np.pi * t / (37 * dt)))
+    w = held_response(u, J, B, g, coulomb, w0=(g * 8.0 - coulomb) / B, dt=dt)
+    y = w + 1e-3 * float(np.max(w)) * rng.standard_normal(w.size)
+    record = pd.DataFrame({"t": t, "u": u, "y": y})
+    record.attrs["dt"] = dt
+    fitted = fit_model(prepare(record, input_gain=g).data, BASE).model.params
+    assert fitted["viscous"] == pytest.approx(B, rel=0.005)
+    assert fitted["coulomb"] == pytest.approx(coulomb, rel=0.005)
+    assert fitted["inertia"] == pytest.approx(J, rel=0.03)
