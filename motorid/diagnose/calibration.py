@@ -3,14 +3,14 @@ step on records with one.
 
 The bank of benches (``--bank``, :func:`bank`): small motors of :mod:`motorid.diagnose.bench` logged
 through one imperfection each, one effect planted or none. Measured with ``--bank --seeds 3
---first 0`` (165 benches, 11 imperfections): the planted effect named first on 0-9 of 12 per
-imperfection (none on a pulsed drive, refused on 12 of its 15 benches), a false name on 1 of 3
-clean benches (none, drifting delay) and on 3 of 3 at 20-40 ms (a sample time near the motor's
-time constant: the torque balance's acceleration is not measured there, which a note now says);
-a logging delay within one sample on 9 of 15 (constant) and 7 of 15 (drifting, the start's after
-``align``); a drift said on 14 of 15 drifting loggers and on none of 15 constant ones; the
-two-mass rig's and the torque ripple's planted effect on 9 of 12. This is where the doctor
-stands on drives it has not seen; the rules have not yet been made to pass on it.
+--first 0`` (165 benches, 11 imperfections), with the balance written on each sample's ends
+(:func:`~motorid.diagnose.model.discrete_inertia`): the planted effect named first on 3-10 of 12
+per imperfection (none on a pulsed drive, refused on 12 of its 15 benches; 3 of 12 at 20-40 ms,
+where the noise floor comes out 7-14 times the true noise); no false name on the 30 benches that
+hide nothing (5 of 30 before, 3 of 3 at 20-40 ms); a logging delay within one sample on 14 of 15
+(constant) and 8 of 15 (drifting, the start's after ``align``); a drift said on 13 of 15 drifting
+loggers and on none of 15 constant ones. This is where the doctor stands on drives it has not
+seen; the rules have not yet been made to pass on it.
 
 A no-effect record is a random rig (:func:`motorid.diagnose.synthetic.planted_record`
 with no effect: viscous and Coulomb friction, both in the base model, plus the
@@ -23,8 +23,9 @@ at the default threshold and print the quantiles of the best candidate's
 
 Measured with ``--seeds 200 --first 5000`` (30 s records at 100 Hz): nothing
 named on 0 of 200 records, a false-alarm rate of 0 % (below 1.5 % with 95 %
-confidence); the best candidate's ΔBIC had median -5.5 and 99th percentile
-6.7, under the threshold of 10 before the held-out and free-run checks.
+confidence); the best candidate's ΔBIC had median -6.2 and 99th percentile
+9.3, under the threshold of 10 before the held-out and free-run checks (median -5.5 and 99th
+percentile 6.7 before the balance was written on each sample's ends).
 
 Second steps (``--second``): each effect of :data:`BASE_FOR <motorid.diagnose.synthetic.BASE_FOR>`
 planted alone, the workflow run for two steps from the effect's base model, once with the
