@@ -22,7 +22,6 @@ controller reads y[k], measured at t[k], and holds u[k] over [t[k], t[k] + dt).
 from __future__ import annotations
 
 import copy
-import json
 import logging
 import math
 from collections.abc import Callable
@@ -38,7 +37,7 @@ from motorid.drive.files import ModelCard
 from motorid.drive.rigid import RigidDrive, check_sample_time
 from motorid.io.base import DAQ
 from motorid.io.online import KEEP_WITH_FILE, RunRecorder, sample_loop, samples_for
-from motorid.io.records import ATTRS_MARKER
+from motorid.io.records import attrs_line
 
 logger = logging.getLogger(__name__)
 
@@ -605,15 +604,3 @@ def loop_attrs(controller: SpeedController) -> dict[str, Any]:
         "reference": "reference", "kp": controller.pi.kp, "ki": controller.pi.ki, "u_max": controller.pi.u_max,
         "compensation": None if comp is None else comp.source,
     }  # fmt: skip
-
-
-def attrs_line(attrs: dict[str, Any]) -> str:
-    """A record's attributes as the first line of its CSV (:data:`motorid.io.records.ATTRS_MARKER` and
-    JSON, as :func:`motorid.io.records.write_record` writes them).
-
-    Parameters
-    ----------
-    attrs : dict
-        JSON-serialisable attributes (finite numbers).
-    """
-    return ATTRS_MARKER + json.dumps(attrs, separators=(",", ":"), allow_nan=False)
