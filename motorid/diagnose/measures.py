@@ -309,7 +309,7 @@ def _typical(excess: np.ndarray, rate: np.ndarray) -> tuple[np.ndarray, np.ndarr
 
 
 def rates_per_record(
-    pool: Pool, model: RigidDrive, samples: list[np.ndarray] | None = None
+    pool: Pool, excess: np.ndarray, rate: np.ndarray, samples: list[np.ndarray] | None = None
 ) -> tuple[float, ...] | None:
     """Each record's mean rate at breakaway [F/s] where the rates of a joint run spread between
     its records only (else None): at least two records show 3 typical rests or more
@@ -327,22 +327,24 @@ def rates_per_record(
     ----------
     pool : Pool
         The records of the drive.
-    model : RigidDrive
-        The model whose kinetic level the excess is measured above.
+    excess, rate : ndarray
+        The excess [F] and the rate [F/s] at each rest of each record, in the records' order
+        (:meth:`Pool.breakaway_excess <motorid.diagnose.prepare.Pool.breakaway_excess>` with ``samples``).
     samples : list of ndarray or None
         Each record's full-rate samples the rests break away in (None: all).
     """
-    from motorid.diagnose.prepare import Pool as OneRecord
-
+    counts = [
+        (p.rests if samples is None else p.rests.within(samples[k])).count for k, p in enumerate(pool.parts)
+    ]
+    edges = np.cumsum(counts)[:-1]
     means = []
-    for k, (part, label) in enumerate(zip(pool.parts, pool.labels, strict=True)):
-        own = None if samples is None else [samples[k]]
-        excess, rate = _typical(*OneRecord([part], [label]).breakaway_excess(model, own))
-        if excess.size < 3:
+    for own_excess, own_rate in zip(np.split(excess, edges), np.split(rate, edges), strict=True):
+        own_excess, own_rate = _typical(own_excess, own_rate)
+        if own_excess.size < 3:
             continue
-        if not one_rate(rate):
+        if not one_rate(own_rate):
             return None
-        means.append(float(np.mean(rate)))
+        means.append(float(np.mean(own_rate)))
     return tuple(means) if len(means) >= 2 else None
 
 
@@ -350,7 +352,8 @@ def breakaway(pool: Pool, model: RigidDrive, samples: list[np.ndarray] | None = 
     """The breakaway the rests of ``pool`` show above ``model``'s kinetic level (see
     :class:`Breakaway`; the rests that break away in the full-rate ``samples``, the typical ones:
     :func:`_typical`)."""
-    excess, rate = _typical(*pool.breakaway_excess(model, samples))
+    raw = pool.breakaway_excess(model, samples)
+    excess, rate = _typical(*raw)
     n = int(excess.size)
     if n < 3:
         return Breakaway(n, math.nan, math.nan, math.nan)
@@ -367,7 +370,7 @@ def breakaway(pool: Pool, model: RigidDrive, samples: list[np.ndarray] | None = 
         return Breakaway(n, math.nan, math.inf, math.nan, math.inf)
     se = max(se, rounding)
     level = float(coef[0])
-    record_rates = rates_per_record(pool, model, samples) if len(pool.parts) > 1 else None
+    record_rates = rates_per_record(pool, *raw, samples) if len(pool.parts) > 1 else None
     if record_rates is not None:
         # one rate per record: the level, or the lag that holds the whole excess (τ = Σ r e / Σ r²)
         lag = float(rate @ excess / (rate @ rate))
