@@ -91,7 +91,7 @@ def measure(
         run = subprocess.run(argv, capture_output=True, text=True, timeout=seconds * 3 + 300)
         elapsed = time.perf_counter() - started
         load_after = os.getloadavg()[0]
-        rows = pd.read_csv(out) if out.exists() else pd.DataFrame({"seq": []})
+        rows = pd.read_csv(out, comment="#") if out.exists() else pd.DataFrame({"seq": []})
     finally:
         for proc in busy:
             proc.kill()

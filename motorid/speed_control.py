@@ -22,7 +22,6 @@ controller reads y[k], measured at t[k], and holds u[k] over [t[k], t[k] + dt).
 from __future__ import annotations
 
 import copy
-import json
 import logging
 import math
 from collections.abc import Callable
@@ -38,7 +37,7 @@ from motorid.drive.files import ModelCard
 from motorid.drive.rigid import RigidDrive, check_sample_time
 from motorid.io.base import DAQ
 from motorid.io.online import KEEP_WITH_FILE, RunRecorder, sample_loop, samples_for
-from motorid.io.records import ATTRS_MARKER
+from motorid.io.records import attrs_line
 
 logger = logging.getLogger(__name__)
 
@@ -264,13 +263,19 @@ class SensedPlant:
     the measured speed::
 
         ω = plant.step(k u)                          (k: the controller's unit -> the plant's)
-        ỹ = ω + n,   n ~ N(0, σ(|ω|)²)                (σ: the noise of the speed band |ω| is in)
+        ỹ = ω + n,   n ~ N(0, σ_n(|ω|)²)              (σ_n: the noise added in the speed band |ω| is in)
         y = q round(ỹ / q)                            (q: the quantisation step)
+        σ_n² = max(σ² - q²/12, 0)                     (σ: the card's noise in that band)
 
     with σ and q from the card (:attr:`~motorid.drive.files.ModelCard.noise_bands`,
     :attr:`~motorid.drive.files.ModelCard.quantisation_step`; a speed beyond the last band takes
     its σ); none of them without a card, with ``noise_free``, or for a two-mass rig, which
-    measures with its own sensors.
+    measures with its own sensors. The card's σ is the RMS error the doctor measured on the
+    sensor's readings, rounding included; rounding a speed that moves through the steps errs by
+    q²/12 in variance on its own, so the noise added before it is what is left of σ², and the
+    measured speed errs by σ RMS, as the sensor did. Where σ² < q²/12 the rounding alone errs
+    more than the card says: no noise is added in that band (logged at info level), and the
+    error there is q/√12.
 
     Parameters
     ----------
@@ -299,7 +304,17 @@ class SensedPlant:
         self.quantisation_step = card.quantisation_step if sensed else None  # type: ignore[union-attr]
         bands = card.noise_bands if sensed else ()  # type: ignore[union-attr]
         self._edges = np.array([band["speed_to"] for band in bands[:-1]], dtype=float)
-        self._std = np.array([band["std"] for band in bands], dtype=float)
+        card_std = np.array([band["std"] for band in bands], dtype=float)
+        rounding_variance = self.quantisation_step**2 / 12.0 if self.quantisation_step else 0.0
+        # σ_n² = max(σ² - q²/12, 0): the rounding's own error makes up the rest of the card's σ
+        self._std = np.sqrt(np.maximum(card_std**2 - rounding_variance, 0.0))
+        for band, std in zip(bands, card_std, strict=True):
+            if std**2 < rounding_variance:
+                logger.info(
+                    "the card's noise %.4g at %g-%g is below its step's rounding error q/sqrt(12) = %.4g: "
+                    "no noise is added there, the rounding alone errs by %.4g",
+                    std, band["speed_from"], band["speed_to"], math.sqrt(rounding_variance), math.sqrt(rounding_variance),
+                )  # fmt: skip
         self._rng = np.random.default_rng(0)
 
     def reset(self, seed: int | None = None) -> None:
@@ -605,15 +620,3 @@ def loop_attrs(controller: SpeedController) -> dict[str, Any]:
         "reference": "reference", "kp": controller.pi.kp, "ki": controller.pi.ki, "u_max": controller.pi.u_max,
         "compensation": None if comp is None else comp.source,
     }  # fmt: skip
-
-
-def attrs_line(attrs: dict[str, Any]) -> str:
-    """A record's attributes as the first line of its CSV (:data:`motorid.io.records.ATTRS_MARKER` and
-    JSON, as :func:`motorid.io.records.write_record` writes them).
-
-    Parameters
-    ----------
-    attrs : dict
-        JSON-serialisable attributes (finite numbers).
-    """
-    return ATTRS_MARKER + json.dumps(attrs, separators=(",", ":"), allow_nan=False)

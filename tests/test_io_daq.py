@@ -182,7 +182,7 @@ def test_run_online_records_every_sample(tmp_path):
     assert not any(c.startswith("echo.basis") for c in df.columns)
     assert est.u == list(u) and est.y == list(df["y"])
     assert df.attrs["dt"] == 0.04 and df.attrs["units"]["y"] == "rad/s"
-    on_disk = pd.read_csv(out)
+    on_disk = pd.read_csv(out, comment="#")
     pd.testing.assert_frame_equal(on_disk, df, check_dtype=False)
 
 
@@ -230,7 +230,7 @@ def test_run_online_failure_leaves_csv_and_commands_zero(tmp_path):
         run_online(daq, [Recorder()], excitation, 2.0, out=out, progress=False)
     assert any("stopped after 11 of 50 samples" in n for n in info.value.__notes__)
     assert daq.sent[-1] == 0.0 and daq.closed and not daq.is_open
-    df = pd.read_csv(out)
+    df = pd.read_csv(out, comment="#")
     assert len(df) == 11 and (df["u"] == 3.0).all()
 
 
@@ -251,7 +251,7 @@ def test_run_online_keyboard_interrupt_and_sigterm(tmp_path):
         with pytest.raises(KeyboardInterrupt) as info:
             run_online(daq, [Recorder()], excitation, 2.0, out=out, progress=False)
         assert daq.sent[-1] == 0.0 and daq.closed
-        assert len(pd.read_csv(out)) == 6
+        assert len(pd.read_csv(out, comment="#")) == 6
         # the stop message counts exactly the rows on disk
         assert any("stopped after 6 of 50 samples" in n for n in info.value.__notes__)
     assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
@@ -272,7 +272,7 @@ def test_run_online_stops_between_samples_on_a_real_sigint(tmp_path):
     daq = CommandLog(FirstOrderPlant(), seed=0)
     with pytest.raises(KeyboardInterrupt, match="SIGINT") as info:
         run_online(daq, [Recorder()], excitation, 2.0, out=out, progress=False)
-    rows = len(pd.read_csv(out))
+    rows = len(pd.read_csv(out, comment="#"))
     assert rows == 10
     assert any(f"stopped after {rows} of 50 samples" in n for n in info.value.__notes__)
     assert daq.sent[-1] == 0.0 and daq.closed
@@ -304,7 +304,7 @@ def test_run_online_never_truncates_an_existing_file(tmp_path):
 
     df = run_online(CommandLog(FirstOrderPlant(), seed=0), None, np.ones(5), None, out=out, overwrite=True,
                     progress=False)  # fmt: skip
-    pd.testing.assert_frame_equal(pd.read_csv(out), df, check_dtype=False)
+    pd.testing.assert_frame_equal(pd.read_csv(out, comment="#"), df, check_dtype=False)
 
 
 MEMORY_RUN = """
@@ -343,7 +343,7 @@ def test_a_long_online_run_holds_its_memory_flat(tmp_path):
                               text=True, timeout=600, check=True)  # fmt: skip
         kept, samples, peak_kb = map(int, done.stdout.split())
         assert samples == n and kept == 10_000  # KEEP_WITH_FILE rows in memory, the file holds all
-        assert sum(1 for _ in out.open()) == n + 1  # header + every sample
+        assert sum(1 for _ in out.open()) == n + 2  # the attribute line, the header, every sample
         peaks[n] = peak_kb
     assert peaks[200_000] - peaks[20_000] < 32 * 1024, peaks
 

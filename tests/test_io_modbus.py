@@ -176,7 +176,7 @@ def test_server_killed_mid_run(rig_factory, tmp_path):
     with pytest.raises(DAQConnectionError, match="link lost") as info:
         run_online(daq_for(server), None, excitation, 2.0, out=out, progress=False)
     assert any("stopped after 20 of 50 samples" in n for n in info.value.__notes__)
-    df = pd.read_csv(out)
+    df = pd.read_csv(out, comment="#")
     assert len(df) == 20 and (df["u"] == 3.0).all() and np.isfinite(df["y"]).all()
     np.testing.assert_array_equal(df["seq"], np.arange(1, 21))
 
@@ -187,7 +187,7 @@ def test_failure_with_link_up_commands_zero_volts(rig_factory, tmp_path):
     with pytest.raises(RigFaultError, match="plant"):
         run_online(daq_for(server), None, np.full(50, 4.0), None, out=out, progress=False)
     assert server.voltage == 0.0
-    df = pd.read_csv(out)
+    df = pd.read_csv(out, comment="#")
     assert len(df) == 14 and np.isfinite(df["y"]).all()
 
 
@@ -254,7 +254,7 @@ def test_invalid_speed_from_a_plc_is_a_clear_error(tmp_path, value, message):
             run_online(daq, None, np.full(30, 1.0), None, out=out, progress=False)
         words = server.data_bank.get_holding_registers(0, 2)
         assert decode_ieee(word_list_to_long(words)[0]) == 0.0  # 0 V commanded on the way out
-    df = pd.read_csv(out)
+    df = pd.read_csv(out, comment="#")
     assert len(df) == 9 and np.isfinite(df["y"]).all() and (df["y"].abs() < 1e3).all()
 
 
@@ -376,7 +376,7 @@ def test_rig_process_killed_mid_run_and_sigterm(tmp_path):
     finally:
         proc.kill()
         proc.wait(30)
-    assert len(pd.read_csv(out)) == 20
+    assert len(pd.read_csv(out, comment="#")) == 20
 
     proc = start_rig_process(port, "--plant-seed", "1", "--watchdog-periods", "0")
     proc.send_signal(signal.SIGTERM)

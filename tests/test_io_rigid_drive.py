@@ -66,7 +66,7 @@ def test_rig_serve_hosts_the_rigid_drive_of_a_model_file(served_drive, tmp_path)
         capture_output=True, text=True, timeout=120,
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
-    run = pd.read_csv(out)
+    run = pd.read_csv(out, comment="#")
     # closing the first DAQ commanded 0 V for one sample; the rig applies float32 commands
     continued = np.concatenate([u, [0.0], np.float32(run["u"].to_numpy())])
     expected = DRIVE.simulate(continued)["y"].to_numpy()[u.size + 1 :].astype(np.float32)

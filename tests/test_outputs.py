@@ -162,7 +162,7 @@ def test_run_on_a_full_disk_ends_on_a_whole_row_and_says_how_many(small_disk):
     assert data.endswith(b"\n")
     import pandas as pd
 
-    table = pd.read_csv(small_disk / "run.csv")
+    table = pd.read_csv(small_disk / "run.csv", comment="#")
     assert len(table) == rows > 0
     assert table["seq"].tolist() == list(range(1, rows + 1))  # every row whole, none lost before the cut
     assert not table.isna().any().any()
@@ -231,7 +231,7 @@ def test_run_stopped_by_the_watchdog_tells_what_to_type(tmp_path, capsys):
     rows = int(last.split(" rows in ")[0].rsplit("(", 1)[1])
     import pandas as pd
 
-    assert rows >= 9 and len(pd.read_csv(out)) == rows  # the stall came after the 10th sample
+    assert rows >= 9 and len(pd.read_csv(out, comment="#")) == rows  # the stall came after the 10th sample
 
 
 # -- names from data -------------------------------------------------------------------------------

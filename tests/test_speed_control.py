@@ -257,3 +257,53 @@ def test_a_failing_rig_stops_the_loop_with_zero_volts_and_the_samples_on_disk(tm
     assert "after 48 of 200 samples" in " ".join(info.value.__notes__)
     assert len(pd.read_csv(tmp_path / "run.csv", comment="#")) == 48
     assert daq.u == 0.0 and not daq.is_open
+
+
+# --------------------------------------------------------------------------- the simulated sensor
+KIT_STEP = 0.767  # the kit encoder's speed step [rad/s] (one count per 1 ms sample)
+
+
+def sensor_errors(card, u: np.ndarray, seed: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """The speed a SensedPlant with ``card`` measures on the input ``u``, and its error against the true speed
+    (the same plant without its sensor: the drive's simulation is deterministic)."""
+    from motorid.speed_control import SensedPlant
+
+    drive = RigidDrive(("viscous_friction",), {"inertia": 0.005, "input_gain": 1.0, "viscous": 0.044}, DT)
+    sensed, truth = SensedPlant(drive, card), SensedPlant(drive, card, noise_free=True)
+    sensed.reset(seed)
+    truth.reset(seed)
+    omega = np.array([truth.step(v) for v in u])
+    y = np.array([sensed.step(v) for v in u])
+    return omega, y - omega
+
+
+def test_the_simulated_sensor_errs_by_the_cards_noise_rounding_included():
+    """A rigid drive measured by a kit-like card (step q = 0.767 rad/s, sigma 0.281 rad/s below 24 rad/s and
+    0.6 above, the doctor's figures on the kit's records): the reading errs by sigma RMS in each band, not
+    sqrt(sigma^2 + q^2/12) = 0.358 rad/s as when the card's noise was added whole before rounding. The speed
+    ramps slowly through the steps (2-20 and 27-90 rad/s over 60 s each), so the rounding errs uniformly;
+    6,000 samples a band give the RMS within about 1 % (1 / sqrt(2 n)), the tolerance 4 %."""
+    from motorid.drive.files import ModelCard
+
+    card = ModelCard(quantisation_step=KIT_STEP, noise_bands=(
+        {"speed_from": 0.0, "speed_to": 24.0, "std": 0.281}, {"speed_from": 24.0, "speed_to": 200.0, "std": 0.6},
+    ))  # fmt: skip
+    for low, high, std in ((0.1, 0.9, 0.281), (1.2, 4.0, 0.6)):
+        omega, error = sensor_errors(card, np.linspace(low, high, 6000))
+        in_band = (omega > 0.5 * low / 0.044) & (omega < high / 0.044)
+        assert in_band.sum() > 5000
+        assert np.sqrt(np.mean(error[in_band] ** 2)) == pytest.approx(std, rel=0.04)
+
+
+def test_a_card_noise_below_the_rounding_error_adds_none_and_says_so(caplog):
+    """sigma = 0.1 rad/s is below the step's own rounding error q / sqrt(12) = 0.221 rad/s: no noise is added,
+    the reading errs by the rounding alone (0.221 within 4 %, as above), and the log says so."""
+    from motorid.drive.files import ModelCard
+
+    card = ModelCard(
+        quantisation_step=KIT_STEP, noise_bands=({"speed_from": 0.0, "speed_to": 200.0, "std": 0.1},)
+    )
+    with caplog.at_level("INFO", logger="motorid.speed_control"):
+        omega, error = sensor_errors(card, np.linspace(0.1, 0.9, 6000))
+    assert np.sqrt(np.mean(error[omega > 2.0] ** 2)) == pytest.approx(KIT_STEP / math.sqrt(12), rel=0.04)
+    assert "no noise is added there" in caplog.text and "0.221" in caplog.text

@@ -75,7 +75,7 @@ def test_the_command_line_says_each_cause_once_in_one_form_also_with_quiet(tmp_p
     env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parent.parent)}
     done = subprocess.run(argv, cwd=tmp_path, capture_output=True, text=True, timeout=300, env=env)
     assert done.returncode == 0, done.stderr
-    clamped = int(pd.read_csv(tmp_path / "run.csv")["clamped"].sum())
+    clamped = int(pd.read_csv(tmp_path / "run.csv", comment="#")["clamped"].sum())
     lines = done.stderr.splitlines()
     assert len(lines) == 2 and clamped > 10, done.stderr
     assert lines[0].startswith("motorid: warning: command ") and "V (rating +/-2 V)" in lines[0]

@@ -271,7 +271,11 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     )
     add_estimator_options(p, repeatable=True)
     add_signal_options(p, duration=None)
-    add_out_file(p, "CSV written row by row as the run goes")
+    add_out_file(
+        p,
+        "CSV written row by row as the run goes, after a first line of the record's attributes (dt, "
+        "units V and rad/s, timing hold), so motorid doctor, identify and compare read it as it is",
+    )
     add_plant_seed(p, default=None)
     p.add_argument("--dt", type=positive, help="sample time [s] (default: the rig's)")
     add_register_map(p)

@@ -383,10 +383,9 @@ def breakaway_sentence(found: Breakaway, told: LagTest | None, units: dict[str, 
         )
     if found.reading != "lookalike":
         return f"{above}: not shown"
-    rate = found.excess / found.lag if found.lag else math.nan
-    one = f"{above}, all at one input rate ({rate:.3g} {f}/s)"
+    one = f"{above}, {found.rates_words(f)}"
     v = units["v"]
-    apart = "rests at other input rates (a chirp, or records at other frequencies in one run) tell them apart"
+    apart = found.apart_words
     if told is not None and told.reading == "lag":
         return (
             f"{one}: a lag of {lag} between input and force runs the drive closer than static friction of "

@@ -22,6 +22,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.errors import OutputError
+from motorid.io.records import attrs_line
 from motorid.outputs import create_in_place, disk_full
 from motorid.progress import progress_bar
 
@@ -575,7 +576,10 @@ def run_online(
     out : path, optional
         CSV file written row by row while the loop runs (created with the
         first sample). An existing file is refused before the DAQ is opened
-        unless ``overwrite`` is true.
+        unless ``overwrite`` is true. Its first line is the record's attributes
+        (:func:`motorid.io.records.attrs_line`: ``dt`` [s], ``units`` V and rad/s,
+        ``timing`` ``"hold"``), so ``motorid doctor``, ``identify`` and ``compare``
+        read it as it is, with no options.
     progress : bool
         Show a progress bar on stderr (:func:`motorid.progress.progress_bar`).
     flush_every : int
@@ -629,7 +633,11 @@ def run_online(
 
     if keep is None and out is not None:
         keep = KEEP_WITH_FILE
-    recorder = RunRecorder(out, flush_every=flush_every, overwrite=overwrite, keep=keep)
+    units = {"t": "s", "u": "V", "y": "rad/s"}
+    attrs = {"dt": dt, "units": units, "timing": "hold"}
+    recorder = RunRecorder(
+        out, flush_every=flush_every, overwrite=overwrite, keep=keep, preamble=[attrs_line(attrs)]
+    )
     warm_up(named)
 
     def sample(k: int) -> dict[str, float | int]:
@@ -655,7 +663,7 @@ def run_online(
             daq.write(_command_for(excitation, k + 1, (k + 1) * dt))
 
     sample_loop(daq, n, sample, recorder, "run_online", progress, then=next_command)
-    return recorder.frame(dt)
+    return recorder.frame(dt, units=units, timing="hold")
 
 
 def _close_recording(recorder: RunRecorder, exc: BaseException) -> str:

@@ -60,7 +60,7 @@ from .options import (
     record_timing,
 )
 from .read import read_record
-from .text import ATTRS_MARKER, SEPARATORS, csv_layout, write_record
+from .text import ATTRS_MARKER, SEPARATORS, attrs_line, csv_layout, write_record
 
 __all__ = [
     "ATTRS_KEY",
@@ -82,6 +82,7 @@ __all__ = [
     "TIMINGS",
     "UNREAD_FORMATS",
     "RecordOptions",
+    "attrs_line",
     "check_attrs",
     "compression",
     "count_data_lines",

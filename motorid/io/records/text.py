@@ -66,6 +66,27 @@ def _jsonable(value: Any) -> Any:
     return value
 
 
+def attrs_line(attrs: Mapping[str, Any]) -> str:
+    """A record's attributes as the first line of its CSV: :data:`ATTRS_MARKER` and compact JSON
+    (numpy scalars converted, non-finite numbers as null), the line every record reader takes back
+    as ``attrs`` (:func:`write_record`, and the runs that write their CSV row by row).
+
+    Parameters
+    ----------
+    attrs : mapping
+        JSON-serialisable attributes (``dt`` [s], ``units``, ``timing``, ...).
+
+    Raises
+    ------
+    ValueError
+        A value holds a line break (the line would end early).
+    """
+    line = ATTRS_MARKER + json.dumps(_jsonable(dict(attrs)), separators=(",", ":"), allow_nan=False)
+    if "\n" in line or "\r" in line:
+        raise ValueError("attrs must not contain line breaks")
+    return line
+
+
 def write_record(df: pd.DataFrame, path: str | os.PathLike[str], *, overwrite: bool = True) -> None:
     """Write a record as CSV with its ``attrs`` as JSON in a commented first line.
 
@@ -92,10 +113,7 @@ def write_record(df: pd.DataFrame, path: str | os.PathLike[str], *, overwrite: b
     """
     from motorid.outputs import write_file
 
-    attrs = _jsonable(dict(df.attrs))
-    header = ATTRS_MARKER + json.dumps(attrs, separators=(",", ":"), allow_nan=False)
-    if "\n" in header:
-        raise ValueError("attrs must not contain line breaks")
+    header = attrs_line(df.attrs)
 
     def write(fh: Any) -> None:
         fh.write(header + "\n")
