@@ -181,12 +181,14 @@ def run() -> NoReturn:
 
     A command's imports leave some 190,000 objects that live as long as the process (numpy,
     pandas, SciPy, numba and their modules). Python's collector passes over all of them in each
-    full collection and once more at exit, which cost 0.4-0.8 s of a 2.5 s ``motorid doctor``
-    (``benchmarks/bench_doctor_startup.py``). When the command has returned, its files written and
-    closed, they are moved out of the collector's sight (:func:`gc.freeze`), so the exit frees the
-    process without that pass. :func:`main`, which a caller may run many times in one process,
-    leaves the collector as it is.
+    full collection and once more at exit: 0.4-0.8 s of a 2.5 s ``motorid doctor``
+    (``benchmarks/bench_doctor_startup.py``). So the objects of the modules loaded when this starts
+    (the command line's, with everything its parser needs) are moved out of the collector's sight
+    first (:func:`gc.freeze`), and everything once the command has returned, its files written and
+    closed, so the exit frees the process without that pass. :func:`main`, which a caller may run
+    many times in one process, leaves the collector as it is.
     """
+    gc.freeze()  # the loaded modules live as long as the process: no full collection passes over them
     status = main()
     gc.freeze()  # the process ends here: no final pass over every object it made
     sys.exit(status)
