@@ -1,12 +1,17 @@
 """Where ``motorid doctor REC --json`` spends its time on 80 s at 200 Hz (16,000 samples), in a
 fresh process: the interpreter's start, the imports, numba's loading of compiled kernels from its
-on-disk cache, and the work.
+on-disk cache, the work and the process's exit.
 
 Run: ``.venv/bin/python benchmarks/bench_doctor_startup.py [--repeat 5]`` (or within ``make bench``).
 
-Each run is a fresh ``python -c`` process that times itself (:data:`CHILD`) and then runs the
-command line's ``main(["doctor", REC, "--json"])``, the entry point ``motorid`` calls:
+Each run is a fresh ``python -c`` process that times itself (:data:`CHILD`) and does what the
+``motorid`` console script does: ``from motorid.cli import run`` (the first import: the command
+line's defaults that must precede numpy's, such as one BLAS thread, apply as they do for a user),
+then ``run()`` with ``sys.argv = ["motorid", "doctor", REC, "--json"]``, its output to
+``/dev/null``:
 
+- *interpreter start*: from the parent's start of the process to the child's first statement
+  (Python's start-up and ``site``: the ``.pth`` files of the environment, the editable install's);
 - *imports*: the time spent loading modules (importlib's ``_find_and_load``, which every
   ``import`` statement and ``importlib.import_module`` call of a module not yet loaded goes
   through: those inside functions and SciPy's and pandas' lazy ones included; nested imports
@@ -15,20 +20,23 @@ command line's ``main(["doctor", REC, "--json"])``, the entry point ``motorid`` 
   ``Dispatcher._compile_for_args``: its typing set-up, the first of them installing numba's
   typing registries, and the loading of the kernel's machine code from numba's cache), and *of
   which cache loads*, ``Cache.load_overload`` alone; compilations (none after the warm-up run)
-  are counted apart;
-- *work*: what is left of the child's own wall time;
-- *interpreter start*: the parent's wall time of the process less the child's own (Python's
-  start-up and ``site``).
+  are counted apart; both are timed from the moment numba's modules are loaded, before any
+  kernel runs;
+- *work*: what is left of the child's own wall time, to the end of ``run()``;
+- *exit*: from the end of ``run()`` to the parent's seeing the process end (the interpreter's
+  finalisation: the collector's last pass, the modules' teardown).
 
-Each phase is timed by the wall clock and by the process's CPU time (all its threads; steadier
-than the wall time on a loaded machine, where the wall time of a phase includes waiting for a
-core). Each figure is the median over ``--repeat`` runs after one warm-up run (which fills numba's
-cache and writes the bytecode of every module), with the load average read before each run. Not
-a test: it prints figures.
+The parent times the process by the wall clock and by its CPU time (all its threads, from
+``getrusage``; steadier than the wall time on a loaded machine, where the wall time of a phase
+includes waiting for a core); the child times each of its phases by both clocks. Each figure is
+the median over ``--repeat`` runs after one warm-up run (which fills numba's cache and writes the
+bytecode of every module), with the load average read before each run. Not a test: it prints
+figures.
 
-``--blas-threads 1`` runs the same processes with OpenBLAS (and OpenMP, MKL) on one thread: the
-doctor's least-squares problems are small (16,000 rows of a few columns), and on a machine whose
-cores are busy the BLAS threads wait for cores and for each other; compare the two runs' *work*.
+``--blas-threads N`` runs the same processes with OpenBLAS (and OpenMP, MKL) on N threads (the
+command line sets one OpenBLAS thread unless the environment says otherwise): the doctor's
+least-squares problems are small (16,000 rows of a few columns), and on a machine whose cores are
+busy the BLAS threads wait for cores and for each other; compare the runs' *work*.
 """
 
 from __future__ import annotations
@@ -53,64 +61,76 @@ from _table import Row, print_rows  # noqa: E402
 
 #: The timed child: argv[1] is the record, argv[2] the file its figures go to (JSON).
 CHILD = r"""
-import _frozen_importlib, contextlib, io, json, sys, time
+import time
+started = time.time()  # the clock the parent reads too
+import _frozen_importlib, json, sys  # the standard library's only: numpy comes with motorid.cli
 clocks = {"wall": time.perf_counter, "cpu": time.process_time}
 start = {c: f() for c, f in clocks.items()}
 spent = {f"{what}_{c}": 0.0 for what in ("imports", "cache", "dispatch", "dispatch_in_imports") for c in clocks}
-spent.update(compile=0.0, loads=0)
+spent.update(loads=0)
 depth = [0]
+compilations = []  # numba's TimingListener of its compile events, once numba is loaded
 real_find_and_load = _frozen_importlib._find_and_load
+
+
+def timed(real, *names):
+    def call(self, *args, **kwargs):
+        t0 = {c: f() for c, f in clocks.items()}
+        try:
+            return real(self, *args, **kwargs)
+        finally:
+            spent["loads"] += names[0] == "cache"
+            for c, f in clocks.items():
+                for name in names if depth[0] else names[:1]:
+                    spent[f"{name}_{c}"] += f() - t0[c]
+
+    return call
+
+
+def time_numba():
+    # numba is loaded: time its first calls from here, before any kernel runs
+    from numba.core import caching, dispatcher, event
+
+    caching.Cache.load_overload = timed(caching.Cache.load_overload, "cache")
+    dispatcher.Dispatcher._compile_for_args = timed(
+        dispatcher.Dispatcher._compile_for_args, "dispatch", "dispatch_in_imports"
+    )
+    compilations.append(event.TimingListener())
+    event.register("numba:compile", compilations[0])
+
 
 def timed_find_and_load(*args, **kwargs):
     if depth[0]:
-        return real_find_and_load(*args, **kwargs)
-    depth[0] = 1
-    t0 = {c: f() for c, f in clocks.items()}
-    try:
-        return real_find_and_load(*args, **kwargs)
-    finally:
-        for c, f in clocks.items():
-            spent[f"imports_{c}"] += f() - t0[c]
-        depth[0] = 0
+        found = real_find_and_load(*args, **kwargs)
+    else:
+        depth[0] = 1
+        t0 = {c: f() for c, f in clocks.items()}
+        try:
+            found = real_find_and_load(*args, **kwargs)
+        finally:
+            for c, f in clocks.items():
+                spent[f"imports_{c}"] += f() - t0[c]
+            depth[0] = 0
+    if not compilations and args[0] == "numba":  # numba's package loaded whole
+        time_numba()
+    return found
+
 
 _frozen_importlib._find_and_load = timed_find_and_load
-import numba.core.caching
-from numba.core import event
-real_load = numba.core.caching.Cache.load_overload
+from motorid.cli import run  # as the console script does, before numpy (the defaults numpy reads)
 
-def timed_load(self, *args, **kwargs):
-    t0 = {c: f() for c, f in clocks.items()}
-    try:
-        return real_load(self, *args, **kwargs)
-    finally:
-        spent["loads"] += 1
-        for c, f in clocks.items():
-            spent[f"cache_{c}"] += f() - t0[c]
-
-numba.core.caching.Cache.load_overload = timed_load
-import numba.core.dispatcher
-real_dispatch = numba.core.dispatcher.Dispatcher._compile_for_args
-
-def timed_dispatch(self, *args, **kwargs):
-    t0 = {c: f() for c, f in clocks.items()}
-    try:
-        return real_dispatch(self, *args, **kwargs)
-    finally:
-        for c, f in clocks.items():
-            spent[f"dispatch_{c}"] += f() - t0[c]
-            if depth[0]:
-                spent[f"dispatch_in_imports_{c}"] += f() - t0[c]
-
-numba.core.dispatcher.Dispatcher._compile_for_args = timed_dispatch
-
-from motorid.cli import main
-with event.install_timer("numba:compile", lambda s: spent.__setitem__("compile", spent["compile"] + s)):
-    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
-        code = main(["doctor", sys.argv[1], "--json"])
+figures = sys.argv[2]
+sys.argv = ["motorid", "doctor", sys.argv[1], "--json"]
+try:
+    run()
+except SystemExit as done:
+    spent["code"] = done.code
 for c, f in clocks.items():
     spent[f"total_{c}"] = f() - start[c]
-spent["code"] = code
-with open(sys.argv[2], "w") as f:
+spent["compile"] = compilations[0].duration if compilations and compilations[0].done else 0.0
+spent["started"] = started
+spent["ended"] = time.time()
+with open(figures, "w") as f:
     json.dump(spent, f)
 """
 
@@ -119,14 +139,19 @@ def run_child(record: Path, figures: Path, env: dict[str, str]) -> dict[str, flo
     """One fresh process: its own figures (``total_wall``, ``imports_cpu``, ``cache_wall``, ...),
     its wall time ``wall`` and its CPU time ``cpu`` [s] seen from here."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t0 = time.perf_counter()
-    subprocess.run([sys.executable, "-c", CHILD, str(record), str(figures)], check=True, env=env)
-    wall = time.perf_counter() - t0
+    t0, launched = time.perf_counter(), time.time()
+    done = subprocess.run([sys.executable, "-c", CHILD, str(record), str(figures)], env=env,
+                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)  # fmt: skip
+    wall, ended = time.perf_counter() - t0, time.time()
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if done.returncode != 0:
+        raise RuntimeError(f"the timed process exited with {done.returncode}: {done.stderr.strip()}")
     out = json.loads(figures.read_text(encoding="utf-8"))
     if out["code"] not in (0, 1):
-        raise RuntimeError(f"motorid doctor exited with {out['code']}")
+        raise RuntimeError(f"motorid doctor exited with {out['code']}: {done.stderr.strip()}")
     out["wall"] = wall
+    out["start"] = out["started"] - launched
+    out["exit"] = ended - out["ended"]
     out["cpu"] = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     return out
 
@@ -171,7 +196,10 @@ def measure_startup(repeat: int = 5, blas_threads: int | None = None) -> list[Ro
                      for r in runs],
         }  # fmt: skip
         if clock == "wall":
-            splits = {"interpreter start": [r["wall"] - r["total_wall"] for r in runs], **splits}
+            splits = {"interpreter start": [r["start"] for r in runs], **splits,
+                      "exit": [r["exit"] for r in runs]}  # fmt: skip
+        else:  # the process's CPU time outside the child's own clock: its start and its exit
+            splits["start and exit"] = [r["cpu"] - r["total_cpu"] for r in runs]
         for name, values in splits.items():
             rows.append(Row(f"  {name} ({clock})", statistics.median(values), None, "s", "", False))
     rows.append(

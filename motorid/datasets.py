@@ -37,7 +37,6 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import pandas as pd
-import scipy.io
 
 if TYPE_CHECKING:
     from motorid.drive.rigid import RigidDrive
@@ -151,6 +150,8 @@ def load_emps(
         not finite (the message names the variable and the sample index), or time
         does not increase.
     """
+    import scipy.io  # here, not at the top: the doctor imports this module for its position fits only
+
     file = emps_path(path, which)
     try:
         mat = scipy.io.loadmat(file)

@@ -2,7 +2,8 @@
 the layers, no two modules import each other, and every exception lives in motorid.errors.
 
 The imports are read from the source with :mod:`ast`, at module level and inside
-functions and methods alike (a function-level import is a dependency all the same);
+functions and methods alike (a function-level import is a dependency all the same), and
+the modules a package's :func:`~motorid.exports.lazy_exports` names;
 relative imports are resolved against the importing module's package, and
 ``from package import name`` counts as importing ``package.name`` when that is a
 module. Imports under ``if TYPE_CHECKING:`` are left out: they are never run, and a
@@ -34,6 +35,7 @@ PACKAGE = Path(motorid.__file__).parent
 LAYERS: dict[str, int] = {
     # 0: imports nothing of motorid
     "motorid.errors": 0,
+    "motorid.exports": 0,
     # 1: the common ground: units, checked JSON, writing files, progress bars, figure layout
     "motorid.units": 1,
     "motorid.json_input": 1,
@@ -123,6 +125,12 @@ def imported_modules(path: Path, module: str, is_package: bool, files: dict) -> 
             if isinstance(child, ast.Import):
                 for alias in child.names:
                     add(alias.name, child.lineno)
+            elif isinstance(child, ast.Call) and getattr(child.func, "id", None) == "lazy_exports":
+                # a package's names imported on first use (motorid.exports): their modules are imports
+                for value in getattr(child.args[1], "values", []) if len(child.args) > 1 else []:
+                    if isinstance(value, ast.Constant) and isinstance(value.value, str):
+                        relative = value.value.startswith(".")
+                        add(f"{package}{value.value}" if relative else value.value, child.lineno)
             elif isinstance(child, ast.ImportFrom):
                 base = package.rsplit(".", child.level - 1)[0] if child.level > 1 else package
                 if not child.level:
@@ -159,7 +167,8 @@ def test_every_module_has_a_layer_and_the_walk_sees_the_imports():
         "motorid.drive.files" in GRAPH["motorid.estimators.registry"]
     )  # from motorid.drive.files import ...
     assert "motorid.io.base" in GRAPH["motorid.io.modbus"]  # from .base import DAQ, Sample
-    assert "motorid.estimators" in GRAPH["motorid"]  # a function-level import
+    assert "motorid.estimators" in GRAPH["motorid"]  # lazy_exports(__name__, {...: "motorid.estimators"})
+    assert "motorid.io.rig_server" in GRAPH["motorid.io"]  # lazy_exports(__name__, {...: ".rig_server"})
     assert "motorid.diagnose.workflow" not in GRAPH["motorid.diagnose.figures"]  # only for annotations
     for module in GRAPH:
         layer(module)  # every module falls under some prefix

@@ -265,3 +265,27 @@ def test_an_argument_changed_takes_effect_at_reset_where_it_is_checked():
     hammerstein.degree = None
     hammerstein.reset()
     assert hammerstein.basis_functions.names == ("u", "sign(u)") and hammerstein.n_basis == 2
+
+
+def test_the_plugins_are_searched_once_for_each_sys_path(monkeypatch, tmp_path):
+    """The entry points are read once for a ``sys.path`` (the command line asks for the estimators'
+    names three times while it builds its parser) and read again when ``sys.path`` changes, so a
+    plugin installed on a new path is found."""
+    from importlib.metadata import entry_points
+
+    from motorid.estimators import registry
+
+    searches = []
+
+    def counted(**kwargs):
+        searches.append(kwargs)
+        return entry_points(**kwargs)
+
+    monkeypatch.setattr(registry, "entry_points", counted)
+    monkeypatch.setattr(registry, "_plugin_cache", None)
+    names = available()
+    assert available() == available() == names
+    assert len(searches) == 1
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert available() == names
+    assert len(searches) == 2

@@ -15,13 +15,14 @@ traceback with ``-v``); 130 interrupted.
 from __future__ import annotations
 
 import argparse
+import gc
 import logging
 import os
 import sys
 import traceback
 import warnings
 from collections.abc import Sequence
-from typing import TextIO
+from typing import NoReturn, TextIO
 
 # Set before numpy is first imported (by the subcommands below). The commands' linear algebra is on
 # small matrices (the doctor solves ~600 least-squares problems of ~1,300 x 8 per record), where
@@ -36,7 +37,7 @@ from . import comparison, control, doctor, fleet, identification, rig, simulatio
 from .options import with_flags
 from .report import configure, first_time, say_error, warning_line
 
-__all__ = ["build_parser", "main"]
+__all__ = ["build_parser", "main", "run"]
 
 logger = logging.getLogger("motorid")
 
@@ -172,3 +173,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         lock = getattr(args, "out_lock", None)  # the --out folder a command held (options.hold_out_folder)
         if lock is not None:
             lock.release()
+
+
+def run() -> NoReturn:
+    """The ``motorid`` console command: :func:`main` on ``sys.argv[1:]``, then the process ends with
+    its exit status.
+
+    A command's imports leave some 190,000 objects that live as long as the process (numpy,
+    pandas, SciPy, numba and their modules). Python's collector passes over all of them in each
+    full collection and once more at exit: 0.4-0.8 s of a 2.5 s ``motorid doctor``
+    (``benchmarks/bench_doctor_startup.py``). So the objects of the modules loaded when this starts
+    (the command line's, with everything its parser needs) are moved out of the collector's sight
+    first (:func:`gc.freeze`), and everything once the command has returned, its files written and
+    closed, so the exit frees the process without that pass. :func:`main`, which a caller may run
+    many times in one process, leaves the collector as it is.
+    """
+    gc.freeze()  # the loaded modules live as long as the process: no full collection passes over them
+    status = main()
+    gc.freeze()  # the process ends here: no final pass over every object it made
+    sys.exit(status)

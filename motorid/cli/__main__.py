@@ -1,5 +1,5 @@
 """``python -m motorid.cli``: the ``motorid`` command."""
 
-from . import main
+from . import run
 
-raise SystemExit(main())
+run()

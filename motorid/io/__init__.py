@@ -10,13 +10,30 @@
   one :class:`~motorid.io.records.RecordOptions`.
 """
 
-from .base import DAQ, Plant, Sample
-from .daq_url import daq_from_url
-from .modbus import ModbusDAQ
-from .online import RunRecorder, run_online
-from .registers import STATUS_BITS, Register, RegisterMap
-from .rig_server import RigServer, rig_map_toml
-from .simulated import SimulatedDAQ
+from typing import TYPE_CHECKING
+
+from motorid.exports import lazy_exports
+
+if TYPE_CHECKING:  # for type checkers; when run, each name's module is imported on first use
+    from .base import DAQ, Plant, Sample
+    from .daq_url import daq_from_url
+    from .modbus import ModbusDAQ
+    from .online import RunRecorder, run_online
+    from .registers import STATUS_BITS, Register, RegisterMap
+    from .rig_server import RigServer, rig_map_toml
+    from .simulated import SimulatedDAQ
+
+# The records wing (motorid.io.records) is what the doctor and the other record commands use: it
+# does not load the DAQ backends, the Modbus rig's server or asyncio.
+__getattr__, __dir__ = lazy_exports(
+    __name__,
+    {
+        "DAQ": ".base", "Plant": ".base", "Sample": ".base", "daq_from_url": ".daq_url",
+        "ModbusDAQ": ".modbus", "RunRecorder": ".online", "run_online": ".online",
+        "STATUS_BITS": ".registers", "Register": ".registers", "RegisterMap": ".registers",
+        "RigServer": ".rig_server", "rig_map_toml": ".rig_server", "SimulatedDAQ": ".simulated",
+    },
+)  # fmt: skip
 
 __all__ = [
     "DAQ",
