@@ -33,14 +33,14 @@ from .registers import STATUS_BITS, STATUS_CLEAR, STATUS_FAULTS, Register, Regis
 logger = logging.getLogger(__name__)
 
 #: Default wait for one answer [s]: on a 2-core machine with 7 busy processes (load average 11-15)
-#: answers on 127.0.0.1 came up to 0.3 s late (benchmarks/bench_modbus_long_run.py); a lost link
+#: answers on 127.0.0.1 came up to 0.48 s late (benchmarks/bench_modbus_long_run.py); a lost link
 #: that closes its connection is said at once, a silent one after this wait.
 LATE_ANSWER = 1.0
 #: Modbus exception code of a rig owned by another client (server device busy).
 _DEVICE_BUSY = 6
-#: How much later per sample [sample periods] the rig's sample instants may be taken to come than the
-#: earliest seen (a PLC's clock running 0.1 % slower than ours is followed).
-_PHASE_CREEP = 1e-3
+#: A read on a rig that keeps its own time sleeps until this share of a period before the next sample is
+#: due, then polls: a few requests a sample instead of one every 2 ms (less work for a loaded machine).
+_WAKE_EARLY = 0.25
 
 __all__ = ["LATE_ANSWER", "ModbusDAQ", "contiguous_runs", "describe_status"]
 
@@ -118,12 +118,9 @@ class ModbusDAQ(DAQ):
     wait_new_sample : bool
         :meth:`read` waits until the rig's sequence counter has moved on, so
         a loop is paced by a real-time rig and never sees a sample twice: after
-        a read that had to wait, the next sleeps until its sample is due (the
-        rig's sample instants, taken from the earliest each sample was seen on
-        this link), then polls every ``dt / 20`` (at most 2 ms): about one
-        request a sample, where each wake-up on a busy machine waits its turn
-        for a core. A lock-step rig advances on each :meth:`write`, so there is
-        no wait.
+        a read that had to wait, the next sleeps until a quarter period before
+        its sample is due, then polls every ``dt / 20`` (at most 2 ms). A
+        lock-step rig advances on each :meth:`write`, so there is no wait.
 
     Examples
     --------
@@ -186,9 +183,7 @@ class ModbusDAQ(DAQ):
         self._seq_raw: int | None = None
         self._missed_open = 0  # missed_samples when the link opened
         self._missed_said: int | None = None  # missed_samples at the warning of this link's first miss
-        self._phase: float | None = (
-            None  # earliest time.monotonic() - seq * dt a sample was seen at on this link [s]
-        )
+        self._seen_at: float | None = None  # time.monotonic() when the last new sample was read
         self._waited = False  # the last read waited for its sample: the rig keeps its own time
         self._clamped_for_next = False
         m = register_map
@@ -271,7 +266,7 @@ class ModbusDAQ(DAQ):
             self._client.close()
             raise
         # sequence numbers count from this connection: the first sample is seq 1
-        self._seq, self._seq_raw, self._phase = 0, seq_raw, None
+        self._seq, self._seq_raw = 0, seq_raw
         try:  # the heartbeat counts on from the rig's: the first write is a change whatever came before
             self._heartbeat = int(self._read_register("heartbeat"))
         except Exception:
@@ -428,8 +423,8 @@ class ModbusDAQ(DAQ):
         if not self._is_open:
             raise DAQError(f"{self.endpoint}: the DAQ is not open (call open() first)")
         deadline = None
-        if self._waited and self._phase is not None and self._seq_raw is not None:
-            pause = self._phase + (self._seq + 1) * self._dt - time.monotonic()
+        if self._waited and self._seen_at is not None and self._seq_raw is not None:
+            pause = self._seen_at + (1.0 - _WAKE_EARLY) * self._dt - time.monotonic()
             if pause > 0:
                 time.sleep(pause)
         self._waited = False
@@ -463,7 +458,6 @@ class ModbusDAQ(DAQ):
             # first read after a reconnect: the rig's counter may have restarted;
             # keep ours monotonic
             self._seq += 1
-            self._phase = None
         else:
             step = (seq_raw - self._seq_raw) & 0xFFFF
             if step > 1:
@@ -471,8 +465,7 @@ class ModbusDAQ(DAQ):
                 self._say_missed(step - 1)
             self._seq += step
         self._seq_raw = seq_raw
-        seen = time.monotonic() - self._seq * self._dt
-        self._phase = seen if self._phase is None else min(self._phase + _PHASE_CREEP * self._dt, seen)
+        self._seen_at = time.monotonic()
         return Sample(
             t=self._seq * self._dt,
             seq=self._seq,
