@@ -3,12 +3,12 @@
 Three kinds of process, each started as a user would start it, on 127.0.0.1:
 
 - the rig: ``motorid rig serve --realtime --port P --plant-seed 1`` (the paper's rig, 40 ms samples,
-  the default real-time watchdog: 1 s, 25 periods, without the owner's heartbeat zero the voltage
+  the default real-time watchdog: 2 s, 50 periods, without the owner's heartbeat zero the voltage
   and latch a fault; ``--watchdog-periods`` for another);
 - the load: ``--load`` processes ``python -c 'while 1: pass'``, each keeping a core busy, killed
   afterwards (7 on a 2-core machine: load average about 7 on top of whatever else runs);
 - the client: ``motorid run --daq modbus://127.0.0.1:P --estimator arx-rls --signal steps --dt 0.04
-  --duration S --json`` (its default wait for an answer, 1 s; ``--timeout`` for another).
+  --duration S --json`` (its default wait for an answer, 2 s; ``--timeout`` for another).
 
 Reported: whether the run ended (exit 0) or stopped and why (its one line), the largest time
 between two samples the run reports (``largest_interval``) and its jitter (that minus ``dt``),
@@ -77,7 +77,7 @@ def measure(
 ) -> list[Row]:
     """Run ``motorid run`` for ``seconds`` at ``dt`` with ``load`` busy processes against a rig whose
     watchdog trips after ``watchdog_periods`` sample periods without a heartbeat (None: the rig's
-    default, 1 s), waiting ``timeout`` [s] for each answer (None: run's default, 1 s); its figures as rows."""
+    default, 2 s), waiting ``timeout`` [s] for each answer (None: run's default, 2 s); its figures as rows."""
     port = free_port()
     tmp = tempfile.TemporaryDirectory()
     rig = start_rig(port, Path(tmp.name) / "rig.log", watchdog_periods)
@@ -132,8 +132,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seconds", type=float, default=400.0, help="length of the run [s] (default: 400)")
     parser.add_argument("--load", type=int, default=7, help="busy processes beside the run (default: 7)")
     parser.add_argument("--dt", type=float, default=0.04, help="sample time [s] (default: 0.04)")
-    parser.add_argument("--watchdog-periods", type=float, help="the rig's watchdog (default: the rig's, 1 s)")
-    parser.add_argument("--timeout", type=float, help="motorid run --timeout [s] (default: run's, 1 s)")
+    parser.add_argument("--watchdog-periods", type=float, help="the rig's watchdog (default: the rig's, 2 s)")
+    parser.add_argument("--timeout", type=float, help="motorid run --timeout [s] (default: run's, 2 s)")
     args = parser.parse_args(argv)
     print_rows(measure(args.seconds, args.load, args.dt, args.watchdog_periods, args.timeout), TITLE)
     return 0

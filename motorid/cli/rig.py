@@ -90,7 +90,7 @@ def cmd_rig_serve(args: argparse.Namespace) -> int:
 
 def watchdog_periods(args: argparse.Namespace, dt: float) -> float:
     """``--watchdog-periods``, or its default: 3 commands lock-step; with ``--realtime``, the periods of
-    :data:`~motorid.io.rig_server.REALTIME_WATCHDOG` (1 s: 25 at 40 ms), since the served rig shares the
+    :data:`~motorid.io.rig_server.REALTIME_WATCHDOG` (2 s: 50 at 40 ms), since the served rig shares the
     computer's cores with its client."""
     from motorid.io.rig_server import REALTIME_WATCHDOG
 
@@ -272,7 +272,7 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                        help="the watchdog: with --realtime, the time without a heartbeat [sample periods]; "
                             "lock-step, the commands in a row without a heartbeat (the plant waits for the "
                             "client); more zero the voltage and latch a fault; 0: off (default: 3 lock-step; "
-                            "with --realtime, 1 s of periods: 25 at 40 ms)")  # fmt: skip
+                            "with --realtime, 2 s of periods: 50 at 40 ms)")  # fmt: skip
     serve.add_argument("--u-max", type=positive,
                        help="voltage rating [V]: commands are clamped to it (default: the rig's amplifier "
                             "saturation, or the rigid drive's input saturation)")  # fmt: skip
@@ -287,7 +287,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     add_plant_seed(p, default=None)
     p.add_argument("--dt", type=positive, help="sample time [s] (default: the rig's)")
     add_register_map(p)
-    p.add_argument("--timeout", type=positive, help="Modbus timeout [s]")
+    p.add_argument(
+        "--timeout", type=positive, help="wait for each Modbus answer [s] (default: 2 s, or 2.5 dt if longer)"
+    )
     add_u_max(p, "voltage clamp")
     add_json(p)
     p.set_defaults(func=cmd_run)
