@@ -91,7 +91,15 @@ def cmd_rig_serve(args: argparse.Namespace) -> int:
 def watchdog_periods(args: argparse.Namespace, dt: float) -> float:
     """``--watchdog-periods``, or its default: 3 commands lock-step; with ``--realtime``, the periods of
     :data:`~motorid.io.rig_server.REALTIME_WATCHDOG` (2 s: 50 at 40 ms), since the served rig shares the
-    computer's cores with its client."""
+    computer's cores with its client.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        ``rig serve``'s options (``watchdog_periods``, ``realtime``).
+    dt : float
+        The served plant's sample time [s].
+    """
     from motorid.io.rig_server import REALTIME_WATCHDOG
 
     if args.watchdog_periods is not None:
