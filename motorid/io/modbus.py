@@ -32,7 +32,7 @@ from .registers import STATUS_BITS, STATUS_CLEAR, STATUS_FAULTS, Register, Regis
 
 logger = logging.getLogger(__name__)
 
-#: Default wait for one answer [s]: on a 2-core machine with 7 busy processes (load average 11-15)
+#: Default wait for one answer [s]: on a 2-core machine with 7 busy processes (load average 10-13)
 #: the rig server went without a core for up to 0.95 s and answers on 127.0.0.1 came up to 0.91 s late
 #: (benchmarks/bench_modbus_long_run.py); twice that. A lost link that closes its connection is said at
 #: once, a silent one after this wait.

@@ -599,7 +599,8 @@ class RigServer:
         way. Once it listens, the objects alive (modules, the plant, the
         server) are frozen out of Python's garbage collector
         (:func:`gc.freeze`) until it stops: the process serves the rig, and a
-        collection of its whole heap would hold every request behind it. ``on_listening`` is called once the server listens (the command
+        collection of its whole heap would hold every request behind it.
+        ``on_listening`` is called once the server listens (the command
         line prints its banner there).
 
         Raises
@@ -619,7 +620,7 @@ class RigServer:
         try:
             self.start()
             # this process is the rig: what start-up made (modules, the plant, the server) is frozen, so
-            # no collection scans it again while requests wait (a full one takes 50-110 ms on a busy machine)
+            # no collection scans it again while requests wait (a full one took 40-170 ms on a busy machine)
             gc.collect()
             gc.freeze()
             if on_listening is not None:
