@@ -3,12 +3,12 @@
 Three kinds of process, each started as a user would start it, on 127.0.0.1:
 
 - the rig: ``motorid rig serve --realtime --port P --plant-seed 1`` (the paper's rig, 40 ms samples,
-  the default watchdog: 3 periods without the owner's heartbeat zero the voltage and latch a fault;
-  ``--watchdog-periods`` for another);
+  the default real-time watchdog: 2 s, 50 periods, without the owner's heartbeat zero the voltage
+  and latch a fault; ``--watchdog-periods`` for another);
 - the load: ``--load`` processes ``python -c 'while 1: pass'``, each keeping a core busy, killed
   afterwards (7 on a 2-core machine: load average about 7 on top of whatever else runs);
 - the client: ``motorid run --daq modbus://127.0.0.1:P --estimator arx-rls --signal steps --dt 0.04
-  --duration S --json``.
+  --duration S --json`` (its default wait for an answer, 2 s; ``--timeout`` for another).
 
 Reported: whether the run ended (exit 0) or stopped and why (its one line), the largest time
 between two samples the run reports (``largest_interval``) and its jitter (that minus ``dt``),
@@ -19,8 +19,8 @@ runs on.
 
 Usage::
 
-    python benchmarks/bench_modbus_long_run.py [--seconds 400] [--load 7] [--dt 0.04] [--watchdog-periods 3]
-                                               [--timeout 0.1]
+    python benchmarks/bench_modbus_long_run.py [--seconds 400] [--load 7] [--dt 0.04] [--watchdog-periods N]
+                                               [--timeout S]
 """
 
 from __future__ import annotations
@@ -49,10 +49,11 @@ def free_port() -> int:
         return s.getsockname()[1]
 
 
-def start_rig(port: int, log: Path, watchdog_periods: float) -> subprocess.Popen:
+def start_rig(port: int, log: Path, watchdog_periods: float | None) -> subprocess.Popen:
     """``motorid rig serve --realtime`` on 127.0.0.1:``port`` (its stderr to ``log``), returned once it listens."""
     argv = [sys.executable, "-m", "motorid.cli", "rig", "serve", "--realtime", "--port", str(port),
-            "--plant-seed", "1", "--watchdog-periods", f"{watchdog_periods:g}"]  # fmt: skip
+            "--plant-seed", "1",
+            *(["--watchdog-periods", f"{watchdog_periods:g}"] if watchdog_periods is not None else [])]  # fmt: skip
     with open(log, "w") as stderr:
         proc = subprocess.Popen(argv, stderr=stderr, text=True)
     deadline = time.monotonic() + 120
@@ -71,12 +72,12 @@ def measure(
     seconds: float = 400.0,
     load: int = 7,
     dt: float = 0.04,
-    watchdog_periods: float = 3.0,
+    watchdog_periods: float | None = None,
     timeout: float | None = None,
 ) -> list[Row]:
     """Run ``motorid run`` for ``seconds`` at ``dt`` with ``load`` busy processes against a rig whose
-    watchdog trips after ``watchdog_periods`` sample periods without a heartbeat, waiting ``timeout``
-    [s] for each answer (None: run's default, 2.5 dt); its figures as rows."""
+    watchdog trips after ``watchdog_periods`` sample periods without a heartbeat (None: the rig's
+    default, 2 s), waiting ``timeout`` [s] for each answer (None: run's default, 2 s); its figures as rows."""
     port = free_port()
     tmp = tempfile.TemporaryDirectory()
     rig = start_rig(port, Path(tmp.name) / "rig.log", watchdog_periods)
@@ -114,8 +115,11 @@ def measure(
         largest = float("nan")
         why = (run.stderr.strip().splitlines() or ["no message"])[-1]
         what = f"STOPPED after {seq.size} samples (exit {run.returncode}: {why[:100]})"
-    waits = f", timeout {timeout:g} s" if timeout else ""
-    setting = f"{seconds:g} s at {dt * 1e3:g} ms, watchdog {watchdog_periods:g} periods{waits}, {load} busy processes (load average {load_before:.1f} -> {load_after:.1f})"
+    waits = f", timeout {timeout:g} s" if timeout else ", default timeout"
+    watchdog = (
+        f"watchdog {watchdog_periods:g} periods" if watchdog_periods is not None else "default watchdog"
+    )
+    setting = f"{seconds:g} s at {dt * 1e3:g} ms, {watchdog}{waits}, {load} busy processes (load average {load_before:.1f} -> {load_after:.1f})"
     return [
         Row(f"{setting}: {what}; largest time between two samples", largest * 1e3, None, "ms", "", False),
         Row("jitter: largest time between two samples - dt", (largest - dt) * 1e3, None, "ms", "", False),
@@ -128,8 +132,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seconds", type=float, default=400.0, help="length of the run [s] (default: 400)")
     parser.add_argument("--load", type=int, default=7, help="busy processes beside the run (default: 7)")
     parser.add_argument("--dt", type=float, default=0.04, help="sample time [s] (default: 0.04)")
-    parser.add_argument("--watchdog-periods", type=float, default=3.0, help="the rig's watchdog (default: 3)")
-    parser.add_argument("--timeout", type=float, help="motorid run --timeout [s] (default: run's, 2.5 dt)")
+    parser.add_argument("--watchdog-periods", type=float, help="the rig's watchdog (default: the rig's, 2 s)")
+    parser.add_argument("--timeout", type=float, help="motorid run --timeout [s] (default: run's, 2 s)")
     args = parser.parse_args(argv)
     print_rows(measure(args.seconds, args.load, args.dt, args.watchdog_periods, args.timeout), TITLE)
     return 0

@@ -13,8 +13,9 @@ takes 0.1-0.3 s on a busy machine) and ``--heap`` more objects.
 - Load: the loop time's 99th percentile while 20 pyModbusTCP clients in another process read the
   rig, 1000 reads/s together (``--rate``; 0 for as fast as it answers), against the same loop alone.
 - Real time: ``run_online`` with an ARX-RLS estimator on a real-time rig server (its own process,
-  the default watchdog of 3 periods of 40 ms) for ``--realtime-seconds`` (400 s by default; 0 to
-  skip): whether it ends without a watchdog fault, and its largest time between two samples.
+  the default real-time watchdog of ``motorid rig serve --realtime``, 2 s, and the client's default
+  wait for an answer, 2 s) for ``--realtime-seconds`` (400 s by default; 0 to skip): whether it
+  ends without a watchdog fault, and its largest time between two samples.
 
 Usage::
 
@@ -41,12 +42,14 @@ TITLE = "Modbus TCP sample loop on 127.0.0.1: garbage collection and 20 other cl
 
 def serve(queue: mp.Queue, stop: mp.Event, realtime: bool = False) -> None:  # type: ignore[type-arg]
     """Child process: a rig server on 127.0.0.1, free port, until ``stop``: lock-step without a
-    watchdog, or real-time with the default watchdog (3 periods)."""
+    watchdog, or real-time with the default real-time watchdog of ``motorid rig serve`` (2 s)."""
     from motorid.drive import paper_rig
     from motorid.io import RigServer
+    from motorid.io.rig_server import REALTIME_WATCHDOG
 
-    watchdog = 3.0 if realtime else None
-    server = RigServer(paper_rig(), port=0, seed=1, lockstep=not realtime, watchdog_periods=watchdog).start()
+    plant = paper_rig()
+    watchdog = REALTIME_WATCHDOG / plant.simulation().dt if realtime else None
+    server = RigServer(plant, port=0, seed=1, lockstep=not realtime, watchdog_periods=watchdog).start()
     queue.put(server.port)
     stop.wait()
     server.stop()
@@ -128,8 +131,8 @@ def loop_times(port: int, n: int, collector: contextlib.AbstractContextManager) 
 
 
 def realtime_run(seconds: float) -> tuple[bool, float, str]:
-    """``run_online`` for ``seconds`` on a real-time rig with the default watchdog: (ended without a
-    fault, largest time between two samples [s], what stopped it)."""
+    """``run_online`` for ``seconds`` on a real-time rig with the default watchdog and wait for an
+    answer: (ended without a fault, largest time between two samples [s], what stopped it)."""
     import tempfile
 
     from motorid.errors import DAQError
@@ -145,7 +148,7 @@ def realtime_run(seconds: float) -> tuple[bool, float, str]:
         port = queue.get(timeout=60)
         _, u = steps(seconds, 0.04, seed=0)
         with tempfile.TemporaryDirectory() as tmp:
-            daq = ModbusDAQ("127.0.0.1", port, dt=0.04, timeout=1.0)
+            daq = ModbusDAQ("127.0.0.1", port, dt=0.04)
             try:
                 record = run_online(
                     daq, {"arx-rls": create("arx-rls", na=2, nb=2)}, u, None, out=f"{tmp}/run.csv"
@@ -206,7 +209,7 @@ def measure(
     if realtime_seconds > 0:
         ok, largest, why = realtime_run(realtime_seconds)
         timed = [
-            Row(f"{realtime_seconds:g} s real-time run at 40 ms, watchdog 3 periods: "
+            Row(f"{realtime_seconds:g} s real-time run at 40 ms, default watchdog (2 s): "
                 + ("ended, largest interval" if ok else f"STOPPED ({why[:60]})"),
                 largest * 1e3, None, "ms", "", False),
         ]  # fmt: skip

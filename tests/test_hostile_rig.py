@@ -263,7 +263,7 @@ def test_the_client_refused_raises_rig_busy_error():
 # -- one watchdog rule --------------------------------------------------------------------------------
 def test_rewriting_a_command_is_not_a_heartbeat():
     port = free_port()
-    proc = start_rig_process(port, "--realtime", "--plant-seed", "1")
+    proc = start_rig_process(port, "--realtime", "--plant-seed", "1", "--watchdog-periods", "3")
     client = client_for(port)
     try:
         speeds_at_6_v = 0

@@ -41,7 +41,7 @@ def command(client: ModbusClient, volts: float) -> None:
 
 def test_a_command_without_heartbeat_is_zeroed_also_after_a_cleared_fault():
     port = free_port()
-    proc = start_rig_process(port, "--realtime", "--plant-seed", "1")  # the default watchdog: 3 periods
+    proc = start_rig_process(port, "--realtime", "--plant-seed", "1", "--watchdog-periods", "3")
     client = ModbusClient("127.0.0.1", port, timeout=5.0, auto_open=True)
     try:
         command(client, 10.0)
@@ -174,3 +174,86 @@ def test_a_slow_estimator_on_a_lock_step_rig_runs_to_the_end_with_the_default_wa
     assert estimator.updates == 30
     assert record["seq"].tolist() == list(range(1, 31))
     assert record.attrs["largest_interval"] > 0.5  # the pauses happened, inside the run
+
+
+# -- a loop that keeps time on a busy machine --------------------------------------------------------------
+def paused_at(proc, sample: int, pause: float):
+    """An excitation of 2 V that stops the rig server process (SIGSTOP) for ``pause`` [s] as sample
+    ``sample``'s command is computed, as a busy machine's scheduler may leave it without a core."""
+    import os
+    import signal
+    import threading
+
+    def excitation(t: float) -> float:
+        if round(t / 0.04) == sample:
+            os.kill(proc.pid, signal.SIGSTOP)
+            threading.Timer(pause, os.kill, (proc.pid, signal.SIGCONT)).start()
+        return 2.0
+
+    return excitation
+
+
+def test_a_late_answer_is_waited_for_not_taken_for_a_lost_rig(tmp_path):
+    """The rig server gets no core for 0.4 s (SIGSTOP): the client's read is answered late, and the run
+    goes on with the default wait (2 s); a wait of 2.5 periods (0.1 s, the former default) stops it."""
+    import pytest
+
+    from motorid.errors import DAQConnectionError
+    from motorid.io.modbus import LATE_ANSWER
+
+    port = free_port()
+    proc = start_rig_process(port, "--realtime", "--plant-seed", "1", "--watchdog-periods", "25")
+    try:
+        daq = ModbusDAQ("127.0.0.1", port, dt=0.04)
+        assert daq.timeout == LATE_ANSWER == 2.0
+        record = run_online(daq, None, paused_at(proc, 20, 0.4), 2.0, out=tmp_path / "late.csv")
+        assert record.attrs["samples"] == 50 and record["u"].eq(2.0).all()
+        assert record.attrs["largest_interval"] >= 0.4  # the pause happened inside the run
+        assert record["seq"].diff().max() > 1  # the rig's clock caught up after the pause: samples unread
+
+        hasty = ModbusDAQ("127.0.0.1", port, dt=0.04, timeout=0.1)
+        with pytest.raises(DAQConnectionError, match=r"no answer within 0\.1 s"):
+            run_online(hasty, None, paused_at(proc, 20, 0.4), 2.0, out=tmp_path / "hasty.csv")
+    finally:
+        proc.kill()
+        proc.wait(30)
+
+
+def test_rig_serve_freezes_its_heap_while_it_serves():
+    """The process that serves the rig keeps what start-up made out of the collector's scans while it
+    serves (a full collection would hold every request behind it), and gives it back when it stops."""
+    import subprocess
+    import sys
+
+    script = (
+        "import gc, os, signal\n"
+        "from motorid.io import RigServer\n"
+        "server = RigServer(port=0)\n"
+        "def listening():\n"
+        "    print('serving', gc.get_freeze_count(), flush=True)\n"
+        "    os.kill(os.getpid(), signal.SIGTERM)\n"
+        "server.serve_forever(on_listening=listening)\n"
+        "print('stopped', gc.get_freeze_count())\n"
+    )
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    serving, stopped = (line.split() for line in done.stdout.splitlines())
+    assert serving[0] == "serving" and int(serving[1]) > 10_000  # modules, numpy, the plant, pymodbus
+    assert stopped == ["stopped", "0"]
+
+
+def test_rig_serve_realtime_watchdog_defaults_to_two_seconds_of_periods():
+    """The served rig shares the computer's cores with its client: its default real-time watchdog is 2 s
+    (50 periods of 40 ms), twice the 1.02 s a process went without a core at most at load 7 on 2 cores."""
+    port = free_port()
+    proc = start_rig_process(port, "--realtime", "--plant-seed", "1")
+    client = ModbusClient("127.0.0.1", port, timeout=5.0, auto_open=True)
+    try:
+        command(client, 5.0)
+        wait_for(lambda: status(client) & STATUS_BITS["watchdog"], timeout=20, what="the watchdog to trip")
+        assert applied_volts(client) == 0.0
+    finally:
+        client.close()
+        proc.kill()
+        proc.wait(30)
+    assert "more than 50 sample periods (2 s)" in proc.stderr.read()

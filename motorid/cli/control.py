@@ -251,7 +251,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
         "--dt", type=positive, help="sample time [s] (default: the simulated plant's; Modbus: 0.04)"
     )
     add_register_map(p)
-    p.add_argument("--timeout", type=positive, help="Modbus timeout [s]")
+    p.add_argument(
+        "--timeout", type=positive, help="wait for each Modbus answer [s] (default: 2 s, or 2.5 dt if longer)"
+    )
     p.add_argument("--u-max", type=positive,
                    help="limit of the command, in the design model's input unit (default: 100 for a model "
                         "fitted on %% duty; for one in volts its supply voltage where known, else 12)")  # fmt: skip

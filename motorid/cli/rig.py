@@ -65,7 +65,7 @@ def cmd_rig_serve(args: argparse.Namespace) -> int:
     server = RigServer(
         plant, host=args.host, port=args.port, serial_port=args.serial, baudrate=args.baudrate,
         register_map=register_map_option(args.map), word_order=args.word_order, lockstep=not args.realtime,
-        seed=args.plant_seed, watchdog_periods=args.watchdog_periods or None, u_max=u_max,
+        seed=args.plant_seed, watchdog_periods=watchdog_periods(args, plant.dt) or None, u_max=u_max,
     )  # fmt: skip
     where = args.serial or f"{args.host}:{args.port}"
     if not args.serial:
@@ -86,6 +86,25 @@ def cmd_rig_serve(args: argparse.Namespace) -> int:
         option = "--serial" if args.serial else "--port"
         raise DataError(f"{option}: cannot serve Modbus on {where}: {exc.__cause__ or exc}") from None
     return 0
+
+
+def watchdog_periods(args: argparse.Namespace, dt: float) -> float:
+    """``--watchdog-periods``, or its default: 3 commands lock-step; with ``--realtime``, the periods of
+    :data:`~motorid.io.rig_server.REALTIME_WATCHDOG` (2 s: 50 at 40 ms), since the served rig shares the
+    computer's cores with its client.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        ``rig serve``'s options (``watchdog_periods``, ``realtime``).
+    dt : float
+        The served plant's sample time [s].
+    """
+    from motorid.io.rig_server import REALTIME_WATCHDOG
+
+    if args.watchdog_periods is not None:
+        return args.watchdog_periods
+    return max(3.0, REALTIME_WATCHDOG / dt) if args.realtime else 3.0
 
 
 def check_port_free(host: str, port: int) -> None:
@@ -257,10 +276,11 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
                        help="the serial line's speed with --serial [bit/s]")  # fmt: skip
     serve.add_argument("--realtime", action="store_true", help="advance with the clock, not lock-step")
     add_plant_seed(serve, default=None)
-    serve.add_argument("--watchdog-periods", type=non_negative, default=3.0,
+    serve.add_argument("--watchdog-periods", type=non_negative,
                        help="the watchdog: with --realtime, the time without a heartbeat [sample periods]; "
                             "lock-step, the commands in a row without a heartbeat (the plant waits for the "
-                            "client); more zero the voltage and latch a fault; 0: off (default: 3)")  # fmt: skip
+                            "client); more zero the voltage and latch a fault; 0: off (default: 3 lock-step; "
+                            "with --realtime, 2 s of periods: 50 at 40 ms)")  # fmt: skip
     serve.add_argument("--u-max", type=positive,
                        help="voltage rating [V]: commands are clamped to it (default: the rig's amplifier "
                             "saturation, or the rigid drive's input saturation)")  # fmt: skip
@@ -279,7 +299,9 @@ def add_commands(sub: argparse._SubParsersAction) -> None:
     add_plant_seed(p, default=None)
     p.add_argument("--dt", type=positive, help="sample time [s] (default: the rig's)")
     add_register_map(p)
-    p.add_argument("--timeout", type=positive, help="Modbus timeout [s]")
+    p.add_argument(
+        "--timeout", type=positive, help="wait for each Modbus answer [s] (default: 2 s, or 2.5 dt if longer)"
+    )
     add_u_max(p, "voltage clamp")
     add_json(p)
     p.set_defaults(func=cmd_run)

@@ -61,6 +61,7 @@ from __future__ import annotations
 
 import asyncio
 import contextvars
+import gc
 import logging
 import math
 import threading
@@ -74,11 +75,16 @@ from .simulated import plant_to_step
 
 logger = logging.getLogger(__name__)
 
-__all__ = ["RigServer", "rig_map_toml"]
+__all__ = ["REALTIME_WATCHDOG", "RigServer", "rig_map_toml"]
 
 _READONLY = ("sequence", "speed", "refused_writes")
 #: Function codes the rig answers: read holding registers, write one, write many, read/write many.
 SUPPORTED_FUNCTION_CODES = frozenset({3, 6, 16, 23})
+#: Default watchdog of a real-time rig served on a shared computer (``motorid rig serve --realtime``) [s]:
+#: on 2 cores with 7 busy processes (load average 6-13) a process went without a core for up to 1.02 s
+#: in 10,000 samples at 40 ms (the client's heartbeats 0.16-0.2 s apart at p99.9;
+#: benchmarks/bench_modbus_long_run.py); twice that. A PLC, with a core of its own, keeps 3 periods.
+REALTIME_WATCHDOG = 2.0
 #: Time the real-time watchdog lets requests already received be served before it trips [s].
 _SERVE_PENDING = 0.002
 #: The connection (request handler) whose request is being served, for the rig's owner rule.
@@ -431,7 +437,10 @@ class RigServer:
         limit = self.watchdog_periods * self.dt
         loop = asyncio.get_running_loop()
         while True:
-            await asyncio.sleep(min(self.dt / 2, limit / 3))
+            # wake when the last heartbeat would run out, not on a tick: one wake-up per few samples
+            # (on a busy machine each wake-up waits its turn for a core)
+            due = self._last_contact + limit if self._armed else loop.time() + limit
+            await asyncio.sleep(max(0.0, due - loop.time()) + _SERVE_PENDING)
             if not (self._armed and loop.time() - self._last_contact > limit):
                 continue
             # a server the machine paused may hold requests that came in time: serve them before judging
@@ -587,7 +596,11 @@ class RigServer:
 
         SIGTERM is handled like Ctrl-C (when called from the main thread) from
         before the server starts, so the listener is closed cleanly either
-        way. ``on_listening`` is called once the server listens (the command
+        way. Once it listens, the objects alive (modules, the plant, the
+        server) are frozen out of Python's garbage collector
+        (:func:`gc.freeze`) until it stops: the process serves the rig, and a
+        collection of its whole heap would hold every request behind it.
+        ``on_listening`` is called once the server listens (the command
         line prints its banner there).
 
         Raises
@@ -606,6 +619,10 @@ class RigServer:
             previous = signal.signal(signal.SIGTERM, _terminate)
         try:
             self.start()
+            # this process is the rig: what start-up made (modules, the plant, the server) is frozen, so
+            # no collection scans it again while requests wait (a full one took 40-170 ms on a busy machine)
+            gc.collect()
+            gc.freeze()
             if on_listening is not None:
                 on_listening()
             while not self._done.wait(0.5):
@@ -614,6 +631,7 @@ class RigServer:
             logger.info("rig server on %s: interrupted", self.url)
         finally:
             self.stop()
+            gc.unfreeze()
             if previous is not None:
                 signal.signal(signal.SIGTERM, previous)
         if self._error is not None:
