@@ -188,7 +188,7 @@ class BalanceData:
         in :data:`CACHE_BYTES` (16 to 256): the columns every fit shares stay, the
         oldest points of past shape searches go first.
         """
-        key = (key, held)
+        key = key if held else (key, "as is")
         value = self._cache.pop(key, None)
         if value is None:
             value = np.asarray(column() if callable(column) else column, dtype=float)
