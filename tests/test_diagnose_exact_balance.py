@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from motorid.diagnose.model import discrete_inertia, fit_model, inertia_from_discrete
+from motorid.diagnose.model import discrete_inertia, discrete_inertia_slope, fit_model, inertia_from_discrete
 from motorid.diagnose.prepare import prepare
 
 BASE = ("viscous_friction", "coulomb_friction")  # one direction: an offset would repeat the Coulomb column
@@ -28,6 +28,13 @@ def test_the_balance_inertia_is_the_bernoulli_series_and_its_inverse_gives_the_i
         assert inertia_from_discrete(discrete_inertia(J, B, dt), B, dt) == pytest.approx(J, rel=1e-9)
     assert discrete_inertia(J, 0.0, dt) == J
     assert inertia_from_discrete(J, 0.0, dt) == J
+    # the delta method's slope against a central difference of the inverse (its own error ~h²)
+    for x in (1e-3, 0.3, 1.0, 4.0):
+        B = x * J / dt
+        jb, h = discrete_inertia(J, B, dt), 1e-5 * J
+        difference = (inertia_from_discrete(jb + h, B, dt) - inertia_from_discrete(jb - h, B, dt)) / (2 * h)
+        assert discrete_inertia_slope(jb, B, dt) == pytest.approx(difference, rel=1e-6)
+    assert discrete_inertia_slope(J, 0.0, dt) == 1.0
 
 
 def held_response(

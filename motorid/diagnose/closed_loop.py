@@ -56,7 +56,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.diagnose.kinematics import kinematics
-from motorid.diagnose.model import model_balance
+from motorid.diagnose.model import model_balance, model_key
 from motorid.diagnose.prepare import Pool
 from motorid.drive.effects import get as get_effect
 from motorid.drive.rigid import RigidDrive
@@ -473,7 +473,7 @@ def instrumental_refit(
             on_w = eff.columns(kin.balance_w, model.params, model.stribeck_shape, None)
             on_r = eff.columns(kin_r.w, model.params, model.stribeck_shape, None)
             for j in range(len(eff.linear)):
-                x_cols.append(kin.decimate(np.where(data.holds, on_w[:, j], 0.0)))  # as data.decimated
+                x_cols.append(data.decimated(("instrument", model_key(model), eff.name, j), on_w[:, j]))
                 z_cols.append(kin_r.decimate(on_r[:, j]))
         X_rows.append(np.column_stack(x_cols)[rows])
         Z_rows.append(np.column_stack(z_cols)[rows])
@@ -504,12 +504,12 @@ def instrumental_refit(
     for j, col in enumerate(used):
         name = names[col]
         value = fitted[name]  # [the parameter's unit]: the balance is in force units, as the model
-        scale_std = 1.0
-        if name == "inertia":  # the balance's coefficient J_b, and the inertia it gives
-            value = pool.parts[0].data.inertia(value, viscous)
-            scale_std = value / fitted[name] if fitted[name] > 0.0 else 1.0
+        slope = 1.0  # dθ/dθ_b: the balance's coefficient and the parameter it gives
+        if name == "inertia":
+            data = pool.parts[0].data
+            value, slope = data.inertia(value, viscous), data.inertia_slope(value, viscous)
         changes[name] = value
-        entries[name] = {"value": value, "standard_error": float(std[j]) * abs(scale_std),
+        entries[name] = {"value": value, "standard_error": float(std[j]) * slope,
                          "least_squares": float(model.params[name])}  # fmt: skip
     try:
         return model.with_params(**changes), entries

@@ -219,6 +219,13 @@ class BalanceData:
             return float(coefficient)
         return inertia_from_discrete(coefficient, viscous, self.dt)
 
+    def inertia_slope(self, coefficient: float, viscous: float) -> float:
+        """dJ/dJ_b of :meth:`inertia` at ``coefficient`` [-] (the delta method's factor on J_b's
+        standard error): :func:`discrete_inertia_slope`, 1 on a position record."""
+        if self.kin.output_kind != "velocity":
+            return 1.0
+        return discrete_inertia_slope(coefficient, viscous, self.dt)
+
     def balance_force(self, force: np.ndarray) -> np.ndarray:
         """The force of each sample's balance: on a velocity record the force held over sample
         k, ``F[k]`` (:attr:`~motorid.diagnose.kinematics.Kinematics.balance_a`); on a position
@@ -287,6 +294,10 @@ class PooledBalance:
         """:meth:`BalanceData.inertia` (the records share one sample time)."""
         return self.parts[0].inertia(coefficient, viscous)
 
+    def inertia_slope(self, coefficient: float, viscous: float) -> float:
+        """:meth:`BalanceData.inertia_slope` (the records share one sample time)."""
+        return self.parts[0].inertia_slope(coefficient, viscous)
+
 
 def discrete_inertia(inertia: float, viscous: float, dt: float) -> float:
     """The coefficient J_b of the acceleration in a velocity record's balance [F s²/v].
@@ -337,6 +348,31 @@ def inertia_from_discrete(coefficient: float, viscous: float, dt: float) -> floa
     if not bdt > 0.0 or not held > bdt or not math.isfinite(held):
         return float(coefficient)
     return float(-bdt / math.log1p(-bdt / held))
+
+
+def discrete_inertia_slope(coefficient: float, viscous: float, dt: float) -> float:
+    """dJ/dJ_b of :func:`inertia_from_discrete` [-]: with ``c = B dt`` and ``H = J_b + c / 2``,
+    ``J = -c / ln(1 - c / H)`` and::
+
+        dJ/dJ_b = J² / (H (H - c))
+
+    1 where :func:`inertia_from_discrete` gives the coefficient itself.
+
+    Parameters
+    ----------
+    coefficient : float
+        J_b [F s²/v].
+    viscous : float
+        B [F s/v].
+    dt : float
+        Sample time [s].
+    """
+    bdt = viscous * dt
+    held = coefficient + 0.5 * bdt
+    if not bdt > 0.0 or not held > bdt or not math.isfinite(held):
+        return 1.0
+    inertia = inertia_from_discrete(coefficient, viscous, dt)
+    return float(inertia**2 / (held * (held - bdt)))
 
 
 def stacked(columns: list[np.ndarray]) -> np.ndarray:
@@ -1066,15 +1102,8 @@ def fit_model(
             param_std[name] = math.hypot(param_std[name], slope * trade.delay_free_std)
     coefficient = theta.pop("inertia")
     inertia = data.inertia(coefficient, theta.get("viscous", 0.0))
-    if (
-        coefficient > 0.0 and inertia != coefficient and "inertia" in param_std
-    ):  # delta method: σ_J = |dJ/dJ_b| σ_Jb
-        step = 1e-6 * coefficient
-        viscous = theta.get("viscous", 0.0)
-        slope = (data.inertia(coefficient + step, viscous) - data.inertia(coefficient - step, viscous)) / (
-            2 * step
-        )
-        param_std["inertia"] *= abs(slope)
+    if "inertia" in param_std:  # the delta method: σ_J = |dJ/dJ_b| σ_Jb
+        param_std["inertia"] *= data.inertia_slope(coefficient, theta.get("viscous", 0.0))
     params = {"inertia": inertia, "input_gain": gain, **theta, **shape}
     model = RigidDrive(effects, params, data.dt, stribeck_shape)
     return FitResult(
@@ -1194,9 +1223,12 @@ __all__ = [
     "PooledBalance",
     "Regressors",
     "delay_trade",
+    "discrete_inertia",
+    "discrete_inertia_slope",
     "fit_model",
     "fit_output_error",
     "force_shares",
+    "inertia_from_discrete",
     "linear_param_cov",
     "linear_param_std",
     "model_balance",
