@@ -21,7 +21,9 @@ logged through one imperfection (:data:`IMPERFECTIONS`):
 - ``pwm_ripple``: the drive's PWM at 100-490 Hz (an Arduino's is 490 Hz), logged at 1 or 2 ms:
   the motor sees the supply in each on phase and nothing in the off phase, each simulation step
   the PWM's exact average over that step (:func:`pwm_average`), so the speed ripples at the PWM
-  frequency and its harmonics, aliased by the logger; the input column is the mean voltage;
+  frequency and its harmonics, aliased by the logger; the input column is the mean voltage; a
+  planted dead zone is the bridge's, on the mean voltage asked for (on the pulses themselves it
+  would withhold nothing);
 - ``torque_ripple``: a once-per-revolution torque ripple (a bent shaft, an eccentric load, the
   magnet's joint), ``A sin(θ + φ)`` with ``A`` 3-8 % of the full input's torque: the doctor
   may name it (``cogging``), which is no false name on this bench;
@@ -51,6 +53,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.diagnose.synthetic import encoder_speed
+from motorid.drive.input_path import input_path
 from motorid.drive.rigid import RigidDrive
 
 #: The imperfections a bench is logged through (see the module notes).
@@ -93,7 +96,8 @@ class Bench:
         Samples of a stale start (0 without one).
     notes : dict
         Other true values an imperfection draws: the PWM frequency ``pwm_frequency`` [Hz] of a
-        pulsed or rippling drive, ``compensated`` (1.0 or 0.0) of a closed loop.
+        pulsed or rippling drive, ``compensated`` (1.0 or 0.0) of a closed loop, the standard
+        deviation ``noise_std`` [rad/s] of the white noise on the logged speed (not an encoder's).
     """
 
     record: pd.DataFrame
@@ -235,7 +239,13 @@ def bench(
         frequency = float(rng.uniform(100.0, 490.0))
         notes["pwm_frequency"] = frequency
         u = np.clip(u, -SUPPLY, SUPPLY)  # the bridge gives at most the supply: the record holds what it gave
-        applied = pwm_average(np.repeat(u, OVERSAMPLE), dt_sim, frequency)
+        asked = u
+        if effect == "input_dead_zone":
+            # the bridge's dead zone withholds the small duties it is asked for; on the supply's
+            # pulses themselves (0 or 12 V) a dead zone of 0.5-1.5 V would withhold nothing
+            asked = input_path(u, dead_zone=params["dead_zone"])
+            drive = drive.without("input_dead_zone")
+        applied = pwm_average(np.repeat(asked, OVERSAMPLE), dt_sim, frequency)
     w = drive.free_run(applied)
     delay = (0.0, 0.0)
     if logging_delay is not None:
@@ -253,7 +263,8 @@ def bench(
     if imperfection == "encoder":
         y = encoder_speed(speed, rng)
     else:
-        y = speed + 0.002 * float(np.max(np.abs(speed))) * rng.standard_normal(n)
+        notes["noise_std"] = 0.002 * float(np.max(np.abs(speed)))
+        y = speed + notes["noise_std"] * rng.standard_normal(n)
     if stale:
         y[:stale] = float(rng.choice([-1.0, 1.0]) * rng.uniform(100.0, 250.0))
     record = pd.DataFrame({"t": t, "u": u, "y": y})

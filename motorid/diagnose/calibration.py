@@ -181,6 +181,7 @@ the sines only. Measured with the new rule, and with the old one on the same rec
 from __future__ import annotations
 
 import argparse
+import itertools
 import math
 import sys
 from collections.abc import Sequence
@@ -777,6 +778,83 @@ def _bank_report(rows: list[BankRow]) -> str:
     return "\n".join(lines) + "\n"
 
 
+@dataclass
+class NoiseEstimate:
+    """The noise of a bench's speed against the doctor's two measures of it (:func:`noise_estimates`).
+
+    Attributes
+    ----------
+    imperfection, effect, seed : str, str or None, int
+        The bench.
+    sample_share : float
+        Its sample time over its true time constant J / B [-].
+    truth : float
+        The standard deviation of the white noise on its speed [rad/s].
+    near_nyquist : float
+        The noise measured on the speed's part near the Nyquist frequency [rad/s]
+        (:func:`~motorid.diagnose.kinematics.filtered_noise`, undone of the low-pass's share).
+    one_step : float
+        The noise measured by the one-step prediction of the base model fitted to the bench
+        (:func:`~motorid.diagnose.measures.one_step_noise`) [rad/s].
+    """
+
+    imperfection: str
+    effect: str | None
+    seed: int
+    sample_share: float
+    truth: float
+    near_nyquist: float
+    one_step: float
+
+
+def noise_estimates(
+    seeds: Sequence[int], imperfections: Sequence[str] = ("none", "slow_sampling")
+) -> list[NoiseEstimate]:
+    """The two measures of a velocity record's noise on benches of the bank whose speed carries
+    white noise of a known size (:mod:`motorid.diagnose.bench`), each effect, each seed: what
+    :data:`~motorid.diagnose.prepare.ONE_STEP_SAMPLE_SHARE` and
+    :data:`~motorid.diagnose.prepare.ONE_STEP_BELOW` are chosen on."""
+    from motorid.diagnose.bench import BENCH_EFFECTS, bench
+    from motorid.diagnose.kinematics import CUTOFF_PER_BAND, noise_left
+    from motorid.diagnose.measures import one_step_noise
+    from motorid.diagnose.model import fit_model
+    from motorid.diagnose.prepare import prepare
+
+    rows = []
+    for imperfection in imperfections:
+        for effect in BENCH_EFFECTS:
+            for seed in seeds:
+                b = bench(imperfection, effect, seed)
+                p = prepare(b.record, input_gain=b.params["input_gain"])
+                base = fit_model(p.data, BASE_FOR["input_lag"]).model
+                rows.append(NoiseEstimate(
+                    imperfection, effect, seed, b.record.attrs["dt"] * b.params["viscous"] / b.params["inertia"],
+                    b.notes["noise_std"], p.kin.noise / noise_left(CUTOFF_PER_BAND * p.kin.band, p.kin.dt),
+                    one_step_noise(base, p.data),
+                ))  # fmt: skip
+    return rows
+
+
+def _noise_report(rows: list[NoiseEstimate]) -> str:
+    """Per range of the sample time over the time constant, the two measures over the truth."""
+    edges = (0.0, 0.25, 0.45, math.inf)
+    lines = [
+        "| dt / τ | benches | near Nyquist / truth: median [min, max] | one step / truth: median [min, max] |",
+        "| --- | --- | --- | --- |",
+    ]
+    for lo, hi in itertools.pairwise(edges):
+        inside = [r for r in rows if lo < r.sample_share <= hi]
+        if not inside:
+            continue
+        near = np.array([r.near_nyquist / r.truth for r in inside])
+        step = np.array([r.one_step / r.truth for r in inside])
+        lines.append(
+            f"| {lo:g}-{hi:g} | {len(inside)} | {np.median(near):.2f} [{near.min():.2f}, {near.max():.2f}] | "
+            f"{np.median(step):.2f} [{step.min():.2f}, {step.max():.2f}] |"
+        )
+    return "\n".join(lines) + "\n"
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=100, help="number of records (seeds 0..N-1)")
@@ -814,7 +892,16 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="the bank of benches (motorid.diagnose.bench): each imperfection and effect, --seeds seeds each",
     )
+    parser.add_argument(
+        "--noise",
+        action="store_true",
+        help="the noise of the bank's benches of white noise (none, slow_sampling) against the doctor's two "
+        "measures of it, by the sample time over the time constant",
+    )
     args = parser.parse_args(argv)
+    if args.noise:
+        sys.stdout.write(_noise_report(noise_estimates(range(args.first, args.first + args.seeds))))
+        return 0
     if args.bank:
         rows = bank(range(args.first, args.first + args.seeds), progress=sys.stderr.isatty())
         sys.stdout.write(_bank_report(rows))

@@ -53,6 +53,10 @@ import numpy as np
 OutputKind = Literal["velocity", "position"]
 
 
+#: The velocity's low-pass cuts off at this many times the useful band f_b.
+CUTOFF_PER_BAND = 2.5
+
+
 def default_band(dt: float) -> float:
     """Default useful band f_b [Hz] for a sample time ``dt`` [s]: min(40, f_s/10).
 
@@ -279,7 +283,7 @@ def kinematics(
     Kinematics
     """
     band = default_band(dt) if band is None else float(band)
-    cutoff = 2.5 * band
+    cutoff = CUTOFF_PER_BAND * band
     y = np.asarray(y, dtype=float)
     n = y.size
     if output_kind == "position":
@@ -331,7 +335,13 @@ def filtered_noise(hf: np.ndarray, cutoff: float, dt: float) -> float:
         Sample time [s].
     """
     sigma = float(np.std(hf)) * math.sqrt(max(1.0 - min(8.0 * cutoff * dt, 0.9), 0.1)) ** -1
-    return sigma * math.sqrt(min(1.0, 2.0 * cutoff * dt))
+    return sigma * noise_left(cutoff, dt)
+
+
+def noise_left(cutoff: float, dt: float) -> float:
+    """Share of white noise's standard deviation the velocity's low-pass at ``cutoff`` [Hz] leaves
+    (sample time ``dt`` [s]): ``sqrt(min(1, 2 f_c dt))``, its share of the band up to Nyquist."""
+    return math.sqrt(min(1.0, 2.0 * cutoff * dt))
 
 
 def white_noise_variance(kin: Kinematics, samples: np.ndarray) -> float:
@@ -360,7 +370,7 @@ def white_noise_variance(kin: Kinematics, samples: np.ndarray) -> float:
 @functools.cache
 def _high_pass_gain(dt: float, band: float) -> float:
     """``Σ_k g[k]²`` of :func:`white_noise_variance`'s high-pass (sample time ``dt`` [s], band [Hz])."""
-    cutoff = min(0.45 / dt, 4.0 * 2.5 * band)
+    cutoff = min(0.45 / dt, 4.0 * CUTOFF_PER_BAND * band)
     n = 2 * (math.ceil(40.0 / (cutoff * dt)) + 40) + 1
     impulse = np.zeros(n)
     impulse[n // 2] = 1.0
@@ -460,7 +470,7 @@ def noise_bands(
         last = k == len(edges) - 2
         inside = (speed >= lo) & ((speed <= hi) if last else (speed < hi))
         count = int(inside.sum())
-        floor = filtered_noise(hf[inside], 2.5 * band, dt) if count >= 10 else math.nan
+        floor = filtered_noise(hf[inside], CUTOFF_PER_BAND * band, dt) if count >= 10 else math.nan
         out.append(NoiseBand(float(lo), float(hi), count, floor))
     return out
 

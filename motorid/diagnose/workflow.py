@@ -138,11 +138,13 @@ from motorid.diagnose.locate import locate
 from motorid.diagnose.measures import fit_static_friction, free_run_error, gaps
 from motorid.diagnose.position import position_unit, refit_records_in_position
 from motorid.diagnose.prepare import (
+    ONE_STEP_BELOW,
     Pool,
     Prepared,
     common_timing,
     held_out,
     normalised_records,
+    one_step_noise_pool,
     pool_records,
     prepare,
 )
@@ -403,24 +405,40 @@ def diagnose(
                 "stribeck_shape": stribeck_shape, "structure": structure}  # fmt: skip
     if len(labels) > 1:
         settings["records"] = list(labels)
-    search = Search(
-        pool, held_out(pool, holdout, opts), stribeck_shape, threshold, min_holdout_gain, min_gap_shrink,
-        noise_explained, friction_given(base_names), progress,
-    )  # fmt: skip
 
     # stages: the initial fit, each step, the final gaps (after the checks: an error shows no bar)
     bar = progress_bar(show=progress, total=max_steps + 2, desc="doctor", unit="stage")
-    bar.set_postfix_str(f"initial fit on {pool.data.n} decimated samples")
-    fit0 = search.fit_base(tuple(base_names), model)
-    # the user's model as given (at the record's sample time), else the fitted base
-    initial_model = fit0.model if model is None else model.replace(dt=pool.dt)
-    refitted_model = fit0.model
-    first_region = locate(pool.balance_residual(initial_model)[0], pool.feats_dec, pool.units)
 
-    # the search: the base structure, then the effects
-    chosen, fit0, current, structure_model = search.base_structure(fit0, tuple(base_names), structure, bar)
-    bar.update(1)
-    outcome = search.run(fit0, current, cand_names, first_region, bool(chosen.effects), max_steps, bar)
+    def searched(pool: Pool) -> tuple:
+        """The search on ``pool``: the initial fit, the base structure, the effects."""
+        search = Search(
+            pool, held_out(pool, holdout, opts), stribeck_shape, threshold, min_holdout_gain, min_gap_shrink,
+            noise_explained, friction_given(base_names), progress,
+        )  # fmt: skip
+        bar.set_postfix_str(f"initial fit on {pool.data.n} decimated samples")
+        fit0 = search.fit_base(tuple(base_names), model)
+        # the user's model as given (at the record's sample time), else the fitted base
+        initial_model = fit0.model if model is None else model.replace(dt=pool.dt)
+        first_region = locate(pool.balance_residual(initial_model)[0], pool.feats_dec, pool.units)
+        chosen, fit, current, structure_model = search.base_structure(fit0, tuple(base_names), structure, bar)
+        bar.update(1)
+        outcome = search.run(fit, current, cand_names, first_region, bool(chosen.effects), max_steps, bar)
+        return fit0, initial_model, first_region, chosen, structure_model, outcome
+
+    run = searched(pool)
+    if output_kind == "velocity":
+        # a record sampled slowly for its time constant: its noise measured by the one-step prediction of the
+        # model found, and the search run again on it; once more where the model it then finds predicts closer
+        as_read = pool
+        for _ in range(2):
+            by_one_step = one_step_noise_pool(as_read, run[-1].fit.model)
+            if by_one_step is as_read or not by_one_step.noise < ONE_STEP_BELOW * pool.noise:
+                break
+            pool, first = by_one_step, by_one_step.parts[0]
+            bar.reset(total=max_steps + 2)
+            run = searched(pool)
+    fit0, initial_model, first_region, chosen, structure_model, outcome = run
+    refitted_model = fit0.model
     bar.total = bar.n + 1  # a diagnosis that stops early skips the steps it did not take
 
     # the results: the gaps before and after, and why the search stopped
