@@ -91,8 +91,8 @@ def test_the_hidden_effect_is_named_first_and_the_gap_halves_in_its_region(effec
         # balance fitted by least squares and 0.52 compensated for the acceleration's noise
         assert step.gap_after.region <= 0.55 * step.gap_before.region, (step.region, sizes, seed)
         assert step.gap_after.overall < step.gap_before.overall
-        assert step.evidence["delta_bic"] > step.evidence["threshold"]
-        assert step.evidence["held_out_error_after"] < step.evidence["held_out_error_before"]
+        assert step.evidence.delta_bic > step.evidence.threshold
+        assert step.evidence.held_out_error_after < step.evidence.held_out_error_before
 
     check()
 
@@ -191,7 +191,7 @@ def test_coulomb_friction_and_dead_zone_are_told_apart():
         planted = planted_record(effect, 11, sizes=sizes)
         d = diagnose(planted.record, input_gain=planted.input_gain, base=("viscous_friction", "offset"))
         assert d.named[0] == effect
-        ranked = [r["effect"] for r in d.steps[0].evidence["ranking"]]
+        ranked = [r.effect for r in d.steps[0].evidence.ranking]
         other = "coulomb_friction" if effect == "input_dead_zone" else "input_dead_zone"
         assert other in ranked
 

@@ -144,7 +144,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
             say(table.round(4).to_string())
     for step in diagnosis.steps:
         params = ", ".join(f"{k} = {v:.5g} {param_units[k]}" for k, v in step.params.items())
-        say(f"  + {step.effect}: {params} at this step (ΔBIC {step.evidence['delta_bic']:.1f})")
+        say(f"  + {step.effect}: {params} at this step (ΔBIC {step.evidence.delta_bic:.1f})")
         if step.lookalike is not None:
             say(f"    {step.lookalike.describe(units)}")
     say(
