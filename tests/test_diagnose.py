@@ -536,7 +536,7 @@ def test_a_given_model_is_the_first_gap_as_given_then_refitted():
     for key in ("overall", "force_error_percent"):
         assert getattr(again.initial_gap, key) == getattr(found.final_gap, key)
     assert again.initial_model == found.model and again.named == []
-    assert again.settings["base"] == list(found.model.effects) and again.settings["model"] == "given"
+    assert again.settings.base == found.model.effects and again.settings.model == "given"
     # a wrong Coulomb level: the first gap is that model's; refitting its effects brings it back
     wrong = found.model.with_params(coulomb=3.0 * found.model.params["coulomb"])
     start = diagnose(planted.record, model=wrong)

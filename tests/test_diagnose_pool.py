@@ -60,7 +60,7 @@ def test_records_of_one_drive_are_diagnosed_as_one_model(drive):
     # three records of 30 s each know the level to about 2 %; 5 % leaves room
     assert d.model.params["coulomb"] == pytest.approx(COULOMB, rel=0.05)
     assert [r.record for r in d.records] == ["a.csv", "b.csv", "c.csv"]
-    assert d.settings["records"] == ["a.csv", "b.csv", "c.csv"]
+    assert d.settings.records == ("a.csv", "b.csv", "c.csv")
     # each record's final gap is that record's, computed anew (evaluate prepares the record again)
     for rec, summary in zip(records, d.records, strict=True):
         again = d.evaluate(rec)

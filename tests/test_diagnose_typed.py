@@ -37,7 +37,7 @@ def test_the_rejected_candidates_are_those_the_stop_reason_names(staircase):
         f"no candidate improves held-out data and shrinks the free-run gap beyond the noise: {said}; "
     ), d.stop_reason
     for r in d.rejected:
-        assert r.delta_bic > d.settings["threshold"]  # each passed the evidence, not the checks
+        assert r.delta_bic > d.settings.threshold  # each passed the evidence, not the checks
         # judged where it acts (near rest): the gaps there and the noise floor there; else none
         acting = (r.acting_gap_before, r.acting_gap_after, r.acting_noise_floor)
         assert (r.judged is None) == (acting == (None, None, None)), r
@@ -56,7 +56,7 @@ def test_the_structure_taken_is_the_row_tried_that_shrank_the_gap(staircase):
     ]
     (taken,) = [c for c in s.candidates if c.effects == s.effects]
     assert taken.params == s.params and taken.gap == s.gap_after < s.gap_before
-    assert taken.delta_bic > staircase.settings["threshold"]
+    assert taken.delta_bic > staircase.settings.threshold
 
 
 @pytest.mark.parametrize("effect", ["coulomb_friction", "static_friction"])

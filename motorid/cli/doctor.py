@@ -118,9 +118,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         on = f"{args.data[0]} ({len(records[0])} samples)"
     else:
         on = f"{len(records)} records of one drive ({sum(len(r) for r in records)} samples), one model"
-    say(
-        f"motorid doctor on {on}, base model: {start}" + "".join(f", {b}" for b in diagnosis.settings["base"])
-    )
+    say(f"motorid doctor on {on}, base model: {start}" + "".join(f", {b}" for b in diagnosis.settings.base))
     for note in diagnosis.notes:
         say(f"  note: {note}")
     for loop in diagnosis.closed_loop:

@@ -496,6 +496,80 @@ class Step:
         return out
 
 
+@dataclass(frozen=True)
+class Settings:
+    """The options a diagnosis ran with, as used (:attr:`Diagnosis.settings`): what
+    :meth:`Diagnosis.evaluate` reads another record with, and the JSON's ``settings``.
+
+    Attributes
+    ----------
+    dt : float
+        The sample time [s] (the first record's).
+    input, output : str
+        The columns read as the input and the output.
+    output_kind : str
+        ``velocity`` or ``position``.
+    input_gain : float or None
+        The input gain given [N m or N per input unit]; None: forces per input unit.
+    band : float
+        The useful band [Hz] (:mod:`.kinematics`).
+    reading : dict
+        How the records were read: the keywords of :func:`~motorid.io.records.normalise_record`
+        but the columns and ``dt`` (``time``, ``input_unit``, ``output_unit``, ...).
+    timing : str
+        The input/output timing, ``hold`` or ``sampled`` (the first record's).
+    base : tuple of str
+        The effects of the base model.
+    candidates : tuple of str
+        The effects tried.
+    threshold : float
+        The ΔBIC a candidate needs [-].
+    noise_explained : float
+        The part of the free-run gap a later effect must account for [noise floors].
+    missing_factor : float
+        The final gap, in noise floors, above which something is still missing.
+    holdout : float or str
+        The share of the record held out [-], or ``record`` for a held-out record.
+    max_steps : int
+        The most effects added.
+    model : str
+        ``given`` (a model was given) or ``fitted``.
+    stribeck_shape : str
+        The Stribeck curve's shape.
+    structure : bool
+        Whether an input delay and lag were searched first.
+    records : tuple of str
+        Several records: their labels; empty for one record.
+    """
+
+    dt: float
+    input: str
+    output: str
+    output_kind: str
+    input_gain: float | None
+    band: float
+    reading: dict[str, Any]
+    timing: str
+    base: tuple[str, ...]
+    candidates: tuple[str, ...]
+    threshold: float
+    noise_explained: float
+    missing_factor: float
+    holdout: float | str
+    max_steps: int
+    model: str
+    stribeck_shape: str
+    structure: bool
+    records: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "records"}
+        out.update(reading=dict(self.reading), base=list(self.base), candidates=list(self.candidates))
+        if self.records:
+            out["records"] = list(self.records)
+        return out
+
+
 @dataclass
 class Diagnosis:
     """What :func:`~motorid.diagnose.workflow.diagnose` found.
@@ -525,7 +599,7 @@ class Diagnosis:
     units : dict
         Units of velocity (``v``), force (``F``) and input (``u``): ``F`` is
         N or N m with a known input gain, else the input's unit.
-    settings : dict
+    settings : Settings
         Options used (for :meth:`evaluate` on another record).
     rejected : list of Rejected
         Candidates that passed the evidence threshold but were not accepted, and why.
@@ -596,7 +670,7 @@ class Diagnosis:
     initial_model: RigidDrive
     region: Region
     units: dict[str, str]
-    settings: dict[str, Any]
+    settings: Settings
     rejected: list[Rejected] = field(default_factory=list)
     refitted_model: RigidDrive | None = None
     refitted_gap: Gap | None = None
@@ -714,7 +788,7 @@ class Diagnosis:
             "noise_floor": self.noise_floor,
             "noise_bands": [b.to_dict() for b in self.noise_bands],
             "quantisation_step": self.quantisation_step,
-            "at_noise_floor_factor": self.settings["missing_factor"],
+            "at_noise_floor_factor": self.settings.missing_factor,
             "rests": [r.to_dict() for r in self.rests],
             "region": self.region.to_dict(),
             "final_region": self.final_region.to_dict(),
@@ -729,16 +803,14 @@ class Diagnosis:
             "rejected": [r.to_dict() for r in self.rejected],
             "units": {
                 "gap": f"{self.units['v']} (RMS of measured minus free-run velocity"
-                + (
-                    "; velocity derived from position)" if self.settings["output_kind"] == "position" else ")"
-                ),
+                + ("; velocity derived from position)" if self.settings.output_kind == "position" else ")"),
                 "force_error_percent": "%",
                 "force": self.units["F"],
                 "velocity": self.units["v"],
                 "input": self.units["u"],
                 "params": self.param_units,
             },
-            "settings": self.settings,
+            "settings": self.settings.to_dict(),
             "initial_model": {
                 "effects": list(self.initial_model.effects),
                 "params": self.initial_model.params,
@@ -824,12 +896,12 @@ class Diagnosis:
         """
         from motorid.io.records import normalise_record
 
-        reading = {"input": self.settings["input"], "output": self.settings["output"], "dt": None,
-                   **self.settings.get("reading", {})}  # fmt: skip
+        used = self.settings
+        reading = {"input": used.input, "output": used.output, "dt": None, **used.reading}
         reading.update({k: v for k, v in overrides.items() if k in reading})
         record = normalise_record(record, **reading)
-        keys = ("output_kind", "input_gain", "timing", "band")
-        opts = {k: self.settings[k] for k in keys}
+        opts = {"output_kind": used.output_kind, "input_gain": used.input_gain, "timing": used.timing,
+                "band": used.band}  # fmt: skip
         opts.update({k: v for k, v in overrides.items() if k not in reading})
         prep = prepare(record, input="u", output="y", dt=reading["dt"], **opts)
         rows = {label: gaps(model, prep, self.region) for label, model in self.models}
@@ -1116,6 +1188,7 @@ __all__ = [
     "RecordSummary",
     "Rejected",
     "RestSummary",
+    "Settings",
     "Step",
     "Stop",
     "Structure",
