@@ -226,8 +226,8 @@ class CandidateEvidence:
         :func:`~motorid.diagnose.measures.breakaway_evidence`); -inf where its fit is not physical
         or the rests show no breakaway (:attr:`note` says which).
     n : int
-        The samples compared (the balance's decimated moving rows, the rests, or the free run's
-        settled samples).
+        The samples compared: the torque balance's rows (decimated samples), the typical rests,
+        or the free run's settled samples.
     n_eff : float
         The effective samples n (1 - ρ) / (1 + ρ) [-].
     rho : float
