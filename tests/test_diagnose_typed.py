@@ -3,10 +3,13 @@
 and a joint run's :class:`RecordGap` rows are dataclasses read by attribute; their ``to_dict()`` is
 the JSON of ``motorid doctor --json``, held key for key by ``tests/test_doctor_golden.py``.
 
-Each test checks a typed part against a figure the doctor computed another way: the stop reason's
-sentence, the structure it took, the steps it added."""
+The tests check a typed part against a figure the doctor computed another way (the stop reason's
+sentence, the structure it took, the steps it added), and a rejected candidate's JSON keys in the
+order the report has written them."""
 
 from __future__ import annotations
+
+import dataclasses
 
 import pytest
 from emps_fixtures import real_motor_file
@@ -77,3 +80,37 @@ def test_a_steps_evidence_is_its_candidates_row_of_the_ranking(effect):
     assert (static.breakaway is None) == static.measure.startswith("free run")
     # the table of the steps reads the same evidence
     assert list(d.table()["delta_bic"]) == [s.evidence.delta_bic for s in d.steps]
+
+
+def test_a_rejected_candidate_writes_the_keys_of_the_report_in_their_order():
+    """The JSON of ``rejected`` as ``motorid doctor --json`` has written it (the golden files of the
+    L298N staircase and of EMPS hold both forms, where their data are present): the figures where
+    it acts only when judged there, the held-out position errors only on a position record, the
+    reason last."""
+    common = ["step", "effect", "delta_bic", "held_out_error_before", "held_out_error_after", "gap_before",
+              "gap_after", "gap_shrink_noise_floors", "explained_noise_floors"]  # fmt: skip
+    near_rest = Rejected(
+        step=1, effect="stribeck_friction", reason="held-out error 219.4 vs 87.3 rad/s/s", delta_bic=78.7,
+        held_out_error_before=87.3, held_out_error_after=219.4, gap_before=3.10, gap_after=0.958,
+        gap_shrink_noise_floors=1370.0, explained_noise_floors=1410.2, judged="near rest",
+        acting_gap_before=3.51, acting_gap_after=0.101, acting_noise_floor=0.00248,
+    )  # fmt: skip
+    assert list(near_rest.to_dict()) == [
+        *common,
+        "judged",
+        "acting_gap_before",
+        "acting_gap_after",
+        "acting_noise_floor",
+        "reason",
+    ]
+    in_position = dataclasses.replace(
+        near_rest, judged=None, acting_gap_before=None, acting_gap_after=None, acting_noise_floor=None,
+        held_out_position_error_before=6.45e-3, held_out_position_error_after=6.51e-3,
+    )  # fmt: skip
+    assert list(in_position.to_dict()) == [
+        *common,
+        "held_out_position_error_before",
+        "held_out_position_error_after",
+        "reason",
+    ]
+    assert in_position.to_dict()["reason"] == near_rest.reason
