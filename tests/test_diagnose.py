@@ -91,8 +91,8 @@ def test_the_hidden_effect_is_named_first_and_the_gap_halves_in_its_region(effec
         # balance fitted by least squares and 0.52 compensated for the acceleration's noise
         assert step.gap_after.region <= 0.55 * step.gap_before.region, (step.region, sizes, seed)
         assert step.gap_after.overall < step.gap_before.overall
-        assert step.evidence["delta_bic"] > step.evidence["threshold"]
-        assert step.evidence["held_out_error_after"] < step.evidence["held_out_error_before"]
+        assert step.evidence.delta_bic > step.evidence.threshold
+        assert step.evidence.held_out_error_after < step.evidence.held_out_error_before
 
     check()
 
@@ -191,7 +191,7 @@ def test_coulomb_friction_and_dead_zone_are_told_apart():
         planted = planted_record(effect, 11, sizes=sizes)
         d = diagnose(planted.record, input_gain=planted.input_gain, base=("viscous_friction", "offset"))
         assert d.named[0] == effect
-        ranked = [r["effect"] for r in d.steps[0].evidence["ranking"]]
+        ranked = [r.effect for r in d.steps[0].evidence.ranking]
         other = "coulomb_friction" if effect == "input_dead_zone" else "input_dead_zone"
         assert other in ranked
 
@@ -536,7 +536,7 @@ def test_a_given_model_is_the_first_gap_as_given_then_refitted():
     for key in ("overall", "force_error_percent"):
         assert getattr(again.initial_gap, key) == getattr(found.final_gap, key)
     assert again.initial_model == found.model and again.named == []
-    assert again.settings["base"] == list(found.model.effects) and again.settings["model"] == "given"
+    assert again.settings.base == found.model.effects and again.settings.model == "given"
     # a wrong Coulomb level: the first gap is that model's; refitting its effects brings it back
     wrong = found.model.with_params(coulomb=3.0 * found.model.params["coulomb"])
     start = diagnose(planted.record, model=wrong)

@@ -147,7 +147,7 @@ def test_a_loop_record_without_attributes_is_read_with_the_loops_timing(loops):
     plain.attrs = {}
     d = diagnose(plain, max_steps=1)
     (loop,) = d.closed_loop
-    assert loop.timing_set and d.settings["timing"] == "sampled"
+    assert loop.timing_set and d.settings.timing == "sampled"
     assert "input_delay" not in d.structure.effects
     assert "read with timing 'sampled'" in loop.sentence()
     # the same log read with the open loop's timing takes the loop's one-sample shift for a delay
@@ -200,7 +200,7 @@ def test_an_input_that_answers_the_outputs_noise_looks_closed():
     d = diagnose(log, max_steps=0)
     (loop,) = d.closed_loop
     assert loop.reference is None and "looks like a closed loop" in loop.sentence()
-    assert loop.timing_set and d.settings["timing"] == "sampled"  # the loop's timing: no one-sample shift
+    assert loop.timing_set and d.settings.timing == "sampled"  # the loop's timing: no one-sample shift
     assert "input_delay" not in d.structure.effects
     assert "closed_loop" in d.to_dict()
     # an open loop's input never sees the output's noise

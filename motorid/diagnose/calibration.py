@@ -220,12 +220,12 @@ def false_alarms(seeds: range | list[int], threshold: float = DEFAULT_THRESHOLD,
         p = planted_record(None, seed, **kwargs)
         d = diagnose(p.record, input_gain=p.input_gain, base=p.base, max_steps=1, threshold=threshold)
         named.append(d.named)
-        ranking = d.steps[0].evidence["ranking"] if d.steps else None
+        ranking = d.steps[0].evidence.ranking if d.steps else None
         if ranking is None:
             text = d.stop_reason
             best.append(float(text.split("ΔBIC = ")[1].split(" ")[0]) if "ΔBIC = " in text else float("nan"))
         else:
-            best.append(float(ranking[0]["delta_bic"]))
+            best.append(ranking[0].delta_bic)
     return FalseAlarms(seeds, named, best)
 
 

@@ -154,6 +154,7 @@ from motorid.diagnose.results import (
     Diagnosis,
     Lookalike,
     PositionError,
+    Settings,
     Step,
     Structure,
     final_gap_sentence,
@@ -395,16 +396,16 @@ def diagnose(
             "input_gain": input_gain, "band": band}  # fmt: skip
     pool = pool_records(records, labels, timing, opts, base_names, stribeck_shape)  # type: ignore[arg-type]
     first = pool.parts[0]
-    settings = {**opts, "input": columns["input"], "output": columns["output"], "dt": first.kin.dt,
-                "reading": {"time": time, **{k: v for k, v in reading.items() if k != "dt"}},
-                "timing": first.timing, "band": first.kin.band,
-                "base": list(base_names), "candidates": list(cand_names), "threshold": threshold,
-                "noise_explained": noise_explained, "missing_factor": missing_factor,
-                "holdout": "record" if isinstance(holdout, pd.DataFrame) else holdout,
-                "max_steps": int(max_steps), "model": "given" if model is not None else "fitted",
-                "stribeck_shape": stribeck_shape, "structure": structure}  # fmt: skip
-    if len(labels) > 1:
-        settings["records"] = list(labels)
+    settings = Settings(
+        dt=first.kin.dt, input=columns["input"], output=columns["output"], output_kind=output_kind,
+        input_gain=input_gain, band=first.kin.band,
+        reading={"time": time, **{k: v for k, v in reading.items() if k != "dt"}},
+        timing=first.timing, base=tuple(base_names), candidates=tuple(cand_names), threshold=threshold,
+        noise_explained=noise_explained, missing_factor=missing_factor,
+        holdout="record" if isinstance(holdout, pd.DataFrame) else holdout,
+        max_steps=int(max_steps), model="given" if model is not None else "fitted",
+        stribeck_shape=stribeck_shape, structure=structure, records=tuple(labels) if len(labels) > 1 else (),
+    )  # fmt: skip
 
     # stages: the initial fit, each step, the final gaps (after the checks: an error shows no bar)
     bar = progress_bar(show=progress, total=max_steps + 2, desc="doctor", unit="stage")
