@@ -52,7 +52,7 @@ def test_each_bench_is_drawn_within_its_stated_ranges(imperfection):
         else:
             assert "cogging_sin" not in b.params
         if imperfection == "closed_loop":
-            assert list(b.record.columns) == ["t", "reference", "u", "y"]
+            assert list(b.record.columns) == ["t", "reference", "u", "y", "clamped"]
             assert np.max(np.abs(b.record["u"])) <= 12.0 and b.notes["compensated"] in (0.0, 1.0)
 
 
@@ -112,16 +112,28 @@ def test_pwm_average_is_the_supplys_mean_over_each_step():
 
 def test_a_closed_loop_bench_is_its_drive_under_the_logged_commands():
     """The drive simulated again, alone, under the record's commands gives the record's speed to
-    within its noise (0.2 % of the largest reference: 5 sigmas), and the loop follows its
-    reference (RMS error under 15 % of the largest reference: the PI at 0.2 / dt rad/s)."""
+    within its noise (0.2 % of the largest reference: 5 sigmas), each speed read at the start of
+    the sample its command is held over (the speed at the end of sample k is y[k + 1]), and the
+    loop follows its reference (RMS error under 15 % of the largest reference: the PI at 0.2 / dt
+    rad/s). The record is the one ``motorid control --out`` writes: its columns, the loop's timing
+    and the PI's gains."""
     b = bench("closed_loop", None, 3)
     record = b.record
     dt = record.attrs["dt"]
     drive = RigidDrive(("viscous_friction", "coulomb_friction", "offset"), b.params, dt / OVERSAMPLE)
     w = drive.free_run(np.repeat(record["u"].to_numpy(), OVERSAMPLE))[OVERSAMPLE - 1 :: OVERSAMPLE]
     peak = float(np.max(np.abs(record["reference"])))
-    assert np.max(np.abs(record["y"].to_numpy() - w)) < 5 * 0.002 * peak
+    assert np.max(np.abs(record["y"].to_numpy()[1:] - w[:-1])) < 5 * 0.002 * peak
     assert np.sqrt(np.mean((record["reference"] - record["y"]) ** 2)) < 0.15 * peak
+    assert list(record.columns) == ["t", "reference", "u", "y", "clamped"]
+    assert record.attrs["timing"] == "sampled" and record.attrs["units"]["reference"] == "rad/s"
+    loop = record.attrs["loop"]
+    assert (
+        loop["reference"] == "reference" and loop["kp"] > 0.0 and loop["ki"] > 0.0 and loop["u_max"] == 12.0
+    )
+    assert loop["compensation"] == ("reference" if b.notes["compensated"] else None)
+    # the commands within the PI's limit, marked where it clipped them
+    assert np.all(np.abs(record["u"]) <= 12.0) and set(record["clamped"]) <= {0, 1}
 
 
 def test_a_two_mass_bench_turns_at_its_lumped_drives_steady_speed():
