@@ -207,6 +207,27 @@ def test_a_loops_dead_zone_is_found_where_the_base_took_a_lag_for_it():
     assert d.structure.reason in d.notes and d.structure.candidates  # what the search tried stays on record
 
 
+def test_least_squares_stand_where_their_free_run_lies_closer_than_the_instruments():
+    """A bench of the bank: the compensated loop at 10 ms on a drive with Stribeck friction (seed 5). The
+    instrumental fit, its Stribeck velocity held, takes the Stribeck level 55 % high (± 51 %) and runs free
+    1.98 noise floors from the record; least squares 13 % high at 1.07 floors. Least squares are kept and
+    said; the Stribeck level within the issue's 15 %, at the noise floor (3.5, MISSING_FACTOR)."""
+    from motorid.diagnose.bench import bench
+    from motorid.diagnose.synthetic import BASE_FOR
+
+    b = bench("closed_loop", "stribeck_friction", 5)
+    d = diagnose(b.record, input_gain=b.params["input_gain"], base=BASE_FOR["input_lag"])
+    (loop,) = d.closed_loop
+    assert d.named == ["stribeck_friction"] and loop.method == "least squares"
+    assert loop.least_squares_kept.startswith("least squares kept: its free run lies closer to the record")
+    assert loop.least_squares_kept in loop.sentence() and loop.to_dict()["method"] == "least squares"
+    stribeck = loop.instrumental["stribeck"]
+    assert d.model.params["stribeck"] == stribeck["least_squares"] != stribeck["value"]
+    assert d.param_std["stribeck"] != stribeck["standard_error"]  # least squares' own error
+    assert d.model.params["stribeck"] == pytest.approx(b.params["stribeck"], rel=WITHIN)
+    assert d.final_gap.overall < 3.5 * d.noise_floor
+
+
 def simulated_loop(noise: float, seed: int) -> tuple[RigidDrive, pd.DataFrame]:
     """A PI loop (bandwidth 40 rad/s, no compensation) at 10 ms on a drive with viscous and Coulomb
     friction, its speed read with white noise of ``noise`` rad/s RMS: t, reference, u, y, sampled."""

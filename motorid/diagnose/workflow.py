@@ -133,7 +133,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.diagnose.agreement import agreement
-from motorid.diagnose.closed_loop import instrumental_refit, kinetic_split, loop_records
+from motorid.diagnose.closed_loop import instrumental_kept, instrumental_refit, kinetic_split, loop_records
 from motorid.diagnose.given_rig import GivenRig, rig_note
 from motorid.diagnose.locate import locate
 from motorid.diagnose.measures import fit_static_friction, free_run_error, gaps
@@ -161,6 +161,7 @@ from motorid.diagnose.results import (
     slow_sampling_note,
 )
 from motorid.diagnose.search import (
+    ALIKE_GAP,
     DEFAULT_BASE,
     DEFAULT_THRESHOLD,
     NOISE_EXPLAINED,
@@ -437,9 +438,15 @@ def diagnose(
     bar.set_postfix_str("final gaps")
     final_model = outcome.fit.model
     if any(r is not None for r in references):
-        final_model, refitted_iv = instrumental_refit(pool, final_model, references)
+        iv_model, refitted_iv = instrumental_refit(pool, final_model, references)
+        kept = (
+            instrumental_kept(pool, final_model, iv_model, first_region, ALIKE_GAP) if refitted_iv else None
+        )
+        if refitted_iv and kept is None:
+            final_model = iv_model
         for loop in loops:
             loop.instrumental = refitted_iv if loop.reference is not None else {}
+            loop.least_squares_kept = kept if loop.reference is not None else None
     if model is not None and outcome.steps:
         # the given model's own values stand where the records do not contradict them
         given_kept = keep_given(pool, model, final_model)
@@ -449,18 +456,14 @@ def diagnose(
     refitted_gap = None if model is None else pool.gaps(refitted_model, first_region)
     if outcome.steps or chosen.effects or final_model is not outcome.fit.model:
         final_gap = pool.gaps(final_model, first_region)
-        if final_model is not outcome.fit.model and not math.isfinite(final_gap.overall):
-            # the instrumental fit's model does not run free: the search's least squares kept
-            final_model = outcome.fit.model
-            for loop in loops:
-                loop.instrumental = {}
-            final_gap = pool.gaps(final_model, first_region)
     else:
         final_gap = initial_gap if refitted_gap is None else refitted_gap
-    # the standard errors of the parameters the instrumental fit gave, its own; and no delay set free by
-    # least squares in the balance (:mod:`.closed_loop`: it would take the loop's own correlation)
+    # the standard errors of the parameters the instrumental fit gave, its own where it was taken; and no
+    # delay set free by least squares in a loop's balance (:mod:`.closed_loop`: it would take the loop's
+    # own correlation)
     instrumental = next((loop.instrumental for loop in loops if loop.instrumental), {})
-    param_std = {**outcome.fit.param_std, **{k: v["standard_error"] for k, v in instrumental.items()}}
+    taken = next((loop.instrumental for loop in loops if loop.method == "instrumental variables"), {})
+    param_std = {**outcome.fit.param_std, **{k: v["standard_error"] for k, v in taken.items()}}
     refuse_unphysical(final_model, final_gap.overall, pool.units)
     drifts = [d for d in delay_drift(pool, final_model) if d.drifts]
     final_region = locate(pool.balance_residual(final_model)[0], pool.feats_dec, pool.units)
