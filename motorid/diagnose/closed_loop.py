@@ -21,7 +21,9 @@ A closed loop changes three things the doctor otherwise takes for granted:
   variables (below), no delay is set free in it by least squares
   (:attr:`~motorid.diagnose.results.Diagnosis.delay_trade` is None): on ``motorid control``'s loop
   that fit took the loop's correlation for a 14.6 ms delay the structure search had rejected, and
-  called the inertia undetermined for it.
+  called the inertia undetermined for it. A delay or lag the structure search takes on a loop's
+  base stands only where it accounts for a noise floor of the final gap
+  (:func:`motorid.diagnose.workflow.loop_structure`).
 - **Noise fed back.** The input holds the controller's answer to the measured speed's noise, so
   the input and the noise on the regressors of the torque balance (the filtered speed and its
   derivative) are correlated, and least squares is biased. With the loop's reference ``r`` (a
@@ -37,7 +39,8 @@ A closed loop changes three things the doctor otherwise takes for granted:
   (:func:`~motorid.diagnose.kinematics.kinematics`), the shape parameters (a Stribeck velocity, a
   dead zone, a delay) held at the search's values. The instruments are correlated with the
   regressors (the loop makes the speed follow the reference) and not with the noise, so θ_IV is
-  consistent where least squares is not.
+  consistent where least squares is not. It is taken unless its free run lies clearly further
+  from the record than least squares' (:func:`instrumental_kept`).
 - **What the record can tell.** A loop that keeps the input beyond the dead zone whenever the
   drive moves (a compensation that jumps across it at each reversal) leaves Coulomb friction and
   the dead zone one kinetic level: the doctor then names one and reports the other as its
