@@ -30,8 +30,12 @@ logged through one imperfection (:data:`IMPERFECTIONS`):
 - ``closed_loop``: the drive in the speed loop of ``motorid control`` (the PI of
   :func:`~motorid.speed_control.design_speed_pi` on the true linear part, with the true friction
   fed forward on half of the benches, :class:`~motorid.compensation.FrictionCompensation`), the
-  excitation as its reference speed (a ``reference`` column), commands limited to ±12 V and the
-  controller acting on the noisy speed it logs;
+  excitation as its reference speed, commands limited to ±12 V and the controller acting on the
+  noisy speed it logs; the record is what ``motorid control --out`` writes
+  (:func:`~motorid.speed_control.run_closed_loop`): columns ``t``, ``reference``, ``u``, ``y``
+  (read at ``t``, then ``u`` computed from it and held over ``[t, t + dt)``), ``clamped``, and
+  ``attrs`` ``dt``, ``units``, ``timing`` ``"sampled"`` and ``loop``
+  (:func:`~motorid.speed_control.loop_attrs`: the PI's gains, its limit, the compensation);
 - ``two_mass``: the paper's two-mass rig (:func:`~motorid.drive.paper_rig`) drawn around the same
   small motor, the motor 20-50 % of the inertia, a shaft between motor and load whose resonance
   lies at 30-80 Hz with a damping ratio of 0.05-0.2, Coulomb friction on both masses
@@ -80,7 +84,8 @@ class Bench:
     ----------
     record : DataFrame
         Columns ``t`` [s], ``u`` [V] (the duty in [%] for ``pulsed_pwm``), ``y`` [rad/s];
-        ``attrs["dt"]``.
+        ``attrs["dt"]``. A ``closed_loop`` bench's is ``motorid control --out``'s record (the
+        module notes).
     imperfection : str
         One of :data:`IMPERFECTIONS`.
     signal : str
@@ -217,10 +222,7 @@ def bench(
     if imperfection == "closed_loop":
         compensated = bool(rng.integers(2))
         reference = 0.6 * (12.0 * params["input_gain"] / params["viscous"]) * u / 12.0
-        u, y = _closed_loop(drive, params, reference, dt, compensated, rng)
-        record = pd.DataFrame({"t": t, "reference": reference, "u": u, "y": y})
-        record.attrs["dt"] = dt
-        record.attrs["units"] = {"t": "s", "reference": "rad/s", "u": "V", "y": "rad/s"}
+        record = _closed_loop(drive, params, reference, dt, compensated, rng)
         return Bench(record, imperfection, signal, effect, truth, notes={"compensated": float(compensated)})
     stale = 0
     if imperfection == "stale_start":
@@ -352,14 +354,16 @@ def _closed_loop(
     dt: float,
     compensated: bool,
     rng: np.random.Generator,
-) -> tuple[np.ndarray, np.ndarray]:
-    """The drive in the speed loop of ``motorid control``: at each sample the controller's command
-    from the reference and the speed it measured at the end of the last sample (the truth plus
-    white noise of 0.2 % of the largest reference), held over the sample (:data:`OVERSAMPLE` steps
-    of the simulation); returns the commands [V] and the measured speeds [rad/s]."""
+) -> pd.DataFrame:
+    """The drive in the speed loop of ``motorid control``: at each sample ``t_k`` the speed read
+    (the truth plus white noise of 0.2 % of the largest reference), then the controller's command
+    from the reference and that speed, held over ``[t_k, t_k + dt)`` (:data:`OVERSAMPLE` steps of
+    the simulation). Returns the record as :func:`~motorid.speed_control.run_closed_loop` writes
+    it: ``t`` [s], ``reference`` [rad/s], ``u`` [V], ``y`` [rad/s] read at ``t``, ``clamped``;
+    ``attrs`` ``dt``, ``units``, ``timing`` ``"sampled"``, ``loop``."""
     from motorid.compensation import FrictionCompensation
     from motorid.drive.rigid import RigidSimulation
-    from motorid.speed_control import SpeedController, design_speed_pi
+    from motorid.speed_control import SpeedController, design_speed_pi, loop_attrs
 
     linear = {k: params[k] for k in ("inertia", "input_gain", "viscous")}
     pi = design_speed_pi(RigidDrive(("viscous_friction",), linear, dt), dt, u_max=12.0)
@@ -374,15 +378,23 @@ def _closed_loop(
         compensation = FrictionCompensation(friction, speed_band=0.02 * float(np.max(np.abs(reference))))
     controller = SpeedController(pi, dt, compensation)
     plant = RigidSimulation(drive)
-    noise = 0.002 * float(np.max(np.abs(reference))) * rng.standard_normal(reference.size)
-    u = np.empty(reference.size)
-    y = np.empty(reference.size)
-    measured = 0.0
+    n = reference.size
+    noise = 0.002 * float(np.max(np.abs(reference))) * rng.standard_normal(n)
+    u, y, clamped = np.empty(n), np.empty(n), np.zeros(n, dtype=int)
+    speed = 0.0  # the drive at rest at t_0
     for k, r in enumerate(reference):
-        u[k] = controller.step(float(r), measured)
-        measured = float(plant.run(np.full(OVERSAMPLE, u[k]))[-1]) + noise[k]
-        y[k] = measured
-    return u, y
+        y[k] = speed + noise[k]  # read at t_k ...
+        u[k] = controller.step(float(r), y[k])  # ... then commanded, held over [t_k, t_k + dt)
+        clamped[k] = controller.clamped
+        speed = float(plant.run(np.full(OVERSAMPLE, u[k]))[-1])
+    record = pd.DataFrame(
+        {"t": np.arange(n) * dt, "reference": reference, "u": u, "y": y, "clamped": clamped}
+    )
+    record.attrs.update(
+        dt=dt, units={"t": "s", "reference": "rad/s", "u": "V", "y": "rad/s"}, timing="sampled",
+        loop=loop_attrs(controller),
+    )  # fmt: skip
+    return record
 
 
 def delay_error_samples(found: float, bench: Bench) -> float:
