@@ -175,7 +175,7 @@ def test_a_loop_log_that_names_no_timing_is_read_with_the_timing_its_feedback_sh
         assert feedback.looks_closed and feedback.lag == lag and loop_timing(feedback) == timing
         d = diagnose(log, input_gain=b.params["input_gain"], max_steps=1)
         (loop,) = d.closed_loop
-        assert loop.timing == timing and d.settings["timing"] == timing
+        assert loop.timing == timing and d.settings.timing == timing
         assert (
             f"read with timing {timing!r}" in loop.sentence()
             and d.to_dict()["closed_loop"][0]["timing"] == timing

@@ -441,10 +441,10 @@ def diagnose(
     if output_kind == "velocity":
         # a record sampled slowly for its time constant: its noise measured by the one-step prediction of the
         # model found, and the search run again on it; once more where the model it then finds predicts closer
-        as_read = pool
+        measured = pool
         for _ in range(2):
-            by_one_step = one_step_noise_pool(as_read, run[-1].fit.model)
-            if by_one_step is as_read or not by_one_step.noise < ONE_STEP_BELOW * pool.noise:
+            by_one_step = one_step_noise_pool(measured, run[-1].fit.model)
+            if by_one_step is measured or not by_one_step.noise < ONE_STEP_BELOW * pool.noise:
                 break
             pool, first = by_one_step, by_one_step.parts[0]
             bar.reset(total=max_steps + 2)
