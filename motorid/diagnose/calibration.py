@@ -191,7 +191,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.diagnose.agreement import AGREEMENT_LEVEL
-from motorid.diagnose.results import INERTIA_SHARE_LIMIT, MISSING_FACTOR
+from motorid.diagnose.results import INERTIA_SHARE_LIMIT, MISSING_FACTOR, Diagnosis
 from motorid.diagnose.search import DEFAULT_THRESHOLD, NOISE_EXPLAINED
 from motorid.diagnose.synthetic import BASE_FOR, SENSORS, planted_record
 from motorid.diagnose.workflow import diagnose
@@ -663,6 +663,10 @@ class BankRow:
         Whether a drifting delay was said.
     final_floors : float
         The final free-run gap in noise floors (NaN where refused).
+    shows : float
+        How much of the free-run gap the planted effect accounts for in the record, in the
+        doctor's noise floors (:func:`planted_shows`); NaN for a bench without one, a refused
+        one, and the imperfections :data:`SHOWS_NOT_MEASURED`.
     """
 
     imperfection: str
@@ -676,6 +680,49 @@ class BankRow:
     delay_error: float
     drift_said: bool
     final_floors: float
+    shows: float = math.nan
+
+
+#: The imperfections whose benches :func:`planted_shows` does not measure: a drifting logger's record
+#: is diagnosed on its aligned time, a pulsed drive's is refused.
+SHOWS_NOT_MEASURED = ("drifting_delay", "pulsed_pwm")
+
+
+def planted_shows(record: pd.DataFrame, diagnosis: Diagnosis, effect: str, input_gain: float) -> float:
+    """How much of the free-run gap a planted ``effect`` accounts for in ``record``, in noise floors:
+    the doctor's final model without the effect and with it, each fitted to the record's torque
+    balance (the structure the doctor took held; static friction fitted to the rests,
+    :func:`~motorid.diagnose.measures.fit_static_friction`), and
+    :func:`~motorid.diagnose.search.explained` of their free-run gaps against the doctor's
+    noise floor. The noise rule names no effect that accounts for no more than
+    :data:`~motorid.diagnose.search.NOISE_EXPLAINED` noise floors: below it the record does not
+    show the effect to the doctor's standard, whatever its torque balance says.
+
+    Parameters
+    ----------
+    record : DataFrame
+        The bench's record.
+    diagnosis : Diagnosis
+        What the doctor made of it.
+    effect : str
+        The planted effect.
+    input_gain : float
+        The input gain the doctor was given [N m/V].
+    """
+    from motorid.diagnose.measures import fit_static_friction
+    from motorid.diagnose.model import fit_model
+    from motorid.diagnose.prepare import Pool, prepare
+    from motorid.diagnose.search import explained
+
+    pool = Pool([prepare(record, input_gain=input_gain, timing=diagnosis.settings.timing)], ["record"])
+    fixed = dict(diagnosis.structure.params)
+    without = tuple(e for e in diagnosis.model.effects if e not in (effect, "static_friction"))
+    base = fit_model(pool.data, without, fixed=fixed or None).model
+    if get_effect(effect).rest_only:
+        added = fit_static_friction(pool, base, None)
+    else:
+        added = fit_model(pool.data, (*without, effect), start=base.params, fixed=fixed or None).model
+    return explained(pool.gaps(base, None).overall, pool.gaps(added, None).overall, diagnosis.noise_floor)
 
 
 def bank(
@@ -734,11 +781,16 @@ def bank(
         else:
             delay = math.nan
         named = [n for n in d.named if n not in TRUE_ALSO.get(imperfection, ())]
+        shows = (
+            planted_shows(b.record, d, effect, gain)
+            if effect is not None and imperfection not in SHOWS_NOT_MEASURED
+            else math.nan
+        )
         rows.append(BankRow(
             imperfection, effect, seed, b.signal, named, None,
             named[:1] == [effect] if effect is not None else not named,
             abs(found - truth) / abs(truth), delay, bool(d.delay_drift),
-            d.final_gap.overall / d.noise_floor,
+            d.final_gap.overall / d.noise_floor, shows,
         ))  # fmt: skip
         bar.update(1)
     bar.close()
@@ -746,18 +798,20 @@ def bank(
 
 
 def _bank_report(rows: list[BankRow]) -> str:
-    """The bank's table in Markdown: per imperfection, the planted effect named first, false
-    names on benches that hide nothing, parameters within :data:`BANK_TOLERANCE`, the delay
-    within one sample and the refusals."""
+    """The bank's table in Markdown: per imperfection, the planted effect named first (on every
+    bench that plants one, and on those where it accounts for more than
+    :data:`~motorid.diagnose.search.NOISE_EXPLAINED` noise floors of the free-run gap,
+    :func:`planted_shows`), false names on benches that hide nothing, parameters within
+    :data:`BANK_TOLERANCE`, the delay within one sample and the refusals."""
 
     def share(hits: list[bool]) -> str:
         return f"{sum(hits)}/{len(hits)}" if hits else "-"
 
     lines = [
-        "| imperfection | benches | planted effect named first | false names (nothing hidden) | "
+        "| imperfection | benches | planted effect named first | where it shows | false names (nothing hidden) | "
         f"parameter within {BANK_TOLERANCE:.0%} | delay within 1 sample | drift said | refused | "
         "final gap, median [noise floors] |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for imperfection in dict.fromkeys(r.imperfection for r in rows):
         mine = [r for r in rows if r.imperfection == imperfection]
@@ -766,6 +820,7 @@ def _bank_report(rows: list[BankRow]) -> str:
         floors = [r.final_floors for r in mine if math.isfinite(r.final_floors)]
         lines.append(
             f"| {imperfection} | {len(mine)} | {share([r.first_right for r in planted])} | "
+            f"{share([r.first_right for r in planted if r.shows > NOISE_EXPLAINED])} | "
             f"{share([bool(r.named) for r in clean if r.refused is None])} | "
             f"{share([r.parameter_error <= BANK_TOLERANCE for r in mine if r.refused is None])} | "
             f"{share([r.delay_error <= 1.0 for r in mine if math.isfinite(r.delay_error)])} | "
