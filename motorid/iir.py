@@ -169,7 +169,9 @@ def zero_phase(sos: np.ndarray, x: np.ndarray) -> np.ndarray:
     if x.size <= edge:
         raise ValueError(f"the signal has {x.size} samples; the zero-phase filter needs more than {edge}")
     extended = np.concatenate((2 * x[:1] - x[edge:0:-1], x, 2 * x[-1:] - x[-2 : -(edge + 2) : -1]))
-    _forward_backward(sos, _steady_state(sos.tobytes(), sos.shape[0]), extended)
+    steady = _steady_state(sos.tobytes(), sos.shape[0])
+    _sections_pass(sos, steady * extended[0], extended, False)  # from z_0 = z_ss x_0
+    _sections_pass(sos, steady * extended[-1], extended, True)  # from the forward pass's last output
     return extended[edge:-edge]
 
 
@@ -214,27 +216,19 @@ def _steady_state(sections: bytes, count: int) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def _forward_backward(sos: np.ndarray, start: np.ndarray, x: np.ndarray) -> None:
-    """The two passes of :func:`zero_phase` over the extended signal ``x``, in place, each from
-    the steady state ``start`` (:func:`steady_state`) scaled by its first sample."""
-    z = start * x[0]  # z_0 = z_ss x_0
-    for n in range(x.size):
-        _section_step(sos, z, x, n)
-    z = start * x[-1]  # the backward pass starts from the forward pass's last output
-    for n in range(x.size - 1, -1, -1):
-        _section_step(sos, z, x, n)
-
-
-@numba.njit(cache=True, inline="always")
-def _section_step(sos: np.ndarray, z: np.ndarray, x: np.ndarray, n: int) -> None:
-    """One sample through every section (transposed direct form II, :func:`zero_phase`), in place."""
-    value = x[n]
-    for s in range(sos.shape[0]):
-        out = sos[s, 0] * value + z[s, 0]  # y = b0 x + z0
-        z[s, 0] = sos[s, 1] * value - sos[s, 4] * out + z[s, 1]  # z0 = b1 x - a1 y + z1
-        z[s, 1] = sos[s, 2] * value - sos[s, 5] * out  # z1 = b2 x - a2 y
-        value = out
-    x[n] = value
+def _sections_pass(sos: np.ndarray, z: np.ndarray, x: np.ndarray, backward: bool) -> None:
+    """One pass of :func:`zero_phase` over ``x``, in place, from the sections' state ``z`` (updated
+    in place): every sample through every section in transposed direct form II, from the first
+    sample to the last, or from the last to the first when ``backward``."""
+    first, stop, step = (x.size - 1, -1, -1) if backward else (0, x.size, 1)
+    for n in range(first, stop, step):
+        value = x[n]
+        for s in range(sos.shape[0]):
+            out = sos[s, 0] * value + z[s, 0]  # y = b0 x + z0
+            z[s, 0] = sos[s, 1] * value - sos[s, 4] * out + z[s, 1]  # z0 = b1 x - a1 y + z1
+            z[s, 1] = sos[s, 2] * value - sos[s, 5] * out  # z1 = b2 x - a2 y
+            value = out
+        x[n] = value
 
 
 __all__ = ["butterworth", "chebyshev1", "steady_state", "zero_phase"]
