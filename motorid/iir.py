@@ -128,8 +128,9 @@ def _design(kind: str, order: int, ripple: float, wn: float) -> np.ndarray:
 
 
 def zero_phase(sos: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Forward-backward run of the second-order sections ``sos`` over ``x``, as
-    ``scipy.signal.sosfiltfilt`` runs it: ``x`` extended at each end by ``n_e = 3 (2 n_sections + 1)``
+    """Zero-phase filter: the second-order sections ``sos`` run forwards, then backwards over ``x``.
+
+    As ``scipy.signal.sosfiltfilt`` runs them: ``x`` extended at each end by ``n_e = 3 (2 n_sections + 1)``
     samples of its odd reflection (``2 x_0 - x_{n_e..1}`` before, ``2 x_{N-1} - x_{N-2..N-1-n_e}``
     after), each pass started from the sections' steady state for a constant input equal to its
     first sample (``z_0 = z_ss x_0``, :func:`steady_state`), the extension cut off. Each section
@@ -176,9 +177,10 @@ def zero_phase(sos: np.ndarray, x: np.ndarray) -> np.ndarray:
 
 
 def steady_state(sos: np.ndarray) -> np.ndarray:
-    """The state of each section of ``sos`` for a unit constant input, as
-    ``scipy.signal.sosfilt_zi`` computes it: section s, ``a0 = 1``, alone in its steady state
-    solves ``(I - A^T) z = b[1:] - a[1:] b0`` (A the companion matrix of ``a``)::
+    """The state of each section of ``sos`` for a unit constant input (``scipy.signal.sosfilt_zi``).
+
+    Section s, ``a0 = 1``, alone in its steady state solves ``(I - A^T) z = b[1:] - a[1:] b0``
+    (A the companion matrix of ``a``)::
 
         [1 + a1  -1] [z0]   [b1 - a1 b0]
         [  a2     1] [z1] = [b2 - a2 b0]       (closed form: z0 = H - b0, z1 = b2 - a2 H)
