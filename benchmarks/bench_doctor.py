@@ -38,10 +38,13 @@ if str(HERE) not in sys.path:
 import doctor_large  # noqa: E402
 from _table import Row, print_rows  # noqa: E402
 
-#: pandas, SciPy's least squares and scalar searches, and one kernel of the drive from numba's cache.
+#: pandas, SciPy's least squares and scalar searches, and one kernel of the drive from numba's cache,
+#: loaded as the console script loads the command line (motorid.console: one BLAS thread, the
+#: collector off while the modules load, everything frozen before the exit).
 FLOOR = (
-    "import numpy, pandas, scipy.optimize; from motorid.drive import kernels; "
-    "kernels.reversal_clock(numpy.zeros(3), 1.0, 0.0, numpy.zeros(3))"
+    "import gc, os; os.environ.setdefault('OPENBLAS_NUM_THREADS', '1'); gc.disable(); "
+    "import numpy, pandas, scipy.optimize; from motorid.drive import kernels; gc.freeze(); gc.enable(); "
+    "kernels.reversal_clock(numpy.zeros(3), 1.0, 0.0, numpy.zeros(3)); gc.freeze()"
 )
 
 
