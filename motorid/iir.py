@@ -96,18 +96,23 @@ def _checked_cutoff(wn: float) -> float:
 @functools.cache
 def _design(kind: str, order: int, ripple: float, wn: float) -> np.ndarray:
     """The sections of :func:`butterworth` (``ripple`` unused) or :func:`chebyshev1`."""
-    theta = np.pi * np.arange(-order + 1, order, 2) / (2 * order)
+    m = np.arange(-order + 1, order, 2, dtype=float)  # θ_k = π m / (2N)
     if kind == "butterworth":
-        poles = -np.exp(1j * theta)
+        # the complex product and quotient as SciPy writes them (numpy divides a complex number by
+        # multiplying with the reciprocal: the real π m / (2N) can differ in the last bit)
+        poles = -np.exp(1j * np.pi * m / (2 * order))
         gain = 1.0
     else:
-        eps = math.sqrt(10.0 ** (0.1 * ripple) - 1.0)
-        mu = math.asinh(1.0 / eps) / order
+        theta = np.pi * m / (2 * order)
+        eps = np.sqrt(10.0 ** (0.1 * ripple) - 1.0)
+        mu = 1.0 / order * np.arcsinh(1.0 / eps)
         poles = -np.sinh(mu + 1j * theta)
         gain = float(np.prod(-poles).real)
         if order % 2 == 0:
-            gain /= math.sqrt(1.0 + eps * eps)
-    warped = 4.0 * math.tan(math.pi * wn / 2.0)  # Ω, pre-warped for f_s = 2
+            gain /= float(np.sqrt(1.0 + eps * eps))
+    # Ω, pre-warped for f_s = 2; numpy's tan, as SciPy's, not the C library's (they can differ in
+    # the last bit, and so would the sections)
+    warped = float(4.0 * np.tan(np.pi * np.asarray(wn) / 2.0))
     poles = warped * poles
     gain *= warped**order
     digital = (4.0 + poles) / (4.0 - poles)  # bilinear transform of each pole
