@@ -442,34 +442,6 @@ def test_kinematics_of_a_known_motion():
     assert kin.factor == 10 and kin.band == 40.0
 
 
-def test_zero_phase_names_a_signal_shorter_than_its_extension():
-    from motorid.diagnose.kinematics import _anti_alias, _butterworth, zero_phase
-
-    with pytest.raises(ValueError, match="has 27 samples; the zero-phase filter needs more than 27"):
-        zero_phase(_anti_alias(10), np.zeros(27))
-    # a signal one sample longer than the extension runs: the Butterworth low-pass (two sections,
-    # extension 15) passes a constant
-    # (unit gain at DC; 1e-12 is rounding over the sections' few dozen operations per sample)
-    assert zero_phase(_butterworth(4, 0.2), np.ones(16)) == pytest.approx(np.ones(16), rel=1e-12)
-
-
-@pytest.mark.parametrize(("order", "wn", "samples"), [(1, 0.5, 40), (4, 0.2, 1000), (8, 0.05, 16001)])
-def test_zero_phase_is_scipys_forward_backward_filter(order, wn, samples):
-    """The steady state computed once per filter changes nothing: the same as
-    ``scipy.signal.sosfiltfilt`` with the same odd extension (1e-12 of the signal's scale: the two
-    run the same operations; the margin is for a SciPy that orders them differently)."""
-    import scipy.signal
-
-    from motorid.diagnose.kinematics import zero_phase
-
-    sos = scipy.signal.butter(order, wn, output="sos")
-    x = np.random.default_rng(order).normal(size=samples).cumsum()
-    padlen = 3 * (2 * sos.shape[0] + 1)
-    reference = scipy.signal.sosfiltfilt(sos, x, padlen=padlen)
-    for _ in range(2):  # the second call uses the kept steady state
-        assert zero_phase(sos, x) == pytest.approx(reference, rel=0, abs=1e-12 * np.max(np.abs(x)))
-
-
 def test_free_run_sticks_and_matches_the_linear_solution():
     dt = 0.001
     model = RigidDrive(("viscous_friction",), {"inertia": 0.5, "input_gain": 2.0, "viscous": 1.0}, dt)
