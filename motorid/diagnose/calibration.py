@@ -694,7 +694,11 @@ def planted_shows(record: pd.DataFrame, diagnosis: Diagnosis, effect: str, input
     balance (the structure the doctor took held; static friction fitted to the rests,
     :func:`~motorid.diagnose.measures.fit_static_friction`), and
     :func:`~motorid.diagnose.search.explained` of their free-run gaps against the doctor's
-    noise floor. The noise rule names no effect that accounts for no more than
+    noise floor; for an effect that acts in one place (:attr:`Effect.acts
+    <motorid.drive.effects.base.Effect.acts>`: static friction at the rests, Stribeck friction near
+    rest, drag at speed) the gaps there against the floor there
+    (:meth:`~motorid.diagnose.prepare.Pool.acting_gap`, :meth:`~motorid.diagnose.prepare.Pool.band_floor`).
+    The noise rule names no effect that accounts for no more than
     :data:`~motorid.diagnose.search.NOISE_EXPLAINED` noise floors: below it the record does not
     show the effect to the doctor's standard, whatever its torque balance says.
 
@@ -722,7 +726,13 @@ def planted_shows(record: pd.DataFrame, diagnosis: Diagnosis, effect: str, input
         added = fit_static_friction(pool, base, None)
     else:
         added = fit_model(pool.data, (*without, effect), start=base.params, fixed=fixed or None).model
-    return explained(pool.gaps(base, None).overall, pool.gaps(added, None).overall, diagnosis.noise_floor)
+    acts = get_effect(effect).acts
+    if not acts:
+        return explained(pool.gaps(base, None).overall, pool.gaps(added, None).overall, diagnosis.noise_floor)
+    # judged where it acts, against the noise floor there, as the noise rule judges it (the doctor's
+    # own noise measure, where the one-step prediction scaled it)
+    floor = pool.band_floor(acts) * diagnosis.noise_floor / pool.noise
+    return explained(pool.acting_gap(base, acts), pool.acting_gap(added, acts), floor)
 
 
 def bank(
