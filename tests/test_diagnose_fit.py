@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pandas as pd
 import pytest
 from balance_reference import reference_columns, reference_target
 
@@ -146,3 +147,28 @@ def test_a_level_below_zero_beyond_its_errors_is_not_physical():
         traded = dataclasses.replace(fit, model=fit.model.with_params(coulomb=level))
         assert bool(negative_levels(traded)) is said
         assert not said or negative_levels(traded).startswith("coulomb = -")
+
+
+def test_a_level_fitted_below_zero_within_its_errors_is_held_at_zero():
+    """A drive without Coulomb friction fits a small Coulomb level of either sign (seed 1: -1.6e-5 N m
+    within its errors). The model the doctor hands back holds it at zero, says so, and its other
+    parameters are the least-squares fit without the level: the fit with the level at its bound."""
+    from motorid.diagnose import diagnose
+    from motorid.diagnose.model import fit_model
+
+    truth = RigidDrive(
+        ("viscous_friction", "offset"),
+        {"inertia": 1e-4, "input_gain": 0.02, "viscous": 8e-4, "offset": 0.0},
+        0.01,
+    )
+    t = np.arange(3000) * 0.01
+    u = 4.0 * np.sin(2 * np.pi * 0.3 * t) + 2.0 * np.sin(2 * np.pi * 1.1 * t)
+    rng = np.random.default_rng(1)
+    record = pd.DataFrame({"u": u, "y": truth.free_run(u, substeps=20) + 0.4 * rng.standard_normal(u.size)})
+    d = diagnose(record, dt=0.01, input_gain=0.02, base=("viscous_friction", "coulomb_friction", "offset"))
+    assert d.named == [] and d.model.params["coulomb"] == 0.0
+    assert any("coulomb = " in n and "held at 0" in n for n in d.notes)
+    without = fit_model(prepare(record, dt=0.01, input_gain=0.02).data, ("viscous_friction", "offset")).model
+    for p in ("inertia", "viscous", "offset"):
+        # one linear solve of the same rows: equal but for the order of the sums
+        assert d.model.params[p] == pytest.approx(without.params[p], rel=1e-9, abs=1e-15), p

@@ -137,6 +137,7 @@ from motorid.diagnose.closed_loop import instrumental_kept, instrumental_refit, 
 from motorid.diagnose.given_rig import GivenRig, rig_note
 from motorid.diagnose.locate import locate
 from motorid.diagnose.measures import fit_static_friction, free_run_error, gaps
+from motorid.diagnose.model import fit_model
 from motorid.diagnose.position import position_unit, refit_records_in_position
 from motorid.diagnose.prepare import (
     ONE_STEP_BELOW,
@@ -178,6 +179,7 @@ from motorid.diagnose.search import (
     keep_given,
 )
 from motorid.diagnose.timing import DelayDrift, delay_drift
+from motorid.drive.effects import get as get_effect
 from motorid.drive.rigid import RigidDrive
 from motorid.drive.two_mass import TwoMassRig
 from motorid.errors import DataError
@@ -471,6 +473,8 @@ def diagnose(
         given_kept = keep_given(pool, model, final_model)
         final_model = given_kept.model
         outcome.notes.extend(given_kept.notes)
+    final_model, held = levels_at_zero(pool, final_model, dict(chosen.params), stribeck_shape)
+    outcome.notes.extend(held)
     initial_gap = pool.gaps(initial_model, first_region)
     refitted_gap = None if model is None else pool.gaps(refitted_model, first_region)
     if outcome.steps or chosen.effects or final_model is not outcome.fit.model:
@@ -649,6 +653,47 @@ def aligned_record(record: pd.DataFrame, drift: DelayDrift, dt: float) -> pd.Dat
     out = pd.DataFrame({"t": t[keep], "u": record["u"].to_numpy(dtype=float)[keep], "y": y})
     out.attrs = dict(record.attrs)
     return out
+
+
+def levels_at_zero(
+    pool: Pool, model: RigidDrive, fixed: dict[str, float], stribeck_shape: str
+) -> tuple[RigidDrive, list[str]]:
+    """``model`` with every level that cannot be negative (:attr:`Effect.nonnegative
+    <motorid.drive.effects.base.Effect.nonnegative>`) and was fitted below zero held at zero, and a
+    note for each; the other parameters refitted to the torque balance without those effects.
+
+    A level fitted below zero by more than two standard errors is no physical effect and is not
+    taken (:func:`~motorid.diagnose.search.negative_levels`); one within its errors of zero is a
+    drive without it that fitted a small level of either sign. The least-squares fit with the level
+    held at its bound, zero, is the fit without its column (the balance is linear in the levels),
+    so a model file holds no negative level. ``model`` itself where none is negative.
+
+    Parameters
+    ----------
+    pool : Pool
+        The records of the drive.
+    model : RigidDrive
+        The final model.
+    fixed : dict
+        Shape parameters held in the refit (the base structure's delay and lag).
+    stribeck_shape : str
+        The Stribeck shape of the refit.
+    """
+    below = [
+        (e, p) for e in model.effects for p in get_effect(e).nonnegative if model.params.get(p, 0.0) < 0.0
+    ]
+    if not below:
+        return model, []
+    dropped = {e for e, _ in below}
+    kept = tuple(e for e in model.effects if e not in dropped)
+    refit = fit_model(pool.data, kept, start=model.params, stribeck_shape=stribeck_shape, fixed=fixed or None)
+    params = {**model.params, **refit.model.params, **{p: 0.0 for _, p in below}}
+    notes = [
+        f"{p} = {model.params[p]:.3g} fitted below zero within its errors: held at 0 (the drive shows no "
+        f"{e}), the other parameters refitted"
+        for e, p in below
+    ]
+    return model.with_effects(model.effects, params), notes
 
 
 def refuse_unphysical(model: RigidDrive, gap: float, units: dict[str, str]) -> None:
