@@ -191,10 +191,10 @@ ALIGN_PASSES = 4
 #: 3.2 noise floors, the next 0.05 samples and 1.6 floors (the same drive logged without a drift:
 #: 1.15).
 ALIGN_SAMPLES = 0.1
-#: The largest step of the secant (:func:`next_rate`), in plain steps: the share of the drift
-#: left that an aligned record's model shows was 0.45-0.55 on ``bench("drifting_delay", None, 4)``
-#: (a step of about 2), so 4 leaves room and stops a secant through two close points from flying.
-ALIGN_SECANT_STEP = 4.0
+#: The share of the drift left that an aligned record's model shows, where two passes measure
+#: one (:func:`next_rate`): 0.44 and 0.5 on ``bench("drifting_delay", None, 4)``; outside these
+#: bounds it is taken as 1.
+ALIGN_SHARE = (0.25, 2.0)
 
 
 def diagnose(
@@ -523,8 +523,7 @@ def diagnose(
     # moves their delay by less than ALIGN_SAMPLES (see the constants' notes)
     taken = {d.label: d for d in drifts}
     tried: dict[str, tuple[float, float]] = {}  # each record's last rate and the drift left at it
-    again: Diagnosis | None = None
-    why = ""
+    best: tuple[float, Diagnosis, dict[str, DelayDrift]] | None = None  # the pass that fits best
     for passes in range(1, ALIGN_PASSES + 1):
         aligned = [
             aligned_record(r, taken[label]) if label in taken else r
@@ -540,9 +539,10 @@ def diagnose(
                 model=rig if rig is not None else model, structure=structure, labels=labels,
             )  # fmt: skip
         except DataError:
-            again, why = None, "no drive model describes the aligned records"
-            break
-        why = f"its final gap {again.final_gap.overall / again.noise_floor:.1f} noise floors"
+            break  # no drive model describes the aligned records
+        floors = again.final_gap.overall / again.noise_floor
+        if best is None or floors < best[0]:
+            best = (floors, again, dict(taken))
         if passes == ALIGN_PASSES:
             break
         left = [
@@ -555,16 +555,20 @@ def diagnose(
             rate = taken[d.label].rate
             taken[d.label] = taken[d.label].with_rate(next_rate(rate, d.rate, tried.get(d.label)))
             tried[d.label] = (rate, d.rate)
-    if (
-        again is None
-        or again.final_gap.overall / again.noise_floor >= diagnosis.final_gap.overall / pool.noise
-    ):
+    own = diagnosis.final_gap.overall / pool.noise
+    if best is None or best[0] >= own:
         # the drift said was no logger's (a segment's delay the input barely shows): the record as it is
+        why = (
+            "no drive model describes the aligned records"
+            if best is None
+            else f"its final gap {best[0]:.1f} noise floors"
+        )
         diagnosis.notes.append(
-            f"align: the input put on the output's time fits no better ({why}, against "
-            f"{diagnosis.final_gap.overall / pool.noise:.1f} on the record's own time): the record's own time kept"
+            f"align: the input put on the output's time fits no better ({why}, against {own:.1f} on the "
+            "record's own time): the record's own time kept"
         )
         return diagnosis
+    _, again, taken = best
     # the delay left at the start is the aligned records' own: the drift's line starts there
     start = float(again.model.params.get("input_delay", 0.0))
     out = [taken[d.label].starting_at(start) for d in drifts]
@@ -585,16 +589,17 @@ def next_rate(rate: float, left: float, before: tuple[float, float] | None) -> f
     the pass before, if any.
 
     The aligned record's model takes part of what is left into its own delay and inertia, so the
-    drift measured left is a share of what is: about half on a 1 ms chirp
+    drift measured left is a share c of what is: about half on a 1 ms chirp
     (``bench("drifting_delay", None, 4)``: 0.12 ms a second measured where 0.27 was left, then
-    0.068 where 0.14 was). Two passes measure that share, and the next rate is the secant's root,
+    0.068 where 0.14 was). Two passes measure it, ``c = -(f - f_b) / (r - r_b)`` (f the drift left
+    at the rate r, f_b at the rate before, r_b), and the next rate takes what is left in full,
 
-        r_next = r - f (r - r_b) / (f - f_b)
+        1 - r_next = (1 - r)(1 - f / c),
 
-    (f the drift left at r, f_b at the rate before, r_b), its step at most
-    :data:`ALIGN_SECANT_STEP` times the plain one. The first pass, or a secant along which the
-    drift left does not fall as the rate grows, takes the plain one: the two compounded,
-    ``1 - r_next = (1 - r)(1 - f)`` (the aligned record's time runs ``1 - r`` as fast).
+    (the aligned record's time runs ``1 - r`` as fast, so the two compound). A share outside
+    :data:`ALIGN_SHARE` is two passes' noise, not the model's (``(None, 6)``: 0.021 and 0.018 ms a
+    second left, c = 0.11, which would have stepped past the logger's rate by 2 %), and the first
+    pass has none: c = 1.
 
     Parameters
     ----------
@@ -605,15 +610,12 @@ def next_rate(rate: float, left: float, before: tuple[float, float] | None) -> f
     before : tuple of float, optional
         The rate and the drift left of the pass before [s/s].
     """
-    compounded = 1.0 - (1.0 - rate) * (1.0 - left)
-    if before is None:
-        return compounded
-    rate_before, left_before = before
-    if left == left_before or (rate - rate_before) / (left - left_before) >= 0.0:
-        return compounded
-    secant = rate - left * (rate - rate_before) / (left - left_before)
-    bound = ALIGN_SECANT_STEP * abs(compounded - rate)
-    return rate + float(np.clip(secant - rate, -bound, bound))
+    share = 1.0
+    if before is not None and rate != before[0]:
+        measured = -(left - before[1]) / (rate - before[0])
+        if ALIGN_SHARE[0] <= measured <= ALIGN_SHARE[1]:
+            share = measured
+    return 1.0 - (1.0 - rate) * (1.0 - left / share)
 
 
 def aligned_record(record: pd.DataFrame, drift: DelayDrift) -> pd.DataFrame:
