@@ -8,9 +8,9 @@ the wall time on a loaded machine) [s] and the largest peak resident memory [MB]
 ``--repeat`` fresh processes, the commands alternated, after one warm-up run of each: numba's
 caches and Python's bytecode are then on disk, as after any first run (the processes write
 bytecode even where ``PYTHONDONTWRITEBYTECODE`` is set here, as a user's Python does). The floor is a process that
-imports pandas and the parts of SciPy the doctor uses (``scipy.signal``, ``scipy.optimize``)
-and runs one of the drive's kernels from numba's cache: the doctor reads its record into
-pandas, filters and searches with SciPy and runs those kernels, so it cannot start faster or
+imports pandas and the part of SciPy the doctor uses (``scipy.optimize``) and runs one of the
+drive's kernels from numba's cache: the doctor reads its record into pandas, searches with SciPy
+and runs those kernels, so it cannot start faster or
 smaller than that. A last row is the load average over the runs (the median of the 1-minute
 figure read before each run): on a machine shared with other work the wall times grow with it.
 No peer does the doctor's work, so the rows have none. Not a test: it prints figures.
@@ -38,10 +38,13 @@ if str(HERE) not in sys.path:
 import doctor_large  # noqa: E402
 from _table import Row, print_rows  # noqa: E402
 
-#: pandas, SciPy's filters and scalar searches, and one kernel of the drive from numba's cache.
+#: pandas, SciPy's least squares and scalar searches, and one kernel of the drive from numba's cache,
+#: loaded as the console script loads the command line (motorid.console: one BLAS thread, the
+#: collector off while the modules load, everything frozen before the exit).
 FLOOR = (
-    "import numpy, pandas, scipy.optimize, scipy.signal; from motorid.drive import kernels; "
-    "kernels.reversal_clock(numpy.zeros(3), 1.0, 0.0, numpy.zeros(3))"
+    "import gc, os; os.environ.setdefault('OPENBLAS_NUM_THREADS', '1'); gc.disable(); "
+    "import numpy, pandas, scipy.optimize; from motorid.drive import kernels; gc.freeze(); gc.enable(); "
+    "kernels.reversal_clock(numpy.zeros(3), 1.0, 0.0, numpy.zeros(3)); gc.freeze()"
 )
 
 

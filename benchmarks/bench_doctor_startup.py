@@ -5,10 +5,10 @@ on-disk cache, the work and the process's exit.
 Run: ``.venv/bin/python benchmarks/bench_doctor_startup.py [--repeat 5]`` (or within ``make bench``).
 
 Each run is a fresh ``python -c`` process that times itself (:data:`CHILD`) and does what the
-``motorid`` console script does: ``from motorid.cli import run`` (the first import: the command
-line's defaults that must precede numpy's, such as one BLAS thread, apply as they do for a user),
-then ``run()`` with ``sys.argv = ["motorid", "doctor", REC, "--json"]``, its output to
-``/dev/null``:
+``motorid`` console script does: ``from motorid.console import run``, then ``run()`` with
+``sys.argv = ["motorid", "doctor", REC, "--json"]``, its output to ``/dev/null`` (``run`` loads
+:mod:`motorid.cli` with the collector off, the first import of numpy: the command line's defaults
+that must precede numpy's, such as one BLAS thread, apply as they do for a user):
 
 - *interpreter start*: from the parent's start of the process to the child's first statement
   (Python's start-up and ``site``: the ``.pth`` files of the environment, the editable install's);
@@ -117,7 +117,7 @@ def timed_find_and_load(*args, **kwargs):
 
 
 _frozen_importlib._find_and_load = timed_find_and_load
-from motorid.cli import run  # as the console script does, before numpy (the defaults numpy reads)
+from motorid.console import run  # as the console script does; run() loads motorid.cli and numpy
 
 figures = sys.argv[2]
 sys.argv = ["motorid", "doctor", sys.argv[1], "--json"]

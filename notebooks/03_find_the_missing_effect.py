@@ -83,7 +83,7 @@ print(f"located: {first.region.description} ({100 * first.region.fraction:.0f} %
 print(
     f"dead zone found {first.params['dead_zone']:.3f} V, planted {planted.effects['input_dead_zone']['dead_zone']:.3f} V"
 )
-ranking = pd.DataFrame(first.evidence["ranking"]).set_index("effect")
+ranking = pd.DataFrame([r.to_dict() for r in first.evidence.ranking]).set_index("effect")
 display(ranking[["delta_bic", "rss_ratio"]].sort_values("delta_bic", ascending=False))
 
 # %% [markdown]

@@ -5,7 +5,8 @@ numbers within the test's tolerance, whatever is reorganised inside :mod:`motori
 The cases (:data:`CASES`): two wheel motors, the joint run of a third one's two records and the
 L298N staircase of ``realmotors/``, a 12 s
 segment of EMPS (position output, sampled timing), one joint run of two simulated records of one
-drive, and one simulated record with Coulomb friction planted. Each file holds
+drive, one simulated record with Coulomb friction planted, and a simulated kit-like motor with
+stiction on a sine (rests at one input rate: the ranking's ``lag_test``). Each file holds
 ``Diagnosis.to_dict()`` as ``motorid doctor --json`` writes it (:func:`motorid.outputs.jsonable`).
 
 Usage::
@@ -113,6 +114,30 @@ def planted() -> Any:
     return diagnose(planted_record("coulomb_friction", seed=3).record)
 
 
+def stiction_one_rate() -> Any:
+    """A kit-like motor (as ``tests/test_diagnose_stiction_lag.py``: τ = J/B = 27 ms, kinetic
+    friction 0.73 V, breakaway 1.25 V) on a 6 V 1 Hz sine at 1 kHz, its speed quantised in
+    0.767 rad/s with noise of 2 % of the speed: every rest breaks away at one input rate, and the
+    moving drive tells the level from a lag (the static friction candidate's ``lag_test``)."""
+    import numpy as np
+    import pandas as pd
+
+    from motorid.diagnose import diagnose
+    from motorid.drive.rigid import RigidDrive
+
+    dt, gain = 0.001, 0.0298 / 3.6  # s, K_m / R [N m/V]
+    params = {"inertia": 6.7e-6, "input_gain": gain, "viscous": 0.0298 * gain, "coulomb": 0.73 * gain,
+              "offset": 0.0, "breakaway_excess": (1.25 - 0.73) * gain}  # fmt: skip
+    effects = ("viscous_friction", "coulomb_friction", "offset", "static_friction")
+    t = np.arange(30_000) * dt
+    u = 6.0 * np.sin(2 * np.pi * t)
+    w = RigidDrive(effects, params, dt).free_run(u, substeps=10)
+    noisy = w + 0.02 * np.abs(w) * np.random.default_rng(0).standard_normal(w.size)
+    record = pd.DataFrame({"t": t, "u": u, "y": 0.767 * np.round(noisy / 0.767)})
+    record.attrs.update(dt=dt, units={"t": "s", "u": "V", "y": "rad/s"})
+    return diagnose(record)
+
+
 def _emps_folder() -> Path | None:
     from motorid.datasets import EMPS_FILES
 
@@ -138,6 +163,7 @@ CASES: dict[str, tuple[Callable[[], Any], Callable[[], list[Path | None]]]] = {
     "emps_segment": (emps_segment, lambda: [_emps_folder()]),
     "joint_planted": (joint_planted, list),
     "planted": (planted, list),
+    "stiction_one_rate": (stiction_one_rate, list),
 }
 
 

@@ -53,6 +53,9 @@ def test_doctor_json_names_the_hidden_effect(capsys, record_csv, planted, tmp_pa
     assert (tmp_path / "doctor_table.csv").exists()
     assert "coulomb_friction" in err and "stopped:" in err
     assert out["units"]["force"] == "N m" and re.search(r"coulomb = \S+ N m\b", err)
+    # the text reads each step's typed evidence: its line gives the ΔBIC the JSON holds
+    for s in out["steps"]:
+        assert re.search(rf"\+ {s['effect']}: .* \(ΔBIC {s['evidence']['delta_bic']:.1f}\)\n", err), err
     # stderr is not a terminal here: no progress bar (tests/test_cli_output.py shows it on one)
     assert "stage" not in err and "\r" not in err
 

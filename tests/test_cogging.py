@@ -259,7 +259,7 @@ def test_the_doctor_names_cogging_with_its_amplitude_and_period(seed):
 @pytest.mark.parametrize("seed", [1, 2])
 def test_the_doctor_does_not_name_cogging_on_the_same_record_without_it(seed):
     d = diagnose(cogging_record(seed, cogging=False), input_gain=0.02, base=BASE, candidates=EVERY_CANDIDATE)
-    assert "cogging" in d.settings["candidates"]
+    assert "cogging" in d.settings.candidates
     assert "cogging" not in d.named, d.stop_reason
 
 
@@ -274,7 +274,7 @@ def test_the_doctor_does_not_name_cogging_on_the_planted_records_of_other_effect
     (ΔBIC 14.5 and 22.6 at the first step), and the effect itself, better, is named instead."""
     planted = planted_record(effect, seed)
     d = diagnose(planted.record, input_gain=planted.input_gain, base=planted.base, candidates=EVERY_CANDIDATE)
-    assert "cogging" in d.settings["candidates"]
+    assert "cogging" in d.settings.candidates
     assert "cogging" not in d.named, d.stop_reason
     assert d.named == ([] if effect is None else [effect])
 
@@ -328,7 +328,7 @@ def test_the_doctor_tries_cogging_by_default():
     On a velocity record they hold every effect but position friction, which needs a measured
     position."""
     d = diagnose(cogging_record(1), input_gain=0.02, base=BASE)
-    assert set(d.settings["candidates"]) == set(EVERY_CANDIDATE) - set(BASE) - {"position_friction"}
+    assert set(d.settings.candidates) == set(EVERY_CANDIDATE) - set(BASE) - {"position_friction"}
     assert d.named == ["cogging"], d.stop_reason
 
 

@@ -11,6 +11,9 @@ import pytest
 
 from motorid.diagnose.bench import IMPERFECTIONS, OVERSAMPLE, bench
 from motorid.diagnose.calibration import _bank_report, bank
+from motorid.diagnose.search import NOISE_EXPLAINED
+from motorid.diagnose.synthetic import BASE_FOR
+from motorid.diagnose.workflow import diagnose
 from motorid.drive.rigid import RigidDrive
 
 
@@ -52,7 +55,7 @@ def test_each_bench_is_drawn_within_its_stated_ranges(imperfection):
         else:
             assert "cogging_sin" not in b.params
         if imperfection == "closed_loop":
-            assert list(b.record.columns) == ["t", "reference", "u", "y"]
+            assert list(b.record.columns) == ["t", "reference", "u", "y", "clamped"]
             assert np.max(np.abs(b.record["u"])) <= 12.0 and b.notes["compensated"] in (0.0, 1.0)
 
 
@@ -84,10 +87,42 @@ def test_the_bank_is_run_and_tabled():
     # the drifting logger's delay is said, and the delay left after align within a sample of its start
     assert drifting.drift_said and drifting.delay_error <= 1.0 and drifting.parameter_error <= 0.15
     lines = _bank_report(rows).splitlines()
-    assert lines[2].startswith(f"| none | 1 | - | {int(bool(clean.named))}/1 | 1/1 | - | - | 0/1 |")
+    assert lines[2].startswith(f"| none | 1 | - | - | {int(bool(clean.named))}/1 | 1/1 | - | - | 0/1 |")
     assert lines[3].startswith(
-        f"| drifting_delay | 1 | - | {int(bool(drifting.named))}/1 | 1/1 | 1/1 | 1/1 | 0/1 |"
+        f"| drifting_delay | 1 | - | - | {int(bool(drifting.named))}/1 | 1/1 | 1/1 | 1/1 | 0/1 |"
     )
+
+
+def test_the_closed_loop_benches_name_what_their_loop_shows():
+    """A bounded part of the bank's closed loops: seed 2 (a chirp at 10 ms) of Stribeck friction,
+    quadratic drag and none. Nothing named where nothing is hidden; the planted effect named first,
+    its parameter within 15 % (the issue's bound), the final gap within 3.5 noise floors
+    (MISSING_FACTOR). Measured on seeds 0-9 (50 benches) before the free run was filtered: named
+    first on 10/10 for Stribeck friction and quadratic drag, 7/10 for the dead zone, no false name
+    on 10, parameters within 15 % wherever named, final gaps 0.89-1.79 floors. Static friction is
+    named on 1/10: on the four compensated loops that never rest the record does not show it (the
+    drive's free run without it within 0.1 noise floors RMS of the truth), and on the others the
+    rests' breakaway is read early, where the zero-phase filtered speed leaves rest (seed 0: 1.27 V
+    against 2.0-2.2 V at breakaway, below the 1.37 V kinetic level)."""
+    rows = bank([2], ["closed_loop"], [None, "stribeck_friction", "quadratic_drag"])
+    assert [r.effect for r in rows] == [None, "stribeck_friction", "quadratic_drag"]
+    for row in rows:
+        assert row.refused is None and row.first_right, row
+        assert row.named == ([] if row.effect is None else [row.effect]), row
+        assert row.parameter_error <= 0.15 and row.final_floors < 3.5, row
+
+
+def test_a_closed_loops_dead_zone_the_coulomb_level_holds_is_one_kinetic_level():
+    """Seed 2 of the closed loop's dead zone: the loop crosses the dead zone only where the speed
+    reverses, so Coulomb friction alone runs free within 1.13 noise floors of the record (the dead
+    zone would account for less than one noise floor of it, the noise rule's bound). Nothing is
+    named, and the kinetic level the Coulomb friction takes is the truth's Coulomb level and the
+    force the dead zone withholds together, within 15 %."""
+    b = bench("closed_loop", "input_dead_zone", 2)
+    d = diagnose(b.record, input_gain=b.params["input_gain"], base=BASE_FOR["input_lag"], align=True)
+    assert d.named == [] and d.final_gap.overall < math.hypot(1.0, NOISE_EXPLAINED) * d.noise_floor
+    lump = b.params["coulomb"] + b.params["input_gain"] * b.params["dead_zone"]
+    assert d.model.params["coulomb"] == pytest.approx(lump, rel=0.15)
 
 
 def test_pwm_average_is_the_supplys_mean_over_each_step():
@@ -112,16 +147,28 @@ def test_pwm_average_is_the_supplys_mean_over_each_step():
 
 def test_a_closed_loop_bench_is_its_drive_under_the_logged_commands():
     """The drive simulated again, alone, under the record's commands gives the record's speed to
-    within its noise (0.2 % of the largest reference: 5 sigmas), and the loop follows its
-    reference (RMS error under 15 % of the largest reference: the PI at 0.2 / dt rad/s)."""
+    within its noise (0.2 % of the largest reference: 5 sigmas), each speed read at the start of
+    the sample its command is held over (the speed at the end of sample k is y[k + 1]), and the
+    loop follows its reference (RMS error under 15 % of the largest reference: the PI at 0.2 / dt
+    rad/s). The record is the one ``motorid control --out`` writes: its columns, the loop's timing
+    and the PI's gains."""
     b = bench("closed_loop", None, 3)
     record = b.record
     dt = record.attrs["dt"]
     drive = RigidDrive(("viscous_friction", "coulomb_friction", "offset"), b.params, dt / OVERSAMPLE)
     w = drive.free_run(np.repeat(record["u"].to_numpy(), OVERSAMPLE))[OVERSAMPLE - 1 :: OVERSAMPLE]
     peak = float(np.max(np.abs(record["reference"])))
-    assert np.max(np.abs(record["y"].to_numpy() - w)) < 5 * 0.002 * peak
+    assert np.max(np.abs(record["y"].to_numpy()[1:] - w[:-1])) < 5 * 0.002 * peak
     assert np.sqrt(np.mean((record["reference"] - record["y"]) ** 2)) < 0.15 * peak
+    assert list(record.columns) == ["t", "reference", "u", "y", "clamped"]
+    assert record.attrs["timing"] == "sampled" and record.attrs["units"]["reference"] == "rad/s"
+    loop = record.attrs["loop"]
+    assert (
+        loop["reference"] == "reference" and loop["kp"] > 0.0 and loop["ki"] > 0.0 and loop["u_max"] == 12.0
+    )
+    assert loop["compensation"] == ("reference" if b.notes["compensated"] else None)
+    # the commands within the PI's limit, marked where it clipped them
+    assert np.all(np.abs(record["u"]) <= 12.0) and set(record["clamped"]) <= {0, 1}
 
 
 def test_a_two_mass_bench_turns_at_its_lumped_drives_steady_speed():
@@ -151,3 +198,18 @@ def test_a_sample_time_near_the_motors_time_constant_is_said():
     b = bench("none", None, 0)
     d = diagnose(b.record, input_gain=b.params["input_gain"])
     assert any(n.startswith("the sample time 10 ms is 0.") and "record at 2." in n for n in d.notes), d.notes
+
+
+def test_a_planted_effect_shows_where_it_accounts_for_the_noise_floor():
+    """What the bank counts as shown (:func:`planted_shows`): a quadratic drag the doctor names
+    accounts for many noise floors of the free-run gap (measured 11.5); a dead zone under the two
+    sines, whose speed reverses only where the input does, for none (measured -0.03: Coulomb
+    friction alone runs free as close), and the doctor names nothing there."""
+    rows = bank([2], ["none"], ["input_dead_zone", "quadratic_drag"])
+    dead_zone, drag = rows
+    assert drag.named == ["quadratic_drag"] and drag.shows > 5.0 * NOISE_EXPLAINED
+    assert dead_zone.signal == "two_sine" and dead_zone.named == [] and dead_zone.shows < NOISE_EXPLAINED
+    report = _bank_report(rows).splitlines()
+    assert report[2].startswith(
+        "| none | 2 | 1/2 | 1/1 | - |"
+    )  # named first on 1 of 2, on the 1 where it shows

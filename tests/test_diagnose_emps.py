@@ -76,16 +76,16 @@ def test_asymmetric_friction_fits_the_balance_but_predicts_a_held_out_half_worse
     second step nor the third; the level along the travel is (6.45 -> 6.27 mm). Static friction,
     shown by the rests, predicts the held-out halves worse too (6.27 -> 7.32 mm)."""
     assert diagnosis.named == ["coulomb_friction", "position_friction"], diagnosis.stop_reason
-    asymmetric = [r for r in diagnosis.rejected if r["effect"] == "asymmetric_friction"]
-    assert [r["step"] for r in asymmetric] == [2, 3]
+    asymmetric = [r for r in diagnosis.rejected if r.effect == "asymmetric_friction"]
+    assert [r.step for r in asymmetric] == [2, 3]
     for r in asymmetric:
-        assert r["held_out_error_after"] < 0.8 * r["held_out_error_before"]  # the balance: better
-        assert r["held_out_position_error_after"] > r["held_out_position_error_before"]  # the position: worse
-        assert "held-out free-run position error" in r["reason"]
+        assert r.held_out_error_after < 0.8 * r.held_out_error_before  # the balance: better
+        assert r.held_out_position_error_after > r.held_out_position_error_before  # the position: worse
+        assert "held-out free-run position error" in r.reason
     level = diagnosis.steps[1].evidence
-    assert level["held_out_position_error_after"] < 0.99 * level["held_out_position_error_before"]
-    static = [r for r in diagnosis.rejected if r["effect"] == "static_friction"]
-    assert static and static[0]["held_out_position_error_after"] > static[0]["held_out_position_error_before"]
+    assert level.held_out_position_error_after < 0.99 * level.held_out_position_error_before
+    static = [r for r in diagnosis.rejected if r.effect == "static_friction"]
+    assert static and static[0].held_out_position_error_after > static[0].held_out_position_error_before
 
 
 def test_validation_set_without_refitting(diagnosis):

@@ -60,7 +60,7 @@ def test_records_of_one_drive_are_diagnosed_as_one_model(drive):
     # three records of 30 s each know the level to about 2 %; 5 % leaves room
     assert d.model.params["coulomb"] == pytest.approx(COULOMB, rel=0.05)
     assert [r.record for r in d.records] == ["a.csv", "b.csv", "c.csv"]
-    assert d.settings["records"] == ["a.csv", "b.csv", "c.csv"]
+    assert d.settings.records == ("a.csv", "b.csv", "c.csv")
     # each record's final gap is that record's, computed anew (evaluate prepares the record again)
     for rec, summary in zip(records, d.records, strict=True):
         again = d.evaluate(rec)
@@ -74,18 +74,16 @@ def test_records_of_one_drive_are_diagnosed_as_one_model(drive):
     pooled = math.sqrt(np.nanmean(errors**2))
     assert d.final_gap.overall == pytest.approx(pooled, rel=1e-12)
     assert d.steps[0].gap_after.overall == pytest.approx(pooled, rel=1e-12)
-    assert [g["record"] for g in d.steps[0].record_gaps] == ["a.csv", "b.csv", "c.csv"]
-    assert all(g["gap_after"] < 0.6 * g["gap_before"] for g in d.steps[0].record_gaps)
+    assert [g.record for g in d.steps[0].record_gaps] == ["a.csv", "b.csv", "c.csv"]
+    assert all(g.gap_after < 0.6 * g.gap_before for g in d.steps[0].record_gaps)
     # one record alone: its own standard error is larger than the pooled one by about sqrt(3)
     alone = diagnose(records[0], input_gain=gain, base=drive[0].base)
     assert alone.named == ["coulomb_friction"]
     assert d.param_std["coulomb"] < 0.8 * alone.param_std["coulomb"]
-    assert d.steps[0].evidence["delta_bic"] > alone.steps[0].evidence["delta_bic"]
+    assert d.steps[0].evidence.delta_bic > alone.steps[0].evidence.delta_bic
     out = d.to_dict()
-    assert (
-        out["records"] == [r.to_dict() for r in d.records]
-        and out["steps"][0]["record_gaps"] == d.steps[0].record_gaps
-    )
+    assert out["records"] == [r.to_dict() for r in d.records]
+    assert out["steps"][0]["record_gaps"] == [g.to_dict() for g in d.steps[0].record_gaps]
 
 
 def test_one_record_in_a_list_is_that_record(drive):

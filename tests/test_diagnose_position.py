@@ -65,7 +65,7 @@ def test_the_doctor_names_an_asymmetry_the_held_out_halves_confirm_and_refits_in
     d = diagnose(record, output_kind="position", input_gain=35.15, base=("viscous_friction", "offset"))
     assert d.named == ["coulomb_friction", "asymmetric_friction"], d.stop_reason
     evidence = d.steps[1].evidence
-    assert evidence["held_out_position_error_after"] < 0.2 * evidence["held_out_position_error_before"]
+    assert evidence.held_out_position_error_after < 0.2 * evidence.held_out_position_error_before
     assert d.position_model is not None and d.position_model.effects == d.model.effects
     assert d.position_error.refitted < 0.5 * d.position_error.fitted
     report = d.to_dict()["position_refit"]

@@ -124,7 +124,7 @@ def test_the_kit_motor_gets_one_verdict_from_its_six_records(kit_runs):
     for path, d in zip(KIT, singles, strict=True):
         assert d.named == joint.named, (path.name, d.named)
         asymmetry = d.steps[1].evidence
-        assert 2.0 < asymmetry["explained_noise_floors"] < 5.0, (path.name, asymmetry)
+        assert 2.0 < asymmetry.explained_noise_floors < 5.0, (path.name, asymmetry)
         # the kinetic friction level of one motor: the records' levels (6.6-7.1 % duty) lie within
         # 6 % of the joint one (6.95 %)
         assert d.model.params["coulomb"] == pytest.approx(joint.model.params["coulomb"], rel=0.06)

@@ -83,9 +83,9 @@ def test_planted_static_friction_on_an_encoder_is_named_at_the_breakaway_the_res
     # the breakaway level within 15 % of the planted one (measured 0.90-1.01 on 8 seeds)
     assert breakaway_level(d) == pytest.approx(truth, rel=0.15)
     step = d.steps[d.named.index("static_friction")]
-    ranked = next(c for c in step.evidence["ranking"] if c["effect"] == "static_friction")
-    assert ranked["measure"] == "rests" and ranked["breakaway"]["shown"]
-    assert step.evidence["held_out_error_after"] < step.evidence["held_out_error_before"]
+    ranked = next(c for c in step.evidence.ranking if c.effect == "static_friction")
+    assert ranked.measure == "rests" and ranked.breakaway.shown
+    assert step.evidence.held_out_error_after < step.evidence.held_out_error_before
     rest = d.rests[0]
     assert rest.count >= 5 and rest.breakaway_excess > 2 * rest.breakaway_excess_std
 

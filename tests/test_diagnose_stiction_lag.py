@@ -62,7 +62,7 @@ def excess(d) -> float:
 def rule(d) -> dict:
     """The evidence of the static friction candidate at its step."""
     step = d.steps[d.named.index("static_friction")]
-    return next(c for c in step.evidence["ranking"] if c["effect"] == "static_friction")
+    return next(c for c in step.evidence.ranking if c.effect == "static_friction")
 
 
 @pytest.mark.parametrize("signal", ["0.25", "1", "chirp"])
@@ -76,14 +76,14 @@ def test_stiction_is_named_on_sines_and_a_chirp_at_its_breakaway_level(signal):
     assert excess(d) == pytest.approx(BREAKAWAY - KINETIC, rel=0.15)
     ev = rule(d)
     if signal == "chirp":  # the rates spread: the rests tell the level from the lag themselves
-        assert not ev["breakaway"]["one_rate"] and ev["breakaway"]["reading"] == "static_friction"
+        assert not ev.breakaway.one_rate and ev.breakaway.reading == "static_friction"
     else:
-        assert ev["breakaway"]["one_rate"] and ev["breakaway"]["reading"] == "lookalike"
-        told = ev["lag_test"]
+        assert ev.breakaway.one_rate and ev.breakaway.reading == "lookalike"
+        told = ev.lag_test
         # the lag the excess would need (measured 55 and 13 ms) runs the drive far from the
         # record: at 0.25 Hz its free run does not stay finite, at 1 Hz z = -36
-        assert told["reading"] == "static_friction" and told["lag"] > 0.011
-        assert not np.isfinite(told["gap_lag"]) or (told["z"] < -3.0 and told["gap_level"] < told["gap_lag"])
+        assert told.reading == "static_friction" and told.lag > 0.011
+        assert not np.isfinite(told.gap_lag) or (told.z < -3.0 and told.gap_level < told.gap_lag)
 
 
 @pytest.mark.parametrize("signal", ["0.25", "1", "chirp"])
@@ -149,7 +149,7 @@ def test_both_on_a_chirp_and_on_a_joint_run_of_two_sines_name_the_level_beside_t
         assert d.named == ["coulomb_friction", "static_friction"], d.named
         # within 15 % of the 0.52 V planted (measured 0.507 and 0.516 V)
         assert excess(d) == pytest.approx(BREAKAWAY - KINETIC, rel=0.15)
-        assert not rule(d)["breakaway"]["one_rate"]
+        assert not rule(d).breakaway.one_rate
     # each sine alone breaks away at one rate: the report says so and reads its excess both ways
     assert all(r.breakaway_one_rate for r in joint.rests)
     # the faster sine breaks away higher: the lag, 0.55 V at 9 V/s and 0.64 V at 36 V/s
@@ -168,10 +168,10 @@ def test_a_joint_run_of_two_sines_tells_stiction_from_lag(truth):
     joint = diagnose([kit_like("0.25", truth), kit_like("1", truth, seed=1)])
     # the candidate at the last step (the lag truth's only one: before Coulomb friction, its lag test then
     # undecided at z = -1.5; the note is the final model's, with Coulomb friction)
-    ev = [c for s in joint.steps for c in s.evidence["ranking"] if c["effect"] == "static_friction"][-1]
-    assert ev["breakaway"]["rate_per_record"] and not ev["breakaway"]["one_rate"]
-    assert ev["breakaway"]["reading"] == "lookalike" and "lag_test" in ev
-    rates = ev["breakaway"]["record_rates"]
+    ev = [c for s in joint.steps for c in s.evidence.ranking if c.effect == "static_friction"][-1]
+    assert ev.breakaway.rate_per_record and not ev.breakaway.one_rate
+    assert ev.breakaway.reading == "lookalike" and ev.lag_test is not None
+    rates = ev.breakaway.record_rates
     assert max(rates) > 3.0 * min(rates)  # the sines' rates: 9.3 and 37 V/s
     if truth == "lag":
         assert "static_friction" not in joint.named, joint.named
@@ -182,7 +182,7 @@ def test_a_joint_run_of_two_sines_tells_stiction_from_lag(truth):
     else:
         assert joint.named == ["coulomb_friction", "static_friction"], joint.named
         assert excess(joint) == pytest.approx(BREAKAWAY - KINETIC, rel=0.15)
-        assert rule(joint)["lag_test"]["reading"] == "static_friction"
+        assert rule(joint).lag_test.reading == "static_friction"
 
 
 def test_the_reading_of_the_rests_follows_the_rule():

@@ -96,9 +96,9 @@ def test_planted_static_friction_is_named_from_its_rests_with_its_level(seed):
     step = d.steps[0]
     # measured within 7.2 % on these 6 seeds (1.125e-2 to 1.287e-2 N m): 10 % leaves room
     assert step.params["breakaway_excess"] == pytest.approx(1.2e-2, rel=0.1)
-    assert step.evidence["delta_bic"] > step.evidence["threshold"]
+    assert step.evidence.delta_bic > step.evidence.threshold
     # measured by the rests, judged on the free run there: held-out rests improve, the gap shrinks
-    assert step.evidence["held_out_error_after"] < step.evidence["held_out_error_before"]
+    assert step.evidence.held_out_error_after < step.evidence.held_out_error_before
     # the gap shrinks to 0.20-0.56 of the base model's (the level measured at the rests, not
     # fitted to the free run: on seed 3 the final gap stays at 4.9 noise floors)
     assert d.final_gap.overall < 0.6 * d.initial_gap.overall

@@ -40,8 +40,9 @@ GOLDEN = golden_script()
 
 
 def differences(expected: Any, actual: Any, where: str = "") -> list[str]:
-    """Where ``actual`` differs from ``expected``: keys, list lengths, strings, bools and None
-    exactly, numbers within :data:`RELATIVE` (or :data:`ABSOLUTE`)."""
+    """Where ``actual`` differs from ``expected``: keys (and their order), list lengths, strings,
+    bools and None exactly, numbers within :data:`RELATIVE` (or :data:`ABSOLUTE`) and of the same
+    JSON kind (a count stays an integer)."""
     if isinstance(expected, dict) and isinstance(actual, dict):
         if list(expected) != list(actual):
             return [f"{where}: keys {list(actual)} instead of {list(expected)}"]
@@ -59,7 +60,9 @@ def differences(expected: Any, actual: Any, where: str = "") -> list[str]:
         isinstance(expected, numbers) and isinstance(actual, numbers)
         and not isinstance(expected, bool) and not isinstance(actual, bool)
     ):  # fmt: skip
-        if math.isclose(expected, actual, rel_tol=RELATIVE, abs_tol=ABSOLUTE):
+        if type(expected) is type(actual) and math.isclose(
+            expected, actual, rel_tol=RELATIVE, abs_tol=ABSOLUTE
+        ):
             return []
         return [f"{where}: {actual!r} instead of {expected!r}"]
     if type(expected) is not type(actual) or expected != actual:
@@ -94,6 +97,8 @@ def test_the_comparison_fails_on_a_changed_name_or_number():
     )
     assert differences(report, {"steps": [{"effect": "input_dead_zone", "gap": 1.0}], "note": None})
     assert differences(report, {"steps": [{"effect": "coulomb_friction", "gap": 1.0 + 1e-5}], "note": None})
+    assert differences(report, {"steps": [{"effect": "coulomb_friction", "gap": 1}], "note": None})
+    assert differences(report, {"note": None, "steps": [{"effect": "coulomb_friction", "gap": 1.0}]})
     assert differences(report, {"steps": [], "note": None})
     assert differences(report, {"steps": [{"effect": "coulomb_friction", "gap": 1.0}], "note": 0.0})
     assert differences(report, {"steps": [{"effect": "coulomb_friction", "gap": 1.0}]})

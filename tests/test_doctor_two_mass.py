@@ -107,7 +107,7 @@ def test_the_first_gap_is_the_rig_as_given(doctored):
     meas = read_record(folder / "meas.csv")
     sheet = datasheet_rig()
     d = diagnose(meas, model=sheet)
-    assert d.rig == sheet and d.settings["model"] == "given"
+    assert d.rig == sheet and d.settings.model == "given"
     u = meas["u"].to_numpy()
     y_sheet = quiet(sheet).simulate(u, seed=0)["y"].to_numpy()
     np.testing.assert_array_equal(d.initial_model.free_run(u), y_sheet)

@@ -43,9 +43,10 @@ LAYERS: dict[str, int] = {
     "motorid.outputs": 1,
     "motorid.progress": 1,
     "motorid.figures": 1,
-    # 2: the physics, and the excitation signals
+    # 2: the physics, the excitation signals and the digital low-pass filters
     "motorid.drive": 2,
     "motorid.signals": 2,
+    "motorid.iir": 2,
     # 3: what measures and estimates a drive, and the records it writes
     "motorid.estimators": 3,
     "motorid.io": 3,

@@ -178,7 +178,7 @@ def test_the_doctor_names_position_friction_and_recovers_its_level(seed):
 def test_the_doctor_does_not_name_position_friction_on_the_same_loop_without_it(seed):
     record, _ = position_record(seed, with_level=False)
     d = diagnose(record, input_gain=0.02, base=BASE, output_kind="position", candidates=EVERY_CANDIDATE)
-    assert "position_friction" in d.settings["candidates"]
+    assert "position_friction" in d.settings.candidates
     assert "position_friction" not in d.named, d.stop_reason
 
 
@@ -187,8 +187,8 @@ def test_the_doctor_tries_it_by_default_on_a_position_record_and_on_request_on_a
     speed = record.assign(y=drive.free_run(record["u"].to_numpy()))
     speed.attrs.update(record.attrs, units={"t": "s", "u": "V", "y": "rad/s"})
     by_default = diagnose(speed, input_gain=0.02, base=BASE, max_steps=0)
-    assert "position_friction" not in by_default.settings["candidates"]
+    assert "position_friction" not in by_default.settings.candidates
     asked = diagnose(speed, input_gain=0.02, base=BASE, candidates=["position_friction"], max_steps=0)
-    assert asked.settings["candidates"] == ["position_friction"]
+    assert asked.settings.candidates == ("position_friction",)
     on_position = diagnose(record, input_gain=0.02, base=BASE, output_kind="position", max_steps=0)
-    assert "position_friction" in on_position.settings["candidates"]
+    assert "position_friction" in on_position.settings.candidates

@@ -288,7 +288,7 @@ def test_diagnose_takes_the_users_dataframe_with_the_command_lines_options(logs,
     assert code == 0, err
     assert d.named == [s["effect"] for s in out["steps"]] == ["coulomb_friction"]
     assert d.model.params["coulomb"] == out["steps"][0]["params"]["coulomb"]  # the same reading, the same fit
-    assert d.settings["input"] == "pwm" and d.units["v"] == "rad/s"
+    assert d.settings.input == "pwm" and d.units["v"] == "rad/s"
     # and a second record of the user's is scored read the same way
     scores = d.evaluate(log)
     assert scores.loc["+coulomb_friction", "overall"] < scores.loc["initial", "overall"]

@@ -118,9 +118,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
         on = f"{args.data[0]} ({len(records[0])} samples)"
     else:
         on = f"{len(records)} records of one drive ({sum(len(r) for r in records)} samples), one model"
-    say(
-        f"motorid doctor on {on}, base model: {start}" + "".join(f", {b}" for b in diagnosis.settings["base"])
-    )
+    say(f"motorid doctor on {on}, base model: {start}" + "".join(f", {b}" for b in diagnosis.settings.base))
     for note in diagnosis.notes:
         say(f"  note: {note}")
     for loop in diagnosis.closed_loop:
@@ -144,7 +142,7 @@ def cmd_doctor(args: argparse.Namespace) -> int:
             say(table.round(4).to_string())
     for step in diagnosis.steps:
         params = ", ".join(f"{k} = {v:.5g} {param_units[k]}" for k, v in step.params.items())
-        say(f"  + {step.effect}: {params} at this step (ΔBIC {step.evidence['delta_bic']:.1f})")
+        say(f"  + {step.effect}: {params} at this step (ΔBIC {step.evidence.delta_bic:.1f})")
         if step.lookalike is not None:
             say(f"    {step.lookalike.describe(units)}")
     say(

@@ -21,15 +21,21 @@ logged through one imperfection (:data:`IMPERFECTIONS`):
 - ``pwm_ripple``: the drive's PWM at 100-490 Hz (an Arduino's is 490 Hz), logged at 1 or 2 ms:
   the motor sees the supply in each on phase and nothing in the off phase, each simulation step
   the PWM's exact average over that step (:func:`pwm_average`), so the speed ripples at the PWM
-  frequency and its harmonics, aliased by the logger; the input column is the mean voltage;
+  frequency and its harmonics, aliased by the logger; the input column is the mean voltage; a
+  planted dead zone is the bridge's, on the mean voltage asked for (on the pulses themselves it
+  would withhold nothing);
 - ``torque_ripple``: a once-per-revolution torque ripple (a bent shaft, an eccentric load, the
   magnet's joint), ``A sin(θ + φ)`` with ``A`` 3-8 % of the full input's torque: the doctor
   may name it (``cogging``), which is no false name on this bench;
 - ``closed_loop``: the drive in the speed loop of ``motorid control`` (the PI of
   :func:`~motorid.speed_control.design_speed_pi` on the true linear part, with the true friction
   fed forward on half of the benches, :class:`~motorid.compensation.FrictionCompensation`), the
-  excitation as its reference speed (a ``reference`` column), commands limited to ±12 V and the
-  controller acting on the noisy speed it logs;
+  excitation as its reference speed, commands limited to ±12 V and the controller acting on the
+  noisy speed it logs; the record is what ``motorid control --out`` writes
+  (:func:`~motorid.speed_control.run_closed_loop`): columns ``t``, ``reference``, ``u``, ``y``
+  (read at ``t``, then ``u`` computed from it and held over ``[t, t + dt)``), ``clamped``, and
+  ``attrs`` ``dt``, ``units``, ``timing`` ``"sampled"`` and ``loop``
+  (:func:`~motorid.speed_control.loop_attrs`: the PI's gains, its limit, the compensation);
 - ``two_mass``: the paper's two-mass rig (:func:`~motorid.drive.paper_rig`) drawn around the same
   small motor, the motor 20-50 % of the inertia, a shaft between motor and load whose resonance
   lies at 30-80 Hz with a damping ratio of 0.05-0.2, Coulomb friction on both masses
@@ -51,6 +57,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.diagnose.synthetic import encoder_speed
+from motorid.drive.input_path import input_path
 from motorid.drive.rigid import RigidDrive
 
 #: The imperfections a bench is logged through (see the module notes).
@@ -77,7 +84,8 @@ class Bench:
     ----------
     record : DataFrame
         Columns ``t`` [s], ``u`` [V] (the duty in [%] for ``pulsed_pwm``), ``y`` [rad/s];
-        ``attrs["dt"]``.
+        ``attrs["dt"]``. A ``closed_loop`` bench's is ``motorid control --out``'s record (the
+        module notes).
     imperfection : str
         One of :data:`IMPERFECTIONS`.
     signal : str
@@ -93,7 +101,8 @@ class Bench:
         Samples of a stale start (0 without one).
     notes : dict
         Other true values an imperfection draws: the PWM frequency ``pwm_frequency`` [Hz] of a
-        pulsed or rippling drive, ``compensated`` (1.0 or 0.0) of a closed loop.
+        pulsed or rippling drive, ``compensated`` (1.0 or 0.0) of a closed loop, the standard
+        deviation ``noise_std`` [rad/s] of the white noise on the logged speed (not an encoder's).
     """
 
     record: pd.DataFrame
@@ -213,10 +222,7 @@ def bench(
     if imperfection == "closed_loop":
         compensated = bool(rng.integers(2))
         reference = 0.6 * (12.0 * params["input_gain"] / params["viscous"]) * u / 12.0
-        u, y = _closed_loop(drive, params, reference, dt, compensated, rng)
-        record = pd.DataFrame({"t": t, "reference": reference, "u": u, "y": y})
-        record.attrs["dt"] = dt
-        record.attrs["units"] = {"t": "s", "reference": "rad/s", "u": "V", "y": "rad/s"}
+        record = _closed_loop(drive, params, reference, dt, compensated, rng)
         return Bench(record, imperfection, signal, effect, truth, notes={"compensated": float(compensated)})
     stale = 0
     if imperfection == "stale_start":
@@ -235,7 +241,13 @@ def bench(
         frequency = float(rng.uniform(100.0, 490.0))
         notes["pwm_frequency"] = frequency
         u = np.clip(u, -SUPPLY, SUPPLY)  # the bridge gives at most the supply: the record holds what it gave
-        applied = pwm_average(np.repeat(u, OVERSAMPLE), dt_sim, frequency)
+        asked = u
+        if effect == "input_dead_zone":
+            # the bridge's dead zone withholds the small duties it is asked for; on the supply's
+            # pulses themselves (0 or 12 V) a dead zone of 0.5-1.5 V would withhold nothing
+            asked = input_path(u, dead_zone=params["dead_zone"])
+            drive = drive.without("input_dead_zone")
+        applied = pwm_average(np.repeat(asked, OVERSAMPLE), dt_sim, frequency)
     w = drive.free_run(applied)
     delay = (0.0, 0.0)
     if logging_delay is not None:
@@ -253,7 +265,8 @@ def bench(
     if imperfection == "encoder":
         y = encoder_speed(speed, rng)
     else:
-        y = speed + 0.002 * float(np.max(np.abs(speed))) * rng.standard_normal(n)
+        notes["noise_std"] = 0.002 * float(np.max(np.abs(speed)))
+        y = speed + notes["noise_std"] * rng.standard_normal(n)
     if stale:
         y[:stale] = float(rng.choice([-1.0, 1.0]) * rng.uniform(100.0, 250.0))
     record = pd.DataFrame({"t": t, "u": u, "y": y})
@@ -341,14 +354,16 @@ def _closed_loop(
     dt: float,
     compensated: bool,
     rng: np.random.Generator,
-) -> tuple[np.ndarray, np.ndarray]:
-    """The drive in the speed loop of ``motorid control``: at each sample the controller's command
-    from the reference and the speed it measured at the end of the last sample (the truth plus
-    white noise of 0.2 % of the largest reference), held over the sample (:data:`OVERSAMPLE` steps
-    of the simulation); returns the commands [V] and the measured speeds [rad/s]."""
+) -> pd.DataFrame:
+    """The drive in the speed loop of ``motorid control``: at each sample ``t_k`` the speed read
+    (the truth plus white noise of 0.2 % of the largest reference), then the controller's command
+    from the reference and that speed, held over ``[t_k, t_k + dt)`` (:data:`OVERSAMPLE` steps of
+    the simulation). Returns the record as :func:`~motorid.speed_control.run_closed_loop` writes
+    it: ``t`` [s], ``reference`` [rad/s], ``u`` [V], ``y`` [rad/s] read at ``t``, ``clamped``;
+    ``attrs`` ``dt``, ``units``, ``timing`` ``"sampled"``, ``loop``."""
     from motorid.compensation import FrictionCompensation
     from motorid.drive.rigid import RigidSimulation
-    from motorid.speed_control import SpeedController, design_speed_pi
+    from motorid.speed_control import SpeedController, design_speed_pi, loop_attrs
 
     linear = {k: params[k] for k in ("inertia", "input_gain", "viscous")}
     pi = design_speed_pi(RigidDrive(("viscous_friction",), linear, dt), dt, u_max=12.0)
@@ -363,15 +378,23 @@ def _closed_loop(
         compensation = FrictionCompensation(friction, speed_band=0.02 * float(np.max(np.abs(reference))))
     controller = SpeedController(pi, dt, compensation)
     plant = RigidSimulation(drive)
-    noise = 0.002 * float(np.max(np.abs(reference))) * rng.standard_normal(reference.size)
-    u = np.empty(reference.size)
-    y = np.empty(reference.size)
-    measured = 0.0
+    n = reference.size
+    noise = 0.002 * float(np.max(np.abs(reference))) * rng.standard_normal(n)
+    u, y, clamped = np.empty(n), np.empty(n), np.zeros(n, dtype=int)
+    speed = 0.0  # the drive at rest at t_0
     for k, r in enumerate(reference):
-        u[k] = controller.step(float(r), measured)
-        measured = float(plant.run(np.full(OVERSAMPLE, u[k]))[-1]) + noise[k]
-        y[k] = measured
-    return u, y
+        y[k] = speed + noise[k]  # read at t_k ...
+        u[k] = controller.step(float(r), y[k])  # ... then commanded, held over [t_k, t_k + dt)
+        clamped[k] = controller.clamped
+        speed = float(plant.run(np.full(OVERSAMPLE, u[k]))[-1])
+    record = pd.DataFrame(
+        {"t": np.arange(n) * dt, "reference": reference, "u": u, "y": y, "clamped": clamped}
+    )
+    record.attrs.update(
+        dt=dt, units={"t": "s", "reference": "rad/s", "u": "V", "y": "rad/s"}, timing="sampled",
+        loop=loop_attrs(controller),
+    )  # fmt: skip
+    return record
 
 
 def delay_error_samples(found: float, bench: Bench) -> float:

@@ -182,6 +182,7 @@ the sines only. Measured with the new rule, and with the old one on the same rec
 from __future__ import annotations
 
 import argparse
+import itertools
 import math
 import sys
 from collections.abc import Sequence
@@ -191,7 +192,7 @@ import numpy as np
 import pandas as pd
 
 from motorid.diagnose.agreement import AGREEMENT_LEVEL
-from motorid.diagnose.results import INERTIA_SHARE_LIMIT, MISSING_FACTOR
+from motorid.diagnose.results import INERTIA_SHARE_LIMIT, MISSING_FACTOR, Diagnosis
 from motorid.diagnose.search import DEFAULT_THRESHOLD, NOISE_EXPLAINED
 from motorid.diagnose.synthetic import BASE_FOR, SENSORS, planted_record
 from motorid.diagnose.workflow import diagnose
@@ -220,12 +221,12 @@ def false_alarms(seeds: range | list[int], threshold: float = DEFAULT_THRESHOLD,
         p = planted_record(None, seed, **kwargs)
         d = diagnose(p.record, input_gain=p.input_gain, base=p.base, max_steps=1, threshold=threshold)
         named.append(d.named)
-        ranking = d.steps[0].evidence["ranking"] if d.steps else None
+        ranking = d.steps[0].evidence.ranking if d.steps else None
         if ranking is None:
             text = d.stop_reason
             best.append(float(text.split("ΔBIC = ")[1].split(" ")[0]) if "ΔBIC = " in text else float("nan"))
         else:
-            best.append(float(ranking[0]["delta_bic"]))
+            best.append(ranking[0].delta_bic)
     return FalseAlarms(seeds, named, best)
 
 
@@ -663,6 +664,10 @@ class BankRow:
         Whether a drifting delay was said.
     final_floors : float
         The final free-run gap in noise floors (NaN where refused).
+    shows : float
+        How much of the free-run gap the planted effect accounts for in the record, in the
+        doctor's noise floors (:func:`planted_shows`); NaN for a bench without one, a refused
+        one, and the imperfections :data:`SHOWS_NOT_MEASURED`.
     """
 
     imperfection: str
@@ -676,6 +681,49 @@ class BankRow:
     delay_error: float
     drift_said: bool
     final_floors: float
+    shows: float = math.nan
+
+
+#: The imperfections whose benches :func:`planted_shows` does not measure: a drifting logger's record
+#: is diagnosed on its aligned time, a pulsed drive's is refused.
+SHOWS_NOT_MEASURED = ("drifting_delay", "pulsed_pwm")
+
+
+def planted_shows(record: pd.DataFrame, diagnosis: Diagnosis, effect: str, input_gain: float) -> float:
+    """How much of the free-run gap a planted ``effect`` accounts for in ``record``, in noise floors:
+    the doctor's final model without the effect and with it, each fitted to the record's torque
+    balance (the structure the doctor took held; static friction fitted to the rests,
+    :func:`~motorid.diagnose.measures.fit_static_friction`), and
+    :func:`~motorid.diagnose.search.explained` of their free-run gaps against the doctor's
+    noise floor. The noise rule names no effect that accounts for no more than
+    :data:`~motorid.diagnose.search.NOISE_EXPLAINED` noise floors: below it the record does not
+    show the effect to the doctor's standard, whatever its torque balance says.
+
+    Parameters
+    ----------
+    record : DataFrame
+        The bench's record.
+    diagnosis : Diagnosis
+        What the doctor made of it.
+    effect : str
+        The planted effect.
+    input_gain : float
+        The input gain the doctor was given [N m/V].
+    """
+    from motorid.diagnose.measures import fit_static_friction
+    from motorid.diagnose.model import fit_model
+    from motorid.diagnose.prepare import Pool, prepare
+    from motorid.diagnose.search import explained
+
+    pool = Pool([prepare(record, input_gain=input_gain, timing=diagnosis.settings.timing)], ["record"])
+    fixed = dict(diagnosis.structure.params)
+    without = tuple(e for e in diagnosis.model.effects if e not in (effect, "static_friction"))
+    base = fit_model(pool.data, without, fixed=fixed or None).model
+    if get_effect(effect).rest_only:
+        added = fit_static_friction(pool, base, None)
+    else:
+        added = fit_model(pool.data, (*without, effect), start=base.params, fixed=fixed or None).model
+    return explained(pool.gaps(base, None).overall, pool.gaps(added, None).overall, diagnosis.noise_floor)
 
 
 def bank(
@@ -734,11 +782,16 @@ def bank(
         else:
             delay = math.nan
         named = [n for n in d.named if n not in TRUE_ALSO.get(imperfection, ())]
+        shows = (
+            planted_shows(b.record, d, effect, gain)
+            if effect is not None and imperfection not in SHOWS_NOT_MEASURED
+            else math.nan
+        )
         rows.append(BankRow(
             imperfection, effect, seed, b.signal, named, None,
             named[:1] == [effect] if effect is not None else not named,
             abs(found - truth) / abs(truth), delay, bool(d.delay_drift),
-            d.final_gap.overall / d.noise_floor,
+            d.final_gap.overall / d.noise_floor, shows,
         ))  # fmt: skip
         bar.update(1)
     bar.close()
@@ -746,18 +799,20 @@ def bank(
 
 
 def _bank_report(rows: list[BankRow]) -> str:
-    """The bank's table in Markdown: per imperfection, the planted effect named first, false
-    names on benches that hide nothing, parameters within :data:`BANK_TOLERANCE`, the delay
-    within one sample and the refusals."""
+    """The bank's table in Markdown: per imperfection, the planted effect named first (on every
+    bench that plants one, and on those where it accounts for more than
+    :data:`~motorid.diagnose.search.NOISE_EXPLAINED` noise floors of the free-run gap,
+    :func:`planted_shows`), false names on benches that hide nothing, parameters within
+    :data:`BANK_TOLERANCE`, the delay within one sample and the refusals."""
 
     def share(hits: list[bool]) -> str:
         return f"{sum(hits)}/{len(hits)}" if hits else "-"
 
     lines = [
-        "| imperfection | benches | planted effect named first | false names (nothing hidden) | "
+        "| imperfection | benches | planted effect named first | where it shows | false names (nothing hidden) | "
         f"parameter within {BANK_TOLERANCE:.0%} | delay within 1 sample | drift said | refused | "
         "final gap, median [noise floors] |",
-        "| --- | --- | --- | --- | --- | --- | --- | --- | --- |",
+        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |",
     ]
     for imperfection in dict.fromkeys(r.imperfection for r in rows):
         mine = [r for r in rows if r.imperfection == imperfection]
@@ -766,6 +821,7 @@ def _bank_report(rows: list[BankRow]) -> str:
         floors = [r.final_floors for r in mine if math.isfinite(r.final_floors)]
         lines.append(
             f"| {imperfection} | {len(mine)} | {share([r.first_right for r in planted])} | "
+            f"{share([r.first_right for r in planted if r.shows > NOISE_EXPLAINED])} | "
             f"{share([bool(r.named) for r in clean if r.refused is None])} | "
             f"{share([r.parameter_error <= BANK_TOLERANCE for r in mine if r.refused is None])} | "
             f"{share([r.delay_error <= 1.0 for r in mine if math.isfinite(r.delay_error)])} | "
@@ -774,6 +830,83 @@ def _bank_report(rows: list[BankRow]) -> str:
             f"{np.median(floors):.2f} |"
             if floors
             else "- |"
+        )
+    return "\n".join(lines) + "\n"
+
+
+@dataclass
+class NoiseEstimate:
+    """The noise of a bench's speed against the doctor's two measures of it (:func:`noise_estimates`).
+
+    Attributes
+    ----------
+    imperfection, effect, seed : str, str or None, int
+        The bench.
+    sample_share : float
+        Its sample time over its true time constant J / B [-].
+    truth : float
+        The standard deviation of the white noise on its speed [rad/s].
+    near_nyquist : float
+        The noise measured on the speed's part near the Nyquist frequency [rad/s]
+        (:func:`~motorid.diagnose.kinematics.filtered_noise`, undone of the low-pass's share).
+    one_step : float
+        The noise measured by the one-step prediction of the base model fitted to the bench
+        (:func:`~motorid.diagnose.measures.one_step_noise`) [rad/s].
+    """
+
+    imperfection: str
+    effect: str | None
+    seed: int
+    sample_share: float
+    truth: float
+    near_nyquist: float
+    one_step: float
+
+
+def noise_estimates(
+    seeds: Sequence[int], imperfections: Sequence[str] = ("none", "slow_sampling")
+) -> list[NoiseEstimate]:
+    """The two measures of a velocity record's noise on benches of the bank whose speed carries
+    white noise of a known size (:mod:`motorid.diagnose.bench`), each effect, each seed: what
+    :data:`~motorid.diagnose.prepare.ONE_STEP_SAMPLE_SHARE` and
+    :data:`~motorid.diagnose.prepare.ONE_STEP_BELOW` are chosen on."""
+    from motorid.diagnose.bench import BENCH_EFFECTS, bench
+    from motorid.diagnose.kinematics import CUTOFF_PER_BAND, noise_left
+    from motorid.diagnose.measures import one_step_noise
+    from motorid.diagnose.model import fit_model
+    from motorid.diagnose.prepare import prepare
+
+    rows = []
+    for imperfection in imperfections:
+        for effect in BENCH_EFFECTS:
+            for seed in seeds:
+                b = bench(imperfection, effect, seed)
+                p = prepare(b.record, input_gain=b.params["input_gain"])
+                base = fit_model(p.data, BASE_FOR["input_lag"]).model
+                rows.append(NoiseEstimate(
+                    imperfection, effect, seed, b.record.attrs["dt"] * b.params["viscous"] / b.params["inertia"],
+                    b.notes["noise_std"], p.kin.noise / noise_left(CUTOFF_PER_BAND * p.kin.band, p.kin.dt),
+                    one_step_noise(base, p.data),
+                ))  # fmt: skip
+    return rows
+
+
+def _noise_report(rows: list[NoiseEstimate]) -> str:
+    """Per range of the sample time over the time constant, the two measures over the truth."""
+    edges = (0.0, 0.25, 0.45, math.inf)
+    lines = [
+        "| dt / τ | benches | near Nyquist / truth: median [min, max] | one step / truth: median [min, max] |",
+        "| --- | --- | --- | --- |",
+    ]
+    for lo, hi in itertools.pairwise(edges):
+        inside = [r for r in rows if lo < r.sample_share <= hi]
+        if not inside:
+            continue
+        near = np.array([r.near_nyquist / r.truth for r in inside])
+        step = np.array([r.one_step / r.truth for r in inside])
+        lines.append(
+            f"| {lo:g}-{hi:g} | {len(inside)} | {np.median(near):.2f} [{near.min():.2f}, {near.max():.2f}] | "
+            f"{np.median(step):.2f} [{step.min():.2f}, {step.max():.2f}] |"
         )
     return "\n".join(lines) + "\n"
 
@@ -815,7 +948,16 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="the bank of benches (motorid.diagnose.bench): each imperfection and effect, --seeds seeds each",
     )
+    parser.add_argument(
+        "--noise",
+        action="store_true",
+        help="the noise of the bank's benches of white noise (none, slow_sampling) against the doctor's two "
+        "measures of it, by the sample time over the time constant",
+    )
     args = parser.parse_args(argv)
+    if args.noise:
+        sys.stdout.write(_noise_report(noise_estimates(range(args.first, args.first + args.seeds))))
+        return 0
     if args.bank:
         rows = bank(range(args.first, args.first + args.seeds), progress=sys.stderr.isatty())
         sys.stdout.write(_bank_report(rows))

@@ -50,7 +50,13 @@ from typing import Literal
 
 import numpy as np
 
+from motorid.iir import butterworth, chebyshev1, zero_phase
+
 OutputKind = Literal["velocity", "position"]
+
+
+#: The velocity's low-pass cuts off at this many times the useful band f_b.
+CUTOFF_PER_BAND = 2.5
 
 
 def default_band(dt: float) -> float:
@@ -65,7 +71,8 @@ def default_band(dt: float) -> float:
 
 
 def lowpass(x: np.ndarray, dt: float, cutoff: float, order: int = 4) -> np.ndarray:
-    """Zero-phase Butterworth low-pass of ``x`` (forward-backward, :func:`zero_phase`).
+    """Zero-phase Butterworth low-pass of ``x`` (:func:`motorid.iir.butterworth` run forwards and
+    backwards, :func:`motorid.iir.zero_phase`).
 
     Parameters
     ----------
@@ -80,59 +87,7 @@ def lowpass(x: np.ndarray, dt: float, cutoff: float, order: int = 4) -> np.ndarr
     """
     nyquist = 0.5 / dt
     wn = min(cutoff / nyquist, 0.95)
-    return zero_phase(_butterworth(order, wn), x)
-
-
-@functools.cache
-def _butterworth(order: int, wn: float) -> np.ndarray:
-    """Second-order sections of a digital Butterworth low-pass (``wn``: cut-off / Nyquist)."""
-    from scipy.signal import butter
-
-    return butter(order, wn, output="sos")
-
-
-def zero_phase(sos: np.ndarray, x: np.ndarray) -> np.ndarray:
-    """Forward-backward run of the second-order sections ``sos`` over ``x``, as
-    ``scipy.signal.sosfiltfilt`` does it: ``x`` extended at each end by ``n_e = 3 (2 n_sections + 1)``
-    samples of its odd reflection (``2 x_0 - x_{n_e..1}`` before, ``2 x_{N-1} - x_{N-2..N-1-n_e}``
-    after), each pass started from the sections' steady state for a constant input equal to its
-    first sample (``z_0 = z_ss x_0``, :func:`scipy.signal.sosfilt_zi`), the extension cut off.
-
-    The steady state ``z_ss`` depends on the sections only and is computed once per filter (the
-    doctor filters a record some 400 times with the same two or three filters).
-
-    Parameters
-    ----------
-    sos : ndarray, shape (n_sections, 6)
-        Second-order sections (``scipy.signal`` form).
-    x : ndarray
-        The signal.
-
-    Raises
-    ------
-    ValueError
-        When ``x`` has no more samples than that extension.
-    """
-    from scipy.signal import sosfilt
-
-    x = np.asarray(x, dtype=float)
-    edge = 3 * (2 * sos.shape[0] + 1)
-    if x.size <= edge:
-        raise ValueError(f"the signal has {x.size} samples; the zero-phase filter needs more than {edge}")
-    steady = _steady_state(sos.tobytes(), sos.shape[0])
-    extended = np.concatenate((2 * x[:1] - x[edge:0:-1], x, 2 * x[-1:] - x[-2 : -(edge + 2) : -1]))
-    forward, _ = sosfilt(sos, extended, zi=steady * extended[:1])
-    backward, _ = sosfilt(sos, forward[::-1], zi=steady * forward[-1:])
-    return backward[::-1][edge:-edge]
-
-
-@functools.cache
-def _steady_state(sections: bytes, count: int) -> np.ndarray:
-    """``scipy.signal.sosfilt_zi`` of the ``count`` second-order sections whose float64 bytes are
-    ``sections``: the state of each section for a unit constant input, shape (count, 2)."""
-    from scipy.signal import sosfilt_zi
-
-    return sosfilt_zi(np.frombuffer(sections, dtype=float).reshape(count, 6))
+    return zero_phase(butterworth(order, wn), x)
 
 
 def decimation_factor(dt: float, band: float) -> int:
@@ -148,18 +103,11 @@ def decimation_factor(dt: float, band: float) -> int:
     return max(1, math.floor(0.4 / (dt * band) + 0.01))
 
 
-@functools.cache
-def _anti_alias(factor: int) -> np.ndarray:
-    """Second-order sections of the decimation filter (that of ``scipy.signal.decimate``'s
-    "iir": an 8th-order Chebyshev type I low-pass, 0.05 dB ripple, at 0.8 / ``factor`` of Nyquist)."""
-    from scipy.signal import cheby1
-
-    return cheby1(8, 0.05, 0.8 / factor, output="sos")
-
-
 def anti_alias(x: np.ndarray, factor: int) -> np.ndarray:
     """Zero-phase anti-alias filter of the decimation by ``factor`` at full rate (a copy of ``x``
-    for ``factor`` 1).
+    for ``factor`` 1): the filter of ``scipy.signal.decimate``'s "iir", an 8th-order Chebyshev
+    type I low-pass with 0.05 dB ripple up to 0.8 / ``factor`` of the Nyquist frequency
+    (:func:`motorid.iir.chebyshev1`), run forwards and backwards (:func:`motorid.iir.zero_phase`).
 
     Parameters
     ----------
@@ -170,7 +118,7 @@ def anti_alias(x: np.ndarray, factor: int) -> np.ndarray:
     """
     if factor <= 1:
         return np.array(x, dtype=float)
-    return zero_phase(_anti_alias(factor), x)
+    return zero_phase(chebyshev1(8, 0.05, 0.8 / factor), x)
 
 
 @dataclass(frozen=True)
@@ -279,7 +227,7 @@ def kinematics(
     Kinematics
     """
     band = default_band(dt) if band is None else float(band)
-    cutoff = 2.5 * band
+    cutoff = CUTOFF_PER_BAND * band
     y = np.asarray(y, dtype=float)
     n = y.size
     if output_kind == "position":
@@ -331,7 +279,13 @@ def filtered_noise(hf: np.ndarray, cutoff: float, dt: float) -> float:
         Sample time [s].
     """
     sigma = float(np.std(hf)) * math.sqrt(max(1.0 - min(8.0 * cutoff * dt, 0.9), 0.1)) ** -1
-    return sigma * math.sqrt(min(1.0, 2.0 * cutoff * dt))
+    return sigma * noise_left(cutoff, dt)
+
+
+def noise_left(cutoff: float, dt: float) -> float:
+    """Share of white noise's standard deviation the velocity's low-pass at ``cutoff`` [Hz] leaves
+    (sample time ``dt`` [s]): ``sqrt(min(1, 2 f_c dt))``, its share of the band up to Nyquist."""
+    return math.sqrt(min(1.0, 2.0 * cutoff * dt))
 
 
 def white_noise_variance(kin: Kinematics, samples: np.ndarray) -> float:
@@ -360,7 +314,7 @@ def white_noise_variance(kin: Kinematics, samples: np.ndarray) -> float:
 @functools.cache
 def _high_pass_gain(dt: float, band: float) -> float:
     """``Σ_k g[k]²`` of :func:`white_noise_variance`'s high-pass (sample time ``dt`` [s], band [Hz])."""
-    cutoff = min(0.45 / dt, 4.0 * 2.5 * band)
+    cutoff = min(0.45 / dt, 4.0 * CUTOFF_PER_BAND * band)
     n = 2 * (math.ceil(40.0 / (cutoff * dt)) + 40) + 1
     impulse = np.zeros(n)
     impulse[n // 2] = 1.0
@@ -460,7 +414,7 @@ def noise_bands(
         last = k == len(edges) - 2
         inside = (speed >= lo) & ((speed <= hi) if last else (speed < hi))
         count = int(inside.sum())
-        floor = filtered_noise(hf[inside], 2.5 * band, dt) if count >= 10 else math.nan
+        floor = filtered_noise(hf[inside], CUTOFF_PER_BAND * band, dt) if count >= 10 else math.nan
         out.append(NoiseBand(float(lo), float(hi), count, floor))
     return out
 
@@ -506,5 +460,4 @@ __all__ = [
     "noise_bands",
     "quantisation_step",
     "white_noise_variance",
-    "zero_phase",
 ]

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from motorid.diagnose.kinematics import CUTOFF_PER_BAND, lowpass
 from motorid.diagnose.locate import Region
 from motorid.diagnose.model import BalanceData, model_balance, model_key
 from motorid.drive.rigid import RigidDrive
@@ -57,6 +58,49 @@ def balance_residual(model: RigidDrive, data: BalanceData) -> tuple[np.ndarray, 
     f_in[rest] = f_as_is[rest]
     f_model[rest] = ja + np.clip(f_in[rest] - ja, lo, hi)
     return f_in - f_model, f_meas
+
+
+def one_step_noise(model: RigidDrive, data: BalanceData) -> float:
+    """Standard deviation σ [v] of white noise on a velocity record's speed, from ``model``'s
+    one-step prediction of each sample its balance holds on (:attr:`BalanceData.holds
+    <motorid.diagnose.model.BalanceData.holds>`).
+
+    With the input force F and the friction T held over sample k, the drive's speed is
+    ``w_k = a w_{k-1} + (1 - a) (F_k - T_k) / B``, ``a = e^{-x}``, ``x = B dt / J``
+    (:func:`~motorid.diagnose.model.discrete_inertia`). On measured speeds ``y_k = w_k + n_k`` the
+    prediction's error is ``e_k = y_k - a y_{k-1} - (1 - a) (F_k - T_k) / B = n_k - a n_{k-1}``,
+    which is the balance's residual ``r_k`` scaled by ``(1 - a) / B``, so for white noise::
+
+        σ² = mean(e_k²) / (1 + a²)
+
+    A model that misses an effect leaves its share of the force in ``e_k`` too: the figure is the
+    noise and what the model does not describe, one sample at a time. NaN on a position record,
+    a model without viscous friction or inertia, or a record with no sample that holds.
+
+    Parameters
+    ----------
+    model : RigidDrive
+        The fitted model (inertia J [F s²/v], viscous friction B [F s/v]).
+    data : BalanceData
+        The record's balance data.
+    """
+    kin = data.kin
+    inertia, viscous = float(model.inertia), float(model.params.get("viscous", 0.0))
+    if kin.output_kind != "velocity" or not (inertia > 0.0 and viscous > 0.0):
+        return math.nan
+    x = viscous * kin.dt / inertia
+    a = math.exp(-x)
+    residual = (
+        model.input_force(kin.u)
+        - data.balance_inertia(inertia, viscous) * kin.balance_a
+        - model.friction(kin.balance_w, kin.q)
+    )
+    held = data.holds & kin.valid
+    held[0] = False  # the first sample has no sample before it
+    if not held.any():
+        return math.nan
+    e = residual[held] * (-math.expm1(-x)) / viscous
+    return float(np.sqrt(np.mean(e**2) / (1.0 + a * a)))
 
 
 def rms(x: np.ndarray) -> float:
@@ -117,9 +161,8 @@ def gaps_and_weights(
     ``region``) and the norm of the commanded force (``force_error_percent``)."""
     key = (model_key(model), region)
     if key not in prep._gaps:
-        w_sim = prep.simulate(model)
-        err = prep.kin.w - w_sim
-        valid = prep.kin.valid & np.isfinite(w_sim)
+        err = free_run_error(prep, model)
+        valid = np.isfinite(err)
         in_region = valid & prep.region_mask(region) if region is not None else np.zeros_like(valid)
         r, f_in = balance_residual(model, prep.data)
         f_norm = float(np.linalg.norm(f_in))
@@ -137,6 +180,13 @@ def gaps_and_weights(
 def free_run_error(prep: Prepared, model: RigidDrive) -> np.ndarray:
     """Measured minus free-run velocity [v] at every sample (NaN outside the settled span).
 
+    The measured velocity is the record's filtered one (:attr:`Kinematics.w
+    <motorid.diagnose.kinematics.Kinematics.w>`); on a velocity record the free run passes the
+    same zero-phase low-pass, so the error is the low-passed difference of the measured and the
+    free-run speed: the filter takes the noise out of it and leaves the model's error, also where
+    it cuts into the speed's own band (a record sampled near its time constant J / B, whose
+    speed changes much within each sample).
+
     Parameters
     ----------
     prep : Prepared
@@ -144,8 +194,13 @@ def free_run_error(prep: Prepared, model: RigidDrive) -> np.ndarray:
     model : RigidDrive
         The model run free on its input.
     """
-    err = prep.kin.w - prep.simulate(model)
-    err[~prep.kin.valid] = np.nan
+    kin = prep.kin
+    run = prep.simulate(model)
+    start = max(prep.start, 1)
+    if kin.output_kind == "velocity" and np.isfinite(run[start:]).all():
+        run[start:] = lowpass(run[start:], kin.dt, CUTOFF_PER_BAND * kin.band)
+    err = kin.w - run
+    err[~kin.valid] = np.nan
     return err
 
 

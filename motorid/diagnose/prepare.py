@@ -9,6 +9,7 @@ samples a candidate is checked on.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from collections.abc import Sequence
@@ -18,7 +19,15 @@ import numpy as np
 import pandas as pd
 
 from motorid.diagnose.artefacts import clean_output, refuse_pulsed
-from motorid.diagnose.kinematics import Kinematics, NoiseBand, kinematics, noise_bands, quantisation_step
+from motorid.diagnose.kinematics import (
+    CUTOFF_PER_BAND,
+    Kinematics,
+    NoiseBand,
+    kinematics,
+    noise_bands,
+    noise_left,
+    quantisation_step,
+)
 from motorid.diagnose.locate import Region, feature, features
 from motorid.diagnose.measures import (
     Gap,
@@ -27,6 +36,7 @@ from motorid.diagnose.measures import (
     gaps,
     gaps_and_weights,
     holdout_rows,
+    one_step_noise,
     rms,
 )
 from motorid.diagnose.model import BalanceData, PooledBalance, fit_model, stacked
@@ -41,6 +51,17 @@ logger = logging.getLogger(__name__)
 #: The speed bands the noise floor is reported in, as shares of the largest |w|: near rest
 #: (where static friction and Stribeck act), low, middle and high speed.
 SPEED_BANDS = (0.0, 0.1, 0.3, 0.6, 1.0)
+#: A velocity record sampled slower than this share of the fitted time constant τ = J / B has its
+#: noise measured by the model's one-step prediction too (:func:`one_step_noise_pool`): there the
+#: speed's part near the Nyquist frequency, where the noise is otherwise measured, holds signal.
+#: On the bank's benches (:mod:`motorid.diagnose.bench`) that part measures the true noise within
+#: 10 % up to dt = 0.26 τ and 1.5-12 times it from 0.45 τ
+#: (``python -m motorid.diagnose.calibration --noise --seeds 5 --first 0``).
+ONE_STEP_SAMPLE_SHARE = 0.25
+#: ... and the one-step figure replaces the other where it is below this share of it: both are the
+#: noise and something more (the signal near Nyquist, what the model misses), so the smaller one
+#: is the better bound, taken where it is clearly smaller.
+ONE_STEP_BELOW = 0.8
 
 
 @dataclass
@@ -111,6 +132,15 @@ class Prepared:
     def balance_residual(self, model: RigidDrive) -> tuple[np.ndarray, np.ndarray]:
         """:func:`~motorid.diagnose.measures.balance_residual` of this record's decimated samples."""
         return balance_residual(model, self.data)
+
+    def with_noise(self, scale: float) -> Prepared:
+        """This record with its measured noise (:attr:`Kinematics.hf
+        <motorid.diagnose.kinematics.Kinematics.hf>` and the noise floor) scaled by ``scale``, and
+        what rests on it made again: the balance's noise band and compensation, the features,
+        the rests."""
+        kin = dataclasses.replace(self.kin, hf=self.kin.hf * scale, noise=self.kin.noise * scale)
+        return _made_ready(kin, self.data.input_gain, self.timing, self.units, list(self.notes),
+                           self.quantisation, self.input_quantisation)  # fmt: skip
 
 
 def _column(record: pd.DataFrame, name: str, role: str) -> np.ndarray:
@@ -234,10 +264,24 @@ def prepare(
             f"the record is too short: {len(record)} samples give {kin.decimated_index.size} decimated "
             f"samples after the filter edges (at least 30 needed; decimation factor {kin.factor})"
         )
-    data = BalanceData(kin, float(input_gain))
-    feats = features(kin.w, kin.a, kin.u, dt, data.w_threshold, at=data.idx)
-    step = quantisation_step(y)
-    return Prepared(kin, data, feats, timing, units, notes, step, quantisation_step(u), rests_of(kin, step))
+    return _made_ready(
+        kin, float(input_gain), timing, units, notes, quantisation_step(y), quantisation_step(u)
+    )
+
+
+def _made_ready(
+    kin: Kinematics,
+    input_gain: float,
+    timing: str,
+    units: dict[str, str],
+    notes: list[str],
+    step: float | None,
+    input_step: float | None,
+) -> Prepared:
+    """A :class:`Prepared` record of kinematics ``kin``: its balance data, features and rests."""
+    data = BalanceData(kin, input_gain)
+    feats = features(kin.w, kin.a, kin.u, kin.dt, data.w_threshold, at=data.idx)
+    return Prepared(kin, data, feats, timing, units, notes, step, input_step, rests_of(kin, step))
 
 
 def rests_of(kin: Kinematics, step: float | None) -> Rests:
@@ -622,6 +666,44 @@ class HeldOut:
         else:
             r, _ = pool.balance_residual(model)
         return r[self.rows]
+
+
+def one_step_noise_pool(pool: Pool, model: RigidDrive) -> Pool:
+    """The pool with each velocity record's noise measured by ``model``'s one-step prediction
+    (:func:`~motorid.diagnose.measures.one_step_noise`) where the record is sampled slower than
+    :data:`ONE_STEP_SAMPLE_SHARE` of the model's time constant τ = J / B and that figure is below
+    :data:`ONE_STEP_BELOW` of the one measured on the speed's part near the Nyquist frequency
+    (:func:`~motorid.diagnose.kinematics.filtered_noise`): the record's measured noise is scaled by
+    their ratio (:meth:`Prepared.with_noise`), and the record says so in a note. Both figures hold
+    the noise and something more; the smaller is the closer. ``pool`` itself where nothing changes.
+
+    Parameters
+    ----------
+    pool : Pool
+        The records of the drive.
+    model : RigidDrive
+        The fitted base model (with its delay and lag, where taken).
+    """
+    inertia, viscous = float(model.inertia), float(model.params.get("viscous", 0.0))
+    if not (inertia > 0.0 and viscous > 0.0) or viscous * pool.dt / inertia <= ONE_STEP_SAMPLE_SHARE:
+        return pool
+    parts, changed = [], False
+    for part in pool.parts:
+        kin = part.kin
+        sigma_hf = kin.noise / noise_left(CUTOFF_PER_BAND * kin.band, kin.dt)
+        sigma = one_step_noise(model, part.data)
+        if not (sigma_hf > 0.0 and math.isfinite(sigma) and sigma < ONE_STEP_BELOW * sigma_hf):
+            parts.append(part)
+            continue
+        changed = True
+        part = part.with_noise(sigma / sigma_hf)
+        part.notes.append(
+            f"the noise measured by the model's one-step prediction, {sigma:.3g} {pool.units['v']} per "
+            f"sample: the speed's part near the Nyquist frequency ({sigma_hf:.3g} {pool.units['v']}) holds "
+            f"signal at a sample time of {viscous * pool.dt / inertia:.2g} of the time constant J/B"
+        )
+        parts.append(part)
+    return Pool(parts, pool.labels) if changed else pool
 
 
 def held_out(pool: Pool, holdout: float | pd.DataFrame, options: dict[str, object]) -> HeldOut:

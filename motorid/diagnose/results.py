@@ -12,7 +12,7 @@ import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -21,13 +21,16 @@ from motorid.diagnose.agreement import Agreement
 from motorid.diagnose.closed_loop import ClosedLoop
 from motorid.diagnose.kinematics import NoiseBand
 from motorid.diagnose.locate import Region
-from motorid.diagnose.measures import Gap, breakaway, gaps
+from motorid.diagnose.measures import Breakaway, Gap, breakaway, gaps
 from motorid.diagnose.model import DelayTrade
 from motorid.diagnose.prepare import Pool, prepare
 from motorid.diagnose.timing import DelayDrift
 from motorid.drive.effects import param_unit
 from motorid.drive.rigid import RigidDrive
 from motorid.drive.two_mass import TwoMassRig
+
+if TYPE_CHECKING:
+    from motorid.diagnose.search import LagTest
 
 #: Share of the input force below which the inertia is not determined by a record, calibrated on
 #: 300 records of a kit-like motor read by an encoder (:func:`~motorid.diagnose.calibration.inertia_shares`,
@@ -70,6 +73,39 @@ def slow_sampling_note(model: RigidDrive, dt: float) -> str | None:
 
 
 @dataclass
+class StructureCandidate:
+    """A base structure tried (:func:`~motorid.diagnose.search.choose_structure`): a row of
+    :attr:`Structure.candidates`.
+
+    Attributes
+    ----------
+    effects : tuple of str
+        Its effects (``input_delay``, ``input_lag`` or both).
+    params : dict
+        Their fitted parameters [s].
+    delta_bic : float
+        Its ΔBIC against the probe model (the pair: against the best single effect) [-]
+        (:func:`~motorid.diagnose.measures.evidence`).
+    gap : float
+        The free-run gap of the probe model with it [v]; NaN where it did not pass ``delta_bic``
+        and its gap was not measured.
+    """
+
+    effects: tuple[str, ...]
+    params: dict[str, float]
+    delta_bic: float
+    gap: float = math.nan
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "effects": list(self.effects),
+            "params": self.params,
+            "delta_bic": self.delta_bic,
+            "gap": self.gap,
+        }
+
+
+@dataclass
 class Structure:
     """The base structure chosen from the record before any other effect is judged.
 
@@ -85,9 +121,8 @@ class Structure:
         Coulomb friction: a missing friction level must not pass for a lag).
     gap_before, gap_after : float
         Free-run output gap [v] of the probe model without and with the structure.
-    candidates : list of dict
-        Each structure tried: ``effects``, ``params``, ``delta_bic`` (against the
-        probe, or against the best single effect for the pair) and ``gap`` [v].
+    candidates : list of StructureCandidate
+        Each structure tried, in the order tried.
     reason : str
         Why this structure.
     reach : float
@@ -100,7 +135,7 @@ class Structure:
     probe: tuple[str, ...] = ()
     gap_before: float = float("nan")
     gap_after: float = float("nan")
-    candidates: list[dict[str, Any]] = field(default_factory=list)
+    candidates: list[StructureCandidate] = field(default_factory=list)
     reason: str = "not searched"
     reach: float = float("nan")
 
@@ -126,7 +161,7 @@ class Structure:
         return {
             "effects": list(self.effects), "params": self.params, "probe": list(self.probe),
             "gap_before": self.gap_before, "gap_after": self.gap_after,
-            "candidates": self.candidates, "reason": self.reason, "delay_reach": self.reach,
+            "candidates": [c.to_dict() for c in self.candidates], "reason": self.reason, "delay_reach": self.reach,
             "delay_at_reach": self.at_reach,
         }  # fmt: skip
 
@@ -176,6 +211,239 @@ class Lookalike:
         }  # fmt: skip
 
 
+@dataclass(frozen=True)
+class CandidateEvidence:
+    """One candidate's evidence against a step's model: a row of the step's ranking
+    (:attr:`Evidence.ranking`).
+
+    Attributes
+    ----------
+    effect : str
+        The candidate effect.
+    delta_bic : float
+        ΔBIC = n_eff ln(RSS_0 / RSS_1) - Δk ln n_eff [-] of the step's model with it against
+        without (:func:`~motorid.diagnose.measures.evidence`; static friction on the rests:
+        :func:`~motorid.diagnose.measures.breakaway_evidence`); -inf where its fit is not physical
+        or the rests show no breakaway (:attr:`note` says which).
+    n : int
+        The samples compared: the torque balance's rows (decimated samples), the typical rests,
+        or the free run's settled samples.
+    n_eff : float
+        The effective samples n (1 - ρ) / (1 + ρ) [-].
+    rho : float
+        ρ, the lag-1 autocorrelation of the candidate's residual, within [0, 0.95] [-].
+    rss_ratio : float
+        RSS_0 / RSS_1 [-].
+    measure : str or None
+        Static friction: what it is judged on (``rests``, or the free run on too few rests);
+        None for the other effects.
+    breakaway : Breakaway or None
+        Static friction judged on the rests: what they say of a breakaway above the kinetic level.
+    lag_test : LagTest or None
+        Static friction on rests at one input rate: whether the moving drive tells its level from
+        a lag (:meth:`Search.lag_test <motorid.diagnose.search.Search.lag_test>`).
+    note : str or None
+        Why it cannot pass (a parameter of the wrong sign, a breakaway the rests do not show).
+    """
+
+    effect: str
+    delta_bic: float
+    n: int
+    n_eff: float
+    rho: float
+    rss_ratio: float
+    measure: str | None = None
+    breakaway: Breakaway | None = None
+    lag_test: LagTest | None = None
+    note: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "effect": self.effect, "delta_bic": self.delta_bic, "n": self.n, "n_eff": self.n_eff,
+            "rho": self.rho, "rss_ratio": self.rss_ratio,
+        }  # fmt: skip
+        if self.measure is not None:
+            out["measure"] = self.measure
+        if self.breakaway is not None:
+            out["breakaway"] = self.breakaway.to_dict()
+        if self.lag_test is not None:
+            out["lag_test"] = self.lag_test.to_dict()
+        if self.note is not None:
+            out["note"] = self.note
+        return out
+
+
+@dataclass(frozen=True)
+class Evidence:
+    """Why a step's effect was added: its evidence against the step's model, the checks it passed
+    (:meth:`Search.judge <motorid.diagnose.search.Search.judge>`) and every candidate's ranking.
+
+    Attributes
+    ----------
+    candidate : CandidateEvidence
+        The accepted candidate's evidence (:attr:`delta_bic`, :attr:`n`, :attr:`n_eff`,
+        :attr:`rss_ratio` are its figures).
+    threshold : float
+        The ΔBIC a candidate needed [-].
+    held_out_error_before, held_out_error_after : float
+        The held-out error without and with it ([v/s] on the balance, [F] on the rests, [v] on
+        the free run).
+    gap_shrink_noise_floors : float
+        The free-run gap's shrink where it is judged, in noise floors of that band [-].
+    explained_noise_floors : float
+        The part of that gap it accounts for, in the same noise floors [-]
+        (:func:`~motorid.diagnose.search.explained`).
+    noise_floor : float
+        The record's noise floor σ_w [v].
+    chosen_by : str
+        ``evidence`` (the highest ΔBIC that passed), ``free-run gap among alike candidates`` or
+        ``the lookalike rule``.
+    ranking : tuple of CandidateEvidence
+        Every candidate tried, highest ΔBIC first.
+    held_out_position_error_before, held_out_position_error_after : float or None
+        On position records, the free-run position error on held-out halves without and with it
+        [m or rad]; None otherwise.
+    """
+
+    candidate: CandidateEvidence
+    threshold: float
+    held_out_error_before: float
+    held_out_error_after: float
+    gap_shrink_noise_floors: float
+    explained_noise_floors: float
+    noise_floor: float
+    chosen_by: str
+    ranking: tuple[CandidateEvidence, ...]
+    held_out_position_error_before: float | None = None
+    held_out_position_error_after: float | None = None
+
+    @property
+    def delta_bic(self) -> float:
+        """The accepted candidate's ΔBIC [-]."""
+        return self.candidate.delta_bic
+
+    @property
+    def n(self) -> int:
+        """The samples its ΔBIC compared."""
+        return self.candidate.n
+
+    @property
+    def n_eff(self) -> float:
+        """Their effective number [-]."""
+        return self.candidate.n_eff
+
+    @property
+    def rss_ratio(self) -> float:
+        """RSS_0 / RSS_1 of its fit [-]."""
+        return self.candidate.rss_ratio
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "delta_bic": self.delta_bic, "threshold": self.threshold, "n": self.n, "n_eff": self.n_eff,
+            "rss_ratio": self.rss_ratio, "held_out_error_before": self.held_out_error_before,
+            "held_out_error_after": self.held_out_error_after,
+            "gap_shrink_noise_floors": self.gap_shrink_noise_floors,
+            "explained_noise_floors": self.explained_noise_floors, "noise_floor": self.noise_floor,
+        }  # fmt: skip
+        if self.held_out_position_error_before is not None:
+            out["held_out_position_error_before"] = self.held_out_position_error_before
+            out["held_out_position_error_after"] = self.held_out_position_error_after
+        out["chosen_by"] = self.chosen_by
+        out["ranking"] = [r.to_dict() for r in self.ranking]
+        return out
+
+
+@dataclass(frozen=True)
+class RecordGap:
+    """One record's overall free-run gaps before and after a step of a joint run
+    (:attr:`Step.record_gaps`).
+
+    Attributes
+    ----------
+    record : str
+        Its label.
+    gap_before, gap_after : float
+        Its gap [v] of the step's model without and with the step's effect.
+    """
+
+    record: str
+    gap_before: float
+    gap_after: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"record": self.record, "gap_before": self.gap_before, "gap_after": self.gap_after}
+
+
+@dataclass(frozen=True)
+class Rejected:
+    """A candidate that passed the evidence threshold but not the checks of its step
+    (:attr:`Diagnosis.rejected`).
+
+    Attributes
+    ----------
+    step : int
+        The step it was judged in (1 the first).
+    effect : str
+        The candidate effect.
+    reason : str
+        Each check it failed, ``; ``-separated.
+    delta_bic : float
+        Its ΔBIC [-].
+    held_out_error_before, held_out_error_after : float
+        The held-out error without and with it ([v/s] on the balance, [F] on the rests, [v] on
+        the free run).
+    gap_before, gap_after : float
+        The overall free-run gap [v] of the step's model and of the model with it, in the
+        step's region.
+    gap_shrink_noise_floors : float
+        The free-run gap's shrink where it is judged, in noise floors of that band [-].
+    explained_noise_floors : float
+        The part of that gap it accounts for, in the same noise floors [-].
+    judged : str or None
+        Where it was judged when it acts in one place (``at the rests``, ``near rest``,
+        ``at speed``); None: everywhere.
+    acting_gap_before, acting_gap_after, acting_noise_floor : float or None
+        There: the free-run gap without and with it and the noise floor [v].
+    held_out_position_error_before, held_out_position_error_after : float or None
+        On position records, the free-run position error on held-out halves without and with
+        it [m or rad].
+    """
+
+    step: int
+    effect: str
+    reason: str
+    delta_bic: float
+    held_out_error_before: float
+    held_out_error_after: float
+    gap_before: float
+    gap_after: float
+    gap_shrink_noise_floors: float
+    explained_noise_floors: float
+    judged: str | None = None
+    acting_gap_before: float | None = None
+    acting_gap_after: float | None = None
+    acting_noise_floor: float | None = None
+    held_out_position_error_before: float | None = None
+    held_out_position_error_after: float | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        out: dict[str, Any] = {
+            "step": self.step, "effect": self.effect, "delta_bic": self.delta_bic,
+            "held_out_error_before": self.held_out_error_before, "held_out_error_after": self.held_out_error_after,
+            "gap_before": self.gap_before, "gap_after": self.gap_after,
+            "gap_shrink_noise_floors": self.gap_shrink_noise_floors,
+            "explained_noise_floors": self.explained_noise_floors,
+        }  # fmt: skip
+        if self.judged is not None:
+            out.update({"judged": self.judged, "acting_gap_before": self.acting_gap_before,
+                        "acting_gap_after": self.acting_gap_after, "acting_noise_floor": self.acting_noise_floor})  # fmt: skip
+        if self.held_out_position_error_before is not None:
+            out["held_out_position_error_before"] = self.held_out_position_error_before
+            out["held_out_position_error_after"] = self.held_out_position_error_after
+        out["reason"] = self.reason
+        return out
+
+
 @dataclass
 class Step:
     """One accepted effect.
@@ -190,13 +458,13 @@ class Step:
         Where the disagreement concentrated before it was added.
     gap_before, gap_after : Gap
         The output gaps overall and in ``region`` [v] and the force error [%].
-    evidence : dict
-        ΔBIC and its threshold, held-out errors [F], the candidate ranking.
+    evidence : Evidence
+        ΔBIC and its threshold, held-out errors, the candidate ranking.
     model : RigidDrive
         The refitted model after this step.
-    record_gaps : list of dict
-        Several records: each record's ``record`` label and overall ``gap_before`` and
-        ``gap_after`` [v] (the step's gaps are the pooled ones); empty for one record.
+    record_gaps : list of RecordGap
+        Several records: each record's overall gaps before and after [v] (the step's gaps are
+        the pooled ones); empty for one record.
     lookalike : Lookalike or None
         The effects that fit alike here, and which one the lookalike rule named.
     """
@@ -206,9 +474,9 @@ class Step:
     region: Region
     gap_before: Gap
     gap_after: Gap
-    evidence: dict[str, Any]
+    evidence: Evidence
     model: RigidDrive
-    record_gaps: list[dict[str, Any]] = field(default_factory=list)
+    record_gaps: list[RecordGap] = field(default_factory=list)
     lookalike: Lookalike | None = None
 
     def to_dict(self) -> dict[str, Any]:
@@ -218,13 +486,87 @@ class Step:
             "region": self.region.to_dict(),
             "gap_before": self.gap_before.to_dict(),
             "gap_after": self.gap_after.to_dict(),
-            "evidence": self.evidence,
+            "evidence": self.evidence.to_dict(),
             "model_params": self.model.params,
         }
         if self.record_gaps:
-            out["record_gaps"] = self.record_gaps
+            out["record_gaps"] = [g.to_dict() for g in self.record_gaps]
         if self.lookalike is not None:
             out["lookalike"] = self.lookalike.to_dict()
+        return out
+
+
+@dataclass(frozen=True)
+class Settings:
+    """The options a diagnosis ran with, as used (:attr:`Diagnosis.settings`): what
+    :meth:`Diagnosis.evaluate` reads another record with, and the JSON's ``settings``.
+
+    Attributes
+    ----------
+    dt : float
+        The sample time [s] (the first record's).
+    input, output : str
+        The columns read as the input and the output.
+    output_kind : str
+        ``velocity`` or ``position``.
+    input_gain : float or None
+        The input gain given [N m or N per input unit]; None: forces per input unit.
+    band : float
+        The useful band [Hz] (:mod:`.kinematics`).
+    reading : dict
+        How the records were read: the keywords of :func:`~motorid.io.records.normalise_record`
+        but the columns and ``dt`` (``time``, ``input_unit``, ``output_unit``, ...).
+    timing : str
+        The input/output timing, ``hold`` or ``sampled`` (the first record's).
+    base : tuple of str
+        The effects of the base model.
+    candidates : tuple of str
+        The effects tried.
+    threshold : float
+        The ΔBIC a candidate needs [-].
+    noise_explained : float
+        The part of the free-run gap a later effect must account for [noise floors].
+    missing_factor : float
+        The final gap, in noise floors, above which something is still missing.
+    holdout : float or str
+        The share of the record held out [-], or ``record`` for a held-out record.
+    max_steps : int
+        The most effects added.
+    model : str
+        ``given`` (a model was given) or ``fitted``.
+    stribeck_shape : str
+        The Stribeck curve's shape.
+    structure : bool
+        Whether an input delay and lag were searched first.
+    records : tuple of str
+        Several records: their labels; empty for one record.
+    """
+
+    dt: float
+    input: str
+    output: str
+    output_kind: str
+    input_gain: float | None
+    band: float
+    reading: dict[str, Any]
+    timing: str
+    base: tuple[str, ...]
+    candidates: tuple[str, ...]
+    threshold: float
+    noise_explained: float
+    missing_factor: float
+    holdout: float | str
+    max_steps: int
+    model: str
+    stribeck_shape: str
+    structure: bool
+    records: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        out = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "records"}
+        out.update(reading=dict(self.reading), base=list(self.base), candidates=list(self.candidates))
+        if self.records:
+            out["records"] = list(self.records)
         return out
 
 
@@ -257,9 +599,9 @@ class Diagnosis:
     units : dict
         Units of velocity (``v``), force (``F``) and input (``u``): ``F`` is
         N or N m with a known input gain, else the input's unit.
-    settings : dict
+    settings : Settings
         Options used (for :meth:`evaluate` on another record).
-    rejected : list of dict
+    rejected : list of Rejected
         Candidates that passed the evidence threshold but were not accepted, and why.
     refitted_model, refitted_gap : RigidDrive and Gap, or None
         With a given model: its effects refitted to the record, and their gaps (the
@@ -328,8 +670,8 @@ class Diagnosis:
     initial_model: RigidDrive
     region: Region
     units: dict[str, str]
-    settings: dict[str, Any]
-    rejected: list[dict[str, Any]] = field(default_factory=list)
+    settings: Settings
+    rejected: list[Rejected] = field(default_factory=list)
     refitted_model: RigidDrive | None = None
     refitted_gap: Gap | None = None
     param_std: dict[str, float] = field(default_factory=dict)
@@ -446,7 +788,7 @@ class Diagnosis:
             "noise_floor": self.noise_floor,
             "noise_bands": [b.to_dict() for b in self.noise_bands],
             "quantisation_step": self.quantisation_step,
-            "at_noise_floor_factor": self.settings["missing_factor"],
+            "at_noise_floor_factor": self.settings.missing_factor,
             "rests": [r.to_dict() for r in self.rests],
             "region": self.region.to_dict(),
             "final_region": self.final_region.to_dict(),
@@ -458,19 +800,17 @@ class Diagnosis:
                 "params_undetermined": self.undetermined,
                 "delay_trade": None if self.delay_trade is None else self.delay_trade.to_dict(),
             },
-            "rejected": self.rejected,
+            "rejected": [r.to_dict() for r in self.rejected],
             "units": {
                 "gap": f"{self.units['v']} (RMS of measured minus free-run velocity"
-                + (
-                    "; velocity derived from position)" if self.settings["output_kind"] == "position" else ")"
-                ),
+                + ("; velocity derived from position)" if self.settings.output_kind == "position" else ")"),
                 "force_error_percent": "%",
                 "force": self.units["F"],
                 "velocity": self.units["v"],
                 "input": self.units["u"],
                 "params": self.param_units,
             },
-            "settings": self.settings,
+            "settings": self.settings.to_dict(),
             "initial_model": {
                 "effects": list(self.initial_model.effects),
                 "params": self.initial_model.params,
@@ -527,7 +867,7 @@ class Diagnosis:
                     "region_gap_after": s.gap_after.region,
                     "force_error_before_percent": s.gap_before.force_error_percent,
                     "force_error_after_percent": s.gap_after.force_error_percent,
-                    "delta_bic": s.evidence["delta_bic"],
+                    "delta_bic": s.evidence.delta_bic,
                 }
             )
         df = pd.DataFrame(rows, columns=[
@@ -556,12 +896,12 @@ class Diagnosis:
         """
         from motorid.io.records import normalise_record
 
-        reading = {"input": self.settings["input"], "output": self.settings["output"], "dt": None,
-                   **self.settings.get("reading", {})}  # fmt: skip
+        used = self.settings
+        reading = {"input": used.input, "output": used.output, "dt": None, **used.reading}
         reading.update({k: v for k, v in overrides.items() if k in reading})
         record = normalise_record(record, **reading)
-        keys = ("output_kind", "input_gain", "timing", "band")
-        opts = {k: self.settings[k] for k in keys}
+        opts = {"output_kind": used.output_kind, "input_gain": used.input_gain, "timing": used.timing,
+                "band": used.band}  # fmt: skip
         opts.update({k: v for k, v in overrides.items() if k not in reading})
         prep = prepare(record, input="u", output="y", dt=reading["dt"], **opts)
         rows = {label: gaps(model, prep, self.region) for label, model in self.models}
@@ -837,16 +1177,22 @@ __all__ = [
     "MISSING_FACTOR",
     "RELATIVE_STD_LIMIT",
     "STOP_SENTENCES",
+    "CandidateEvidence",
     "Diagnosis",
+    "Evidence",
     "Gap",
     "Lookalike",
     "NoiseBand",
     "PositionError",
+    "RecordGap",
     "RecordSummary",
+    "Rejected",
     "RestSummary",
+    "Settings",
     "Step",
     "Stop",
     "Structure",
+    "StructureCandidate",
     "final_gap_sentence",
     "record_summaries",
     "rest_summaries",

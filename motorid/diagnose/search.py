@@ -10,6 +10,7 @@ each check of one a :class:`Decision` (held-out error, free-run gap, noise), the
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from collections.abc import Callable, Sequence
@@ -34,7 +35,17 @@ from motorid.diagnose.measures import (
 from motorid.diagnose.model import FitResult, fit_model, fit_output_error, refitted_parameters
 from motorid.diagnose.position import held_out_position_error, position_unit
 from motorid.diagnose.prepare import HeldOut, Pool
-from motorid.diagnose.results import Lookalike, Step, Stop, Structure
+from motorid.diagnose.results import (
+    CandidateEvidence,
+    Evidence,
+    Lookalike,
+    RecordGap,
+    Rejected,
+    Step,
+    Stop,
+    Structure,
+    StructureCandidate,
+)
 from motorid.drive.effects import effect_order
 from motorid.drive.effects import get as get_effect
 from motorid.drive.effects import names as effect_library
@@ -143,7 +154,7 @@ def choose_structure(
     probe = effect_order((*base, "coulomb_friction"))
     fit_p = fit_model(data, probe, start=start, stribeck_shape=stribeck_shape)
     gap_p = pool.gaps(fit_p.model, None).overall
-    tried: list[dict[str, Any]] = []
+    tried: list[StructureCandidate] = []
     fits: dict[tuple[str, ...], FitResult] = {}
 
     def fit_pair(against: FitResult) -> FitResult:
@@ -162,7 +173,7 @@ def choose_structure(
         fit = fit_model(data, (*probe, *names), start=best.model.params, stribeck_shape=stribeck_shape)
         return fit if fit.rss <= best.rss else best
 
-    def try_structure(names: tuple[str, ...], against: FitResult) -> dict[str, Any]:
+    def try_structure(names: tuple[str, ...], against: FitResult) -> StructureCandidate:
         if len(names) > 1:
             fit = fit_pair(against)
         else:
@@ -171,34 +182,31 @@ def choose_structure(
             against.rss, fit.rss, fit.n_rows, fit.n_params - against.n_params, fit.residual[data.moving]
         )
         params = {p: fit.model.params[p] for n in names for p in get_effect(n).nonlinear}
-        row = {"effects": list(names), "params": params, "delta_bic": ev["delta_bic"], "gap": math.nan}
+        row = StructureCandidate(names, params, ev["delta_bic"])
         fits[names] = fit
         tried.append(row)
         return row
 
     singles = [try_structure(names, fit_p) for names in STRUCTURES if len(names) == 1]
-    passing = sorted((r for r in singles if r["delta_bic"] > threshold), key=lambda r: -r["delta_bic"])
+    passing = sorted((r for r in singles if r.delta_bic > threshold), key=lambda r: -r.delta_bic)
     # ΔBIC alone decides between the single effects: a delay and a lag of 1-2 samples fit alike,
     # and on 24 records with one planted the balance named the right one 23 times, the free-run
     # gap (biased towards the lag) only 18 times
     if passing:
-        best_single = tuple(passing[0]["effects"])
-        pair = try_structure(STRUCTURES[-1], fits[best_single])
-        if pair["delta_bic"] > threshold:
+        pair = try_structure(STRUCTURES[-1], fits[passing[0].effects])
+        if pair.delta_bic > threshold:
             passing.insert(0, pair)
     reasons = []
     for row in passing:
-        names = tuple(row["effects"])
-        row["gap"] = gap1 = pool.gaps(fits[names].model, None).overall
+        names = row.effects
+        row.gap = gap1 = pool.gaps(fits[names].model, None).overall
         part = explained(gap_p, gap1, floor)
         if gap1 < (1.0 - min_gap_shrink) * gap_p and part > noise_explained:
             reason = (
-                f"chosen from the moving samples: ΔBIC {row['delta_bic']:.1f} > {threshold:g}, free-run gap of "
+                f"chosen from the moving samples: ΔBIC {row.delta_bic:.1f} > {threshold:g}, free-run gap of "
                 f"{' + '.join(probe)} {gap_p:.4g} -> {gap1:.4g} (it accounts for {part:.1f} noise floors)"
             )
-            return Structure(
-                names, row["params"], probe, gap_p, gap1, tried, reason, data.scale["delay_reach"]
-            )
+            return Structure(names, row.params, probe, gap_p, gap1, tried, reason, data.scale["delay_reach"])
         reasons.append(
             f"{'+'.join(names)} (free-run gap {gap_p:.4g} -> {gap1:.4g}, it accounts for {part:.2f} noise floors)"
         )
@@ -208,9 +216,9 @@ def choose_structure(
             + ", ".join(reasons)
         )
     else:
-        best = max(tried, key=lambda r: r["delta_bic"])
+        best = max(tried, key=lambda r: r.delta_bic)
         reason = (
-            f"no delay or lag: the best, {'+'.join(best['effects'])}, has ΔBIC {best['delta_bic']:.1f} "
+            f"no delay or lag: the best, {'+'.join(best.effects)}, has ΔBIC {best.delta_bic:.1f} "
             f"<= {threshold:g}"
         )
     return Structure((), {}, probe, gap_p, gap_p, tried, reason, data.scale["delay_reach"])
@@ -409,14 +417,11 @@ class Candidate:
 
     Attributes
     ----------
-    effect : str
-        The effect's name.
     fit : FitResult
         The step's model with it, fitted (static friction: from the rests or the free run).
-    evidence : dict
-        ``delta_bic``, ``n``, ``n_eff``, ``rho``, ``rss_ratio``
-        (:func:`~motorid.diagnose.measures.evidence`), and for static friction the ``measure``
-        it is judged on and its ``breakaway``; a ``note`` where it cannot pass.
+    evidence : CandidateEvidence
+        Its effect, ΔBIC and the figures behind it; for static friction what it is judged on and
+        its breakaway; a note where it cannot pass.
     acts : str
         Where it is judged (:attr:`Effect.acts <motorid.drive.effects.base.Effect.acts>`; empty:
         everywhere, as static friction on too few rests).
@@ -429,21 +434,21 @@ class Candidate:
         sets the level against no excess rather than against a lag.
     """
 
-    effect: str
     fit: FitResult
-    evidence: dict[str, Any]
+    evidence: CandidateEvidence
     acts: str
     free_run_gap: float = math.nan
     lag_allowed: bool = True
 
     @property
+    def effect(self) -> str:
+        """The effect's name."""
+        return self.evidence.effect
+
+    @property
     def delta_bic(self) -> float:
         """Its ΔBIC."""
-        return self.evidence["delta_bic"]
-
-    def row(self) -> dict[str, Any]:
-        """Its row of a step's candidate ranking: the effect and its evidence."""
-        return {"effect": self.effect, **self.evidence}
+        return self.evidence.delta_bic
 
 
 @dataclass(frozen=True)
@@ -529,23 +534,29 @@ class Decision:
         """Why it was not accepted ("" when it was)."""
         return "; ".join(self.reasons)
 
-    def to_dict(self) -> dict[str, Any]:
-        """The JSON shape of a rejected candidate (``rejected`` of ``motorid doctor --json``)."""
-        out = {
-            "effect": self.candidate.effect, "delta_bic": self.candidate.delta_bic,
-            "held_out_error_before": self.held_before, "held_out_error_after": self.held_after,
-            "gap_before": self.gap_before.overall, "gap_after": self.gap_after.overall,
-            "gap_shrink_noise_floors": self.shrink, "explained_noise_floors": self.explained,
-        }  # fmt: skip
+    def rejected(self, step: int) -> Rejected:
+        """The candidate as rejected in ``step`` (1 the first), with the figures of its checks.
+
+        Parameters
+        ----------
+        step : int
+            The step it was judged in.
+        """
+        acting: dict[str, Any] = {}
         if self.acting is not None:
             before, after, floor = self.acting
-            out.update({"judged": WHERE.get(self.acts, "").strip(), "acting_gap_before": before,
-                        "acting_gap_after": after, "acting_noise_floor": floor})  # fmt: skip
+            acting = {"judged": WHERE.get(self.acts, "").strip(), "acting_gap_before": before,
+                      "acting_gap_after": after, "acting_noise_floor": floor}  # fmt: skip
+        position: dict[str, float] = {}
         if self.position is not None:
-            out["held_out_position_error_before"], out["held_out_position_error_after"] = self.position
-        if self.reasons:
-            out["reason"] = self.reason
-        return out
+            position = {"held_out_position_error_before": self.position[0],
+                        "held_out_position_error_after": self.position[1]}  # fmt: skip
+        return Rejected(
+            step=step, effect=self.candidate.effect, reason=self.reason, delta_bic=self.candidate.delta_bic,
+            held_out_error_before=self.held_before, held_out_error_after=self.held_after,
+            gap_before=self.gap_before.overall, gap_after=self.gap_after.overall,
+            gap_shrink_noise_floors=self.shrink, explained_noise_floors=self.explained, **acting, **position,
+        )  # fmt: skip
 
 
 def lookalike_rule(
@@ -812,9 +823,9 @@ class SearchOutcome:
     ----------
     steps : list of Step
         The effects added, in order.
-    rejected : list of dict
+    rejected : list of Rejected
         The candidates that passed the evidence threshold but not the checks
-        (:meth:`Decision.to_dict`, with the ``step``).
+        (:meth:`Decision.rejected`).
     stop : Stop
         Why the search stopped.
     fit : FitResult
@@ -826,7 +837,7 @@ class SearchOutcome:
     """
 
     steps: list[Step]
-    rejected: list[dict[str, Any]]
+    rejected: list[Rejected]
     stop: Stop
     fit: FitResult
     notes: list[str] = field(default_factory=list)
@@ -981,20 +992,19 @@ class Search:
             ev = evidence(
                 float(np.sum(err0[ok] ** 2)), float(np.sum(err1[ok] ** 2)), int(ok.sum()), 1, err1[ok]
             )
-            ev["measure"] = f"free run ({found.rests} rests, fewer than {MIN_RESTS})"
-            return Candidate(name, with_it, ev, "")
+            measure = f"free run ({found.rests} rests, fewer than {MIN_RESTS})"
+            return Candidate(with_it, CandidateEvidence(name, **ev, measure=measure), "")
         told = self.lag_test(fit, found, fitted) if found.reading == "lookalike" else None
         lag_allowed = told is None or told.reading != "static_friction"
-        ev = breakaway_evidence(*pool.breakaway_excess(fit.model), lag_allowed=lag_allowed)
-        ev["measure"] = "rests"
-        ev["breakaway"] = found.to_dict()
-        if told is not None:
-            ev["lag_test"] = told.to_dict()
+        ev = CandidateEvidence(
+            name, **breakaway_evidence(*pool.breakaway_excess(fit.model), lag_allowed=lag_allowed),
+            measure="rests", breakaway=found, lag_test=told,
+        )  # fmt: skip
         if found.shown or not lag_allowed:
-            return Candidate(name, with_it, ev, get_effect(name).acts, lag_allowed=lag_allowed)
-        ev["delta_bic"] = -math.inf  # the rests do not show breakaway above the kinetic level
-        ev["note"] = breakaway_sentence(found, told, pool.units)
-        return Candidate(name, with_it, ev, get_effect(name).acts)
+            return Candidate(with_it, ev, get_effect(name).acts, lag_allowed=lag_allowed)
+        # the rests do not show breakaway above the kinetic level
+        ev = dataclasses.replace(ev, delta_bic=-math.inf, note=breakaway_sentence(found, told, pool.units))
+        return Candidate(with_it, ev, get_effect(name).acts)
 
     def lag_test(self, fit: FitResult, found: Breakaway, level: RigidDrive) -> LagTest:
         """Whether the moving drive tells a level from a lag where rests at one input rate read
@@ -1056,14 +1066,14 @@ class Search:
                 stribeck_shape=self.stribeck_shape,
                 fixed=self.fixed,
             )
-            ev = evidence(
+            ev = CandidateEvidence(name, **evidence(
                 fit.rss, fit1.rss, fit1.n_rows, fit1.n_params - fit.n_params, fit1.residual[data.moving]
-            )
+            ))  # fmt: skip
             negative = [p for p in effect.nonnegative if fit1.model.params[p] < 0.0]
             if negative:  # fitted with the wrong sign: not this physical effect
-                ev["delta_bic"] = -math.inf
-                ev["note"] = f"{negative[0]} = {fit1.model.params[negative[0]]:.4g} < 0 is not physical"
-            ranking.append(Candidate(name, fit1, ev, effect.acts))
+                note = f"{negative[0]} = {fit1.model.params[negative[0]]:.4g} < 0 is not physical"
+                ev = dataclasses.replace(ev, delta_bic=-math.inf, note=note)
+            ranking.append(Candidate(fit1, ev, effect.acts))
         ranking.sort(key=lambda c: -c.delta_bic)
         return ranking
 
@@ -1227,22 +1237,21 @@ class Search:
         eff = get_effect(c.effect)
         params = {p: fit1.model.params[p] for p in (*eff.linear, *eff.nonlinear)}
         params.update(eff.derived(params))
-        ev = {
-            "delta_bic": c.delta_bic, "threshold": self.threshold, "n": c.evidence["n"],
-            "n_eff": c.evidence["n_eff"], "rss_ratio": c.evidence["rss_ratio"],
-            "held_out_error_before": decision.held_before, "held_out_error_after": decision.held_after,
-            "gap_shrink_noise_floors": decision.shrink, "explained_noise_floors": decision.explained,
-            "noise_floor": pool.noise,
-            **({} if decision.position is None else {"held_out_position_error_before": decision.position[0],
-                                                     "held_out_position_error_after": decision.position[1]}),
-            "chosen_by": "free-run gap among alike candidates" if c is not passing[0] else "evidence",
-            "ranking": [r.row() for r in ranking],
-        }  # fmt: skip
         if lookalike is not None:
-            ev["chosen_by"] = "the lookalike rule"
+            chosen_by = "the lookalike rule"
+        else:
+            chosen_by = "free-run gap among alike candidates" if c is not passing[0] else "evidence"
+        position = (None, None) if decision.position is None else decision.position
+        ev = Evidence(
+            candidate=c.evidence, threshold=self.threshold, held_out_error_before=decision.held_before,
+            held_out_error_after=decision.held_after, gap_shrink_noise_floors=decision.shrink,
+            explained_noise_floors=decision.explained, noise_floor=pool.noise, chosen_by=chosen_by,
+            ranking=tuple(r.evidence for r in ranking), held_out_position_error_before=position[0],
+            held_out_position_error_after=position[1],
+        )  # fmt: skip
         before, after = pool.record_gaps(at.fit.model, at.region), pool.record_gaps(fit1.model, at.region)
         per_record = [
-            {"record": label, "gap_before": g0.overall, "gap_after": g1.overall}
+            RecordGap(label, g0.overall, g1.overall)
             for label, g0, g1 in zip(pool.labels, before, after, strict=True)
         ]
         step = Step(
@@ -1284,7 +1293,7 @@ class Search:
         pool = self.pool
         floor = pool.noise
         steps: list[Step] = []
-        rejected: list[dict[str, Any]] = []
+        rejected: list[Rejected] = []
         stop = Stop("max_steps", {"max_steps": max_steps})
         for _ in range(max_steps):
             bar.set_postfix_str(f"step {len(steps) + 1}")
@@ -1332,7 +1341,7 @@ class Search:
                 if decision.accepted:
                     accepted = decision
                     break
-                rejected.append({"step": len(steps) + 1, **decision.to_dict()})
+                rejected.append(decision.rejected(len(steps) + 1))
                 reasons.append(f"{c.effect} ({decision.reason})")
             if accepted is None:
                 stop = Stop("no_improvement", {"rejected": ", ".join(reasons)})
@@ -1350,8 +1359,12 @@ class Search:
         if "static_friction" in candidates and "static_friction" not in effects:
             # what the final model's rests say of a breakaway the search did not name
             said = self.static_friction(fit).evidence
-            if "note" in said and said.get("breakaway", {}).get("reading") in ("lag", "lookalike"):
-                notes.append(said["note"])
+            if (
+                said.note is not None
+                and said.breakaway is not None
+                and said.breakaway.reading in ("lag", "lookalike")
+            ):
+                notes.append(said.note)
         return SearchOutcome(steps, rejected, stop, fit, notes)
 
 
