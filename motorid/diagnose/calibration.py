@@ -10,8 +10,8 @@ where the noise floor comes out 7-14 times the true noise); no false name on the
 hide nothing (5 of 30 before, 3 of 3 at 20-40 ms); a logging delay within one sample on 14 of 15
 (constant) and 12 of 15 (drifting, the start's after ``align``; 8 of 15 before the drift was
 measured on the free run and aligned again on the aligned record); a drift said on 15 of 15
-drifting loggers and on none of 15 constant ones. This is where the doctor stands on drives it has not
-seen; the rules have not yet been made to pass on it.
+drifting loggers and on none of 15 constant ones. This is where the doctor stands on drives it
+has not seen; the rules have not yet been made to pass on it.
 
 A no-effect record is a random rig (:func:`motorid.diagnose.synthetic.planted_record`
 with no effect: viscous and Coulomb friction, both in the base model, plus the
@@ -695,7 +695,11 @@ def planted_shows(record: pd.DataFrame, diagnosis: Diagnosis, effect: str, input
     balance (the structure the doctor took held; static friction fitted to the rests,
     :func:`~motorid.diagnose.measures.fit_static_friction`), and
     :func:`~motorid.diagnose.search.explained` of their free-run gaps against the doctor's
-    noise floor. The noise rule names no effect that accounts for no more than
+    noise floor; for an effect that acts in one place (:attr:`Effect.acts
+    <motorid.drive.effects.base.Effect.acts>`: static friction at the rests, Stribeck friction near
+    rest, drag at speed) the gaps there against the floor there
+    (:meth:`~motorid.diagnose.prepare.Pool.acting_gap`, :meth:`~motorid.diagnose.prepare.Pool.band_floor`).
+    The noise rule names no effect that accounts for no more than
     :data:`~motorid.diagnose.search.NOISE_EXPLAINED` noise floors: below it the record does not
     show the effect to the doctor's standard, whatever its torque balance says.
 
@@ -723,7 +727,13 @@ def planted_shows(record: pd.DataFrame, diagnosis: Diagnosis, effect: str, input
         added = fit_static_friction(pool, base, None)
     else:
         added = fit_model(pool.data, (*without, effect), start=base.params, fixed=fixed or None).model
-    return explained(pool.gaps(base, None).overall, pool.gaps(added, None).overall, diagnosis.noise_floor)
+    acts = get_effect(effect).acts
+    if not acts:
+        return explained(pool.gaps(base, None).overall, pool.gaps(added, None).overall, diagnosis.noise_floor)
+    # judged where it acts, against the noise floor there, as the noise rule judges it (the doctor's
+    # own noise measure, where the one-step prediction scaled it)
+    floor = pool.band_floor(acts) * diagnosis.noise_floor / pool.noise
+    return explained(pool.acting_gap(base, acts), pool.acting_gap(added, acts), floor)
 
 
 def bank(

@@ -386,7 +386,7 @@ class Rejected:
     effect : str
         The candidate effect.
     reason : str
-        Each check it failed, ``; ``-separated.
+        Each check it failed, separated by semicolons.
     delta_bic : float
         Its ΔBIC [-].
     held_out_error_before, held_out_error_after : float
