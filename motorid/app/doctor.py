@@ -57,8 +57,8 @@ class DoctorOptions:
         Choose the input delay and lag from the record first; False is ``--no-structure``
         (the base as given).
     align : bool
-        Where a record's input delay drifts along it (a logger's time base), put its output back
-        on the input's time and diagnose again (:func:`motorid.diagnose.diagnose`'s ``align``).
+        Where a record's input delay drifts along it (a logger's time base), put its input on
+        its output's time and diagnose again (:func:`motorid.diagnose.diagnose`'s ``align``).
     model : Path, optional
         A drive model file to start from, a rigid drive (``motorid doctor --save-model`` writes
         one) or a two-mass rig (``motorid simulate --save-model``); its effects are the base, so

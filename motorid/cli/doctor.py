@@ -333,7 +333,7 @@ def add_doctor_options(parser: argparse.ArgumentParser) -> None:
                              "before judging friction")  # fmt: skip
     parser.add_argument("--align", action="store_true",
                         help="where a record's input delay drifts along it (a logger's time base: the "
-                             "report says so either way), put its output back on the input's time and "
+                             "report says so either way), put its input on its output's time and "
                              "diagnose again")  # fmt: skip
     parser.add_argument("--model", type=Path, metavar="FILE",
                         help="start from your own drive model file, a rigid drive or a two-mass rig (searched "

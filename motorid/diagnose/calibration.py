@@ -8,9 +8,10 @@ through one imperfection each, one effect planted or none. Measured with ``--ban
 per imperfection (none on a pulsed drive, refused on 12 of its 15 benches; 3 of 12 at 20-40 ms,
 where the noise floor comes out 7-14 times the true noise); no false name on the 30 benches that
 hide nothing (5 of 30 before, 3 of 3 at 20-40 ms); a logging delay within one sample on 14 of 15
-(constant) and 8 of 15 (drifting, the start's after ``align``); a drift said on 13 of 15 drifting
-loggers and on none of 15 constant ones. This is where the doctor stands on drives it has not
-seen; the rules have not yet been made to pass on it.
+(constant) and 12 of 15 (drifting, the start's after ``align``; 8 of 15 before the drift was
+measured on the free run and aligned again on the aligned record); a drift said on 15 of 15
+drifting loggers and on none of 15 constant ones. This is where the doctor stands on drives it
+has not seen; the rules have not yet been made to pass on it.
 
 A no-effect record is a random rig (:func:`motorid.diagnose.synthetic.planted_record`
 with no effect: viscous and Coulomb friction, both in the base model, plus the
