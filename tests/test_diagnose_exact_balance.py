@@ -54,6 +54,28 @@ def held_response(
     return w
 
 
+#: The held drive of the tests below: J [kg m²], B [N m s/rad], C [N m]; its input gain G [N m/V].
+TRUTH = {"inertia": 1.4e-6, "viscous": 1.1e-4, "coulomb": 2.6e-3}
+G = 2e-3
+
+
+def held_drive_record(ratio: float, noise_share: float, seed: int) -> tuple[pd.DataFrame, float]:
+    """4000 samples of the drive :data:`TRUTH` turning one way under a held two-tone input, sampled
+    at ``ratio`` times its time constant J / B, with white noise of ``noise_share`` of its largest
+    speed; and that noise's standard deviation [rad/s]."""
+    J, B, coulomb = TRUTH["inertia"], TRUTH["viscous"], TRUTH["coulomb"]
+    dt = ratio * J / B
+    t = np.arange(4000) * dt
+    u = 8.0 + 2.5 * np.sin(2 * np.pi * t / (400 * dt)) + 1.5 * np.sign(np.sin(2 * np.pi * t / (37 * dt)))
+    w = held_response(u, J, B, G, coulomb, w0=(G * 8.0 - coulomb) / B, dt=dt)
+    sigma = noise_share * float(np.max(w))
+    record = pd.DataFrame(
+        {"t": t, "u": u, "y": w + sigma * np.random.default_rng(seed).standard_normal(w.size)}
+    )
+    record.attrs["dt"] = dt
+    return record, sigma
+
+
 @pytest.mark.parametrize("ratio", [0.05, 0.8, 1.5])
 def test_a_drive_sampled_near_its_time_constant_is_fitted_to_its_truth(ratio):
     """A drive turning one way under a held two-tone input, sampled at ``ratio`` times its time
@@ -62,16 +84,9 @@ def test_a_drive_sampled_near_its_time_constant_is_fitted_to_its_truth(ratio):
     within 0.5 % (their spread over seeds is below 0.1 %); J within 3 %: the noise compensation
     takes the speed's noise from its part near the Nyquist frequency, where a drive sampled at
     1.5 J/B also has signal, which takes J 2.2 % high on the noise-free record (0.7 % at 0.8)."""
-    J, B, g, coulomb = 1.4e-6, 1.1e-4, 2e-3, 2.6e-3
-    dt = ratio * J / B
-    t = np.arange(4000) * dt
-    rng = np.random.default_rng(3)
-    u = 8.0 + 2.5 * np.sin(2 * np.pi * t / (400 * dt)) + 1.5 * np.sign(np.sin(2 * np.pi * t / (37 * dt)))
-    w = held_response(u, J, B, g, coulomb, w0=(g * 8.0 - coulomb) / B, dt=dt)
-    y = w + 1e-3 * float(np.max(w)) * rng.standard_normal(w.size)
-    record = pd.DataFrame({"t": t, "u": u, "y": y})
-    record.attrs["dt"] = dt
-    fitted = fit_model(prepare(record, input_gain=g).data, BASE).model.params
+    record, _ = held_drive_record(ratio, noise_share=1e-3, seed=3)
+    fitted = fit_model(prepare(record, input_gain=G).data, BASE).model.params
+    J, B, coulomb = TRUTH["inertia"], TRUTH["viscous"], TRUTH["coulomb"]
     assert fitted["viscous"] == pytest.approx(B, rel=0.005)
     assert fitted["coulomb"] == pytest.approx(coulomb, rel=0.005)
     assert fitted["inertia"] == pytest.approx(J, rel=0.03)
@@ -85,16 +100,9 @@ def test_a_drive_sampled_near_its_time_constant_has_its_noise_measured_by_the_on
     record is sampled slower than a quarter of J / B the speed's part near the Nyquist frequency
     holds signal (measured 2.4 and 4.9 times σ at 0.8 and 1.5), and the pool takes the noise from
     the prediction; at 0.05 J / B it keeps the figure near Nyquist (measured 1.11 σ there: 15 %)."""
-    J, B, g, coulomb = 1.4e-6, 1.1e-4, 2e-3, 2.6e-3
-    dt = ratio * J / B
-    t = np.arange(4000) * dt
-    rng = np.random.default_rng(4)
-    u = 8.0 + 2.5 * np.sin(2 * np.pi * t / (400 * dt)) + 1.5 * np.sign(np.sin(2 * np.pi * t / (37 * dt)))
-    w = held_response(u, J, B, g, coulomb, w0=(g * 8.0 - coulomb) / B, dt=dt)
-    sigma = 2e-3 * float(np.max(w))
-    record = pd.DataFrame({"t": t, "u": u, "y": w + sigma * rng.standard_normal(w.size)})
-    record.attrs["dt"] = dt
-    prep = prepare(record, input_gain=g)
+    record, sigma = held_drive_record(ratio, noise_share=2e-3, seed=4)
+    dt = record.attrs["dt"]
+    prep = prepare(record, input_gain=G)
     model = fit_model(prep.data, BASE).model
     assert one_step_noise(model, prep.data) == pytest.approx(sigma, rel=0.05)
     pool = Pool([prep], ["record"])
