@@ -107,7 +107,7 @@ def test_a_drive_sampled_near_its_time_constant_has_its_noise_measured_by_the_on
     assert one_step_noise(model, prep.data) == pytest.approx(sigma, rel=0.05)
     pool = Pool([prep], ["record"])
     near_nyquist = prep.kin.noise / noise_left(CUTOFF_PER_BAND * prep.kin.band, dt)
-    measured = one_step_noise_pool(pool, model)
+    measured = one_step_noise_pool(pool, [model])
     if ratio > ONE_STEP_SAMPLE_SHARE:
         assert near_nyquist > 2.0 * sigma
         assert measured is not pool and "one-step prediction" in measured.parts[0].notes[-1]

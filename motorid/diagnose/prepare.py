@@ -670,30 +670,41 @@ class HeldOut:
         return r[self.rows]
 
 
-def one_step_noise_pool(pool: Pool, model: RigidDrive) -> Pool:
-    """The pool with each velocity record's noise measured by ``model``'s one-step prediction
-    (:func:`~motorid.diagnose.measures.one_step_noise`) where the record is sampled slower than
-    :data:`ONE_STEP_SAMPLE_SHARE` of the model's time constant τ = J / B and that figure is below
-    :data:`ONE_STEP_BELOW` of the one measured on the speed's part near the Nyquist frequency
+def sampled_slowly(pool: Pool, model: RigidDrive) -> bool:
+    """Whether the records of ``pool`` are sampled slower than :data:`ONE_STEP_SAMPLE_SHARE` of the
+    time constant J / B of ``model`` (inertia and viscous friction both positive)."""
+    inertia, viscous = float(model.inertia), float(model.params.get("viscous", 0.0))
+    return inertia > 0.0 and viscous > 0.0 and viscous * pool.dt / inertia > ONE_STEP_SAMPLE_SHARE
+
+
+def one_step_noise_pool(pool: Pool, models: Sequence[RigidDrive]) -> Pool:
+    """The pool with each velocity record's noise measured by the one-step prediction
+    (:func:`~motorid.diagnose.measures.one_step_noise`) of the closest of ``models`` where the record
+    is sampled slower than :data:`ONE_STEP_SAMPLE_SHARE` of the first model's time constant
+    τ = J / B (:func:`sampled_slowly`) and that figure is below :data:`ONE_STEP_BELOW` of the one
+    measured on the speed's part near the Nyquist frequency
     (:func:`~motorid.diagnose.kinematics.filtered_noise`): the record's measured noise is scaled by
-    their ratio (:meth:`Prepared.with_noise`), and the record says so in a note. Both figures hold
-    the noise and something more; the smaller is the closer. ``pool`` itself where nothing changes.
+    their ratio (:meth:`Prepared.with_noise`), and the record says so in a note. Each figure holds
+    the noise and something more (the signal near Nyquist, what a model misses); the smallest is
+    the closest. ``pool`` itself where nothing changes.
 
     Parameters
     ----------
     pool : Pool
         The records of the drive.
-    model : RigidDrive
-        The fitted base model (with its delay and lag, where taken).
+    models : sequence of RigidDrive
+        The fitted models (with their delay and lag, where taken): the model found first, then
+        others fitted to the same records (the candidates it was judged against).
     """
-    inertia, viscous = float(model.inertia), float(model.params.get("viscous", 0.0))
-    if not (inertia > 0.0 and viscous > 0.0) or viscous * pool.dt / inertia <= ONE_STEP_SAMPLE_SHARE:
+    if not models or not sampled_slowly(pool, models[0]):
         return pool
+    model = models[0]
+    inertia, viscous = float(model.inertia), float(model.params["viscous"])
     parts, changed = [], False
     for part in pool.parts:
         kin = part.kin
         sigma_hf = kin.noise / noise_left(CUTOFF_PER_BAND * kin.band, kin.dt)
-        sigma = one_step_noise(model, part.data)
+        sigma = min(one_step_noise(m, part.data) for m in models)
         if not (sigma_hf > 0.0 and math.isfinite(sigma) and sigma < ONE_STEP_BELOW * sigma_hf):
             parts.append(part)
             continue

@@ -137,7 +137,7 @@ from motorid.diagnose.closed_loop import instrumental_kept, instrumental_refit, 
 from motorid.diagnose.given_rig import GivenRig, rig_note
 from motorid.diagnose.locate import locate
 from motorid.diagnose.measures import fit_static_friction, free_run_error, gaps
-from motorid.diagnose.model import fit_model
+from motorid.diagnose.model import FitResult, fit_model
 from motorid.diagnose.position import position_unit, refit_records_in_position
 from motorid.diagnose.prepare import (
     ONE_STEP_BELOW,
@@ -149,6 +149,7 @@ from motorid.diagnose.prepare import (
     one_step_noise_pool,
     pool_records,
     prepare,
+    sampled_slowly,
 )
 from motorid.diagnose.results import (
     INERTIA_SHARE_LIMIT,
@@ -456,21 +457,33 @@ def diagnose(
         chosen, fit, current, structure_model = search.base_structure(fit0, tuple(base_names), structure, bar)
         bar.update(1)
         outcome = search.run(fit, current, cand_names, first_region, bool(chosen.effects), max_steps, bar)
-        return fit0, initial_model, first_region, chosen, structure_model, outcome
+        return fit0, initial_model, first_region, chosen, structure_model, outcome, search
+
+    def closest_models(search: Search, fit: FitResult) -> list[RigidDrive]:
+        """The model ``fit`` found, then each candidate effect fitted beside it."""
+        effects = fit.model.effects
+        left = [
+            c for c in cand_names
+            if c not in effects and all(r in effects for r in get_effect(c).requires) and not get_effect(c).position
+        ]  # fmt: skip
+        return [fit.model, *(c.fit.model for c in search.rank(fit, effects, left))]
 
     run = searched(pool)
     if output_kind == "velocity":
         # a record sampled slowly for its time constant: its noise measured by the one-step prediction of the
-        # model found, and the search run again on it; once more where the model it then finds predicts closer
+        # model found or a candidate beside it, and the search run again on it; once more where the model it
+        # then finds predicts closer
         measured = pool
         for _ in range(2):
-            by_one_step = one_step_noise_pool(measured, run[-1].fit.model)
+            if not sampled_slowly(pool, run[-2].fit.model):
+                break
+            by_one_step = one_step_noise_pool(measured, closest_models(run[-1], run[-2].fit))
             if by_one_step is measured or not by_one_step.noise < ONE_STEP_BELOW * pool.noise:
                 break
             pool, first = by_one_step, by_one_step.parts[0]
             bar.reset(total=max_steps + 2)
             run = searched(pool)
-    fit0, initial_model, first_region, chosen, structure_model, outcome = run
+    fit0, initial_model, first_region, chosen, structure_model, outcome, _ = run
     refitted_model = fit0.model
     bar.total = bar.n + 1  # a diagnosis that stops early skips the steps it did not take
 
