@@ -47,11 +47,14 @@ RELATIVE_STD_LIMIT = 0.5
 #: effect, and above the 99th percentile (3.04) of 191 on an encoder's speed (quantised, noise
 #: growing with speed) (:mod:`.calibration`).
 MISSING_FACTOR = 3.5
-#: A sample time above this share of the fitted mechanical time constant τ = J / B is said to be
-#: too slow for the balance: its acceleration is a difference of speeds a good part of τ apart,
-#: not the derivative the balance needs. On the bank of benches (:mod:`motorid.diagnose.bench`) the doctor names
-#: an effect on no-effect benches at 10 ms with τ = 12 ms (dt/τ = 0.8) and on all three at
-#: 20-40 ms; no real record of ``realmotors/`` comes near (the L298N's 10 ms against 0.28 s).
+#: A sample time above this share of the fitted mechanical time constant τ = J / B is said: the
+#: speed changes much within each sample, so what happens within one (a breakaway, an input delay
+#: of less than a sample, the low speeds a reversal passes through) is seen coarsely. The balance
+#: itself holds there (it is written on each sample's ends, :func:`~motorid.diagnose.model.discrete_inertia`)
+#: and the noise is measured by the one-step prediction (:func:`~motorid.diagnose.prepare.one_step_noise_pool`):
+#: on the bank's 20-40 ms benches (:mod:`motorid.diagnose.bench`) nothing is named on 23 that hide
+#: nothing and the planted effect first on 7 of 12, all 7 where it shows (:mod:`.calibration`).
+#: No real record of ``realmotors/`` comes near (the L298N's 10 ms against 0.28 s).
 SLOW_SAMPLING = 0.5
 
 
@@ -66,9 +69,9 @@ def slow_sampling_note(model: RigidDrive, dt: float) -> str | None:
         return None
     return (
         f"the sample time {1e3 * dt:.3g} ms is {dt / tau:.2g} of the fitted mechanical time constant "
-        f"J/B = {1e3 * tau:.3g} ms: the speed changes too much between two samples for the balance's "
-        f"acceleration, so the names and the inertia are not reliable; record at {1e3 * tau / 5:.2g} ms "
-        "or faster"
+        f"J/B = {1e3 * tau:.3g} ms: the speed changes much within a sample, so a breakaway, a delay of "
+        f"less than a sample and the low speeds of a reversal are seen coarsely; record at {1e3 * tau / 5:.2g} "
+        "ms or faster to see them"
     )
 
 
