@@ -343,11 +343,21 @@ def inertia_from_discrete(coefficient: float, viscous: float, dt: float) -> floa
     dt : float
         Sample time [s].
     """
+    terms = _discrete_terms(coefficient, viscous, dt)
+    if terms is None:
+        return float(coefficient)
+    bdt, held = terms
+    return float(-bdt / math.log1p(-bdt / held))
+
+
+def _discrete_terms(coefficient: float, viscous: float, dt: float) -> tuple[float, float] | None:
+    """``(c, H) = (B dt, J_b + B dt / 2)`` of :func:`inertia_from_discrete`, or None where the
+    inverse is not defined (no viscous friction, or ``H <= c``, which no positive inertia gives)."""
     bdt = viscous * dt
     held = coefficient + 0.5 * bdt
     if not bdt > 0.0 or not held > bdt or not math.isfinite(held):
-        return float(coefficient)
-    return float(-bdt / math.log1p(-bdt / held))
+        return None
+    return bdt, held
 
 
 def discrete_inertia_slope(coefficient: float, viscous: float, dt: float) -> float:
@@ -367,10 +377,10 @@ def discrete_inertia_slope(coefficient: float, viscous: float, dt: float) -> flo
     dt : float
         Sample time [s].
     """
-    bdt = viscous * dt
-    held = coefficient + 0.5 * bdt
-    if not bdt > 0.0 or not held > bdt or not math.isfinite(held):
+    terms = _discrete_terms(coefficient, viscous, dt)
+    if terms is None:
         return 1.0
+    bdt, held = terms
     inertia = inertia_from_discrete(coefficient, viscous, dt)
     return float(inertia**2 / (held * (held - bdt)))
 

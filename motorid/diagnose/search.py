@@ -632,6 +632,26 @@ def lookalike_rule(
 NEGATIVE_ERRORS = 2.0
 
 
+def addable(candidates: Sequence[str], effects: tuple[str, ...]) -> list[str]:
+    """The ``candidates`` a model of ``effects`` can take next: not in it, the effects each
+    requires in it, and no second torque that depends on the position (a drive holds one).
+
+    Parameters
+    ----------
+    candidates : sequence of str
+        The effects to try.
+    effects : tuple of str
+        The model's effects.
+    """
+    return [
+        c
+        for c in candidates
+        if c not in effects
+        and all(r in effects for r in get_effect(c).requires)
+        and not (get_effect(c).position and any(get_effect(e).position for e in effects))
+    ]
+
+
 def negative_levels(fit: FitResult) -> str:
     """The parameters of ``fit`` that cannot be negative (:attr:`Effect.nonnegative`, the levels,
     the dead zone) and are, by more than :data:`NEGATIVE_ERRORS` standard errors, as
@@ -1297,13 +1317,7 @@ class Search:
         stop = Stop("max_steps", {"max_steps": max_steps})
         for _ in range(max_steps):
             bar.set_postfix_str(f"step {len(steps) + 1}")
-            remaining = [
-                c
-                for c in candidates
-                if c not in effects
-                and all(r in effects for r in get_effect(c).requires)
-                and not (get_effect(c).position and any(get_effect(e).position for e in effects))
-            ]  # a drive holds one torque that depends on the position
+            remaining = addable(candidates, effects)
             if not remaining:
                 stop = Stop("all_in_model")
                 break

@@ -127,7 +127,7 @@ import dataclasses
 import logging
 import math
 from collections.abc import Sequence
-from typing import Any, Literal
+from typing import Any, Literal, NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -135,7 +135,7 @@ import pandas as pd
 from motorid.diagnose.agreement import agreement
 from motorid.diagnose.closed_loop import instrumental_kept, instrumental_refit, kinetic_split, loop_records
 from motorid.diagnose.given_rig import GivenRig, rig_note
-from motorid.diagnose.locate import locate
+from motorid.diagnose.locate import Region, locate
 from motorid.diagnose.measures import fit_static_friction, free_run_error, gaps
 from motorid.diagnose.model import FitResult, fit_model
 from motorid.diagnose.position import position_unit, refit_records_in_position
@@ -172,6 +172,8 @@ from motorid.diagnose.search import (
     NOISE_EXPLAINED,
     STRUCTURES,
     Search,
+    SearchOutcome,
+    addable,
     candidate_names,
     choose_structure,
     effect_names,
@@ -443,7 +445,7 @@ def diagnose(
     # stages: the initial fit, each step, the final gaps (after the checks: an error shows no bar)
     bar = progress_bar(show=progress, total=max_steps + 2, desc="doctor", unit="stage")
 
-    def searched(pool: Pool) -> tuple:
+    def searched(pool: Pool) -> Searched:
         """The search on ``pool``: the initial fit, the base structure, the effects."""
         search = Search(
             pool, held_out(pool, holdout, opts), stribeck_shape, threshold, min_holdout_gain, min_gap_shrink,
@@ -457,16 +459,13 @@ def diagnose(
         chosen, fit, current, structure_model = search.base_structure(fit0, tuple(base_names), structure, bar)
         bar.update(1)
         outcome = search.run(fit, current, cand_names, first_region, bool(chosen.effects), max_steps, bar)
-        return fit0, initial_model, first_region, chosen, structure_model, outcome, search
+        return Searched(search, fit0, initial_model, first_region, chosen, structure_model, outcome)
 
-    def closest_models(search: Search, fit: FitResult) -> list[RigidDrive]:
-        """The model ``fit`` found, then each candidate effect fitted beside it."""
-        effects = fit.model.effects
-        left = [
-            c for c in cand_names
-            if c not in effects and all(r in effects for r in get_effect(c).requires) and not get_effect(c).position
-        ]  # fmt: skip
-        return [fit.model, *(c.fit.model for c in search.rank(fit, effects, left))]
+    def closest_models(run: Searched) -> list[RigidDrive]:
+        """The model ``run`` found, then each candidate effect fitted beside it."""
+        fit = run.outcome.fit
+        ranking = run.search.rank(fit, fit.model.effects, addable(cand_names, fit.model.effects))
+        return [fit.model, *(c.fit.model for c in ranking)]
 
     run = searched(pool)
     if output_kind == "velocity":
@@ -475,15 +474,15 @@ def diagnose(
         # then finds predicts closer
         measured = pool
         for _ in range(2):
-            if not sampled_slowly(pool, run[-2].fit.model):
+            if not sampled_slowly(pool, run.outcome.fit.model):
                 break
-            by_one_step = one_step_noise_pool(measured, closest_models(run[-1], run[-2].fit))
+            by_one_step = one_step_noise_pool(measured, closest_models(run))
             if by_one_step is measured or not by_one_step.noise < ONE_STEP_BELOW * pool.noise:
                 break
             pool, first = by_one_step, by_one_step.parts[0]
             bar.reset(total=max_steps + 2)
             run = searched(pool)
-    fit0, initial_model, first_region, chosen, structure_model, outcome, _ = run
+    _, fit0, initial_model, first_region, chosen, structure_model, outcome = run
     refitted_model = fit0.model
     bar.total = bar.n + 1  # a diagnosis that stops early skips the steps it did not take
 
@@ -643,6 +642,20 @@ def diagnose(
     again.notes = [*diagnosis.notes, *said, *again.notes]
     again.delay_drift = out  # what was taken out
     return again
+
+
+class Searched(NamedTuple):
+    """One search of :func:`diagnose` on a pool: the search, its initial fit and the model as
+    given or fitted, the region the first gap concentrates in, the base structure chosen (and its
+    model, None where none is taken) and what the search of effects ended with."""
+
+    search: Search
+    fit0: FitResult
+    initial_model: RigidDrive
+    first_region: Region
+    chosen: Structure
+    structure_model: RigidDrive | None
+    outcome: SearchOutcome
 
 
 def loop_structure(searched: Diagnosis, plain: Diagnosis, noise_explained: float) -> Diagnosis:
