@@ -118,7 +118,9 @@ class Structure:
         The structure effects taken (``input_delay``, ``input_lag``; none for a drive
         that answers its input at once).
     params : dict
-        Their parameters [s], held fixed in every later fit.
+        Their parameters [s], held fixed in every later fit; the delay then read again on the
+        final model's free run (:meth:`~motorid.diagnose.search.Search.final_delay`, which may
+        also add one the base hid).
     probe : tuple of str
         The effects of the model the structures were compared in (the base and
         Coulomb friction: a missing friction level must not pass for a lag).

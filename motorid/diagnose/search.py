@@ -126,7 +126,8 @@ def choose_structure(
     when its ΔBIC against the probe (for the pair: against the best single effect) exceeds
     ``threshold`` and its free-run output gap shrinks by more than ``min_gap_shrink`` of the
     probe's and it accounts for more than ``noise_explained`` noise floors of the probe's gap
-    (:func:`explained`): the same rules as a step.
+    (:func:`explained`): the same rules as a step. The delay's value is read again on the final
+    model's free run (:meth:`Search.final_delay`).
 
     Parameters
     ----------
@@ -222,6 +223,98 @@ def choose_structure(
             f"<= {threshold:g}"
         )
     return Structure((), {}, probe, gap_p, gap_p, tried, reason, data.scale["delay_reach"])
+
+
+#: The least delay [samples] :meth:`Search.final_delay` gives a model that has none: below
+#: it, a delay is a share of the hold's own half-sample lag. Where the free run is sensitive to
+#: the least change (a cogging drive's position drifts out of phase with the record's), a delay
+#: of 0.05 samples moved the free-run gap of a bench that has none by 11 noise floors; an aligned
+#: record's 0.96-sample delay (quadratic drag on a chirp at 10 ms) took its final gap from 4.5
+#: noise floors to 1.1.
+FINAL_DELAY_LEAST = 0.5
+#: Points of the grid the free run's delay is searched on over its reach, before the bounded
+#: search between the best point's neighbours.
+DELAY_GRID = 17
+#: ... and whole samples either side of the balance's delay it is also tried at (the coarse
+#: grid's points lie several samples apart on a long reach).
+NEAR_SAMPLES = 2
+
+
+def delay_by_free_run(pool: Pool, fit: FitResult, stribeck_shape: str, noise_explained: float) -> FitResult:
+    """The input delay of ``fit`` taken where the free run comes closest to the records, the rest
+    refitted to the torque balance at each delay tried (the other structure parameters held).
+
+    The balance sees the delay τ_d and the inertia J together first (``J + B τ_d``): on a
+    smooth input, and with an effect still missing from the model, its least squares put part of
+    the delay into the inertia. A logger's 10.6-sample delay on two sines, quadratic drag not yet
+    in the model: the balance's best delay was 6 samples (inertia 2.4 times the truth), held
+    while the drag was named (final gap 8.1 noise floors); the free-run gap,
+    ``sqrt(mean((w - w_sim)²))`` [v], of the final model is least at 10.5 samples (final gap 0.9
+    floors). The free run integrates the inertia over the whole record, where a wrong one shows
+    as a wrong time constant, so it is the measure the delay is read on; the balance's ΔBIC
+    still decides whether there is a delay at all.
+
+    The delay is searched on :data:`DELAY_GRID` points from the lower bound of
+    :class:`~motorid.drive.effects.InputDelay` to the records' reach (:func:`~motorid.diagnose.
+    model.delay_reach`) and on :data:`NEAR_SAMPLES` whole samples either side of ``fit``'s own,
+    then refined by a bounded search between the best point's neighbours.
+
+    Parameters
+    ----------
+    pool : Pool
+        The records of the drive.
+    fit : FitResult
+        The balance's fit with ``input_delay`` among its effects.
+    stribeck_shape : str
+        The Stribeck shape of the fits.
+    noise_explained : float
+        The noise floors of ``fit``'s free-run gap the delay found must account for
+        (:func:`explained`) to replace ``fit``'s: the structure's own rule.
+
+    Returns
+    -------
+    FitResult
+        The balance's fit at the delay whose free run comes closest; ``fit`` itself where that
+        accounts for no more than ``noise_explained`` noise floors of its gap.
+    """
+    from scipy.optimize import minimize_scalar
+
+    data = pool.data
+    effects = fit.model.effects
+    lo, hi = get_effect("input_delay").bounds(data.scale)["input_delay"]
+    held = {
+        p: fit.model.params[p]
+        for n in effects
+        if get_effect(n).structure
+        for p in get_effect(n).nonlinear
+        if p != "input_delay"
+    }
+    tried: dict[float, tuple[float, FitResult]] = {}
+
+    def gap(delay: float) -> float:
+        if delay not in tried:
+            f = fit_model(data, effects, start=fit.model.params, stribeck_shape=stribeck_shape,
+                          fixed={**held, "input_delay": delay})  # fmt: skip
+            with np.errstate(over="ignore", invalid="ignore"):  # a free run that diverges costs inf
+                g = pool.gaps(f.model, None).overall if f.model.params["inertia"] > 0.0 else math.inf
+            tried[delay] = (g if math.isfinite(g) else math.inf, f)
+        return tried[delay][0]
+
+    own_delay = fit.model.params["input_delay"]
+    near = own_delay + pool.dt * np.arange(-NEAR_SAMPLES, NEAR_SAMPLES + 1)
+    grid = np.unique(np.clip(np.concatenate([np.linspace(lo, hi, DELAY_GRID), near]), lo, hi))
+    costs = np.array([gap(float(d)) for d in grid])
+    i = int(np.argmin(costs))
+    if not np.isfinite(costs[i]):
+        return fit
+    minimize_scalar(
+        lambda d: min(gap(float(d)), 1e300), bounds=(grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]),
+        method="bounded", options={"xatol": 0.05 * pool.dt},
+    )  # fmt: skip
+    best_gap, best = min(tried.values(), key=lambda t: t[0])
+    with np.errstate(over="ignore", invalid="ignore"):
+        own = pool.gaps(fit.model, None).overall
+    return best if explained(own, best_gap, pool.noise) > noise_explained else fit
 
 
 def effect_names(value: Sequence[str] | str | None, what: str) -> tuple[str, ...]:
@@ -964,6 +1057,78 @@ class Search:
             fixed=self.fixed,
         )  # fmt: skip
         return chosen, fit, fit.model.effects, fit.model
+
+    def final_delay(self, fit: FitResult, chosen: Structure) -> tuple[FitResult, Structure]:
+        """The input delay read again on the free run of the model the search ended with.
+
+        The structure is chosen on the base, before any effect: a missing effect moves the
+        delay the free run puts it at, and hides a delay the balance trades with the inertia
+        (a logger's 6-sample delay on two sines at 2 ms with quadratic drag still missing: ΔBIC
+        −5.7, so no delay, and the inertia 1.45 times the truth). With the effects found, the
+        delay the model holds is searched again (:func:`delay_by_free_run`); a model without one
+        is given one of at least :data:`FINAL_DELAY_LEAST` samples where it passes the structure's
+        own rules on the final model: ΔBIC above ``threshold`` on the balance, and on the free run
+        (at the delay read there) the gap shrinks by more than ``min_gap_shrink`` and the delay
+        accounts for more than ``noise_explained`` noise floors of it (:func:`explained`).
+        Neither is done where the base held its own structure or took a lag alone.
+
+        Parameters
+        ----------
+        fit : FitResult
+            The model the search ended with.
+        chosen : Structure
+            The structure chosen on the base (:meth:`base_structure`).
+
+        Returns
+        -------
+        FitResult, Structure
+            The model with its delay read again, and the structure that says so (the same two
+            where nothing moves).
+        """
+        effects = fit.model.effects
+        if any(get_effect(n).structure for n in effects) and "input_delay" not in chosen.effects:
+            return fit, chosen  # a lag alone, or the base's own structure
+        pool, dt = self.pool, self.pool.dt
+        if "input_delay" in effects:
+            found = delay_by_free_run(pool, fit, self.stribeck_shape, self.noise_explained)
+            delay = found.model.params["input_delay"]
+            if found is fit or abs(delay - fit.model.params["input_delay"]) < 0.05 * dt:
+                return fit, chosen
+            said = f"; on the final model's free run the delay is {delay:.4g} s ({delay / dt:.2f} samples)"
+        else:
+            held = {p: fit.model.params[p] for n in effects for p in get_effect(n).nonlinear}
+            with_delay = fit_model(
+                pool.data, effect_order((*effects, "input_delay")), start=fit.model.params,
+                stribeck_shape=self.stribeck_shape, fixed=held,
+            )  # fmt: skip
+            ev = evidence(
+                fit.rss, with_delay.rss, with_delay.n_rows, with_delay.n_params - fit.n_params,
+                with_delay.residual[pool.data.moving],
+            )  # fmt: skip
+            if not ev["delta_bic"] > self.threshold:
+                return fit, chosen
+            found = delay_by_free_run(pool, with_delay, self.stribeck_shape, -math.inf)
+            with np.errstate(over="ignore", invalid="ignore"):  # a free run that diverges has an inf gap
+                before, after = pool.gaps(fit.model, None).overall, pool.gaps(found.model, None).overall
+            part = explained(before, after, pool.noise)
+            delay = found.model.params["input_delay"]
+            if not (
+                delay >= FINAL_DELAY_LEAST * dt
+                and after < (1.0 - self.min_gap_shrink) * before
+                and part > self.noise_explained
+            ):
+                return fit, chosen
+            said = (
+                f"; an input delay of {delay:.4g} s ({delay / dt:.2f} samples) taken on the final model: ΔBIC "
+                f"{ev['delta_bic']:.1f} > {self.threshold:g} on its balance, free-run gap {before:.4g} -> {after:.4g} "
+                f"(it accounts for {part:.1f} noise floors)"
+            )
+        self.fixed["input_delay"] = delay
+        structure = dataclasses.replace(
+            chosen, effects=tuple(n for n in found.model.effects if get_effect(n).structure),
+            params={**chosen.params, "input_delay": delay}, reason=chosen.reason + said,
+        )  # fmt: skip
+        return found, structure
 
     def held_error(self, effects: tuple[str, ...], start: dict[str, float] | None) -> float:
         """RMS torque-balance residual / J [v/s] on the held-out rows, fitted on the training rows.

@@ -4,7 +4,9 @@ missing, and how much better the model is once it is added.
 The workflow (:func:`diagnose`):
 
 0. **Structure**: choose the input delay and lag of the drive from the record
-   (:func:`choose_structure`), held fixed in every later fit.
+   (:func:`choose_structure`), held fixed in every later fit; once the effects are
+   found, the delay is read again on the final model's free run, and a delay the
+   base hid is taken there (:meth:`~motorid.diagnose.search.Search.final_delay`).
 1. **Fit** the current rigid model (inertia, input gain, the ``base`` effects) to
    the torque balance of the record (:mod:`.model`), simulate it free-run on the
    measured input and compare with the measured velocity. Gaps: the RMS of
@@ -459,6 +461,8 @@ def diagnose(
         chosen, fit, current, structure_model = search.base_structure(fit0, tuple(base_names), structure, bar)
         bar.update(1)
         outcome = search.run(fit, current, cand_names, first_region, bool(chosen.effects), max_steps, bar)
+        if structure:
+            outcome.fit, chosen = search.final_delay(outcome.fit, chosen)
         return Searched(search, fit0, initial_model, first_region, chosen, structure_model, outcome)
 
     def closest_models(run: Searched) -> list[RigidDrive]:
