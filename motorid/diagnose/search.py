@@ -46,7 +46,7 @@ from motorid.diagnose.results import (
     Structure,
     StructureCandidate,
 )
-from motorid.drive.effects import effect_order
+from motorid.drive.effects import effect_order, parameter_owner
 from motorid.drive.effects import get as get_effect
 from motorid.drive.effects import names as effect_library
 from motorid.drive.rigid import RigidDrive
@@ -242,7 +242,9 @@ NEAR_SAMPLES = 2
 
 def delay_by_free_run(pool: Pool, fit: FitResult, stribeck_shape: str, noise_explained: float) -> FitResult:
     """The input delay of ``fit`` taken where the free run comes closest to the records, the rest
-    refitted to the torque balance at each delay tried (the other structure parameters held).
+    refitted to the torque balance at each delay tried (the other shapes held there, a dead zone's
+    width or a Stribeck velocity, so that each point is one linear solve; refitted at the delay
+    found, the other structure parameters held).
 
     The balance sees the delay τ_d and the inertia J together first (``J + B τ_d``): on a
     smooth input, and with an effect still missing from the model, its least squares put part of
@@ -282,23 +284,19 @@ def delay_by_free_run(pool: Pool, fit: FitResult, stribeck_shape: str, noise_exp
     data = pool.data
     effects = fit.model.effects
     lo, hi = get_effect("input_delay").bounds(data.scale)["input_delay"]
-    held = {
-        p: fit.model.params[p]
-        for n in effects
-        if get_effect(n).structure
-        for p in get_effect(n).nonlinear
-        if p != "input_delay"
-    }
+    shapes = {p: fit.model.params[p] for n in effects for p in get_effect(n).nonlinear if p != "input_delay"}
+    structure = {p: v for p, v in shapes.items() if get_effect(parameter_owner(p)).structure}
     tried: dict[float, tuple[float, FitResult]] = {}
 
-    def gap(delay: float) -> float:
-        if delay not in tried:
+    def gap(delay: float, held: dict[str, float] = shapes) -> float:
+        key = delay if held is shapes else -delay - 1.0  # the shapes refitted: another point
+        if key not in tried:
             f = fit_model(data, effects, start=fit.model.params, stribeck_shape=stribeck_shape,
                           fixed={**held, "input_delay": delay})  # fmt: skip
             with np.errstate(over="ignore", invalid="ignore"):  # a free run that diverges costs inf
                 g = pool.gaps(f.model, None).overall if f.model.params["inertia"] > 0.0 else math.inf
-            tried[delay] = (g if math.isfinite(g) else math.inf, f)
-        return tried[delay][0]
+            tried[key] = (g if math.isfinite(g) else math.inf, f)
+        return tried[key][0]
 
     own_delay = fit.model.params["input_delay"]
     near = own_delay + pool.dt * np.arange(-NEAR_SAMPLES, NEAR_SAMPLES + 1)
@@ -311,6 +309,10 @@ def delay_by_free_run(pool: Pool, fit: FitResult, stribeck_shape: str, noise_exp
         lambda d: min(gap(float(d)), 1e300), bounds=(grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]),
         method="bounded", options={"xatol": 0.05 * pool.dt},
     )  # fmt: skip
+    # the search holds the other shapes (a dead zone's width, a Stribeck velocity): each point one linear
+    # solve; at the delay found they are fitted again
+    delay = min(tried.items(), key=lambda t: t[1][0])[1][1].model.params["input_delay"]
+    gap(delay, structure)
     best_gap, best = min(tried.values(), key=lambda t: t[0])
     with np.errstate(over="ignore", invalid="ignore"):
         own = pool.gaps(fit.model, None).overall
