@@ -286,16 +286,14 @@ def delay_by_free_run(pool: Pool, fit: FitResult, stribeck_shape: str, noise_exp
     lo, hi = get_effect("input_delay").bounds(data.scale)["input_delay"]
     shapes = {p: fit.model.params[p] for n in effects for p in get_effect(n).nonlinear if p != "input_delay"}
     structure = {p: v for p, v in shapes.items() if get_effect(parameter_owner(p)).structure}
-    tried: dict[float, tuple[float, FitResult]] = {}
+    tried: dict[tuple[float, bool], tuple[float, FitResult]] = {}  # (delay, shapes refitted): gap, fit
 
-    def gap(delay: float, held: dict[str, float] = shapes) -> float:
-        key = delay if held is shapes else -delay - 1.0  # the shapes refitted: another point
+    def gap(delay: float, refit_shapes: bool = False) -> float:
+        key = (delay, refit_shapes)
         if key not in tried:
             f = fit_model(data, effects, start=fit.model.params, stribeck_shape=stribeck_shape,
-                          fixed={**held, "input_delay": delay})  # fmt: skip
-            with np.errstate(over="ignore", invalid="ignore"):  # a free run that diverges costs inf
-                g = pool.gaps(f.model, None).overall if f.model.params["inertia"] > 0.0 else math.inf
-            tried[key] = (g if math.isfinite(g) else math.inf, f)
+                          fixed={**(structure if refit_shapes else shapes), "input_delay": delay})  # fmt: skip
+            tried[key] = (free_run_gap(pool, f.model), f)
         return tried[key][0]
 
     own_delay = fit.model.params["input_delay"]
@@ -311,12 +309,19 @@ def delay_by_free_run(pool: Pool, fit: FitResult, stribeck_shape: str, noise_exp
     )  # fmt: skip
     # the search holds the other shapes (a dead zone's width, a Stribeck velocity): each point one linear
     # solve; at the delay found they are fitted again
-    delay = min(tried.items(), key=lambda t: t[1][0])[1][1].model.params["input_delay"]
-    gap(delay, structure)
+    gap(min(tried, key=lambda k: tried[k][0])[0], refit_shapes=True)
     best_gap, best = min(tried.values(), key=lambda t: t[0])
+    return best if explained(free_run_gap(pool, fit.model), best_gap, pool.noise) > noise_explained else fit
+
+
+def free_run_gap(pool: Pool, model: RigidDrive) -> float:
+    """The overall free-run gap of ``model`` on ``pool`` [v]; inf where its free run diverges or
+    its inertia is not positive (no drive: a cost, never a figure)."""
+    if not model.params["inertia"] > 0.0:
+        return math.inf
     with np.errstate(over="ignore", invalid="ignore"):
-        own = pool.gaps(fit.model, None).overall
-    return best if explained(own, best_gap, pool.noise) > noise_explained else fit
+        g = pool.gaps(model, None).overall
+    return g if math.isfinite(g) else math.inf
 
 
 def effect_names(value: Sequence[str] | str | None, what: str) -> tuple[str, ...]:
@@ -1117,8 +1122,7 @@ class Search:
             if not ev["delta_bic"] > self.threshold:
                 return fit, chosen
             found = delay_by_free_run(pool, with_delay, self.stribeck_shape, -math.inf)
-            with np.errstate(over="ignore", invalid="ignore"):  # a free run that diverges has an inf gap
-                before, after = pool.gaps(fit.model, None).overall, pool.gaps(found.model, None).overall
+            before, after = free_run_gap(pool, fit.model), free_run_gap(pool, found.model)
             part = explained(before, after, pool.noise)
             delay = found.model.params["input_delay"]
             if not (
