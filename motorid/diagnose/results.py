@@ -588,6 +588,9 @@ class Diagnosis:
     stop_reason : str
         Why the search stopped, then the final gap against the noise floor: at it, or
         many times it ("something is still missing") and where it concentrates.
+    stop : Stop or None
+        Why the search stopped, with its figures (the first sentence of :attr:`stop_reason`;
+        e.g. the best candidate's ΔBIC where none passed the threshold).
     noise_floor : float
         σ_w [v]: standard deviation of the noise on the measured velocity the free
         run is compared with, estimated from the record (see the module notes; several
@@ -695,6 +698,7 @@ class Diagnosis:
     agreement: list[Agreement] = field(default_factory=list)
     delay_drift: list[DelayDrift] = field(default_factory=list)
     closed_loop: list[ClosedLoop] = field(default_factory=list)
+    stop: Stop | None = None
     _pool: Pool | None = field(default=None, repr=False)
 
     @property

@@ -549,7 +549,7 @@ def diagnose(
         notes.append(rig_note(rig, pool.parts[0].kin.band))
     diagnosis = Diagnosis(
         initial_gap=initial_gap, final_gap=final_gap, steps=outcome.steps, stop_reason=stop_reason,
-        noise_floor=pool.noise, final_region=final_region,
+        stop=outcome.stop, noise_floor=pool.noise, final_region=final_region,
         model=final_model, initial_model=initial_model, region=first_region, units=pool.units,
         settings=settings, rejected=outcome.rejected, refitted_model=None if model is None else refitted_model,
         refitted_gap=refitted_gap, param_std=param_std, param_share=outcome.fit.param_share,
