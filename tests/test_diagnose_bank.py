@@ -93,6 +93,33 @@ def test_the_bank_is_run_and_tabled():
     )
 
 
+def test_the_bank_at_one_seed_meets_the_issues_bounds():
+    """Seed 0 of every imperfection and effect (55 benches; the calibration runs seeds 0-2, the
+    table in the docs). The issue's bounds, per imperfection: the planted effect named first on at
+    least 90 % of the benches where it shows (:func:`planted_shows`; measured 29 of 29), false
+    names on at most 2 % of those that hide nothing (0 of 11), the logging delay within one sample
+    (10 of 10), a drifting one said; nothing named where the planted effect does not show (0 of
+    10) and every pulsed drive refused (5 of 5). The planted parameter within 15 % where named
+    first: on 28 of 29 (a drifting logger's stair reads its static friction 20 % high)."""
+    rows = bank([0])
+    by = {i: [r for r in rows if r.imperfection == i] for i in IMPERFECTIONS}
+    for imperfection, group in by.items():
+        shown = [r for r in group if r.effect is not None and r.shows > NOISE_EXPLAINED]
+        assert sum(r.first_right for r in shown) >= 0.9 * len(shown), (imperfection, shown)
+        hidden = [r for r in group if r.effect is None and r.refused is None]
+        assert sum(bool(r.named) for r in hidden) <= 0.02 * len(hidden), (imperfection, hidden)
+        unseen = [r for r in group if r.effect is not None and not r.shows > NOISE_EXPLAINED]
+        assert all(r.named == [] for r in unseen), (imperfection, unseen)
+    assert all(r.refused is not None and "a pulsed drive" in r.refused for r in by["pulsed_pwm"])
+    delayed = by["constant_delay"] + by["drifting_delay"]
+    assert all(r.delay_error <= 1.0 for r in delayed), delayed
+    assert all(r.drift_said for r in by["drifting_delay"]) and not any(
+        r.drift_said for r in by["constant_delay"]
+    )
+    first = [r for r in rows if r.effect is not None and r.first_right]
+    assert sum(r.parameter_error <= 0.15 for r in first) >= 0.9 * len(first)
+
+
 def test_the_closed_loop_benches_name_what_their_loop_shows():
     """A bounded part of the bank's closed loops: seed 2 (a chirp at 10 ms) of Stribeck friction,
     quadratic drag and none. Nothing named where nothing is hidden; the planted effect named first,
