@@ -127,10 +127,10 @@ def test_the_closed_loop_benches_name_what_their_loop_shows():
     (MISSING_FACTOR). Measured on seeds 0-9 (50 benches) before the free run was filtered: named
     first on 10/10 for Stribeck friction and quadratic drag, 7/10 for the dead zone, no false name
     on 10, parameters within 15 % wherever named, final gaps 0.89-1.79 floors. Static friction is
-    named on 1/10: on the four compensated loops that never rest the record does not show it (the
-    drive's free run without it within 0.1 noise floors RMS of the truth), and on the others the
-    rests' breakaway is read early, where the zero-phase filtered speed leaves rest (seed 0: 1.27 V
-    against 2.0-2.2 V at breakaway, below the 1.37 V kinetic level)."""
+    named on 4/10 since the breakaways are read on the measured speed (1/10 before, read where the
+    zero-phase filtered speed leaves rest, a few samples early on the loop's ramp); on the four
+    compensated loops that never rest the record does not show it (the drive's free run without it
+    within 0.1 noise floors RMS of the truth)."""
     rows = bank([2], ["closed_loop"], [None, "stribeck_friction", "quadratic_drag"])
     assert [r.effect for r in rows] == [None, "stribeck_friction", "quadratic_drag"]
     for row in rows:

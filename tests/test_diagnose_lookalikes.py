@@ -62,12 +62,12 @@ def test_coulomb_friction_and_a_dead_zone_that_fit_alike_get_one_name(planted, c
 
 
 def test_the_rests_of_a_stribeck_drive_measure_its_breakaway_and_the_free_run_tells_a_decay(capsys, tmp_path):
-    """A Stribeck excess that decays within a few rad/s breaks away above the kinetic level: its
+    """A Stribeck excess of 6 mN m that decays within 6 rad/s breaks away above the kinetic level: its
     rests measure the Stribeck level as static friction's breakaway, and both pass the evidence;
     the free run tells a decay from a step at rest (its gaps lie more than half a noise floor
     apart), so they are not lookalikes and Stribeck friction is named."""
     planted = planted_record(
-        "stribeck_friction", 2, sizes={"stribeck": 0.004, "stribeck_velocity": 6.0}, duration=60.0
+        "stribeck_friction", 2, sizes={"stribeck": 0.006, "stribeck_velocity": 6.0}, duration=60.0
     )
     path = tmp_path / "stribeck.csv"
     write_record(planted.record, path)
@@ -81,11 +81,11 @@ def test_the_rests_of_a_stribeck_drive_measure_its_breakaway_and_the_free_run_te
     ranking = {c["effect"]: c for c in out["steps"][0]["evidence"]["ranking"]}
     static = ranking["static_friction"]
     assert static["measure"] == "rests" and static["delta_bic"] > out["settings"]["threshold"]
-    # the rests' breakaway above the kinetic level is the planted Stribeck level: 0.00407 N m
-    # measured; 15 %, the issue's tolerance
-    assert static["breakaway"]["excess"] == pytest.approx(0.004, rel=0.15)
-    # the balance's Stribeck level: 0.00328 N m measured (its decay and level trade along a valley)
-    assert out["steps"][0]["params"]["stribeck"] == pytest.approx(0.004, rel=0.25)
+    # the rests' breakaway above the kinetic level is the planted Stribeck level: 0.00539 N m
+    # measured (the decay has begun by the time the shaft is seen to move); 15 %, the issue's tolerance
+    assert static["breakaway"]["excess"] == pytest.approx(0.006, rel=0.15)
+    # the balance's Stribeck level: 0.00593 N m measured (its decay and level trade along a valley)
+    assert out["steps"][0]["params"]["stribeck"] == pytest.approx(0.006, rel=0.25)
 
 
 def test_effects_the_record_tells_apart_are_not_lookalikes():
@@ -101,14 +101,14 @@ def test_effects_the_record_tells_apart_are_not_lookalikes():
 
 
 def test_stribeck_and_static_friction_that_fit_alike_are_said_with_both_figures(capsys, tmp_path):
-    """A Stribeck excess that decays within 3 rad/s (a few noise floors of speed) acts at the
+    """A Stribeck excess that decays within 2 rad/s (a few noise floors of speed) acts at the
     rests and the breakaways only: the rests measure it as static friction's breakaway, and the
     free run of either model comes within half a noise floor of the other's, so the record cannot
     tell a fast decay from a step at rest. The report says both names with both free-run gaps and
     names the first in the library's order, Stribeck friction; the JSON carries the pair."""
-    excess = 0.004  # N m: the Stribeck level planted, the excess at rest over the kinetic level
+    excess = 0.005  # N m: the Stribeck level planted, the excess at rest over the kinetic level
     planted = planted_record(
-        "stribeck_friction", 2, sizes={"stribeck": excess, "stribeck_velocity": 3.0}, duration=60.0
+        "stribeck_friction", 2, sizes={"stribeck": excess, "stribeck_velocity": 2.0}, duration=60.0
     )
     path = tmp_path / "fast_stribeck.csv"
     write_record(planted.record, path)
@@ -131,7 +131,7 @@ def test_stribeck_and_static_friction_that_fit_alike_are_said_with_both_figures(
     static = {c["effect"]: c for c in step["evidence"]["ranking"]}["static_friction"]
     assert look["levels"]["stribeck_friction"] == step["params"]["stribeck"]
     assert look["levels"]["static_friction"] == static["breakaway"]["excess"]
-    # the rests measure the planted excess: 0.00487 ± 0.00054 N m (1.6 standard errors off)
+    # the rests measure the planted excess: 0.00502 ± 0.00064 N m (0.03 standard errors off)
     breakaway = static["breakaway"]
     assert abs(breakaway["excess"] - excess) < 3.0 * breakaway["standard_error"]
     line = (

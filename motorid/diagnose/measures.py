@@ -297,8 +297,15 @@ class Breakaway:
         """What the rests say (:data:`READINGS`): ``static_friction`` (:attr:`shown`), ``lag`` (the
         rates spread within a record and τ lies above twice its standard error, ΔF_s not),
         ``lookalike`` (one rate, or one rate per record of a joint run: a level above twice its
-        standard error, which the moving drive tells from a lag) or ``none``."""
-        if self.rests < MIN_RESTS or not math.isfinite(self.excess):
+        standard error, which the moving drive tells from a lag) or ``none`` (too few rests, or a
+        level more than two standard errors below the kinetic one, which no friction breaks away
+        at: the rests do not measure the breakaway, as where the input steps past it within a
+        sample)."""
+        if (
+            self.rests < MIN_RESTS
+            or not math.isfinite(self.excess)
+            or self.excess < -2.0 * self.standard_error
+        ):
             return "none"
         if self.shown:
             return "static_friction"

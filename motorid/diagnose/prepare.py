@@ -40,7 +40,7 @@ from motorid.diagnose.measures import (
     rms,
 )
 from motorid.diagnose.model import BalanceData, PooledBalance, fit_model, stacked
-from motorid.diagnose.rests import Rests, rests
+from motorid.diagnose.rests import Rests, first_moving, rests
 from motorid.drive.rigid import RigidDrive, check_sample_time
 from motorid.errors import DataError
 from motorid.units import UNNAMED_OUTPUT, input_unit_name, rate
@@ -130,6 +130,30 @@ class Prepared:
         w0, q0 = float(self.kin.w[i0 - 1]), float(self.kin.q[i0 - 1])  # the position for a ripple
         out[i0:] = model.free_run(self.kin.u, w0=w0, start=i0, q0=q0)
         return out
+
+    def first_moving(self, model: RigidDrive, rests: Rests, force: np.ndarray) -> np.ndarray | None:
+        """The first sample each of ``rests`` moves in, read on the measured speed
+        (:func:`~motorid.diagnose.rests.first_moving`) with ``model``'s inertia and viscous
+        friction and the input ``force`` [F] it gives (``model.input_force``); None for a position
+        record, whose speed is only known filtered, or a model without a positive inertia.
+
+        Parameters
+        ----------
+        model : RigidDrive
+            The drive's model.
+        rests : Rests
+            Rests of this record.
+        force : ndarray
+            ``model.input_force`` of the record's input [F].
+        """
+        kin = self.kin
+        inertia = float(model.inertia)
+        if kin.output_kind != "velocity" or not inertia > 0.0:
+            return None
+        y = kin.balance_w + 0.5 * kin.dt * kin.balance_a  # the measured speed at each sample's end
+        viscous = max(float(model.params.get("viscous", 0.0)), 0.0)
+        reach = max(1, math.ceil(1.0 / (CUTOFF_PER_BAND * kin.band * kin.dt)))  # 1 / f_c in samples
+        return first_moving(y, rests, force, inertia, viscous, reach)
 
     def balance_residual(self, model: RigidDrive) -> tuple[np.ndarray, np.ndarray]:
         """:func:`~motorid.diagnose.measures.balance_residual` of this record's decimated samples."""
@@ -464,17 +488,21 @@ class Pool:
         <motorid.drive.rigid.RigidDrive.input_force>`: through the model's dead zone, delay and
         lag) and ``T(0±)`` the model's friction (and offset) at ±0, with a position ripple's torque
         where the drive rests; and the force's rate there [F/s], in the direction of the motion
-        (central differences)."""
+        (central differences). The drive rests to the sample before the first it moves in, read
+        on the measured speed (:meth:`Prepared.first_moving`; a position record's: the filtered
+        speed's reading, :attr:`Rests.stop <motorid.diagnose.rests.Rests.stop>`)."""
         eps = max(1e-9, 1e-6 * self.data.scale["w_max"])
         t_pos, t_neg = model.without(*model.position_effects).friction(np.array([eps, -eps]))
         out, rates = [], []
         for k, p in enumerate(self.parts):
             r = p.rests if samples is None else p.rests.within(samples[k])
             f_in = model.input_force(p.kin.u)  # through the model's input path (dead zone, lag...)
-            force = r.direction * f_in[r.stop]  # in the direction of the motion
-            ripple = model.position_torque(p.kin.q[r.stop])  # where the drive rests
+            moves = p.first_moving(model, r, f_in)
+            last = r.stop if moves is None else moves - 1  # the last sample at rest
+            force = r.direction * f_in[last]  # in the direction of the motion
+            ripple = model.position_torque(p.kin.q[last])  # where the drive rests
             out.append(np.where(r.direction > 0, force - (t_pos + ripple), force + (t_neg + ripple)))
-            rates.append(r.direction * np.gradient(f_in, p.kin.dt)[r.stop])
+            rates.append(r.direction * np.gradient(f_in, p.kin.dt)[last])
         return stacked(out), stacked(rates)
 
     @property
