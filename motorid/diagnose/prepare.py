@@ -10,6 +10,7 @@ samples a candidate is checked on.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import logging
 import math
 from collections.abc import Sequence
@@ -109,6 +110,7 @@ class Prepared:
     rests: Rests | None = None
     _masks: dict[Region, np.ndarray] = field(default_factory=dict, repr=False)
     _gaps: dict[tuple, tuple[dict[str, float], dict[str, float]]] = field(default_factory=dict, repr=False)
+    _moves: dict[tuple, np.ndarray] = field(default_factory=dict, repr=False)
 
     def region_mask(self, region: Region) -> np.ndarray:
         """Full-rate samples inside ``region`` (cached per region)."""
@@ -150,10 +152,15 @@ class Prepared:
         inertia = float(model.inertia)
         if kin.output_kind != "velocity" or not inertia > 0.0:
             return None
-        y = kin.balance_w + 0.5 * kin.dt * kin.balance_a  # the measured speed at each sample's end
         viscous = max(float(model.params.get("viscous", 0.0)), 0.0)
-        reach = max(1, math.ceil(1.0 / (CUTOFF_PER_BAND * kin.band * kin.dt)))  # 1 / f_c in samples
-        return first_moving(y, rests, force, inertia, viscous, reach)
+        # a step asks twice of one model; the arrays' digests keep a long record's key small
+        key = (inertia, viscous, *(hashlib.blake2b(np.ascontiguousarray(x).data, digest_size=16).digest()
+                                   for x in (rests.stop, force)))  # fmt: skip
+        if key not in self._moves:
+            y = kin.balance_w + 0.5 * kin.dt * kin.balance_a  # the measured speed at each sample's end
+            reach = max(1, math.ceil(1.0 / (CUTOFF_PER_BAND * kin.band * kin.dt)))  # 1 / f_c in samples
+            self._moves[key] = first_moving(y, rests, force, inertia, viscous, reach)
+        return self._moves[key]
 
     def balance_residual(self, model: RigidDrive) -> tuple[np.ndarray, np.ndarray]:
         """:func:`~motorid.diagnose.measures.balance_residual` of this record's decimated samples."""

@@ -157,8 +157,8 @@ def first_moving(
     friction letting go; none where a lag only delays the force's rise) and the force's growth
     since. Kinetic friction is what ``F[k] - s ΔF`` met, so no friction model enters. The speed is
     linear in ΔF, fitted by least squares for each k (the exact zero-order-hold solution of the
-    equation, ``w_j = a w_{j-1} + (1 - a) / B g_j`` with ``a = exp(-B dt / J)`` and g the force
-    held over sample j):
+    equation, ``w_j = Σ_{i <= j} a^(j-i) (1 - a) / B g_i`` with ``a = exp(-B dt / J)`` and g the
+    force held over sample i, for every k at once):
 
         k_m = argmin_k  Σ_{j < k} y_j²  +  min_{ΔF >= 0} Σ_{j >= k} (y_j - w_j)²,
 
@@ -189,39 +189,38 @@ def first_moving(
         per_force = (1.0 - decay) / viscous  # a sample's speed gain per unit force held over it
     else:
         decay, per_force = 1.0, dt / inertia
-    powers = decay ** np.arange(3 * reach + 2, dtype=float)  # a^j over the longest stretch
-
-    def held(g: np.ndarray) -> np.ndarray:
-        """The speed from rest under the force ``g`` held over each sample: Σ_i a^(j-i) (1 - a)/B g_i."""
-        a = powers[: g.size]
-        if a[-1] > 1e-200:  # the sum scaled by a^j: a cumulative sum
-            return per_force * a * np.cumsum(g / a)
-        w = np.empty(g.size)  # a drive far faster than the sample time: the recursion itself
-        last = 0.0
-        for j, x in enumerate(g):
-            last = decay * last + per_force * x
-            w[j] = last
-        return w
-
+    longest = 3 * reach + 2
+    lags = np.arange(longest)[:, None] - np.arange(longest)[None, :]  # j - i
+    # the speed at the end of sample j per unit force held over sample i <= j (0 above the diagonal)
+    response = np.where(lags >= 0, per_force * decay ** np.maximum(lags, 0), 0.0)
     out = np.empty(rests.count, dtype=int)
-    for i, (a, b) in enumerate(zip(rests.start, rests.stop, strict=True)):
+    for r, (a, b) in enumerate(zip(rests.start, rests.stop, strict=True)):
         lo = max(int(a), int(b) - reach - 1)
-        end = min(int(b) + 2 * reach + 1, n, int(rests.start[i + 1]) if i + 1 < rests.count else n)
-        s = float(rests.direction[i])
-        still = np.concatenate(([0.0], np.cumsum(y[lo:end] ** 2)))  # Σ y² from lo to each sample
-        best, at = np.inf, int(b) + 1
-        for k in range(max(lo + 1, int(b) - reach), min(int(b) + 2 * reach, end - 2) + 1):
-            if not s * (force[k] - force[k - 1]) > 0.0:
-                continue  # a force held or falling: what held the drive in sample k - 1 holds it in k
-            grown = held(force[k:end] - force[k])  # the force's growth since sample k
-            unit = held(np.full(end - k, s))  # a unit step s ΔF
-            left = y[k:end] - grown
-            step = max(float(unit @ left) / float(unit @ unit), 0.0)
-            left = left - step * unit
-            cost = still[k - lo] + float(left @ left)
-            if cost < best:
-                best, at = cost, k
-        out[i] = at
+        end = min(int(b) + 2 * reach + 1, n, int(rests.start[r + 1]) if r + 1 < rests.count else n)
+        s = float(rests.direction[r])
+        ks = np.arange(max(lo + 1, int(b) - reach), min(int(b) + 2 * reach, end - 2) + 1)
+        ks = ks[s * (force[ks] - force[ks - 1]) > 0.0]  # a force held or falling holds a drive held before
+        if ks.size == 0:
+            out[r] = int(b) + 1
+            continue
+        width = end - lo
+        resp = response[:width, :width]
+        f, w = force[lo:end], y[lo:end]
+        # from each start column c on: Σ_{i >= c} R[j, i] F_i and Σ_{i >= c} R[j, i], for every j
+        forced = np.cumsum((resp * f)[:, ::-1], axis=1)[:, ::-1]
+        unit = np.cumsum(resp[:, ::-1], axis=1)[:, ::-1]
+        cols = ks - lo
+        grown = forced[:, cols] - f[cols] * unit[:, cols]  # the force's growth since each k (0 before k)
+        step_unit = s * unit[:, cols]  # the speed of a unit step s ΔF from each k
+        left = w[:, None] - grown
+        moving = np.arange(width)[:, None] >= cols[None, :]
+        left_moving = np.where(moving, left, 0.0)
+        num = np.sum(step_unit * left_moving, axis=0)
+        den = np.sum(step_unit * step_unit, axis=0)
+        step = np.maximum(num / den, 0.0)
+        still = np.sum(np.where(moving, 0.0, w[:, None] ** 2), axis=0)
+        cost = still + np.sum(left_moving**2, axis=0) - 2.0 * step * num + step**2 * den
+        out[r] = int(ks[int(np.argmin(cost))])
     return out
 
 
