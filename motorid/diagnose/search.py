@@ -54,8 +54,8 @@ from motorid.errors import DataError
 
 logger = logging.getLogger(__name__)
 
-#: Default evidence threshold on ΔBIC: above the 90th percentile (9.3) of the best candidate's
-#: ΔBIC on 200 no-effect records; the held-out and free-run checks stop the 18 that pass it, and
+#: Default evidence threshold on ΔBIC: above the 95th percentile (3.8) of the best candidate's
+#: ΔBIC on 200 no-effect records; the held-out and free-run checks stop the 4 that pass it, and
 #: the workflow names nothing on any (:mod:`.calibration`).
 DEFAULT_THRESHOLD = 10.0
 #: Share of the best candidate's RSS reduction above which two candidates are "alike".
