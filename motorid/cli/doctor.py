@@ -228,7 +228,10 @@ def breakaway_words(rest: RestSummary, dt: float, units: dict[str, str], model_e
     zero by more, the measure does not hold (no friction breaks away below its kinetic level): the
     sample taken as the breakaway comes before the force that broke the drive away, as where the
     input steps past the breakaway level within a sample (the steps' size is said where the
-    input's rate there, times ``dt`` [s], is larger than the kinetic level).
+    input's rate there, times ``dt`` [s], is larger than the kinetic level). Not measured where
+    fewer than 3 rests read it, as where the input's force stepped past the breakaway within a
+    sample (:data:`~motorid.diagnose.prepare.BRACKET_SHARE`): the rests bracket it, and the
+    sentence says at how many.
 
     The compensation: the kinetic level once the drive moves, and to break it away the kinetic level
     plus the final model's static friction ``model_excess`` [F] (the model saved), or, in a model
@@ -250,11 +253,16 @@ def breakaway_words(rest: RestSummary, dt: float, units: dict[str, str], model_e
     else:
         compensation = f"a compensation should use the kinetic level: {signed}"
     if not math.isfinite(excess):
-        why = (
-            "not told from a lag (the input rises alike at each)"
-            if error == math.inf
-            else "not measured: fewer than 3 of them break away under a rising input"
-        )
+        if error == math.inf:
+            why = "not told from a lag (the input rises alike at each)"
+        elif rest.breakaway_bracketed:
+            from motorid.diagnose.prepare import BRACKET_SHARE
+
+            why = (f"not measured: at {rest.breakaway_bracketed} of them the input steps past the breakaway "
+                   f"within a sample (by more than {100 * BRACKET_SHARE:g} % of the input the drive moved under), "
+                   "which brackets it but does not read it")  # fmt: skip
+        else:
+            why = "not measured: fewer than 3 of them break away under a rising input"
         return f"its level above the kinetic one {why}; {compensation}"
     measured = f"{excess:.3g} ± {error:.2g} {force} from the kinetic level {kinetic:.3g} {force}"
     if rest.breakaway_one_rate and math.isfinite(

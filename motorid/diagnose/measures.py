@@ -15,6 +15,7 @@ The noise floors per speed band are :meth:`Pool.noise_bands
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -259,6 +260,10 @@ class Breakaway:
         readings the moving drive tells apart, as at one rate.
     record_rates : tuple of float
         With ``rate_per_record``, each record's mean rate at breakaway [F/s].
+    bracketed : int
+        The rests whose input's force stepped past the breakaway within a sample
+        (:data:`~motorid.diagnose.prepare.BRACKET_SHARE`), which bracket it and do not read it
+        (not among ``rests``).
     shown : bool
         The rests show breakaway above the kinetic level: at least :data:`MIN_RESTS` rests at
         spread rates (or held inputs) and ΔF_s above twice its standard error.
@@ -273,6 +278,7 @@ class Breakaway:
     shown: bool = False
     rate_per_record: bool = False
     record_rates: tuple[float, ...] = ()
+    bracketed: int = 0
 
     def rates_words(self, unit: str) -> str:
         """How the rests' rates lie, for a sentence (``unit`` the force's): ``all at one input rate
@@ -293,6 +299,18 @@ class Breakaway:
         )
 
     @property
+    def measures(self) -> bool:
+        """The rests measure the breakaway: at least :data:`MIN_RESTS` of them, and their level not
+        more than two standard errors below the kinetic one (which no friction breaks away at: the
+        input stepped past the breakaway within a sample, and the last sample at rest holds the
+        level before the step)."""
+        return (
+            self.rests >= MIN_RESTS
+            and math.isfinite(self.excess)
+            and not self.excess < -2.0 * self.standard_error
+        )
+
+    @property
     def reading(self) -> str:
         """What the rests say (:data:`READINGS`): ``static_friction`` (:attr:`shown`), ``lag`` (the
         rates spread within a record and τ lies above twice its standard error, ΔF_s not),
@@ -301,11 +319,7 @@ class Breakaway:
         level more than two standard errors below the kinetic one, which no friction breaks away
         at: the rests do not measure the breakaway, as where the input steps past it within a
         sample)."""
-        if (
-            self.rests < MIN_RESTS
-            or not math.isfinite(self.excess)
-            or self.excess < -2.0 * self.standard_error
-        ):
+        if not self.measures:
             return "none"
         if self.shown:
             return "static_friction"
@@ -317,6 +331,7 @@ class Breakaway:
         return {"rests": self.rests, "excess": self.excess, "standard_error": self.standard_error,
                 "lag": self.lag, "lag_std": self.lag_std, "one_rate": self.one_rate,
                 "rate_per_record": self.rate_per_record, "record_rates": list(self.record_rates), "shown": self.shown,
+                "bracketed": self.bracketed,
                 "reading": self.reading}  # fmt: skip
 
 
@@ -361,8 +376,9 @@ def _typical(excess: np.ndarray, rate: np.ndarray) -> tuple[np.ndarray, np.ndarr
     drive then moves (a drive that leaves a rest while its input falls was not held by friction
     but crept off), and, of those, the ones whose breakaway lies within 3 robust standard
     deviations (1.4826 MAD) of the fit of :class:`Breakaway`, refitted until none is left out
-    (at most 3 times: a rest the filtered speed left by noise would pull a least-squares level)."""
-    keep = rate >= 0.0
+    (at most 3 times: a rest the filtered speed left by noise would pull a least-squares level).
+    A rest whose breakaway a step of the force brackets (NaN) reads nothing."""
+    keep = (rate >= 0.0) & np.isfinite(excess)  # NaN: a step of the force brackets the breakaway
     excess, rate = excess[keep], rate[keep]
     for _ in range(3):
         if excess.size < 3:
@@ -423,6 +439,12 @@ def breakaway(pool: Pool, model: RigidDrive, samples: list[np.ndarray] | None = 
     :class:`Breakaway`; the rests that break away in the full-rate ``samples``, the typical ones:
     :func:`_typical`)."""
     raw = pool.breakaway_excess(model, samples)
+    return dataclasses.replace(_breakaway(pool, model, raw, samples), bracketed=int(np.sum(np.isnan(raw[0]))))
+
+
+def _breakaway(
+    pool: Pool, model: RigidDrive, raw: tuple[np.ndarray, np.ndarray], samples: list[np.ndarray] | None
+) -> Breakaway:
     excess, rate = _typical(*raw)
     n = int(excess.size)
     if n < 3:
@@ -490,7 +512,8 @@ def breakaway_holdout(
     training rests' mean level."""
     e_t, r_t = _typical(*train.breakaway_excess(model, train_samples))
     e_h, r_h = held.breakaway_excess(model, held_samples)
-    e_h, r_h = e_h[r_h >= 0.0], r_h[r_h >= 0.0]
+    read = (r_h >= 0.0) & np.isfinite(e_h)
+    e_h, r_h = e_h[read], r_h[read]
     if e_t.size < 3 or e_h.size == 0:
         return math.nan, math.nan
     if not lag_allowed:
@@ -509,9 +532,10 @@ def fit_static_friction(pool: Pool, model: RigidDrive, samples: list[np.ndarray]
     ``samples`` of each record of ``pool`` (None: all).
 
     Static friction acts on a drive at rest only, so the balance of the moving samples cannot
-    fit it. Where the records show at least :data:`MIN_RESTS` typical rests, they measure it: the
-    force at breakaway above the model's kinetic level (:func:`breakaway`; 0 when they show
-    none above it). With fewer, the free run fits it: the ΔF_s that minimises the free-run gap,
+    fit it. Where the records' typical rests measure it (:attr:`Breakaway.measures`: at least
+    :data:`MIN_RESTS`, not read below the kinetic level), they give it: the force at breakaway
+    above the model's kinetic level (:func:`breakaway`; 0 when they show none above it).
+    Otherwise the free run fits it: the ΔF_s that minimises the free-run gap,
     from a grid of 17 values on [0, half the largest input force] and a bounded search between
     the best one's neighbours.
 
@@ -532,7 +556,7 @@ def fit_static_friction(pool: Pool, model: RigidDrive, samples: list[np.ndarray]
         return model.with_effects(effects, {**model.params, "breakaway_excess": float(excess)})
 
     found = breakaway(pool, model, samples)
-    if found.rests >= MIN_RESTS:
+    if found.measures:
         return with_excess(max(found.excess, 0.0) if math.isfinite(found.excess) else 0.0)
     top = 0.5 * pool.data.scale["u_max"] * abs(model.input_gain)
 

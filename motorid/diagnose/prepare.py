@@ -49,6 +49,16 @@ from motorid.validation import check_signals
 
 logger = logging.getLogger(__name__)
 
+#: A rest's breakaway is read where the input's force rose into the first sample the shaft moved
+#: in by at most this share of its value there (the force through the model's delay and lag: a
+#: dead zone's or a backlash's zero is the drive's friction, not the input's step): the drive broke
+#: away between the last sample at rest and that one. A larger step brackets the breakaway and
+#: does not read it (held levels: a bank's stair, logged 24.4
+#: samples late, stepped past its 5 breakaways from levels 0.4-1.4 times the force that moved it
+#: below, each read at the level it rested at, 0.4-2.8 times the planted excess low; a wheel
+#: motor's duty, a median 11 % in one sample against a kinetic level of 1.5-3.9 %).
+BRACKET_SHARE = 0.25
+
 #: The speed bands the noise floor is reported in, as shares of the largest |w|: near rest
 #: (where static friction and Stribeck act), low, middle and high speed.
 SPEED_BANDS = (0.0, 0.1, 0.3, 0.6, 1.0)
@@ -336,7 +346,8 @@ def rests_of(kin: Kinematics, step: float | None) -> Rests:
                            kin.band, kin.dt)[0].noise_floor  # fmt: skip
         floor = near if math.isfinite(near) else kin.noise
     w_rest = max(step or 0.0, 3.0 * floor, 1e-12)
-    return rests(kin.u, kin.w, kin.dt, w_rest, kin.valid)
+    settle = max(1, math.ceil(1.0 / (CUTOFF_PER_BAND * kin.band * kin.dt)))  # 1 / f_c in samples
+    return rests(kin.u, kin.w, kin.dt, w_rest, kin.valid, settle=settle)
 
 
 @dataclass
@@ -497,9 +508,16 @@ class Pool:
         where the drive rests; and the force's rate there [F/s], in the direction of the motion
         (central differences). The drive rests to the sample before the first it moves in, read
         on the measured speed (:meth:`Prepared.first_moving`; a position record's: the filtered
-        speed's reading, :attr:`Rests.stop <motorid.diagnose.rests.Rests.stop>`)."""
+        speed's reading, :attr:`Rests.stop <motorid.diagnose.rests.Rests.stop>`). NaN where the
+        input's force (through the model's delay and lag, before a dead zone) stepped into the
+        first moving sample by more than :data:`BRACKET_SHARE` of its value there: the breakaway
+        lies somewhere in that step."""
         eps = max(1e-9, 1e-6 * self.data.scale["w_max"])
         t_pos, t_neg = model.without(*model.position_effects).friction(np.array([eps, -eps]))
+        # the input's force through the model's delay and lag, before a dead zone or a backlash's dwell
+        # takes the drive's own friction out of it
+        path = model.without("input_dead_zone", "backlash")
+        drive = [path.input_force(p.kin.u) for p in self.parts]
         out, rates = [], []
         for k, p in enumerate(self.parts):
             r = p.rests if samples is None else p.rests.within(samples[k])
@@ -508,7 +526,11 @@ class Pool:
             last = r.stop if moves is None else moves - 1  # the last sample at rest
             force = r.direction * f_in[last]  # in the direction of the motion
             ripple = model.position_torque(p.kin.q[last])  # where the drive rests
-            out.append(np.where(r.direction > 0, force - (t_pos + ripple), force + (t_neg + ripple)))
+            excess = np.where(r.direction > 0, force - (t_pos + ripple), force + (t_neg + ripple))
+            if moves is not None:  # a step of the input past the breakaway brackets it: no reading
+                stepped = r.direction * (drive[k][moves] - drive[k][moves - 1])
+                excess = np.where(stepped > BRACKET_SHARE * r.direction * drive[k][moves], np.nan, excess)
+            out.append(excess)
             rates.append(r.direction * np.gradient(f_in, p.kin.dt)[last])
         return stacked(out), stacked(rates)
 

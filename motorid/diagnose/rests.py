@@ -9,7 +9,9 @@ zero-phase low-passed speed ``w`` [v] (:mod:`.kinematics`):
 - **at rest**: ``|w| <= w_rest``, with ``w_rest`` the larger of the output's quantisation
   step and three noise floors near rest (what a resting drive's filtered speed stays within);
 - **a rest**: a run of at least ``min_samples`` samples at rest (and at least 3 ms), between
-  two samples of motion;
+  two samples of motion; an excursion above ``w_rest`` no longer than two periods of the
+  filter's cut-off and below twice ``w_rest`` is the rest's noise, not motion
+  (:func:`noise_excursions`);
 - **its breakaway**: the last sample of the run, where the speed leaves zero for good; the
   input there, signed by the direction the drive then moves in, ``s u[k_b]`` [u], is the input
   at breakaway. The filtered speed leaves ``w_rest`` a little after the shaft leaves zero, so
@@ -99,6 +101,7 @@ def rests(
     w_rest: float,
     valid: np.ndarray | None = None,
     min_samples: int = 3,
+    settle: int = 1,
 ) -> Rests:
     """Find the rests of a record (see the module notes).
 
@@ -116,10 +119,15 @@ def rests(
         Samples where ``w`` is settled; a rest must lie inside them.
     min_samples : int
         Fewest samples of a rest (raised to 3 ms).
+    settle : int
+        The filtered speed's memory [samples] (one period of its cut-off): an excursion above
+        ``w_rest`` between two runs at rest that lasts no more than twice it and stays below
+        ``2 w_rest`` is the rest's own noise, and the two runs one rest.
     """
     n = w.size
     valid = np.ones(n, dtype=bool) if valid is None else valid
     still = (np.abs(w) <= w_rest) & valid
+    still |= noise_excursions(np.abs(w), still, valid, 2 * settle, 2.0 * w_rest)
     shortest = max(min_samples, math.ceil(0.003 / dt))
     edges = np.flatnonzero(np.diff(np.concatenate(([0], still.astype(np.int8), [0]))))
     starts, ends = edges[::2], edges[1::2] - 1  # inclusive runs of samples at rest
@@ -143,6 +151,26 @@ def rests(
     u = np.asarray(u, dtype=float)
     rate = np.gradient(u, dt)[stop] if n > 1 else np.zeros(stop.size)
     return Rests(start, stop, direction, direction * u[stop], direction * rate, float(dt), float(w_rest))
+
+
+def noise_excursions(
+    speed: np.ndarray, still: np.ndarray, valid: np.ndarray, longest: int, peak: float
+) -> np.ndarray:
+    """The samples of each excursion from rest that is the rest's noise, not motion: a run of
+    settled samples not ``still`` between two ``still`` ones, at most ``longest`` samples long and
+    with the filtered ``speed`` [v] below ``peak`` throughout.
+
+    A resting drive's filtered speed crosses a threshold of three noise floors now and then, for a
+    few samples and barely (on a drifting logger's two sines at 2 ms, 2-9 samples at 1.01-1.27
+    times it); each crossing had cut the rest in two, the first part ending in a breakaway the
+    drive never made, in the direction of the dip.
+    """
+    out = np.zeros(speed.size, dtype=bool)
+    edges = np.flatnonzero(np.diff(np.concatenate(([1], still.astype(np.int8), [1]))))
+    for a, b in zip(edges[::2], edges[1::2], strict=True):  # runs [a, b) not at rest
+        if 0 < a and b < speed.size and b - a <= longest and valid[a:b].all() and speed[a:b].max() < peak:
+            out[a:b] = True
+    return out
 
 
 def first_moving(

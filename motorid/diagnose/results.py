@@ -1027,6 +1027,9 @@ class RestSummary:
     breakaway_one_rate : bool
         Every breakaway came at one input rate: ``breakaway_excess`` as a level and
         ``breakaway_lag`` as a lag are two readings of one excess.
+    breakaway_bracketed : int
+        The rests whose input stepped past the breakaway within a sample, which bracket it and do
+        not read it (:attr:`Breakaway.bracketed <motorid.diagnose.measures.Breakaway.bracketed>`).
     """
 
     record: str
@@ -1042,6 +1045,7 @@ class RestSummary:
     breakaway_lag_std: float = math.nan
     breakaway_reading: str = "none"
     breakaway_one_rate: bool = False
+    breakaway_bracketed: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
@@ -1100,6 +1104,7 @@ def rest_summaries(pool: Pool, model: RigidDrive) -> list[RestSummary]:
             label, **prep.rests.summary(), kinetic_level=0.5 * float(t_pos - t_neg),
             breakaway_excess=found.excess, breakaway_excess_std=found.standard_error, breakaway_lag=found.lag,
             breakaway_lag_std=found.lag_std, breakaway_reading=found.reading, breakaway_one_rate=found.one_rate,
+            breakaway_bracketed=found.bracketed,
         ))  # fmt: skip
     return out
 

@@ -1185,13 +1185,18 @@ class Search:
         found = breakaway(pool, fit.model)
         fitted = fit_static_friction(pool, fit.model, None)
         with_it = FitResult(fitted, fit.rss, fit.rss_force, fit.n_rows, fit.n_params + 1, fit.residual)
-        if found.rests < MIN_RESTS:
+        if not found.measures:
             err0, err1 = pool.free_run_error(fit.model), pool.free_run_error(fitted)
             ok = np.isfinite(err0) & np.isfinite(err1)
             ev = evidence(
                 float(np.sum(err0[ok] ** 2)), float(np.sum(err1[ok] ** 2)), int(ok.sum()), 1, err1[ok]
             )
-            measure = f"free run ({found.rests} rests, fewer than {MIN_RESTS})"
+            if found.rests < MIN_RESTS:
+                bracketed = f", {found.bracketed} bracketed by a step of the input" if found.bracketed else ""
+                why = f"{found.rests} rests read, fewer than {MIN_RESTS}{bracketed}"
+            else:
+                why = f"{found.rests} rests read below the kinetic level"
+            measure = f"free run ({why})"
             return Candidate(with_it, CandidateEvidence(name, **ev, measure=measure), "")
         told = self.lag_test(fit, found, fitted) if found.reading == "lookalike" else None
         lag_allowed = told is None or told.reading != "static_friction"
