@@ -220,6 +220,18 @@ the kinetic level, leave static friction to the free run):
   0.4-2.8 times the planted excess low; bracketed, static friction is fitted on the free run and named (11.7 noise
   floors to 3.2). A static friction on an encoder's held levels now shows on the free run (its 7 rests bracketed but
   one) and is not named: the held-out blocks' free run shrinks by 0.4 %, under the 1 % asked.
+
+A model without an input delay given the one the final balance and free run read alike, within a sample of each
+other, where the noise rule had refused it (:meth:`~motorid.diagnose.search.Search.final_delay`):
+
+- the bank (``--bank --seeds 3 --first 0``): the drifting row's start delay within a sample on 15 of 15 (14), its
+  median final gap 1.10 noise floors (1.14); no other row moves;
+- drifting loggers, seeds 0-9 (``bank(range(10), ["drifting_delay"])``): the start's delay within a sample on 48 of
+  50 (44), the planted effect named first on 34 of 40 (30; the rests' changes above count in it), nothing named on
+  the 10 that hide nothing, median final gap 1.05 floors (1.10); two chirps still 1.04 and 3.5 samples off;
+- on the 80 benches of seeds 0-1 without a logging delay (every imperfection but the loggers' and the pulsed
+  drive's), the delays taken are those taken before: none, but the two-mass rig's held levels (1.3-1.4 samples, its
+  sensor's filter) and a two-mass chirp with drag (0.96).
 """
 
 from __future__ import annotations
