@@ -24,7 +24,9 @@ def test_the_reported_standard_errors_hold_the_truth_where_a_delay_was_estimated
     Coulomb level (measured; 28 of 30 each on seeds 5000-5029): with a delay in the model they are
     the errors with the delay set free, since it was estimated with them (17-19 of 20 measured).
     Held at the delay taken, the same fits' errors hold the inertia's truth on 17 of 30 only."""
-    assert sum(planted_delays.delayed) >= 15  # measured 19: the structure search takes the delay
+    assert (
+        sum(planted_delays.delayed) >= 15
+    )  # measured 20: the structure search or the final stage takes the delay
     for name in TRADE_PARAMS:
         # intervals of 95 % cover 17 or more of 20 with probability 0.984 (binomial)
         assert planted_delays.covered(name) >= 17, (name, planted_delays.z[name])
@@ -32,13 +34,16 @@ def test_the_reported_standard_errors_hold_the_truth_where_a_delay_was_estimated
 
 
 def test_the_inertia_is_flagged_where_it_depends_on_the_delay_taken_and_only_there(planted_delays):
-    """The records whose inertia the doctor flags as trading with the delay (1 of 20: the structure
-    search missed the delay there) are those whose stated inertia lies far from the truth (16 %);
-    on 20 records with no delay planted (the rig's electrical lag and shaft only) it flags none.
-    The record where it took 30 ms for 32.6 moves its inertia by 2.97 standard errors with the
-    delay free, just under the limit of 3, and states it 5.2 % from the truth."""
+    """The records whose inertia the doctor flags as trading with the delay are those whose stated
+    inertia lies far from the truth; on 20 records with no delay planted (the rig's electrical lag
+    and shaft only) it flags none. On the 20 with a delay it now flags none either: the one whose
+    delay the structure search missed (its inertia 16 % off, flagged) is given it on the final
+    model, where its balance and free run read it alike. The record where it took 30 ms for 32.6
+    moves its inertia by 2.97 standard errors with the delay free, just under the limit of 3, and
+    states it 5.2 % from the truth. (The wheel and kit motors' runs, flagged, are the real case:
+    ``tests/test_diagnose_realmotors.py``.)"""
     traded = np.array(planted_delays.traded)
-    assert 1 <= traded.sum() <= 4, traded
+    assert traded.sum() <= 4, traded
     assert np.all(np.abs(np.array(planted_delays.error)[traded]) > 0.03)
     # and the records it does not flag hold the inertia within 6 % (measured: 5.2 % on the one
     # above, 1.3 % at most on the others)
