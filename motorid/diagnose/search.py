@@ -1113,9 +1113,17 @@ class Search:
         if "input_delay" in effects:
             found = delay_by_free_run(pool, fit, self.stribeck_shape, self.noise_explained)
             delay = found.model.params["input_delay"]
-            if found is fit or abs(delay - fit.model.params["input_delay"]) < 0.05 * dt:
+            dropped = self.without_lag(found)
+            if dropped is not None:
+                found, delay = dropped, dropped.model.params["input_delay"]
+                said = (f"; on the final model's free run the delay is {delay:.4g} s ({delay / dt:.2f} samples) "
+                        "and no lag: it comes closer without the lag the base took")  # fmt: skip
+            elif found is fit or abs(delay - fit.model.params["input_delay"]) < 0.05 * dt:
                 return fit, chosen
-            said = f"; on the final model's free run the delay is {delay:.4g} s ({delay / dt:.2f} samples)"
+            else:
+                said = (
+                    f"; on the final model's free run the delay is {delay:.4g} s ({delay / dt:.2f} samples)"
+                )
         else:
             held = {p: fit.model.params[p] for n in effects for p in get_effect(n).nonlinear}
             with_delay = fit_model(
@@ -1147,11 +1155,39 @@ class Search:
                 f"(it accounts for {part:.1f} noise floors)"
             )
         self.fixed["input_delay"] = delay
+        kept = {p: v for p, v in chosen.params.items() if p in found.model.params}
+        for p in set(self.fixed) - set(found.model.params):
+            del self.fixed[p]  # the lag dropped
         structure = dataclasses.replace(
             chosen, effects=tuple(n for n in found.model.effects if get_effect(n).structure),
-            params={**chosen.params, "input_delay": delay}, reason=chosen.reason + said,
+            params={**kept, "input_delay": delay}, reason=chosen.reason + said,
         )  # fmt: skip
         return found, structure
+
+    def without_lag(self, fit: FitResult) -> FitResult | None:
+        """``fit`` without the input lag the base's structure took, its delay read again on the free
+        run (:func:`delay_by_free_run`), where that free run's gap is smaller than ``fit``'s by more
+        than ``min_gap_shrink`` (the structure's own rule); None where ``fit`` has no lag or keeps
+        it. The wheel motors 3 and 4 keep theirs: without it their free runs come 0.5 % closer on
+        one record and 0.1-2.6 % further on the three others.
+
+        The structure is chosen on the base, before any effect: there a lag can take part of what a
+        missing effect does. A Stribeck decay on a chirp logged 7.8 samples late: the base took a
+        4.2-sample delay and a 5.0 ms lag (the truth has none); with the decay named, the free run
+        without the lag reads the delay at 8.0 samples and comes closer (0.176 against 0.212 rad/s,
+        the floor 0.171), the inertia at 0.999 of the truth.
+        """
+        if "input_lag" not in fit.model.effects:
+            return None
+        model = fit.model.without("input_lag")
+        held = {p: model.params[p] for n in model.effects for p in get_effect(n).nonlinear}
+        bare = fit_model(self.pool.data, model.effects, start=model.params, stribeck_shape=self.stribeck_shape,
+                         fixed=held)  # fmt: skip
+        found = delay_by_free_run(self.pool, bare, self.stribeck_shape, -math.inf)
+        closer = free_run_gap(self.pool, found.model) < (1.0 - self.min_gap_shrink) * free_run_gap(
+            self.pool, fit.model
+        )
+        return found if closer else None
 
     def held_error(self, effects: tuple[str, ...], start: dict[str, float] | None) -> float:
         """RMS torque-balance residual / J [v/s] on the held-out rows, fitted on the training rows.
