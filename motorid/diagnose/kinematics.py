@@ -181,6 +181,12 @@ class Kinematics:
     def n(self) -> int:
         return int(self.u.size)
 
+    @property
+    def filter_period(self) -> int:
+        """One period of the zero-phase filter's cut-off ``CUTOFF_PER_BAND * band`` [samples], at least
+        1: about how far the filter spreads a change of the speed, and how long its noise stays."""
+        return max(1, math.ceil(1.0 / (CUTOFF_PER_BAND * self.band * self.dt)))
+
     @functools.cached_property
     def decimated_index(self) -> np.ndarray:
         """Full-rate indices of the decimated samples that lie in the settled span."""

@@ -168,8 +168,7 @@ class Prepared:
                                    for x in (rests.stop, force)))  # fmt: skip
         if key not in self._moves:
             y = kin.balance_w + 0.5 * kin.dt * kin.balance_a  # the measured speed at each sample's end
-            reach = max(1, math.ceil(1.0 / (CUTOFF_PER_BAND * kin.band * kin.dt)))  # 1 / f_c in samples
-            self._moves[key] = first_moving(y, rests, force, inertia, viscous, reach)
+            self._moves[key] = first_moving(y, rests, force, inertia, viscous, kin.filter_period)
         return self._moves[key]
 
     def balance_residual(self, model: RigidDrive) -> tuple[np.ndarray, np.ndarray]:
@@ -346,8 +345,7 @@ def rests_of(kin: Kinematics, step: float | None) -> Rests:
                            kin.band, kin.dt)[0].noise_floor  # fmt: skip
         floor = near if math.isfinite(near) else kin.noise
     w_rest = max(step or 0.0, 3.0 * floor, 1e-12)
-    settle = max(1, math.ceil(1.0 / (CUTOFF_PER_BAND * kin.band * kin.dt)))  # 1 / f_c in samples
-    return rests(kin.u, kin.w, kin.dt, w_rest, kin.valid, settle=settle)
+    return rests(kin.u, kin.w, kin.dt, w_rest, kin.valid, settle=kin.filter_period)
 
 
 @dataclass
@@ -515,21 +513,21 @@ class Pool:
         eps = max(1e-9, 1e-6 * self.data.scale["w_max"])
         t_pos, t_neg = model.without(*model.position_effects).friction(np.array([eps, -eps]))
         # the input's force through the model's delay and lag, before a dead zone or a backlash's dwell
-        # takes the drive's own friction out of it
+        # takes the drive's own friction out of it (the model itself where it has neither)
         path = model.without("input_dead_zone", "backlash")
-        drive = [path.input_force(p.kin.u) for p in self.parts]
         out, rates = [], []
         for k, p in enumerate(self.parts):
             r = p.rests if samples is None else p.rests.within(samples[k])
             f_in = model.input_force(p.kin.u)  # through the model's input path (dead zone, lag...)
+            drive = f_in if path is model else path.input_force(p.kin.u)
             moves = p.first_moving(model, r, f_in)
             last = r.stop if moves is None else moves - 1  # the last sample at rest
             force = r.direction * f_in[last]  # in the direction of the motion
             ripple = model.position_torque(p.kin.q[last])  # where the drive rests
             excess = np.where(r.direction > 0, force - (t_pos + ripple), force + (t_neg + ripple))
             if moves is not None:  # a step of the input past the breakaway brackets it: no reading
-                stepped = r.direction * (drive[k][moves] - drive[k][moves - 1])
-                excess = np.where(stepped > BRACKET_SHARE * r.direction * drive[k][moves], np.nan, excess)
+                stepped = r.direction * (drive[moves] - drive[moves - 1])
+                excess = np.where(stepped > BRACKET_SHARE * r.direction * drive[moves], np.nan, excess)
             out.append(excess)
             rates.append(r.direction * np.gradient(f_in, p.kin.dt)[last])
         return stacked(out), stacked(rates)
