@@ -317,16 +317,47 @@ def test_a_delay_the_base_hid_is_taken_on_the_final_model():
         assert "input_delay" not in found.model.effects, found.structure.reason
 
 
-def test_static_friction_whose_few_rests_the_held_out_blocks_miss_is_judged_near_rest():
-    """An encoder's held levels at 5 ms with 2 rests, breaking away 50 % above the kinetic level:
-    the held-out blocks hold neither rest, so static friction fitted on the training blocks leaves
-    their free run the base's to the last bit, and that test had rejected it though its ΔBIC on
-    the free run is 150. Judged near rest instead, it accounts for 2.2 noise floors (measured) and
-    is named, its breakaway within 10 % of the truth (measured 6 % low)."""
-    b = bench("encoder", "static_friction", 0)
+@pytest.mark.parametrize(("seed", "rests", "level"), [(0, 3, 0.1), (2, 7, 0.3)])
+def test_static_friction_the_rests_do_not_read_is_held_out_rest_by_rest(seed, rests, level):
+    """An encoder's held levels whose rests do not read the breakaway (seed 0: 3 rests at 5 ms, 2
+    bracketed by a step of the input; seed 2: 7 at 2 ms, 6 bracketed): static friction is fitted on
+    the free run, and the few held levels the drive does not break away from carry its whole gap.
+    The search's held-out blocks seldom hold them: on seed 2 their free run shrank 0.4 % (1 %
+    asked) while the whole free run went from 1.04 to 0.60 rad/s, and on seed 0 it was the base's to
+    the last bit. Held out rest by rest (each fold of rests fitted on the rest of the record), it
+    shrinks 39 % and 74 % (measured) and is named, judged at the rests. Its level: within 10 % on
+    seed 0 (measured 6 % low); on seed 2 the steps bracket it, and the free run puts it 26 % high
+    (held to 30 %)."""
+    b = bench("encoder", "static_friction", seed)
     d = diagnose(b.record, input_gain=b.params["input_gain"], base=BASE_FOR["input_lag"], align=True)
-    assert d.named == ["static_friction"]
+    assert d.named == ["static_friction"] and d.rests[0].count == rests
     ev = d.steps[0].evidence
-    assert ev.held_out_error_after == ev.held_out_error_before  # blind: its free run there is the base's
+    assert (
+        ev.candidate.measure.startswith("free run (")
+        and "bracketed by a step of the input" in ev.candidate.measure
+    )
+    assert ev.held_out_error_after < 0.7 * ev.held_out_error_before
     assert ev.explained_noise_floors > NOISE_EXPLAINED
-    assert d.model.params["breakaway_excess"] == pytest.approx(b.params["breakaway_excess"], rel=0.1)
+    assert d.model.params["breakaway_excess"] == pytest.approx(b.params["breakaway_excess"], rel=level)
+    # the folds: each rest whole in fold j mod 5, together every rest and breakaway
+    pool = d._pool
+    folds = pool.rest_folds(5)
+    spans = list(zip(pool.parts[0].rests.start, pool.parts[0].rests.stop, strict=True))
+    assert len(folds) == min(5, len(spans)) and len(spans) == rests
+    for j, (a, b_) in enumerate(spans):
+        assert folds[j % len(folds)][0][a : b_ + 1].all()
+    assert np.array_equal(np.logical_or.reduce([f[0] for f in folds]), pool.acting_samples("rests")[0])
+
+
+def test_a_static_friction_the_final_model_reads_none_of_is_taken_back():
+    """A closed loop's Stribeck decay (seed 2, a chirp at 10 ms): the step's least squares fitted
+    its level 42 % low and static friction came second, 0.98 mN m above it. The final model (the
+    loop's reference as an instrument) puts the Stribeck level within 5 % of the truth, and there
+    static friction's level reads none: the step is taken back, said in a note, and the free run
+    stands at 1.33 noise floors (1.71 with the stale level)."""
+    b = bench("closed_loop", "stribeck_friction", 2)
+    d = diagnose(b.record, input_gain=b.params["input_gain"], base=BASE_FOR["input_lag"], align=True)
+    assert d.named == ["stribeck_friction"] and "static_friction" not in d.model.effects
+    assert any(n.startswith("static_friction, named at step 2") and "is left out" in n for n in d.notes)
+    assert d.model.params["stribeck"] == pytest.approx(b.params["stribeck"], rel=0.15)
+    assert d.final_gap.overall < 1.5 * d.noise_floor

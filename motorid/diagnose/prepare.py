@@ -478,17 +478,29 @@ class Pool:
         if not acts:
             return None
         if acts == "rests":
-            out = []
-            for p in self.parts:
-                mask = np.zeros(p.kin.n, dtype=bool)
-                for a, b in zip(p.rests.start, p.rests.stop, strict=True):
-                    mask[a : b + 1 + (b - a + 1)] = True
-                out.append(mask)
-            return out
+            return self.rest_folds(1)[0]
         top = max(float(np.max(np.abs(p.kin.w[p.kin.valid]), initial=0.0)) for p in self.parts)
         if acts == "rest":
             return [np.abs(p.kin.w) < SPEED_BANDS[1] * top for p in self.parts]
         return [np.abs(p.kin.w) >= SPEED_BANDS[-2] * top for p in self.parts]
+
+    def rest_folds(self, folds: int) -> list[list[np.ndarray]]:
+        """The rests of the records, in time order, dealt into ``folds`` folds (the j-th rest into
+        fold j mod ``folds``; fewer folds where there are fewer rests, one of no sample without rests): each
+        fold's full-rate samples, per record, of its rests and, after each, as long again (the
+        breakaway and the speed it picks up)."""
+        spans = [
+            (k, a, b)
+            for k, p in enumerate(self.parts)
+            for a, b in zip(p.rests.start, p.rests.stop, strict=True)
+        ]
+        out = []
+        for j in range(min(folds, len(spans)) if spans else 1):
+            masks = [np.zeros(p.kin.n, dtype=bool) for p in self.parts]
+            for k, a, b in spans[j::folds]:
+                masks[k][a : b + 1 + (b - a + 1)] = True
+            out.append(masks)
+        return out
 
     def acting_gap(self, model: RigidDrive, acts: str) -> float:
         """RMS free-run gap [v] over the samples where an effect acts (:meth:`acting_samples`)."""

@@ -112,7 +112,11 @@ above the model's kinetic level, fitted against the input's rate there (:class:`
 lag between input and force raises the input at breakaway as the input rises faster, stiction
 does not), is its level ΔF_s; its ΔBIC is that of the rests (:func:`~motorid.diagnose.measures.breakaway_evidence`), its
 held-out check the rests of the held-out blocks (:func:`~motorid.diagnose.measures.breakaway_holdout`). A record with fewer
-than :data:`~motorid.diagnose.measures.MIN_RESTS` rests fits it to the free run instead (:func:`fit_static_friction`).
+than :data:`~motorid.diagnose.measures.MIN_RESTS` rests read (or rests that read it below the kinetic level) fits it
+to the free run instead (:func:`fit_static_friction`) and holds it out rest by rest
+(:func:`~motorid.diagnose.measures.static_friction_cross_check`), judged at the rests. The final model reads its level
+again against its own kinetic level, and takes the step back where the free run comes no closer with it
+(:meth:`~motorid.diagnose.search.Search.final_static_friction`).
 
 A model given with a friction effect of its own (``model=``) stands where a step would have put
 it: what comes next is judged by the rules of a second step, so a run from a saved model with
@@ -510,6 +514,7 @@ def diagnose(
         outcome.notes.extend(given_kept.notes)
     final_model, held = levels_at_zero(pool, final_model, dict(chosen.params), stribeck_shape)
     outcome.notes.extend(held)
+    final_model = run.search.final_static_friction(final_model, outcome)
     initial_gap = pool.gaps(initial_model, first_region)
     refitted_gap = None if model is None else pool.gaps(refitted_model, first_region)
     if outcome.steps or chosen.effects or final_model is not outcome.fit.model:
