@@ -239,6 +239,19 @@ final model (:meth:`~motorid.diagnose.search.Search.final_static_friction`):
   3, its 99th percentile ΔBIC 10.9 (unchanged);
 - real motors (``python scripts/realmotors_doctor.py``): every name, delay, level and gap unchanged.
 
+The level fitted on the free run read as the middle of the levels it cannot tell apart
+(:func:`~motorid.diagnose.measures.fit_static_friction`), a blind rest-by-rest check judged by the noise rule, and a
+torque ripple taken at the record's position in the free run (``RigidDrive.free_run(..., position=)``):
+
+- the bank: named first 96 of 132, on 96 of the 99 where it shows (every imperfection's row 90-100 %); the parameter
+  within 15 % on 119 of 165 (118: the encoder's held levels 26 % high to 6 % low; a drifting logger's chirp with static
+  friction named, 19 % high; a two-mass rig's held levels named, 41 % low, 54 % before); the torque-ripple row's
+  median final gap 7.61 to 1.54 noise floors, its dead zone no longer given static friction as a third name, and its
+  static friction on held levels no longer named (66 % high before: the free run out of the ripple's phase; now its
+  rests disagree on one level, and the rest-by-rest check refuses it);
+- stiction: named on 96 of 100, within 15 % on 96, the level's range 0.86-1.04 of the planted; nothing named on the
+  100 without it; no-effect records: nothing named on 0 of 200 (99th percentile ΔBIC 10.9); real motors unchanged.
+
 A model without an input delay given the one the final balance and free run read alike, within a sample of each
 other, where the noise rule had refused it (:meth:`~motorid.diagnose.search.Search.final_delay`):
 

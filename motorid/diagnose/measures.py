@@ -210,6 +210,9 @@ MIN_RESTS = 5
 #: Folds the rests are held out in where the free run fits static friction
 #: (:func:`static_friction_cross_check`).
 REST_FOLDS = 5
+#: Relative difference of two free-run costs [-] below which :func:`fit_static_friction` takes them
+#: for one (two free runs whose rests all break away in the same samples are equal to the bit).
+PLATEAU_TOLERANCE = 1e-9
 
 
 #: What the rests of a drive say of its breakaway (:attr:`Breakaway.reading`).
@@ -561,7 +564,14 @@ def fit_static_friction(pool: Pool, model: RigidDrive, samples: list[np.ndarray]
     above the model's kinetic level (:func:`breakaway`; 0 when they show none above it).
     Otherwise the free run fits it: the ΔF_s that minimises the free-run gap,
     from a grid of 17 values on [0, half the largest input force] and a bounded search between
-    the best one's neighbours.
+    the best one's neighbours. The free run moves only where a level changes whether the drive
+    breaks away in some sample, so the gap is flat over the levels between two such changes: the
+    reading is the middle of the flat stretch around the best (its edges by bisection to
+    10⁻⁴ of the range; costs within :data:`PLATEAU_TOLERANCE` of each other are one), 0 where it
+    reaches 0 (no level runs closer than none), its lower edge where it reaches the range's top.
+    Where every rest is bracketed by the input's steps the stretch is the bracket the rests leave:
+    on a bench's held levels with a torque ripple, 1.0-1.66 times the planted level, where the
+    bounded search had ended at 1.66.
 
     Parameters
     ----------
@@ -598,7 +608,24 @@ def fit_static_friction(pool: Pool, model: RigidDrive, samples: list[np.ndarray]
         method="bounded",
         options={"xatol": 1e-4 * top, "maxiter": 500},
     )
-    return with_excess(best.x if best.fun <= costs[i] else grid[i])
+    x, least = (best.x, best.fun) if best.fun <= costs[i] else (grid[i], costs[i])
+    # the free run moves only where a rest's outcome does (each sample's input held), so the levels
+    # it cannot tell from x form a plateau: the reading is its middle
+    same = least * (1.0 + PLATEAU_TOLERANCE)
+    left = [g for g, c in zip(grid, costs, strict=True) if g < x and c > same]
+    right = [g for g, c in zip(grid, costs, strict=True) if g > x and c > same]
+    if not left:
+        return with_excess(0.0)  # no level at all runs as close
+    xatol = 1e-4 * top
+
+    def edge(inside: float, outside: float) -> float:
+        while abs(outside - inside) > xatol:
+            middle = 0.5 * (inside + outside)
+            inside, outside = (middle, outside) if cost(middle) <= same else (inside, middle)
+        return inside
+
+    low = edge(x, left[-1])
+    return with_excess(0.5 * (low + edge(x, right[0])) if right else low)
 
 
 def _lag1(r: np.ndarray) -> float:

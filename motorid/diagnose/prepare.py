@@ -140,7 +140,7 @@ class Prepared:
         i0 = max(self.start, 1)
         out = np.full(self.kin.n, np.nan)
         w0, q0 = float(self.kin.w[i0 - 1]), float(self.kin.q[i0 - 1])  # the position for a ripple
-        out[i0:] = model.free_run(self.kin.u, w0=w0, start=i0, q0=q0)
+        out[i0:] = model.free_run(self.kin.u, w0=w0, start=i0, q0=q0, position=self.kin.q)
         return out
 
     def first_moving(self, model: RigidDrive, rests: Rests, force: np.ndarray) -> np.ndarray | None:

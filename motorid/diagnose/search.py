@@ -393,10 +393,11 @@ def friction_given(base: tuple[str, ...]) -> bool:
     return any(n not in DEFAULT_BASE and not get_effect(n).structure for n in base)
 
 
-#: Where static friction fitted on the free run is judged when its held-out test has nothing to
-#: hold out (records without rests to hold out one by one, their held-out blocks' or record's free
-#: run the base's to the last bit): near rest, the gap there accounting for more than
-#: ``noise_explained`` noise floors there.
+#: Where static friction fitted on the free run is judged when its held-out test is blind (its
+#: held-out free run the base's to the last bit) on records without rests to hold out one by one:
+#: near rest, the gap there accounting for more than ``noise_explained`` noise floors there. With
+#: rests, a blind test (a two-mass rig's held levels with 2 rests, the one that shows the level
+#: held out: no level fitted without it) is judged at the rests by the same noise rule.
 BLIND_HELD_OUT_JUDGED = "rest"
 #: Where an effect that acts in one place is judged, in the words of a decision.
 WHERE = {"rests": " at the rests", "rest": " near rest", "speed": " at speed"}
@@ -1457,10 +1458,12 @@ class Search:
                         pool.free_run_error(trained, held.samples),
                     )
                 base_held, cand_held = rms(base_held), rms(cand_held)
-                # where its free run there is the base's to the last bit: no evidence either way;
-                # judged near rest instead, as a later step is
-                blind = cand_held == base_held
-                acts = BLIND_HELD_OUT_JUDGED if blind else ""
+                acts = ""
+            # where the held-out free run is the base's to the last bit (no level fitted without the
+            # one rest that shows it), no evidence either way: judged where it acts (near rest without
+            # rests) by the noise rule, as a later step is
+            blind = cand_held == base_held
+            acts = acts or (BLIND_HELD_OUT_JUDGED if blind else "")
         elif effect.rest_only:  # held out on the rests: ΔF_s and τ from the training rests
             if held.samples is None:
                 base_held, cand_held = breakaway_holdout(
@@ -1489,7 +1492,7 @@ class Search:
         ok_noise = (not at.later and not blind) or part > self.noise_explained
         why = []
         if not ok_held:
-            unit = v + "/s" if not effect.rest_only else pool.units["F"] if acts else v
+            unit = v + "/s" if not effect.rest_only else pool.units["F"] if c.acts else v  # rests or free run
             why.append(f"held-out error {figure(cand_held)} vs {figure(base_held)} {unit}")
         if not ok_gap:
             why.append(f"free-run gap{where} {figure(after)} vs {figure(before)} {v}")

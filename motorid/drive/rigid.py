@@ -384,6 +384,7 @@ class RigidDrive:
         substeps: int | None = None,
         start: int = 0,
         q0: float = 0.0,
+        position: npt.ArrayLike | None = None,
     ) -> np.ndarray:
         """Free-run velocity [v] at the end of each sample for the input ``u`` [u] held over it.
 
@@ -402,8 +403,24 @@ class RigidDrive:
             ``N - start`` samples.
         q0 : float
             Position at the start [v s: rad or m]; only a position ripple (cogging) depends on it.
+        position : array_like, shape (N,), optional
+            A record's position [v s] at the end of each sample: a position ripple that is no
+            level against the motion (cogging, not a position friction) is taken there, its torque
+            at the mean of each sample's two ends held over the sample like the input, rather than
+            at the free run's own position. That position integrates every error of the speed, and
+            over many periods of the ripple drifts out of its phase: a ripple out of phase adds
+            twice its amplitude to the gap where it should take it away.
         """
         force = np.ascontiguousarray(self.input_force(u)[start:], dtype=float)
+        if position is not None and self.position_effects and not self._ripple()[3]:
+            q = np.asarray(position, dtype=float)
+            if q.shape != np.shape(u):
+                raise ValueError(f"position has shape {q.shape}, the input {np.shape(u)}")
+            ends = q[start - 1 :] if start > 0 else np.concatenate(([q0], q))
+            mid = 0.5 * (ends[:-1] + ends[1:])
+            bare = self.without(*self.position_effects)
+            force = np.ascontiguousarray(force - self.position_torque(mid), dtype=float)
+            return bare._free_run_force(bare._free_run_setup(substeps), force, float(w0))
         return self._free_run_force(self._free_run_setup(substeps), force, float(w0), float(q0))
 
     def motion(
