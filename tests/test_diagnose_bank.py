@@ -9,12 +9,14 @@ import math
 import numpy as np
 import pytest
 
+from motorid.app.doctor import save_doctor_model
 from motorid.diagnose.bench import IMPERFECTIONS, OVERSAMPLE, bench
 from motorid.diagnose.calibration import _bank_report, _noise_report, bank, noise_estimates, planted_shows
 from motorid.diagnose.measures import fit_static_friction
 from motorid.diagnose.search import NOISE_EXPLAINED
 from motorid.diagnose.synthetic import BASE_FOR
 from motorid.diagnose.workflow import diagnose
+from motorid.drive.files import read_model_file
 from motorid.drive.rigid import RigidDrive
 
 
@@ -324,7 +326,7 @@ def test_a_delay_the_base_hid_is_taken_on_the_final_model():
 
 
 @pytest.mark.parametrize(("seed", "rests"), [(0, 3), (2, 7)])
-def test_static_friction_the_rests_do_not_read_is_held_out_rest_by_rest(seed, rests):
+def test_static_friction_the_rests_do_not_read_is_held_out_rest_by_rest(seed, rests, tmp_path):
     """An encoder's held levels whose rests do not read the breakaway (seed 0: 3 rests at 5 ms, 2
     bracketed by a step of the input; seed 2: 7 at 2 ms, 6 bracketed): static friction is fitted on
     the free run, and the few held levels the drive does not break away from carry its whole gap.
@@ -337,7 +339,8 @@ def test_static_friction_the_rests_do_not_read_is_held_out_rest_by_rest(seed, re
     sample, and the fit takes the middle of that stretch: 6 % high on seed 0, 6 % low on seed 2
     (measured; the bounded search inside it had ended 6 % low and 26 % high), held to 12 %. The
     stretch checked against a brute-force scan of 161 levels over the lower quarter of the range:
-    the level the fit returns lies within one scan step of the middle of the scanned minimum."""
+    the level the fit returns lies within one scan step of the middle of the scanned minimum, and
+    its standard error is the stretch's width over √12."""
     b = bench("encoder", "static_friction", seed)
     d = diagnose(b.record, input_gain=b.params["input_gain"], base=BASE_FOR["input_lag"], align=True)
     assert d.named == ["static_friction"] and d.rests[0].count == rests
@@ -367,6 +370,13 @@ def test_static_friction_the_rests_do_not_read_is_held_out_rest_by_rest(seed, re
     flat = scan[costs <= costs.min() * (1 + 1e-9)]
     assert np.ptp(flat) > 0 and flat[-1] - flat[0] <= np.ptp(scan) * 0.5  # a bounded stretch of the scan
     assert abs(level - 0.5 * (flat[0] + flat[-1])) <= scan[1]
+    # its standard error: the stretch as a level equally likely anywhere in it; the truth within two
+    # (measured -0.22 and 0.17 of one)
+    std = d.param_std["breakaway_excess"]
+    assert std == pytest.approx(np.ptp(flat) / math.sqrt(12.0), abs=2 * scan[1] / math.sqrt(12.0))
+    assert abs(d.model.params["breakaway_excess"] - b.params["breakaway_excess"]) < 2 * std
+    save_doctor_model(d, tmp_path / "m.json", [b.record], [None])  # the model file carries it
+    assert read_model_file(tmp_path / "m.json").card.parameters["breakaway_excess"]["standard_error"] == std
     # the folds: each rest whole in fold j mod 5, together every rest and breakaway
     folds = pool.rest_folds(5)
     spans = list(zip(pool.parts[0].rests.start, pool.parts[0].rests.stop, strict=True))

@@ -562,16 +562,12 @@ def fit_static_friction(pool: Pool, model: RigidDrive, samples: list[np.ndarray]
     fit it. Where the records' typical rests measure it (:attr:`Breakaway.measures`: at least
     :data:`MIN_RESTS`, not read below the kinetic level), they give it: the force at breakaway
     above the model's kinetic level (:func:`breakaway`; 0 when they show none above it).
-    Otherwise the free run fits it: the ΔF_s that minimises the free-run gap,
-    from a grid of 17 values on [0, half the largest input force] and a bounded search between
-    the best one's neighbours. The free run moves only where a level changes whether the drive
-    breaks away in some sample, so the gap is flat over the levels between two such changes: the
-    reading is the middle of the flat stretch around the best (its edges by bisection to
-    10⁻⁴ of the range; costs within :data:`PLATEAU_TOLERANCE` of each other are one), 0 where it
-    reaches 0 (no level runs closer than none), its lower edge where it reaches the range's top.
-    Where every rest is bracketed by the input's steps the stretch is the bracket the rests leave:
-    on a bench's held levels with a torque ripple, 1.0-1.66 times the planted level, where the
-    bounded search had ended at 1.66.
+    Otherwise the free run fits it (:func:`free_run_levels`): the free run moves only where a level
+    changes whether the drive breaks away in some sample, so the gap is flat over the levels
+    between two such changes, and the reading is the middle of the flat stretch around the best.
+    Where the input's steps bracket every rest, the stretch is the bracket they leave: on an
+    encoder's held levels with 7 rests, 6 bracketed, 0.47-1.42 times the planted level, read at
+    0.94 (a bounded search inside it had ended at 1.26).
 
     Parameters
     ----------
@@ -582,8 +578,6 @@ def fit_static_friction(pool: Pool, model: RigidDrive, samples: list[np.ndarray]
     samples : list of ndarray or None
         Each record's full-rate samples to fit on (the training blocks), None for all.
     """
-    from scipy.optimize import minimize_scalar
-
     effects = tuple(dict.fromkeys((*model.effects, "static_friction")))
 
     def with_excess(excess: float) -> RigidDrive:
@@ -592,10 +586,40 @@ def fit_static_friction(pool: Pool, model: RigidDrive, samples: list[np.ndarray]
     found = breakaway(pool, model, samples)
     if found.measures:
         return with_excess(max(found.excess, 0.0) if math.isfinite(found.excess) else 0.0)
+    return with_excess(free_run_levels(pool, model, samples)[0])
+
+
+def free_run_levels(
+    pool: Pool, model: RigidDrive, samples: list[np.ndarray] | None
+) -> tuple[float, float, float]:
+    """Static friction's level ΔF_s [F] above ``model``'s kinetic level read on the free run of the
+    full-rate ``samples`` of each record of ``pool`` (None: all), and the stretch of levels
+    ``(low, high)`` [F] whose free runs are as close: ``(level, low, high)``.
+
+    A grid of 17 levels on [0, half the largest input force], a bounded search between the best
+    one's neighbours, then each edge of the stretch around the best by bisection to 10⁻⁴ of the
+    range (costs within :data:`PLATEAU_TOLERANCE` of each other are one). The level is the middle
+    of the stretch; 0 where it reaches 0 (no level runs closer than none; the stretch then (0, 0)),
+    its lower edge where it reaches the range's top (``high`` the top).
+
+    Parameters
+    ----------
+    pool : Pool
+        The records of the drive.
+    model : RigidDrive
+        The model static friction is added to (its kinetic level is the reference).
+    samples : list of ndarray or None
+        Each record's full-rate samples to fit on, None for all.
+    """
+    from scipy.optimize import minimize_scalar
+
+    effects = tuple(dict.fromkeys((*model.effects, "static_friction")))
     top = 0.5 * pool.data.scale["u_max"] * abs(model.input_gain)
+    xatol = 1e-4 * top
 
     def cost(excess: float) -> float:
-        err = pool.free_run_error(with_excess(excess), samples)
+        with_it = model.with_effects(effects, {**model.params, "breakaway_excess": float(excess)})
+        err = pool.free_run_error(with_it, samples)
         err = err[np.isfinite(err)]
         return float(np.mean(err**2)) if err.size else math.inf
 
@@ -606,17 +630,14 @@ def fit_static_friction(pool: Pool, model: RigidDrive, samples: list[np.ndarray]
         cost,
         bounds=(grid[max(i - 1, 0)], grid[min(i + 1, grid.size - 1)]),
         method="bounded",
-        options={"xatol": 1e-4 * top, "maxiter": 500},
+        options={"xatol": xatol, "maxiter": 500},
     )
     x, least = (best.x, best.fun) if best.fun <= costs[i] else (grid[i], costs[i])
-    # the free run moves only where a rest's outcome does (each sample's input held), so the levels
-    # it cannot tell from x form a plateau: the reading is its middle
     same = least * (1.0 + PLATEAU_TOLERANCE)
     left = [g for g, c in zip(grid, costs, strict=True) if g < x and c > same]
     right = [g for g, c in zip(grid, costs, strict=True) if g > x and c > same]
     if not left:
-        return with_excess(0.0)  # no level at all runs as close
-    xatol = 1e-4 * top
+        return 0.0, 0.0, 0.0  # no level at all runs as close
 
     def edge(inside: float, outside: float) -> float:
         while abs(outside - inside) > xatol:
@@ -625,7 +646,33 @@ def fit_static_friction(pool: Pool, model: RigidDrive, samples: list[np.ndarray]
         return inside
 
     low = edge(x, left[-1])
-    return with_excess(0.5 * (low + edge(x, right[0])) if right else low)
+    if not right:
+        return low, low, top
+    high = edge(x, right[0])
+    return 0.5 * (low + high), low, high
+
+
+def static_friction_std(pool: Pool, model: RigidDrive) -> float:
+    """One standard error [F] of the static friction level ΔF_s of ``model`` (which has it), read
+    against its kinetic level: the rests' (:attr:`Breakaway.standard_error`) where they measure it;
+    else from the stretch ``(low, high)`` of levels the free run cannot tell apart
+    (:func:`free_run_levels`), as a level equally likely anywhere in it, ``(high - low) / √12``;
+    NaN where the free run reads none or a single level (its gap not flat around it: a lag in the
+    input path moves the breakaway inside a sample as the level moves).
+
+    Parameters
+    ----------
+    pool : Pool
+        The records of the drive.
+    model : RigidDrive
+        The model, with ``static_friction``.
+    """
+    bare = model.without("static_friction")
+    found = breakaway(pool, bare)
+    if found.measures:
+        return found.standard_error
+    _, low, high = free_run_levels(pool, bare, None)
+    return (high - low) / math.sqrt(12.0) if high > low else math.nan
 
 
 def _lag1(r: np.ndarray) -> float:
