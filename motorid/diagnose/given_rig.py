@@ -55,7 +55,13 @@ class GivenRig(RigidDrive):
         return cls(equivalent.effects, equivalent.params, equivalent.dt, equivalent.stribeck_shape, rig=rig)
 
     def free_run(
-        self, u: np.ndarray, w0: float = 0.0, substeps: int | None = None, start: int = 0, q0: float = 0.0
+        self,
+        u: np.ndarray,
+        w0: float = 0.0,
+        substeps: int | None = None,
+        start: int = 0,
+        q0: float = 0.0,
+        position: np.ndarray | None = None,
     ) -> np.ndarray:
         """The rig's measured load speed [rad/s] for the command ``u`` [V], through its sensors
         noise free (tacho gain and A/D steps), at this drive's sample time: from rest at the first
@@ -74,6 +80,9 @@ class GivenRig(RigidDrive):
             The first sample returned.
         q0 : float
             Not taken: the rig runs from its own position 0 (its motor's ripple counts from there).
+        position : numpy.ndarray, optional
+            Not taken: the record's position is the load's, and the rig's motor ripple follows
+            the motor's own position.
         """
         rig = cast(TwoMassRig, self.rig)  # checked at construction
         quiet = dataclasses.replace(rig.tacho, noise_std=0.0)

@@ -229,8 +229,9 @@ def choose_structure(
 
 #: The least delay [samples] :meth:`Search.final_delay` gives a model that has none: below
 #: it, a delay is a share of the hold's own half-sample lag. Where the free run is sensitive to
-#: the least change (a cogging drive's position drifts out of phase with the record's), a delay
-#: of 0.05 samples moved the free-run gap of a bench that has none by 11 noise floors; an aligned
+#: the least change (a cogging drive's, when its ripple was taken at the free run's own position,
+#: which drifts out of phase with the record's), a delay of 0.05 samples moved the free-run gap
+#: of a bench that has none by 11 noise floors; an aligned
 #: record's 0.96-sample delay (quadratic drag on a chirp at 10 ms) took its final gap from 4.5
 #: noise floors to 1.1.
 FINAL_DELAY_LEAST = 0.5
