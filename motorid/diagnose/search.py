@@ -22,6 +22,7 @@ import numpy as np
 from motorid.diagnose.locate import Region, locate
 from motorid.diagnose.measures import (
     MIN_RESTS,
+    PLATEAU_TOLERANCE,
     Breakaway,
     Gap,
     breakaway,
@@ -398,7 +399,8 @@ def friction_given(base: tuple[str, ...]) -> bool:
 #: held-out free run the base's to the last bit) on records without rests to hold out one by one:
 #: near rest, the gap there accounting for more than ``noise_explained`` noise floors there. With
 #: rests, a blind test (a two-mass rig's held levels with 2 rests, the one that shows the level
-#: held out: no level fitted without it) is judged at the rests by the same noise rule.
+#: held out: no level fitted without it) is judged at the rests by the same noise rule. Blind:
+#: the held-out errors within :data:`~motorid.diagnose.measures.PLATEAU_TOLERANCE` of each other.
 BLIND_HELD_OUT_JUDGED = "rest"
 #: Where an effect that acts in one place is judged, in the words of a decision.
 WHERE = {"rests": " at the rests", "rest": " near rest", "speed": " at speed"}
@@ -1463,7 +1465,7 @@ class Search:
             # where the held-out free run is the base's to the last bit (no level fitted without the
             # one rest that shows it), no evidence either way: judged where it acts (near rest without
             # rests) by the noise rule, as a later step is
-            blind = cand_held == base_held
+            blind = math.isclose(cand_held, base_held, rel_tol=PLATEAU_TOLERANCE)
             acts = acts or (BLIND_HELD_OUT_JUDGED if blind else "")
         elif effect.rest_only:  # held out on the rests: ΔF_s and τ from the training rests
             if held.samples is None:
