@@ -543,7 +543,15 @@ def static_friction_cross_check(pool: Pool, model: RigidDrive) -> tuple[float, f
 
     A few held levels that the drive does not break away from carry the whole of static friction's
     free-run gap; the search's held-out blocks (a share of the record) seldom hold them, so there
-    the level would have no evidence either way. Dealt into folds, every rest is held out once."""
+    the level would have no evidence either way. Dealt into folds, every rest is held out once.
+
+    Parameters
+    ----------
+    pool : Pool
+        The records of the drive.
+    model : RigidDrive
+        The model static friction is added to (its kinetic level is the reference).
+    """
     base, cand = [], []
     for held in pool.rest_folds(REST_FOLDS):
         if not any(m.any() for m in held):
@@ -578,6 +586,28 @@ def fit_static_friction(pool: Pool, model: RigidDrive, samples: list[np.ndarray]
     samples : list of ndarray or None
         Each record's full-rate samples to fit on (the training blocks), None for all.
     """
+    return static_friction_reading(pool, model, samples)[0]
+
+
+def static_friction_reading(
+    pool: Pool, model: RigidDrive, samples: list[np.ndarray] | None
+) -> tuple[RigidDrive, float]:
+    """:func:`fit_static_friction`'s model, and one standard error [F] of its level ΔF_s: the
+    rests' (:attr:`Breakaway.standard_error`) where they measure it; else from the stretch
+    ``(low, high)`` of levels the free run cannot tell apart (:func:`free_run_levels`), as a level
+    equally likely anywhere in it, ``(high - low) / √12``; NaN where the free run reads none or a
+    single level (its gap not flat around it: a lag in the input path moves the breakaway inside a
+    sample as the level moves).
+
+    Parameters
+    ----------
+    pool : Pool
+        The records of the drive.
+    model : RigidDrive
+        The model static friction is added to (its kinetic level is the reference).
+    samples : list of ndarray or None
+        Each record's full-rate samples to fit on, None for all.
+    """
     effects = tuple(dict.fromkeys((*model.effects, "static_friction")))
 
     def with_excess(excess: float) -> RigidDrive:
@@ -585,8 +615,11 @@ def fit_static_friction(pool: Pool, model: RigidDrive, samples: list[np.ndarray]
 
     found = breakaway(pool, model, samples)
     if found.measures:
-        return with_excess(max(found.excess, 0.0) if math.isfinite(found.excess) else 0.0)
-    return with_excess(free_run_levels(pool, model, samples)[0])
+        return with_excess(
+            max(found.excess, 0.0) if math.isfinite(found.excess) else 0.0
+        ), found.standard_error
+    level, low, high = free_run_levels(pool, model, samples)
+    return with_excess(level), (high - low) / math.sqrt(12.0) if high > low else math.nan
 
 
 def free_run_levels(
@@ -652,29 +685,6 @@ def free_run_levels(
     return 0.5 * (low + high), low, high
 
 
-def static_friction_std(pool: Pool, model: RigidDrive) -> float:
-    """One standard error [F] of the static friction level ΔF_s of ``model`` (which has it), read
-    against its kinetic level: the rests' (:attr:`Breakaway.standard_error`) where they measure it;
-    else from the stretch ``(low, high)`` of levels the free run cannot tell apart
-    (:func:`free_run_levels`), as a level equally likely anywhere in it, ``(high - low) / √12``;
-    NaN where the free run reads none or a single level (its gap not flat around it: a lag in the
-    input path moves the breakaway inside a sample as the level moves).
-
-    Parameters
-    ----------
-    pool : Pool
-        The records of the drive.
-    model : RigidDrive
-        The model, with ``static_friction``.
-    """
-    bare = model.without("static_friction")
-    found = breakaway(pool, bare)
-    if found.measures:
-        return found.standard_error
-    _, low, high = free_run_levels(pool, bare, None)
-    return (high - low) / math.sqrt(12.0) if high > low else math.nan
-
-
 def _lag1(r: np.ndarray) -> float:
     r = r - r.mean()
     den = float(np.dot(r, r))
@@ -708,6 +718,7 @@ def holdout_rows(n: int, fraction: float, blocks: int = 10) -> np.ndarray:
 
 
 __all__ = [
-    "MIN_RESTS", "READINGS", "Breakaway", "Gap", "fit_static_friction", "free_run_error", "one_rate",
-    "rates_per_record",
+    "MIN_RESTS", "PLATEAU_TOLERANCE", "READINGS", "REST_FOLDS", "Breakaway", "Gap", "fit_static_friction",
+    "free_run_error", "free_run_levels", "one_rate", "rates_per_record", "static_friction_cross_check",
+    "static_friction_reading",
 ]  # fmt: skip

@@ -33,6 +33,7 @@ from motorid.diagnose.measures import (
     free_run_error,
     rms,
     static_friction_cross_check,
+    static_friction_reading,
 )
 from motorid.diagnose.model import FitResult, fit_model, fit_output_error, refitted_parameters
 from motorid.diagnose.position import held_out_position_error, position_unit
@@ -1167,11 +1168,13 @@ class Search:
         )  # fmt: skip
         return found, structure
 
-    def final_static_friction(self, model: RigidDrive, outcome: SearchOutcome) -> RigidDrive:
-        """``model`` (the diagnosis's final model) with static friction's level read again
-        (:func:`fit_static_friction`, against its kinetic level); where the free run with the level
-        read again comes no closer than without it, without static friction, the step that named
-        it taken back from ``outcome`` and a note added there.
+    def final_static_friction(self, model: RigidDrive, outcome: SearchOutcome) -> tuple[RigidDrive, float]:
+        """``model`` (the diagnosis's final model) with the level of the static friction a step named
+        read again (:func:`~motorid.diagnose.measures.static_friction_reading`, against its kinetic
+        level), and that level's standard error [F]; where the free run with the level read again
+        comes no closer than without it, without static friction (standard error NaN), the step
+        that named it taken back from ``outcome`` and a note added there. ``model`` itself, and NaN,
+        where no step named it.
 
         The level ΔF_s is read above the kinetic level of the step's model, and the balance's refits
         after it (a later step, :meth:`final_delay`, a closed loop's instrumental fit) leave it
@@ -1189,13 +1192,13 @@ class Search:
         """
         named = [k for k, s in enumerate(outcome.steps) if s.effect == "static_friction"]
         if not named or "static_friction" not in model.effects:
-            return model
+            return model, math.nan
         pool = self.pool
         bare = model.without("static_friction")
-        again = fit_static_friction(pool, bare, None)
+        again, std = static_friction_reading(pool, bare, None)
         with_it, without = free_run_gap(pool, again), free_run_gap(pool, bare)
         if with_it < without:
-            return again
+            return again, std
         step = outcome.steps.pop(named[0])
         outcome.notes.append(
             f"static_friction, named at step {named[0] + 1} at {figure(step.params['breakaway_excess'])} "
@@ -1203,7 +1206,7 @@ class Search:
             f"{figure(again.params['breakaway_excess'])} {pool.units['F']} and its free run comes no closer "
             f"({figure(with_it)} against {figure(without)} {pool.units['v']} without it)"
         )
-        return bare
+        return bare, math.nan
 
     def without_lag(self, fit: FitResult) -> FitResult | None:
         """``fit`` without the input lag the base's structure took, its delay read again on the free
@@ -1229,6 +1232,32 @@ class Search:
             self.pool, fit.model
         )
         return found if closer else None
+
+    def free_run_holdout(self, model: RigidDrive) -> tuple[float, float, str]:
+        """Held-out check of static friction fitted on the free run beside ``model``: the RMS
+        held-out free-run errors [v] without and with it, and where it is then judged. Rest by
+        rest (:func:`~motorid.diagnose.measures.static_friction_cross_check`), judged at the rests
+        (``"rests"``); on records without rests, on the held-out blocks, and with a held-out record,
+        on its free run, the level fitted on the rest (``""``: judged on the whole free run).
+
+        Parameters
+        ----------
+        model : RigidDrive
+            The step's model.
+        """
+        pool, held = self.pool, self.held
+        if held.samples is None:
+            trained = fit_static_friction(pool, model, None)
+            return rms(free_run_error(held.other, model)), rms(free_run_error(held.other, trained)), ""
+        base, cand = static_friction_cross_check(pool, model)
+        if math.isfinite(base):
+            return base, cand, "rests"
+        trained = fit_static_friction(pool, model, [~m for m in held.samples])
+        return (
+            rms(pool.free_run_error(model, held.samples)),
+            rms(pool.free_run_error(trained, held.samples)),
+            "",
+        )
 
     def held_error(self, effects: tuple[str, ...], start: dict[str, float] | None) -> float:
         """RMS torque-balance residual / J [v/s] on the held-out rows, fitted on the training rows.
@@ -1442,26 +1471,8 @@ class Search:
         acts = c.acts
         blind = False
         model0 = at.fit.model
-        if effect.rest_only and not acts:  # too few rests to measure it: held out on the free run
-            if held.samples is not None:  # rest by rest, judged there
-                base_held, cand_held = static_friction_cross_check(pool, model0)
-                acts = "rests"
-            if held.samples is None or not math.isfinite(base_held):  # the held-out record, or blocks
-                trained = fit_static_friction(
-                    pool, model0, None if held.samples is None else [~m for m in held.samples]
-                )
-                if held.samples is None:
-                    base_held, cand_held = (
-                        free_run_error(held.other, model0),
-                        free_run_error(held.other, trained),
-                    )
-                else:
-                    base_held, cand_held = (
-                        pool.free_run_error(model0, held.samples),
-                        pool.free_run_error(trained, held.samples),
-                    )
-                base_held, cand_held = rms(base_held), rms(cand_held)
-                acts = ""
+        if effect.rest_only and not acts:  # the rests do not read it: held out on the free run
+            base_held, cand_held, acts = self.free_run_holdout(model0)
             # where the held-out free run is the base's to the last bit (no level fitted without the
             # one rest that shows it), no evidence either way: judged where it acts (near rest without
             # rests) by the noise rule, as a later step is

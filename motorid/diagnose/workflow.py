@@ -142,7 +142,7 @@ from motorid.diagnose.agreement import agreement
 from motorid.diagnose.closed_loop import instrumental_kept, instrumental_refit, kinetic_split, loop_records
 from motorid.diagnose.given_rig import GivenRig, rig_note
 from motorid.diagnose.locate import Region, locate
-from motorid.diagnose.measures import fit_static_friction, free_run_error, gaps, static_friction_std
+from motorid.diagnose.measures import fit_static_friction, free_run_error, gaps
 from motorid.diagnose.model import FitResult, fit_model
 from motorid.diagnose.position import position_unit, refit_records_in_position
 from motorid.diagnose.prepare import (
@@ -514,7 +514,7 @@ def diagnose(
         outcome.notes.extend(given_kept.notes)
     final_model, held = levels_at_zero(pool, final_model, dict(chosen.params), stribeck_shape)
     outcome.notes.extend(held)
-    final_model = run.search.final_static_friction(final_model, outcome)
+    final_model, level_std = run.search.final_static_friction(final_model, outcome)
     initial_gap = pool.gaps(initial_model, first_region)
     refitted_gap = None if model is None else pool.gaps(refitted_model, first_region)
     if outcome.steps or chosen.effects or final_model is not outcome.fit.model:
@@ -527,10 +527,7 @@ def diagnose(
     instrumental = next((loop.instrumental for loop in loops if loop.instrumental), {})
     taken = next((loop.instrumental for loop in loops if loop.method == "instrumental variables"), {})
     param_std = {**outcome.fit.param_std, **{k: v["standard_error"] for k, v in taken.items()}}
-    level_std = (
-        static_friction_std(pool, final_model) if "static_friction" in final_model.effects else math.nan
-    )
-    if math.isfinite(level_std):  # its level, read on the rests or the free run
+    if math.isfinite(level_std):  # static friction's level, read on the rests or the free run
         param_std["breakaway_excess"] = level_std
     refuse_unphysical(final_model, final_gap.overall, pool.units)
     drifts = [d for d in delay_drift(pool, final_model) if d.drifts]
