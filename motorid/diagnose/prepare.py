@@ -709,8 +709,8 @@ class HeldOut:
         The held-out decimated rows (moving samples only) it is scored on: the pool's, or
         ``other``'s.
     samples : list of ndarray or None
-        The same blocks at full rate, per record (static friction is held out on the rests in
-        them); None with a second record.
+        The same blocks at full rate, per record (static friction fitted on the free run is held
+        out on them where the records have no rests); None with a second record.
     other : Prepared or None
         The second record, when one is given.
     """

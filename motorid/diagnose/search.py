@@ -26,6 +26,7 @@ from motorid.diagnose.measures import (
     Breakaway,
     Gap,
     breakaway,
+    breakaway_cross_check,
     breakaway_evidence,
     breakaway_holdout,
     evidence,
@@ -1479,14 +1480,13 @@ class Search:
             blind = math.isclose(cand_held, base_held, rel_tol=PLATEAU_TOLERANCE)
             acts = acts or (BLIND_HELD_OUT_JUDGED if blind else "")
         elif effect.rest_only:  # held out on the rests: ΔF_s and τ from the training rests
-            if held.samples is None:
-                base_held, cand_held = breakaway_holdout(
+            if held.samples is None:  # the second record's rests
+                errors = breakaway_holdout(
                     pool, None, Pool([held.other], ["held out"]), None, model0, c.lag_allowed
                 )
-            else:
-                base_held, cand_held = breakaway_holdout(
-                    pool, [~m for m in held.samples], pool, held.samples, model0, c.lag_allowed
-                )
+                base_held, cand_held = (float(np.median(e)) if e.size else math.nan for e in errors)
+            else:  # rest by rest
+                base_held, cand_held = breakaway_cross_check(pool, model0, c.lag_allowed)
         else:
             base_held = at.held_error
             cand_held = self.held_error((*at.effects, c.effect), c.fit.model.params)

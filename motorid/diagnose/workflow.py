@@ -111,7 +111,9 @@ whose gap is already at the record-wide floor still tries them.
 above the model's kinetic level, fitted against the input's rate there (:class:`~motorid.diagnose.measures.Breakaway`: a
 lag between input and force raises the input at breakaway as the input rises faster, stiction
 does not), is its level ΔF_s; its ΔBIC is that of the rests (:func:`~motorid.diagnose.measures.breakaway_evidence`), its
-held-out check the rests of the held-out blocks (:func:`~motorid.diagnose.measures.breakaway_holdout`). A record with fewer
+held-out check rest by rest: each fold of rests predicted from the others
+(:func:`~motorid.diagnose.measures.breakaway_cross_check`; the search's held-out blocks may hold
+none of them), or a second record's rests. A record with fewer
 than :data:`~motorid.diagnose.measures.MIN_RESTS` rests read (or rests that read it below the kinetic level) fits it
 to the free run instead (:func:`fit_static_friction`) and holds it out rest by rest
 (:func:`~motorid.diagnose.measures.static_friction_cross_check`), judged at the rests. The final model reads its level
