@@ -13,6 +13,7 @@ from motorid.app.doctor import save_doctor_model
 from motorid.diagnose.bench import IMPERFECTIONS, OVERSAMPLE, bench
 from motorid.diagnose.calibration import _bank_report, _noise_report, bank, noise_estimates, planted_shows
 from motorid.diagnose.measures import breakaway_cross_check, breakaway_holdout, fit_static_friction
+from motorid.diagnose.model import fit_model
 from motorid.diagnose.prepare import held_out
 from motorid.diagnose.search import NOISE_EXPLAINED
 from motorid.diagnose.synthetic import BASE_FOR
@@ -438,5 +439,53 @@ def test_a_static_friction_the_final_model_reads_none_of_is_taken_back():
     d = diagnose(b.record, input_gain=b.params["input_gain"], base=BASE_FOR["input_lag"], align=True)
     assert d.named == ["stribeck_friction"] and "static_friction" not in d.model.effects
     assert any(n.startswith("static_friction, named at step 2") and "is left out" in n for n in d.notes)
+    assert d.model.params["stribeck"] == pytest.approx(b.params["stribeck"], rel=0.15)
+    assert d.final_gap.overall < 1.5 * d.noise_floor
+
+
+def test_an_effect_that_acts_near_rest_is_held_out_near_rest():
+    """A Stribeck decay on a PWM drive's held levels (seed 4, beyond the calibration's seeds 0-2):
+    the PWM's ripple fills the balance's every row with noise, and the decay changes only the
+    rows near rest. Over every held-out row it lowered the error by 0.8 % (1 % asked) and was
+    refused, the final gap at 11.6 noise floors. Held out where it acts (the held-out rows below a
+    tenth of the top speed, as its free-run gap is judged), it lowers the error there by 3.8 %
+    (measured) and over every row too: named."""
+    b = bench("pwm_ripple", "stribeck_friction", 4)
+    d = diagnose(b.record, input_gain=b.params["input_gain"], base=BASE_FOR["input_lag"], align=True)
+    assert d.named == ["stribeck_friction"]
+    step = d.steps[0].evidence
+    assert step.held_out_error_after < 0.98 * step.held_out_error_before
+    # against the balance refitted here on the training rows, every held-out row and near rest
+    pool = d._pool
+    held = held_out(pool, 0.3, {})
+    base = tuple(e for e in d.model.effects if e != "stribeck_friction")
+    residual = {}
+    for effects in (base, d.model.effects):
+        fit = fit_model(pool.data, effects, rows=held.train).model
+        residual[effects] = held.balance_residual(pool, fit) / fit.params["inertia"]
+    near = pool.acting_rows(held.speeds(pool), "rest")
+    assert 0 < near.sum() < 0.2 * near.size
+    every = [float(np.sqrt(np.mean(r**2))) for r in residual.values()]
+    there = [float(np.sqrt(np.mean(r[near] ** 2))) for r in residual.values()]
+    assert 0.98 * every[0] < every[1] < every[0] and there[1] < 0.98 * there[0]
+    with pytest.raises(ValueError, match="acts must be 'rest' or 'speed'"):
+        pool.acting_rows(held.speeds(pool), "rests")
+
+
+def test_a_band_of_a_few_held_out_rows_does_not_judge_alone():
+    """A Stribeck decay on held levels sampled at 36 ms (slow sampling, seed 5): 2 of the 44
+    held-out rows lie near rest, and there the decay raises the error (0.63 to 0.76 rad/s²,
+    measured) while over every row it lowers it from 6.4 to 2.1 rad/s². Judged near rest alone, it
+    was refused and static friction named in its place; judged over every row first, it is named,
+    its level within 15 %, and the final gap is at the noise floor (measured 1.03)."""
+    b = bench("slow_sampling", "stribeck_friction", 5)
+    d = diagnose(b.record, input_gain=b.params["input_gain"], base=BASE_FOR["input_lag"], align=True)
+    assert d.named == ["stribeck_friction"]
+    pool = d._pool
+    held = held_out(pool, 0.3, {})
+    near = pool.acting_rows(held.speeds(pool), "rest")
+    assert near.sum() <= 3
+    step = d.steps[0].evidence
+    assert step.held_out_error_after < 0.5 * step.held_out_error_before
     assert d.model.params["stribeck"] == pytest.approx(b.params["stribeck"], rel=0.15)
     assert d.final_gap.overall < 1.5 * d.noise_floor

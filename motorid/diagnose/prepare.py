@@ -479,10 +479,26 @@ class Pool:
             return None
         if acts == "rests":
             return self.rest_folds(1)[0]
+        return [self.acting_rows(p.kin.w, acts) for p in self.parts]
+
+    def acting_rows(self, w: np.ndarray, acts: str) -> np.ndarray:
+        """Where speeds ``w`` [v] lie in the band an effect acts in: below the first edge of
+        :data:`SPEED_BANDS` (of the largest |w| over the records) for ``rest``, above the last
+        inner edge for ``speed``.
+
+        Parameters
+        ----------
+        w : ndarray
+            Speeds [v] (a record's samples, or the balance's rows).
+        acts : str
+            ``rest`` or ``speed``.
+        """
+        if acts not in ("rest", "speed"):
+            raise ValueError(f"acts must be 'rest' or 'speed' for a speed band, got {acts!r}")
         top = max(float(np.max(np.abs(p.kin.w[p.kin.valid]), initial=0.0)) for p in self.parts)
         if acts == "rest":
-            return [np.abs(p.kin.w) < SPEED_BANDS[1] * top for p in self.parts]
-        return [np.abs(p.kin.w) >= SPEED_BANDS[-2] * top for p in self.parts]
+            return np.abs(w) < SPEED_BANDS[1] * top
+        return np.abs(w) >= SPEED_BANDS[-2] * top
 
     def rest_folds(self, folds: int) -> list[list[np.ndarray]]:
         """The rests of the records, in time order, dealt into ``folds`` folds (the j-th rest into
@@ -719,6 +735,16 @@ class HeldOut:
     rows: np.ndarray
     samples: list[np.ndarray] | None
     other: Prepared | None
+
+    def speeds(self, pool: Pool) -> np.ndarray:
+        """The speed [v] of each held-out row (the decimated speed of the pool or of ``other``).
+
+        Parameters
+        ----------
+        pool : Pool
+            The records fitted.
+        """
+        return (pool.data if self.other is None else self.other.data).w[self.rows]
 
     def balance_residual(self, pool: Pool, model: RigidDrive) -> np.ndarray:
         """``model``'s :func:`~motorid.diagnose.measures.balance_residual` on the held-out rows.

@@ -291,7 +291,7 @@ class Evidence:
     threshold : float
         The ΔBIC a candidate needed [-].
     held_out_error_before, held_out_error_after : float
-        The held-out error without and with it ([v/s] on the balance, [F] on the rests, [v] on
+        The held-out error without and with it, where it acts ([v/s] on the balance, [F] on the rests, [v] on
         the free run).
     gap_shrink_noise_floors : float
         The free-run gap's shrink where it is judged, in noise floors of that band [-].
@@ -395,7 +395,7 @@ class Rejected:
     delta_bic : float
         Its ΔBIC [-].
     held_out_error_before, held_out_error_after : float
-        The held-out error without and with it ([v/s] on the balance, [F] on the rests, [v] on
+        The held-out error without and with it, where it acts ([v/s] on the balance, [F] on the rests, [v] on
         the free run).
     gap_before, gap_after : float
         The overall free-run gap [v] of the step's model and of the model with it, in the
