@@ -540,7 +540,7 @@ def breakaway_cross_check(pool: Pool, model: RigidDrive, lag_allowed: bool = Tru
 
     The search's held-out blocks (a share of the record) hold a few rests or none; dealt into
     folds, every rest is held out once (a record sampled at 36 ms with 10 rests had none in its
-    held-out blocks, and static friction its rests read within 2 % had no check at all).
+    held-out blocks, and a static friction its rests read within 5 % had no check at all).
 
     Parameters
     ----------
