@@ -489,3 +489,34 @@ def test_a_band_of_a_few_held_out_rows_does_not_judge_alone():
     assert step.held_out_error_after < 0.5 * step.held_out_error_before
     assert d.model.params["stribeck"] == pytest.approx(b.params["stribeck"], rel=0.15)
     assert d.final_gap.overall < 1.5 * d.noise_floor
+
+
+def test_a_free_run_with_an_input_delay_starts_where_its_delayed_input_is_the_records():
+    """A chirp from rest at 9.6 V, logged 180 ms late at 2 ms (constant delay, seed 4), and one at
+    1 ms logged 147 ms late with quadratic drag (seed 8): what came before the record is not
+    known, and a delay line filled with the first input had driven the model 90 and 147 samples
+    before the drive moved. The true model stood 56 noise floors from the second record, and the
+    doctor read its delay 13.6 samples short (a final gap of 52 floors). The free run now starts at
+    the first sample whose delayed input is the record's: the delays within a sample (measured 0.13
+    and 0.12), the final gaps at the floor (1.05 and 1.11). The base without the delay runs away on
+    the first record (its gap 1.7e34 rad/s), and its reason says it diverges."""
+    for seed, effect in ((4, None), (8, "quadratic_drag")):
+        b = bench("constant_delay", effect, seed)
+        dt, late = b.record.attrs["dt"], b.logging_delay[0]
+        d = diagnose(b.record, input_gain=b.params["input_gain"], base=BASE_FOR["input_lag"], align=True)
+        assert d.named == ([effect] if effect else [])
+        assert abs(d.structure.params["input_delay"] - late) < dt
+        assert d.final_gap.overall < 1.5 * d.noise_floor
+        truth = RigidDrive(
+            tuple(e for e in ("viscous_friction", "coulomb_friction", "offset", effect, "input_delay") if e),
+            {**b.params, "input_delay": late}, d.model.dt,
+        )  # fmt: skip
+        part = d._pool.parts[0]
+        run = part.simulate(truth)
+        first = math.ceil(late / dt)
+        assert np.isnan(run[:first]).all() and np.isfinite(run[first:]).all()
+        error = part.kin.w - run
+        assert np.sqrt(np.nanmean(error[part.kin.valid] ** 2)) < 1.5 * d.noise_floor
+        if effect is None:
+            assert "coulomb_friction + viscous_friction + offset diverges ->" in d.structure.reason
+            assert "(it accounts for all of it)" in d.structure.reason

@@ -210,11 +210,13 @@ def choose_structure(
         if gap1 < (1.0 - min_gap_shrink) * gap_p and part > noise_explained:
             reason = (
                 f"chosen from the moving samples: ΔBIC {row.delta_bic:.1f} > {threshold:g}, free-run gap of "
-                f"{' + '.join(probe)} {gap_p:.4g} -> {gap1:.4g} (it accounts for {part:.1f} noise floors)"
+                f"{' + '.join(probe)} {gap_said(gap_p, pool)} -> {gap1:.4g} (it accounts for "
+                f"{'all of it' if diverged(gap_p, pool) else f'{part:.1f} noise floors'})"
             )
             return Structure(names, row.params, probe, gap_p, gap1, tried, reason, data.scale["delay_reach"])
         reasons.append(
-            f"{'+'.join(names)} (free-run gap {gap_p:.4g} -> {gap1:.4g}, it accounts for {part:.2f} noise floors)"
+            f"{'+'.join(names)} (free-run gap {gap_said(gap_p, pool)} -> {gap_said(gap1, pool)}, it accounts for "
+            f"{part:.2f} noise floors)"
         )
     if reasons:
         reason = (
@@ -318,6 +320,23 @@ def delay_by_free_run(pool: Pool, fit: FitResult, stribeck_shape: str, noise_exp
     gap(min(tried, key=lambda k: tried[k][0])[0], refit_shapes=True)
     best_gap, best = min(tried.values(), key=lambda t: t[0])
     return best if explained(free_run_gap(pool, fit.model), best_gap, pool.noise) > noise_explained else fit
+
+
+#: A free-run gap beyond this many times the records' largest speed [-] is a free run that left
+#: them (an unstable fit: a base without the delay a record holds, its viscous friction below
+#: zero, ran to 1.7e34 rad/s): a report says it diverges rather than give the figure.
+DIVERGED = 10.0
+
+
+def diverged(gap: float, pool: Pool) -> bool:
+    """Whether a free-run gap [v] on ``pool`` is one of a free run that diverged (not finite, or
+    beyond :data:`DIVERGED` times the records' largest speed)."""
+    return not math.isfinite(gap) or gap > DIVERGED * pool.data.scale["w_max"]
+
+
+def gap_said(gap: float, pool: Pool) -> str:
+    """A free-run gap [v] as a report says it: its figure, or ``diverges`` (:func:`diverged`)."""
+    return "diverges" if diverged(gap, pool) else f"{gap:.4g}"
 
 
 def free_run_gap(pool: Pool, model: RigidDrive) -> float:
@@ -1740,6 +1759,7 @@ __all__ = [
     "ALIKE_GAP",
     "DEFAULT_BASE",
     "DEFAULT_THRESHOLD",
+    "DIVERGED",
     "NOISE_EXPLAINED",
     "ONE_PLACE",
     "PAIRED_BLOCKS",
@@ -1756,10 +1776,12 @@ __all__ = [
     "breakaway_sentence",
     "candidate_names",
     "choose_structure",
+    "diverged",
     "effect_names",
     "explained",
     "free_run_std",
     "friction_given",
+    "gap_said",
     "keep_given",
     "lookalike_rule",
     "paired_z",
