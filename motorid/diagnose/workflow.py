@@ -35,7 +35,7 @@ The workflow (:func:`diagnose`):
 4. **Add** a passing candidate only if (a) fitted on the training blocks it
    lowers the torque-balance RMS error on held-out blocks (or on a second
    record) by at least ``min_holdout_gain`` over every held-out row or, for an effect that
-   acts in one place, over the held-out rows in its speed band (fewer than half of them)
+   acts in one place, over the held-out rows in its speed band (fewer than a quarter of them)
    without raising every row's (:meth:`~motorid.diagnose.search.Search.held_balance`) and (b)
    refitted on everything, its
    free-run output gap is at least ``min_gap_shrink`` smaller and (c) for a
