@@ -197,7 +197,9 @@ def free_run_error(prep: Prepared, model: RigidDrive) -> np.ndarray:
     """
     kin = prep.kin
     run = prep.simulate(model)
-    start = max(prep.start, 1)
+    start = max(prep.start, 1) + int(
+        np.argmax(np.isfinite(run[max(prep.start, 1) :]))
+    )  # after a delay's start
     if kin.output_kind == "velocity" and np.isfinite(run[start:]).all():
         run[start:] = lowpass(run[start:], kin.dt, CUTOFF_PER_BAND * kin.band)
     err = kin.w - run
