@@ -330,12 +330,28 @@ DIVERGED = 10.0
 
 def diverged(gap: float, pool: Pool) -> bool:
     """Whether a free-run gap [v] on ``pool`` is one of a free run that diverged (not finite, or
-    beyond :data:`DIVERGED` times the records' largest speed)."""
+    beyond :data:`DIVERGED` times the records' largest speed).
+
+    Parameters
+    ----------
+    gap : float
+        The free-run gap [v].
+    pool : Pool
+        The records it was measured on.
+    """
     return not math.isfinite(gap) or gap > DIVERGED * pool.data.scale["w_max"]
 
 
 def gap_said(gap: float, pool: Pool) -> str:
-    """A free-run gap [v] as a report says it: its figure, or ``diverges`` (:func:`diverged`)."""
+    """A free-run gap [v] as a report says it: its figure, or ``diverges`` (:func:`diverged`).
+
+    Parameters
+    ----------
+    gap : float
+        The free-run gap [v].
+    pool : Pool
+        The records it was measured on.
+    """
     return "diverges" if diverged(gap, pool) else f"{gap:.4g}"
 
 
