@@ -445,3 +445,24 @@ def test_a_model_with_static_friction_gives_the_compensation_its_breakaway_level
         f"break it away with the kinetic level plus the model's static friction, +{level:.3g} V forwards, "
         f"-{level:.3g} V backwards" in line
     )
+
+
+def test_static_friction_is_held_out_on_a_second_records_rests():
+    """With a second record of the drive as the held-out check, static friction read on the
+    pool's rests predicts that record's breakaways (measured 1.2 against 8.8 mN m off without
+    the level), and is named; the check's figures are the medians over the second record's rests
+    against those of the fits on the first's (:func:`breakaway_cross_check` with ``other``)."""
+    from motorid.diagnose.measures import breakaway_cross_check, breakaway_holdout
+    from motorid.diagnose.prepare import Pool, prepare
+
+    first = planted_record("static_friction", 1)
+    second = planted_record("static_friction", 1, excitation_seed=99)  # the same drive, another run
+    d = diagnose(first.record, input_gain=first.input_gain, base=first.base, holdout=second.record)
+    assert d.named == ["static_friction"]
+    ev = d.steps[0].evidence
+    assert ev.candidate.measure == "rests" and ev.held_out_error_after < 0.3 * ev.held_out_error_before
+    pool, bare = d._pool, d.model.without("static_friction")
+    other = prepare(second.record, input_gain=first.input_gain, timing=pool.parts[0].timing)
+    without, with_level = breakaway_holdout(pool, None, Pool([other], ["held out"]), None, bare)
+    assert without.size >= 3
+    assert breakaway_cross_check(pool, bare, other=other) == (np.median(without), np.median(with_level))

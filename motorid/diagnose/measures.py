@@ -197,9 +197,7 @@ def free_run_error(prep: Prepared, model: RigidDrive) -> np.ndarray:
     """
     kin = prep.kin
     run = prep.simulate(model)
-    start = max(prep.start, 1) + int(
-        np.argmax(np.isfinite(run[max(prep.start, 1) :]))
-    )  # after a delay's start
+    start = prep.free_run_start(model)
     if kin.output_kind == "velocity" and np.isfinite(run[start:]).all():
         run[start:] = lowpass(run[start:], kin.dt, CUTOFF_PER_BAND * kin.band)
     err = kin.w - run
@@ -533,12 +531,15 @@ def breakaway_holdout(
     return np.abs(e_h - lag_only * r_h), np.abs(e_h - level - coef[1] * r_h)
 
 
-def breakaway_cross_check(pool: Pool, model: RigidDrive, lag_allowed: bool = True) -> tuple[float, float]:
+def breakaway_cross_check(
+    pool: Pool, model: RigidDrive, lag_allowed: bool = True, other: Prepared | None = None
+) -> tuple[float, float]:
     """Held-out check of static friction read on the rests, rest by rest: the rests dealt into
     :data:`REST_FOLDS` folds (:meth:`Pool.rest_folds <motorid.diagnose.prepare.Pool.rest_folds>`),
-    each fold's rests predicted in turn from the others' (:func:`breakaway_holdout`); the median
-    absolute errors [F] over every held-out rest without and with the level (a median: a few
-    rests cannot be sifted for the typical ones; NaN without a rest to check).
+    each fold's rests predicted in turn from the others' (:func:`breakaway_holdout`), or, with a
+    second record ``other``, its rests from all of the pool's; the median absolute errors [F] over
+    every held-out rest without and with the level (a median: a few rests cannot be sifted for the
+    typical ones; NaN without a rest to check).
 
     The search's held-out blocks (a share of the record) hold a few rests or none; dealt into
     folds, every rest is held out once (a record sampled at 36 ms with 10 rests had none in its
@@ -552,16 +553,22 @@ def breakaway_cross_check(pool: Pool, model: RigidDrive, lag_allowed: bool = Tru
         The model static friction is added to (its kinetic level is the reference).
     lag_allowed : bool
         Whether the moving drive leaves a lag to tell the level from (:func:`breakaway_holdout`).
+    other : Prepared, optional
+        A second record of the drive, held out whole.
     """
-    base, cand = [], []
-    for held in pool.rest_folds(REST_FOLDS):
-        without, with_level = breakaway_holdout(pool, [~m for m in held], pool, held, model, lag_allowed)
-        base.append(without)
-        cand.append(with_level)
-    base_all, cand_all = np.concatenate(base), np.concatenate(cand)
-    if base_all.size == 0:
+    from motorid.diagnose.prepare import Pool
+
+    if other is not None:
+        checks = [breakaway_holdout(pool, None, Pool([other], ["held out"]), None, model, lag_allowed)]
+    else:
+        checks = [
+            breakaway_holdout(pool, [~m for m in held], pool, held, model, lag_allowed)
+            for held in pool.rest_folds(REST_FOLDS)
+        ]
+    base, cand = (np.concatenate(errors) for errors in zip(*checks, strict=True))
+    if base.size == 0:
         return math.nan, math.nan
-    return float(np.median(base_all)), float(np.median(cand_all))
+    return float(np.median(base)), float(np.median(cand))
 
 
 def static_friction_cross_check(pool: Pool, model: RigidDrive) -> tuple[float, float]:
@@ -639,18 +646,27 @@ def static_friction_reading(
     samples : list of ndarray or None
         Each record's full-rate samples to fit on, None for all.
     """
-    effects = tuple(dict.fromkeys((*model.effects, "static_friction")))
-
-    def with_excess(excess: float) -> RigidDrive:
-        return model.with_effects(effects, {**model.params, "breakaway_excess": float(excess)})
-
     found = breakaway(pool, model, samples)
     if found.measures:
-        return with_excess(
-            max(found.excess, 0.0) if math.isfinite(found.excess) else 0.0
-        ), found.standard_error
+        excess = max(found.excess, 0.0) if math.isfinite(found.excess) else 0.0
+        return with_static_friction(model, excess), found.standard_error
     level, low, high = free_run_levels(pool, model, samples)
-    return with_excess(level), (high - low) / math.sqrt(12.0) if high > low else math.nan
+    return with_static_friction(model, level), (high - low) / math.sqrt(12.0) if high > low else math.nan
+
+
+def with_static_friction(model: RigidDrive, excess: float) -> RigidDrive:
+    """``model`` with ``static_friction`` at the level ``excess`` ΔF_s [F] above its kinetic one
+    (in place of the one it holds).
+
+    Parameters
+    ----------
+    model : RigidDrive
+        The drive.
+    excess : float
+        The breakaway level above the kinetic one [F].
+    """
+    effects = tuple(dict.fromkeys((*model.effects, "static_friction")))
+    return model.with_effects(effects, {**model.params, "breakaway_excess": float(excess)})
 
 
 def free_run_levels(
@@ -677,13 +693,11 @@ def free_run_levels(
     """
     from scipy.optimize import minimize_scalar
 
-    effects = tuple(dict.fromkeys((*model.effects, "static_friction")))
     top = 0.5 * pool.data.scale["u_max"] * abs(model.input_gain)
     xatol = 1e-4 * top
 
     def cost(excess: float) -> float:
-        with_it = model.with_effects(effects, {**model.params, "breakaway_excess": float(excess)})
-        err = pool.free_run_error(with_it, samples)
+        err = pool.free_run_error(with_static_friction(model, excess), samples)
         err = err[np.isfinite(err)]
         return float(np.mean(err**2)) if err.size else math.inf
 
@@ -749,8 +763,19 @@ def holdout_rows(n: int, fraction: float, blocks: int = 10) -> np.ndarray:
 
 
 __all__ = [
-    "MIN_RESTS", "PLATEAU_TOLERANCE", "READINGS", "REST_FOLDS", "Breakaway", "Gap", "breakaway_cross_check",
+    "MIN_RESTS",
+    "PLATEAU_TOLERANCE",
+    "READINGS",
+    "REST_FOLDS",
+    "Breakaway",
+    "Gap",
+    "breakaway_cross_check",
     "fit_static_friction",
-    "free_run_error", "free_run_levels", "one_rate", "rates_per_record", "static_friction_cross_check",
+    "free_run_error",
+    "free_run_levels",
+    "one_rate",
+    "rates_per_record",
+    "static_friction_cross_check",
     "static_friction_reading",
+    "with_static_friction",
 ]  # fmt: skip

@@ -135,20 +135,31 @@ class Prepared:
         valid = np.flatnonzero(self.kin.valid)
         return int(valid[0]) if valid.size else 1
 
+    def free_run_start(self, model: RigidDrive) -> int:
+        """The first sample ``model`` runs free from: the settled span's start (at least 1: the
+        free run starts from the measured speed before it) and, with an input delay τ_d, no
+        earlier than the first sample whose delayed input is the record's, ``ceil(τ_d / dt)``.
+        What came before the record is not known, and a delay line filled with its first input
+        drives the model that long before the drive moved: a chirp from rest logged 147 ms late at
+        1 ms had its true model 56 noise floors from the record, 1.1 now.
+
+        Parameters
+        ----------
+        model : RigidDrive
+            The model run free.
+        """
+        delay = float(model.params.get("input_delay", 0.0)) / self.kin.dt
+        return max(self.start, 1, math.ceil(delay - 1e-9))
+
     def simulate(self, model: RigidDrive) -> np.ndarray:
-        """Free-run velocity at every sample (NaN before the settled span and, with an input
-        delay τ_d, before the first sample whose delayed input is the record's, ``ceil(τ_d / dt)``:
-        what came before the record is not known, and a delay line filled with its first input
-        drives the model that long before the drive moved: a chirp from rest logged 147 ms late
-        at 1 ms had its true model 56 noise floors from the record, 1.1 now).
+        """Free-run velocity at every sample, NaN before :meth:`free_run_start`.
 
         Parameters
         ----------
         model : RigidDrive
             The model run free on the record's input, from the measured speed.
         """
-        delay = float(model.params.get("input_delay", 0.0)) / self.kin.dt
-        i0 = max(self.start, 1, math.ceil(delay - 1e-9))
+        i0 = self.free_run_start(model)
         out = np.full(self.kin.n, np.nan)
         w0, q0 = float(self.kin.w[i0 - 1]), float(self.kin.q[i0 - 1])  # the position for a ripple
         out[i0:] = model.free_run(self.kin.u, w0=w0, start=i0, q0=q0, position=self.kin.q)

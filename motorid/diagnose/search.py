@@ -28,7 +28,6 @@ from motorid.diagnose.measures import (
     breakaway,
     breakaway_cross_check,
     breakaway_evidence,
-    breakaway_holdout,
     evidence,
     fit_static_friction,
     free_run_error,
@@ -211,7 +210,7 @@ def choose_structure(
             reason = (
                 f"chosen from the moving samples: ΔBIC {row.delta_bic:.1f} > {threshold:g}, free-run gap of "
                 f"{' + '.join(probe)} {gap_said(gap_p, pool)} -> {gap1:.4g} (it accounts for "
-                f"{'all of it' if diverged(gap_p, pool) else f'{part:.1f} noise floors'})"
+                f"{'all of it' if gap_said(gap_p, pool) == 'diverges' else f'{part:.1f} noise floors'})"
             )
             return Structure(names, row.params, probe, gap_p, gap1, tried, reason, data.scale["delay_reach"])
         reasons.append(
@@ -328,22 +327,9 @@ def delay_by_free_run(pool: Pool, fit: FitResult, stribeck_shape: str, noise_exp
 DIVERGED = 10.0
 
 
-def diverged(gap: float, pool: Pool) -> bool:
-    """Whether a free-run gap [v] on ``pool`` is one of a free run that diverged (not finite, or
-    beyond :data:`DIVERGED` times the records' largest speed).
-
-    Parameters
-    ----------
-    gap : float
-        The free-run gap [v].
-    pool : Pool
-        The records it was measured on.
-    """
-    return not math.isfinite(gap) or gap > DIVERGED * pool.data.scale["w_max"]
-
-
 def gap_said(gap: float, pool: Pool) -> str:
-    """A free-run gap [v] as a report says it: its figure, or ``diverges`` (:func:`diverged`).
+    """A free-run gap [v] as a report says it: its figure, or ``diverges`` where it is not finite
+    or beyond :data:`DIVERGED` times the records' largest speed.
 
     Parameters
     ----------
@@ -352,7 +338,9 @@ def gap_said(gap: float, pool: Pool) -> str:
     pool : Pool
         The records it was measured on.
     """
-    return "diverges" if diverged(gap, pool) else f"{gap:.4g}"
+    if not math.isfinite(gap) or gap > DIVERGED * pool.data.scale["w_max"]:
+        return "diverges"
+    return f"{gap:.4g}"
 
 
 def free_run_gap(pool: Pool, model: RigidDrive) -> float:
@@ -1358,7 +1346,7 @@ class Search:
                 return *there, ""
         return before, after, why
 
-    def held_shortfall(self, before: float, after: float, unit: str, where: str = "") -> str:
+    def held_shortfall(self, before: float, after: float, unit: str) -> str:
         """Why a held-out error ``after`` [unit] with a candidate falls short of ``before`` without
         it: it must lower it by ``min_holdout_gain``; empty where it does (NaN never does).
 
@@ -1368,12 +1356,10 @@ class Search:
             The held-out error without and with the candidate [unit].
         unit : str
             Its unit.
-        where : str
-            Where it was measured (``" near rest"``, empty: everywhere).
         """
         if after < (1.0 - self.min_holdout_gain) * before:
             return ""
-        return f"held-out error{where} {figure(after)} vs {figure(before)} {unit}"
+        return f"held-out error {figure(after)} vs {figure(before)} {unit}"
 
     def static_friction(self, fit: FitResult) -> Candidate:
         """Static friction as a candidate: measured by the rests (the input it takes to start the
@@ -1577,13 +1563,7 @@ class Search:
             acts = acts or (BLIND_HELD_OUT_JUDGED if blind else "")
             held_why = "" if blind else self.held_shortfall(base_held, cand_held, v)
         elif effect.rest_only:  # held out on the rests: ΔF_s and τ from the training rests
-            if held.samples is None:  # the second record's rests
-                errors = breakaway_holdout(
-                    pool, None, Pool([held.other], ["held out"]), None, model0, c.lag_allowed
-                )
-                base_held, cand_held = (float(np.median(e)) if e.size else math.nan for e in errors)
-            else:  # rest by rest
-                base_held, cand_held = breakaway_cross_check(pool, model0, c.lag_allowed)
+            base_held, cand_held = breakaway_cross_check(pool, model0, c.lag_allowed, held.other)
             held_why = self.held_shortfall(base_held, cand_held, pool.units["F"])
         else:
             base_held, cand_held, held_why = self.held_balance(at, c)
@@ -1794,7 +1774,6 @@ __all__ = [
     "breakaway_sentence",
     "candidate_names",
     "choose_structure",
-    "diverged",
     "effect_names",
     "explained",
     "free_run_std",
