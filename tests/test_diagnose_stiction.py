@@ -465,4 +465,5 @@ def test_static_friction_is_held_out_on_a_second_records_rests():
     other = prepare(second.record, input_gain=first.input_gain, timing=pool.parts[0].timing)
     without, with_level = breakaway_holdout(pool, None, Pool([other], ["held out"]), None, bare)
     assert without.size >= 3
-    assert breakaway_cross_check(pool, bare, other=other) == (np.median(without), np.median(with_level))
+    held = Pool([other], ["held out"])
+    assert breakaway_cross_check(pool, bare, other=held) == (np.median(without), np.median(with_level))

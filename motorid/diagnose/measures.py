@@ -532,7 +532,7 @@ def breakaway_holdout(
 
 
 def breakaway_cross_check(
-    pool: Pool, model: RigidDrive, lag_allowed: bool = True, other: Prepared | None = None
+    pool: Pool, model: RigidDrive, lag_allowed: bool = True, other: Pool | None = None
 ) -> tuple[float, float]:
     """Held-out check of static friction read on the rests, rest by rest: the rests dealt into
     :data:`REST_FOLDS` folds (:meth:`Pool.rest_folds <motorid.diagnose.prepare.Pool.rest_folds>`),
@@ -553,13 +553,11 @@ def breakaway_cross_check(
         The model static friction is added to (its kinetic level is the reference).
     lag_allowed : bool
         Whether the moving drive leaves a lag to tell the level from (:func:`breakaway_holdout`).
-    other : Prepared, optional
+    other : Pool, optional
         A second record of the drive, held out whole.
     """
-    from motorid.diagnose.prepare import Pool
-
     if other is not None:
-        checks = [breakaway_holdout(pool, None, Pool([other], ["held out"]), None, model, lag_allowed)]
+        checks = [breakaway_holdout(pool, None, other, None, model, lag_allowed)]
     else:
         checks = [
             breakaway_holdout(pool, [~m for m in held], pool, held, model, lag_allowed)

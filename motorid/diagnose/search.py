@@ -1563,7 +1563,10 @@ class Search:
             acts = acts or (BLIND_HELD_OUT_JUDGED if blind else "")
             held_why = "" if blind else self.held_shortfall(base_held, cand_held, v)
         elif effect.rest_only:  # held out on the rests: ΔF_s and τ from the training rests
-            base_held, cand_held = breakaway_cross_check(pool, model0, c.lag_allowed, held.other)
+            other = (
+                None if held.other is None else Pool([held.other], ["held out"])
+            )  # the second record's rests
+            base_held, cand_held = breakaway_cross_check(pool, model0, c.lag_allowed, other)
             held_why = self.held_shortfall(base_held, cand_held, pool.units["F"])
         else:
             base_held, cand_held, held_why = self.held_balance(at, c)
